@@ -1,0 +1,3 @@
+"""Placeholder demo (replaced by the reproduction)."""
+
+print("redservo demo")

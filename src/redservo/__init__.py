@@ -1,0 +1,49 @@
+"""redservo: redundancy-based joint-limit avoidance for visual servoing.
+
+Implements Chaumette & Marchand 2001 (gradient projection, automatic gain and
+the iterative null-space scheme), Mansard & Chaumette 2005 (directional
+redundancy) and modern baselines behind one pure-function law interface.
+"""
+
+from __future__ import annotations
+
+from redservo.errors import (
+    ConfigurationError,
+    GeometryError,
+    InfeasibleError,
+    JointLimitError,
+    RedservoError,
+    ScenarioError,
+    ShapeError,
+    UnknownNameError,
+)
+from redservo.limits import JointLimits
+from redservo.redundancy import (
+    METHOD_DESCRIPTIONS,
+    METHODS,
+    Diagnostics,
+    Law,
+    LawResult,
+    make_law,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "METHODS",
+    "METHOD_DESCRIPTIONS",
+    "ConfigurationError",
+    "Diagnostics",
+    "GeometryError",
+    "InfeasibleError",
+    "JointLimitError",
+    "JointLimits",
+    "Law",
+    "LawResult",
+    "RedservoError",
+    "ScenarioError",
+    "ShapeError",
+    "UnknownNameError",
+    "__version__",
+    "make_law",
+]

@@ -1,0 +1,1 @@
+"""Visual features and their interaction matrices."""

@@ -1,0 +1,1 @@
+"""Robot models with an eye-in-hand camera."""
