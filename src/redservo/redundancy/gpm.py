@@ -1,0 +1,188 @@
+"""Gradient projection with the CM01 joint-limit cost, fixed or automatic gain (CM01 §II).
+
+``gpm`` (CM01 eqs. 1-6)::
+
+    q̇ = -λ (J1⁺ e1 + α J1^⊥ e2) + J1^⊥ secondary
+
+with ``e2 = (∂h_s/∂q)^T`` the gradient of the joint-limit cost of eqs. 4-6
+(:meth:`~redservo.JointLimits.gradient`), evaluated at the current ``q``.
+``e1`` is the effective error ``e1 + ∂e1/∂t / λ`` throughout (base.py), so the
+feed-forward of eq. 2 is included and ``J1 q̇ = -λ e1 - ∂e1/∂t``.
+
+``gpm-auto`` (CM01 eqs. 7-9) computes α at every step to stop the most critical
+axis, with eq. 9 corrected to ``α = -(J1⁺e1)_k / (J1^⊥ e2)_k`` (literature.md
+§D.3 item 1; the printed ``J1⁺ e2`` is not even defined).
+
+Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
+
+* ``gpm`` default ``alpha = 2.0``: the smallest gain with which CM01's point
+  experiment succeeded (§V-A2: fails with 1.5, succeeds with α ≥ 2).
+* Critical axis of ``gpm-auto``: predict ``q̂ = q - λ dt w`` (eq. 8) with
+  ``w = J1⁺e1 - J1^⊥ secondary / λ`` (the motion the law would produce with
+  α = 0). The candidates are the critical axes of literature.md §D.3 item 9
+  (:meth:`~redservo.JointLimits.critical`: ``q̂_k`` in the band or beyond, and
+  moving toward that limit). Among them k is the one whose ``q̂_k`` is closest to
+  its limit *as a fraction of the axis range*
+  (:meth:`~redservo.JointLimits.margin`), so that prismatic (m) and revolute
+  (rad) axes compare. α is then ``-w_k / (J1^⊥ e2)_k`` so that ``q̇_k = 0``
+  exactly, also when a ``secondary`` command is given.
+* Degenerate cases of ``gpm-auto`` (each reported in ``diagnostics.notes``;
+  ``critical`` is ``((k,),)`` only when a positive α is applied):
+
+  - no critical axis: α = 0 (classical law);
+  - ``|(J1^⊥ e2)_k| <= 1e-10 max|e2|`` (in particular ``e2 = 0``, when ``q_k``
+    is still outside the band and only ``q̂_k`` enters it, or no redundancy):
+    α is undefined, α = 0;
+  - α < 0 (the projected gradient pushes axis k the same way as the task): α = 0,
+    because a negative gain would drive the axes already in the band deeper
+    toward their limits;
+  - ``alpha_max`` (default ``None``: no cap, so the large-gain transient that CM01
+    Fig. 10(c) reports is reproduced) caps α; axis k is then only slowed.
+
+  Only one axis is ever stopped (CM01 §II-C); other critical axes are listed in
+  a note.
+* ``diagnostics.critical`` for ``gpm`` lists the axes currently in the band
+  (``e2_i ≠ 0``), which are the only ones the gradient acts on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
+
+__all__ = ["GradientProjection", "GradientProjectionAuto", "null_project", "rank_notes"]
+
+_DEN_TOL = 1e-10
+"""``|(J1^⊥ e2)_k|`` at or below ``_DEN_TOL * max|e2|`` counts as zero in eq. 9."""
+
+
+def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
+    """Return ``J1^⊥ v = E (E^T v)`` (n,) without forming the n x n projector."""
+    E = svd.null
+    return np.asarray(E @ (E.T @ v))
+
+
+def rank_notes(J1: FloatArray, svd: TaskSVD) -> list[str]:
+    """Notes for a rank-deficient ``J1`` and for the no-redundancy case (shared by the CM01 laws)."""
+    m, n = J1.shape
+    notes: list[str] = []
+    if svd.rank < m:
+        notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+    if svd.rank >= n:
+        notes.append("no redundancy (rank J1 = n): reduces to the classical law")
+    return notes
+
+
+@register
+class GradientProjection(Law):
+    """Gradient projection with a fixed gain: ``q̇ = -λ (J1⁺e1 + α J1^⊥ e2)`` (CM01 eqs. 1-6).
+
+    Options:
+        alpha: Gain α >= 0 of the joint-limit gradient (dimensionless, relative to
+            λ). Default 2.0, the smallest value that succeeded in CM01 §V-A2.
+        rcond: Relative singular-value cut-off of the pseudo-inverse.
+    """
+
+    name = "gpm"
+    description = "gradient projection, q̇ = -λ(J1⁺e1 + α J1^⊥ e2) (CM01 eqs. 1-6)"
+
+    def __init__(self, *, alpha: float = 2.0, rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(rcond=rcond)
+        a = float(alpha)
+        if not (np.isfinite(a) and a >= 0.0):
+            raise ConfigurationError(f"alpha must be a finite number >= 0, got {alpha!r}")
+        self.alpha = a
+
+    def compute(self, x: LawInputs) -> LawResult:
+        svd = task_svd(x.J1, self.rcond)
+        e2 = x.limits.gradient(x.q)
+        v = svd.pinv @ x.e_eff + self.alpha * null_project(svd, e2)
+        qdot = -x.lam * v
+        if x.secondary is not None:
+            qdot += null_project(svd, x.secondary)
+        band = tuple(int(i) for i in np.flatnonzero(e2))
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=svd.rank,
+            rank_deficient=svd.rank < x.J1.shape[0],
+            projector_rank=svd.null.shape[1],
+            critical=(band,) if band else (),
+            alpha=self.alpha,
+            notes=tuple(rank_notes(x.J1, svd)),
+        )
+        return LawResult(qdot, diag)
+
+
+@register
+class GradientProjectionAuto(Law):
+    """Gradient projection with α computed to stop the most critical axis (CM01 eqs. 7-9).
+
+    ``α = -w_k / (J1^⊥ e2)_k`` (eq. 9 corrected) with ``w = J1⁺e1 - J1^⊥ secondary/λ``
+    and k the critical axis whose prediction ``q̂ = q - λ dt w`` (eq. 8) is closest
+    to its limit; see the module docstring for the degenerate cases.
+
+    Options:
+        alpha_max: Upper bound on α, or ``None`` (default) for no bound, which
+            reproduces the large-gain transient of CM01 Fig. 10(c).
+        rcond: Relative singular-value cut-off of the pseudo-inverse.
+    """
+
+    name = "gpm-auto"
+    description = "gradient projection with α chosen to stop the most critical axis (CM01 eq. 9)"
+
+    def __init__(self, *, alpha_max: float | None = None, rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(rcond=rcond)
+        if alpha_max is not None:
+            amax = float(alpha_max)
+            if not (amax > 0.0):  # also rejects NaN; inf is allowed (= no cap)
+                raise ConfigurationError(
+                    f"alpha_max must be None or a number > 0, got {alpha_max!r}"
+                )
+            alpha_max = amax
+        self.alpha_max = alpha_max
+
+    def compute(self, x: LawInputs) -> LawResult:
+        svd = task_svd(x.J1, self.rcond)
+        w = svd.pinv @ x.e_eff
+        if x.secondary is not None:
+            w = w - null_project(svd, x.secondary) / x.lam
+        e2 = x.limits.gradient(x.q)
+        g = null_project(svd, e2)
+        q_hat = x.q - (x.lam * x.dt) * w  # eq. 8
+        candidates = np.flatnonzero(x.limits.critical(x.q, q_hat))
+        notes = rank_notes(x.J1, svd)
+        alpha = 0.0
+        critical: tuple[tuple[int, ...], ...] = ()
+        if candidates.size:
+            k = int(candidates[np.argmin(x.limits.margin(q_hat)[candidates])])
+            if candidates.size > 1:
+                others = sorted(set(candidates.tolist()) - {k})
+                notes.append(f"critical axes {others} not handled (gpm-auto stops one axis)")
+            den = float(g[k])
+            if abs(den) <= _DEN_TOL * float(np.abs(e2).max()):
+                notes.append(f"axis {k} critical but (J1^⊥ e2)_k ≈ 0: α undefined, set to 0")
+            else:
+                alpha = -float(w[k]) / den  # eq. 9, corrected
+                if alpha < 0.0:
+                    notes.append(f"axis {k}: eq. 9 gives α = {alpha:.3g} < 0, set to 0")
+                    alpha = 0.0
+                elif self.alpha_max is not None and alpha > self.alpha_max:
+                    notes.append(f"α = {alpha:.3g} capped to alpha_max = {self.alpha_max:.3g}")
+                    alpha = self.alpha_max
+                if alpha > 0.0:
+                    critical = ((k,),)
+        qdot = -x.lam * (w + alpha * g)
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=svd.rank,
+            rank_deficient=svd.rank < x.J1.shape[0],
+            projector_rank=svd.null.shape[1],
+            critical=critical,
+            alpha=alpha,
+            notes=tuple(notes),
+        )
+        return LawResult(qdot, diag)
