@@ -1,0 +1,231 @@
+"""Weighted least norm (Chan & Dubey, IEEE T-RA 11(2):286-292, 1995; literature.md §B1).
+
+::
+
+    q̇ = W⁻¹ J1^T (J1 W⁻¹ J1^T)⁻¹ ẋ,          ẋ = -λ e1 - ∂e1/∂t = -λ e_eff
+    H(q) = Σ_i (1/4) Δq_i² / ((q_max,i - q_i)(q_i - q_min,i))
+    ∂H/∂q_i = Δq_i² (2 q_i - q_max,i - q_min,i) / (4 (q_max,i - q_i)² (q_i - q_min,i)²)
+    w_i = 1 + |∂H/∂q_i|  if joint i moves toward a limit,  else 1
+
+The factor is 1/4 per joint (each term is 1 at mid-range), not Liégeois' 1/n
+(literature.md §B1). WLN only *slows* motion toward a limit; it does not
+guarantee avoidance when the task demands that motion.
+
+Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
+
+* **Numerically safe solve.** With ``D = W^{-1/2} = diag(1/√w_i)`` the law is
+  computed as ``q̇ = D (J1 D)⁺ ẋ`` (one SVD of ``J1 D``), which equals the
+  printed formula whenever ``J1 W⁻¹ J1^T`` is invertible and never forms
+  ``W`` or inverts the ill-conditioned ``J1 W⁻¹ J1^T``. The weights are handled
+  through their inverses ``1/w_i ∈ [0, 1]``: at a limit ``|∂H/∂q_i| = ∞`` and
+  ``1/w_i = 0`` exactly (the clamp), so a joint at a limit that the task pushes
+  further is *blocked* (``q̇_i = 0``), never NaN. When the blocked joints remove
+  task directions (``rank(J1 D) < rank J1``) the task is tracked in the
+  (weighted) least-squares sense and a note says so. ``q`` within the
+  validation tolerance beyond a limit is treated as at the limit.
+* **Direction rule, default ``mode="pinv"`` (stateless).** The paper uses the
+  sign of ``Δ|∂H/∂q_i|`` since the previous sample. The default instead
+  decides from the command the law would send *without* weighting,
+  ``q̇0 = J1⁺ ẋ + J1^⊥ secondary`` (the classical law): joint i moves toward a
+  limit when ``sign(∂H/∂q_i) q̇0_i > 0``, the common equivalent of the paper's
+  rule (literature.md §B1). This keeps the law a pure function.
+* **``mode="history"``** reproduces the paper's rule: joint i is penalized when
+  ``|∂H/∂q_i(q_k)| - |∂H/∂q_i(q_{k-1})| >= 0``. Such a law instance remembers
+  the previous ``|∂H/∂q|`` (it is ``stateful``; call :meth:`~Law.reset` between
+  runs). On the first call after a reset, for a joint whose gradient is infinite
+  now and before (held at a limit), or when the number of joints changes, the
+  stateless rule decides instead, because the history gives no information.
+* **``secondary``** is treated as a gradient-like joint-space command in the
+  metric W: it is added as ``(I - J_W⁺ J1) W⁻¹ secondary = D (I - (J1D)⁺ J1D) D secondary``
+  (the weighted gradient projection), which lies in ``Ker J1`` and is damped on
+  the joints the law penalizes. With no penalized joint it is ``J1^⊥ secondary``.
+* **Square ``J1``.** For a square, full-rank ``J1`` (m = n) the law reduces to
+  ``J1⁻¹ ẋ`` whatever W is (literature.md §B1, §G): WLN does nothing then,
+  except that a joint exactly at a limit and pushed further is blocked (its
+  ``1/w_i = 0``), which makes the task least-squares.
+* ``diagnostics.critical`` is ``((penalized joints),)``: the joints with
+  ``w_i > 1`` (moving toward a limit and away from mid-range).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.limits import JointLimits
+from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+
+__all__ = [
+    "WeightedLeastNorm",
+    "joint_limit_index",
+    "joint_limit_index_gradient",
+    "wln_inverse_weights",
+]
+
+BoolArray = NDArray[np.bool_]
+_MODES: tuple[str, ...] = ("pinv", "history")
+
+
+def _distances(q: ArrayLike, limits: JointLimits) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Return ``(q_clipped, q_max - q, q - q_min)``, distances >= 0."""
+    qc = np.clip(np.asarray(q, dtype=float), limits.q_min, limits.q_max)
+    return qc, limits.q_max - qc, qc - limits.q_min
+
+
+def joint_limit_index(q: ArrayLike, limits: JointLimits) -> float:
+    """Return Chan & Dubey's performance criterion ``H(q)`` (dimensionless).
+
+    ``H = Σ_i (1/4) Δq_i² / ((q_max,i - q_i)(q_i - q_min,i))``: each term is 1 at
+    mid-range and grows to infinity at a limit (returns ``inf`` there, never NaN).
+
+    Args:
+        q: (n,) joint positions (m or rad); values beyond a limit count as at it.
+        limits: The joint limits.
+    """
+    _, d_hi, d_lo = _distances(q, limits)
+    with np.errstate(divide="ignore"):
+        terms = 0.25 * limits.range**2 / (d_hi * d_lo)
+    return float(np.sum(terms))
+
+
+def joint_limit_index_gradient(q: ArrayLike, limits: JointLimits) -> FloatArray:
+    """Return (n,) ``∂H/∂q_i = Δq_i² (2q_i - q_max,i - q_min,i) / (4 (q_max,i - q_i)² (q_i - q_min,i)²)``.
+
+    Units: 1/(m or rad). Zero at mid-range, ``+inf`` at ``q_max`` and ``-inf`` at
+    ``q_min`` (never NaN); positive above mid-range.
+
+    Args:
+        q: (n,) joint positions; values beyond a limit count as at it.
+        limits: The joint limits.
+    """
+    qc, d_hi, d_lo = _distances(q, limits)
+    num = limits.range**2 * (2.0 * qc - limits.q_max - limits.q_min)
+    with np.errstate(divide="ignore", over="ignore", under="ignore"):
+        grad = num / (4.0 * (d_hi * d_lo) ** 2)
+    return np.asarray(grad, dtype=float)
+
+
+def wln_inverse_weights(grad: FloatArray, toward: BoolArray) -> FloatArray:
+    """Return (n,) ``1/w_i`` in [0, 1]: ``1/(1 + |∂H/∂q_i|)`` where ``toward`` is true, else 1.
+
+    Working with the inverse weights is the clamp of the module docstring: an
+    infinite gradient (joint at a limit) gives exactly 0, never NaN.
+
+    Args:
+        grad: (n,) ``∂H/∂q`` (may hold ±inf).
+        toward: (n,) booleans, joint moving toward a limit.
+    """
+    inv = 1.0 / (1.0 + np.abs(grad))
+    return np.where(np.asarray(toward, dtype=bool), inv, 1.0)
+
+
+@register
+class WeightedLeastNorm(Law):
+    """Weighted least norm: ``q̇ = W⁻¹ J1^T (J1 W⁻¹ J1^T)⁻¹ (-λ e1 - ∂e1/∂t)`` (Chan & Dubey 1995).
+
+    Computed as ``D (J1 D)⁺ ẋ`` with ``D = W^{-1/2}`` (see the module docstring
+    for the clamp at a limit, the direction rule and the secondary term).
+
+    Options:
+        mode: ``"pinv"`` (default, stateless): a joint moves toward a limit when
+            the unweighted command ``J1⁺ẋ + J1^⊥ secondary`` drives it away from
+            mid-range. ``"history"``: the paper's rule ``Δ|∂H/∂q_i| >= 0``; the
+            instance is then stateful and remembers the previous ``|∂H/∂q|``.
+        rcond: Relative singular-value cut-off of the pseudo-inverses.
+    """
+
+    name = "wln"
+    description = "weighted least norm, w_i = 1 + |∂H/∂q_i| toward a limit (Chan & Dubey 1995)"
+
+    def __new__(cls, *, mode: str = "pinv", **_: Any) -> WeightedLeastNorm:
+        # ``stateful`` is a class attribute of Law: a history-mode instance is
+        # made of the (unregistered) stateful subclass below.
+        target = (
+            _WeightedLeastNormHistory if mode == "history" and cls is WeightedLeastNorm else cls
+        )
+        return super().__new__(target)
+
+    def __init__(self, *, mode: str = "pinv", rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(rcond=rcond)
+        if mode not in _MODES:
+            raise ConfigurationError(
+                f"mode must be one of {', '.join(repr(m) for m in _MODES)}, got {mode!r}"
+            )
+        self.mode = mode
+
+    def _toward(self, grad: FloatArray, qdot0: FloatArray) -> BoolArray:
+        """Stateless direction rule: ``sign(∂H/∂q_i) q̇0_i > 0``."""
+        return np.asarray(np.sign(grad) * qdot0 > 0.0, dtype=bool)
+
+    def compute(self, x: LawInputs) -> LawResult:
+        m, n = x.J1.shape
+        xdot = -x.lam * x.e_eff
+        svd = task_svd(x.J1, self.rcond)
+        qdot0 = svd.pinv @ xdot
+        if x.secondary is not None:
+            qdot0 = qdot0 + svd.null @ (svd.null.T @ x.secondary)
+        grad = joint_limit_index_gradient(x.q, x.limits)
+        toward = self._toward(grad, qdot0)
+        d = np.sqrt(wln_inverse_weights(grad, toward))
+
+        JD = x.J1 * d  # scales column i by d_i
+        wsvd = task_svd(JD, self.rcond)
+        qdot = d * (wsvd.pinv @ xdot)
+        projector_rank = 0
+        if x.secondary is not None:
+            DE = d[:, None] * wsvd.null
+            qdot = qdot + DE @ (DE.T @ x.secondary)
+            projector_rank = int(np.linalg.matrix_rank(DE)) if DE.size else 0
+
+        notes: list[str] = []
+        if svd.rank < m:
+            notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+        if wsvd.rank < svd.rank:
+            blocked = np.flatnonzero(d == 0.0).tolist()
+            notes.append(
+                f"weighted task rank {wsvd.rank} < rank J1 = {svd.rank} (joints blocked at a "
+                f"limit: {blocked}): task tracked in the least-squares sense"
+            )
+        if svd.rank >= n:
+            notes.append("no redundancy (rank J1 = n): W has no effect on a full-rank square J1")
+        penalized = tuple(int(i) for i in np.flatnonzero(toward & (np.abs(grad) > 0.0)))
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=svd.rank,
+            rank_deficient=svd.rank < m,
+            projector_rank=projector_rank,
+            critical=(penalized,) if penalized else (),
+            notes=tuple(notes),
+        )
+        return LawResult(qdot, diag)
+
+
+class _WeightedLeastNormHistory(WeightedLeastNorm):
+    """``wln`` with ``mode="history"``: remembers ``|∂H/∂q|`` of the previous call."""
+
+    stateful = True
+
+    def __init__(self, *, mode: str = "history", rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(mode=mode, rcond=rcond)
+        self._prev_abs_grad: FloatArray | None = None
+
+    def reset(self) -> None:
+        """Forget the previous ``|∂H/∂q|`` (call between runs)."""
+        self._prev_abs_grad = None
+
+    def _toward(self, grad: FloatArray, qdot0: FloatArray) -> BoolArray:
+        stateless = super()._toward(grad, qdot0)
+        cur = np.abs(grad)
+        prev = self._prev_abs_grad
+        self._prev_abs_grad = cur
+        if prev is None or prev.shape != cur.shape:
+            return stateless
+        informative = np.isfinite(cur) | np.isfinite(prev)
+        with np.errstate(invalid="ignore"):
+            by_history = cur - prev >= 0.0  # inf - finite = inf >= 0: reached a limit
+        return np.asarray(np.where(informative, by_history, stateless), dtype=bool)
