@@ -1,0 +1,361 @@
+"""Saturation in the Null Space (Flacco, De Luca & Khatib, ICRA 2012; literature.md §B4).
+
+Velocity bounds for one control period ``T = dt`` (literature.md §B4)::
+
+    q̇_min,i = margin · max{ (q_min,i - q_i)/T, -v_max,i, -√(2 a_max,i (q_i - q_min,i)) }
+    q̇_max,i = margin · min{ (q_max,i - q_i)/T,  v_max,i,  √(2 a_max,i (q_max,i - q_i)) }
+
+so that ``q + q̇ T`` stays within the limits. Algorithm 1 (single task
+``ẋ = -λ e_eff``) then saturates, one at a time, the joints that violate their
+bounds (``W_jj = 0``, ``q̇_N,j`` := the bound) and redistributes the task on the
+others; when the remaining joints can no longer execute the task
+(``rank(J1 W) < rank J1``) it restores the configuration with the largest task
+scale ``s* ∈ [0, 1]`` seen so far, ``q̇ = q̇_N + (J1 W)⁺ (s* ẋ - J1 q̇_N)``.
+The task direction is kept and only its magnitude is scaled:
+``J1 q̇ = s ẋ`` whenever ``J1`` has full row rank.
+
+Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
+
+* **Masking fix** (literature.md §B4): the task-scaling step only considers the
+  joints not yet saturated (``W_ii = 1``). A literal transcription re-selects a
+  saturated joint (its ``a_i`` is only numerically 0), loops and returns
+  infeasible velocities. The loop is capped at ``n + 1`` iterations.
+* The joint to saturate is ``j = argmin_i S_max,i`` over the free joints, as in
+  the paper. Its velocity is fixed at the bound it currently violates; a joint
+  that does not violate a bound at ``s = 1`` is fixed at the bound it reaches as
+  ``s`` grows (``q̇_max`` if ``a_j > 0``, else ``q̇_min``).
+* ``rank(J1 W) < m`` in the paper becomes ``rank(J1 W) < rank J1`` so that a
+  rank-deficient ``J1`` does not trigger the restore at the first iteration.
+* **Acceleration limits**: ``a_max`` enters only through the stateless braking
+  bound ``±√(2 a_max d)`` above (the joint can still stop before its limit).
+  The rate limit ``|q̇ - q̇_prev| <= a_max T`` of the acceleration-level SNS
+  (T-RO 2015) needs the previous command and is **not** implemented, so the law
+  stays stateless.
+* ``margin`` is Flacco's factor in (0, 1] on both bounds (default 1: none).
+  ``v_max`` and ``a_max`` are scalars or per-joint (n,) arrays, rad/s (m/s) and
+  rad/s² (m/s²).
+* **Inconsistent bounds** (``q̇_min,i > q̇_max,i``) can only happen when ``q`` lies
+  beyond a limit (within the validation tolerance) by more than the velocity or
+  braking limit can recover in one period, i.e. for absurdly small ``v_max`` or
+  ``a_max``; this raises :class:`~redservo.errors.InfeasibleError`.
+* **``secondary``** is the lowest-priority preferred joint velocity: it is the
+  initial ``q̇_N`` of Algorithm 1, so with no saturation
+  ``q̇ = J1⁺ ẋ + J1^⊥ secondary`` (the classical law), and saturated joints
+  override it. It is not scaled; when no scale in (0, 1] is feasible the
+  fallback is ``q̇ = 0`` (secondary dropped), which lies within the bounds.
+* A final clip to ``[q̇_min, q̇_max]`` removes round-off (``~1e-15``); a note is
+  added if it moved a component by more than the violation tolerance.
+* Diagnostics: ``scale`` = the task scale ``s`` (1 when the task is executed in
+  full), ``critical = ((saturated joints),)``, ``iterations`` = passes of the
+  loop, ``overconstrained = scale < 1``, ``projector_rank`` = dimension of the
+  null space left on the free joints, ``free joints - rank(J1 W)``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError, InfeasibleError
+from redservo.limits import JointLimits
+from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+
+__all__ = [
+    "SNSSolution",
+    "SaturationInNullSpace",
+    "sns_solve",
+    "sns_velocity_bounds",
+    "validate_positive_option",
+]
+
+_VIOLATION_RTOL = 1e-10
+"""A component counts as violating a bound when it exceeds it by more than ``1e-10 (1 + |bound|)``."""
+
+
+def validate_positive_option(
+    value: float | ArrayLike | None, name: str, unit: str
+) -> FloatArray | None:
+    """Return a positive scalar or 1-D option as a float array (0-d or 1-d), or None.
+
+    Raises:
+        ConfigurationError: not a finite positive scalar or 1-D array of them.
+    """
+    if value is None:
+        return None
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)) or not np.all(arr > 0.0):
+        raise ConfigurationError(
+            f"{name} must be None, a finite number > 0 ({unit}) or a 1-D array of them, one per "
+            f"joint; got {value!r}"
+        )
+    return arr
+
+
+def _per_joint(arr: FloatArray, n: int, name: str) -> FloatArray:
+    if arr.ndim == 0:
+        return np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ConfigurationError(
+            f"{name} has {arr.shape[0]} entries but the robot has {n} joints; give a scalar or "
+            f"one value per joint"
+        )
+    return arr
+
+
+def sns_velocity_bounds(
+    q: FloatArray,
+    limits: JointLimits,
+    dt: float,
+    *,
+    v_max: FloatArray | None = None,
+    a_max: FloatArray | None = None,
+    margin: float = 1.0,
+) -> tuple[FloatArray, FloatArray]:
+    """Return the (n,) joint-velocity bounds ``(q̇_min, q̇_max)`` of SNS (literature.md §B4).
+
+    Args:
+        q: (n,) joint positions (m or rad).
+        limits: The joint limits.
+        dt: Control period T (s).
+        v_max: Velocity limits, scalar or (n,) (rad/s or m/s), or None.
+        a_max: Acceleration limits for the braking bound, scalar or (n,)
+            (rad/s² or m/s²), or None.
+        margin: Factor in (0, 1] applied to both bounds.
+
+    Raises:
+        ConfigurationError: ``v_max`` or ``a_max`` has the wrong length.
+        InfeasibleError: some lower bound exceeds its upper bound (see the module docstring).
+    """
+    n = q.shape[0]
+    d_lo = q - limits.q_min  # may be slightly < 0 within the validation tolerance
+    d_hi = limits.q_max - q
+    lo = -d_lo / dt
+    hi = d_hi / dt
+    if v_max is not None:
+        v = _per_joint(v_max, n, "v_max")
+        lo = np.maximum(lo, -v)
+        hi = np.minimum(hi, v)
+    if a_max is not None:
+        a = _per_joint(a_max, n, "a_max")
+        lo = np.maximum(lo, -np.sqrt(2.0 * a * np.maximum(d_lo, 0.0)))
+        hi = np.minimum(hi, np.sqrt(2.0 * a * np.maximum(d_hi, 0.0)))
+    lo = margin * lo
+    hi = margin * hi
+    bad = np.flatnonzero(lo > hi)
+    if bad.size:
+        i = int(bad[0])
+        raise InfeasibleError(
+            f"SNS velocity bounds are inconsistent for joint {i}: lower {lo[i]:.6g} > upper "
+            f"{hi[i]:.6g} (q[{i}] = {q[i]:.9g} lies outside [{limits.q_min[i]:.9g}, "
+            f"{limits.q_max[i]:.9g}] by more than v_max/a_max allow to recover in dt = {dt:.6g} s); "
+            f"increase v_max or a_max"
+        )
+    return lo, hi
+
+
+class SNSSolution(NamedTuple):
+    """Result of :func:`sns_solve`."""
+
+    qdot: FloatArray
+    """(n,) joint velocities within the bounds."""
+    scale: float
+    """Task scale factor s in [0, 1]."""
+    saturated: tuple[int, ...]
+    """Joints fixed at a bound (``W_jj = 0``), sorted."""
+    iterations: int
+    """Passes of the loop of Algorithm 1."""
+    free_null_dim: int
+    """Null-space dimension left on the free joints, ``#free - rank(J W)``."""
+    restored: bool
+    """True when the loop ended by restoring the best scale ``s*`` (rank loss or cap)."""
+    clipped: float
+    """Largest change made by the final clip to the bounds (round-off)."""
+
+
+def _violation_tol(lo: FloatArray, hi: FloatArray) -> FloatArray:
+    return _VIOLATION_RTOL * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
+
+
+def _task_scaling(
+    a: FloatArray,
+    b: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    free: NDArray[np.bool_],
+    tol: FloatArray,
+) -> tuple[float, int]:
+    """``getTaskScalingFactor`` of Algorithm 1, over the free joints only (masking fix).
+
+    ``q̇(s) = a s + b``. Returns ``(s_f, j)``: the largest feasible scale (0 if none
+    in [0, 1]) and the free joint whose bound limits it (-1 if no free joint).
+    """
+    idx = np.flatnonzero(free)
+    if idx.size == 0:
+        return 0.0, -1
+    ai, bi, li, hi_ = a[idx], b[idx], lo[idx], hi[idx]
+    s_lo = np.full(idx.size, -np.inf)
+    s_hi = np.full(idx.size, np.inf)
+    nz = ai != 0.0
+    with np.errstate(over="ignore"):
+        s1 = (li[nz] - bi[nz]) / ai[nz]
+        s2 = (hi_[nz] - bi[nz]) / ai[nz]
+    s_lo[nz] = np.minimum(s1, s2)
+    s_hi[nz] = np.maximum(s1, s2)
+    # a_i = 0: feasible for every s if b_i is within its bounds, for none otherwise.
+    zero_out = ~nz & ((bi < li - tol[idx]) | (bi > hi_ + tol[idx]))
+    s_hi[zero_out] = -np.inf
+    k = int(np.argmin(s_hi))
+    smax = float(s_hi[k])
+    smin = float(np.max(s_lo))
+    j = int(idx[k])
+    if smin > smax or smax < 0.0 or smin > 1.0:
+        return 0.0, j
+    return min(smax, 1.0), j
+
+
+def sns_solve(
+    J: FloatArray,
+    xdot: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    qdot_pref: FloatArray | None = None,
+    rcond: float = DEFAULT_RCOND,
+) -> SNSSolution:
+    """Algorithm 1 of Flacco et al. 2012 with the masking fix (see the module docstring).
+
+    Args:
+        J: (m, n) task Jacobian.
+        xdot: (m,) desired task velocity.
+        lo: (n,) lower joint-velocity bounds, ``lo <= hi``.
+        hi: (n,) upper joint-velocity bounds.
+        qdot_pref: (n,) lowest-priority preferred joint velocity (the initial ``q̇_N``), or None.
+        rcond: Relative singular-value cut-off of the pseudo-inverses.
+    """
+    n = J.shape[1]
+    tol = _violation_tol(lo, hi)
+    rank_J = task_svd(J, rcond).rank
+    w = np.ones(n)
+    qdot_n = np.zeros(n) if qdot_pref is None else qdot_pref.astype(float, copy=True)
+    s = 1.0
+    best_s, best_w, best_qn = 0.0, np.ones(n), np.zeros(n)  # fallback: q̇ = 0
+    restored = False
+    iterations = 0
+    svd = task_svd(J * w, rcond)
+    qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
+    for iterations in range(1, n + 2):
+        violated = (qdot < lo - tol) | (qdot > hi + tol)
+        if not violated.any():
+            break
+        a = svd.pinv @ xdot
+        b = qdot - a  # q̇(s) = a s + b (s = 1 here)
+        sf, j = _task_scaling(a, b, lo, hi, w > 0.0, tol)
+        if sf > best_s:
+            best_s, best_w, best_qn = sf, w.copy(), qdot_n.copy()
+        if j < 0:  # no free joint left
+            restored = True
+        else:
+            w[j] = 0.0
+            if qdot[j] > hi[j] + tol[j]:
+                qdot_n[j] = hi[j]
+            elif qdot[j] < lo[j] - tol[j]:
+                qdot_n[j] = lo[j]
+            else:
+                qdot_n[j] = hi[j] if a[j] > 0.0 else lo[j]
+            svd = task_svd(J * w, rcond)
+            restored = svd.rank < rank_J
+        if restored or iterations == n + 1:
+            restored = True
+            s, w, qdot_n = best_s, best_w, best_qn
+            svd = task_svd(J * w, rcond)
+            qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
+            break
+        qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
+    clipped_qdot = np.clip(qdot, lo, hi)
+    clipped = float(np.max(np.abs(clipped_qdot - qdot))) if n else 0.0
+    saturated = tuple(int(i) for i in np.flatnonzero(w == 0.0))
+    return SNSSolution(
+        qdot=clipped_qdot,
+        scale=float(s),
+        saturated=saturated,
+        iterations=iterations,
+        free_null_dim=int(np.count_nonzero(w)) - svd.rank,
+        restored=restored,
+        clipped=clipped,
+    )
+
+
+@register
+class SaturationInNullSpace(Law):
+    """Saturation in the Null Space (Flacco, De Luca & Khatib 2012, Algorithm 1, masking fix).
+
+    Joints that would leave ``[q_min, q_max]`` within one period ``dt`` (or
+    exceed ``v_max``) are saturated one at a time; the task ``ẋ = -λ e1 - ∂e1/∂t``
+    is redistributed on the others and, if that is not enough, scaled by
+    ``s ∈ [0, 1]`` keeping its direction (see the module docstring).
+
+    Options:
+        v_max: Joint velocity limits (rad/s or m/s), scalar or one per joint, or
+            None (only the position limits bound the velocity).
+        a_max: Joint acceleration limits (rad/s² or m/s²) for the braking bound
+            ``√(2 a_max d)``, scalar or one per joint, or None.
+        margin: Factor in (0, 1] applied to the velocity bounds (default 1.0).
+        rcond: Relative singular-value cut-off of the pseudo-inverses.
+    """
+
+    name = "sns"
+    description = "saturation in the null space, task scaled when infeasible (Flacco et al. 2012)"
+
+    def __init__(
+        self,
+        *,
+        v_max: float | ArrayLike | None = None,
+        a_max: float | ArrayLike | None = None,
+        margin: float = 1.0,
+        rcond: float = DEFAULT_RCOND,
+    ) -> None:
+        super().__init__(rcond=rcond)
+        self.v_max = validate_positive_option(v_max, "v_max", "rad/s or m/s")
+        self.a_max = validate_positive_option(a_max, "a_max", "rad/s² or m/s²")
+        mg = float(margin)
+        if not (0.0 < mg <= 1.0):
+            raise ConfigurationError(
+                f"margin must lie in (0, 1] (a factor on the velocity bounds), got {margin!r}"
+            )
+        self.margin = mg
+
+    def compute(self, x: LawInputs) -> LawResult:
+        m = x.J1.shape[0]
+        lo, hi = sns_velocity_bounds(
+            x.q, x.limits, x.dt, v_max=self.v_max, a_max=self.a_max, margin=self.margin
+        )
+        xdot = -x.lam * x.e_eff
+        task_rank = task_svd(x.J1, self.rcond).rank
+        sol = sns_solve(x.J1, xdot, lo, hi, qdot_pref=x.secondary, rcond=self.rcond)
+        notes: list[str] = []
+        if task_rank < m:
+            notes.append(
+                f"J1 rank-deficient (rank {task_rank} < m = {m}): truncated pseudo-inverse"
+            )
+        if sol.restored:
+            notes.append(
+                f"saturations exhausted the redundancy: best task scale s* = {sol.scale:.6g} restored"
+            )
+        if sol.clipped > float(np.max(_violation_tol(lo, hi))):
+            notes.append(f"final clip to the velocity bounds moved q̇ by {sol.clipped:.3g}")
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=task_rank,
+            rank_deficient=task_rank < m,
+            projector_rank=sol.free_null_dim,
+            critical=(sol.saturated,) if sol.saturated else (),
+            iterations=sol.iterations,
+            overconstrained=sol.scale < 1.0,
+            scale=sol.scale,
+            notes=tuple(notes),
+        )
+        return LawResult(sol.qdot, diag)
