@@ -1,0 +1,363 @@
+"""CM01's iterative null-space scheme (§III, eqs. 10-21): four variants, one solver.
+
+The command is (eqs. 10, 12, 14, 20; eqs. 19-21 corrected per literature.md §D.3
+items 2-3)::
+
+    q̇ = -λ (J1⁺e1 + E a + α J1^⊥ e2) + J1^⊥ secondary
+
+with E (n x n_a) an **orthonormal** basis of ``Ker J1`` (the last ``n - r`` right
+singular vectors, r the numerical rank; literature.md §D.1) and ``a`` built level by
+level so that every *constrained* axis k gets ``q̇_k = (1 - γ_k) q̇_k^prev``,
+where ``q̇^prev`` is the command of the previous level (``γ_k = 1``: stopped).
+``J1 q̇ = -λ e1 - ∂e1/∂t`` is never changed (``J1 E = 0``).
+
+=======================  ======  ======================  ===========================
+name                     levels  weights γ_k             α J1^⊥ e2 term
+=======================  ======  ======================  ===========================
+``iterative-basic``      1       1 (stop)                no   (eqs. 10-12)
+``iterative``            all     1 (stop)                no   (eqs. 13-15)
+``iterative-smooth``     all     eq. 17 at q̂             no   (eqs. 16-18)
+``iterative-smooth-e2``  all     eq. 17 at q̂             yes  (eqs. 19-21)
+=======================  ======  ======================  ===========================
+
+Algorithm (:func:`iterate_null_space`). Write ``w`` for the motion to constrain,
+``w = J1⁺e1 - J1^⊥ secondary / λ`` (``e1`` is the effective error
+``e1 + ∂e1/∂t / λ``), and ``d = E a`` for the null-space motion found so far
+(``d = 0`` at level 1). At each level:
+
+1. ``v = w + d`` (``+ α J1^⊥ e2`` from level 2 on, see below) is the current
+   control divided by -λ; predict ``q̂ = q - λ dt v`` (eq. 8, and eq. 12 or 20
+   at later levels, literature.md §D.3 item 10).
+2. ``K`` = axes not constrained yet that are critical at ``q̂`` (rule below). None:
+   stop.
+3. Solve, in the directions still free, ``Δ_K = -γ_K v_K`` for the minimum-norm
+   joint motion ``Δ`` (eq. 11/16 at level 1, eq. 15/18/21 later), ``d += Δ``.
+
+The free directions are kept as an orthonormal basis N (n x f) of
+``Ker J1 ∩ {δ : δ_C = 0}``, C the constrained axes, starting from ``N = E``; one
+SVD of the small block ``N_K`` (p x f) per level gives both its pseudo-inverse and
+the basis of its kernel Z, and ``N <- N Z``. This is CM01's ``a0 = F⁺s`` and
+``a = a0 + F^⊥ b`` with all constrained rows stacked (§D.1 step 4): the joint
+motions reachable by ``E F^⊥ b`` are exactly those reachable by ``N c``, and with
+both E and N orthonormal the minimum-norm b and c give the same (minimum-norm)
+joint motion. It avoids forming ``F^⊥ = I - F⁺F`` and a second pseudo-inverse
+per level.
+
+Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
+
+* **Critical axis** (literature.md §D.3 item 9, :meth:`~redservo.JointLimits.critical`):
+  k is critical when ``q̂_k`` lies in the band ``[q̄_min, q̃_min] ∪ [q̃_max, q̄_max]``
+  (or beyond the real limit) *and* ``q̂_k`` is closer to that limit than ``q_k``.
+  The same rule is used at every level and in every variant.
+* **Basic variant and axes already in the band**: CM01 §V-A3 says "any axis that
+  is or enters in the critical area is stopped", the critical area being the band
+  *and* moving toward the limit (§III-A). So an axis inside the band is stopped
+  only if the eq. 8 prediction moves it toward its limit; one moving away is left
+  free (stopping it would spend redundancy for nothing), and an axis still outside
+  the band is stopped as soon as ``q̂_k`` enters it. Axes pushed into the band by
+  the ``E a0`` motion itself are *not* handled (one level only): that is why
+  ``q̃_5`` is crossed in CM01 Fig. 11, and what ``iterative`` adds.
+* **γ_k** (eq. 17 corrected, :meth:`~redservo.JointLimits.gamma`) is computed from
+  the prediction of the level at which axis k is constrained (eq. 18: level 2
+  uses the prediction with ``a0``). ``diagnostics.gamma`` holds it (1 in the
+  non-smooth variants, 0 on unconstrained axes).
+* **e2 variant**: the level-1 system is unchanged (eq. 16): level-1 prediction and
+  right-hand side use ``w`` without the α term, so that the e2 term still pushes
+  the critical axes away (Fig. 6). From level 2 on, ``v`` includes
+  ``α J1^⊥ e2`` (eqs. 20-21 corrected). ``e2`` is eq. 6 at the current q.
+  Default ``alpha = 2.0``, as for ``gpm``.
+* **secondary** is included in ``w`` (prediction and right-hand sides), so a stopped
+  axis stays stopped when a secondary command is added.
+* **Levels**: ``max_levels=None`` (default) iterates until no new axis becomes
+  critical (at most n levels, since each adds an axis).
+* **Rank and conditioning**: the rows of an orthonormal N have singular values in
+  [0, 1], so ``σ <= rcond`` is an *absolute* cut-off there. A constraint that the
+  free directions cannot meet (more constrained axes than ``n_a``, or rows of E
+  that are numerically dependent or zero) is solved in the least-squares sense,
+  and ``overconstrained`` is set; levels still continue, so later axes are
+  reported even when they cannot be constrained. ``overconstrained`` is also set
+  whenever more axes are constrained than ``n_a``.
+* **No redundancy** (``rank J1 = n``, e.g. m >= n): E is empty and the law is the
+  classical one, with a note; critical axes are still reported (and
+  ``overconstrained`` set, as they cannot be slowed).
+* ``diagnostics.a = E^T d`` (n_a,) and ``diagnostics.b`` is the concatenation of
+  the increments of ``a`` at levels 2, 3, ... (n_a each; ``F^⊥ b`` in CM01's
+  notation, equal to b for the minimum-norm solution).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg.lapack import dgesvd
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.limits import JointLimits
+from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.gpm import null_project, rank_notes
+from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+
+__all__ = [
+    "Iterative",
+    "IterativeBasic",
+    "IterativeSmooth",
+    "IterativeSmoothE2",
+    "IterativeSolution",
+    "iterate_null_space",
+]
+
+_RESIDUAL_TOL = 1e-9
+"""A least-squares residual above this fraction of the right-hand side means 'not met'."""
+
+
+class IterativeSolution(NamedTuple):
+    """Result of :func:`iterate_null_space`."""
+
+    motion: FloatArray
+    """(n,) null-space motion ``d = E a`` (same units as ``w``: q̇ = -λ (w + d))."""
+    levels: tuple[tuple[int, ...], ...]
+    """Axes constrained at each level, level 1 first."""
+    steps: tuple[FloatArray, ...]
+    """(n,) motion increment of each level, ``Σ steps = motion``."""
+    gamma: FloatArray
+    """(n,) weight γ_k of each constrained axis (0 elsewhere)."""
+    unmet: tuple[int, ...]
+    """Levels (1-based) whose constraints were met only in the least-squares sense."""
+
+
+def _constrain(
+    N: FloatArray, K: NDArray[np.intp], rhs: FloatArray, tol: float
+) -> tuple[FloatArray, FloatArray, bool]:
+    """Minimum-norm motion ``Δ = N c`` with ``Δ_K = rhs``; return ``(Δ, N Z, met)``.
+
+    ``Z`` is an orthonormal basis of ``Ker N_K``, so ``N Z`` spans the directions
+    left free. Singular values of ``N_K`` at or below ``tol`` count as zero. LAPACK's
+    ``dgesvd`` is called directly: on these tiny blocks numpy's wrapper costs 3-4x
+    the decomposition itself (hot path).
+    """
+    A = N[K]
+    p, f = A.shape
+    if f == 0:  # no free direction left
+        return np.zeros(N.shape[0]), N, not rhs.any()
+    U, s, Vt, info = dgesvd(A)
+    if info != 0:  # LAPACK did not converge (never seen on finite input): do nothing
+        return np.zeros(N.shape[0]), N, not rhs.any()
+    r = int(np.count_nonzero(s > tol))
+    c = Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
+    met = r == p or bool(np.abs(U[:, r:].T @ rhs).max() <= _RESIDUAL_TOL * np.abs(rhs).max())
+    return N @ c, N @ Vt[r:].T, met
+
+
+def iterate_null_space(
+    E: FloatArray,
+    w: FloatArray,
+    q: FloatArray,
+    limits: JointLimits,
+    *,
+    lam_dt: float,
+    smooth: bool,
+    extra: FloatArray | None = None,
+    max_levels: int | None = None,
+    tol: float = DEFAULT_RCOND,
+) -> IterativeSolution:
+    """Run CM01's iterative scheme (eqs. 11-18, 21) and return the null-space motion.
+
+    The command is ``q̇ = -λ (w + extra + motion)``; see the module docstring.
+
+    Args:
+        E: (n, n_a) orthonormal basis of ``Ker J1``.
+        w: (n,) motion to constrain, ``J1⁺e1 - J1^⊥ secondary / λ``.
+        q: (n,) current joint positions.
+        limits: Joint limits and thresholds.
+        lam_dt: ``λ dt`` (dimensionless), for the predictions ``q̂ = q - λ dt v``.
+        smooth: Weight the right-hand sides by γ_k (eq. 17); otherwise γ_k = 1.
+        extra: (n,) term in ``Ker J1`` left out of the level-1 system and included
+            from level 2 on (``α J1^⊥ e2``, eqs. 19-21), or None.
+        max_levels: Maximum number of levels, None for no limit.
+        tol: Absolute singular-value cut-off for the (orthonormal) constraint rows.
+    """
+    n = q.shape[0]
+    N = E
+    d = np.zeros(n)
+    free = np.ones(n, dtype=bool)
+    gamma = np.zeros(n)
+    levels: list[tuple[int, ...]] = []
+    steps: list[FloatArray] = []
+    unmet: list[int] = []
+    v = w  # level 1: d = 0 and no extra term (eqs. 8, 16)
+    for level in range(1, n + 1 if max_levels is None else max_levels + 1):
+        if level > 1:
+            v = (w + d) if extra is None else (w + extra + d)  # eqs. 12 / 20
+        q_hat = q - lam_dt * v  # eq. 8, with the current level's control
+        K = (limits.critical(q, q_hat) & free).nonzero()[0]
+        if K.size == 0:
+            break
+        g = limits.gamma(q_hat)[K] if smooth else np.ones(K.size)
+        step, N, met = _constrain(N, K, -g * v[K], tol)  # eqs. 11/16, 15/18/21
+        d = d + step
+        free[K] = False
+        gamma[K] = g
+        levels.append(tuple(K.tolist()))
+        steps.append(step)
+        if not met:
+            unmet.append(level)
+    return IterativeSolution(d, tuple(levels), tuple(steps), gamma, tuple(unmet))
+
+
+def _check_levels(max_levels: int | None) -> int | None:
+    if max_levels is None:
+        return None
+    if isinstance(max_levels, bool) or not isinstance(max_levels, int | np.integer):
+        raise ConfigurationError(f"max_levels must be None or an int >= 1, got {max_levels!r}")
+    if max_levels < 1:
+        raise ConfigurationError(f"max_levels must be None or an int >= 1, got {max_levels!r}")
+    return int(max_levels)
+
+
+def _check_alpha(alpha: float) -> float:
+    a = float(alpha)
+    if not (np.isfinite(a) and a >= 0.0):
+        raise ConfigurationError(f"alpha must be a finite number >= 0, got {alpha!r}")
+    return a
+
+
+class _IterativeLaw(Law):
+    """Shared implementation; subclasses choose the variant and expose their options."""
+
+    smooth: ClassVar[bool] = False
+    with_e2: ClassVar[bool] = False
+    max_levels: int | None = None
+    alpha: float = 0.0
+
+    def compute(self, x: LawInputs) -> LawResult:
+        svd = task_svd(x.J1, self.rcond)
+        E = svd.null
+        w = svd.pinv @ x.e_eff
+        if x.secondary is not None:
+            w = w - null_project(svd, x.secondary) / x.lam
+        extra = None
+        if self.with_e2 and self.alpha > 0.0:
+            extra = self.alpha * null_project(svd, x.limits.gradient(x.q))
+        sol = iterate_null_space(
+            E,
+            w,
+            x.q,
+            x.limits,
+            lam_dt=x.lam * x.dt,
+            smooth=self.smooth,
+            extra=extra,
+            max_levels=self.max_levels,
+            tol=self.rcond,
+        )
+        v = w + sol.motion if extra is None else w + extra + sol.motion
+        qdot = -x.lam * v
+
+        n_a = E.shape[1]
+        n_constrained = sum(len(level) for level in sol.levels)
+        notes = rank_notes(x.J1, svd)
+        if n_constrained > n_a:
+            notes.append(
+                f"{n_constrained} constrained axes > n_a = {n_a}: least-squares, not all met"
+            )
+        if sol.unmet:
+            notes.append(f"constraints met only in the least-squares sense at levels {sol.unmet}")
+        b = [E.T @ s for s in sol.steps[1:]]
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=svd.rank,
+            rank_deficient=svd.rank < x.J1.shape[0],
+            projector_rank=n_a,
+            critical=sol.levels,
+            iterations=len(sol.levels),
+            overconstrained=n_constrained > n_a or bool(sol.unmet),
+            alpha=self.alpha if self.with_e2 else None,
+            a=E.T @ sol.motion,
+            b=np.concatenate(b) if b else np.zeros(0),
+            gamma=sol.gamma,
+            notes=tuple(notes),
+        )
+        return LawResult(qdot, diag)
+
+
+@register
+class IterativeBasic(_IterativeLaw):
+    """Stop the critical axes in the null space of the task, one level (CM01 eqs. 10-12).
+
+    ``a0 = F⁺ s`` with ``F = E_K``, ``s = -(J1⁺e1)_K`` over the axes K critical
+    at the eq. 8 prediction; ``q̇ = -λ (J1⁺e1 + E a0)``.
+
+    Options:
+        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+    """
+
+    name = "iterative-basic"
+    description = "stop critical axes in Ker J1, one level (CM01 eqs. 10-12)"
+    max_levels = 1
+
+    def __init__(self, *, rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(rcond=rcond)
+
+
+@register
+class Iterative(_IterativeLaw):
+    """Stop the critical axes level after level in what remains of ``Ker J1`` (CM01 eqs. 13-15).
+
+    Options:
+        max_levels: Maximum number of levels (int >= 1), or None (default) to
+            iterate until no new axis becomes critical.
+        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+    """
+
+    name = "iterative"
+    description = "stop critical axes in Ker J1, iterated (CM01 eqs. 13-15)"
+
+    def __init__(self, *, max_levels: int | None = None, rcond: float = DEFAULT_RCOND) -> None:
+        super().__init__(rcond=rcond)
+        self.max_levels = _check_levels(max_levels)
+
+
+@register
+class IterativeSmooth(Iterative):
+    """The iterative scheme with right-hand sides weighted by γ_k (CM01 eqs. 16-18, eq. 17 corrected).
+
+    Options:
+        max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
+        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+    """
+
+    name = "iterative-smooth"
+    description = "iterative scheme, smooth γ-weighted slow-down (CM01 eqs. 16-18)"
+    smooth = True
+
+
+@register
+class IterativeSmoothE2(_IterativeLaw):
+    """The smooth iterative scheme plus ``α J1^⊥ e2`` to move away from the limits (CM01 eqs. 19-21).
+
+    Eqs. 19-21 corrected (literature.md §D.3 items 2-3); the level-1 system is
+    that of eq. 16, unchanged.
+
+    Options:
+        alpha: Gain α >= 0 of the joint-limit gradient (default 2.0, as ``gpm``).
+        max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
+        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+    """
+
+    name = "iterative-smooth-e2"
+    description = "smooth iterative scheme + α J1^⊥ e2 moving away from limits (CM01 eqs. 19-21)"
+    smooth = True
+    with_e2 = True
+
+    def __init__(
+        self,
+        *,
+        alpha: float = 2.0,
+        max_levels: int | None = None,
+        rcond: float = DEFAULT_RCOND,
+    ) -> None:
+        super().__init__(rcond=rcond)
+        self.alpha = _check_alpha(alpha)
+        self.max_levels = _check_levels(max_levels)
