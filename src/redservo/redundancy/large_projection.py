@@ -1,0 +1,342 @@
+"""Large projection operator and joint-limit law of Marey & Chaumette (ICRA'10, IROS'10; literature.md §B3).
+
+Norm-based projector (ICRA'10), with ``v = J1^T e1``::
+
+    P_‖e‖ = I_n - v v^T / (v^T v)                      (rank n - 1)
+
+``e1^T J1 P_‖e‖ = 0``: a motion ``P_‖e‖ g`` leaves ``d‖e1‖/dt`` unchanged, and
+this keeps n - 1 free directions even when ``J1`` is square and full rank.
+Switched projector (ICRA'10 eq. 24), used far from and near convergence::
+
+    P_λ = λ(‖e‖) P_‖e‖ + (1 - λ(‖e‖)) (I - J1⁺ J1)
+    λ(‖e‖) = 1 if ‖e‖ > e1;  0 if ‖e‖ < e0;
+             1 / (1 + exp(-12 (‖e‖ - e0)/(e1 - e0) + 6)) in between
+
+Primary term ``q̇1 = -λ J1⁺ e_eff`` (as ViSP pairs it with ``P_λ``); with a
+full-row-rank ``J1``, ``e1^T J1 q̇ = -λ ‖e1‖²`` whatever the projected terms, so
+``‖e1‖`` still decays as ``exp(-λt)``.
+
+Joint-limit law (IROS'10), with ``Δq_i = q_max,i - q_min,i``::
+
+    q_l0 = (q_min + ρ Δq, q_max - ρ Δq),    q_l1 = q_l0 ∓ ρ ρ1 Δq     (l1 between l0 and the limit)
+    g_i = +e_i if q_i > q_l0max,i;  -e_i if q_i < q_l0min,i;  0 otherwise
+    λ_l,i = 1/(1 + exp(-12 (q_i - q_l0,i)/(q_l1,i - q_l0,i) + 6)) between l0 and l1, 1 beyond l1
+    b_i = |q̇1,i| / |(P g_i)_i|,    λ_sec,i = (1 + λ_tune) b_i
+    q̇2 = -Σ_i λ_l,i λ_sec,i P g_i,    q̇ = q̇1 + q̇2
+
+Beyond l1, joint i on its own gets ``q̇_i = q̇1,i - (1 + λ_tune)|q̇1,i| sign(g_i)``:
+motion toward the limit is reversed. Coupling through P from the other joints'
+terms is not bounded.
+
+Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
+
+* **ViSP variant reproduced: the corrected one** (literature.md §B3, ViSP
+  version caveat; PRs lagadic/visp#1945 and #1979). ``b_i`` is unbounded beyond
+  l1, clamped to at most 1 in the transition zone [l0, l1], and ``b_i := 1``
+  when ``|(P g_i)_i| < 10 ε_machine``. The older ViSP behaviour (skipping the
+  whole correction when ``b_i >= 1``, i.e. exactly when the task drives hard into
+  the limit, issue #1946) is *not* reproduced.
+* **Which error.** The projector and ``λ(‖e‖)`` use the measured ``e1`` (not
+  ``e_eff``), because ``d‖e1‖²/dt = 2 e1^T (J1 q̇ + ∂e1/∂t)`` is what the
+  projected terms must not change. ``q̇1`` uses ``e_eff`` (feed-forward).
+* **Thresholds.** ``e0 = 0.1``, ``e1 = 0.7`` are ViSP's hard-coded values, in the
+  units of the task error: they must be retuned for other features. The joint
+  thresholds come from this law's own ``rho``/``rho1`` (defaults 0.1/0.3 as in
+  ViSP), not from ``limits.rho``; ``limits`` only supplies ``q_min``/``q_max``.
+* **``q̇1`` fed to the joint-limit law** is the primary term plus the projected
+  ``secondary`` (``q̇1 = -λ J1⁺ e_eff + P secondary``; "other secondary terms",
+  IROS'10 eq. 21), never a measured velocity.
+* **Degenerate norm projector.** When ``‖J1^T e1‖ <= rcond σ_max(J1) ‖e1‖`` (in
+  particular ``e1 = 0``, or ``e1`` in the left null space of a rank-deficient
+  ``J1``), ``P_‖e‖ := I``: then ``e1^T J1 = 0`` anyway, so the property
+  ``e1^T J1 P = 0`` still holds (noted in the diagnostics).
+* ``projector="switched"`` (default) uses ``P_λ``; ``"norm"`` always uses
+  ``P_‖e‖`` (λ ≡ 1); ``"classical"`` always uses ``I - J1⁺J1`` (λ ≡ 0), the
+  comparison case of IROS'10.
+* Diagnostics: ``alpha`` holds the switching value ``λ(‖e‖)`` in [0, 1] actually
+  used; ``projector_rank`` the rank of P; ``critical = ((activated joints),)``
+  (``g_i ≠ 0``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.limits import JointLimits
+from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
+
+__all__ = [
+    "LargeProjection",
+    "Projector",
+    "joint_limit_term",
+    "norm_projector",
+    "sigmoid_gain",
+    "switched_projector",
+    "switching_value",
+]
+
+_PROJECTORS: tuple[str, ...] = ("switched", "norm", "classical")
+_TINY_PII = 10.0 * float(np.finfo(float).eps)
+
+
+class Projector(NamedTuple):
+    """A projection operator for the secondary terms."""
+
+    P: FloatArray
+    """(n, n) symmetric positive semi-definite operator."""
+    rank: int
+    """Its rank."""
+    switching: float
+    """λ(‖e‖) in [0, 1] used to build it (1: pure norm projector, 0: ``I - J1⁺J1``)."""
+    degenerate: bool
+    """True when ``J1^T e1 ≈ 0`` and the norm projector was replaced by the identity."""
+
+
+def sigmoid_gain(x: float, x0: float, x1: float) -> float:
+    """Return ``1/(1 + exp(-12 (x - x0)/(x1 - x0) + 6))`` (ICRA'10 eq. 24 and IROS'10).
+
+    0.0025 at ``x = x0``, 0.5 halfway, 0.9975 at ``x = x1``. ``x1 < x0`` is allowed
+    (the lower joint limit side).
+    """
+    t = -12.0 * (x - x0) / (x1 - x0) + 6.0
+    if t > 700.0:  # exp overflow: the gain is 0 to double precision
+        return 0.0
+    return 1.0 / (1.0 + math.exp(t))
+
+
+def switching_value(e_norm: float, e0: float, e1: float) -> float:
+    """Return λ(‖e‖) of ICRA'10 eq. 24: 0 below ``e0``, 1 above ``e1``, sigmoid between."""
+    if e_norm > e1:
+        return 1.0
+    if e_norm < e0:
+        return 0.0
+    return sigmoid_gain(e_norm, e0, e1)
+
+
+def norm_projector(
+    J1: FloatArray, e1: FloatArray, *, rcond: float = DEFAULT_RCOND
+) -> tuple[FloatArray, bool]:
+    """Return ``(P_‖e‖, degenerate)``: ``I - v v^T/(v^T v)`` with ``v = J1^T e1`` (n x n).
+
+    ``degenerate`` is True (and ``P = I``) when ``‖v‖ <= rcond σ_max(J1) ‖e1‖``.
+
+    Args:
+        J1: (m, n) task Jacobian.
+        e1: (m,) task error.
+        rcond: Relative threshold for ``J1^T e1 ≈ 0``.
+    """
+    n = J1.shape[1]
+    v = J1.T @ e1
+    nv = float(np.linalg.norm(v))
+    smax = float(np.linalg.norm(J1, 2)) if J1.size else 0.0
+    if nv == 0.0 or nv <= rcond * smax * float(np.linalg.norm(e1)):
+        return np.eye(n), True
+    u = v / nv
+    return np.eye(n) - np.outer(u, u), False
+
+
+def switched_projector(
+    J1: FloatArray,
+    e1: FloatArray,
+    *,
+    e0: float = 0.1,
+    e_switch: float = 0.7,
+    mode: str = "switched",
+    svd: TaskSVD | None = None,
+    rcond: float = DEFAULT_RCOND,
+) -> Projector:
+    """Return ``P_λ = λ(‖e1‖) P_‖e‖ + (1 - λ(‖e1‖)) (I - J1⁺J1)`` (ICRA'10 eq. 24).
+
+    Args:
+        J1: (m, n) task Jacobian.
+        e1: (m,) task error (task units).
+        e0: Lower switching threshold on ``‖e1‖`` (task units).
+        e_switch: Upper switching threshold ``e1`` of the paper (task units), > e0.
+        mode: ``"switched"``, ``"norm"`` (λ ≡ 1) or ``"classical"`` (λ ≡ 0).
+        svd: The SVD of ``J1`` if already computed.
+        rcond: Relative singular-value cut-off.
+    """
+    if mode not in _PROJECTORS:
+        raise ConfigurationError(
+            f"projector mode must be one of {', '.join(repr(p) for p in _PROJECTORS)}, got {mode!r}"
+        )
+    n = J1.shape[1]
+    s = task_svd(J1, rcond) if svd is None else svd
+    if mode == "norm":
+        lam = 1.0
+    elif mode == "classical":
+        lam = 0.0
+    else:
+        lam = switching_value(float(np.linalg.norm(e1)), e0, e_switch)
+    degenerate = False
+    if lam > 0.0:
+        Pn, degenerate = norm_projector(J1, e1, rcond=rcond)
+        P = lam * Pn + (1.0 - lam) * s.null_projector() if lam < 1.0 else Pn
+        # Ker J1 lies in the range of P_‖e‖, so the sum has the rank of P_‖e‖.
+        rank = n if degenerate else n - 1
+    else:
+        P = s.null_projector()
+        rank = n - s.rank
+    return Projector(P, rank, lam, degenerate)
+
+
+def joint_limit_term(
+    q: FloatArray,
+    qdot1: FloatArray,
+    P: FloatArray,
+    limits: JointLimits,
+    *,
+    rho: float = 0.1,
+    rho1: float = 0.3,
+    lambda_tune: float = 0.7,
+) -> tuple[FloatArray, tuple[int, ...]]:
+    """Return ``(q̇2, activated)``: the IROS'10 joint-limit term ``-Σ λ_l,i λ_sec,i P g_i``.
+
+    Corrected ViSP variant (module docstring): ``b_i`` unbounded beyond l1,
+    ``<= 1`` between l0 and l1, and 1 when ``|P_ii| < 10 ε_machine``.
+
+    Args:
+        q: (n,) joint positions (m or rad).
+        qdot1: (n,) primary (plus projected secondary) joint velocity.
+        P: (n, n) projector.
+        limits: The joint limits (only ``q_min``, ``q_max`` are used).
+        rho: Activation band l0 as a fraction of the range, in (0, 0.5).
+        rho1: Position of l1 inside the band, fraction of ``rho Δq``, in (0, 1).
+        lambda_tune: λ_i >= 0, extra reversal gain.
+    """
+    n = q.shape[0]
+    rng = limits.range
+    l0_min = limits.q_min + rho * rng
+    l0_max = limits.q_max - rho * rng
+    l1_min = l0_min - rho * rho1 * rng
+    l1_max = l0_max + rho * rho1 * rng
+    qdot2 = np.zeros(n)
+    activated: list[int] = []
+    for i in range(n):
+        if q[i] > l0_max[i]:
+            sign, l0, l1 = 1.0, l0_max[i], l1_max[i]
+            beyond = q[i] >= l1
+        elif q[i] < l0_min[i]:
+            sign, l0, l1 = -1.0, l0_min[i], l1_min[i]
+            beyond = q[i] <= l1
+        else:
+            continue
+        activated.append(i)
+        lam_l = 1.0 if beyond else sigmoid_gain(float(q[i]), float(l0), float(l1))
+        Pg = sign * P[:, i]
+        p_ii = abs(float(Pg[i]))
+        if p_ii < _TINY_PII:
+            b = 1.0
+        else:
+            b = abs(float(qdot1[i])) / p_ii
+            if not beyond:
+                b = min(b, 1.0)
+        qdot2 -= lam_l * (1.0 + lambda_tune) * b * Pg
+    return qdot2, tuple(activated)
+
+
+@register
+class LargeProjection(Law):
+    """Marey & Chaumette 2010: switched large projection operator and joint-limit law.
+
+    ``q̇ = -λ J1⁺ e_eff + P secondary + q̇2`` with ``P = P_λ`` (ICRA'10 eq. 24) and
+    ``q̇2`` the IROS'10 joint-limit term (corrected ViSP variant, see the module
+    docstring). ``diagnostics.alpha`` holds λ(‖e1‖).
+
+    Options:
+        e0: Lower switching threshold on ``‖e1‖`` (task units), >= 0; default 0.1
+            (ViSP's value, retune for your features).
+        e1: Upper switching threshold on ``‖e1‖`` (task units), > e0; default 0.7.
+        rho: Activation band l0 as a fraction of each joint range, in (0, 0.5); default 0.1.
+        rho1: l1 position inside the band, fraction of ``rho Δq``, in (0, 1); default 0.3.
+        lambda_tune: Extra reversal gain λ_i >= 0 (default 0.7).
+        projector: ``"switched"`` (default), ``"norm"`` or ``"classical"``.
+        rcond: Relative singular-value cut-off of the pseudo-inverse.
+    """
+
+    name = "large-projection"
+    description = "large projection operator P_λ and joint-limit law (Marey & Chaumette 2010)"
+
+    def __init__(
+        self,
+        *,
+        e0: float = 0.1,
+        e1: float = 0.7,
+        rho: float = 0.1,
+        rho1: float = 0.3,
+        lambda_tune: float = 0.7,
+        projector: str = "switched",
+        rcond: float = DEFAULT_RCOND,
+    ) -> None:
+        super().__init__(rcond=rcond)
+        lo, hi = float(e0), float(e1)
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0.0 <= lo < hi):
+            raise ConfigurationError(
+                f"the switching thresholds must satisfy 0 <= e0 < e1 (task-error units), got "
+                f"e0={e0!r}, e1={e1!r}"
+            )
+        r = float(rho)
+        if not (0.0 < r < 0.5):
+            raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}")
+        r1 = float(rho1)
+        if not (0.0 < r1 < 1.0):
+            raise ConfigurationError(f"rho1 must lie in (0, 1), got {rho1!r}")
+        lt = float(lambda_tune)
+        if not (np.isfinite(lt) and lt >= 0.0):
+            raise ConfigurationError(
+                f"lambda_tune must be a finite number >= 0, got {lambda_tune!r}"
+            )
+        if projector not in _PROJECTORS:
+            raise ConfigurationError(
+                f"projector must be one of {', '.join(repr(p) for p in _PROJECTORS)}, "
+                f"got {projector!r}"
+            )
+        self.e0, self.e1 = lo, hi
+        self.rho, self.rho1, self.lambda_tune = r, r1, lt
+        self.projector = projector
+
+    def compute(self, x: LawInputs) -> LawResult:
+        m = x.J1.shape[0]
+        svd = task_svd(x.J1, self.rcond)
+        proj = switched_projector(
+            x.J1,
+            x.e1,
+            e0=self.e0,
+            e_switch=self.e1,
+            mode=self.projector,
+            svd=svd,
+            rcond=self.rcond,
+        )
+        qdot1 = -x.lam * (svd.pinv @ x.e_eff)
+        if x.secondary is not None:
+            qdot1 = qdot1 + proj.P @ x.secondary
+        qdot2, activated = joint_limit_term(
+            x.q,
+            qdot1,
+            proj.P,
+            x.limits,
+            rho=self.rho,
+            rho1=self.rho1,
+            lambda_tune=self.lambda_tune,
+        )
+        notes: list[str] = []
+        if svd.rank < m:
+            notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+        if proj.degenerate:
+            notes.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
+        diag = Diagnostics(
+            method=self.name,
+            task_rank=svd.rank,
+            rank_deficient=svd.rank < m,
+            projector_rank=proj.rank,
+            critical=(activated,) if activated else (),
+            alpha=proj.switching,
+            notes=tuple(notes),
+        )
+        return LawResult(qdot1 + qdot2, diag)
