@@ -1,0 +1,323 @@
+"""A generic serial robot described by Denavit–Hartenberg parameters.
+
+Two conventions are supported (``convention=`` keyword of :class:`DHRobot`):
+
+* ``"standard"`` (Denavit & Hartenberg 1955, as in Spong/Paul): the transform
+  from frame i-1 to frame i is ``A_i = Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`` and
+  joint i moves along/about ``z_{i-1}``.
+* ``"modified"`` (Craig 1986; the Franka Emika documentation): ``A_i =
+  Rx(α_i) Tx(a_i) Rz(θ_i) Tz(d_i)``, where ``a_i, α_i`` of row i are the
+  distance and twist *before* joint i (Craig's ``a_{i-1}, α_{i-1}``), and joint
+  i moves along/about ``z_i``.
+
+Joint variables: for a revolute joint ``θ_i = theta_i + offset_i + q_i`` and
+``d_i`` is constant; for a prismatic joint ``d_i = d_i + offset_i + q_i`` and
+``θ_i`` is constant. ``q_min``/``q_max`` bound ``q_i`` (not ``q_i + offset_i``).
+
+The end-effector pose is ``bMe = base · A_1 ⋯ A_n · flange`` and ``eJe`` is the
+analytic geometric Jacobian: with ``z_j``, ``p_j`` the axis direction and a point
+on the axis of joint j, and ``p_e`` the end-effector origin (all in the base
+frame), column j is ``(z_j × (p_e - p_j), z_j)`` for a revolute joint and
+``(z_j, 0)`` for a prismatic one, then rotated into the end-effector frame
+(``eJe = blkdiag(bRe^T, bRe^T) · bJe``; rotating both factors of the cross
+product first gives the same result with fewer operations).
+
+Design choice: the last chain evaluation is cached (keyed on the exact bytes of
+``q``), because a controller typically asks for ``fkine`` and ``jacobian`` at the
+same configuration in each cycle.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from redservo._validation import FloatArray, as_transform, as_vector
+from redservo.errors import ConfigurationError, JointLimitError, ShapeError
+from redservo.robots.base import JointType, Robot
+
+__all__ = ["DHConvention", "DHLink", "DHRobot"]
+
+DHConvention = Literal["standard", "modified"]
+
+_LIMIT_TOL = 1e-9  # allowed excess beyond a limit, joint units (same as JointLimits.check)
+
+
+@dataclass(frozen=True, slots=True)
+class DHLink:
+    """One row of a Denavit–Hartenberg table (see the module docstring for the conventions).
+
+    Attributes:
+        a: Link length (m).
+        alpha: Link twist (rad).
+        d: Link offset (m); the constant part of ``d`` for a prismatic joint.
+        theta: Joint angle (rad); the constant part of ``θ`` for a revolute joint.
+        joint_type: ``"revolute"`` (default) or ``"prismatic"``.
+        offset: Added to ``q`` before it enters ``θ`` (revolute, rad) or ``d``
+            (prismatic, m): the joint reads zero where the table is evaluated at ``offset``.
+        q_min: Lower limit of ``q`` (rad or m). Default for a revolute joint: -π.
+            A prismatic joint must give both limits.
+        q_max: Upper limit of ``q`` (rad or m). Default for a revolute joint: +π.
+        name: Joint name (default ``"q<i>"``, 1-based).
+    """
+
+    a: float = 0.0
+    alpha: float = 0.0
+    d: float = 0.0
+    theta: float = 0.0
+    joint_type: JointType = "revolute"
+    offset: float = 0.0
+    q_min: float | None = None
+    q_max: float | None = None
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.joint_type not in ("revolute", "prismatic"):
+            raise ConfigurationError(
+                f"DHLink.joint_type must be 'revolute' or 'prismatic', got {self.joint_type!r}"
+            )
+        for field_name in ("a", "alpha", "d", "theta", "offset", "q_min", "q_max"):
+            value = getattr(self, field_name)
+            if value is None and field_name in ("q_min", "q_max"):
+                continue
+            if not isinstance(value, int | float | np.floating | np.integer) or not math.isfinite(
+                value
+            ):
+                raise ShapeError(f"DHLink.{field_name} must be a finite number, got {value!r}")
+        if self.joint_type == "prismatic" and (self.q_min is None or self.q_max is None):
+            raise ConfigurationError(
+                f"prismatic DH link {self.name or ''!r} needs explicit q_min and q_max (m)"
+            )
+        lo, hi = self.limits()
+        if not hi > lo:
+            raise JointLimitError(
+                f"DH link {self.name or ''!r}: q_max ({hi:.6g}) must be strictly greater than "
+                f"q_min ({lo:.6g})"
+            )
+
+    def limits(self) -> tuple[float, float]:
+        """Return ``(q_min, q_max)`` with the revolute defaults (±π) applied."""
+        lo = -math.pi if self.q_min is None else float(self.q_min)
+        hi = math.pi if self.q_max is None else float(self.q_max)
+        return lo, hi
+
+
+def check_q_named(robot: Robot, q: ArrayLike, check_limits: bool) -> FloatArray:
+    """Validate ``q`` for ``robot``; a limit violation names the joint (shared by the models).
+
+    Raises:
+        ShapeError: ``q`` is not a finite (n,) vector.
+        JointLimitError: some ``q_i`` is outside ``[q_min,i, q_max,i]`` (beyond 1e-9).
+    """
+    try:
+        qa = as_vector(q, "q", robot.n)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ShapeError):
+            raise
+        # Ragged or non-numeric input: numpy cannot make a float vector of it.
+        raise ShapeError(
+            f"q must be a finite ({robot.n},) vector of numbers, got {q!r:.80}"
+        ) from exc
+    if check_limits:
+        lo, hi = robot.q_min, robot.q_max
+        out = np.flatnonzero((qa < lo - _LIMIT_TOL) | (qa > hi + _LIMIT_TOL))
+        if out.size:
+            i = int(out[0])
+            unit = "m" if robot.joint_types[i] == "prismatic" else "rad"
+            names = [robot.joint_names[int(k)] for k in out]
+            raise JointLimitError(
+                f"{robot.name}: joint {robot.joint_names[i]!r} (q[{i}]) = {qa[i]:.6g} {unit} is "
+                f"outside its limits [{lo[i]:.6g}, {hi[i]:.6g}] {unit}; "
+                f"{out.size} joint(s) out of range: {names}"
+            )
+    return qa
+
+
+class DHRobot(Robot):
+    """A serial chain of revolute/prismatic joints from a DH table, with an eye-in-hand camera.
+
+    Describe your own arm in a few lines::
+
+        >>> import numpy as np
+        >>> from redservo.robots import DHLink, DHRobot
+        >>> arm = DHRobot(
+        ...     [
+        ...         DHLink(d=0.3, alpha=np.pi / 2, q_min=-2.5, q_max=2.5, name="waist"),
+        ...         DHLink(a=0.4, q_min=-1.5, q_max=1.5, name="shoulder"),
+        ...         DHLink(a=0.3, q_min=-2.0, q_max=2.0, name="elbow"),
+        ...         DHLink(joint_type="prismatic", q_min=0.0, q_max=0.1, name="slide"),
+        ...     ],
+        ...     convention="standard",
+        ...     name="my_arm",
+        ... )
+        >>> arm.fkine_ee(np.zeros(4))[:3, 3].round(3).tolist()
+        [0.7, 0.0, 0.3]
+        >>> arm.jacobian([0.0, 0.2, -0.4, 0.05]).shape
+        (6, 4)
+
+    Args:
+        links: The DH rows, base to tip.
+        convention: ``"standard"`` or ``"modified"`` (module docstring).
+        base: 4x4 pose of the DH frame 0 in the robot base frame (default identity).
+        flange: 4x4 pose of the end-effector frame in the last DH frame (default identity).
+        eMc: 4x4 camera pose in the end-effector frame (default identity).
+        name: Model name.
+
+    Raises:
+        ConfigurationError: unknown convention, or no links.
+        ShapeError: ``base``, ``flange`` or ``eMc`` is not a rigid transform.
+    """
+
+    def __init__(
+        self,
+        links: Sequence[DHLink],
+        *,
+        convention: DHConvention = "standard",
+        base: ArrayLike | None = None,
+        flange: ArrayLike | None = None,
+        eMc: ArrayLike | None = None,
+        name: str = "dh",
+    ) -> None:
+        links = tuple(links)
+        if not links:
+            raise ConfigurationError("a DHRobot needs at least one link")
+        if not all(isinstance(link, DHLink) for link in links):
+            raise ConfigurationError("links must be DHLink instances")
+        if convention not in ("standard", "modified"):
+            raise ConfigurationError(
+                f"convention must be 'standard' or 'modified', got {convention!r}"
+            )
+        lims = np.array([link.limits() for link in links])
+        super().__init__(
+            name=name,
+            joint_names=[link.name or f"q{i + 1}" for i, link in enumerate(links)],
+            joint_types=[link.joint_type for link in links],
+            q_min=lims[:, 0],
+            q_max=lims[:, 1],
+            eMc=eMc,
+        )
+        self._links = links
+        self._convention: DHConvention = convention
+        self._base = np.eye(4) if base is None else as_transform(base, "base").copy()
+        self._flange = np.eye(4) if flange is None else as_transform(flange, "flange").copy()
+        # Constant per-link arrays (the hot path only does vectorized arithmetic on them).
+        alpha = np.array([link.alpha for link in links], dtype=float)
+        self._a = np.array([link.a for link in links], dtype=float)
+        self._ca = np.cos(alpha)
+        self._sa = np.sin(alpha)
+        self._d0 = np.array([link.d for link in links], dtype=float)
+        self._theta0 = np.array([link.theta for link in links], dtype=float)
+        self._offset = np.array([link.offset for link in links], dtype=float)
+        self._revolute = np.array([link.joint_type == "revolute" for link in links])
+        self._rev_f = self._revolute.astype(float)
+        self._pri_f = 1.0 - self._rev_f
+        # (q bytes, (bMe, Z, P)) of the last evaluation; one attribute so that it is swapped atomically.
+        self._cache: tuple[bytes, tuple[FloatArray, FloatArray, FloatArray]] | None = None
+
+    # -- description ----------------------------------------------------------------------------
+
+    @property
+    def links(self) -> tuple[DHLink, ...]:
+        """The DH rows, base to tip."""
+        return self._links
+
+    @property
+    def convention(self) -> DHConvention:
+        """``"standard"`` or ``"modified"``."""
+        return self._convention
+
+    @property
+    def base(self) -> FloatArray:
+        """4x4 pose of DH frame 0 in the base frame (a copy)."""
+        return self._base.copy()
+
+    @property
+    def flange(self) -> FloatArray:
+        """4x4 pose of the end-effector frame in the last DH frame (a copy)."""
+        return self._flange.copy()
+
+    def check_q(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
+        """Return ``q`` as an (n,) array; a limit violation names the joint."""
+        return check_q_named(self, q, check_limits)
+
+    # -- kinematics -----------------------------------------------------------------------------
+
+    def link_transforms(self, q: FloatArray) -> FloatArray:
+        """Return the (n, 4, 4) stack of link transforms ``A_i(q_i)`` (module docstring)."""
+        jv = q + self._offset
+        theta = self._theta0 + self._rev_f * jv
+        d = self._d0 + self._pri_f * jv
+        ct, st = np.cos(theta), np.sin(theta)
+        ca, sa, a = self._ca, self._sa, self._a
+        A = np.zeros((q.shape[0], 4, 4))
+        A[:, 3, 3] = 1.0
+        if self._convention == "standard":  # Rz(θ) Tz(d) Tx(a) Rx(α)
+            A[:, 0, 0] = ct
+            A[:, 0, 1] = -st * ca
+            A[:, 0, 2] = st * sa
+            A[:, 0, 3] = a * ct
+            A[:, 1, 0] = st
+            A[:, 1, 1] = ct * ca
+            A[:, 1, 2] = -ct * sa
+            A[:, 1, 3] = a * st
+            A[:, 2, 1] = sa
+            A[:, 2, 2] = ca
+            A[:, 2, 3] = d
+        else:  # Rx(α) Tx(a) Rz(θ) Tz(d)
+            A[:, 0, 0] = ct
+            A[:, 0, 1] = -st
+            A[:, 0, 3] = a
+            A[:, 1, 0] = st * ca
+            A[:, 1, 1] = ct * ca
+            A[:, 1, 2] = -sa
+            A[:, 1, 3] = -sa * d
+            A[:, 2, 0] = st * sa
+            A[:, 2, 1] = ct * sa
+            A[:, 2, 2] = ca
+            A[:, 2, 3] = ca * d
+        return A
+
+    def _chain(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Return ``(bMe, Z, P)``: ee pose, joint axes (n, 3) and points on them (n, 3), base frame."""
+        key = q.tobytes()
+        cache = self._cache
+        if cache is not None and cache[0] == key:
+            return cache[1]
+        A = self.link_transforms(q)
+        M = self._base
+        prefix = [M]
+        for Ai in A:  # (ndarray.dot is the cheapest 4x4 product here)
+            M = M.dot(Ai)
+            prefix.append(M)
+        T = np.array(prefix)  # T[i] = base · A_1 ⋯ A_i, (n + 1, 4, 4)
+        # Standard DH: joint i acts on z_{i-1} (T[i-1]); modified: on z_i (T[i]).
+        axes = T[:-1] if self._convention == "standard" else T[1:]
+        Z = axes[:, :3, 2]
+        P = axes[:, :3, 3]
+        bMe = M @ self._flange
+        out = (bMe, Z, P)
+        self._cache = (key, out)
+        return out
+
+    def fkine_ee(self, q: FloatArray) -> FloatArray:
+        """Return ``bMe`` (4x4), the end-effector pose in the base frame, for a validated (n,) q."""
+        return self._chain(q)[0].copy()
+
+    def jacobe(self, q: FloatArray) -> FloatArray:
+        """Return the analytic ``eJe`` (6, n) for a validated (n,) q (module docstring)."""
+        bMe, Z, P = self._chain(q)
+        R = bMe[:3, :3]
+        Ze = Z @ R  # rows: R^T z_j
+        De = (bMe[:3, 3] - P) @ R  # rows: R^T (p_e - p_j)
+        J = np.empty((6, Ze.shape[0]))
+        rev = self._rev_f
+        J[0] = rev * (Ze[:, 1] * De[:, 2] - Ze[:, 2] * De[:, 1]) + self._pri_f * Ze[:, 0]
+        J[1] = rev * (Ze[:, 2] * De[:, 0] - Ze[:, 0] * De[:, 2]) + self._pri_f * Ze[:, 1]
+        J[2] = rev * (Ze[:, 0] * De[:, 1] - Ze[:, 1] * De[:, 0]) + self._pri_f * Ze[:, 2]
+        J[3:] = (Ze * rev[:, None]).T
+        return J
