@@ -49,8 +49,10 @@ def as_transform(value: ArrayLike, name: str) -> FloatArray:
     """Return ``value`` as a 4x4 homogeneous transform with a proper rotation block."""
     T = as_matrix(value, name, 4, 4)
     R = T[:3, :3]
-    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9) or not np.allclose(
-        R @ R.T, np.eye(3), atol=1e-6
+    if (
+        not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9)
+        or not np.allclose(R @ R.T, np.eye(3), atol=1e-6)
+        or np.linalg.det(R) <= 0.0  # an orthogonal R with det -1 is a reflection
     ):
         raise ShapeError(
             f"{name} must be a homogeneous transform [[R, t], [0, 0, 0, 1]] with R a rotation"

@@ -1,1 +1,68 @@
-"""Robot models with an eye-in-hand camera."""
+"""Robot models with an eye-in-hand camera.
+
+Every model is a :class:`Robot`: ``fkine(q)`` is the camera pose ``bMc`` and
+``jacobian(q)`` the 6 x n ``J(q) = cVe · eJe(q)`` with ``v_c = J(q) q̇`` in the
+camera frame (literature.md §0). Shipped models, by name for :func:`make_robot`:
+
+* ``"afma6"`` — :class:`Afma6`, the 6-DOF gantry of CM01 (literature.md §F).
+* ``"humanoid9"`` — :class:`Humanoid9`, CM01's 9-DOF virtual torso.
+* ``"panda"`` — :class:`Panda`, the 7-DOF Franka Emika Panda.
+
+:class:`DHRobot` builds any other serial arm from a Denavit–Hartenberg table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Final
+
+from redservo.errors import ConfigurationError, UnknownNameError
+from redservo.robots.afma6 import Afma6
+from redservo.robots.base import JointType, Robot
+from redservo.robots.dh import DHLink, DHRobot
+from redservo.robots.humanoid import Humanoid9
+from redservo.robots.panda import Panda
+
+__all__ = [
+    "ROBOTS",
+    "Afma6",
+    "DHLink",
+    "DHRobot",
+    "Humanoid9",
+    "JointType",
+    "Panda",
+    "Robot",
+    "make_robot",
+]
+
+_FACTORIES: Final[dict[str, Callable[..., Robot]]] = {
+    "afma6": Afma6,
+    "humanoid9": Humanoid9,
+    "panda": Panda,
+}
+
+ROBOTS: Final[tuple[str, ...]] = tuple(_FACTORIES)
+"""Names accepted by :func:`make_robot`."""
+
+
+def make_robot(name: str, **options: Any) -> Robot:
+    """Build a shipped robot model by name.
+
+    Args:
+        name: One of :data:`ROBOTS` (case-insensitive).
+        **options: Keyword options of the model's constructor, e.g.
+            ``make_robot("afma6", tool="generic")``.
+
+    Raises:
+        UnknownNameError: unknown robot name (the message lists the known ones),
+            or an unknown named option value (e.g. an Afma6 tool).
+        ConfigurationError: an option the model does not accept.
+    """
+    key = name.strip().lower() if isinstance(name, str) else name
+    factory = _FACTORIES.get(key)
+    if factory is None:
+        raise UnknownNameError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}")
+    try:
+        return factory(**options)
+    except TypeError as exc:
+        raise ConfigurationError(f"invalid option for robot {key!r}: {exc}") from exc
