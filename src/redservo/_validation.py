@@ -10,6 +10,15 @@ from redservo.errors import ShapeError
 FloatArray = NDArray[np.float64]
 
 
+def _to_float(value: ArrayLike, name: str) -> FloatArray:
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(
+            f"{name} must be numeric and rectangular (a list or array of numbers), got {value!r}"
+        ) from None
+
+
 def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArray:
     """Return ``value`` as a finite 1-D float array, raising :class:`ShapeError` otherwise.
 
@@ -18,7 +27,7 @@ def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArra
         name: The argument name, used in the error message.
         size: The required length, or ``None`` for any length.
     """
-    arr = np.asarray(value, dtype=float)
+    arr = _to_float(value, name)
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"({size},)" if size is not None else "a 1-D array"
         raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
@@ -31,7 +40,7 @@ def as_matrix(
     value: ArrayLike, name: str, rows: int | None = None, cols: int | None = None
 ) -> FloatArray:
     """Return ``value`` as a finite 2-D float array, raising :class:`ShapeError` otherwise."""
-    arr = np.asarray(value, dtype=float)
+    arr = _to_float(value, name)
     if (
         arr.ndim != 2
         or (rows is not None and arr.shape[0] != rows)
