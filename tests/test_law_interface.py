@@ -1,0 +1,297 @@
+"""The law interface, checked for every registered method, plus classical.py and linalg.py.
+
+Iterates over :data:`redservo.METHODS`, so laws added later are covered automatically.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import redservo
+from redservo import (
+    METHOD_DESCRIPTIONS,
+    METHODS,
+    ConfigurationError,
+    JointLimitError,
+    JointLimits,
+    ShapeError,
+    UnknownNameError,
+    make_law,
+)
+from redservo.redundancy.base import registered_methods
+from redservo.redundancy.linalg import pinv, task_svd
+
+N = 6
+LIMITS = JointLimits(-np.ones(N), np.ones(N), rho=0.1)
+
+
+def good_inputs(m: int = 2, seed: int = 0) -> dict[str, Any]:
+    rng = np.random.default_rng(seed)
+    return {
+        "J1": rng.normal(size=(m, N)),
+        "e1": rng.normal(size=m),
+        "q": np.array([0.95, -0.9, 0.0, 0.3, -0.5, 0.85]),
+        "limits": LIMITS,
+        "lam": 0.5,
+        "dt": 0.04,
+        "de1_dt": 0.1 * rng.normal(size=m),
+        "secondary": 0.2 * rng.normal(size=N),
+    }
+
+
+def call(method: str, **overrides: Any) -> redservo.LawResult:
+    kw = good_inputs()
+    kw.update(overrides)
+    return make_law(method)(**kw)
+
+
+# -- registry ------------------------------------------------------------------------------------
+
+
+def test_registry_is_consistent() -> None:
+    reg = registered_methods()
+    assert set(METHODS) == set(reg) and len(METHODS) == len(set(METHODS))
+    for name in METHODS:
+        assert reg[name].name == name
+        assert METHOD_DESCRIPTIONS[name] and reg[name].description == METHOD_DESCRIPTIONS[name]
+    assert METHODS[0] == "classical"
+
+
+def test_unknown_method_lists_the_known_ones() -> None:
+    with pytest.raises(UnknownNameError) as info:
+        make_law("no-such-method")
+    message = str(info.value)
+    assert "no-such-method" in message
+    for name in METHODS:
+        assert name in message
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_unknown_option(method: str) -> None:
+    with pytest.raises(ConfigurationError, match="no_such_option"):
+        make_law(method, no_such_option=1.0)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("rcond", [0.0, -1e-3, 1.0, float("nan")])
+def test_bad_rcond(method: str, rcond: float) -> None:
+    with pytest.raises(ConfigurationError):
+        make_law(method, rcond=rcond)
+
+
+# -- bad inputs ----------------------------------------------------------------------------------
+
+BAD_SHAPES = {
+    "J1 1-D": {"J1": np.ones(N)},
+    "J1 3-D": {"J1": np.ones((1, 2, N))},
+    "J1 wrong n": {"J1": np.ones((2, N + 1))},
+    "J1 no rows": {"J1": np.ones((0, N)), "e1": np.ones(0), "de1_dt": None},
+    "e1 wrong m": {"e1": np.ones(3)},
+    "e1 2-D": {"e1": np.ones((2, 1))},
+    "q wrong n": {"q": np.zeros(N - 1)},
+    "q 2-D": {"q": np.zeros((N, 1))},
+    "de1_dt wrong m": {"de1_dt": np.ones(3)},
+    "secondary wrong n": {"secondary": np.ones(N + 1)},
+    "limits wrong n": {"limits": JointLimits(-np.ones(N + 1), np.ones(N + 1))},
+}
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("case", BAD_SHAPES)
+def test_wrong_shape_raises_shape_error(method: str, case: str) -> None:
+    with pytest.raises(ShapeError):
+        call(method, **BAD_SHAPES[case])
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", ["J1", "e1", "q", "de1_dt", "secondary"])
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_non_finite_input_raises_shape_error(method: str, name: str, bad: float) -> None:
+    value = np.array(good_inputs()[name], dtype=float)
+    value.flat[1] = bad
+    with pytest.raises(ShapeError):
+        call(method, **{name: value})
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_q_outside_limits(method: str) -> None:
+    for q in (np.array([1.01, 0, 0, 0, 0, 0]), np.array([0, 0, 0, 0, 0, -1.5])):
+        with pytest.raises(JointLimitError):
+            call(method, q=q)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", ["lam", "dt"])
+@pytest.mark.parametrize("value", [0.0, -0.1, float("nan"), float("inf")])
+def test_non_positive_gain_or_period(method: str, name: str, value: float) -> None:
+    with pytest.raises(ConfigurationError):
+        call(method, **{name: value})
+
+
+# -- outputs -------------------------------------------------------------------------------------
+
+
+def _cases() -> dict[str, dict[str, Any]]:
+    rng = np.random.default_rng(11)
+    row = rng.normal(size=N)
+    return {
+        "generic 2x6": {},
+        "no feed-forward or secondary": {"de1_dt": None, "secondary": None},
+        "m = n": {"J1": rng.normal(size=(N, N)), "e1": rng.normal(size=N), "de1_dt": None},
+        "m > n": {"J1": rng.normal(size=(N + 2, N)), "e1": rng.normal(size=N + 2), "de1_dt": None},
+        "rank-deficient": {
+            "J1": np.vstack([row, -row, rng.normal(size=N)]),
+            "e1": rng.normal(size=3),
+            "de1_dt": None,
+        },
+        "zero J1": {"J1": np.zeros((2, N))},
+        "zero error": {"e1": np.zeros(2), "de1_dt": None, "secondary": None},
+        "at limits and thresholds": {"q": np.array([1.0, -1.0, 0.8, -0.8, 0.0, 1.0])},
+        "large error": {"e1": np.array([1e3, -1e3])},
+    }
+
+
+CASES = _cases()
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("case", CASES)
+def test_output_finite_shape_and_name(method: str, case: str) -> None:
+    kw = good_inputs()
+    kw.update(CASES[case])
+    r = make_law(method)(**kw)
+    assert isinstance(r, redservo.LawResult)
+    assert r.qdot.shape == (N,)
+    assert np.isfinite(r.qdot).all()
+    d = r.diagnostics
+    assert d.method == method
+    assert isinstance(d.notes, tuple)
+    assert 0 <= d.task_rank <= min(kw["J1"].shape)
+    assert d.rank_deficient == (d.task_rank < kw["J1"].shape[0])
+
+
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=15, deadline=None)
+@given(
+    m=st.integers(1, N + 1),
+    seed=st.integers(0, 2**32 - 1),
+    scale=st.sampled_from([0.0, 1e-6, 1.0, 1e3]),
+)
+def test_random_inputs_never_raise(method: str, m: int, seed: int, scale: float) -> None:
+    rng = np.random.default_rng(seed)
+    kw = good_inputs(m=m, seed=seed)
+    kw["J1"] = kw["J1"] * scale
+    kw["q"] = rng.uniform(LIMITS.q_min, LIMITS.q_max)
+    kw["q"][rng.integers(N)] = LIMITS.q_max[0]
+    r = make_law(method)(**kw)
+    assert r.qdot.shape == (N,) and np.isfinite(r.qdot).all()
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("case", ["generic 2x6", "at limits and thresholds", "rank-deficient"])
+def test_laws_are_pure(method: str, case: str) -> None:
+    kw = good_inputs()
+    kw.update(CASES[case])
+    copies = {k: np.array(v, copy=True) for k, v in kw.items() if isinstance(v, np.ndarray)}
+    law = make_law(method)
+    if law.stateful:  # a stateful law must be reproducible after reset()
+        law.reset()
+    first = law(**kw)
+    if law.stateful:
+        law.reset()
+    second = law(**kw)
+    np.testing.assert_array_equal(first.qdot, second.qdot)
+    assert first.diagnostics.critical == second.diagnostics.critical
+    for k, v in copies.items():  # inputs are not modified
+        np.testing.assert_array_equal(kw[k], v, err_msg=k)
+    # a fresh instance gives the same command too
+    np.testing.assert_array_equal(make_law(method)(**kw).qdot, first.qdot)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_accepts_lists(method: str) -> None:
+    kw = good_inputs()
+    a = make_law(method)(**kw).qdot
+    as_lists = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in kw.items()}
+    np.testing.assert_array_equal(make_law(method)(**as_lists).qdot, a)
+
+
+# -- classical -----------------------------------------------------------------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(m=st.integers(1, N), seed=st.integers(0, 2**32 - 1), sec=st.booleans(), ff=st.booleans())
+def test_classical_formula(m: int, seed: int, sec: bool, ff: bool) -> None:
+    kw = good_inputs(m=m, seed=seed)
+    if not sec:
+        kw["secondary"] = None
+    if not ff:
+        kw["de1_dt"] = None
+    J, e, lam = kw["J1"], kw["e1"], kw["lam"]
+    Jp = np.linalg.pinv(J)
+    want = -lam * Jp @ e  # CM01 eq. 2 with e = J1⁺ e1
+    if ff:
+        want = want - Jp @ kw["de1_dt"]
+    if sec:
+        want = want + (np.eye(N) - Jp @ J) @ kw["secondary"]
+    r = make_law("classical")(**kw)
+    np.testing.assert_allclose(r.qdot, want, atol=1e-10 * (1 + np.abs(want).max()))
+    assert r.diagnostics.critical == () and r.diagnostics.task_rank == m
+    task_rate = -lam * e - (kw["de1_dt"] if ff else 0.0)
+    np.testing.assert_allclose(J @ r.qdot, task_rate, atol=1e-9 * (1 + np.abs(r.qdot).max()))
+
+
+# -- linalg --------------------------------------------------------------------------------------
+
+
+@settings(max_examples=60, deadline=None)
+@given(m=st.integers(1, 9), n=st.integers(1, 9), seed=st.integers(0, 2**32 - 1))
+def test_pinv_and_null_basis_full_rank(m: int, n: int, seed: int) -> None:
+    A = np.random.default_rng(seed).normal(size=(m, n))
+    np.testing.assert_allclose(pinv(A), np.linalg.pinv(A), atol=1e-9)
+    svd = task_svd(A)
+    r = min(m, n)
+    assert svd.rank == r
+    E = svd.null
+    assert E.shape == (n, n - r)
+    np.testing.assert_allclose(E.T @ E, np.eye(n - r), atol=1e-12)  # orthonormal
+    np.testing.assert_allclose(A @ E, 0.0, atol=1e-12 * (1 + np.abs(A).max()))
+    np.testing.assert_allclose(svd.pinv, np.linalg.pinv(A), atol=1e-9)
+    np.testing.assert_allclose(svd.null_projector(), np.eye(n) - svd.pinv @ A, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(m=st.integers(2, 7), n=st.integers(2, 7), seed=st.integers(0, 2**32 - 1))
+def test_pinv_rank_deficient_is_moore_penrose(m: int, n: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    r = int(rng.integers(1, min(m, n)))
+    A = rng.normal(size=(m, r)) @ rng.normal(size=(r, n))  # rank r < min(m, n)
+    svd = task_svd(A)
+    assert svd.rank == r
+    X = svd.pinv
+    atol = 1e-9 * (1 + np.abs(A).max()) * (1 + np.abs(X).max()) ** 2
+    np.testing.assert_allclose(A @ X @ A, A, atol=atol)
+    np.testing.assert_allclose(X @ A @ X, X, atol=atol)
+    np.testing.assert_allclose(A @ X, (A @ X).T, atol=atol)
+    np.testing.assert_allclose(X @ A, (X @ A).T, atol=atol)
+    E = svd.null
+    assert E.shape == (n, n - r)
+    np.testing.assert_allclose(E.T @ E, np.eye(n - r), atol=1e-12)
+    np.testing.assert_allclose(A @ E, 0.0, atol=1e-10 * (1 + np.abs(A).max()))
+
+
+def test_linalg_edge_cases() -> None:
+    Z = task_svd(np.zeros((2, 4)))
+    assert Z.rank == 0
+    np.testing.assert_array_equal(Z.pinv, np.zeros((4, 2)))
+    np.testing.assert_allclose(Z.null @ Z.null.T, np.eye(4), atol=1e-12)
+    assert pinv(np.zeros((0, 3))).shape == (3, 0)
+    assert pinv(np.zeros((3, 0))).shape == (0, 3)
+    tiny = np.diag([1.0, 1e-12])  # below the default relative cut-off: rank 1
+    assert task_svd(tiny).rank == 1
+    np.testing.assert_allclose(pinv(tiny), np.diag([1.0, 0.0]))
