@@ -204,12 +204,12 @@ class SimulationLog:
 
     def save_npz(self, path: str | Path) -> None:
         """Save every array to a compressed ``.npz`` (plus joint and feature names)."""
-        np.savez_compressed(
-            path,
+        data: dict[str, Any] = {
             **self.arrays(),
-            joint_names=np.array(self.joint_names),
-            feature_names=np.array(self.feature_names),
-        )
+            "joint_names": np.array(self.joint_names),
+            "feature_names": np.array(self.feature_names),
+        }
+        np.savez_compressed(path, **data)
 
     def save_csv(self, path: str | Path) -> None:
         """Save one row per iteration; vector columns are split as ``name[i]``."""

@@ -1,0 +1,258 @@
+"""The ``redservo`` command line.
+
+    redservo run SCENARIO [--method NAME] [--set key=value ...] [--out DIR] [--plot]
+    redservo compare SCENARIO --methods a,b,c [--out DIR]
+    redservo list
+    redservo reproduce [--out DIR] [--only ID] [--fast]
+    redservo campaign SCENARIO --methods a,b --samples N --seed S [--workers K] [--out DIR]
+    redservo bench [--repeat N]
+
+Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not
+an error), 2 on bad input (unknown scenario, method or key, malformed file),
+1 on an unexpected internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from redservo.errors import RedservoError
+
+__all__ = ["main"]
+
+_EPILOG = "Scenario format: docs/scenarios.md. Methods and scenarios: redservo list."
+
+
+def _progress(
+    total: int, desc: str, enabled: bool
+) -> tuple[Callable[[int], None], Callable[[], None]]:
+    """Return (update, close) for a progress bar on stderr (tqdm if installed)."""
+    if not enabled or not sys.stderr.isatty():
+        return (lambda _i: None), (lambda: None)
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is an optional extra
+        return (lambda _i: None), (lambda: None)
+    bar = tqdm(total=total, desc=desc, unit="it", leave=False, file=sys.stderr)
+
+    def update(i: int) -> None:
+        bar.n = i + 1
+        if i % 25 == 0:
+            bar.refresh()
+
+    return update, bar.close
+
+
+def _summary_line(name: str, summary: dict[str, Any]) -> str:
+    hit = summary["limit_hit"]
+    hit_s = f" (axis {hit['axis'] + 1} at iteration {hit['iteration']})" if hit else ""
+    cam = summary["max_camera_speed"]
+    return (
+        f"{name}: {summary['outcome']}{hit_s} after {summary['iterations']} iterations, "
+        f"final |e| = {summary['final_error_norm']:.3g}, min margin = {summary['min_margin']:.3f}, "
+        f"max camera speed = {cam['translation']:.3g} m/s / {cam['rotation']:.3g} rad/s, "
+        f"discontinuity = {summary['discontinuity']:.3g}"
+    )
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sc = load_scenario(args.scenario)
+    sets = list(args.set or [])
+    if args.method:
+        sets.append(f'control.method="{args.method}"')
+    if sets:
+        sc = apply_overrides(sc, sets)
+    exp = build(sc)
+    update, close = _progress(exp.options.max_iterations, sc.name, not args.quiet)
+    try:
+        result = exp.run(progress=update)
+    finally:
+        close()
+    out = Path(args.out or Path("runs") / f"{sc.name}-{sc.method}")
+    result.save(out, extra={"scenario": sc.name, "source": sc.source, "method": sc.method})
+    if args.plot:
+        from redservo import plots
+
+        plots.run_figures(result, exp, out)
+    print(_summary_line(f"{sc.name} [{sc.method}]", result.summary))
+    print(f"wrote {out}/summary.json, log.npz, log.csv" + (" and figures" if args.plot else ""))
+    return 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from redservo.experiment import build
+    from redservo.redundancy import law_class
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sc = load_scenario(args.scenario)
+    if args.set:
+        sc = apply_overrides(sc, list(args.set))
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    for m in methods:
+        law_class(m)  # unknown names fail before anything runs
+    exp = build(sc)
+    out = Path(args.out or Path("runs") / f"{sc.name}-compare")
+    results = {}
+    for m in methods:
+        update, close = _progress(exp.options.max_iterations, m, not args.quiet)
+        try:
+            results[m] = exp.run(method=m, progress=update)
+        finally:
+            close()
+        results[m].save(out / m, extra={"scenario": sc.name, "method": m})
+        print(_summary_line(m, results[m].summary))
+    from redservo.report import summary_table
+
+    rows = {m: r.summary for m, r in results.items()}
+    (out / "compare.json").write_text(json.dumps({"scenario": sc.name, "methods": rows}, indent=2))
+    (out / "compare.md").write_text(f"# {sc.name}\n\n" + summary_table(rows) + "\n")
+    try:
+        from redservo import plots
+
+        plots.compare_figures(results, exp, out)
+    except ImportError as exc:  # matplotlib is optional
+        print(f"figures skipped: {exc}", file=sys.stderr)
+    print(f"wrote {out}/compare.md, compare.json and figures")
+    return 0
+
+
+def _cmd_list(_args: argparse.Namespace) -> int:
+    from redservo.redundancy import METHOD_DESCRIPTIONS
+    from redservo.scenario import shipped_scenarios
+
+    print("Scenarios (redservo run NAME):")
+    for name, desc in shipped_scenarios().items():
+        print(f"  {name:28s} {desc}")
+    print("\nMethods (--method NAME):")
+    for name, desc in METHOD_DESCRIPTIONS.items():
+        print(f"  {name:28s} {desc}")
+    return 0
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from redservo.reproduction import reproduce
+
+    report = reproduce(Path(args.out), only=args.only, fast=args.fast, progress=not args.quiet)
+    n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
+    n_all = sum(len(e["claims"]) for e in report["experiments"])
+    print(f"reproduced {n_ok}/{n_all} claims; wrote {args.out}/report.md and report.json")
+    return 0
+
+
+def _cmd_campaign(args: argparse.Namespace) -> int:
+    from redservo.campaign import run_campaign
+
+    methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+    result = run_campaign(
+        args.scenario,
+        methods=methods,
+        samples=args.samples,
+        seed=args.seed,
+        workers=args.workers,
+        out=Path(args.out) if args.out else None,
+        progress=not args.quiet,
+    )
+    print(result.markdown)
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from redservo.bench import run_bench
+
+    print(run_bench(repeat=args.repeat).markdown)
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="redservo",
+        description="Redundancy-based joint-limit avoidance for visual servoing "
+        "(Chaumette & Marchand 2001, Mansard & Chaumette 2005, and baselines).",
+        epilog=_EPILOG,
+    )
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    r = sub.add_parser("run", help="run one scenario", parents=[common], epilog=_EPILOG)
+    r.add_argument(
+        "scenario", help="a shipped scenario name (redservo list) or a path to a .toml file"
+    )
+    r.add_argument("--method", help="override the scenario's control method")
+    r.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a scenario key, e.g. --set control.lam=0.8 --set control.options.alpha=2 "
+        "(values are TOML; repeatable)",
+    )
+    r.add_argument("--out", help="output directory (default runs/SCENARIO-METHOD)")
+    r.add_argument("--plot", action="store_true", help="also write figures (needs matplotlib)")
+    r.set_defaults(func=_cmd_run)
+
+    c = sub.add_parser(
+        "compare", help="run several methods on one scenario", parents=[common], epilog=_EPILOG
+    )
+    c.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
+    c.add_argument("--methods", required=True, help="comma-separated method names")
+    c.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scenario key")
+    c.add_argument("--out", help="output directory (default runs/SCENARIO-compare)")
+    c.set_defaults(func=_cmd_compare)
+
+    ls = sub.add_parser("list", help="list the shipped scenarios and the methods", parents=[common])
+    ls.set_defaults(func=_cmd_list)
+
+    rp = sub.add_parser(
+        "reproduce",
+        parents=[common],
+        help="run every experiment of both papers; write figures, report.md and report.json",
+    )
+    rp.add_argument("--out", default="out", help="output directory (default out/)")
+    rp.add_argument("--only", help="run only this experiment id (see report.md)")
+    rp.add_argument("--fast", action="store_true", help="coarser, quicker version (for tests)")
+    rp.set_defaults(func=_cmd_reproduce)
+
+    cp = sub.add_parser(
+        "campaign", help="Monte Carlo comparison of methods on random variations", parents=[common]
+    )
+    cp.add_argument("scenario", help="a shipped campaign name or a campaign .toml file")
+    cp.add_argument("--methods", help="comma-separated methods (default: the campaign's list)")
+    cp.add_argument("--samples", type=int, default=None, help="number of random variations")
+    cp.add_argument(
+        "--seed", type=int, default=0, help="random seed (results do not depend on --workers)"
+    )
+    cp.add_argument(
+        "--workers", type=int, default=None, help="parallel processes (default: all cores)"
+    )
+    cp.add_argument("--out", help="output directory; finished samples are stored and reused")
+    cp.set_defaults(func=_cmd_campaign)
+
+    b = sub.add_parser("bench", help="time the control step of every method", parents=[common])
+    b.add_argument("--repeat", type=int, default=2000, help="timed calls per case")
+    b.set_defaults(func=_cmd_bench)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``redservo`` console script; returns the exit code."""
+    args = _parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except RedservoError as exc:
+        print(f"redservo: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # pragma: no cover
+        print("redservo: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
