@@ -47,8 +47,9 @@ Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
 
 * **Critical axis** (literature.md §D.3 item 9, :meth:`~redservo.JointLimits.critical`):
   k is critical when ``q̂_k`` lies in the band ``[q̄_min, q̃_min] ∪ [q̃_max, q̄_max]``
-  (or beyond the real limit) *and* ``q̂_k`` is closer to that limit than ``q_k``.
-  The same rule is used at every level and in every variant.
+  (or beyond the real limit) *and* moves toward that limit (``q̂_k > q_k`` in the
+  upper band, ``q̂_k < q_k`` in the lower one; an overshoot past the limit still
+  counts). The same rule is used at every level and in every variant.
 * **Basic variant and axes already in the band**: CM01 §V-A3 says "any axis that
   is or enters in the critical area is stopped", the critical area being the band
   *and* moving toward the limit (§III-A). So an axis inside the band is stopped
