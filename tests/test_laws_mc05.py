@@ -359,7 +359,22 @@ def test_zero_error_zero_force_gives_zero_velocity() -> None:
     )
     assert np.array_equal(res.qdot, np.zeros(4))
     assert "no secondary command (z = 0)" in res.diagnostics.notes
-    assert res.diagnostics.projector_rank == 4  # p_i = 1 where z̃_i = 0 (eq. 21)
+    # Fig. 3 count: the n - m = 2 null-space directions; no task direction is used by z = 0.
+    assert res.diagnostics.projector_rank == 2
+
+
+def test_fig3_rank_counts_only_directions_the_force_uses() -> None:
+    """Full-rank square task: rank 0 with no force, > 0 once a helping force acts (MC05 Fig. 3)."""
+    limits = JointLimits(-np.ones(2), np.ones(2))
+    law = make_law("directional", kappa=5.0)
+    J1 = np.eye(2)
+    far = law(J1=J1, e1=np.array([0.5, 0.0]), q=np.zeros(2), limits=limits, lam=1, dt=0.1)
+    assert far.diagnostics.projector_rank == 0
+    # Axis 0 deep in its upper band while the task asks it to decrease: the force helps.
+    near = law(
+        J1=J1, e1=np.array([0.5, 0.0]), q=np.array([0.95, 0.0]), limits=limits, lam=1, dt=0.1
+    )
+    assert near.diagnostics.projector_rank == 1
 
 
 def test_rank_deficiency_is_reported() -> None:

@@ -75,9 +75,15 @@ Decisions (literature.md §E; recorded for docs/decisions.md):
 * **λ dt.** The bound is a per-step displacement. If ``λ dt = 1``, ``a = 0`` and
   no task direction is freed; the continuous-time limit (dt → 0) keeps only the
   sign condition.
-* **Rank of P_z** (``projector_rank``, MC05 Fig. 3) counts the non-zero ``p_i``,
-  with ``p_i = 1`` for ``z̃_i = 0`` as in eq. 21: with no secondary command
-  (``z = 0``) it is n.
+* **Rank of P_z.** :attr:`DirectionalProjection.rank` counts the non-zero
+  ``p_i``, with ``p_i = 1`` for ``z̃_i = 0`` as in eq. 21, so it is n when
+  ``z = 0``. The law's ``Diagnostics.projector_rank`` (MC05 Fig. 3, "number of
+  DOF left for the avoidance") counts instead the directions the secondary
+  command can actually use: the ``n - rank(J1)`` null-space directions plus the
+  task directions with ``z̃_i ≠ 0`` and ``p_i > 0``. It is therefore 0 for a
+  full-rank task when no force acts, as MC05 §V-A describes ("when the robot is
+  near the joint limits, the projection operator is not null"); ``P_z z`` is the
+  same under either count.
 * ``J1`` with more rows than columns (m > n) works the same way.
 """
 
@@ -272,12 +278,13 @@ class Directional(Law):
                 f"J1 rank {r} < m = {m}: {m - r} task direction(s) uncontrolled; "
                 "sub-threshold singular directions treated as free"
             )
+        zt = svd.V[:, :r].T @ z
+        p_r = proj.p[:r]
+        moving = zt != 0.0
+        used_rank = (n - r) + int(np.count_nonzero(moving & (p_r > 0.0)))
         if not np.any(z):
             notes.append("no secondary command (z = 0)")
         else:
-            zt = svd.V[:, :r].T @ z
-            p_r = proj.p[:r]
-            moving = zt != 0.0
             freed = int(np.count_nonzero(moving & (p_r == 1.0)))
             clipped = int(np.count_nonzero(moving & (p_r > 0.0) & (p_r < 1.0)))
             blocked = int(np.count_nonzero(moving & (p_r == 0.0)))
@@ -289,7 +296,7 @@ class Directional(Law):
             method=self.name,
             task_rank=r,
             rank_deficient=r < m,
-            projector_rank=proj.rank,
+            projector_rank=used_rank,
             notes=tuple(notes),
         )
         return LawResult(np.asarray(qdot, dtype=float), diag)
