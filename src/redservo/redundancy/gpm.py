@@ -42,7 +42,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   Only one axis is ever stopped (CM01 §II-C); other critical axes are listed in
   a note.
 * ``diagnostics.critical`` for ``gpm`` lists the axes currently in the band
-  (``e2_i ≠ 0``), which are the only ones the gradient acts on.
+  (``e2_i ≠ 0``), which are the only ones the gradient acts on (none when α = 0).
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ class GradientProjection(Law):
         qdot = -x.lam * v
         if x.secondary is not None:
             qdot += null_project(svd, x.secondary)
-        band = tuple(int(i) for i in np.flatnonzero(e2))
+        band = tuple(int(i) for i in np.flatnonzero(e2)) if self.alpha > 0.0 else ()
         diag = Diagnostics(
             method=self.name,
             task_rank=svd.rank,
