@@ -1,1 +1,39 @@
-"""Visual features and their interaction matrices."""
+"""Visual features and their interaction matrices.
+
+Every feature subclasses :class:`Feature`: it holds its object's geometry in the
+object frame, ``measure(cMo)`` returns ``Measurement(s, inv_depth)`` and
+``interaction(s, inv_depth)`` the matrix ``L_s`` (k, 6) with ``ṡ = L_s v_c``
+(literature.md §0). :func:`make_feature` builds one by kind name.
+"""
+
+from __future__ import annotations
+
+from redservo.features.base import Feature, Measurement, wrap_angle
+from redservo.features.line import (
+    CylinderFeature,
+    CylinderProjection,
+    LineFeature,
+    LineProjection,
+    cylinder_interaction,
+    cylinder_lines,
+    line_interaction,
+    project_line,
+)
+from redservo.features.point import PointFeature, point_interaction, project_point
+
+__all__ = [
+    "CylinderFeature",
+    "CylinderProjection",
+    "Feature",
+    "LineFeature",
+    "LineProjection",
+    "Measurement",
+    "PointFeature",
+    "cylinder_interaction",
+    "cylinder_lines",
+    "line_interaction",
+    "point_interaction",
+    "project_line",
+    "project_point",
+    "wrap_angle",
+]

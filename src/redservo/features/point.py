@@ -1,0 +1,77 @@
+"""The image of a 3-D point, ``s = (x, y)`` (literature.md A1; CM01 eq. 26)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from redservo._validation import FloatArray, as_transform, as_vector
+from redservo.camera import MIN_DEPTH
+from redservo.errors import GeometryError
+from redservo.features.base import Feature, Measurement
+
+__all__ = ["PointFeature", "point_interaction", "project_point"]
+
+
+def project_point(point_c: ArrayLike) -> tuple[float, float, float]:
+    """Return ``(x, y, 1/Z)`` of a point ``(X, Y, Z)`` (3,) given in the camera frame (m).
+
+    Raises:
+        GeometryError: ``Z <= MIN_DEPTH`` (the point is at or behind the camera plane).
+    """
+    X, Y, Z = as_vector(point_c, "point_c", 3)
+    if Z <= MIN_DEPTH:
+        raise GeometryError(
+            f"the point is at or behind the camera plane (Z = {Z:.6g} m); "
+            f"a point feature needs Z > {MIN_DEPTH:g} m"
+        )
+    return float(X / Z), float(Y / Z), float(1.0 / Z)
+
+
+def point_interaction(x: float, y: float, inv_z: float) -> FloatArray:
+    """Interaction matrix (2, 6) of a normalized image point (CM01 eq. 26, literature.md A1).
+
+    ``L = [[-1/Z, 0, x/Z, x y, -(1 + x²), y], [0, -1/Z, y/Z, 1 + y², -x y, -x]]``
+    (CM01 prints its transpose ``L_P^T``).
+
+    Args:
+        x: Normalized abscissa ``X/Z``.
+        y: Normalized ordinate ``Y/Z``.
+        inv_z: Inverse depth ``1/Z`` (1/m).
+    """
+    return np.array(
+        [
+            [-inv_z, 0.0, x * inv_z, x * y, -(1.0 + x * x), y],
+            [0.0, -inv_z, y * inv_z, 1.0 + y * y, -x * y, -x],
+        ]
+    )
+
+
+class PointFeature(Feature):
+    """The normalized image ``s = (x, y)`` of a point fixed in the object frame.
+
+    ``inv_depth = (1/Z,)``. CM01's gazing task uses it with the object's centre
+    of gravity and ``s* = (0, 0)``.
+
+    Args:
+        point_o: (3,) the point in the object frame (m), default the origin.
+    """
+
+    names = ("x", "y")
+    angular = (False, False)
+
+    def __init__(self, point_o: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        self.point_o = as_vector(point_o, "point_o", 3)
+
+    def measure(self, cMo: FloatArray) -> Measurement:
+        T = as_transform(cMo, "cMo")
+        x, y, inv_z = project_point(T[:3, :3] @ self.point_o + T[:3, 3])
+        return Measurement(np.array([x, y]), np.array([inv_z]))
+
+    def interaction(self, s: FloatArray, inv_depth: FloatArray) -> FloatArray:
+        x, y = as_vector(s, "s", 2)
+        (inv_z,) = as_vector(inv_depth, "inv_depth", 1)
+        return point_interaction(float(x), float(y), float(inv_z))
+
+    def __repr__(self) -> str:
+        return f"PointFeature(point_o={self.point_o.tolist()})"
