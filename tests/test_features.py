@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from redservo.errors import GeometryError, ShapeError
+from redservo.errors import ConfigurationError, GeometryError, ShapeError
 from redservo.features.base import Feature
 from redservo.features.line import (
     CylinderFeature,
@@ -21,6 +21,7 @@ from redservo.features.line import (
     project_line,
 )
 from redservo.features.point import PointFeature
+from redservo.features.sphere import SphereFeature, sphere_ellipse, sphere_moments_from_area
 from redservo.spatial import exp_twist, inverse, make_transform
 
 H = 1e-6
@@ -250,3 +251,97 @@ def test_cylinder_invalid_geometry_raises() -> None:
         feat.measure(make_transform(t=[0, 0, -1.0]))
     with pytest.raises(ShapeError):
         feat.interaction(np.zeros(3), np.ones(3))
+
+
+# --------------------------------------------------------------------------- sphere
+
+
+@pytest.mark.parametrize("variant", ["exact", "moments"])
+def test_sphere_interaction_matches_finite_difference(variant: str) -> None:
+    rng = np.random.default_rng(14)
+    for _ in range(3):
+        feat = SphereFeature(
+            float(rng.uniform(0.03, 0.2)), rng.normal(size=3) * 0.1, variant=variant
+        )
+        poses = random_poses(rng, 20, xy=0.4, z=(0.4, 2.0), rot=0.6)
+        check_fd_on_valid_poses(feat, poses, min_valid=15)
+
+
+def test_sphere_exact_matrix_at_on_axis_desired_pose() -> None:
+    zd, r = 0.9, 0.1
+    feat = SphereFeature(r)
+    s, L = feat.value_and_interaction(make_transform(t=[0, 0, zd]))
+    R2 = r**2 / (zd**2 - r**2)  # image radius squared
+    assert np.allclose(s, [0, 0, np.pi * R2], atol=1e-15)
+    k = (1 + R2) / zd
+    expected = np.array(
+        [
+            [-k, 0, 0, 0, -(1 + R2), 0],
+            [0, -k, 0, 1 + R2, 0, 0],
+            [0, 0, 2 * np.pi * R2 * (1 + R2) / zd, 0, 0, 0],
+        ]
+    )
+    assert np.allclose(L, expected, atol=1e-12)
+    assert np.isclose(L[0, 0], -1.125)
+    assert np.isclose(L[2, 2], 0.0884, atol=5e-5)
+
+
+def test_sphere_paper_variant_equals_cm01_eq27_at_desired_pose() -> None:
+    zd, r = 0.9, 0.1
+    feat = SphereFeature(r, variant="paper")
+    _, L = feat.value_and_interaction(make_transform(t=[0, 0, zd]))
+    R2 = r**2 / (zd**2 - r**2)
+    eq27 = np.array(
+        [
+            [-1 / zd, 0, 0, 0, -1 - R2, 0],
+            [0, -1 / zd, 0, 1 + R2, 0, 0],
+            [0, 0, np.pi * R2 / zd, 0, 0, 0],
+        ]
+    )
+    assert np.allclose(L, eq27, atol=1e-12)
+    assert np.isclose(L[0, 0], -1.1111, atol=1e-4)
+    assert np.isclose(L[2, 2], 0.0436, atol=1e-4)
+
+
+def test_sphere_ellipse_matches_the_tangent_cone_conic() -> None:
+    """Centre, area and moments against the conic of rays tangent to the sphere."""
+    rng = np.random.default_rng(15)
+    for _ in range(30):
+        r = float(rng.uniform(0.05, 0.3))
+        X0 = np.array([*rng.normal(size=2) * 0.5, rng.uniform(0.5, 2.0)])
+        if X0[2] <= r + 0.01:
+            continue
+        img = sphere_ellipse(r, X0)
+        # Ray p = (x, y, 1) is tangent iff |X0|²|p|² - (X0·p)² = r²|p|²: p^T M p = 0.
+        M = (X0 @ X0 - r**2) * np.eye(3) - np.outer(X0, X0)
+        M2, m, m0 = -M[:2, :2], -M[:2, 2], -M[2, 2]  # inside the ellipse: p^T(-M)p <= 0
+        c = -np.linalg.solve(M2, m)
+        kappa = -(m0 - m @ np.linalg.solve(M2, m))  # (x - c)^T M2 (x - c) <= kappa
+        S = kappa * np.linalg.inv(M2)  # ellipse shape matrix
+        assert np.allclose([img.xc, img.yc], c, atol=1e-12)
+        assert np.isclose(img.area, np.pi * np.sqrt(np.linalg.det(S)), rtol=1e-10)
+        assert np.allclose([[img.n20, img.n11], [img.n11, img.n02]], S / 4, atol=1e-12)
+        # The moments follow from (xc, yc, a) alone.
+        assert np.allclose(
+            sphere_moments_from_area(img.xc, img.yc, img.area),
+            [img.n20, img.n11, img.n02],
+            atol=1e-14,
+        )
+        # Limb plane: 1/Z = A x + B y + C on the contour generator.
+        assert np.allclose(img.plane, X0 / (X0 @ X0 - r**2))
+
+
+def test_sphere_invalid_geometry_raises() -> None:
+    feat = SphereFeature(0.1)
+    for t in ([0, 0, 0.05], [0, 0, 0.1], [0.0, 0.0, 0.0]):
+        with pytest.raises(GeometryError, match="inside or on the sphere"):
+            feat.measure(make_transform(t=t))
+    for t in ([0.5, 0, 0.05], [0, 0.3, -1.0]):
+        with pytest.raises(GeometryError, match="not entirely in front"):
+            feat.measure(make_transform(t=t))
+    with pytest.raises(GeometryError, match="radius"):
+        SphereFeature(0.0)
+    with pytest.raises(ConfigurationError, match="exact, paper, moments"):
+        SphereFeature(0.1, variant="ellipse")  # type: ignore[arg-type]
+    with pytest.raises(ShapeError):
+        SphereFeature(0.1, variant="moments").interaction(np.zeros(3), np.ones(3))

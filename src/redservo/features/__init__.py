@@ -20,8 +20,20 @@ from redservo.features.line import (
     project_line,
 )
 from redservo.features.point import PointFeature, point_interaction, project_point
+from redservo.features.sphere import (
+    SPHERE_VARIANTS,
+    SphereFeature,
+    SphereImage,
+    SphereVariant,
+    ellipse_moment_interaction,
+    sphere_ellipse,
+    sphere_interaction,
+    sphere_moments_from_area,
+    sphere_paper_interaction,
+)
 
 __all__ = [
+    "SPHERE_VARIANTS",
     "CylinderFeature",
     "CylinderProjection",
     "Feature",
@@ -29,11 +41,19 @@ __all__ = [
     "LineProjection",
     "Measurement",
     "PointFeature",
+    "SphereFeature",
+    "SphereImage",
+    "SphereVariant",
     "cylinder_interaction",
     "cylinder_lines",
+    "ellipse_moment_interaction",
     "line_interaction",
     "point_interaction",
     "project_line",
     "project_point",
+    "sphere_ellipse",
+    "sphere_interaction",
+    "sphere_moments_from_area",
+    "sphere_paper_interaction",
     "wrap_angle",
 ]
