@@ -8,6 +8,9 @@ object frame, ``measure(cMo)`` returns ``Measurement(s, inv_depth)`` and
 
 from __future__ import annotations
 
+from typing import Any
+
+from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.features.base import Feature, Measurement, wrap_angle
 from redservo.features.line import (
     CylinderFeature,
@@ -18,6 +21,20 @@ from redservo.features.line import (
     cylinder_lines,
     line_interaction,
     project_line,
+)
+from redservo.features.moments import (
+    ROTATION_FEATURES,
+    ImageMoments,
+    MomentFeatures,
+    MomentTarget,
+    RotationFeatures,
+    centred_moment_interaction,
+    centroid_interaction,
+    image_moments,
+    moment_features,
+    moment_features_interaction,
+    object_plane,
+    rotation_invariants,
 )
 from redservo.features.point import PointFeature, point_interaction, project_point
 from redservo.features.sphere import (
@@ -33,27 +50,81 @@ from redservo.features.sphere import (
 )
 
 __all__ = [
+    "FEATURES",
+    "ROTATION_FEATURES",
     "SPHERE_VARIANTS",
     "CylinderFeature",
     "CylinderProjection",
     "Feature",
+    "ImageMoments",
     "LineFeature",
     "LineProjection",
     "Measurement",
+    "MomentFeatures",
+    "MomentTarget",
     "PointFeature",
+    "RotationFeatures",
     "SphereFeature",
     "SphereImage",
     "SphereVariant",
+    "centred_moment_interaction",
+    "centroid_interaction",
     "cylinder_interaction",
     "cylinder_lines",
     "ellipse_moment_interaction",
+    "feature_class",
+    "image_moments",
     "line_interaction",
+    "make_feature",
+    "moment_features",
+    "moment_features_interaction",
+    "object_plane",
     "point_interaction",
     "project_line",
     "project_point",
+    "rotation_invariants",
     "sphere_ellipse",
     "sphere_interaction",
     "sphere_moments_from_area",
     "sphere_paper_interaction",
     "wrap_angle",
 ]
+
+_CLASSES: dict[str, type[Feature]] = {
+    "point": PointFeature,
+    "line": LineFeature,
+    "cylinder": CylinderFeature,
+    "sphere": SphereFeature,
+    "moments": MomentFeatures,
+}
+
+FEATURES: tuple[str, ...] = ("point", "line", "cylinder", "sphere", "moments")
+"""Feature kinds accepted by :func:`make_feature`."""
+
+
+def feature_class(kind: str) -> type[Feature]:
+    """Return the class of feature ``kind``; :class:`UnknownNameError` lists the known kinds."""
+    try:
+        return _CLASSES[kind]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown feature kind {kind!r}; allowed: {', '.join(FEATURES)}"
+        ) from None
+
+
+def make_feature(kind: str, **options: Any) -> Feature:
+    """Build a feature by kind name, passing ``options`` to its constructor.
+
+    Examples: ``make_feature("sphere", radius=0.1, variant="paper")``,
+    ``make_feature("cylinder", radius=0.05, axis=(0, 1, 0))``.
+
+    Raises:
+        UnknownNameError: unknown ``kind``.
+        ConfigurationError: options the constructor does not accept.
+        GeometryError, ShapeError: invalid geometry (from the constructor).
+    """
+    cls = feature_class(kind)
+    try:
+        return cls(**options)
+    except TypeError as exc:
+        raise ConfigurationError(f"invalid options for feature {kind!r}: {exc}") from None
