@@ -44,7 +44,8 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   except that a joint exactly at a limit and pushed further is blocked (its
   ``1/w_i = 0``), which makes the task least-squares.
 * ``diagnostics.critical`` is ``((penalized joints),)``: the joints with
-  ``w_i > 1`` (moving toward a limit and away from mid-range).
+  ``w_i > 1 + 1e-9`` (moving toward a limit; the tolerance hides the round-off
+  of ``∂H/∂q`` at mid-range).
 """
 
 from __future__ import annotations
@@ -69,6 +70,10 @@ __all__ = [
 
 BoolArray = NDArray[np.bool_]
 _MODES: tuple[str, ...] = ("pinv", "history")
+
+
+_REPORT_GRAD = 1e-9
+"""Joints with ``w_i > 1 + 1e-9`` are reported as penalized (mid-range round-off is not)."""
 
 
 def _distances(q: ArrayLike, limits: JointLimits) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -193,7 +198,7 @@ class WeightedLeastNorm(Law):
             )
         if svd.rank >= n:
             notes.append("no redundancy (rank J1 = n): W has no effect on a full-rank square J1")
-        penalized = tuple(int(i) for i in np.flatnonzero(toward & (np.abs(grad) > 0.0)))
+        penalized = tuple(int(i) for i in np.flatnonzero(toward & (np.abs(grad) > _REPORT_GRAD)))
         diag = Diagnostics(
             method=self.name,
             task_rank=svd.rank,
