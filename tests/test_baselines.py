@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import pickle
 from dataclasses import dataclass
 
 import numpy as np
@@ -257,6 +258,16 @@ def test_wln_history_mode_is_stateful_and_uses_the_change_of_the_gradient() -> N
     law.reset()
     again = law(q=q_b, **kw)
     assert np.array_equal(again.qdot, make_law("wln")(q=q_b, **kw).qdot)
+
+
+def test_wln_bad_mode_and_copies() -> None:
+    with pytest.raises(ConfigurationError, match="mode"):
+        make_law("wln", mode="previous")
+    for mode in ("pinv", "history"):
+        law = make_law("wln", mode=mode)
+        clone = pickle.loads(pickle.dumps(law))
+        assert type(clone) is type(law) and clone.stateful == law.stateful
+        assert repr(clone) == repr(law)
 
 
 # -- sns ------------------------------------------------------------------------------------------

@@ -191,7 +191,9 @@ class WeightedLeastNorm(Law):
         if svd.rank < m:
             notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
         if wsvd.rank < svd.rank:
-            blocked = np.flatnonzero(d == 0.0).tolist()
+            smax = float(wsvd.sigma[0]) if wsvd.sigma.size else 0.0
+            negligible = np.linalg.norm(JD, axis=0) <= self.rcond * smax
+            blocked = np.flatnonzero(negligible & (d < 1.0)).tolist()
             notes.append(
                 f"weighted task rank {wsvd.rank} < rank J1 = {svd.rank} (joints blocked at a "
                 f"limit: {blocked}): task tracked in the least-squares sense"
