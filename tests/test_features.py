@@ -639,3 +639,33 @@ def test_make_feature_errors() -> None:
         make_feature("ellipse")
     with pytest.raises(ConfigurationError, match="sphere"):
         make_feature("sphere", radius=0.1, colour="red")
+
+
+def test_features_either_raise_geometry_error_or_return_finite_values() -> None:
+    """Over wild poses (behind, inside, edge-on, grazing) nothing returns NaN or inf."""
+    rng = np.random.default_rng(21)
+    features: list[Feature] = [
+        PointFeature([0.05, 0.0, 0.0]),
+        LineFeature([0, 0, 0], [1, 0.2, 0]),
+        CylinderFeature(0.1, axis=[0, 1, 0]),
+        SphereFeature(0.1),
+        SphereFeature(0.1, variant="moments"),
+        SphereFeature(0.1, variant="paper"),
+        MomentFeatures(DOTS, desired_area=0.04, desired_depth=0.5),
+        MomentFeatures(DOTS, desired_area=0.04, desired_depth=0.5, rotation_features="sxsy"),
+    ]
+    for feat in features:
+        raised = ok = 0
+        for cMo in random_poses(rng, 60, xy=0.3, z=(-0.5, 1.0), rot=2.0):
+            try:
+                m = feat.measure(cMo)
+            except GeometryError:
+                raised += 1
+                continue
+            ok += 1
+            L = feat.interaction(m.s, m.inv_depth)
+            assert np.all(np.isfinite(m.s)) and np.all(np.isfinite(m.inv_depth))
+            assert np.all(np.isfinite(L))
+        assert ok > 0, feat
+        # A line is valid almost everywhere; every other object gets hidden or entered.
+        assert raised > 0 or isinstance(feat, LineFeature), feat
