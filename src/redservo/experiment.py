@@ -348,6 +348,7 @@ def _options(sc: Scenario) -> SimulationOptions:
         "feedforward",
         "image_margin_px",
         "check_image",
+        "stop_at_convergence",
     ):
         if key in sim:
             kw[key] = sim[key]

@@ -61,6 +61,7 @@ _SCHEMA: dict[str, Any] = {
         "feedforward": str,
         "image_margin_px": float,
         "check_image": bool,
+        "stop_at_convergence": bool,
     },
     "occlusion": {
         "occluder": str,

@@ -109,6 +109,9 @@ class SimulationOptions:
         image_margin_px: A feature point closer than this to the image border counts as lost.
         check_image: Stop with ``target_lost`` when an object leaves the image.
         occlusion: Occlusion set-up, or None.
+        stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
+            tracking tasks: the run then lasts ``max_iterations`` and its outcome is
+            ``converged`` when the final error is below the tolerance.
     """
 
     lam: float = 0.5
@@ -125,6 +128,7 @@ class SimulationOptions:
     image_margin_px: float = 0.0
     check_image: bool = True
     occlusion: Occlusion | None = None
+    stop_at_convergence: bool = True
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, bool, str]] = [
@@ -430,7 +434,7 @@ def simulate(
         )
         diags.append(d)
         rows = it + 1
-        if err < opt.tolerance:
+        if err < opt.tolerance and (opt.stop_at_convergence or it == N - 1):
             outcome = "converged"
             break
         q_next = q + qdot * opt.dt

@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_vector
 from redservo.errors import ConfigurationError, ShapeError
-from redservo.features.base import Feature, wrap_angle
+from redservo.features.base import Feature
 
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
@@ -126,8 +126,14 @@ class VisualTask:
             self.inv_depth_star = tuple(
                 as_vector(d, f"inv_depth_star[{i}]") for i, d in enumerate(inv_depth_star)
             )
-        mask = np.concatenate([np.asarray(t.feature.angular, dtype=bool) for t in self.terms])
-        self._angular = mask if mask.any() else None
+        # Terms whose error is not a plain difference (angles): each wraps its own error,
+        # e.g. the moment α has period π, a line's θ period 2π.
+        offsets = np.cumsum((0, *self.sizes))
+        self._wrapped = tuple(
+            (term, int(offsets[i]), int(offsets[i + 1]))
+            for i, term in enumerate(self.terms)
+            if any(term.feature.angular)
+        )
         self.C: FloatArray | None
         if C is not None:
             self.C = as_matrix(C, "C", cols=k)
@@ -210,10 +216,11 @@ class VisualTask:
         return np.vstack(parts)
 
     def error(self, s: FloatArray) -> FloatArray:
-        """Return ``s - s*`` (k,) with angle components wrapped to (-π, π]."""
+        """Return ``s - s*`` (k,), each angle wrapped by its feature's ``error`` (to (-π, π] or
+        (-π/2, π/2] for an orientation of period π)."""
         e = s - self.s_star
-        if self._angular is not None:
-            e[self._angular] = wrap_angle(e[self._angular])
+        for term, a, b in self._wrapped:
+            e[a:b] = term.feature.error(s[a:b], self.s_star[a:b])
         return e
 
     def measure(
