@@ -1,0 +1,96 @@
+"""The redservo command line: commands, outputs and exit codes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from redservo.cli import main
+from tests.test_scenario import GOOD
+
+
+@pytest.mark.parametrize("command", ["run", "compare", "list", "reproduce", "campaign", "bench"])
+def test_help_documents_every_command(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0
+    assert "usage: redservo " + command in capsys.readouterr().out
+
+
+def test_list(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert "afma6-gaze-demo" in out and "iterative-smooth" in out and "directional" in out
+
+
+def test_user_scenario_run_with_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A user writes their own TOML and runs `redservo run my.toml --plot` (issue 4)."""
+    pytest.importorskip("matplotlib")
+    scenario = tmp_path / "my.toml"
+    scenario.write_text(GOOD)
+    out = tmp_path / "out"
+    assert main(["run", str(scenario), "--plot", "--out", str(out), "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "converged"
+    assert summary["scenario"] == "mine" and summary["method"] == "iterative-smooth"
+    for name in ("log.npz", "log.csv", "joints.png", "error.png", "image.png"):
+        assert (out / name).is_file(), name
+    assert "converged" in capsys.readouterr().out
+
+
+def test_joint_limit_outcome_is_not_an_error(tmp_path: Path) -> None:
+    scenario = tmp_path / "edge.toml"
+    # Classical from near the limits (see tests/test_simulation.py): hits axis 1.
+    text = GOOD.replace(
+        "q0 = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0]",
+        "q0 = [-0.5967, -0.165, 0.4119, 1.2829, 0.3967, -0.6108]",
+    ).replace("translation = [0.1, 0.05, 0.8]", "translation = [-0.368, 0.017, 0.876]")
+    scenario.write_text(text.replace("dt = 0.04", "dt = 0.08"))
+    out = tmp_path / "o"
+    assert main(["run", str(scenario), "--method", "classical", "--out", str(out), "-q"]) == 0
+    assert json.loads((out / "summary.json").read_text())["outcome"] == "joint_limit"
+
+
+def test_set_and_compare(tmp_path: Path) -> None:
+    scenario = tmp_path / "my.toml"
+    scenario.write_text(GOOD)
+    out = tmp_path / "cmp"
+    code = main(
+        [
+            "compare",
+            str(scenario),
+            "--methods",
+            "classical,iterative",
+            "--set",
+            "control.lam=0.8",
+            "--out",
+            str(out),
+            "-q",
+        ]
+    )
+    assert code == 0
+    table = json.loads((out / "compare.json").read_text())
+    assert set(table["methods"]) == {"classical", "iterative"}
+    assert "| classical |" in (out / "compare.md").read_text()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "no-such-scenario"],
+        ["run", "afma6-gaze-demo", "--method", "magic"],
+        ["run", "afma6-gaze-demo", "--set", "robot.q0=[9,0,0,0,0,0]"],
+        ["run", "afma6-gaze-demo", "--set", "control.lam"],
+        ["compare", "afma6-gaze-demo", "--methods", "classical,nope"],
+    ],
+)
+def test_bad_input_exits_2_with_a_message(
+    argv: list[str], capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    assert (
+        main([*argv, "-q"] if argv[0] != "compare" else [*argv, "--out", str(tmp_path), "-q"]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("redservo: error: ") and "Traceback" not in err
