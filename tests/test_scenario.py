@@ -148,3 +148,14 @@ def test_start_pose_through_inverse_kinematics(tmp_path: Path) -> None:
     )
     exp = build(load_scenario(_write(tmp_path, text)))
     np.testing.assert_allclose(exp.robot.fkine(exp.q0), T, atol=1e-8)
+
+
+def test_documented_example_parses_and_runs() -> None:
+    """docs/scenarios.md's fully commented example is a valid scenario."""
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "scenarios.md").read_text()
+    block = re.search(r"```toml\n(.*?)```", text, re.S)
+    assert block is not None
+    sc = parse_scenario(tomllib.loads(block.group(1)), "docs/scenarios.md")
+    assert build(sc).run().outcome == "converged"
