@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -55,14 +57,35 @@ def as_matrix(
 
 
 def as_transform(value: ArrayLike, name: str) -> FloatArray:
-    """Return ``value`` as a 4x4 homogeneous transform with a proper rotation block."""
-    T = as_matrix(value, name, 4, 4)
-    R = T[:3, :3]
-    if (
-        not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9)
-        or not np.allclose(R @ R.T, np.eye(3), atol=1e-6)
-        or np.linalg.det(R) <= 0.0  # an orthogonal R with det -1 is a reflection
-    ):
+    """Return ``value`` as a 4x4 homogeneous transform with a proper rotation block.
+
+    Checks: shape (4, 4), finite, bottom row ``(0, 0, 0, 1)`` (to 1e-9), ``R R^T = I``
+    (to 1e-6 per entry) and ``det R > 0`` (not a reflection). Written on Python floats:
+    it runs on the control hot path, where ``np.allclose`` would dominate the step.
+    """
+    T = (
+        value
+        if isinstance(value, np.ndarray) and value.dtype == np.float64
+        else _to_float(value, name)
+    )
+    if T.shape != (4, 4):
+        raise ShapeError(f"{name} must have shape (4, 4), got shape {T.shape}")
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), (p, q, r, w) = T.tolist()
+    if not math.isfinite(a + b + c + d + e + f + g + h + i + x + y + z + p + q + r + w):
+        raise ShapeError(f"{name} must be finite (no NaN or inf)")
+    ok = abs(p) <= 1e-9 and abs(q) <= 1e-9 and abs(r) <= 1e-9 and abs(w - 1.0) <= 1e-9
+    if ok:
+        # Rows of R orthonormal, and a positive determinant (a reflection has det -1).
+        ok = (
+            abs(a * a + b * b + c * c - 1.0) <= 1e-6
+            and abs(d * d + e * e + f * f - 1.0) <= 1e-6
+            and abs(g * g + h * h + i * i - 1.0) <= 1e-6
+            and abs(a * d + b * e + c * f) <= 1e-6
+            and abs(a * g + b * h + c * i) <= 1e-6
+            and abs(d * g + e * h + f * i) <= 1e-6
+            and a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0.0
+        )
+    if not ok:
         raise ShapeError(
             f"{name} must be a homogeneous transform [[R, t], [0, 0, 0, 1]] with R a rotation"
         )

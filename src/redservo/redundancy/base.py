@@ -25,13 +25,14 @@ from __future__ import annotations
 
 import abc
 import inspect
+import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray
+from redservo._validation import FloatArray, _to_float
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError, UnknownNameError
 from redservo.limits import JointLimits
 from redservo.redundancy.linalg import DEFAULT_RCOND
@@ -121,12 +122,32 @@ class LawInputs(NamedTuple):
 
 
 def _vec(value: ArrayLike, name: str, size: int) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
+    arr = (
+        value
+        if isinstance(value, np.ndarray) and value.dtype == np.float64
+        else _to_float(value, name)
+    )
     if arr.shape != (size,):
         raise ShapeError(f"{name} must have shape ({size},), got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}")
     return arr
+
+
+def _require_finite(**arrays: FloatArray | None) -> None:
+    """Raise ShapeError naming the first array holding NaN or inf.
+
+    One summed check on the hot path: a sum of finite numbers can only be
+    non-finite by overflow (|values| ~ 1e308), which is then reported too.
+    """
+    total = 0.0
+    for arr in arrays.values():
+        if arr is not None:
+            total += float(arr.sum())
+    if math.isfinite(total):
+        return
+    for name, arr in arrays.items():
+        if arr is not None and not np.isfinite(arr).all():
+            raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}")
+    raise ShapeError("inputs are too large (their sum overflows); rescale the task")
 
 
 def validate_inputs(
@@ -141,12 +162,10 @@ def validate_inputs(
     secondary: ArrayLike | None,
 ) -> LawInputs:
     """Check shapes, finiteness, gains and that ``q`` lies within ``limits``."""
-    J = np.asarray(J1, dtype=float)
+    J = J1 if isinstance(J1, np.ndarray) and J1.dtype == np.float64 else _to_float(J1, "J1")
     if J.ndim != 2 or J.shape[0] == 0:
         raise ShapeError(f"J1 must be a 2-D (m, n) array with m >= 1, got shape {J.shape}")
     m, n = J.shape
-    if not np.isfinite(J).all():
-        raise ShapeError("J1 must be finite (no NaN or inf)")
     if not isinstance(limits, JointLimits):
         raise ShapeError(
             f"limits must be a redservo.JointLimits, got {type(limits).__name__}; "
@@ -156,17 +175,18 @@ def validate_inputs(
         raise ShapeError(f"limits has {limits.n} joints but J1 has {n} columns")
     e = _vec(e1, "e1", m)
     qa = _vec(q, "q", n)
-    if ((qa < limits.q_min - 1e-9) | (qa > limits.q_max + 1e-9)).any():
+    ff = None if de1_dt is None else _vec(de1_dt, "de1_dt", m)
+    sec = None if secondary is None else _vec(secondary, "secondary", n)
+    _require_finite(J1=J, e1=e, q=qa, de1_dt=ff, secondary=sec)
+    if float(np.minimum(qa - limits.q_min, limits.q_max - qa).min()) < -1e-9:
         limits.check(qa)  # raises JointLimitError with the details
         raise JointLimitError("q is outside the joint limits")  # pragma: no cover
     lam_f = float(lam)
-    if not (np.isfinite(lam_f) and lam_f > 0.0):
+    if not (math.isfinite(lam_f) and lam_f > 0.0):
         raise ConfigurationError(f"lam (λ, 1/s) must be a finite positive number, got {lam!r}")
     dt_f = float(dt)
-    if not (np.isfinite(dt_f) and dt_f > 0.0):
+    if not (math.isfinite(dt_f) and dt_f > 0.0):
         raise ConfigurationError(f"dt (control period, s) must be finite and positive, got {dt!r}")
-    ff = None if de1_dt is None else _vec(de1_dt, "de1_dt", m)
-    sec = None if secondary is None else _vec(secondary, "secondary", n)
     return LawInputs(J, e, qa, limits, lam_f, dt_f, ff, sec)
 
 
@@ -227,7 +247,7 @@ class Law(abc.ABC):
         )
         result = self.compute(x)
         qdot = result.qdot
-        if not np.isfinite(qdot).all():  # never let a NaN velocity through
+        if not math.isfinite(float(qdot.sum())):  # never let a NaN velocity through
             qdot = np.zeros_like(qdot)
             d = result.diagnostics
             result = LawResult(
