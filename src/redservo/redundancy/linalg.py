@@ -54,7 +54,9 @@ def task_svd(J: FloatArray, rcond: float = DEFAULT_RCOND) -> TaskSVD:
     """
     m, n = J.shape
     # LAPACK's dgesvd directly: a third of numpy.linalg.svd's cost on these small matrices.
-    U, sigma, Vt, info = lapack.dgesvd(J, full_matrices=1) if J.size else (None, None, None, 1)
+    info = 1
+    if J.size:
+        U, sigma, Vt, info = lapack.dgesvd(J, full_matrices=1)
     if info != 0:  # no convergence (or empty input): numpy's driver as a fallback
         U, sigma, Vt = np.linalg.svd(J, full_matrices=True)
     smax = sigma[0] if sigma.size else 0.0
