@@ -1313,7 +1313,7 @@ def _figures(
             [r - 100 * s.ci_low for r, s in zip(rate, result_stats)],
             [100 * s.ci_high - r for r, s in zip(rate, result_stats)],
         ]
-    )
+    ).clip(min=0.0)  # rounding can make a bound cross p̂ by 1e-15 when p̂ is 0 or 1
     ax.bar(x, rate, yerr=err, capsize=3, color="tab:blue")
     ax.set_xticks(x, names, rotation=45, ha="right")
     ax.set_ylim(0, 105)

@@ -157,10 +157,11 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         samples=args.samples,
         seed=args.seed,
         workers=args.workers,
-        out=Path(args.out) if args.out else None,
+        out=Path(args.out or Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"),
         progress=not args.quiet,
     )
     print(result.markdown)
+    print(f"wrote {result.out}/samples.csv, campaign.md, campaign.json and figures")
     return 0
 
 
@@ -232,7 +233,11 @@ def _parser() -> argparse.ArgumentParser:
     cp.add_argument(
         "--workers", type=int, default=None, help="parallel processes (default: all cores)"
     )
-    cp.add_argument("--out", help="output directory; finished samples are stored and reused")
+    cp.add_argument(
+        "--out",
+        help="output directory (default runs/campaign-NAME-seedS); finished samples are "
+        "stored there and reused by a rerun",
+    )
     cp.set_defaults(func=_cmd_campaign)
 
     b = sub.add_parser("bench", help="time the control step of every method", parents=[common])

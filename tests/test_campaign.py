@@ -1,0 +1,383 @@
+"""Tests of the Monte Carlo campaign runner (redservo.campaign)."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.stats import binomtest
+
+from redservo import campaign as cmp
+from redservo.campaign import (
+    draw_sample,
+    load_campaign,
+    method_stats,
+    parse_campaign,
+    run_campaign,
+    sample_start,
+    shipped_campaigns,
+    wilson_interval,
+)
+from redservo.errors import ConfigurationError, ScenarioError, UnknownNameError
+from redservo.limits import JointLimits
+from redservo.scenario import shipped_scenarios
+
+# A quick campaign: two methods, a short iteration cap (many runs stop at the cap: fine here).
+BASE: dict[str, Any] = {
+    "name": "quick",
+    "scenario": "afma6-gaze-demo",
+    "samples": 3,
+    "methods": ["classical", "iterative-smooth"],
+    "overrides": {"control": {"lam": 2.0}, "simulation": {"max_iterations": 30}},
+    "start": {"p_band": 0.5, "band_beyond": 0.5, "min_margin": 0.01, "min_in_band": 1},
+    "target": {"translation": [0.1, 0.1, [-0.1, 0.2]], "image_margin_px": 10},
+}
+
+
+def quick(**changes: Any) -> cmp.CampaignDefinition:
+    data = {**BASE, **changes}
+    return parse_campaign(data, "quick.toml")
+
+
+# --------------------------------------------------------------------------- statistics
+
+
+def test_wilson_interval_known_counts() -> None:
+    z = 1.959963984540054
+    # k = 0: the interval is [0, z²/(n + z²)]; k = n: [n/(n + z²), 1] (closed forms).
+    assert wilson_interval(0, 10) == pytest.approx((0.0, z * z / (10 + z * z)))
+    assert wilson_interval(0, 10)[1] == pytest.approx(0.27753, abs=1e-5)
+    assert wilson_interval(20, 20) == pytest.approx((20 / (20 + z * z), 1.0))
+    # 8/10 by hand: p = 0.8, denom = 1 + z²/10 = 1.384146, centre = (0.8 + 0.192073)/denom
+    # = 0.716738, half = z sqrt(0.016 + 0.009604)/denom = 0.226578.
+    assert wilson_interval(8, 10) == pytest.approx((0.490160, 0.943316), abs=1e-5)
+    # Independent implementation.
+    for k, n in [(3, 7), (50, 200), (199, 200), (1, 1)]:
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        assert wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-9)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    with pytest.raises(ConfigurationError):
+        wilson_interval(3, 2)
+
+
+def _row(outcome: str, iterations: int, speed: float) -> dict[str, Any]:
+    return {
+        "outcome": outcome,
+        "success": outcome == "converged",
+        "iterations": iterations,
+        "max_joint_speed": speed,
+        "max_cam_translation": speed,
+        "max_cam_rotation": speed,
+        "discontinuity": 0.1,
+        "min_margin": 0.2,
+    }
+
+
+def test_method_stats_counts_and_medians() -> None:
+    rows = [
+        _row("converged", 100, 1.0),
+        _row("converged", 200, 2.0),
+        _row("converged", 300, 3.0),
+        _row("joint_limit", 5, 10.0),
+        _row("joint_limit", 7, 4.0),
+        _row("target_lost", 9, 5.0),
+        _row("max_iterations", 400, 6.0),
+        _row("error", 0, float("nan")),
+    ]
+    s = method_stats("m", rows)
+    assert (s.runs, s.successes, s.limit_hits, s.target_lost) == (8, 3, 2, 1)
+    assert (s.max_iterations, s.other_failures) == (1, 1)
+    assert s.success_rate == 3 / 8
+    assert (s.ci_low, s.ci_high) == wilson_interval(3, 8)
+    assert s.iterations_median == 200.0  # successes only
+    assert s.iterations_p90 == pytest.approx(280.0)  # 100, 200, 300: linear interpolation
+    assert s.joint_speed_median == 4.0  # all 7 finite runs: 1, 2, 3, 4, 5, 6, 10
+    none = method_stats("m", [_row("joint_limit", 3, 1.0)])
+    assert math.isnan(none.iterations_median) and none.successes == 0
+
+
+# --------------------------------------------------------------------------- sampler
+
+
+@pytest.mark.parametrize("rho", [0.05, 0.1, 0.2])
+def test_sample_start_band_and_limits(rho: float) -> None:
+    rng = np.random.default_rng(1)
+    lim = JointLimits([-1.0, 0.0, -3.0, 2.0, -0.1], [2.0, 0.5, 3.0, 2.2, 0.1], rho)
+    beyond, min_margin, p = 0.5, 0.02, 0.3
+    outer = (1 + beyond) * rho
+    eligible = [0, 2, 3, 4]
+    counts = np.zeros(5)
+    in_threshold_band = 0
+    draws = 2000
+    for _ in range(draws):
+        q, near = sample_start(
+            lim,
+            rng,
+            p_band=p,
+            band_beyond=beyond,
+            min_margin=min_margin,
+            min_in_band=1,
+            eligible=eligible,
+        )
+        margin = lim.margin(q)
+        assert lim.contains(q)
+        assert np.all(margin >= min_margin - 1e-12)
+        assert np.all(margin[near] <= outer + 1e-12)
+        assert np.all(margin[~near] >= outer - 1e-12)
+        assert near.sum() >= 1 and not near[1]  # joint 1 is not eligible
+        counts += near
+        in_threshold_band += int(np.sum(lim.in_band(q) & near))
+    # Eligible joints are in the band with probability p, raised a little by min_in_band = 1:
+    # P(near_i) = p + (1 - p)^4 / 4 for 4 eligible joints.
+    expect = p + (1 - p) ** 4 / 4
+    sd = math.sqrt(expect * (1 - expect) / draws)
+    assert np.all(np.abs(counts[eligible] / draws - expect) < 5 * sd)
+    # Margin uniform in [min_margin, outer]: the fraction beyond the threshold q̃ (margin < rho)
+    # is (rho - min_margin) / (outer - min_margin).
+    frac = in_threshold_band / counts.sum()
+    assert frac == pytest.approx((rho - min_margin) / (outer - min_margin), abs=0.05)
+
+
+def test_sample_start_rejects_bad_band() -> None:
+    lim = JointLimits([0.0], [1.0], 0.2)
+    rng = np.random.default_rng(0)
+    with pytest.raises(ConfigurationError, match="band_beyond"):
+        sample_start(lim, rng, p_band=0.5, band_beyond=2.0, min_margin=0.0)
+    with pytest.raises(ConfigurationError, match="min_margin"):
+        sample_start(lim, rng, p_band=0.5, band_beyond=0.5, min_margin=0.4)
+    with pytest.raises(ConfigurationError, match="min_in_band"):
+        sample_start(lim, rng, p_band=0.5, band_beyond=0.5, min_margin=0.0, min_in_band=2)
+
+
+def test_draw_sample_is_deterministic_and_in_view() -> None:
+    d = quick()
+    a, b = draw_sample(d, 7, 2), draw_sample(d, 7, 2)
+    assert np.array_equal(a.q0, b.q0) and np.array_equal(a.translation, b.translation)
+    assert a.scenario.data == b.scenario.data
+    assert not np.array_equal(a.q0, draw_sample(d, 8, 2).q0)
+    assert not np.array_equal(a.q0, draw_sample(d, 7, 3).q0)
+    # The drawn q0 is the sampler's output from the documented seed of that attempt.
+    rng = np.random.default_rng(np.random.SeedSequence(7, spawn_key=(2, a.attempts)))
+    q, near = sample_start(
+        d.nominal.limits, rng, p_band=0.5, band_beyond=0.5, min_margin=0.01, min_in_band=1
+    )
+    assert np.array_equal(q, a.q0) and np.array_equal(near, a.near)
+    # The target keeps its nominal pose in the start camera frame, translated by t.
+    cMo = a.scenario.data["objects"][0]["pose_in_camera"]["translation"]
+    assert np.allclose(cMo, d.nominal.cMo["target"][:3, 3] + a.translation)
+
+
+def test_invalid_starts_are_redrawn_deterministically() -> None:
+    # Half of the draws put the target off the image: some samples need several attempts.
+    d = quick(target={"translation": [0.6, 0.0, 0.0], "image_margin_px": 10})
+    samples = [draw_sample(d, 0, i) for i in range(6)]
+    assert any(s.attempts > 0 for s in samples)
+    for s in samples:
+        assert cmp._start_problem(d, s.scenario) is None
+        assert draw_sample(d, 0, s.number).attempts == s.attempts
+    behind = quick(target={"translation": [0, 0, [-3.0, -2.0]]}, max_attempts=3)
+    with pytest.raises(ScenarioError, match=r"key 'target'.*no valid start in 3 draws"):
+        draw_sample(behind, 0, 0)
+
+
+# --------------------------------------------------------------------------- definitions
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        ({"start": {"p_band": 1.5}}, "start.p_band"),
+        ({"start": {"band_beyond": 5.0}}, "start.band_beyond"),
+        ({"start": {"min_margin": 0.3}}, "start.min_margin"),
+        ({"start": {"joints": ["x", "knee"]}}, "start.joints[1]"),
+        ({"start": {"min_in_band": 7}}, "start.min_in_band"),
+        ({"start": {"wobble": 1}}, "start.wobble"),
+        ({"methods": ["classical", "nope"]}, "methods[1]"),
+        ({"methods": []}, "methods"),
+        ({"samples": 0}, "samples"),
+        ({"target": {"translation": [0.1, 0.1]}}, "target.translation"),
+        ({"target": {"rotation_deg": [1, [3, 2], 1]}}, "target.rotation_deg[1]"),
+        ({"target": {"motion_frame": "robot"}}, "target.motion_frame"),
+        ({"errors": {"depth_scale": [0.0, 1.2]}}, "errors.depth_scale"),
+        ({"errors": {"noise_std": "big"}}, "errors.noise_std"),
+        ({"method_options": {"gpm": {"alpha": -1.0}}}, "method_options.gpm"),
+        ({"method_options": {"gpm": {"nonsense": 1}}}, "method_options.gpm"),
+        ({"overrides": {"simulation": {"max_iterations": "many"}}}, "overrides"),
+        ({"scenario": "no-such-scenario"}, "scenario"),
+        ({"colour": "red"}, "colour"),
+    ],
+)
+def test_bad_definition_names_file_and_key(change: dict[str, Any], key: str) -> None:
+    with pytest.raises(ScenarioError) as info:
+        parse_campaign({**BASE, **change}, "my-campaign.toml")
+    msg = str(info.value)
+    assert msg.startswith("my-campaign.toml: ") and f"key '{key}'" in msg
+
+
+def test_missing_scenario_key_and_bad_files(tmp_path: Path) -> None:
+    with pytest.raises(ScenarioError, match="key 'scenario'"):
+        parse_campaign({"samples": 3}, "x.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("samples = [")
+    with pytest.raises(ScenarioError, match=r"bad\.toml: not valid TOML"):
+        load_campaign(bad)
+    with pytest.raises(ScenarioError, match="unknown campaign"):
+        load_campaign("no-such-campaign")
+
+
+def test_definition_file_with_relative_scenario_path(tmp_path: Path) -> None:
+    scen = Path(__file__).parents[1] / "src/redservo/scenarios/afma6-gaze-demo.toml"
+    (tmp_path / "base.toml").write_text(scen.read_text())
+    (tmp_path / "c.toml").write_text('scenario = "base.toml"\nsamples = 2\n')
+    d = load_campaign(tmp_path / "c.toml")
+    assert d.scenario.source == str(tmp_path / "base.toml") and d.samples == 2
+
+
+def test_shipped_campaigns_load_and_draw() -> None:
+    names = shipped_campaigns()
+    assert {"afma6-gaze-demo", "cm01-gaze", "mc05-joint-limits", "cm01-humanoid-tracking"} <= set(
+        names
+    )
+    root = Path(cmp.__file__).parent / "scenarios" / "campaigns"
+    for name in names:
+        base = tomllib.loads((root / f"{name}.toml").read_text())["scenario"]
+        if base not in shipped_scenarios():
+            pytest.skip(f"base scenario {base!r} of campaign {name!r} is not shipped yet")
+        d = load_campaign(name)
+        s = draw_sample(d, 0, 0)
+        assert d.nominal.limits.contains(s.q0) and s.near.sum() >= d.start.min_in_band
+
+
+# --------------------------------------------------------------------------- runs
+
+
+def _strip(rows: Any) -> list[dict[str, Any]]:
+    """Rows with NaN replaced (NaN != NaN) so lists of rows compare by value."""
+    return [
+        {k: ("nan" if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
+        for r in rows
+    ]
+
+
+def test_same_seed_same_rows_whatever_the_workers() -> None:
+    d = quick()
+    one = run_campaign(d, seed=3, workers=1, progress=False)
+    again = run_campaign(d, seed=3, workers=1, progress=False)
+    two = run_campaign(d, seed=3, workers=2, progress=False)
+    assert len(one.rows) == 3 * 2
+    assert _strip(one.rows) == _strip(again.rows) == _strip(two.rows)
+    # Every method ran on the same samples.
+    for i in range(3):
+        a, b = (r for r in one.rows if r["sample"] == i)
+        assert {k: v for k, v in a.items() if k.startswith(("q0_", "target_"))} == {
+            k: v for k, v in b.items() if k.startswith(("q0_", "target_"))
+        }
+    other = run_campaign(d, seed=4, workers=1, progress=False)
+    assert _strip(other.rows) != _strip(one.rows)
+
+
+def test_resume_reuses_finished_rows(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[tuple[int, str]] = []
+    real = cmp._run_task
+
+    def counting(task: Any) -> dict[str, Any]:
+        calls.append((task.sample, task.method))
+        return real(task)
+
+    monkeypatch.setattr(cmp, "_run_task", counting)
+    d, out = quick(), tmp_path / "c"
+    first = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    assert len(calls) == 4 and first.computed == 4
+    calls.clear()
+    full = run_campaign(d, samples=4, seed=1, workers=1, out=out, progress=False)
+    assert sorted(calls) == [(i, m) for i in (2, 3) for m in ("classical", "iterative-smooth")]
+    assert full.computed == 4
+    assert _strip(full.rows[:4]) == _strip(first.rows)
+    # Nothing left to do; a fresh in-memory run gives the same rows as the resumed one.
+    calls.clear()
+    assert run_campaign(d, samples=4, seed=1, workers=1, out=out, progress=False).computed == 0
+    assert calls == []
+    fresh = run_campaign(d, samples=4, seed=1, workers=1, progress=False)
+    assert _strip(fresh.rows) == _strip(full.rows)
+    # A line cut short by an interrupted write is dropped and its run redone.
+    csv = out / "samples.csv"
+    text = csv.read_text()
+    csv.write_text(text[: len(text) - 40])
+    calls.clear()
+    again = run_campaign(d, samples=4, seed=1, workers=1, out=out, progress=False)
+    assert calls == [(3, "iterative-smooth")]
+    assert _strip(again.rows) == _strip(full.rows)
+    # Another seed or definition in the same directory is refused.
+    with pytest.raises(ConfigurationError, match="another definition or seed"):
+        run_campaign(d, samples=4, seed=2, workers=1, out=out, progress=False)
+    with pytest.raises(ConfigurationError, match="another definition or seed"):
+        run_campaign(quick(start={"p_band": 0.9}), seed=1, workers=1, out=out, progress=False)
+
+
+def test_outputs_and_pandas(tmp_path: Path) -> None:
+    pd = pytest.importorskip("pandas")
+    d = quick()
+    res = run_campaign(d, samples=3, seed=0, workers=1, out=tmp_path, progress=False)
+    df = pd.read_csv(tmp_path / "samples.csv")
+    assert len(df) == 6 and set(df["method"]) == {"classical", "iterative-smooth"}
+    assert df["success"].dtype == bool
+    assert (df["success"] == (df["outcome"] == "converged")).all()
+    for col in ("q0_x", "target_tz", "iterations", "min_margin", "max_cam_rotation"):
+        assert col in df.columns
+    assert np.allclose(df["q0_x"], [r["q0_x"] for r in res.rows])
+    for name in ("campaign.json", "campaign.md", "definition.json"):
+        assert (tmp_path / name).is_file()
+    assert (tmp_path / "campaign.md").read_text() == res.markdown
+    assert "| classical |" in res.markdown and "| iterative-smooth |" in res.markdown
+    pytest.importorskip("matplotlib")
+    assert {p.name for p in res.figures} == {"success_rate.png", "iterations.png"}
+
+
+def test_method_options_and_errors_reach_the_run() -> None:
+    d = quick(
+        methods=["gpm"],
+        method_options={"gpm": {"alpha": 2.0}},
+        errors={
+            "noise_std": [0.001, 0.002],
+            "depth_scale": [0.8, 1.2],
+            "hand_eye_translation": 0.01,
+        },
+    )
+    s = draw_sample(d, 0, 0)
+    sim = s.scenario.data["simulation"]
+    assert 0.001 <= sim["noise_std"] <= 0.002 and 0.8 <= sim["depth_scale"] <= 1.2
+    assert np.all(np.abs(sim["eMc_error"]["translation"]) <= 0.01)
+    res = run_campaign(d, samples=1, workers=1, progress=False)
+    assert res.rows[0]["noise_std"] == sim["noise_std"]
+
+
+def test_run_campaign_rejects_bad_arguments() -> None:
+    d = quick()
+    with pytest.raises(UnknownNameError):
+        run_campaign(d, methods=["nope"], progress=False)
+    with pytest.raises(ConfigurationError, match="seed"):
+        run_campaign(d, seed=-1, progress=False)
+    with pytest.raises(ConfigurationError, match="samples"):
+        run_campaign(d, samples=0, progress=False)
+
+
+def test_cli_campaign(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from redservo.cli import main
+
+    path = tmp_path / "c.toml"
+    path.write_text(
+        'scenario = "afma6-gaze-demo"\nmethods = ["classical"]\n'
+        "[overrides]\nsimulation = { max_iterations = 20 }\n"
+    )
+    out = tmp_path / "out"
+    code = main(
+        ["campaign", str(path), "--samples", "2", "--workers", "1", "--out", str(out), "-q"]
+    )
+    assert code == 0
+    assert "| classical | " in capsys.readouterr().out
+    assert (out / "samples.csv").is_file()
+    assert main(["campaign", str(path), "--methods", "nope", "--out", str(out), "-q"]) == 2
