@@ -381,3 +381,50 @@ def test_cli_campaign(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     assert "| classical | " in capsys.readouterr().out
     assert (out / "samples.csv").is_file()
     assert main(["campaign", str(path), "--methods", "nope", "--out", str(out), "-q"]) == 2
+
+
+HUMANOID_TRACKING = """
+[robot]
+model = "humanoid9"
+q0 = [0, 0, 0, 0, 0, 0, 0, 0, 0]
+[[objects]]
+name = "target"
+kind = "points"
+points = [[0.0, 0.0, 0.0]]
+pose_in_camera = { translation = [0.1, 0.05, 1.5] }
+[objects.motion]
+kind = "constant_velocity"
+velocity = [0.0, 0.1, 0.05]
+[[features]]
+kind = "point"
+object = "target"
+[task]
+desired = [0.0, 0.0]
+[control]
+method = "gpm"
+[simulation]
+max_iterations = 20
+stop_at_convergence = false
+tolerance = 0.01
+"""
+
+
+@pytest.mark.parametrize("frame", ["camera", "world"])
+def test_object_motion_follows_the_start_camera(tmp_path: Path, frame: str) -> None:
+    (tmp_path / "track.toml").write_text(HUMANOID_TRACKING)
+    d = parse_campaign(
+        {"scenario": "track.toml", "target": {"motion_frame": frame}, "start": {"p_band": 1.0}},
+        "c.toml",
+        base_dir=tmp_path,
+    )
+    s = draw_sample(d, 0, 0)
+    v = np.asarray(s.scenario.data["objects"][0]["motion"]["velocity"])
+    nominal_world = np.array([0.0, 0.1, 0.05])
+    if frame == "world":
+        assert np.array_equal(v, nominal_world)
+    else:  # same velocity relative to the start camera as in the base scenario
+        bRc = d.nominal.fkine(s.q0)[:3, :3]
+        assert np.allclose(bRc.T @ v, d.nominal.bRc.T @ nominal_world)
+        assert not np.allclose(v, nominal_world)
+    res = run_campaign(d, samples=1, methods=["gpm"], workers=1, progress=False)
+    assert "Tracking task" in res.markdown and res.rows[0]["iterations"] <= 20

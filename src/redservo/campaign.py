@@ -1280,20 +1280,54 @@ class CampaignResult:
 
 
 def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping[str, Any]]) -> str:
-    st = defn.start
-    rho = float(defn.scenario.data["robot"].get("rho", 0.1))
+    st, tg = defn.start, defn.target
+    data = defn.scenario.data
+    rho = float(data["robot"].get("rho", 0.1))
+    ctl, sim = data["control"], data.get("simulation", {})
+    cap = int(sim.get("max_iterations", 1000))
     redraws = (
         sum(int(r["attempts"]) for r in rows if r["method"] == rows[0]["method"]) if rows else 0
     )
+
+    def rng3(r: Sequence[Range]) -> str:
+        return ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in r)
+
+    if sim.get("stop_at_convergence", True):
+        success = (
+            f"Success = converged (‖e1‖ < {float(sim.get('tolerance', 1e-3)):g}) within {cap} "
+            "iterations with no limit hit and the target never lost."
+        )
+    else:
+        success = (
+            f"Tracking task: every run lasts {cap} iterations; success = final ‖e1‖ < "
+            f"{float(sim.get('tolerance', 1e-3)):g} with no limit hit and the target never "
+            "lost (the iteration columns are then the run length)."
+        )
     return (
         f"## Campaign {defn.name}\n\n"
         f"{defn.description}\n\n"
-        f"Base scenario `{defn.scenario.name}`; {n} samples per method, seed {seed}; "
-        f"start joints in the outer band (margin in [{st.min_margin:g}, "
-        f"{(1 + st.band_beyond) * rho:g}] of the range) with p = {st.p_band:g}, "
-        f"at least {st.min_in_band}; {redraws} invalid starts re-drawn. "
-        "Success = converged with no limit hit and the target never lost.\n\n"
+        f"Base scenario `{defn.scenario.name}` (λ = {float(ctl.get('lam', 0.5)):g} 1/s, "
+        f"dt = {float(ctl.get('dt', 0.04)):g} s); {n} samples per method, seed {seed}. "
+        f"Start: each joint in the outer band (margin in [{st.min_margin:g}, "
+        f"{(1 + st.band_beyond) * rho:g}] of its range, thresholds at {rho:g}) with "
+        f"probability {st.p_band:g}, at least {st.min_in_band} joints; target moved by "
+        f"t ∈ {rng3(tg.translation)} m and turned by r ∈ {rng3(tg.rotation_deg)} deg; "
+        f"{_errors_text(defn.errors)}{redraws} invalid starts re-drawn. {success}\n\n"
     )
+
+
+def _errors_text(er: ErrorSpec) -> str:
+    parts = []
+    if er.noise_std:
+        parts.append(f"feature noise std ∈ [{er.noise_std[0]:g}, {er.noise_std[1]:g}]")
+    if er.depth_scale:
+        parts.append(f"depth scale ∈ [{er.depth_scale[0]:g}, {er.depth_scale[1]:g}]")
+    if er.hand_eye_translation or er.hand_eye_rotation_deg:
+        parts.append(
+            f"hand-eye error ±{er.hand_eye_translation:g} m, ±{er.hand_eye_rotation_deg:g} deg "
+            "per axis"
+        )
+    return "Errors: " + "; ".join(parts) + ". " if parts else ""
 
 
 def _figures(
