@@ -13,6 +13,8 @@ FloatArray = NDArray[np.float64]
 
 
 def _to_float(value: ArrayLike, name: str) -> FloatArray:
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        return value  # hot path: already a float array
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -33,8 +35,9 @@ def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArra
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"({size},)" if size is not None else "a 1-D array"
         raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ShapeError(f"{name} must be finite, got {arr}")
+    # One summed check (a sum of finite floats overflows only near 1e308); precise on failure.
+    if not math.isfinite(float(arr.sum())) and not np.isfinite(arr).all():
+        raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}")
     return arr
 
 

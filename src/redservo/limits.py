@@ -39,6 +39,7 @@ class JointLimits:
     range: FloatArray = field(init=False, repr=False)
     q_tilde_min: FloatArray = field(init=False, repr=False)
     q_tilde_max: FloatArray = field(init=False, repr=False)
+    _center: FloatArray = field(init=False, repr=False)
 
     def __init__(self, q_min: ArrayLike, q_max: ArrayLike, rho: float = 0.1) -> None:
         lo = as_vector(q_min, "q_min")
@@ -62,6 +63,7 @@ class JointLimits:
             ("range", rng),
             ("q_tilde_min", lo + rho_f * rng),
             ("q_tilde_max", hi - rho_f * rng),
+            ("_center", 0.5 * (lo + hi)),
         ):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
@@ -164,10 +166,10 @@ class JointLimits:
             q_hat: (n,) predicted configuration ``q̂(t+1)`` (CM01 eq. 8).
         """
         qh = np.asarray(q_hat, dtype=float)
-        width = self.rho * self.range
-        g_lo = (self.q_tilde_min - qh) / width
-        g_hi = (qh - self.q_tilde_max) / width
-        return np.clip(np.maximum(g_lo, g_hi), 0.0, 1.0)
+        g = np.maximum(self.q_tilde_min - qh, qh - self.q_tilde_max)
+        g /= self.rho * self.range
+        np.minimum(g, 1.0, out=g)
+        return np.maximum(g, 0.0, out=g)
 
     def critical(self, q: ArrayLike, q_hat: ArrayLike) -> FloatArray:
         """Return (n,) booleans: the axes that are *critical* (literature.md §D.3 item 9).
@@ -182,6 +184,8 @@ class JointLimits:
         """
         qa = np.asarray(q, dtype=float)
         qh = np.asarray(q_hat, dtype=float)
-        upper = (qh >= self.q_tilde_max) & (qh > qa)
-        lower = (qh <= self.q_tilde_min) & (qh < qa)
-        return np.asarray(upper | lower)
+        # In the band: max(q̂ - q̃_max, q̃_min - q̂) >= 0 (only one can be, as q̃_min < q̃_max).
+        # Toward the nearest limit: (q̂ - q) has the sign of (q̂ - centre) (upper or lower band).
+        in_band = np.maximum(qh - self.q_tilde_max, self.q_tilde_min - qh) >= 0.0
+        toward = (qh - qa) * (qh - self._center) > 0.0
+        return np.asarray(in_band & toward)

@@ -84,10 +84,11 @@ def make_transform(
 
 def inverse(T: FloatArray) -> FloatArray:
     """Return the inverse of a homogeneous transform (using ``R^T``, not a general inverse)."""
-    R = T[:3, :3]
-    out = np.eye(4)
-    out[:3, :3] = R.T
-    out[:3, 3] = -R.T @ T[:3, 3]
+    Rt = T[:3, :3].T
+    out = np.empty((4, 4))
+    out[:3, :3] = Rt
+    out[:3, 3] = -(Rt @ T[:3, 3])
+    out[3] = (0.0, 0.0, 0.0, 1.0)
     return out
 
 

@@ -147,6 +147,17 @@ class Robot(abc.ABC):
         qa = self.check_q(q, check_limits=check_limits)
         return self._cVe @ self.jacobe(qa)
 
+    def kinematics(
+        self, q: ArrayLike, *, check_limits: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """Return ``(fkine(q), jacobian(q))`` with one validation of ``q`` (the control hot path).
+
+        Returns:
+            ``bMc`` (4x4), the camera pose in the base frame, and ``J(q)`` (6, n).
+        """
+        qa = self.check_q(q, check_limits=check_limits)
+        return self.fkine_ee(qa) @ self._eMc, self._cVe @ self.jacobe(qa)
+
     def ikine(
         self,
         bMc: ArrayLike,

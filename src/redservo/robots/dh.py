@@ -125,6 +125,8 @@ def check_q_named(robot: Robot, q: ArrayLike, check_limits: bool) -> FloatArray:
         ) from exc
     if check_limits:
         lo, hi = robot.q_min, robot.q_max
+        if float(np.minimum(qa - lo, hi - qa).min()) >= -_LIMIT_TOL:  # hot path: all inside
+            return qa
         out = np.flatnonzero((qa < lo - _LIMIT_TOL) | (qa > hi + _LIMIT_TOL))
         if out.size:
             i = int(out[0])
