@@ -203,8 +203,7 @@ def _full_step(case: BenchCase, law: Any) -> Callable[[], Any]:
     lam, dt = case.lam, case.dt
 
     def step() -> Any:
-        bMc = robot.fkine(q)
-        J = robot.jacobian(q)
+        bMc, J = robot.kinematics(q)
         st = task.evaluate(scene, bMc, J, 0.0)
         return law(J1=st.J1, e1=st.e1, q=q, limits=lim, lam=lam, dt=dt)
 

@@ -387,8 +387,8 @@ def simulate(
     rows = 0
     for it in range(N):
         t = it * opt.dt
-        bMc = robot.fkine(q, check_limits=False)
-        J = model.jacobian(q, check_limits=False)
+        bMc, J_true = robot.kinematics(q, check_limits=False)
+        J = J_true if model is robot else model.jacobian(q, check_limits=False)
         noise = rng.normal(0.0, opt.noise_std, k) if opt.noise_std > 0 else None
         try:
             state = task.evaluate(scene, bMc, J, t, depth_scale=opt.depth_scale, noise=noise)
@@ -429,9 +429,7 @@ def simulate(
         )
         qdot = _saturate(res.qdot, qdot_max)
         d = res.diagnostics
-        _record(
-            buf, it, t, q, qdot, robot.jacobian(q, check_limits=False) @ qdot, state, err, lim, d
-        )
+        _record(buf, it, t, q, qdot, J_true @ qdot, state, err, lim, d)
         diags.append(d)
         rows = it + 1
         if err < opt.tolerance and (opt.stop_at_convergence or it == N - 1):
