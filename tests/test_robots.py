@@ -514,3 +514,16 @@ def test_make_robot() -> None:
         make_robot("afma6", tool="nope")
     with pytest.raises(ConfigurationError, match="afma6"):
         make_robot("afma6", wheels=4)
+
+
+@pytest.mark.parametrize("make", [Afma6, Humanoid9, Panda])
+def test_kinematics_equals_fkine_and_jacobian(make: type) -> None:
+    """The combined hot-path call returns exactly fkine(q) and jacobian(q)."""
+    robot = make()
+    rng = np.random.default_rng(7)
+    lim = robot.limits()
+    for _ in range(20):
+        q = lim.q_min + rng.uniform(0.05, 0.95, robot.n) * lim.range
+        bMc, J = robot.kinematics(q)
+        np.testing.assert_allclose(bMc, robot.fkine(q), atol=1e-14)
+        np.testing.assert_allclose(J, robot.jacobian(q), atol=1e-14)

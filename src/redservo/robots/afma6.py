@@ -168,3 +168,24 @@ class Afma6(Robot):
         Rt = self._rotation(c1, s1, c2, s2, c3, s3).T
         fJe = self.jacobe_base(q)
         return np.vstack([Rt @ fJe[:3], Rt @ fJe[3:]])
+
+    def kinematics(
+        self, q: ArrayLike, *, check_limits: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """Return ``(fkine(q), jacobian(q))``, evaluating the trigonometry once (hot path)."""
+        qa = self.check_q(q, check_limits=check_limits)
+        c1, s1, c2, s2, c3, s3 = self._trig(qa)
+        R = self._rotation(c1, s1, c2, s2, c3, s3)
+        T = np.empty((4, 4))
+        T[:3, :3] = R
+        T[:3, 3] = (qa[0] + OFFSET * c1, qa[1] + OFFSET * s1, qa[2])
+        T[3] = (0.0, 0.0, 0.0, 1.0)
+        # eJe = blkdiag(R^T, R^T) fJe, written with the columns of fJe (literature.md §F).
+        Rt = R.T
+        eJe = np.zeros((6, 6))
+        eJe[:3, :3] = Rt
+        eJe[:3, 3] = Rt @ (-OFFSET * s1, OFFSET * c1, 0.0)
+        eJe[3:, 3] = Rt[:, 2]
+        eJe[3:, 4] = Rt @ (c1 + COUPLING * s1 * c2, s1 - COUPLING * c1 * c2, -COUPLING * s2)
+        eJe[3:, 5] = Rt @ (-s1 * c2, c1 * c2, s2)
+        return T @ self._eMc, self._cVe @ eJe
