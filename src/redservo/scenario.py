@@ -198,14 +198,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         for key in keys:
             if key not in table[section]:
                 raise ScenarioError(f"{source}: key '{section}.{key}': missing required key")
-    for i, obj in enumerate(table.get("objects", [])):
-        where = f"objects[{i}]"
-        if not isinstance(obj, dict):
-            raise ScenarioError(f"{source}: key '{where}': expected a table, got {obj!r}")
-        _check_table(obj, _OBJECT_KEYS, where + ".", source)
-        for key in ("name", "kind"):
-            if key not in obj:
-                raise ScenarioError(f"{source}: key '{where}.{key}': missing required key")
+    for where, obj in _entries(table, "objects", _OBJECT_KEYS, ("name", "kind"), source):
         if obj["kind"] not in _OBJECT_KINDS:
             raise ScenarioError(
                 f"{source}: key '{where}.kind': unknown object kind {obj['kind']!r}; "
@@ -217,14 +210,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         if "motion" in obj:
             _check_table(obj["motion"], _MOTION_KEYS, f"{where}.motion.", source)
     names = [o["name"] for o in table.get("objects", [])]
-    for i, feat in enumerate(table.get("features", [])):
-        where = f"features[{i}]"
-        if not isinstance(feat, dict):
-            raise ScenarioError(f"{source}: key '{where}': expected a table, got {feat!r}")
-        _check_table(feat, _FEATURE_KEYS, where + ".", source)
-        for key in ("kind", "object"):
-            if key not in feat:
-                raise ScenarioError(f"{source}: key '{where}.{key}': missing required key")
+    for where, feat in _entries(table, "features", _FEATURE_KEYS, ("kind", "object"), source):
         if feat["object"] not in names:
             raise ScenarioError(
                 f"{source}: key '{where}.object': unknown object {feat['object']!r}; "
@@ -244,6 +230,27 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     except RedservoError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     return scenario
+
+
+def _entries(
+    table: Mapping[str, Any],
+    section: str,
+    schema: Mapping[str, Any],
+    required: tuple[str, ...],
+    source: str,
+) -> list[tuple[str, dict[str, Any]]]:
+    """Validate an array of tables (``[[objects]]``, ``[[features]]``); return ``(key, entry)``."""
+    out = []
+    for i, entry in enumerate(table.get(section, [])):
+        where = f"{section}[{i}]"
+        if not isinstance(entry, dict):
+            raise ScenarioError(f"{source}: key '{where}': expected a table, got {entry!r}")
+        _check_table(entry, schema, where + ".", source)
+        for key in required:
+            if key not in entry:
+                raise ScenarioError(f"{source}: key '{where}.{key}': missing required key")
+        out.append((where, entry))
+    return out
 
 
 def _check_table(table: Any, schema: Mapping[str, Any], prefix: str, source: str) -> None:
