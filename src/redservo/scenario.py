@@ -11,6 +11,7 @@ is allowed.
 from __future__ import annotations
 
 import copy
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -298,15 +299,22 @@ def _check_names(sc: Scenario) -> None:
         raise sc.error("task.depth", f"unknown depth {depth!r}; allowed: current, desired, mean")
 
 
+_INDEXED_KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_-]*)\[([0-9]+)\]")
+"""A ``--set`` path segment ``name[i]``: entry i of an array of tables."""
+
+
 def apply_overrides(scenario: Scenario, assignments: list[str]) -> Scenario:
     """Return a new scenario with ``key=value`` overrides applied (``--set`` on the CLI).
 
     Keys are dotted paths (``control.lam``, ``control.options.alpha``,
-    ``simulation.max_iterations``); values are TOML values (``0.5``, ``"gpm"``,
+    ``simulation.max_iterations``); a path segment ``name[i]`` selects entry ``i``
+    (0-based) of an array of tables (``features[0].variant``,
+    ``objects[1].radius``); values are TOML values (``0.5``, ``"gpm"``,
     ``[0.1, 0.2]``, ``true``); a bare word is taken as a string.
 
     Raises:
-        ScenarioError: malformed assignment, or the result fails validation.
+        ScenarioError: malformed assignment, an index that does not name an existing
+            table of an array, or the result fails validation.
     """
     data = copy.deepcopy(scenario.data)
     for item in assignments:
@@ -321,6 +329,16 @@ def apply_overrides(scenario: Scenario, assignments: list[str]) -> Scenario:
         node = data
         parts = key.split(".")
         for part in parts[:-1]:
+            indexed = _INDEXED_KEY.fullmatch(part)
+            if indexed is not None:
+                name, i = indexed.group(1), int(indexed.group(2))
+                seq = node.get(name)
+                if not isinstance(seq, list) or i >= len(seq) or not isinstance(seq[i], dict):
+                    size = len(seq) if isinstance(seq, list) else 0
+                    allowed = f"indices 0 to {size - 1}" if size else f"no '{name}' tables"
+                    raise ScenarioError(f"--set {item!r}: '{part}' does not exist; {allowed}")
+                node = seq[i]
+                continue
             nxt = node.setdefault(part, {})
             if not isinstance(nxt, dict):
                 raise ScenarioError(f"--set {item!r}: '{part}' is not a table")
