@@ -238,8 +238,10 @@ def _desired_poses(sc: Scenario, scene: Scene, ref: str) -> dict[str, FloatArray
 
 def _features(
     sc: Scenario, scene: Scene, desired: Mapping[str, FloatArray] | None
-) -> list[TaskTerm]:
+) -> tuple[list[TaskTerm], list[int]]:
+    """The task terms, and for each the index of the ``[[features]]`` entry it came from."""
     terms: list[TaskTerm] = []
+    entry_of: list[int] = []
     for i, f in enumerate(sc.data["features"]):
         where = f"features[{i}]"
         obj = scene.object(f["object"])
@@ -281,7 +283,45 @@ def _features(
         except RedservoError as exc:
             raise sc.error(where, str(exc)) from None
         terms.extend(TaskTerm(feat, obj.name) for feat in feats)
-    return terms
+        entry_of.extend(i for _ in feats)
+    return terms, entry_of
+
+
+def _selection(sc: Scenario, terms: list[TaskTerm], entry_of: list[int]) -> FloatArray | None:
+    """Selection matrix ``C`` (m, k) from the ``features[i].components`` lists, or None.
+
+    ``components`` keeps only the listed components (0-based, in the feature's
+    order, e.g. ``[0, 1, 2, 3]`` = xn, yn, an, α of the moments) in the task:
+    ``e1 = C (s - s*)`` and ``J1 = C L J``, while the whole ``s`` is still
+    measured and logged. When an entry expands to several terms (the point
+    features of a point set) the list applies to each of them. An explicit
+    selection replaces the automatic combination matrix of :class:`VisualTask`.
+
+    Args:
+        sc: The scenario (for error messages).
+        terms: The task terms, in order.
+        entry_of: For each term, the index of the ``[[features]]`` entry it came from.
+    """
+    entries = sc.data["features"]
+    if not any("components" in f for f in entries):
+        return None
+    rows: list[int] = []
+    offset = 0
+    for term, i in zip(terms, entry_of, strict=True):
+        size = term.feature.size
+        comps = entries[i].get("components", list(range(size)))
+        key = f"features[{i}].components"
+        if not comps or not all(isinstance(c, int) and not isinstance(c, bool) for c in comps):
+            raise sc.error(key, f"expected a non-empty list of integers, got {comps!r}")
+        if len(set(comps)) != len(comps) or not all(0 <= c < size for c in comps):
+            raise sc.error(
+                key,
+                f"components must be distinct indices in [0, {size - 1}] "
+                f"(the feature has {size} components), got {comps!r}",
+            )
+        rows.extend(offset + c for c in sorted(comps))
+        offset += size
+    return np.asarray(np.eye(offset)[rows])
 
 
 def build(sc: Scenario) -> Experiment:
@@ -295,14 +335,16 @@ def build(sc: Scenario) -> Experiment:
     task_t = sc.data.get("task", {})
     ref = sc.data["features"][0]["object"]
     desired = _desired_poses(sc, scene, ref) if "desired_pose" in task_t else None
-    terms = _features(sc, scene, desired)
+    terms, entry_of = _features(sc, scene, desired)
+    C = _selection(sc, terms, entry_of)
     depth = task_t.get("depth", "current")
     try:
         if desired is not None:
-            task = VisualTask.from_desired_poses(terms, desired, depth=depth)
+            task = VisualTask.from_desired_poses(terms, desired, depth=depth, C=C)
         elif "desired" in task_t:
             k = sum(t.feature.size for t in terms)
-            task = VisualTask(terms, _arr(sc, "task.desired", task_t["desired"], (k,)), depth=depth)
+            s_star = _arr(sc, "task.desired", task_t["desired"], (k,))
+            task = VisualTask(terms, s_star, depth=depth, C=C)
         else:
             raise sc.error(
                 "task", "give task.desired_pose (c*Mo of the target) or task.desired (s*)"

@@ -95,7 +95,14 @@ _MOTION_KEYS = {
     "translations": list,
     "rotvecs": list,
 }
-_FEATURE_KEYS = {"kind": str, "object": str, "variant": str, "index": int, "rotation_features": str}
+_FEATURE_KEYS = {
+    "kind": str,
+    "object": str,
+    "variant": str,
+    "index": int,
+    "rotation_features": str,
+    "components": list,
+}
 _POSE_KEYS = {"translation": list, "rotvec": list, "rpy_deg": list}
 
 
