@@ -1331,15 +1331,21 @@ def _errors_text(er: ErrorSpec) -> str:
 
 
 def _figures(
-    result_stats: Sequence[MethodStats], rows: Sequence[Mapping[str, Any]], out: Path
+    result_stats: Sequence[MethodStats],
+    rows: Sequence[Mapping[str, Any]],
+    out: Path,
+    *,
+    tracking: bool = False,
 ) -> tuple[Path, ...]:
+    """Write ``success_rate.png`` and ``iterations.png`` (tracking: ``final_error.png``)."""
     try:
         from matplotlib.figure import Figure
     except ImportError:  # matplotlib is optional
         return ()
     names = [s.method for s in result_stats]
     x = np.arange(len(names))
-    fig = Figure(figsize=(max(6.0, 0.7 * len(names) + 2), 4.0))
+    size = (max(6.0, 0.7 * len(names) + 2), 4.0)
+    fig = Figure(figsize=size)
     ax = fig.add_subplot()
     rate = np.array([s.success_rate for s in result_stats]) * 100
     err = np.array(
@@ -1355,14 +1361,24 @@ def _figures(
     fig.tight_layout()
     p1 = out / "success_rate.png"
     fig.savefig(p1, dpi=120)
-    fig = Figure(figsize=(max(6.0, 0.7 * len(names) + 2), 4.0))
+    fig = Figure(figsize=size)
     ax = fig.add_subplot()
-    data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
+    if tracking:  # every run lasts the same: show how well the runs that lasted tracked
+        full = ("converged", "max_iterations")
+        data = [
+            [r["final_error"] for r in rows if r["method"] == m and r["outcome"] in full]
+            for m in names
+        ]
+        ax.set_yscale("log")
+        ax.set_ylabel("final ‖e1‖ (runs not stopped by a limit or a lost target)")
+        p2 = out / "final_error.png"
+    else:
+        data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
+        ax.set_ylabel("iterations to converge (successes)")
+        p2 = out / "iterations.png"
     ax.boxplot([d if d else [np.nan] for d in data], positions=x)
     ax.set_xticks(x, names, rotation=45, ha="right")
-    ax.set_ylabel("iterations to converge (successes)")
     fig.tight_layout()
-    p2 = out / "iterations.png"
     fig.savefig(p2, dpi=120)
     return p1, p2
 
@@ -1499,7 +1515,8 @@ def run_campaign(
     figures: tuple[Path, ...] = ()
     result = CampaignResult(defn, seed, n, names, rows, stats, len(todo), out_dir, (), markdown)
     if out_dir is not None:
-        figures = _figures(list(stats.values()), rows, out_dir)
+        tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
+        figures = _figures(list(stats.values()), rows, out_dir, tracking=tracking)
         result = CampaignResult(
             defn, seed, n, names, rows, stats, len(todo), out_dir, figures, markdown
         )
