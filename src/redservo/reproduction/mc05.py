@@ -703,7 +703,12 @@ EXPERIMENTS: tuple[ExperimentSpec, ...] = (
             "also converge) stays below 0.85. Here the joint-limit force on x moves the camera "
             "along (-0.56, -0.67, +0.49) in its frame: only the parts that reduce the yn and an "
             "errors pass the directional projector, so yn is accelerated as much as an, unlike "
-            "MC05 Fig. 4 (xg and Z). With ρ = 0.1 the thresholds sit at ±0.8 normalized. "
+            "MC05 Fig. 4 (xg and Z). Caveat: the moment interaction matrix is poorly "
+            "conditioned at the start (smallest singular value 0.066, 0.38 at the goal) and "
+            "classical-unlimited passes near a singularity of it at 0.52 s (0.013; the large "
+            "'discontinuity' in the table), after the classical run has already stopped at "
+            "0.24 s; the directional run stays above 0.075. "
+            "With ρ = 0.1 the thresholds sit at ±0.8 normalized. "
             "λ = 0.5 1/s, dt = 40 ms; the experiment takes about 1 s, so the fast version is the "
             "same."
         ),
