@@ -428,7 +428,16 @@ def claims_joint_limits(runs: Runs) -> list[Claim]:
             "accelerated (Fig. 4)",
             top == 2,
             {f"∫|e| ratio {_FEATURES[i]}": float(acc[i]) for i in range(3)},
-            "" if top == 2 else f"The most accelerated of xn, yn, an is {_FEATURES[top]}.",
+            ""
+            if top == 2
+            else (
+                f"The most accelerated of xn, yn, an is {_FEATURES[top]}. Which feature the "
+                "joint-limit force speeds up depends on the direction the limited axis moves the "
+                "camera: here the gantry x axis moves it mostly along the camera's y axis (base x "
+                "is about (0.56, 0.67, -0.49) in the start camera frame), so the freed task "
+                "direction is mainly yn's; MC05 does not give its joint domain or which axis met "
+                "its limit."
+            ),
         )
     )
     return out
