@@ -25,12 +25,7 @@ def experiments() -> dict[str, ExperimentSpec]:
     """Return the experiments ``{id: spec}`` in report order."""
     out: dict[str, ExperimentSpec] = {}
     for mod in _MODULES:
-        try:
-            module = importlib.import_module(f"redservo.reproduction.{mod}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"redservo.reproduction.{mod}":
-                raise
-            continue
+        module = importlib.import_module(f"redservo.reproduction.{mod}")
         for spec in module.EXPERIMENTS:
             out[spec.id] = spec
     return out
@@ -63,6 +58,12 @@ def _section(
     lines += ["", "### Figures", ""]
     lines += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figs]
     return "\n".join(lines) + "\n"
+
+
+def _slug(label: str) -> str:
+    """A directory name for a run label (``gpm α=2`` -> ``gpm_α2``)."""
+    keep = [c if c.isalnum() or c in "-_." else "_" for c in label.replace("=", "")]
+    return "".join(keep).strip("_") or "run"
 
 
 def _fmt(v: Any) -> str:
@@ -120,9 +121,7 @@ def reproduce(
         figs = spec.figures(runs, exp_dir)
         claims = spec.claims(runs)
         for label, r in runs.results.items():
-            r.save(
-                exp_dir / "runs" / label.replace(" ", "_").replace("=", ""), extra={"label": label}
-            )
+            r.save(exp_dir / "runs" / _slug(label), extra={"label": label})
         md.append(_section(spec, runs, claims, figs, out))
         report["experiments"].append(
             {
