@@ -196,3 +196,23 @@ def test_bad_simulation_input() -> None:
         SimulationOptions(feedforward="magic")  # type: ignore[arg-type]
     with pytest.raises(JointLimitError, match="q0"):
         simulate(robot, scene, task, make_law("classical"), Q0 + 10.0)
+
+
+def test_a_step_commanded_exactly_onto_a_limit_is_not_a_crossing() -> None:
+    """qp/sns may command q + q̇ dt == q_max; roundoff past it must not count as a hit."""
+    from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult
+
+    class OntoTheLimit(Law):
+        name = "onto-the-limit"
+
+        def compute(self, x: LawInputs) -> LawResult:
+            qdot = np.zeros_like(x.q)
+            qdot[0] = (x.limits.q_min[0] - x.q[0]) / x.dt * (1 + 1e-15)  # lands 1 ulp beyond
+            return LawResult(qdot, Diagnostics(method=self.name))
+
+    robot, scene, task = _gaze()
+    opt = SimulationOptions(lam=0.5, dt=0.08, max_iterations=5)
+    res = simulate(robot, scene, task, OntoTheLimit(), Q0, options=opt)
+    assert res.outcome == "max_iterations"
+    assert res.log.q[1][0] == robot.q_min[0]  # clipped onto the limit
+    assert robot.limits().contains(res.log.q[-1])

@@ -7,9 +7,10 @@ The loop, at every iteration k (time ``t = k dt``):
 3. call the law, a pure function of ``(J1, e1, q, limits, λ, dt, ...)``;
 4. saturate ``q̇`` (optional), integrate ``q ← q + q̇ dt``.
 
-The real joint limits are hard: when a step would cross one, the run stops at
-that iteration with outcome ``joint_limit`` (the step is not applied), as a real
-robot's safety stop would. Other outcomes: ``converged`` (``‖e1‖ <
+The real joint limits are hard: when a step would cross one (by more than
+``LIMIT_TOLERANCE``, the roundoff of a step commanded exactly onto a limit), the
+run stops at that iteration with outcome ``joint_limit`` (the step is not
+applied), as a real robot's safety stop would. Other outcomes: ``converged`` (``‖e1‖ <
 tolerance``), ``max_iterations``, ``target_lost`` (a feature is invalid, behind
 the camera, or leaves the image) and ``occluded``.
 
@@ -58,6 +59,11 @@ OUTCOMES: tuple[Outcome, ...] = (
     "occluded",
 )
 Feedforward = Literal["none", "known", "estimated"]
+
+LIMIT_TOLERANCE = 1e-9
+"""A step ending within this distance (m or rad) beyond a real limit is floating-point
+roundoff of a step commanded onto the limit (e.g. by ``qp`` or ``sns``): it lands on the
+limit instead of counting as a crossing. The same tolerance as :meth:`JointLimits.check`."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -436,13 +442,16 @@ def simulate(
             outcome = "converged"
             break
         q_next = q + qdot * opt.dt
-        crossed = np.flatnonzero((q_next < lim.q_min) | (q_next > lim.q_max))
+        crossed = np.flatnonzero(
+            (q_next < lim.q_min - LIMIT_TOLERANCE) | (q_next > lim.q_max + LIMIT_TOLERANCE)
+        )
         if crossed.size:
             outcome = "joint_limit"
             limit_hit = {"axis": int(crossed[0]), "iteration": it}
             break
         prev_e1, prev_J1qdot = state.e1, state.J1 @ qdot
-        q = q_next
+        # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
+        q = np.clip(q_next, lim.q_min, lim.q_max)
         if progress is not None:
             progress(it)
     log = SimulationLog(
