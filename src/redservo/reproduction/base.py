@@ -18,7 +18,30 @@ from redservo.experiment import Experiment, build
 from redservo.scenario import apply_overrides, load_scenario
 from redservo.simulation import SimulationResult
 
-__all__ = ["Claim", "ExperimentSpec", "RunSpec", "Runs", "run_experiment"]
+__all__ = [
+    "WIDE_LIMIT",
+    "Claim",
+    "ExperimentSpec",
+    "RunSpec",
+    "Runs",
+    "run_experiment",
+    "without_limits",
+]
+
+WIDE_LIMIT = 5.0
+"""Half-width (m or rad) of the limits of a reference run 'without limits'."""
+
+
+def without_limits(n: int, wide: float = WIDE_LIMIT) -> tuple[str, ...]:
+    """Overrides that move every joint limit of an n-joint robot to ±``wide``.
+
+    A ``classical`` run with them is the reference "what the task alone asks for" that the
+    cylinder and MC05 experiments compare the avoidance with.
+    """
+    return (
+        "robot.q_min=[" + ", ".join([f"{-wide}"] * n) + "]",
+        "robot.q_max=[" + ", ".join([f"{wide}"] * n) + "]",
+    )
 
 
 @dataclass(frozen=True)

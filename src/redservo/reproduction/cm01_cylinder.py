@@ -41,7 +41,14 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.reproduction.base import Claim, ExperimentSpec, Runs, RunSpec
+from redservo.reproduction.base import (
+    WIDE_LIMIT,
+    Claim,
+    ExperimentSpec,
+    Runs,
+    RunSpec,
+    without_limits,
+)
 
 __all__ = ["EXPERIMENTS", "limb_line_pixels", "path_length"]
 
@@ -49,7 +56,6 @@ SCENARIO = "cm01-cylinder"
 """Shipped scenario of this experiment."""
 UNLIMITED = "classical-unlimited"
 """Label of the reference run without joint limits."""
-WIDE_LIMIT = 5.0
 """Joint limits (m or rad, ±) of the reference run: far outside any motion of this task."""
 APPROACHING_AXIS = 2
 """0-based index of the axis CM01 sees approach its band (axis 3)."""
@@ -328,10 +334,7 @@ def _twist_jump(twist: FloatArray) -> float:
     return float(np.max(np.linalg.norm(d, axis=1))) if d.size else 0.0
 
 
-_NO_LIMITS = (
-    "robot.q_min=[" + ", ".join([f"{-WIDE_LIMIT}"] * 6) + "]",
-    "robot.q_max=[" + ", ".join([f"{WIDE_LIMIT}"] * 6) + "]",
-)
+_NO_LIMITS = without_limits(6)
 
 EXPERIMENTS: tuple[ExperimentSpec, ...] = (
     ExperimentSpec(

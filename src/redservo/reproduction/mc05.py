@@ -65,7 +65,13 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.experiment import Experiment
 from redservo.redundancy.linalg import DEFAULT_RCOND, pinv
-from redservo.reproduction.base import Claim, ExperimentSpec, Runs, RunSpec
+from redservo.reproduction.base import (
+    Claim,
+    ExperimentSpec,
+    Runs,
+    RunSpec,
+    without_limits,
+)
 from redservo.scene import PointSet, Sphere
 from redservo.simulation import SimulationResult
 
@@ -80,7 +86,6 @@ KAPPA = 10.0
 """Joint-limit force gain κ of the ``directional`` run of experiment 1."""
 UNLIMITED = "classical-unlimited"
 """Label of experiment 1's reference run without joint limits."""
-WIDE_LIMIT = 5.0
 """Joint limits (m or rad, ±) of the reference run."""
 RANK_NEAR_FRACTION = 0.8
 """Fraction of the in-band iterations at which the directional rank must be > 0."""
@@ -677,10 +682,7 @@ def claims_occlusion(runs: Runs) -> list[Claim]:
 
 # --------------------------------------------------------------------------- specs
 
-_NO_LIMITS = (
-    "robot.q_min=[" + ", ".join([f"{-WIDE_LIMIT}"] * 6) + "]",
-    "robot.q_max=[" + ", ".join([f"{WIDE_LIMIT}"] * 6) + "]",
-)
+_NO_LIMITS = without_limits(6)
 
 EXPERIMENTS: tuple[ExperimentSpec, ...] = (
     ExperimentSpec(
