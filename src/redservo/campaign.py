@@ -1370,7 +1370,7 @@ def _figures(
             for m in names
         ]
         ax.set_yscale("log")
-        ax.set_ylabel("final ‖e1‖ (runs not stopped by a limit or a lost target)")
+        ax.set_ylabel("final ‖e1‖ (runs that lasted)")
         p2 = out / "final_error.png"
     else:
         data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
