@@ -1307,10 +1307,10 @@ def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping
         f"## Campaign {defn.name}\n\n"
         f"{defn.description}\n\n"
         f"Base scenario `{defn.scenario.name}` (λ = {float(ctl.get('lam', 0.5)):g} 1/s, "
-        f"dt = {float(ctl.get('dt', 0.04)):g} s); {n} samples per method, seed {seed}. "
+        f"dt = {float(ctl.get('dt', 0.04)):g} s); N = {n} samples per method, seed {seed}. "
         f"Start: each joint in the outer band (margin in [{st.min_margin:g}, "
         f"{(1 + st.band_beyond) * rho:g}] of its range, thresholds at {rho:g}) with "
-        f"probability {st.p_band:g}, at least {st.min_in_band} joints; target moved by "
+        f"probability {st.p_band:g}, at least {st.min_in_band} per start; target moved by "
         f"t ∈ {rng3(tg.translation)} m and turned by r ∈ {rng3(tg.rotation_deg)} deg; "
         f"{_errors_text(defn.errors)}{redraws} invalid starts re-drawn. {success}\n\n"
     )
