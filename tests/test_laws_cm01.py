@@ -577,3 +577,31 @@ def test_valid_options_and_repr() -> None:
     assert "alpha=0.5" in repr(law) and "max_levels=3" in repr(law)
     assert "max_levels" not in repr(make_law("iterative-basic"))
     assert make_law("iterative", max_levels=np.int64(2)).max_levels == 2  # type: ignore[attr-defined]
+
+
+def test_ill_conditioned_constraint_is_reported_and_can_be_capped() -> None:
+    """Stopping an axis the null space barely moves needs a huge motion (campaign finding).
+
+    J1 = [1, 0, 1e-5]: Ker J1 moves axis 0 only through the direction (-1e-5, 0, 1), so the
+    constraint row of axis 0 has singular value ~1e-5.
+    """
+    limits = JointLimits(-np.ones(3), np.ones(3))
+    kw = dict(
+        J1=np.array([[1.0, 0.0, 1e-5]]),
+        e1=np.array([-1.0]),
+        q=np.array([0.85, 0.0, 0.0]),
+        limits=limits,
+        lam=0.5,
+        dt=0.04,
+    )
+    exact = make_law("iterative")(**kw)
+    assert exact.diagnostics.critical[0] == (0,)  # (the huge motion then drives axis 2 in)
+    assert abs(exact.qdot[0]) < 1e-9  # CM01: stopped, whatever it costs ...
+    assert np.abs(exact.qdot).max() > 1e3  # ... here a huge motion of axis 2
+    assert any("ill-conditioned constraints" in n for n in exact.diagnostics.notes)
+    capped = make_law("iterative", constraint_rcond=1e-2)(**kw)
+    assert np.abs(capped.qdot).max() < 1.0  # no amplification
+    assert capped.diagnostics.overconstrained  # the constraint is reported as not met
+    np.testing.assert_allclose(kw["J1"] @ capped.qdot, -0.5 * kw["e1"], atol=1e-12)
+    with pytest.raises(ConfigurationError, match="constraint_rcond"):
+        make_law("iterative-smooth", constraint_rcond=1.5)

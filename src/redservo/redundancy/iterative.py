@@ -78,6 +78,14 @@ Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
   and ``overconstrained`` is set; levels still continue, so later axes are
   reported even when they cannot be constrained. ``overconstrained`` is also set
   whenever more axes are constrained than ``n_a``.
+* **Ill-conditioned constraints.** Stopping an axis that the free directions
+  barely move needs a large null-space motion (amplification ``1/σ_min`` of the
+  constraint rows): CM01's scheme has no safeguard, and the default cut-off keeps
+  it exact. When ``σ_min < 1e-3`` (amplification above 1000) the diagnostics say
+  so in a note, with the value. The option ``constraint_rcond`` (absolute, in
+  [0, 1)) raises the cut-off: rows below it count as unmeetable (least squares,
+  ``overconstrained``) instead of being met with a huge velocity. Found by the
+  humanoid tracking campaign (``docs/results.md``).
 * **No redundancy** (``rank J1 = n``, e.g. m >= n): E is empty and the law is the
   classical one, with a note; critical axes are still reported (and
   ``overconstrained`` set, as they cannot be slowed).
@@ -111,6 +119,9 @@ __all__ = [
 ]
 
 _RESIDUAL_TOL = 1e-9
+ILL_CONDITIONED = 1e-3
+"""Constraint rows with a singular value below this amplify the null-space motion by
+more than 1000x; the law says so in its diagnostics notes."""
 """A least-squares residual above this fraction of the right-hand side means 'not met'."""
 
 
@@ -127,12 +138,15 @@ class IterativeSolution(NamedTuple):
     """(n,) weight γ_k of each constrained axis (0 elsewhere)."""
     unmet: tuple[int, ...]
     """Levels (1-based) whose constraints were met only in the least-squares sense."""
+    min_sigma: float = float("inf")
+    """Smallest singular value of the constraint rows used (inf if none): the
+    null-space motion is amplified up to ``1/min_sigma``."""
 
 
 def _constrain(
     N: FloatArray, K: NDArray[np.intp], rhs: FloatArray, tol: float
-) -> tuple[FloatArray, FloatArray, bool]:
-    """Minimum-norm motion ``Δ = N c`` with ``Δ_K = rhs``; return ``(Δ, N Z, met)``.
+) -> tuple[FloatArray, FloatArray, bool, float]:
+    """Minimum-norm motion ``Δ = N c`` with ``Δ_K = rhs``; return ``(Δ, N Z, met, σ_min)``.
 
     ``Z`` is an orthonormal basis of ``Ker N_K``, so ``N Z`` spans the directions
     left free. Singular values of ``N_K`` at or below ``tol`` count as zero. LAPACK's
@@ -142,14 +156,14 @@ def _constrain(
     A = N[K]
     p, f = A.shape
     if f == 0:  # no free direction left
-        return np.zeros(N.shape[0]), N, not rhs.any()
+        return np.zeros(N.shape[0]), N, not rhs.any(), np.inf
     U, s, Vt, info = dgesvd(A)
     if info != 0:  # LAPACK did not converge (never seen on finite input): do nothing
-        return np.zeros(N.shape[0]), N, not rhs.any()
+        return np.zeros(N.shape[0]), N, not rhs.any(), np.inf
     r = int(np.count_nonzero(s > tol))
     c = Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
     met = r == p or bool(np.abs(U[:, r:].T @ rhs).max() <= _RESIDUAL_TOL * np.abs(rhs).max())
-    return N @ c, N @ Vt[r:].T, met
+    return N @ c, N @ Vt[r:].T, met, float(s[r - 1]) if r else np.inf
 
 
 def iterate_null_space(
@@ -188,6 +202,7 @@ def iterate_null_space(
     levels: list[tuple[int, ...]] = []
     steps: list[FloatArray] = []
     unmet: list[int] = []
+    min_sigma = np.inf
     v = w  # level 1: d = 0 and no extra term (eqs. 8, 16)
     for level in range(1, n + 1 if max_levels is None else max_levels + 1):
         if level > 1:
@@ -197,7 +212,8 @@ def iterate_null_space(
         if K.size == 0:
             break
         g = limits.gamma(q_hat)[K] if smooth else np.ones(K.size)
-        step, N, met = _constrain(N, K, -g * v[K], tol)  # eqs. 11/16, 15/18/21
+        step, N, met, sig = _constrain(N, K, -g * v[K], tol)  # eqs. 11/16, 15/18/21
+        min_sigma = min(min_sigma, sig)
         d = d + step
         free[K] = False
         gamma[K] = g
@@ -205,7 +221,7 @@ def iterate_null_space(
         steps.append(step)
         if not met:
             unmet.append(level)
-    return IterativeSolution(d, tuple(levels), tuple(steps), gamma, tuple(unmet))
+    return IterativeSolution(d, tuple(levels), tuple(steps), gamma, tuple(unmet), float(min_sigma))
 
 
 def _check_levels(max_levels: int | None) -> int | None:
@@ -216,6 +232,15 @@ def _check_levels(max_levels: int | None) -> int | None:
     if max_levels < 1:
         raise ConfigurationError(f"max_levels must be None or an int >= 1, got {max_levels!r}")
     return int(max_levels)
+
+
+def _check_constraint_rcond(value: float | None) -> float | None:
+    if value is None:
+        return None
+    v = float(value)
+    if not (np.isfinite(v) and 0.0 <= v < 1.0):
+        raise ConfigurationError(f"constraint_rcond must be None or in [0, 1), got {value!r}")
+    return v
 
 
 def _check_alpha(alpha: float) -> float:
@@ -232,6 +257,7 @@ class _IterativeLaw(Law):
     with_e2: ClassVar[bool] = False
     max_levels: int | None = None
     alpha: float = 0.0
+    constraint_rcond: float | None = None
 
     def compute(self, x: LawInputs) -> LawResult:
         svd = task_svd(x.J1, self.rcond)
@@ -251,7 +277,7 @@ class _IterativeLaw(Law):
             smooth=self.smooth,
             extra=extra,
             max_levels=self.max_levels,
-            tol=self.rcond,
+            tol=self.rcond if self.constraint_rcond is None else self.constraint_rcond,
         )
         v = w + sol.motion if extra is None else w + extra + sol.motion
         qdot = -x.lam * v
@@ -265,6 +291,12 @@ class _IterativeLaw(Law):
             )
         if sol.unmet:
             notes.append(f"constraints met only in the least-squares sense at levels {sol.unmet}")
+        if sol.min_sigma < ILL_CONDITIONED:
+            notes.append(
+                f"ill-conditioned constraints: smallest singular value {sol.min_sigma:.2g}, "
+                f"null-space motion amplified up to {1.0 / sol.min_sigma:.3g}x "
+                "(raise constraint_rcond to cap it)"
+            )
         b = [E.T @ s for s in sol.steps[1:]]
         diag = Diagnostics(
             method=self.name,
@@ -292,14 +324,20 @@ class IterativeBasic(_IterativeLaw):
 
     Options:
         rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
+            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
+            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative-basic"
     description = "stop critical axes in Ker J1, one level (CM01 eqs. 10-12)"
     max_levels = 1
 
-    def __init__(self, *, rcond: float = DEFAULT_RCOND) -> None:
+    def __init__(
+        self, *, rcond: float = DEFAULT_RCOND, constraint_rcond: float | None = None
+    ) -> None:
         super().__init__(rcond=rcond)
+        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
 
 
 @register
@@ -310,14 +348,24 @@ class Iterative(_IterativeLaw):
         max_levels: Maximum number of levels (int >= 1), or None (default) to
             iterate until no new axis becomes critical.
         rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
+            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
+            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative"
     description = "stop critical axes in Ker J1, iterated (CM01 eqs. 13-15)"
 
-    def __init__(self, *, max_levels: int | None = None, rcond: float = DEFAULT_RCOND) -> None:
+    def __init__(
+        self,
+        *,
+        max_levels: int | None = None,
+        rcond: float = DEFAULT_RCOND,
+        constraint_rcond: float | None = None,
+    ) -> None:
         super().__init__(rcond=rcond)
         self.max_levels = _check_levels(max_levels)
+        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
 
 
 @register
@@ -327,6 +375,9 @@ class IterativeSmooth(Iterative):
     Options:
         max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
         rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
+            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
+            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative-smooth"
@@ -345,6 +396,9 @@ class IterativeSmoothE2(_IterativeLaw):
         alpha: Gain α >= 0 of the joint-limit gradient (default 2.0, as ``gpm``).
         max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
         rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
+        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
+            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
+            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative-smooth-e2"
@@ -358,7 +412,9 @@ class IterativeSmoothE2(_IterativeLaw):
         alpha: float = 2.0,
         max_levels: int | None = None,
         rcond: float = DEFAULT_RCOND,
+        constraint_rcond: float | None = None,
     ) -> None:
         super().__init__(rcond=rcond)
         self.alpha = _check_alpha(alpha)
         self.max_levels = _check_levels(max_levels)
+        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
