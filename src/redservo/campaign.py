@@ -138,7 +138,7 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, RedservoError, ScenarioError, UnknownNameError
 from redservo.limits import JointLimits
-from redservo.scenario import Scenario, load_scenario, parse_scenario
+from redservo.scenario import Scenario, load_scenario, parse_scenario, shipped_descriptions
 from redservo.spatial import inverse, make_transform, matrix_to_rotvec
 
 __all__ = [
@@ -417,18 +417,7 @@ def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
 
 def shipped_campaigns() -> dict[str, str]:
     """Return ``{name: description}`` of the campaigns in ``redservo/scenarios/campaigns``."""
-    root = resources.files("redservo") / "scenarios" / "campaigns"
-    out: dict[str, str] = {}
-    if not root.is_dir():  # pragma: no cover - the directory is shipped
-        return out
-    for entry in sorted(root.iterdir(), key=lambda p: p.name):
-        if entry.name.endswith(".toml"):
-            try:
-                data = tomllib.loads(entry.read_text())
-            except tomllib.TOMLDecodeError:  # pragma: no cover - shipped files are tested
-                continue
-            out[entry.name[:-5]] = str(data.get("description", ""))
-    return out
+    return shipped_descriptions("scenarios/campaigns")
 
 
 def load_campaign(name_or_path: str | Path) -> CampaignDefinition:

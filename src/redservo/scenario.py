@@ -157,8 +157,15 @@ class Scenario:
 
 def shipped_scenarios() -> dict[str, str]:
     """Return ``{name: description}`` of the scenarios shipped in ``redservo/scenarios``."""
+    return shipped_descriptions("scenarios")
+
+
+def shipped_descriptions(folder: str) -> dict[str, str]:
+    """Return ``{name: description}`` of the TOML files in the package folder ``folder``."""
     out: dict[str, str] = {}
-    root = resources.files("redservo") / "scenarios"
+    root = resources.files("redservo").joinpath(*folder.split("/"))
+    if not root.is_dir():  # pragma: no cover - the folders are shipped
+        return out
     for entry in sorted(root.iterdir(), key=lambda p: p.name):
         if entry.name.endswith(".toml"):
             try:
