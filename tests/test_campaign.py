@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest
 
+import redservo
 from redservo import campaign as cmp
 from redservo.campaign import (
     draw_sample,
@@ -242,7 +243,7 @@ def test_shipped_campaigns_load_and_draw() -> None:
     assert {"afma6-gaze-demo", "cm01-gaze", "mc05-joint-limits", "cm01-humanoid-tracking"} <= set(
         names
     )
-    root = Path(cmp.__file__).parent / "scenarios" / "campaigns"
+    root = Path(redservo.__file__).parent / "scenarios" / "campaigns"
     missing = []
     for name in names:
         base = tomllib.loads((root / f"{name}.toml").read_text())["scenario"]

@@ -1,0 +1,405 @@
+"""Monte Carlo comparison campaigns: every method on the same random variations of a scenario.
+
+A *campaign definition* (TOML; shipped in ``redservo/scenarios/campaigns/`` and loadable by
+name, or any path) names a base scenario and says how to vary it. :func:`run_campaign` draws
+``N`` variations from a seed, runs every method on each of them (the same variations for all
+methods), appends one row per (sample, method) to ``samples.csv`` as soon as it is finished,
+and summarizes each method. This is the benchmark literature.md §C recommends: random starts
+near the limits; success = task converged with no limit crossed.
+
+Definition format (every table is optional except ``scenario``)::
+
+    name = "cm01-gaze"
+    description = "one line"
+    scenario = "cm01-gaze"          # shipped scenario name, or a .toml path relative to this file
+    samples = 200                   # default N (run_campaign(samples=...) overrides)
+    methods = ["classical", "gpm"]  # default methods (default: every name in redservo.METHODS)
+    max_attempts = 100              # draws per sample before giving up (see "Invalid starts")
+
+    [overrides]                     # deep-merged into the base scenario (e.g. an iteration cap)
+    simulation = { max_iterations = 400 }
+
+    [method_options.gpm]            # law options of one method; a method without an entry
+    alpha = 2.0                     # gets the scenario's control.options if it is the
+                                    # scenario's own method, and no options otherwise
+
+    [start]                         # start configuration near the limits (see below)
+    p_band = 0.5                    # probability that a joint starts in the outer band
+    band_beyond = 0.5               # band reaches (1 + band_beyond) rho into the range
+    min_margin = 0.01               # distance to the real limit, fraction of the range
+    min_in_band = 1                 # at least this many joints start in the band
+    joints = ["x", "z", "B"]        # joints that may start in the band (default: all)
+
+    [target]                        # random placement relative to the start camera
+    translation = [0.1, 0.1, [-0.1, 0.3]]  # per camera axis: ±h or [lo, hi] (m)
+    rotation_deg = [10, 10, 30]            # per target axis: ±h or [lo, hi] (deg)
+    image_margin_px = 10                   # the start image must be this far inside the border
+    motion_frame = "camera"                # "camera" or "world" (see below)
+
+    [errors]                        # noise and modelling errors, each optional
+    noise_std = [0.0, 0.002]        # feature noise std (feature units): number or [lo, hi]
+    depth_scale = [0.7, 1.3]        # controller depth Ẑ = depth_scale · Z: number or [lo, hi]
+    hand_eye_translation = 0.01     # ± per axis (m) of the hand-eye error
+    hand_eye_rotation_deg = 1.0     # ± per rotation-vector component (deg)
+
+Start configurations (``[start]``). With ``Δq̄`` the range of a joint and ``rho`` the base
+scenario's band width (the activation threshold ``q̃`` lies at margin ``rho``, CM01 eq. 3),
+the *outer band* is the set of positions whose margin (distance to the nearer real limit over
+``Δq̄``) lies in ``[min_margin, (1 + band_beyond) rho]``: the whole activation band plus a
+strip ``band_beyond · rho`` wide just inside the threshold. Each eligible joint independently
+starts in the outer band with probability ``p_band`` (side chosen with probability 1/2, margin
+uniform in the interval); if fewer than ``min_in_band`` did, further eligible joints are chosen
+uniformly until there are that many. Every other joint is uniform in the *inner range*
+``[q̄_min + (1 + band_beyond) rho Δq̄, q̄_max - (1 + band_beyond) rho Δq̄]``. So every start is
+legal by at least ``min_margin · Δq̄`` on every joint. :func:`sample_start` is this sampler.
+
+Target placement (``[target]``). The base scenario is run at its own start to get every
+object's pose in the start camera frame, ``cMo``. A sample keeps those relative poses and
+applies one rigid perturbation to the whole scene: a rotation by the rotation vector ``r``
+(components uniform in the ``rotation_deg`` ranges, converted to rad) about the origin and axes
+of the *reference object* (the object of the first feature), then a translation ``t`` (uniform
+in the ``translation`` ranges) expressed in the start camera frame::
+
+    cMo_i' = T(t) · cMref · R(r) · cMref⁻¹ · cMo_i
+
+The sample's scenario gives each object as ``pose_in_camera = cMo_i'`` and the robot as
+``q0 = sampled q``; the desired pose (relative to the reference object) is unchanged. Object
+motions (``constant_velocity``, ``waypoints``) are given in the world frame; with
+``motion_frame = "camera"`` (default) their vectors are rotated by ``bRc' · bRc⁻¹`` (new and
+nominal start camera orientations) so that the motion *relative to the start camera* is the
+nominal one, which keeps a tracked target in view whatever the start; ``"world"`` keeps them.
+
+Invalid starts. A drawn sample is *invalid* when the task cannot be evaluated at its start
+(target behind the camera, degenerate features) or when an object is not inside the image by
+``image_margin_px`` (the larger of ``[target].image_margin_px`` and the scenario's
+``simulation.image_margin_px``) or is occluded. The check is the simulator's own: one
+iteration of ``classical`` must not end in ``target_lost`` or ``occluded``. An invalid draw is
+re-drawn deterministically: attempt ``a`` of sample ``i`` uses the generator seeded by
+``SeedSequence(seed, spawn_key=(i, a))``, ``a = 0, 1, ...``; the number of rejected draws is
+stored in the ``attempts`` column. After ``max_attempts`` rejections a
+:class:`~redservo.errors.ScenarioError` says the variation spec is too wide.
+
+Determinism and resumption. A sample depends only on ``(definition, seed, index)``, so the
+rows do not depend on the number of workers or on the order runs finish. With an output
+directory, every finished row is appended to ``samples.csv`` (flushed at once) and the
+definition's fingerprint (SHA-256 of the canonical JSON of the definition, the base scenario
+after overrides, the seed and :data:`FORMAT_VERSION`; not ``methods``, ``samples`` or
+``description``) is stored in ``definition.json``. A rerun in the same directory reuses every
+stored row and computes only the missing (sample, method) pairs, so adding samples or methods
+extends a campaign; a different fingerprint is refused with a
+:class:`~redservo.errors.ConfigurationError`. A run that raised an exception is stored with
+outcome ``error`` (and the message in ``error``), counted as a failure, and recomputed on the
+next rerun.
+
+Statistics (per method, over the first ``samples`` samples). Success = outcome ``converged``
+(the simulator stops a run at the first limit crossing or lost target, so a converged run
+never hit a limit nor lost the target). The success rate has a 95 % Wilson score interval
+(:func:`wilson_interval`). Iterations to converge: median and 90th percentile over successes.
+Peak joint speed (largest ``|q̇_i|`` over joints and time, rad/s or m/s: CM01's Afma6 mixes
+both), peak camera translation (m/s) and rotation (rad/s) speed: median and 95th percentile
+over all runs (a failed run counts with the peak it reached before it stopped). Discontinuity
+(max ``‖Δq̇‖`` between steps) and minimum margin (fraction of the range): medians over all
+runs. Percentiles use numpy's default (linear interpolation).
+
+Decisions (for docs/decisions.md):
+    * The outer band is measured from the real limit in units of the range and extends
+      ``band_beyond · rho`` past the threshold, so the set-up is robot-independent and always
+      includes starts just outside the band, where a law must *not* yet react.
+    * The scene is perturbed rigidly relative to the start camera (not in the world): a random
+      start configuration then never puts the target behind the camera by construction, and
+      the required camera displacement has the same distribution for every start.
+    * Peaks over all runs (not only successes), so a method is not rewarded for failing early.
+    * ``success`` needs no separate "target lost" or "limit" check: those outcomes end the run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from redservo.campaign.definition import (
+    FORMAT_VERSION,
+    CampaignDefinition,
+    ErrorSpec,
+    StartSpec,
+    TargetSpec,
+    load_campaign,
+    parse_campaign,
+    shipped_campaigns,
+)
+from redservo.campaign.sampling import Sample, draw_sample, sample_start
+from redservo.campaign.sampling import _start_problem as _start_problem
+from redservo.campaign.stats import (
+    MethodStats,
+    _figures,
+    _heading,
+    method_stats,
+    stats_table,
+    wilson_interval,
+)
+from redservo.campaign.storage import _error_columns, _sample_columns, _Store, _summary_columns
+from redservo.errors import ConfigurationError, UnknownNameError
+from redservo.scenario import Scenario
+
+__all__ = [
+    "FORMAT_VERSION",
+    "CampaignDefinition",
+    "CampaignResult",
+    "ErrorSpec",
+    "MethodStats",
+    "Sample",
+    "StartSpec",
+    "TargetSpec",
+    "draw_sample",
+    "load_campaign",
+    "method_stats",
+    "parse_campaign",
+    "run_campaign",
+    "sample_start",
+    "shipped_campaigns",
+    "stats_table",
+    "wilson_interval",
+]
+
+
+@dataclass(frozen=True)
+class CampaignResult:
+    """The rows and per-method statistics of a campaign.
+
+    Attributes:
+        definition: The campaign definition.
+        seed: The seed.
+        samples: Number of samples N.
+        methods: Methods, in table order.
+        rows: One dict per (sample, method), sorted by sample then method (``samples.csv``
+            columns).
+        stats: :class:`MethodStats` per method.
+        computed: Rows computed by this call (the others were reused from ``out``).
+        out: Output directory, or None.
+        figures: Paths of the written figures.
+        markdown: Heading, the statistics table and notes (``campaign.md``).
+    """
+
+    definition: CampaignDefinition
+    seed: int
+    samples: int
+    methods: tuple[str, ...]
+    rows: tuple[dict[str, Any], ...]
+    stats: dict[str, MethodStats]
+    computed: int
+    out: Path | None
+    figures: tuple[Path, ...]
+    markdown: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (``campaign.json``); NaN becomes None."""
+
+        def clean(v: Any) -> Any:
+            return None if isinstance(v, float) and math.isnan(v) else v
+
+        d = self.definition
+        return {
+            "campaign": d.name,
+            "source": d.source,
+            "scenario": d.scenario.source,
+            "seed": self.seed,
+            "samples": self.samples,
+            "methods": list(self.methods),
+            "fingerprint": d.fingerprint(self.seed),
+            "success": "outcome == converged (no limit hit, target never lost)",
+            "stats": {
+                m: {k: clean(v) for k, v in s._asdict().items()} for m, s in self.stats.items()
+            },
+        }
+
+
+class _Task(NamedTuple):
+    sample: int
+    method: str
+    data: dict[str, Any]
+    source: str
+    law_options: dict[str, Any] | None
+    params: dict[str, Any]
+
+
+def _run_task(task: _Task) -> dict[str, Any]:
+    """Run one (sample, method) and return its row; an exception becomes an ``error`` row."""
+    from redservo.experiment import build
+
+    row: dict[str, Any] = {"sample": task.sample, "method": task.method, **task.params}
+    try:
+        exp = build(Scenario(task.data, task.source))
+        result = exp.run(method=task.method, law_options=task.law_options)
+        row.update(_summary_columns(result.summary, exp.robot.joint_names))
+    except Exception as exc:  # recorded, counted as a failure, retried on the next rerun
+        row.update(_error_columns(exc))
+    return row
+
+
+def _executor_map(
+    tasks: Iterator[_Task], workers: int, on_row: Callable[[dict[str, Any]], None]
+) -> None:
+    """Run tasks (in-process when ``workers == 1``), calling ``on_row`` as each finishes."""
+    if workers == 1:
+        for task in tasks:
+            on_row(_run_task(task))
+        return
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        pending: set[Future[dict[str, Any]]] = set()
+        try:
+            for task in tasks:
+                pending.add(pool.submit(_run_task, task))
+                # Keep a bounded queue so rows are stored while samples are still being drawn.
+                while len(pending) >= 4 * workers:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        on_row(fut.result())
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    on_row(fut.result())
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+
+
+def run_campaign(
+    campaign: str | Path | CampaignDefinition,
+    *,
+    methods: Sequence[str] | None = None,
+    samples: int | None = None,
+    seed: int = 0,
+    workers: int | None = None,
+    out: str | Path | None = None,
+    progress: bool = True,
+) -> CampaignResult:
+    """Run a Monte Carlo campaign: every method on the same ``samples`` random variations.
+
+    Args:
+        campaign: A shipped campaign name, a definition file, or a :class:`CampaignDefinition`.
+        methods: Methods to compare (default: the definition's list).
+        samples: Number of samples N (default: the definition's).
+        seed: Non-negative seed; sample ``i`` depends only on ``(definition, seed, i)``.
+        workers: Processes (default: all cores); 1 runs in this process.
+        out: Output directory for ``samples.csv`` (resumable), ``definition.json``,
+            ``campaign.json``, ``campaign.md`` and figures; None writes nothing.
+        progress: Show a progress bar on stderr (tqdm, if installed and stderr is a terminal).
+
+    Returns:
+        :class:`CampaignResult`.
+
+    Raises:
+        ScenarioError: bad definition, or no valid start for a sample.
+        UnknownNameError: unknown method.
+        ConfigurationError: bad ``samples``/``seed``/``workers``, or ``out`` holds another
+            campaign.
+    """
+    from redservo.redundancy import METHODS
+
+    defn = campaign if isinstance(campaign, CampaignDefinition) else load_campaign(campaign)
+    names = tuple(methods) if methods is not None else defn.methods
+    for m in names:
+        if m not in METHODS:
+            raise UnknownNameError(f"unknown method {m!r}; allowed: {', '.join(METHODS)}")
+    if not names or len(set(names)) != len(names):
+        raise ConfigurationError(f"methods must be a non-empty list without repeats, got {names}")
+    n = defn.samples if samples is None else int(samples)
+    if n < 1:
+        raise ConfigurationError(f"samples must be at least 1, got {samples}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ConfigurationError(f"seed must be a non-negative integer, got {seed!r}")
+    seed = int(seed)
+    n_workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    if n_workers < 1:
+        raise ConfigurationError(f"workers must be at least 1, got {workers}")
+    out_dir = Path(out) if out is not None else None
+    store = _Store(out_dir, defn, seed) if out_dir is not None else None
+    done: dict[tuple[int, str], dict[str, Any]] = {
+        key: row
+        for key, row in (store.rows.items() if store else ())
+        if key[0] < n and key[1] in names and row["outcome"] != "error"
+    }
+    todo = [(i, m) for i in range(n) for m in names if (i, m) not in done]
+    joint_names = defn.nominal.joint_names
+
+    def tasks() -> Iterator[_Task]:
+        by_sample: dict[int, list[str]] = {}
+        for i, m in todo:
+            by_sample.setdefault(i, []).append(m)
+        for i, ms in by_sample.items():
+            s = draw_sample(defn, seed, i)
+            params = _sample_columns(s, joint_names)
+            for m in ms:
+                opts = defn.method_options.get(m)
+                yield _Task(
+                    i,
+                    m,
+                    s.scenario.data,
+                    s.scenario.source,
+                    dict(opts) if opts is not None else None,
+                    params,
+                )
+
+    bar = _bar(len(todo), defn.name, progress)
+    errors: list[str] = []
+
+    def on_row(row: dict[str, Any]) -> None:
+        if store is not None:
+            store.append(row)
+            row = store.normalize(row)
+        done[(row["sample"], row["method"])] = row
+        if row["outcome"] == "error":
+            errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
+        bar(1)
+
+    try:
+        _executor_map(tasks(), min(n_workers, max(1, len(todo))), on_row)
+    finally:
+        bar(None)
+    for msg in errors:
+        print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
+    order = {m: k for k, m in enumerate(names)}
+    rows = tuple(sorted(done.values(), key=lambda r: (r["sample"], order[r["method"]])))
+    stats = {m: method_stats(m, [r for r in rows if r["method"] == m]) for m in names}
+    markdown = _heading(defn, n, seed, rows) + stats_table(stats.values()) + "\n"
+    figures: tuple[Path, ...] = ()
+    result = CampaignResult(defn, seed, n, names, rows, stats, len(todo), out_dir, (), markdown)
+    if out_dir is not None:
+        tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
+        figures = _figures(list(stats.values()), rows, out_dir, tracking=tracking)
+        result = CampaignResult(
+            defn, seed, n, names, rows, stats, len(todo), out_dir, figures, markdown
+        )
+        meta = {**result.to_dict(), "written": datetime.now(UTC).isoformat()}
+        (out_dir / "campaign.json").write_text(json.dumps(meta, indent=2) + "\n")
+        (out_dir / "campaign.md").write_text(markdown)
+    return result
+
+
+def _bar(total: int, desc: str, enabled: bool) -> Callable[[int | None], None]:
+    """Return ``update(k)`` for a tqdm bar on stderr; ``update(None)`` closes it."""
+    if not enabled or total == 0:
+        return lambda _k: None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is an optional extra
+        return lambda _k: None
+    bar = tqdm(total=total, desc=desc, unit="run", file=sys.stderr, disable=None, leave=False)
+
+    def update(k: int | None) -> None:
+        if k is None:
+            bar.close()
+        else:
+            bar.update(k)
+
+    return update

@@ -1,0 +1,246 @@
+"""Per-method statistics of a campaign, the markdown report and the figures.
+
+See the module docstring of :mod:`redservo.campaign` ("Statistics").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from redservo.campaign.definition import CampaignDefinition, ErrorSpec, Range
+from redservo.errors import ConfigurationError
+
+Z95 = 1.959963984540054
+"""The 0.975 quantile of the standard normal distribution (two-sided 95 %)."""
+
+
+def wilson_interval(successes: int, n: int, *, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (Wilson 1927).
+
+    ``(p̂ + z²/2n ± z sqrt(p̂(1-p̂)/n + z²/4n²)) / (1 + z²/n)`` with ``p̂ = successes/n``.
+
+    Args:
+        successes: Number of successes, in [0, n].
+        n: Number of trials (>= 0); with n = 0 the interval is [0, 1].
+        z: Normal quantile (default: 95 % two-sided).
+
+    Raises:
+        ConfigurationError: ``successes`` outside [0, n] or ``n < 0``.
+    """
+    if n < 0 or not 0 <= successes <= n:
+        raise ConfigurationError(f"need 0 <= successes <= n, got successes={successes}, n={n}")
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    center = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, center - half), min(1.0, center + half)
+
+
+class MethodStats(NamedTuple):
+    """Statistics of one method over a campaign (module docstring, "Statistics").
+
+    Speeds in rad/s or m/s (joints), m/s (camera translation), rad/s (camera rotation);
+    ``nan`` where there is nothing to summarize (e.g. no success).
+    """
+
+    method: str
+    runs: int
+    successes: int
+    success_rate: float
+    ci_low: float
+    ci_high: float
+    limit_hits: int
+    target_lost: int
+    max_iterations: int
+    other_failures: int
+    iterations_median: float
+    iterations_p90: float
+    joint_speed_median: float
+    joint_speed_p95: float
+    cam_translation_median: float
+    cam_translation_p95: float
+    cam_rotation_median: float
+    cam_rotation_p95: float
+    discontinuity_median: float
+    min_margin_median: float
+
+
+def _pct(values: Sequence[float], q: float) -> float:
+    a = np.asarray([v for v in values if not math.isnan(v)], dtype=float)
+    return float(np.percentile(a, q)) if a.size else float("nan")
+
+
+def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
+    """Summarize the rows of one method (rows as in ``samples.csv``)."""
+    n = len(rows)
+    ok = [r for r in rows if r["success"]]
+    k = len(ok)
+    lo, hi = wilson_interval(k, n)
+    outcomes = [r["outcome"] for r in rows]
+
+    def col(name: str, rs: Sequence[Mapping[str, Any]] = rows) -> list[float]:
+        return [float(r[name]) for r in rs]
+
+    return MethodStats(
+        method=method,
+        runs=n,
+        successes=k,
+        success_rate=k / n if n else float("nan"),
+        ci_low=lo,
+        ci_high=hi,
+        limit_hits=outcomes.count("joint_limit"),
+        target_lost=outcomes.count("target_lost"),
+        max_iterations=outcomes.count("max_iterations"),
+        other_failures=sum(
+            o not in ("converged", "joint_limit", "target_lost", "max_iterations") for o in outcomes
+        ),
+        iterations_median=_pct(col("iterations", ok), 50),
+        iterations_p90=_pct(col("iterations", ok), 90),
+        joint_speed_median=_pct(col("max_joint_speed"), 50),
+        joint_speed_p95=_pct(col("max_joint_speed"), 95),
+        cam_translation_median=_pct(col("max_cam_translation"), 50),
+        cam_translation_p95=_pct(col("max_cam_translation"), 95),
+        cam_rotation_median=_pct(col("max_cam_rotation"), 50),
+        cam_rotation_p95=_pct(col("max_cam_rotation"), 95),
+        discontinuity_median=_pct(col("discontinuity"), 50),
+        min_margin_median=_pct(col("min_margin"), 50),
+    )
+
+
+def _g(v: float, fmt: str = ".3g") -> str:
+    return "—" if math.isnan(v) else format(v, fmt)
+
+
+def stats_table(stats: Iterable[MethodStats]) -> str:
+    """Return a markdown table, one row per method, of :class:`MethodStats`."""
+    head = (
+        "| method | success [95% CI] | limit hits | target lost | max. iter. | "
+        "iterations med (p90) | peak q̇ med (p95) | peak cam. v (m/s) med (p95) | "
+        "peak cam. ω (rad/s) med (p95) | discontinuity med | min margin med |\n"
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    )
+    lines = []
+    for s in stats:
+        other = f" (+{s.other_failures} errors)" if s.other_failures else ""
+        lines.append(
+            f"| {s.method} | {s.successes}/{s.runs} = {_g(100 * s.success_rate, '.1f')} % "
+            f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {s.limit_hits} | "
+            f"{s.target_lost} | {s.max_iterations} | "
+            f"{_g(s.iterations_median, '.0f')} ({_g(s.iterations_p90, '.0f')}) | "
+            f"{_g(s.joint_speed_median)} ({_g(s.joint_speed_p95)}) | "
+            f"{_g(s.cam_translation_median)} ({_g(s.cam_translation_p95)}) | "
+            f"{_g(s.cam_rotation_median)} ({_g(s.cam_rotation_p95)}) | "
+            f"{_g(s.discontinuity_median)} | {_g(s.min_margin_median, '.3f')} |"
+        )
+    return head + "\n".join(lines)
+
+
+def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping[str, Any]]) -> str:
+    st, tg = defn.start, defn.target
+    data = defn.scenario.data
+    rho = float(data["robot"].get("rho", 0.1))
+    ctl, sim = data["control"], data.get("simulation", {})
+    cap = int(sim.get("max_iterations", 1000))
+    redraws = (
+        sum(int(r["attempts"]) for r in rows if r["method"] == rows[0]["method"]) if rows else 0
+    )
+
+    def rng3(r: Sequence[Range]) -> str:
+        return ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in r)
+
+    if sim.get("stop_at_convergence", True):
+        success = (
+            f"Success = converged (‖e1‖ < {float(sim.get('tolerance', 1e-3)):g}) within {cap} "
+            "iterations with no limit hit and the target never lost."
+        )
+    else:
+        success = (
+            f"Tracking task: every run lasts {cap} iterations; success = final ‖e1‖ < "
+            f"{float(sim.get('tolerance', 1e-3)):g} with no limit hit and the target never "
+            "lost (the iteration columns are then the run length)."
+        )
+    return (
+        f"## Campaign {defn.name}\n\n"
+        f"{defn.description}\n\n"
+        f"Base scenario `{defn.scenario.name}` (λ = {float(ctl.get('lam', 0.5)):g} 1/s, "
+        f"dt = {float(ctl.get('dt', 0.04)):g} s); N = {n} samples per method, seed {seed}. "
+        f"Start: each joint in the outer band (margin in [{st.min_margin:g}, "
+        f"{(1 + st.band_beyond) * rho:g}] of its range, thresholds at {rho:g}) with "
+        f"probability {st.p_band:g}, at least {st.min_in_band} per start; target moved by "
+        f"t ∈ {rng3(tg.translation)} m and turned by r ∈ {rng3(tg.rotation_deg)} deg; "
+        f"{_errors_text(defn.errors)}{redraws} invalid starts re-drawn. {success}\n\n"
+    )
+
+
+def _errors_text(er: ErrorSpec) -> str:
+    parts = []
+    if er.noise_std:
+        parts.append(f"feature noise std ∈ [{er.noise_std[0]:g}, {er.noise_std[1]:g}]")
+    if er.depth_scale:
+        parts.append(f"depth scale ∈ [{er.depth_scale[0]:g}, {er.depth_scale[1]:g}]")
+    if er.hand_eye_translation or er.hand_eye_rotation_deg:
+        parts.append(
+            f"hand-eye error ±{er.hand_eye_translation:g} m, ±{er.hand_eye_rotation_deg:g} deg "
+            "per axis"
+        )
+    return "Errors: " + "; ".join(parts) + ". " if parts else ""
+
+
+def _figures(
+    result_stats: Sequence[MethodStats],
+    rows: Sequence[Mapping[str, Any]],
+    out: Path,
+    *,
+    tracking: bool = False,
+) -> tuple[Path, ...]:
+    """Write ``success_rate.png`` and ``iterations.png`` (tracking: ``final_error.png``)."""
+    try:
+        from matplotlib.figure import Figure
+    except ImportError:  # matplotlib is optional
+        return ()
+    names = [s.method for s in result_stats]
+    x = np.arange(len(names))
+    size = (max(6.0, 0.7 * len(names) + 2), 4.0)
+    fig = Figure(figsize=size)
+    ax = fig.add_subplot()
+    rate = np.array([s.success_rate for s in result_stats]) * 100
+    err = np.array(
+        [
+            [r - 100 * s.ci_low for r, s in zip(rate, result_stats)],
+            [100 * s.ci_high - r for r, s in zip(rate, result_stats)],
+        ]
+    ).clip(min=0.0)  # rounding can make a bound cross p̂ by 1e-15 when p̂ is 0 or 1
+    ax.bar(x, rate, yerr=err, capsize=3, color="tab:blue")
+    ax.set_xticks(x, names, rotation=45, ha="right")
+    ax.set_ylim(0, 105)
+    ax.set_ylabel("success rate (%) with 95% Wilson CI")
+    fig.tight_layout()
+    p1 = out / "success_rate.png"
+    fig.savefig(p1, dpi=120)
+    fig = Figure(figsize=size)
+    ax = fig.add_subplot()
+    if tracking:  # every run lasts the same: show how well the runs that lasted tracked
+        full = ("converged", "max_iterations")
+        data = [
+            [r["final_error"] for r in rows if r["method"] == m and r["outcome"] in full]
+            for m in names
+        ]
+        ax.set_yscale("log")
+        ax.set_ylabel("final ‖e1‖ (runs that lasted)")
+        p2 = out / "final_error.png"
+    else:
+        data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
+        ax.set_ylabel("iterations to converge (successes)")
+        p2 = out / "iterations.png"
+    ax.boxplot([d if d else [np.nan] for d in data], positions=x)
+    ax.set_xticks(x, names, rotation=45, ha="right")
+    fig.tight_layout()
+    fig.savefig(p2, dpi=120)
+    return p1, p2
