@@ -159,3 +159,18 @@ def test_documented_example_parses_and_runs() -> None:
     assert block is not None
     sc = parse_scenario(tomllib.loads(block.group(1)), "docs/scenarios.md")
     assert build(sc).run().outcome == "converged"
+
+
+def test_hand_eye_error_is_applied_to_the_controllers_model(tmp_path: Path) -> None:
+    """simulation.eMc_error: the controller uses eMc @ error, the true robot keeps eMc."""
+    from redservo.spatial import make_transform
+
+    sc = apply_overrides(
+        load_scenario(_write(tmp_path, GOOD)),
+        ["simulation.eMc_error={translation=[0.01, 0.0, 0.0], rotvec=[0.0, 0.05, 0.0]}"],
+    )
+    exp = build(sc)
+    want = exp.robot.eMc @ make_transform(t=(0.01, 0.0, 0.0), rotvec=(0.0, 0.05, 0.0))
+    assert exp.options.eMc_model is not None
+    np.testing.assert_allclose(exp.options.eMc_model, want, atol=1e-12)
+    assert not np.allclose(exp.robot.eMc, want)

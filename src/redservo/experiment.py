@@ -363,7 +363,7 @@ def build(sc: Scenario) -> Experiment:
         camera = Camera(**cam_t) if cam_t else Camera()
     except RedservoError as exc:
         raise sc.error("camera", str(exc)) from None
-    options = _options(sc)
+    options = _options(sc, robot)
     # The task must be valid at the start: a target behind the camera is a scenario error.
     try:
         task.evaluate(scene, robot.fkine(q0), robot.jacobian(q0), 0.0)
@@ -374,7 +374,7 @@ def build(sc: Scenario) -> Experiment:
     return Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
 
 
-def _options(sc: Scenario) -> SimulationOptions:
+def _options(sc: Scenario, robot: Robot) -> SimulationOptions:
     ctl, sim = sc.data["control"], sc.data.get("simulation", {})
     kw: dict[str, Any] = {
         "lam": float(ctl.get("lam", 0.5)),
@@ -398,7 +398,7 @@ def _options(sc: Scenario) -> SimulationOptions:
         q = sim["qdot_max"]
         kw["qdot_max"] = tuple(float(v) for v in q) if isinstance(q, list) else float(q)
     if "eMc_error" in sim:
-        robot_eMc = make_robot(sc.data["robot"]["model"], **sc.data["robot"].get("options", {})).eMc
+        robot_eMc = robot.eMc
         kw["eMc_model"] = robot_eMc @ pose_from_table(sim["eMc_error"], "simulation.eMc_error", sc)
     if "occlusion" in sc.data:
         kw["occlusion"] = Occlusion(**sc.data["occlusion"])

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_transform
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, GeometryError
+from redservo.features.point import point_interaction
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law
 from redservo.redundancy.costs import occlusion_force
@@ -306,16 +307,6 @@ def _occlusion_state(
     return occluded, p_a, xy[j], float(X0[2])
 
 
-def _point_interaction(x: float, y: float, Z: float) -> FloatArray:
-    """CM01 eq. 26 (the image point's interaction matrix), for the occlusion force."""
-    return np.array(
-        [
-            [-1.0 / Z, 0.0, x / Z, x * y, -(1.0 + x * x), y],
-            [0.0, -1.0 / Z, y / Z, 1.0 + y * y, -x * y, -x],
-        ]
-    )
-
-
 def simulate(
     robot: Robot,
     scene: Scene,
@@ -413,7 +404,7 @@ def simulate(
                 outcome = "occluded"
                 break
             if opt.occlusion.avoid and p_a is not None and p_t is not None:
-                H = _point_interaction(float(p_a[0]), float(p_a[1]), z_occ) @ J
+                H = point_interaction(float(p_a[0]), float(p_a[1]), 1.0 / z_occ) @ J
                 f = occlusion_force(p_a, p_t, H, beta=opt.occlusion.beta).force
                 f = opt.occlusion.gain * f
                 sec = f if sec is None else sec + f
