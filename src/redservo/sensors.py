@@ -1,0 +1,75 @@
+"""The sensor hook: where the simulator (and the servo loop) gets its feature values.
+
+A sensor turns the world at one instant into *measured* features. The control
+law never sees the sensor: the task builds ``e1 = C (s - s*)`` and
+``J1 = C L(s, Ẑ) J(q)`` from whatever the sensor measured.
+
+* :class:`IdealSensor` (the default) computes the features from the true pose of
+  each object, exactly (the behaviour of every experiment of the papers'
+  reproductions).
+* ``redservo.vision.ImageSensor`` renders the camera image and detects the
+  features in pixels (optional extra ``redservo[vision]``).
+
+A sensor returns a :class:`SensorReading`: the stacked feature values ``s`` (k,)
+in normalized image units, the inverse-depth parameters per task term (see
+:mod:`redservo.features.base`), and what was lost. ``s`` is None when the
+features could not be measured at all at this instant (every dot lost, the
+object behind the camera, ...).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
+
+from redservo._validation import FloatArray
+from redservo.errors import GeometryError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.scene import Scene
+    from redservo.task import VisualTask
+
+__all__ = ["IdealSensor", "Sensor", "SensorReading"]
+
+
+class SensorReading(NamedTuple):
+    """What a sensor measured at one instant."""
+
+    s: FloatArray | None
+    """(k,) stacked feature values (normalized image units), or None when nothing was measured."""
+    inv_depth: tuple[FloatArray, ...]
+    """Inverse-depth parameters per task term (1/m), as the controller will use them."""
+    lost: tuple[int, ...] = ()
+    """Indices of the task terms (or dots) that were not detected at this instant."""
+    reason: str = ""
+    """Why ``s`` is None or something was lost (empty when all is well)."""
+    image: object | None = None
+    """The image the features were measured in (2-D uint8 array), if the sensor made one."""
+
+
+@runtime_checkable
+class Sensor(Protocol):
+    """Anything that measures the task's features at camera pose ``bMc`` and time ``t``.
+
+    ``reset()`` is called at the start of every run (trackers forget the last frame).
+    """
+
+    def reset(self) -> None:
+        """Forget any state kept between frames."""
+
+    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
+        """Measure the features of ``task`` in ``scene`` seen from ``bMc`` (4x4) at ``t`` (s)."""
+
+
+class IdealSensor:
+    """Exact features from the true object poses (no image): the papers' simulations."""
+
+    def reset(self) -> None:
+        """Nothing to forget."""
+
+    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
+        """Return the exact features; ``s`` is None (with the reason) when one is invalid."""
+        try:
+            s, inv_depth = task.measure(scene, bMc, t)
+        except GeometryError as exc:
+            return SensorReading(None, (), tuple(range(len(task.terms))), str(exc))
+        return SensorReading(s, inv_depth)
