@@ -22,7 +22,16 @@ __all__ = [
 
 
 class RedservoError(Exception):
-    """Base class of every error raised by redservo."""
+    """Base class of every error raised by redservo.
+
+    Like pink's exceptions, ours carry their data as attributes so that a robot
+    program can react without parsing the message: ``argument`` names the
+    offending argument (or scenario key) when there is one.
+    """
+
+    def __init__(self, message: str = "", *, argument: str | None = None) -> None:
+        super().__init__(message)
+        self.argument = argument
 
 
 class ShapeError(RedservoError, ValueError):
@@ -30,7 +39,30 @@ class ShapeError(RedservoError, ValueError):
 
 
 class JointLimitError(RedservoError, ValueError):
-    """A joint configuration lies outside the robot's joint limits, or the limits are invalid."""
+    """A joint configuration lies outside the robot's joint limits, or the limits are invalid.
+
+    Attributes:
+        joint: 0-based index of the first offending joint, or None.
+        value: Its value (m or rad), or None.
+        lower: Its lower limit (m or rad), or None.
+        upper: Its upper limit (m or rad), or None.
+    """
+
+    def __init__(
+        self,
+        message: str = "",
+        *,
+        argument: str | None = None,
+        joint: int | None = None,
+        value: float | None = None,
+        lower: float | None = None,
+        upper: float | None = None,
+    ) -> None:
+        super().__init__(message, argument=argument)
+        self.joint = joint
+        self.value = value
+        self.lower = lower
+        self.upper = upper
 
 
 class GeometryError(RedservoError, ValueError):

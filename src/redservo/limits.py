@@ -7,6 +7,7 @@ stated; MC05 eqs. 28-29 define the same cost.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,45 +19,149 @@ from redservo.errors import ConfigurationError, JointLimitError
 __all__ = ["JointLimits"]
 
 
+def _rate_limit(value: ArrayLike | None, name: str, n: int, unit: str) -> FloatArray | None:
+    """Return a per-joint positive limit as an (n,) array (a scalar is broadcast), or None."""
+    if value is None:
+        return None
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigurationError(
+            f"{name} must be None, a number > 0 ({unit}) or one per joint, got {value!r}",
+            argument=name,
+        ) from None
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ConfigurationError(
+            f"{name} must be a scalar or have {n} entries (one per joint), got shape {arr.shape}",
+            argument=name,
+        )
+    bad = np.flatnonzero(~(np.isfinite(arr) & (arr > 0.0)))
+    if bad.size:
+        i = int(bad[0])
+        raise ConfigurationError(
+            f"{name}[{i}] = {arr[i]!r} must be a finite number > 0 ({unit})", argument=name
+        )
+    arr = arr.copy()
+    arr.setflags(write=False)
+    return arr
+
+
+def _band(value: object, name: str, upper: float, meaning: str) -> float:
+    """Return ``value`` as a float in the allowed interval, or raise naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise ConfigurationError(f"{name} must be a number {meaning}, got {value!r}", argument=name)
+    v = float(value)
+    if not (math.isfinite(v) and 0.0 <= v < upper):
+        raise ConfigurationError(f"{name} must be a number {meaning}, got {value!r}", argument=name)
+    return v
+
+
 @dataclass(frozen=True, eq=False)
 class JointLimits:
-    """Real joint limits ``q̄`` and activation thresholds ``q̃`` (CM01 eq. 3).
+    """Real joint limits ``q̄``, activation thresholds ``q̃`` (CM01 eq. 3) and rate limits.
 
     ``q̃_min = q̄_min + rho Δq̄`` and ``q̃_max = q̄_max - rho Δq̄`` with
     ``Δq̄_i = q̄_max,i - q̄_min,i`` per axis (CM01 prints Δq̄ without the index;
-    literature.md §D.3 item 6). ``rho = 0.1`` puts the thresholds at ±0.9 in
-    normalized coordinates.
+    docs/formulas.md §5). In normalized coordinates ``2 (q - centre)/Δq̄`` the
+    thresholds sit at ``±(1 - 2 rho)``: ``rho = 0.1`` puts them at **±0.8**.
+
+    The optional rate limits and the safety margin are what a real arm needs
+    (docs/safety.md): every control law honours ``qdot_max`` and ``qddot_max``,
+    and the shield keeps ``q + dt q̇`` within ``[q̄_min + margin, q̄_max - margin]``.
 
     Args:
         q_min: (n,) lower limits ``q̄_min`` (m or rad).
         q_max: (n,) upper limits ``q̄_max`` (m or rad), each strictly above ``q_min``.
         rho: Width of the critical band as a fraction of the range, in (0, 1/2).
+        qdot_max: Joint velocity limits (rad/s or m/s), a scalar or (n,), or None.
+        qddot_max: Joint acceleration limits (rad/s² or m/s²), a scalar or (n,), or None.
+        margin: Keep-out distance at each hard limit, as a fraction of the range in
+            [0, rho) (default 0: the hard limit itself). ``margin_abs`` gives it in joint units.
+        margin_abs: Keep-out distance in joint units (m or rad), scalar or (n,); overrides
+            ``margin`` when given.
+
+    Raises:
+        JointLimitError: limits not ordered, not finite, or a range that overflows float64.
+        ConfigurationError: ``rho``, a rate limit or the margin has an invalid value.
     """
 
     q_min: FloatArray
     q_max: FloatArray
     rho: float = 0.1
+    qdot_max: FloatArray | None = None
+    qddot_max: FloatArray | None = None
+    margin_abs: FloatArray = field(init=False, repr=False)
     range: FloatArray = field(init=False, repr=False)
     q_tilde_min: FloatArray = field(init=False, repr=False)
     q_tilde_max: FloatArray = field(init=False, repr=False)
     _center: FloatArray = field(init=False, repr=False)
 
-    def __init__(self, q_min: ArrayLike, q_max: ArrayLike, rho: float = 0.1) -> None:
+    def __init__(
+        self,
+        q_min: ArrayLike,
+        q_max: ArrayLike,
+        rho: float = 0.1,
+        *,
+        qdot_max: ArrayLike | None = None,
+        qddot_max: ArrayLike | None = None,
+        margin: float = 0.0,
+        margin_abs: ArrayLike | None = None,
+    ) -> None:
         lo = as_vector(q_min, "q_min")
         hi = as_vector(q_max, "q_max", lo.shape[0])
         if lo.shape[0] == 0:
-            raise JointLimitError("q_min and q_max must have at least one joint")
+            raise JointLimitError("q_min and q_max must have at least one joint", argument="q_min")
         bad = np.flatnonzero(~(hi > lo))
         if bad.size:
             i = int(bad[0])
             raise JointLimitError(
                 f"q_max must be strictly greater than q_min for every joint; joint {i} has "
-                f"q_min={lo[i]:.6g}, q_max={hi[i]:.6g}"
+                f"q_min={lo[i]:.17g}, q_max={hi[i]:.17g}",
+                argument="q_max",
+                joint=i,
+                lower=float(lo[i]),
+                upper=float(hi[i]),
             )
-        rho_f = float(rho)
-        if not (0.0 < rho_f < 0.5):
-            raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}")
-        rng = hi - lo
+        with np.errstate(over="ignore"):
+            rng = hi - lo
+        huge = np.flatnonzero(~np.isfinite(rng) | (np.abs(lo) > 1e15) | (np.abs(hi) > 1e15))
+        if huge.size:
+            i = int(huge[0])
+            raise JointLimitError(
+                f"joint {i}: limits [{lo[i]:.6g}, {hi[i]:.6g}] are not usable joint limits "
+                "(each must be within ±1e15 m or rad, with a finite range); give the robot's "
+                "real limits",
+                argument="q_min",
+                joint=i,
+                lower=float(lo[i]),
+                upper=float(hi[i]),
+            )
+        rho_f = _band(rho, "rho", 0.5, "in (0, 0.5), the band width as a fraction of the range")
+        if rho_f <= 0.0:
+            raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}", argument="rho")
+        n = lo.shape[0]
+        if margin_abs is not None:
+            mabs = (
+                _rate_limit(margin_abs, "margin_abs", n, "m or rad")
+                if np.any(np.asarray(margin_abs, dtype=float) != 0.0)
+                else np.zeros(n)
+            )
+            assert mabs is not None
+            over = np.flatnonzero(mabs >= rho_f * rng)
+            if over.size:
+                i = int(over[0])
+                raise ConfigurationError(
+                    f"margin_abs[{i}] = {mabs[i]:.6g} must be below the band rho·range = "
+                    f"{rho_f * rng[i]:.6g}",
+                    argument="margin_abs",
+                )
+        else:
+            frac = _band(
+                margin, "margin", rho_f, f"in [0, rho = {rho_f:g}), a fraction of the range"
+            )
+            mabs = frac * rng
         for name, value in (
             ("q_min", lo),
             ("q_max", hi),
@@ -64,10 +169,15 @@ class JointLimits:
             ("q_tilde_min", lo + rho_f * rng),
             ("q_tilde_max", hi - rho_f * rng),
             ("_center", 0.5 * (lo + hi)),
+            ("margin_abs", np.array(mabs, dtype=float)),
         ):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "rho", rho_f)
+        object.__setattr__(self, "qdot_max", _rate_limit(qdot_max, "qdot_max", n, "rad/s or m/s"))
+        object.__setattr__(
+            self, "qddot_max", _rate_limit(qddot_max, "qddot_max", n, "rad/s² or m/s²")
+        )
 
     @property
     def n(self) -> int:
@@ -79,9 +189,46 @@ class JointLimits:
         """(n,) mid-range configuration ``(q̄_min + q̄_max)/2``."""
         return 0.5 * (self.q_min + self.q_max)
 
+    @property
+    def margin_fraction(self) -> FloatArray:
+        """(n,) the keep-out margin as a fraction of each range."""
+        return self.margin_abs / self.range
+
+    @property
+    def safe_min(self) -> FloatArray:
+        """(n,) ``q̄_min + margin``: the lowest position the shield lets a command reach."""
+        return self.q_min + self.margin_abs
+
+    @property
+    def safe_max(self) -> FloatArray:
+        """(n,) ``q̄_max - margin``: the highest position the shield lets a command reach."""
+        return self.q_max - self.margin_abs
+
+    def replace(self, **changes: object) -> JointLimits:
+        """Return a copy with some of ``rho``, ``qdot_max``, ``qddot_max``, ``margin``,
+        ``margin_abs`` changed (``margin`` replaces ``margin_abs``)."""
+        kw: dict[str, object] = {
+            "rho": self.rho,
+            "qdot_max": self.qdot_max,
+            "qddot_max": self.qddot_max,
+            "margin_abs": self.margin_abs,
+        }
+        if "margin" in changes:
+            kw.pop("margin_abs")
+        unknown = set(changes) - {*kw, "margin", "margin_abs"}
+        if unknown:
+            raise ConfigurationError(f"JointLimits.replace: unknown field(s) {sorted(unknown)}")
+        kw.update(changes)
+        return JointLimits(self.q_min, self.q_max, **kw)  # type: ignore[arg-type]
+
     def with_rho(self, rho: float) -> JointLimits:
-        """Return a copy with another band width ``rho``."""
-        return JointLimits(self.q_min, self.q_max, rho)
+        """Return a copy with another band width ``rho`` (rate limits and margin kept)."""
+        return self.replace(rho=rho)
+
+    def without_rates(self) -> JointLimits:
+        """Return a copy with position limits only (no velocity/acceleration limits, no margin):
+        the setting of the papers' experiments."""
+        return JointLimits(self.q_min, self.q_max, self.rho)
 
     # -- validation ---------------------------------------------------------------------------
 
@@ -101,10 +248,16 @@ class JointLimits:
         out = np.flatnonzero((qa < self.q_min - tol) | (qa > self.q_max + tol))
         if out.size:
             i = int(out[0])
+            lo, hi, v = float(self.q_min[i]), float(self.q_max[i]), float(qa[i])
+            by = lo - v if v < lo else v - hi
             raise JointLimitError(
-                f"{name}[{i}] = {qa[i]:.6g} is outside the joint limits "
-                f"[{self.q_min[i]:.6g}, {self.q_max[i]:.6g}]; "
-                f"{out.size} joint(s) out of range: {out.tolist()}"
+                f"{name}[{i}] = {v!r} is outside the joint limits [{lo!r}, {hi!r}] by {by:.3g} "
+                f"(tolerance {tol:g}); {out.size} joint(s) out of range: {out.tolist()}",
+                argument=name,
+                joint=i,
+                value=v,
+                lower=lo,
+                upper=hi,
             )
         return qa
 

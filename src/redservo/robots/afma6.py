@@ -45,7 +45,15 @@ from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
 from redservo.spatial import make_transform
 
-__all__ = ["AFMA6_JOINT_LIMITS", "AFMA6_TOOLS", "Afma6"]
+__all__ = ["AFMA6_JOINT_LIMITS", "AFMA6_QDDOT_MAX", "AFMA6_QDOT_MAX", "AFMA6_TOOLS", "Afma6"]
+
+AFMA6_QDOT_MAX: Final = (0.2, 0.2, 0.2, 0.7, 0.7, 0.7)
+"""Velocity limits (m/s for x, y, z; rad/s for A, B, C). A documented choice: the Afma6's
+datasheet is not public; these are the default velocity saturations of ViSP's robot
+interface (0.2 m/s in translation, 0.7 rad/s in rotation), which ViSP applies to this robot."""
+AFMA6_QDDOT_MAX: Final = (1.0, 1.0, 1.0, 3.0, 3.0, 3.0)
+"""Acceleration limits (m/s², rad/s²). A documented choice (no public datasheet): the
+gantry reaches its velocity limit in 0.2 s and the wrist in about 0.23 s."""
 
 COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""
@@ -110,6 +118,8 @@ class Afma6(Robot):
             q_min=q_min,
             q_max=q_max,
             eMc=AFMA6_TOOLS[tool].copy() if eMc is None else eMc,
+            qdot_max=AFMA6_QDOT_MAX,
+            qddot_max=AFMA6_QDDOT_MAX,
         )
         self.tool = tool if eMc is None else "custom"
         """The tool chosen at construction (``"custom"`` when ``eMc`` was given)."""

@@ -40,6 +40,8 @@ class Robot(abc.ABC):
         q_max: (n,) upper joint limits (m or rad).
         eMc: 4x4 hand-eye transform, the camera pose in the end-effector frame
             (default identity).
+        qdot_max: Joint velocity limits (rad/s or m/s), scalar or (n,), or None.
+        qddot_max: Joint acceleration limits (rad/s² or m/s²), scalar or (n,), or None.
     """
 
     def __init__(
@@ -51,6 +53,8 @@ class Robot(abc.ABC):
         q_min: ArrayLike,
         q_max: ArrayLike,
         eMc: ArrayLike | None = None,
+        qdot_max: ArrayLike | None = None,
+        qddot_max: ArrayLike | None = None,
     ) -> None:
         n = len(joint_names)
         if len(joint_types) != n:
@@ -63,7 +67,12 @@ class Robot(abc.ABC):
         self.name = name
         self.joint_names: tuple[str, ...] = tuple(joint_names)
         self.joint_types: tuple[JointType, ...] = tuple(joint_types)
-        self._limits = JointLimits(as_vector(q_min, "q_min", n), as_vector(q_max, "q_max", n))
+        self._limits = JointLimits(
+            as_vector(q_min, "q_min", n),
+            as_vector(q_max, "q_max", n),
+            qdot_max=qdot_max,
+            qddot_max=qddot_max,
+        )
         self.eMc = np.eye(4) if eMc is None else eMc
 
     # -- identity ---------------------------------------------------------------------------
@@ -88,14 +97,41 @@ class Robot(abc.ABC):
         """(2, n) limits, ``[q_min; q_max]`` (roboticstoolbox naming)."""
         return np.vstack([self.q_min, self.q_max])
 
-    def limits(self, rho: float = 0.1) -> JointLimits:
-        """Return the :class:`~redservo.JointLimits` of this robot with band width ``rho``."""
-        return self._limits if rho == self._limits.rho else self._limits.with_rho(rho)
+    @property
+    def qdot_max(self) -> FloatArray | None:
+        """(n,) joint velocity limits (rad/s or m/s), or None when unknown."""
+        return self._limits.qdot_max
 
-    def set_limits(self, q_min: ArrayLike, q_max: ArrayLike) -> None:
-        """Replace the joint limits (m or rad)."""
+    @property
+    def qddot_max(self) -> FloatArray | None:
+        """(n,) joint acceleration limits (rad/s² or m/s²), or None when unknown."""
+        return self._limits.qddot_max
+
+    def limits(self, rho: float = 0.1, *, margin: float = 0.0) -> JointLimits:
+        """Return the :class:`~redservo.JointLimits` of this robot: position limits with band
+        width ``rho``, the robot's velocity and acceleration limits, and the shield's keep-out
+        ``margin`` (fraction of each range, default 0)."""
+        if rho == self._limits.rho and margin == 0.0:
+            return self._limits
+        return self._limits.replace(rho=rho, margin=margin)
+
+    def set_limits(
+        self,
+        q_min: ArrayLike | None = None,
+        q_max: ArrayLike | None = None,
+        *,
+        qdot_max: ArrayLike | str | None = "keep",
+        qddot_max: ArrayLike | str | None = "keep",
+    ) -> None:
+        """Replace some of the joint limits: positions (m or rad), velocities (rad/s or m/s),
+        accelerations (rad/s² or m/s²). ``"keep"`` (default) keeps the current rate limits and
+        ``None`` removes them."""
+        old = self._limits
         self._limits = JointLimits(
-            as_vector(q_min, "q_min", self.n), as_vector(q_max, "q_max", self.n)
+            old.q_min if q_min is None else as_vector(q_min, "q_min", self.n),
+            old.q_max if q_max is None else as_vector(q_max, "q_max", self.n),
+            qdot_max=old.qdot_max if isinstance(qdot_max, str) else qdot_max,
+            qddot_max=old.qddot_max if isinstance(qddot_max, str) else qddot_max,
         )
 
     # -- hand-eye ---------------------------------------------------------------------------

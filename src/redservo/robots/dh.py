@@ -184,6 +184,8 @@ class DHRobot(Robot):
         flange: ArrayLike | None = None,
         eMc: ArrayLike | None = None,
         name: str = "dh",
+        qdot_max: ArrayLike | None = None,
+        qddot_max: ArrayLike | None = None,
     ) -> None:
         links = tuple(links)
         if not links:
@@ -202,6 +204,8 @@ class DHRobot(Robot):
             q_min=lims[:, 0],
             q_max=lims[:, 1],
             eMc=eMc,
+            qdot_max=qdot_max,
+            qddot_max=qddot_max,
         )
         self._links = links
         self._convention: DHConvention = convention

@@ -91,6 +91,12 @@ EYE_FORWARD: Final = 0.09
 
 _H2 = math.pi / 2
 #: ``eMc``: the camera z axis along the last DH frame's x (the gaze), x_c = -z_9 (right).
+HUMANOID_QDOT_MAX: Final = (1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 6.0, 6.0)
+"""Velocity limits (rad/s). A documented choice (CM01's humanoid is virtual): torso joints
+1 rad/s, neck 2 rad/s, eyes 6 rad/s (human smooth pursuit reaches about 1-1.7 rad/s and
+saccades far more; actuated eyes of humanoid heads are rated several rad/s)."""
+HUMANOID_QDDOT_MAX: Final = (5.0, 5.0, 5.0, 5.0, 10.0, 10.0, 10.0, 50.0, 50.0)
+"""Acceleration limits (rad/s²), a documented choice in the same spirit."""
 _E_M_C: Final = make_transform(R=[[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
 
 
@@ -151,6 +157,8 @@ class Humanoid9(DHRobot):
             base=make_transform(t=(0.0, 0.0, HIP_HEIGHT * self.stature)),
             eMc=_E_M_C.copy() if eMc is None else eMc,
             name="humanoid9",
+            qdot_max=HUMANOID_QDOT_MAX,
+            qddot_max=HUMANOID_QDDOT_MAX,
         )
 
     @staticmethod

@@ -17,7 +17,9 @@ parameters), in metres and radians::
 The end-effector frame is the flange (without the Franka Hand). Joint limits are
 the published Panda limits (rad), ``q_min = (-2.8973, -1.7628, -2.8973, -3.0718,
 -2.8973, -0.0175, -2.8973)`` and ``q_max = (2.8973, 1.7628, 2.8973, -0.0698,
-2.8973, 3.7525, 2.8973)``; the FR3 successor has different ones.
+2.8973, 3.7525, 2.8973)``; the FR3 successor has different ones. Velocity and
+acceleration limits are the published ones of the same page (:data:`PANDA_QDOT_MAX`,
+:data:`PANDA_QDDOT_MAX`).
 
 Choice (the camera is not part of the product): ``eMc`` models a wrist camera
 on a bracket at the flange, looking along the flange z axis (``cRe = I``),
@@ -38,12 +40,16 @@ from redservo._validation import FloatArray
 from redservo.robots.dh import DHLink, DHRobot
 from redservo.spatial import make_transform
 
-__all__ = ["PANDA_Q_MAX", "PANDA_Q_MIN", "Panda"]
+__all__ = ["PANDA_QDDOT_MAX", "PANDA_QDOT_MAX", "PANDA_Q_MAX", "PANDA_Q_MIN", "Panda"]
 
 PANDA_Q_MIN: Final = (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973)
 """Published lower joint limits (rad)."""
 PANDA_Q_MAX: Final = (2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973)
 """Published upper joint limits (rad)."""
+PANDA_QDOT_MAX: Final = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
+"""Published maximum joint velocities (rad/s), Franka Control Interface "Limits for Panda"."""
+PANDA_QDDOT_MAX: Final = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+"""Published maximum joint accelerations (rad/s²), same source."""
 WRIST_CAMERA_OFFSET: Final = (0.05, 0.0, 0.04)
 """Default optical-centre position in the flange frame (m)."""
 
@@ -83,6 +89,8 @@ class Panda(DHRobot):
             flange=make_transform(t=(0.0, 0.0, _FLANGE_D)),
             eMc=make_transform(t=WRIST_CAMERA_OFFSET) if eMc is None else eMc,
             name="panda",
+            qdot_max=PANDA_QDOT_MAX,
+            qddot_max=PANDA_QDDOT_MAX,
         )
 
     @staticmethod
