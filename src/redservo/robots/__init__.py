@@ -8,13 +8,15 @@ camera frame (literature.md §0). Shipped models, by name for :func:`make_robot`
 * ``"humanoid9"`` — :class:`Humanoid9`, CM01's 9-DOF virtual torso.
 * ``"panda"`` — :class:`Panda`, the 7-DOF Franka Emika Panda.
 
-:class:`DHRobot` builds any other serial arm from a Denavit–Hartenberg table.
+:class:`DHRobot` builds any other serial arm from a Denavit–Hartenberg table, and
+:class:`URDFRobot` reads one from a URDF file (extra ``redservo[urdf]``; imported on
+first use, with :func:`shipped_urdf` for the shipped ``"panda"`` and ``"ur5e"`` files).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.robots.afma6 import Afma6
@@ -22,6 +24,9 @@ from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import DHLink, DHRobot
 from redservo.robots.humanoid import Humanoid9
 from redservo.robots.panda import Panda
+
+if TYPE_CHECKING:  # imported lazily by __getattr__ below
+    from redservo.robots.urdf import URDFRobot, shipped_urdf
 
 __all__ = [
     "ROBOTS",
@@ -32,7 +37,9 @@ __all__ = [
     "JointType",
     "Panda",
     "Robot",
+    "URDFRobot",
     "make_robot",
+    "shipped_urdf",
 ]
 
 _FACTORIES: Final[dict[str, Callable[..., Robot]]] = {
@@ -40,6 +47,18 @@ _FACTORIES: Final[dict[str, Callable[..., Robot]]] = {
     "humanoid9": Humanoid9,
     "panda": Panda,
 }
+
+_LAZY: Final = {"URDFRobot": "redservo.robots.urdf", "shipped_urdf": "redservo.robots.urdf"}
+
+
+def __getattr__(name: str) -> Any:
+    """Import :class:`URDFRobot` and :func:`shipped_urdf` on first access."""
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 ROBOTS: Final[tuple[str, ...]] = tuple(_FACTORIES)
 """Names accepted by :func:`make_robot`."""
