@@ -24,6 +24,7 @@ from redservo.redundancy.large_projection import norm_projector, switched_projec
 from redservo.redundancy.qp import qp_velocity_bounds
 from redservo.redundancy.sns import _task_scaling
 from redservo.redundancy.wln import joint_limit_index, joint_limit_index_gradient
+from tests.laws import paper_law
 
 SETTINGS = settings(max_examples=60, deadline=None)
 seeds = st.integers(0, 2**32 - 1)
@@ -114,7 +115,7 @@ def assert_stays_within_limits(p: Problem, qdot: np.ndarray) -> None:
 def test_baselines_are_registered() -> None:
     for name in BASELINES:
         assert name in redservo.METHODS
-        assert make_law(name).name == name
+        assert paper_law(name).name == name
 
 
 # -- wln ------------------------------------------------------------------------------------------
@@ -162,7 +163,7 @@ def test_wln_equals_pinv_when_no_joint_moves_toward_a_limit(p: Problem) -> None:
     side = np.abs(p.q - p.limits.center)
     q = p.limits.center - np.sign(qdot0) * side
     p.q = q
-    res = make_law("wln")(**p.kwargs())
+    res = paper_law("wln")(**p.kwargs())
     assert np.allclose(res.qdot, qdot0, rtol=1e-9, atol=1e-12)
     assert res.diagnostics.critical == ()
 
@@ -183,7 +184,7 @@ def test_wln_matches_the_printed_formula(p: Problem) -> None:
     # keep q at least 1 % of the range from the limits so the explicit solve is well conditioned
     frac = np.clip((p.q - p.limits.q_min) / p.limits.range, 0.01, 0.99)
     p.q = p.limits.q_min + frac * p.limits.range
-    res = make_law("wln")(**p.kwargs())
+    res = paper_law("wln")(**p.kwargs())
     expected = wln_closed_form(p)
     assert np.allclose(res.qdot, expected, rtol=1e-7, atol=1e-9 * (1 + np.abs(expected).max()))
 
@@ -191,7 +192,7 @@ def test_wln_matches_the_printed_formula(p: Problem) -> None:
 @SETTINGS
 @given(p=problems())
 def test_wln_executes_the_task_for_full_row_rank(p: Problem) -> None:
-    res = make_law("wln")(**p.kwargs())
+    res = paper_law("wln")(**p.kwargs())
     xdot = -p.lam * p.e1
     if any("blocked" in s for s in res.diagnostics.notes):
         return  # joints at a limit removed task directions (tested separately)
@@ -219,7 +220,7 @@ def test_wln_damps_a_joint_moving_toward_a_nearby_limit(seed: int, k: int) -> No
             if qdot0[k] > 0
             else limits.q_min[k] + d * limits.range[k]
         )
-        res = make_law("wln")(J1=J1, e1=e1, q=q, limits=limits, lam=1.0, dt=0.04)
+        res = paper_law("wln")(J1=J1, e1=e1, q=q, limits=limits, lam=1.0, dt=0.04)
         speeds.append(abs(res.qdot[k]))
         assert res.diagnostics.critical == ((k,),)
         # the task is kept: removing column k leaves J1 full row rank (m <= n - 1)
@@ -235,7 +236,7 @@ def test_wln_square_jacobian_reduces_to_the_inverse() -> None:
     e1 = rng.normal(size=5)
     limits = random_limits(rng, 5)
     q = limits.q_min + np.array([0.02, 0.5, 0.97, 0.1, 0.6]) * limits.range
-    res = make_law("wln")(J1=J1, e1=e1, q=q, limits=limits, lam=0.5, dt=0.04)
+    res = paper_law("wln")(J1=J1, e1=e1, q=q, limits=limits, lam=0.5, dt=0.04)
     assert np.allclose(res.qdot, np.linalg.solve(J1, -0.5 * e1), rtol=1e-8)
 
 
@@ -244,27 +245,27 @@ def test_wln_history_mode_is_stateful_and_uses_the_change_of_the_gradient() -> N
     J1 = rng.normal(size=(2, 4))
     e1 = rng.normal(size=2)
     limits = JointLimits(-np.ones(4), np.ones(4))
-    law = make_law("wln", mode="history")
-    assert law.stateful and not make_law("wln").stateful
+    law = paper_law("wln", mode="history")
+    assert law.stateful and not paper_law("wln").stateful
     q_a = np.array([0.8, 0.0, 0.0, 0.0])
     q_b = np.array([0.9, 0.0, 0.0, 0.0])  # joint 0 got closer to its upper limit
     kw = {"J1": J1, "e1": e1, "limits": limits, "lam": 1.0, "dt": 0.04}
     first = law(q=q_a, **kw)
-    assert np.array_equal(first.qdot, make_law("wln")(q=q_a, **kw).qdot)  # no history yet
+    assert np.array_equal(first.qdot, paper_law("wln")(q=q_a, **kw).qdot)  # no history yet
     toward = law(q=q_b, **kw)
     assert 0 in toward.diagnostics.constrained_axes
     away = law(q=q_a, **kw)  # |∂H/∂q_0| decreased
     assert 0 not in away.diagnostics.constrained_axes
     law.reset()
     again = law(q=q_b, **kw)
-    assert np.array_equal(again.qdot, make_law("wln")(q=q_b, **kw).qdot)
+    assert np.array_equal(again.qdot, paper_law("wln")(q=q_b, **kw).qdot)
 
 
 def test_wln_bad_mode_and_copies() -> None:
     with pytest.raises(ConfigurationError, match="mode"):
         make_law("wln", mode="previous")
     for mode in ("pinv", "history"):
-        law = make_law("wln", mode=mode)
+        law = paper_law("wln", mode=mode)
         clone = pickle.loads(pickle.dumps(law))
         assert type(clone) is type(law) and clone.stateful == law.stateful
         assert repr(clone) == repr(law)
@@ -293,7 +294,7 @@ def sns_options(draw: st.DrawFn, n: int) -> dict[str, object]:
 def test_sns_respects_the_velocity_bounds(data: st.DataObject, p: Problem) -> None:
     opts = data.draw(sns_options(p.J1.shape[1]))
     secondary = data.draw(st.none() | st.just(np.random.default_rng(0).normal(size=p.J1.shape[1])))
-    res = make_law("sns", **opts)(**p.kwargs(), secondary=secondary)
+    res = paper_law("sns", **opts)(**p.kwargs(), secondary=secondary)
     assert_stays_within_limits(p, res.qdot)
     v_max = opts.get("v_max")
     if v_max is not None:
@@ -310,7 +311,7 @@ def test_sns_respects_the_velocity_bounds(data: st.DataObject, p: Problem) -> No
 @SETTINGS
 @given(p=problems(e_scale=30.0))
 def test_sns_keeps_the_task_direction_and_never_beats_the_lp_optimum(p: Problem) -> None:
-    res = make_law("sns")(**p.kwargs())
+    res = paper_law("sns")(**p.kwargs())
     s = res.diagnostics.scale
     assert s is not None
     xdot = -p.lam * p.e1
@@ -341,11 +342,11 @@ def test_sns_and_qp_return_the_classical_solution_when_it_is_feasible(p: Problem
     p.e1 = p.e1 * 0.5 * room / max(np.abs(qdot0).max(), 1e-300)  # now |q̇0| <= room/2
     expected = classical_qdot(p.J1, p.e1, p.lam)
     tol = 1e-12 * np.abs(expected).max()
-    res_sns = make_law("sns")(**p.kwargs())
+    res_sns = paper_law("sns")(**p.kwargs())
     assert np.allclose(res_sns.qdot, expected, rtol=1e-9, atol=tol)
     assert res_sns.diagnostics.scale == 1.0 and res_sns.diagnostics.critical == ()
     for solver in ("auto", "scipy"):
-        res_qp = make_law("qp", solver=solver)(**p.kwargs())
+        res_qp = paper_law("qp", solver=solver)(**p.kwargs())
         assert np.allclose(res_qp.qdot, expected, rtol=1e-9, atol=tol)
         assert res_qp.diagnostics.critical == ()
         assert "solver: none" in res_qp.diagnostics.notes[-1]
@@ -370,7 +371,7 @@ def test_sns_scaling_ignores_saturated_joints() -> None:
 def test_sns_masking_keeps_every_case_feasible() -> None:
     """literature.md §B4: m = 3, n = 7, large errors, every case feasible and scaled along ẋ."""
     rng = np.random.default_rng(12)
-    law = make_law("sns", v_max=1.0)
+    law = paper_law("sns", v_max=1.0)
     saturated = 0
     for _ in range(300):
         J1 = rng.normal(size=(3, 7))
@@ -420,8 +421,8 @@ def task_cost(p: Problem, qdot: np.ndarray) -> float:
 def test_qp_respects_the_bounds_and_is_at_least_as_good_as_sns(
     p: Problem, v_max: float | None
 ) -> None:
-    results = {s: make_law("qp", solver=s, v_max=v_max)(**p.kwargs()) for s in ("auto", "scipy")}
-    sns = make_law("sns", v_max=v_max)(**p.kwargs())
+    results = {s: paper_law("qp", solver=s, v_max=v_max)(**p.kwargs()) for s in ("auto", "scipy")}
+    sns = paper_law("sns", v_max=v_max)(**p.kwargs())
     clipped = np.clip(classical_qdot(p.J1, p.e1, p.lam), *position_velocity_bounds(p))
     if v_max is not None:
         clipped = np.clip(clipped, -v_max, v_max)
@@ -467,19 +468,19 @@ def test_qp_pushes_back_from_inside_the_margin_band() -> None:
     J1 = np.array([[1.0, 1.0, 1.0]])
     q = np.array([-0.95, 0.0, 0.0])  # inside a 10 % band at the lower limit
     kw = {"J1": J1, "e1": [0.0], "q": q, "limits": limits, "lam": 1.0, "dt": 0.1}
-    res = make_law("qp", margin=0.1, k_p=0.5)(**kw)
+    res = paper_law("qp", margin=0.1, k_p=0.5)(**kw)
     expected_lo = 0.5 * (-1.0 + 0.2 - (-0.95)) / 0.1  # k_p (q_min + margin Δq - q)/dt = 0.75
     assert res.qdot[0] >= expected_lo - 1e-9
     assert 0 in res.diagnostics.constrained_axes
     # the push-back exceeds v_max: the velocity limit wins, the joint moves up at v_max
-    res = make_law("qp", margin=0.1, k_p=0.5, v_max=0.2)(**kw)
+    res = paper_law("qp", margin=0.1, k_p=0.5, v_max=0.2)(**kw)
     assert res.qdot[0] == pytest.approx(0.2)
     assert any("exceeds v_max" in s for s in res.diagnostics.notes)
 
 
 def test_qp_falls_back_to_scipy_without_qpsolvers(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(qp_module, "_qpsolvers", lambda: None)
-    law = make_law("qp")
+    law = paper_law("qp")
     limits = JointLimits(-np.ones(3), np.ones(3))
     res = law(J1=np.eye(2, 3), e1=[50.0, -50.0], q=np.zeros(3), limits=limits, lam=1.0, dt=0.1)
     assert any("scipy" in s for s in res.diagnostics.notes)
@@ -539,7 +540,7 @@ def test_switched_projector_annihilates_the_error_direction(p: Problem, e_norm: 
 
 
 def test_switching_value_landmarks() -> None:
-    law = make_law("large-projection", e0=0.2, e1=1.0)
+    law = paper_law("large-projection", e0=0.2, e1=1.0)
     limits = JointLimits(-np.ones(3), np.ones(3))
     J1 = np.eye(2, 3)
     for e_norm, lam_e in ((0.1, 0.0), (0.2, 1 / (1 + math.exp(6))), (0.6, 0.5), (1.5, 1.0)):
@@ -556,7 +557,7 @@ def test_large_projection_error_norm_decays_as_classical(
         p.J1 = np.random.default_rng(5).normal(size=(p.J1.shape[1],) * 2)
         p.e1 = np.random.default_rng(6).normal(size=p.J1.shape[0])
     secondary = np.linspace(-1.0, 1.0, p.J1.shape[1]) if with_secondary else None
-    res = make_law("large-projection")(**p.kwargs(), secondary=secondary)
+    res = paper_law("large-projection")(**p.kwargs(), secondary=secondary)
     rate = p.e1 @ p.J1 @ res.qdot
     expected = -p.lam * float(p.e1 @ p.e1)
     assert rate == pytest.approx(expected, rel=1e-7, abs=1e-9 * (1 + np.abs(res.qdot).max()))
@@ -567,7 +568,7 @@ def test_large_projection_error_norm_decays_as_classical(
 def test_large_projection_reduces_to_classical_far_from_the_limits(p: Problem) -> None:
     frac = np.clip((p.q - p.limits.q_min) / p.limits.range, 0.11, 0.89)  # inside the l0 band
     p.q = p.limits.q_min + frac * p.limits.range
-    res = make_law("large-projection")(**p.kwargs())
+    res = paper_law("large-projection")(**p.kwargs())
     assert np.allclose(res.qdot, classical_qdot(p.J1, p.e1, p.lam), rtol=1e-9, atol=1e-12)
     assert res.diagnostics.critical == ()
 
@@ -592,7 +593,7 @@ def test_large_projection_joint_limit_term_on_a_single_joint(
     q = np.zeros(n)
     q[0] = 0.8 + depth if upper else -0.8 - depth
     sign = 1.0 if upper else -1.0
-    res = make_law("large-projection", rho=rho, rho1=rho1, lambda_tune=tune)(
+    res = paper_law("large-projection", rho=rho, rho1=rho1, lambda_tune=tune)(
         J1=J1, e1=e1, q=q, limits=limits, lam=1.0, dt=0.1
     )
     qdot1 = classical_qdot(J1, e1, 1.0)
@@ -620,7 +621,7 @@ def test_large_projection_with_vanishing_p_ii_stays_finite() -> None:
     J1 = rng.normal(size=(4, 4))
     limits = JointLimits(-np.ones(4), np.ones(4))
     q = np.array([0.99, 0.0, -0.99, 0.0])
-    res = make_law("large-projection")(
+    res = paper_law("large-projection")(
         J1=J1, e1=np.full(4, 0.01), q=q, limits=limits, lam=1.0, dt=0.1
     )
     assert np.all(np.isfinite(res.qdot))
@@ -678,7 +679,7 @@ def test_degenerate_inputs_give_finite_velocities(
     name: str, p: Problem, with_secondary: bool
 ) -> None:
     secondary = np.ones(p.J1.shape[1]) if with_secondary else None
-    res = make_law(name)(**p.kwargs(), secondary=secondary)
+    res = paper_law(name)(**p.kwargs(), secondary=secondary)
     assert res.qdot.shape == (p.J1.shape[1],)
     assert np.all(np.isfinite(res.qdot))
     assert not any("non-finite" in s for s in res.diagnostics.notes)

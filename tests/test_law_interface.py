@@ -25,6 +25,7 @@ from redservo import (
 )
 from redservo.redundancy.base import registered_methods
 from redservo.redundancy.linalg import pinv, task_svd
+from tests.laws import paper_law
 
 N = 6
 LIMITS = JointLimits(-np.ones(N), np.ones(N), rho=0.1)
@@ -47,7 +48,7 @@ def good_inputs(m: int = 2, seed: int = 0) -> dict[str, Any]:
 def call(method: str, **overrides: Any) -> redservo.LawResult:
     kw = good_inputs()
     kw.update(overrides)
-    return make_law(method)(**kw)
+    return paper_law(method)(**kw)
 
 
 # -- registry ------------------------------------------------------------------------------------
@@ -164,7 +165,7 @@ CASES = _cases()
 def test_output_finite_shape_and_name(method: str, case: str) -> None:
     kw = good_inputs()
     kw.update(CASES[case])
-    r = make_law(method)(**kw)
+    r = paper_law(method)(**kw)
     assert isinstance(r, redservo.LawResult)
     assert r.qdot.shape == (N,)
     assert np.isfinite(r.qdot).all()
@@ -188,7 +189,7 @@ def test_random_inputs_never_raise(method: str, m: int, seed: int, scale: float)
     kw["J1"] = kw["J1"] * scale
     kw["q"] = rng.uniform(LIMITS.q_min, LIMITS.q_max)
     kw["q"][rng.integers(N)] = LIMITS.q_max[0]
-    r = make_law(method)(**kw)
+    r = paper_law(method)(**kw)
     assert r.qdot.shape == (N,) and np.isfinite(r.qdot).all()
 
 
@@ -198,7 +199,7 @@ def test_laws_are_pure(method: str, case: str) -> None:
     kw = good_inputs()
     kw.update(CASES[case])
     copies = {k: np.array(v, copy=True) for k, v in kw.items() if isinstance(v, np.ndarray)}
-    law = make_law(method)
+    law = paper_law(method)
     if law.stateful:  # a stateful law must be reproducible after reset()
         law.reset()
     first = law(**kw)
@@ -210,15 +211,15 @@ def test_laws_are_pure(method: str, case: str) -> None:
     for k, v in copies.items():  # inputs are not modified
         np.testing.assert_array_equal(kw[k], v, err_msg=k)
     # a fresh instance gives the same command too
-    np.testing.assert_array_equal(make_law(method)(**kw).qdot, first.qdot)
+    np.testing.assert_array_equal(paper_law(method)(**kw).qdot, first.qdot)
 
 
 @pytest.mark.parametrize("method", METHODS)
 def test_accepts_lists(method: str) -> None:
     kw = good_inputs()
-    a = make_law(method)(**kw).qdot
+    a = paper_law(method)(**kw).qdot
     as_lists = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in kw.items()}
-    np.testing.assert_array_equal(make_law(method)(**as_lists).qdot, a)
+    np.testing.assert_array_equal(paper_law(method)(**as_lists).qdot, a)
 
 
 # -- classical -----------------------------------------------------------------------------------
@@ -239,7 +240,7 @@ def test_classical_formula(m: int, seed: int, sec: bool, ff: bool) -> None:
         want = want - Jp @ kw["de1_dt"]
     if sec:
         want = want + (np.eye(N) - Jp @ J) @ kw["secondary"]
-    r = make_law("classical")(**kw)
+    r = paper_law("classical")(**kw)
     np.testing.assert_allclose(r.qdot, want, atol=1e-10 * (1 + np.abs(want).max()))
     assert r.diagnostics.critical == () and r.diagnostics.task_rank == m
     task_rate = -lam * e - (kw["de1_dt"] if ff else 0.0)

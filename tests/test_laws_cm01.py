@@ -19,6 +19,7 @@ from scipy.linalg import null_space
 
 from redservo import ConfigurationError, JointLimits, make_law
 from redservo.redundancy.base import LawResult
+from tests.laws import paper_law
 
 NULL_METHODS = (
     "gpm",
@@ -45,7 +46,7 @@ class Problem(NamedTuple):
 
     def run(self, method: str, **kw: object) -> LawResult:
         opts = kw.pop("options", {})
-        law = make_law(method, **opts)  # type: ignore[arg-type]
+        law = paper_law(method, **opts)  # type: ignore[arg-type]
         return law(
             J1=self.J1,
             e1=self.e1,
@@ -572,11 +573,11 @@ def test_invalid_options(method: str, options: dict[str, object]) -> None:
 
 
 def test_valid_options_and_repr() -> None:
-    assert make_law("gpm-auto", alpha_max=float("inf")).alpha_max == float("inf")  # type: ignore[attr-defined]
-    law = make_law("iterative-smooth-e2", alpha=0.5, max_levels=3)
+    assert paper_law("gpm-auto", alpha_max=float("inf")).alpha_max == float("inf")  # type: ignore[attr-defined]
+    law = paper_law("iterative-smooth-e2", alpha=0.5, max_levels=3)
     assert "alpha=0.5" in repr(law) and "max_levels=3" in repr(law)
-    assert "max_levels" not in repr(make_law("iterative-basic"))
-    assert make_law("iterative", max_levels=np.int64(2)).max_levels == 2  # type: ignore[attr-defined]
+    assert "max_levels" not in repr(paper_law("iterative-basic"))
+    assert paper_law("iterative", max_levels=np.int64(2)).max_levels == 2  # type: ignore[attr-defined]
 
 
 def test_ill_conditioned_constraint_is_reported_and_can_be_capped() -> None:
@@ -594,12 +595,12 @@ def test_ill_conditioned_constraint_is_reported_and_can_be_capped() -> None:
         lam=0.5,
         dt=0.04,
     )
-    exact = make_law("iterative")(**kw)
+    exact = paper_law("iterative")(**kw)
     assert exact.diagnostics.critical[0] == (0,)  # (the huge motion then drives axis 2 in)
     assert abs(exact.qdot[0]) < 1e-9  # CM01: stopped, whatever it costs ...
     assert np.abs(exact.qdot).max() > 1e3  # ... here a huge motion of axis 2
     assert any("ill-conditioned constraints" in n for n in exact.diagnostics.notes)
-    capped = make_law("iterative", constraint_rcond=1e-2)(**kw)
+    capped = paper_law("iterative", constraint_rcond=1e-2)(**kw)
     assert np.abs(capped.qdot).max() < 1.0  # no amplification
     assert capped.diagnostics.overconstrained  # the constraint is reported as not met
     np.testing.assert_allclose(kw["J1"] @ capped.qdot, -0.5 * kw["e1"], atol=1e-12)

@@ -14,6 +14,7 @@ import redservo
 from redservo import ConfigurationError, JointLimits, ShapeError, make_law
 from redservo.redundancy.directional import directional_projection
 from redservo.redundancy.linalg import DEFAULT_RCOND
+from tests.laws import paper_law
 
 SETTINGS = settings(max_examples=80, deadline=None)
 seeds = st.integers(0, 2**32 - 1)
@@ -98,10 +99,10 @@ def rounding_tol(J1: np.ndarray, *vectors: np.ndarray) -> float:
     use_jl=st.booleans(),
 )
 def test_eq9_error_never_worse_than_classical(pb: Problem, kappa, margin, use_jl) -> None:
-    law = make_law("directional", kappa=kappa, margin=margin, use_joint_limits=use_jl)
+    law = paper_law("directional", kappa=kappa, margin=margin, use_joint_limits=use_jl)
     kw = dict(J1=pb.J1, e1=pb.e1, q=pb.q, limits=pb.limits, lam=pb.lam, dt=pb.dt)
     res = law(**kw, secondary=pb.secondary)
-    cl = make_law("classical")(**kw)
+    cl = paper_law("classical")(**kw)
     assert res.qdot.shape == (pb.J1.shape[1],) and np.isfinite(res.qdot).all()
     after = np.linalg.norm(pb.e1 + pb.J1 @ res.qdot * pb.dt)
     classical = np.linalg.norm(pb.e1 + pb.J1 @ cl.qdot * pb.dt)
@@ -118,8 +119,8 @@ def test_eq9_with_feed_forward(pb: Problem, ff: st.DataObject) -> None:
     m = pb.J1.shape[0]
     de1_dt = ff.draw(hnp.arrays(float, m, elements=st.floats(-3.0, 3.0)))
     kw = dict(J1=pb.J1, e1=pb.e1, q=pb.q, limits=pb.limits, lam=pb.lam, dt=pb.dt, de1_dt=de1_dt)
-    res = make_law("directional", kappa=5.0)(**kw, secondary=pb.secondary)
-    cl = make_law("classical")(**kw)
+    res = paper_law("directional", kappa=5.0)(**kw, secondary=pb.secondary)
+    cl = paper_law("classical")(**kw)
     # ė1 = J1 q̇ + ∂e1/∂t: the predicted error includes the target's motion.
     drift = pb.e1 + pb.dt * de1_dt
     after = np.linalg.norm(drift + pb.J1 @ res.qdot * pb.dt)
@@ -243,9 +244,9 @@ def test_projection_bad_input() -> None:
 def test_zero_error_reduces_to_the_classical_null_space_projector(pb: Problem, use_jl) -> None:
     e0 = np.zeros(pb.J1.shape[0])
     kw = dict(J1=pb.J1, e1=e0, q=pb.q, limits=pb.limits, lam=pb.lam, dt=pb.dt)
-    res = make_law("directional", kappa=3.0, use_joint_limits=use_jl)(**kw, secondary=pb.secondary)
+    res = paper_law("directional", kappa=3.0, use_joint_limits=use_jl)(**kw, secondary=pb.secondary)
     force = pb.secondary - (3.0 * pb.limits.gradient(pb.q) if use_jl else 0.0)
-    cl = make_law("classical")(**kw, secondary=force)  # q̇ = J1^⊥ force
+    cl = paper_law("classical")(**kw, secondary=force)  # q̇ = J1^⊥ force
     assert np.allclose(res.qdot, cl.qdot, atol=1e-9 * (1.0 + np.abs(force).sum()))
     n = pb.J1.shape[1]
     if res.diagnostics.task_rank == n:  # e.g. m = n full rank: nothing moves
@@ -279,7 +280,7 @@ def test_full_rank_square_task_moves_along_a_helping_force(seed: int, c: float) 
     lam, dt, kappa = 0.5, 0.04, 2.0
     e2 = limits.gradient(q)
     e1 = c * J @ e2  # the force -κ e2 drives the task error toward 0: it helps
-    res = make_law("directional", kappa=kappa)(J1=J, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
+    res = paper_law("directional", kappa=kappa)(J1=J, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
     assert res.diagnostics.projector_rank > 0
     # In this configuration J z = -κ dt e1 / c is along -e1, so y_i = -(κ dt / c) a_i / (1 - λ dt):
     # kept whole while κ dt / c <= 2 (1 - λ dt), else clipped; never blocked.
@@ -301,7 +302,7 @@ def test_full_rank_square_task_blocks_a_hindering_force(seed: int, c: float) -> 
     J, limits, q = _square_problem(seed)
     lam, dt = 0.5, 0.04
     e1 = -c * J @ limits.gradient(q)  # now the force would increase every error component
-    res = make_law("directional", kappa=2.0)(J1=J, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
+    res = paper_law("directional", kappa=2.0)(J1=J, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
     assert np.allclose(res.qdot, -lam * np.linalg.solve(J, e1), atol=1e-9)
     # Only the components with z̃_i = 0 (none here, generically) keep p_i = 1.
     assert res.diagnostics.projector_rank == 0
@@ -313,7 +314,7 @@ def test_full_rank_square_task_blocks_a_hindering_force(seed: int, c: float) -> 
 @SETTINGS
 @given(pb=problems())
 def test_projector_rank_between_null_space_and_n(pb: Problem) -> None:
-    res = make_law("directional")(
+    res = paper_law("directional")(
         J1=pb.J1, e1=pb.e1, q=pb.q, limits=pb.limits, lam=pb.lam, dt=pb.dt, secondary=pb.secondary
     )
     d = res.diagnostics
@@ -341,7 +342,7 @@ def test_degenerate_inputs_stay_finite(J1, e_scale, secondary) -> None:
     limits = JointLimits(-np.ones(n), np.ones(n))
     q = np.array([1.0, -1.0, 0.0, 0.95][:n])  # two axes exactly at a limit
     sec = None if secondary is None else np.resize(secondary, n)
-    res = make_law("directional")(
+    res = paper_law("directional")(
         J1=J1, e1=e_scale * np.ones(m), q=q, limits=limits, lam=0.5, dt=0.04, secondary=sec
     )
     assert res.qdot.shape == (n,) and np.isfinite(res.qdot).all()
@@ -354,7 +355,7 @@ def test_degenerate_inputs_stay_finite(J1, e_scale, secondary) -> None:
 def test_zero_error_zero_force_gives_zero_velocity() -> None:
     limits = JointLimits(-np.ones(4), np.ones(4))
     J1 = np.random.default_rng(3).normal(size=(2, 4))
-    res = make_law("directional")(
+    res = paper_law("directional")(
         J1=J1, e1=np.zeros(2), q=np.zeros(4), limits=limits, lam=1, dt=0.1
     )
     assert np.array_equal(res.qdot, np.zeros(4))
@@ -366,7 +367,7 @@ def test_zero_error_zero_force_gives_zero_velocity() -> None:
 def test_fig3_rank_counts_only_directions_the_force_uses() -> None:
     """Full-rank square task: rank 0 with no force, > 0 once a helping force acts (MC05 Fig. 3)."""
     limits = JointLimits(-np.ones(2), np.ones(2))
-    law = make_law("directional", kappa=5.0)
+    law = paper_law("directional", kappa=5.0)
     J1 = np.eye(2)
     far = law(J1=J1, e1=np.array([0.5, 0.0]), q=np.zeros(2), limits=limits, lam=1, dt=0.1)
     assert far.diagnostics.projector_rank == 0
@@ -380,7 +381,7 @@ def test_fig3_rank_counts_only_directions_the_force_uses() -> None:
 def test_rank_deficiency_is_reported() -> None:
     limits = JointLimits(-np.ones(3), np.ones(3))
     J1 = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
-    res = make_law("directional")(
+    res = paper_law("directional")(
         J1=J1, e1=np.array([1.0, 0.0]), q=np.array([0.95, 0.0, 0.0]), limits=limits, lam=1, dt=0.1
     )
     assert res.diagnostics.rank_deficient and res.diagnostics.task_rank == 1
@@ -392,9 +393,9 @@ def test_use_joint_limits_switch() -> None:
     limits = JointLimits(-np.ones(3), np.ones(3))
     q = np.array([0.95, 0.0, -0.99])
     kw = dict(J1=J1, e1=np.zeros(1), q=q, limits=limits, lam=1.0, dt=0.1)
-    off = make_law("directional", use_joint_limits=False)(**kw)
+    off = paper_law("directional", use_joint_limits=False)(**kw)
     assert np.array_equal(off.qdot, np.zeros(3))
-    on = make_law("directional", kappa=2.0)(**kw)
+    on = paper_law("directional", kappa=2.0)(**kw)
     assert on.qdot[0] < 0.0 and on.qdot[2] > 0.0  # away from both limits, in Ker J1
 
 

@@ -26,14 +26,19 @@ from redservo.redundancy import (
     LawResult,
     make_law,
 )
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.gain import AdaptiveGain
 
 __version__ = "0.1.0"
 
 __all__ = [
     "METHODS",
     "METHOD_DESCRIPTIONS",
+    "AdaptiveGain",
     "ConfigurationError",
     "Diagnostics",
+    "Event",
+    "Flag",
     "GeometryError",
     "InfeasibleError",
     "JointLimitError",

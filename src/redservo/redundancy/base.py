@@ -27,7 +27,7 @@ import abc
 import inspect
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, NamedTuple, TypeVar
+from typing import Any, ClassVar, Literal, NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,9 +35,13 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, _to_float
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError, UnknownNameError
 from redservo.limits import JointLimits
-from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.gain import AdaptiveGain, gain_value
+from redservo.redundancy.linalg import DEFAULT_RCOND, ROBUST_FILTER, TaskSVD, task_svd
+from redservo.redundancy.safety import apply_safety
 
 __all__ = [
+    "SAFETY_OPTIONS",
     "Diagnostics",
     "Law",
     "LawInputs",
@@ -69,7 +73,11 @@ class Diagnostics:
         b: Gains of the later levels, concatenated (CM01 eqs. 13-15, 18, 21).
         gamma: (n,) smoothing gains γ_k (CM01 eq. 17), for the constrained axes (0 elsewhere).
         scale: Task scale factor in [0, 1] (``sns``), 1 when the task is executed in full.
-        notes: Free-text flags for unusual events (e.g. a degraded solve).
+        events: Typed flags for unusual events, each with a number attached
+            (:class:`~redservo.redundancy.flags.Event`; e.g. a degraded solve, a scaled
+            command, the shield acting). ``notes`` gives their messages.
+        info: Informational lines that are not flags (the solver used, the directions a
+            projector freed).
     """
 
     method: str
@@ -84,7 +92,29 @@ class Diagnostics:
     b: FloatArray | None = None
     gamma: FloatArray | None = None
     scale: float | None = None
-    notes: tuple[str, ...] = field(default=())
+    events: tuple[Event, ...] = field(default=())
+    info: tuple[str, ...] = field(default=())
+
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """The events' messages, then the informational ``info`` lines, in order."""
+        return (*(e.message for e in self.events), *self.info)
+
+    @property
+    def flags(self) -> frozenset[Flag]:
+        """The flags raised."""
+        return frozenset(e.flag for e in self.events)
+
+    def has(self, flag: Flag) -> bool:
+        """True when ``flag`` was raised."""
+        return any(e.flag is flag for e in self.events)
+
+    def value(self, flag: Flag) -> float | None:
+        """The number attached to ``flag`` (the first occurrence), or None if not raised."""
+        for e in self.events:
+            if e.flag is flag:
+                return e.value
+        return None
 
     @property
     def constrained_axes(self) -> tuple[int, ...]:
@@ -112,6 +142,7 @@ class LawInputs(NamedTuple):
     dt: float
     de1_dt: FloatArray | None
     secondary: FloatArray | None
+    qdot_prev: FloatArray | None = None
 
     @property
     def e_eff(self) -> FloatArray:
@@ -128,7 +159,7 @@ def _vec(value: ArrayLike, name: str, size: int) -> FloatArray:
         else _to_float(value, name)
     )
     if arr.shape != (size,):
-        raise ShapeError(f"{name} must have shape ({size},), got shape {arr.shape}")
+        raise ShapeError(f"{name} must have shape ({size},), got shape {arr.shape}", argument=name)
     return arr
 
 
@@ -146,8 +177,30 @@ def _require_finite(**arrays: FloatArray | None) -> None:
         return
     for name, arr in arrays.items():
         if arr is not None and not np.isfinite(arr).all():
-            raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}")
+            raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}", argument=name)
     raise ShapeError("inputs are too large (their sum overflows); rescale the task")
+
+
+def _scalar(value: object, name: str, meaning: str) -> float:
+    """Return a finite positive float, or raise ConfigurationError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise ConfigurationError(
+            f"{name} ({meaning}) must be a finite positive number, got {value!r}", argument=name
+        )
+    v = float(value)
+    if not (math.isfinite(v) and v > 0.0):
+        raise ConfigurationError(
+            f"{name} ({meaning}) must be a finite positive number, got {value!r}", argument=name
+        )
+    return v
+
+
+def _real_matrix(J1: ArrayLike) -> FloatArray:
+    if isinstance(J1, np.ndarray) and J1.dtype == np.float64:
+        return J1
+    if np.iscomplexobj(J1):
+        raise ShapeError("J1 must be a real matrix, got complex values", argument="J1")
+    return _to_float(J1, "J1")
 
 
 def validate_inputs(
@@ -156,38 +209,55 @@ def validate_inputs(
     e1: ArrayLike,
     q: ArrayLike,
     limits: JointLimits,
-    lam: float,
+    lam: float | AdaptiveGain,
     dt: float,
     de1_dt: ArrayLike | None,
     secondary: ArrayLike | None,
+    qdot_prev: ArrayLike | None = None,
 ) -> LawInputs:
-    """Check shapes, finiteness, gains and that ``q`` lies within ``limits``."""
-    J = J1 if isinstance(J1, np.ndarray) and J1.dtype == np.float64 else _to_float(J1, "J1")
+    """Check shapes, finiteness, gains and that ``q`` lies within ``limits``.
+
+    An :class:`~redservo.redundancy.gain.AdaptiveGain` is evaluated at ``‖e1‖∞`` here, so
+    that the laws always see a number.
+    """
+    J = _real_matrix(J1)
     if J.ndim != 2 or J.shape[0] == 0:
-        raise ShapeError(f"J1 must be a 2-D (m, n) array with m >= 1, got shape {J.shape}")
+        raise ShapeError(
+            f"J1 must be a 2-D (m, n) array with m >= 1, got shape {J.shape}", argument="J1"
+        )
     m, n = J.shape
     if not isinstance(limits, JointLimits):
         raise ShapeError(
             f"limits must be a redservo.JointLimits, got {type(limits).__name__}; "
-            "build one with JointLimits(q_min, q_max, rho=0.1)"
+            "build one with JointLimits(q_min, q_max, rho=0.1)",
+            argument="limits",
         )
     if limits.n != n:
-        raise ShapeError(f"limits has {limits.n} joints but J1 has {n} columns")
+        raise ShapeError(f"limits has {limits.n} joints but J1 has {n} columns", argument="limits")
+    for name, value in (("e1", e1), ("q", q), ("de1_dt", de1_dt), ("secondary", secondary)):
+        if value is not None and np.iscomplexobj(value):
+            raise ShapeError(f"{name} must be real, got complex values", argument=name)
     e = _vec(e1, "e1", m)
     qa = _vec(q, "q", n)
     ff = None if de1_dt is None else _vec(de1_dt, "de1_dt", m)
     sec = None if secondary is None else _vec(secondary, "secondary", n)
-    _require_finite(J1=J, e1=e, q=qa, de1_dt=ff, secondary=sec)
+    prev = None if qdot_prev is None else _vec(qdot_prev, "qdot_prev", n)
+    _require_finite(J1=J, e1=e, q=qa, de1_dt=ff, secondary=sec, qdot_prev=prev)
     if float(np.minimum(qa - limits.q_min, limits.q_max - qa).min()) < -1e-9:
         limits.check(qa)  # raises JointLimitError with the details
         raise JointLimitError("q is outside the joint limits")  # pragma: no cover
-    lam_f = float(lam)
-    if not (math.isfinite(lam_f) and lam_f > 0.0):
-        raise ConfigurationError(f"lam (λ, 1/s) must be a finite positive number, got {lam!r}")
-    dt_f = float(dt)
-    if not (math.isfinite(dt_f) and dt_f > 0.0):
-        raise ConfigurationError(f"dt (control period, s) must be finite and positive, got {dt!r}")
-    return LawInputs(J, e, qa, limits, lam_f, dt_f, ff, sec)
+    if isinstance(lam, AdaptiveGain):
+        lam_f = gain_value(lam, e)
+    else:
+        lam_f = _scalar(lam, "lam", "λ, 1/s")
+    dt_f = _scalar(dt, "dt", "control period, s")
+    return LawInputs(J, e, qa, limits, lam_f, dt_f, ff, sec, prev)
+
+
+SAFETY_OPTIONS: tuple[str, ...] = ("shield", "robust", "scaling")
+"""Options every law accepts through :func:`make_law` (see :class:`Law`)."""
+
+Scaling = Literal["uniform", "secondary-first"]
 
 
 class Law(abc.ABC):
@@ -199,16 +269,55 @@ class Law(abc.ABC):
     :meth:`compute`. A law holds no state between calls unless ``stateful`` is
     True, in which case its docstring says what it remembers and :meth:`reset`
     clears it.
+
+    Every law also has the safety options (:data:`SAFETY_OPTIONS`, given to
+    :func:`make_law` or set with :meth:`set_safety`; docs/safety.md):
+
+    * ``shield`` (default True): the position shield of
+      :mod:`redservo.redundancy.safety` keeps ``q + dt q̇`` within the limits less
+      their margin, exactly in float64.
+    * ``robust`` (default True): the paper laws invert ill-conditioned matrices with
+      the bounded, filtered inverse (docs/safety.md); False runs them exactly as printed.
+    * ``scaling`` (``"uniform"`` default, or ``"secondary-first"``): how a command is
+      brought within the velocity and acceleration limits, which every law honours.
     """
 
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     stateful: ClassVar[bool] = False
+    shield: bool = True
+    robust: bool = True
+    scaling: Scaling = "uniform"
 
     def __init__(self, *, rcond: float = DEFAULT_RCOND) -> None:
-        if not (0.0 < float(rcond) < 1.0):
-            raise ConfigurationError(f"rcond must lie in (0, 1), got {rcond!r}")
-        self.rcond = float(rcond)
+        r = _scalar(rcond, "rcond", "relative singular-value cut-off")
+        if not r < 1.0:
+            raise ConfigurationError(f"rcond must lie in (0, 1), got {rcond!r}", argument="rcond")
+        self.rcond = r
+
+    def set_safety(
+        self,
+        *,
+        shield: bool | None = None,
+        robust: bool | None = None,
+        scaling: Scaling | None = None,
+    ) -> Law:
+        """Set the safety options (None keeps the current value); return ``self``."""
+        for key, value in (("shield", shield), ("robust", robust)):
+            if value is not None:
+                if not isinstance(value, bool | np.bool_):
+                    raise ConfigurationError(
+                        f"{key} must be true or false, got {value!r}", argument=key
+                    )
+                setattr(self, key, bool(value))
+        if scaling is not None:
+            if scaling not in ("uniform", "secondary-first"):
+                raise ConfigurationError(
+                    f"scaling must be 'uniform' or 'secondary-first', got {scaling!r}",
+                    argument="scaling",
+                )
+            self.scaling = scaling
+        return self
 
     def __call__(
         self,
@@ -217,10 +326,11 @@ class Law(abc.ABC):
         e1: ArrayLike,
         q: ArrayLike,
         limits: JointLimits,
-        lam: float,
+        lam: float | AdaptiveGain,
         dt: float,
         de1_dt: ArrayLike | None = None,
         secondary: ArrayLike | None = None,
+        qdot_prev: ArrayLike | None = None,
     ) -> LawResult:
         """Compute one joint-velocity command.
 
@@ -228,37 +338,64 @@ class Law(abc.ABC):
             J1: (m, n) main-task Jacobian ``J1 = C L J(q)``.
             e1: (m,) main-task error ``e1 = C (s - s*)``.
             q: (n,) current joint positions (m or rad), within ``limits``.
-            limits: The robot's :class:`~redservo.JointLimits`.
-            lam: Gain λ > 0 (1/s).
-            dt: Control period (s), used by the predictions of CM01 eq. 8.
+            limits: The robot's :class:`~redservo.JointLimits` (positions, and optionally
+                velocity and acceleration limits and the shield's margin).
+            lam: Gain λ > 0 (1/s), or an :class:`~redservo.AdaptiveGain` λ(‖e1‖∞).
+            dt: Control period (s), used by the predictions of CM01 eq. 8 and the limits.
             de1_dt: (m,) feed-forward ``∂e1/∂t`` for a moving target (CM01 eq. 2), or None.
             secondary: (n,) extra joint-space command, projected by the law's operator, or None.
+            qdot_prev: (n,) the previous command (rad/s or m/s), needed by the acceleration
+                limits; None (first call) leaves them out.
 
         Returns:
-            :class:`LawResult` with ``qdot`` (n,) and ``diagnostics``.
+            :class:`LawResult` with ``qdot`` (n,) and ``diagnostics``. ``qdot`` never
+            exceeds ``limits.qdot_max``, never holds NaN, and with ``shield`` on keeps
+            ``q + dt·qdot`` within the limits less their margin.
 
         Raises:
-            ShapeError: wrong shapes, or NaN/inf inputs.
+            ShapeError: wrong shapes, complex values, or NaN/inf inputs.
             JointLimitError: ``q`` outside ``limits``.
-            ConfigurationError: ``lam`` or ``dt`` not positive.
+            ConfigurationError: ``lam`` or ``dt`` not a finite positive number.
         """
         x = validate_inputs(
-            J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt, de1_dt=de1_dt, secondary=secondary
+            J1=J1,
+            e1=e1,
+            q=q,
+            limits=limits,
+            lam=lam,
+            dt=dt,
+            de1_dt=de1_dt,
+            secondary=secondary,
+            qdot_prev=qdot_prev,
         )
         result = self.compute(x)
-        qdot = result.qdot
-        if not math.isfinite(float(qdot.sum())):  # never let a NaN velocity through
-            qdot = np.zeros_like(qdot)
-            d = result.diagnostics
-            result = LawResult(
-                qdot,
-                Diagnostics(**{**_asdict(d), "notes": (*d.notes, "non-finite output zeroed")}),
-            )
-        return result
+        task = self.task_command(x) if self.scaling == "secondary-first" else None
+        safe = apply_safety(
+            result.qdot, x.q, x.limits, x.dt, qdot_prev=x.qdot_prev, shield=self.shield, task=task
+        )
+        if not safe.events and safe.qdot is result.qdot:
+            return result
+        d = result.diagnostics
+        return LawResult(
+            safe.qdot, Diagnostics(**{**_asdict(d), "events": (*d.events, *safe.events)})
+        )
+
+    @property
+    def filter_threshold(self) -> float:
+        """Relative filter threshold of the robust task inverse (0 when ``robust`` is off)."""
+        return ROBUST_FILTER if self.robust else 0.0
+
+    def svd(self, J1: FloatArray) -> TaskSVD:
+        """The task SVD with this law's cut-off and, if ``robust``, the filtered inverse."""
+        return task_svd(J1, self.rcond, self.filter_threshold)
+
+    def task_command(self, x: LawInputs) -> FloatArray:
+        """The primary-task part of the command, ``-λ J1⁺ e_eff`` (for secondary-first scaling)."""
+        return np.asarray(-x.lam * (self.svd(x.J1).pinv @ x.e_eff))
 
     @abc.abstractmethod
     def compute(self, x: LawInputs) -> LawResult:
-        """Compute the command from validated inputs (implemented by each law)."""
+        """Compute the raw command from validated inputs (implemented by each law)."""
 
     def reset(self) -> None:  # noqa: B027 - optional hook, stateless laws need nothing
         """Forget any state kept between calls (no-op for stateless laws)."""
@@ -307,7 +444,8 @@ def make_law(name: str, **options: Any) -> Law:
 
     Args:
         name: One of :data:`redservo.METHODS`.
-        **options: The law's keyword-only options (see its class docstring).
+        **options: The law's keyword-only options (see its class docstring), and the
+            safety options ``shield``, ``robust``, ``scaling`` every law has (:class:`Law`).
 
     Raises:
         UnknownNameError: ``name`` is not a known method.
@@ -318,9 +456,12 @@ def make_law(name: str, **options: Any) -> Law:
     allowed = [
         p for p in params if p != "self" and params[p].kind is inspect.Parameter.KEYWORD_ONLY
     ]
+    safety = {k: options.pop(k) for k in SAFETY_OPTIONS if k in options}
     unknown = sorted(set(options) - set(allowed))
     if unknown:
         raise ConfigurationError(
-            f"method {name!r} has no option(s) {unknown}; its options are: {', '.join(allowed)}"
+            f"method {name!r} has no option(s) {unknown}; its options are: "
+            f"{', '.join([*allowed, *SAFETY_OPTIONS])}",
+            argument=unknown[0],
         )
-    return cls(**options)
+    return cls(**options).set_safety(**safety)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import task_svd
+from redservo.redundancy.linalg import svd_events
 
 __all__ = ["Classical"]
 
@@ -23,15 +23,20 @@ class Classical(Law):
     description = "q̇ = -λ J1⁺ e1 (CM01 eq. 2): no avoidance"
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         qdot = -x.lam * (svd.pinv @ x.e_eff)
         if x.secondary is not None:
             qdot = qdot + svd.null @ (svd.null.T @ x.secondary)
-        m = x.J1.shape[0]
+        m, n = x.J1.shape
         diag = Diagnostics(
             method=self.name,
             task_rank=svd.rank,
             rank_deficient=svd.rank < m,
             projector_rank=svd.null.shape[1] if x.secondary is not None else 0,
+            events=tuple(
+                e
+                for e in svd_events(m, n, svd, self.filter_threshold)
+                if e.flag.value != "no-redundancy"
+            ),
         )
         return LawResult(qdot, diag)

@@ -98,7 +98,8 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.costs import joint_limit_force
-from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events
 
 __all__ = ["Directional", "DirectionalProjection", "directional_projection"]
 
@@ -254,7 +255,7 @@ class Directional(Law):
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
         dt = x.dt
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         de = -x.lam * dt * x.e_eff
         e_start = x.e1 if x.de1_dt is None else x.e1 + dt * x.de1_dt
         dq1 = svd.pinv @ de
@@ -271,24 +272,29 @@ class Directional(Law):
         )
         qdot = (dq1 + proj.dq2) / dt
 
-        notes: list[str] = []
+        events = [e for e in svd_events(m, n, svd, self.filter_threshold) if e.flag is Flag.DAMPED]
+        info: list[str] = []
         r = svd.rank
         if r < m:
-            notes.append(
-                f"J1 rank {r} < m = {m}: {m - r} task direction(s) uncontrolled; "
-                "sub-threshold singular directions treated as free"
+            events.append(
+                Event(
+                    Flag.RANK_LOSS,
+                    m - r,
+                    f"J1 rank {r} < m = {m}: {m - r} task direction(s) uncontrolled; "
+                    "sub-threshold singular directions treated as free",
+                )
             )
         zt = svd.V[:, :r].T @ z
         p_r = proj.p[:r]
         moving = zt != 0.0
         used_rank = (n - r) + int(np.count_nonzero(moving & (p_r > 0.0)))
         if not np.any(z):
-            notes.append("no secondary command (z = 0)")
+            events.append(Event(Flag.NO_SECONDARY, 0.0, "no secondary command (z = 0)"))
         else:
             freed = int(np.count_nonzero(moving & (p_r == 1.0)))
             clipped = int(np.count_nonzero(moving & (p_r > 0.0) & (p_r < 1.0)))
             blocked = int(np.count_nonzero(moving & (p_r == 0.0)))
-            notes.append(
+            info.append(
                 f"task directions: {freed} free, {clipped} clipped, {blocked} blocked "
                 f"(of {r}); {n - r} null-space direction(s)"
             )
@@ -297,6 +303,7 @@ class Directional(Law):
             task_rank=r,
             rank_deficient=r < m,
             projector_rank=used_rank,
-            notes=tuple(notes),
+            events=tuple(events),
+            info=tuple(info),
         )
         return LawResult(np.asarray(qdot, dtype=float), diag)

@@ -52,29 +52,22 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, filtered_reciprocal, svd_events
 
-__all__ = ["GradientProjection", "GradientProjectionAuto", "null_project", "rank_notes"]
+__all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
 
 _DEN_TOL = 1e-10
 """``|(J1^⊥ e2)_k|`` at or below ``_DEN_TOL * max|e2|`` counts as zero in eq. 9."""
+ALPHA_FILTER = 1e-2
+"""Robust eq. 9: ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` (``g = J1^⊥ e2``), so the
+secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|`` it stops."""
 
 
 def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
     """Return ``J1^⊥ v = E (E^T v)`` (n,) without forming the n x n projector."""
     E = svd.null
     return np.asarray(E @ (E.T @ v))
-
-
-def rank_notes(J1: FloatArray, svd: TaskSVD) -> list[str]:
-    """Notes for a rank-deficient ``J1`` and for the no-redundancy case (shared by the CM01 laws)."""
-    m, n = J1.shape
-    notes: list[str] = []
-    if svd.rank < m:
-        notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
-    if svd.rank >= n:
-        notes.append("no redundancy (rank J1 = n): reduces to the classical law")
-    return notes
 
 
 @register
@@ -98,7 +91,7 @@ class GradientProjection(Law):
         self.alpha = a
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         e2 = x.limits.gradient(x.q)
         v = svd.pinv @ x.e_eff + self.alpha * null_project(svd, e2)
         qdot = -x.lam * v
@@ -112,7 +105,7 @@ class GradientProjection(Law):
             projector_rank=svd.null.shape[1],
             critical=(band,) if band else (),
             alpha=self.alpha,
-            notes=tuple(rank_notes(x.J1, svd)),
+            events=tuple(svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)),
         )
         return LawResult(qdot, diag)
 
@@ -146,7 +139,7 @@ class GradientProjectionAuto(Law):
         self.alpha_max = alpha_max
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         w = svd.pinv @ x.e_eff
         if x.secondary is not None:
             w = w - null_project(svd, x.secondary) / x.lam
@@ -154,27 +147,23 @@ class GradientProjectionAuto(Law):
         g = null_project(svd, e2)
         q_hat = x.q - (x.lam * x.dt) * w  # eq. 8
         candidates = np.flatnonzero(x.limits.critical(x.q, q_hat))
-        notes = rank_notes(x.J1, svd)
+        events = svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)
         alpha = 0.0
         critical: tuple[tuple[int, ...], ...] = ()
         if candidates.size:
             k = int(candidates[np.argmin(x.limits.margin(q_hat)[candidates])])
             if candidates.size > 1:
                 others = sorted(set(candidates.tolist()) - {k})
-                notes.append(f"critical axes {others} not handled (gpm-auto stops one axis)")
-            den = float(g[k])
-            if abs(den) <= _DEN_TOL * float(np.abs(e2).max()):
-                notes.append(f"axis {k} critical but (J1^⊥ e2)_k ≈ 0: α undefined, set to 0")
-            else:
-                alpha = -float(w[k]) / den  # eq. 9, corrected
-                if alpha < 0.0:
-                    notes.append(f"axis {k}: eq. 9 gives α = {alpha:.3g} < 0, set to 0")
-                    alpha = 0.0
-                elif self.alpha_max is not None and alpha > self.alpha_max:
-                    notes.append(f"α = {alpha:.3g} capped to alpha_max = {self.alpha_max:.3g}")
-                    alpha = self.alpha_max
-                if alpha > 0.0:
-                    critical = ((k,),)
+                events.append(
+                    Event(
+                        Flag.AXES_NOT_HANDLED,
+                        len(others),
+                        f"critical axes {others} not handled (gpm-auto stops one axis)",
+                    )
+                )
+            alpha = self._alpha(k, w, g, e2, events)
+            if alpha > 0.0:
+                critical = ((k,),)
         qdot = -x.lam * (w + alpha * g)
         diag = Diagnostics(
             method=self.name,
@@ -183,6 +172,56 @@ class GradientProjectionAuto(Law):
             projector_rank=svd.null.shape[1],
             critical=critical,
             alpha=alpha,
-            notes=tuple(notes),
+            events=tuple(events),
         )
         return LawResult(qdot, diag)
+
+    def _alpha(
+        self, k: int, w: FloatArray, g: FloatArray, e2: FloatArray, events: list[Event]
+    ) -> float:
+        """Eq. 9 corrected, ``α = -w_k / g_k``, with its degenerate cases (module docstring).
+
+        With ``robust`` on, ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` so that
+        ``‖α g‖ <= |w_k| / ALPHA_FILTER`` (a nearly-zero ``g_k`` no longer gives a huge α).
+        """
+        den = float(g[k])
+        if abs(den) <= _DEN_TOL * float(np.abs(e2).max()):
+            events.append(
+                Event(
+                    Flag.GAIN_ADJUSTED,
+                    0.0,
+                    f"axis {k} critical but (J1^⊥ e2)_k ≈ 0: α undefined, set to 0",
+                )
+            )
+            return 0.0
+        inv = 1.0 / den
+        if self.robust:
+            thr = ALPHA_FILTER * float(np.linalg.norm(g))
+            if abs(den) < thr:
+                inv = float(filtered_reciprocal(np.array([abs(den)]), thr)[0]) * np.sign(den)
+                events.append(
+                    Event(
+                        Flag.DAMPED,
+                        1.0 / ALPHA_FILTER,
+                        f"axis {k}: |(J1^⊥ e2)_k| = {abs(den):.3g} small, eq. 9 filtered "
+                        f"(amplification bounded by {1.0 / ALPHA_FILTER:.3g})",
+                    )
+                )
+        alpha = -float(w[k]) * float(inv)  # eq. 9, corrected
+        if alpha < 0.0:
+            events.append(
+                Event(
+                    Flag.GAIN_ADJUSTED, 0.0, f"axis {k}: eq. 9 gives α = {alpha:.3g} < 0, set to 0"
+                )
+            )
+            return 0.0
+        if self.alpha_max is not None and alpha > self.alpha_max:
+            events.append(
+                Event(
+                    Flag.GAIN_ADJUSTED,
+                    self.alpha_max,
+                    f"α = {alpha:.3g} capped to alpha_max = {self.alpha_max:.3g}",
+                )
+            )
+            return self.alpha_max
+        return alpha

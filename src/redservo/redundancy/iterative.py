@@ -106,8 +106,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.gpm import null_project, rank_notes
-from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.gpm import null_project
+from redservo.redundancy.linalg import DEFAULT_RCOND, filtered_reciprocal, svd_events
 
 __all__ = [
     "Iterative",
@@ -121,7 +122,10 @@ __all__ = [
 _RESIDUAL_TOL = 1e-9
 ILL_CONDITIONED = 1e-3
 """Constraint rows with a singular value below this amplify the null-space motion by
-more than 1000x; the law says so in its diagnostics notes."""
+more than 1000x; the law reports it (``Flag.ILL_CONDITIONED``)."""
+CONSTRAINT_FILTER = 1e-2
+"""Absolute filter threshold of the robust constraint inverse (``robust=True``): each
+level's null-space motion is at most 100x its right-hand side."""
 """A least-squares residual above this fraction of the right-hand side means 'not met'."""
 
 
@@ -144,14 +148,15 @@ class IterativeSolution(NamedTuple):
 
 
 def _constrain(
-    N: FloatArray, K: NDArray[np.intp], rhs: FloatArray, tol: float
+    N: FloatArray, K: NDArray[np.intp], rhs: FloatArray, tol: float, robust: float = 0.0
 ) -> tuple[FloatArray, FloatArray, bool, float]:
     """Minimum-norm motion ``Δ = N c`` with ``Δ_K = rhs``; return ``(Δ, N Z, met, σ_min)``.
 
     ``Z`` is an orthonormal basis of ``Ker N_K``, so ``N Z`` spans the directions
     left free. Singular values of ``N_K`` at or below ``tol`` count as zero. LAPACK's
     ``dgesvd`` is called directly: on these tiny blocks numpy's wrapper costs 3-4x
-    the decomposition itself (hot path).
+    the decomposition itself (hot path). With ``robust > 0`` the singular values below
+    it are inverted with the bounded filter (amplification at most ``1/robust``).
     """
     A = N[K]
     p, f = A.shape
@@ -161,7 +166,8 @@ def _constrain(
     if info != 0:  # LAPACK did not converge (never seen on finite input): do nothing
         return np.zeros(N.shape[0]), N, not rhs.any(), np.inf
     r = int(np.count_nonzero(s > tol))
-    c = Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
+    inv = filtered_reciprocal(s[:r], robust) if robust > 0.0 else 1.0 / s[:r]
+    c = Vt[:r].T @ ((U[:, :r].T @ rhs) * inv)
     met = r == p or bool(np.abs(U[:, r:].T @ rhs).max() <= _RESIDUAL_TOL * np.abs(rhs).max())
     return N @ c, N @ Vt[r:].T, met, float(s[r - 1]) if r else np.inf
 
@@ -177,6 +183,7 @@ def iterate_null_space(
     extra: FloatArray | None = None,
     max_levels: int | None = None,
     tol: float = DEFAULT_RCOND,
+    robust: float = 0.0,
 ) -> IterativeSolution:
     """Run CM01's iterative scheme (eqs. 11-18, 21) and return the null-space motion.
 
@@ -193,6 +200,7 @@ def iterate_null_space(
             from level 2 on (``α J1^⊥ e2``, eqs. 19-21), or None.
         max_levels: Maximum number of levels, None for no limit.
         tol: Absolute singular-value cut-off for the (orthonormal) constraint rows.
+        robust: Absolute filter threshold of the robust constraint inverse (0: exact).
     """
     n = q.shape[0]
     N = E
@@ -212,7 +220,7 @@ def iterate_null_space(
         if K.size == 0:
             break
         g = limits.gamma(q_hat)[K] if smooth else np.ones(K.size)
-        step, N, met, sig = _constrain(N, K, -g * v[K], tol)  # eqs. 11/16, 15/18/21
+        step, N, met, sig = _constrain(N, K, -g * v[K], tol, robust)  # eqs. 11/16, 15/18/21
         min_sigma = min(min_sigma, sig)
         d = d + step
         free[K] = False
@@ -260,7 +268,7 @@ class _IterativeLaw(Law):
     constraint_rcond: float | None = None
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         E = svd.null
         w = svd.pinv @ x.e_eff
         if x.secondary is not None:
@@ -268,6 +276,7 @@ class _IterativeLaw(Law):
         extra = None
         if self.with_e2 and self.alpha > 0.0:
             extra = self.alpha * null_project(svd, x.limits.gradient(x.q))
+        robust = CONSTRAINT_FILTER if self.robust else 0.0
         sol = iterate_null_space(
             E,
             w,
@@ -278,25 +287,15 @@ class _IterativeLaw(Law):
             extra=extra,
             max_levels=self.max_levels,
             tol=self.rcond if self.constraint_rcond is None else self.constraint_rcond,
+            robust=robust,
         )
         v = w + sol.motion if extra is None else w + extra + sol.motion
         qdot = -x.lam * v
 
         n_a = E.shape[1]
         n_constrained = sum(len(level) for level in sol.levels)
-        notes = rank_notes(x.J1, svd)
-        if n_constrained > n_a:
-            notes.append(
-                f"{n_constrained} constrained axes > n_a = {n_a}: least-squares, not all met"
-            )
-        if sol.unmet:
-            notes.append(f"constraints met only in the least-squares sense at levels {sol.unmet}")
-        if sol.min_sigma < ILL_CONDITIONED:
-            notes.append(
-                f"ill-conditioned constraints: smallest singular value {sol.min_sigma:.2g}, "
-                f"null-space motion amplified up to {1.0 / sol.min_sigma:.3g}x "
-                "(raise constraint_rcond to cap it)"
-            )
+        events = svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)
+        events.extend(_constraint_events(sol, n_constrained, n_a, robust))
         b = [E.T @ s for s in sol.steps[1:]]
         diag = Diagnostics(
             method=self.name,
@@ -310,9 +309,56 @@ class _IterativeLaw(Law):
             a=E.T @ sol.motion,
             b=np.concatenate(b) if b else np.zeros(0),
             gamma=sol.gamma,
-            notes=tuple(notes),
+            events=tuple(events),
         )
         return LawResult(qdot, diag)
+
+
+def _constraint_events(
+    sol: IterativeSolution, n_constrained: int, n_a: int, robust: float
+) -> list[Event]:
+    """Typed events of the iterative scheme's constraint levels."""
+    events: list[Event] = []
+    if n_constrained > n_a:
+        events.append(
+            Event(
+                Flag.OVERCONSTRAINED,
+                n_constrained - n_a,
+                f"{n_constrained} constrained axes > n_a = {n_a}: least-squares, not all met",
+            )
+        )
+    if sol.unmet:
+        events.append(
+            Event(
+                Flag.LEAST_SQUARES,
+                len(sol.unmet),
+                f"constraints met only in the least-squares sense at levels {sol.unmet}",
+            )
+        )
+    if sol.min_sigma < ILL_CONDITIONED:
+        events.append(
+            Event(
+                Flag.ILL_CONDITIONED,
+                1.0 / sol.min_sigma,
+                f"ill-conditioned constraints: smallest singular value {sol.min_sigma:.2g}, "
+                f"null-space motion amplified up to {1.0 / sol.min_sigma:.3g}x"
+                + (
+                    " (filtered: robust inverse)"
+                    if robust
+                    else " (raise constraint_rcond to cap it)"
+                ),
+            )
+        )
+    if robust and sol.min_sigma < robust:
+        events.append(
+            Event(
+                Flag.DAMPED,
+                1.0 / robust,
+                f"constraint rows filtered below σ = {robust:g} (amplification bounded by "
+                f"{1.0 / robust:.3g} per level)",
+            )
+        )
+    return events
 
 
 @register

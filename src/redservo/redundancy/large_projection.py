@@ -69,7 +69,8 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
+from redservo.redundancy.flags import Flag
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, svd_events, task_svd
 
 __all__ = [
     "LargeProjection",
@@ -96,6 +97,11 @@ class Projector(NamedTuple):
     """λ(‖e‖) in [0, 1] used to build it (1: pure norm projector, 0: ``I - J1⁺J1``)."""
     degenerate: bool
     """True when ``J1^T e1 ≈ 0`` and the norm projector was replaced by the identity."""
+
+
+P_FILTER = 1e-2
+"""Robust variant (``robust=True``): ``1/|P_ii|`` is filtered below this, bounding the
+joint-limit term's gain ``b_i`` by ``100 |q̇1_i|``."""
 
 
 def sigmoid_gain(x: float, x0: float, x1: float) -> float:
@@ -195,6 +201,7 @@ def joint_limit_term(
     rho: float = 0.1,
     rho1: float = 0.3,
     lambda_tune: float = 0.7,
+    robust: float = 0.0,
 ) -> tuple[FloatArray, tuple[int, ...]]:
     """Return ``(q̇2, activated)``: the IROS'10 joint-limit term ``-Σ λ_l,i λ_sec,i P g_i``.
 
@@ -209,6 +216,8 @@ def joint_limit_term(
         rho: Activation band l0 as a fraction of the range, in (0, 0.5).
         rho1: Position of l1 inside the band, fraction of ``rho Δq``, in (0, 1).
         lambda_tune: λ_i >= 0, extra reversal gain.
+        robust: Filter threshold on ``|P_ii|`` (0: exact): ``1/|P_ii|`` in ``b_i`` is
+            filtered below it, so ``b_i <= |q̇1_i| / robust``.
     """
     n = q.shape[0]
     rng = limits.range
@@ -234,7 +243,8 @@ def joint_limit_term(
         if p_ii < _TINY_PII:
             b = 1.0
         else:
-            b = abs(float(qdot1[i])) / p_ii
+            inv = 1.0 / p_ii if p_ii >= robust else p_ii / (robust * robust)
+            b = abs(float(qdot1[i])) * inv
             if not beyond:
                 b = min(b, 1.0)
         qdot2 -= lam_l * (1.0 + lambda_tune) * b * Pg
@@ -303,7 +313,7 @@ class LargeProjection(Law):
 
     def compute(self, x: LawInputs) -> LawResult:
         m = x.J1.shape[0]
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         proj = switched_projector(
             x.J1,
             x.e1,
@@ -324,12 +334,16 @@ class LargeProjection(Law):
             rho=self.rho,
             rho1=self.rho1,
             lambda_tune=self.lambda_tune,
+            robust=P_FILTER if self.robust else 0.0,
         )
-        notes: list[str] = []
-        if svd.rank < m:
-            notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+        events = [
+            e
+            for e in svd_events(m, x.J1.shape[1], svd, self.filter_threshold)
+            if e.flag is not Flag.NO_REDUNDANCY
+        ]
+        info: list[str] = []
         if proj.degenerate:
-            notes.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
+            info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
         diag = Diagnostics(
             method=self.name,
             task_rank=svd.rank,
@@ -337,6 +351,7 @@ class LargeProjection(Law):
             projector_rank=proj.rank,
             critical=(activated,) if activated else (),
             alpha=proj.switching,
-            notes=tuple(notes),
+            events=tuple(events),
+            info=tuple(info),
         )
         return LawResult(qdot1 + qdot2, diag)

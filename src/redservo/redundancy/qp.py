@@ -52,6 +52,10 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   QP solver fails, the scipy fallback is used, and if that fails too the
   unconstrained solution clipped to the bounds (each noted). The result is
   always clipped to the bounds to remove solver tolerance.
+* **Safety** (docs/safety.md): the bounds are intersected with the shield's box
+  (velocity and acceleration limits of ``limits``, position limits less their margin,
+  braking bound), so that ``qp`` satisfies them without the shield; the result is
+  moved by whole float64 steps so that ``q + dt q̇`` is within the limits exactly.
 * Diagnostics: ``critical = ((joints at a bound),)`` (only when a solver ran),
   ``notes`` name the solver and the relative task residual,
   ``overconstrained`` = relative residual ``‖J1 q̇ - ẋ‖/‖ẋ‖ > 1e-3`` (the bounds
@@ -71,7 +75,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events, task_svd
+from redservo.redundancy.safety import command_box, exact_position_fix, intersect_boxes
 from redservo.redundancy.sns import validate_positive_option
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
@@ -338,38 +344,53 @@ class BoundedLeastSquares(Law):
         lo, hi, conflicts = qp_velocity_bounds(
             x.q, x.limits, x.dt, k_p=self.k_p, margin=self.margin, v_max=self.v_max
         )
+        lo, hi = intersect_boxes(lo, hi, *command_box(x.q, x.limits, x.dt, x.qdot_prev))
         xdot = -x.lam * x.e_eff
         svd = task_svd(x.J1, self.rcond)
         qdot = svd.pinv @ xdot
         if x.secondary is not None:
             qdot = qdot + svd.null @ (svd.null.T @ x.secondary)
-        notes: list[str] = []
-        if svd.rank < m:
-            notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+        events = [e for e in svd_events(m, x.J1.shape[1], svd) if e.flag is Flag.RANK_LOSS]
+        info: list[str] = []
         if conflicts:
-            notes.append(
-                f"joints {list(conflicts)}: push-back toward the allowed band exceeds v_max; "
-                f"velocity fixed at ±v_max"
+            events.append(
+                Event(
+                    Flag.BOUNDS_CONFLICT,
+                    len(conflicts),
+                    f"joints {list(conflicts)}: push-back toward the allowed band exceeds v_max; "
+                    f"velocity fixed at ±v_max",
+                )
             )
         critical: tuple[tuple[int, ...], ...] = ()
         overconstrained = False
         if np.all(lo <= qdot) and np.all(qdot <= hi):
-            notes.append("solver: none (unconstrained optimum within the bounds)")
+            info.append("solver: none (unconstrained optimum within the bounds)")
         else:
             smax = float(svd.sigma[0]) if svd.sigma.size else 0.0
             eps_abs = self.eps * smax * smax if smax > 0.0 else self.eps
             qdot, used = solve_bounded_least_squares(
                 x.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary, solver=self._resolve_backend()
             )
-            notes.append(f"solver: {used}")
+            info.append(f"solver: {used}")
+            if "fallback" in used or "failed" in used:
+                events.append(Event(Flag.SOLVER_FALLBACK, 1.0, f"solver: {used}"))
             tol = _ACTIVE_RTOL * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
             active = np.flatnonzero((qdot - lo <= tol) | (hi - qdot <= tol))
             critical = (tuple(int(i) for i in active),) if active.size else ()
             nx = float(np.linalg.norm(xdot))
             if nx > 0.0:
                 resid = float(np.linalg.norm(x.J1 @ qdot - xdot)) / nx
-                notes.append(f"relative task residual {resid:.3g}")
+                info.append(f"relative task residual {resid:.3g}")
                 overconstrained = resid > _OVERCONSTRAINED_RTOL
+                if overconstrained:
+                    events.append(
+                        Event(
+                            Flag.TASK_SCALED,
+                            resid,
+                            f"bounds prevent the task: relative task residual {resid:.3g}",
+                        )
+                    )
+        qdot = exact_position_fix(x.q, np.clip(qdot, lo, hi), x.dt, x.limits)
         diag = Diagnostics(
             method=self.name,
             task_rank=svd.rank,
@@ -377,6 +398,7 @@ class BoundedLeastSquares(Law):
             projector_rank=svd.null.shape[1] if x.secondary is not None else 0,
             critical=critical,
             overconstrained=overconstrained,
-            notes=tuple(notes),
+            events=tuple(events),
+            info=tuple(info),
         )
         return LawResult(qdot, diag)

@@ -45,6 +45,10 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   fallback is ``q̇ = 0`` (secondary dropped), which lies within the bounds.
 * A final clip to ``[q̇_min, q̇_max]`` removes round-off (``~1e-15``); a note is
   added if it moved a component by more than the violation tolerance.
+* **Safety** (docs/safety.md): the bounds are intersected with the shield's box
+  (velocity and acceleration limits of ``limits``, position limits less their margin),
+  so that ``sns`` satisfies them without the shield; the result is moved by whole
+  float64 steps so that ``q + dt q̇`` is within the limits exactly.
 * Diagnostics: ``scale`` = the task scale ``s`` (1 when the task is executed in
   full), ``critical = ((saturated joints),)``, ``iterations`` = passes of the
   loop, ``overconstrained = scale < 1``, ``projector_rank`` = dimension of the
@@ -62,7 +66,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, InfeasibleError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+from redservo.redundancy.safety import command_box, exact_position_fix, intersect_boxes
 
 __all__ = [
     "SNSSolution",
@@ -333,20 +339,36 @@ class SaturationInNullSpace(Law):
         lo, hi = sns_velocity_bounds(
             x.q, x.limits, x.dt, v_max=self.v_max, a_max=self.a_max, margin=self.margin
         )
+        lo, hi = intersect_boxes(lo, hi, *command_box(x.q, x.limits, x.dt, x.qdot_prev))
         xdot = -x.lam * x.e_eff
         task_rank = task_svd(x.J1, self.rcond).rank
         sol = sns_solve(x.J1, xdot, lo, hi, qdot_pref=x.secondary, rcond=self.rcond)
-        notes: list[str] = []
+        events: list[Event] = []
+        info: list[str] = []
         if task_rank < m:
-            notes.append(
-                f"J1 rank-deficient (rank {task_rank} < m = {m}): truncated pseudo-inverse"
+            events.append(
+                Event(
+                    Flag.RANK_LOSS,
+                    m - task_rank,
+                    f"J1 rank-deficient (rank {task_rank} < m = {m}): truncated pseudo-inverse",
+                )
             )
-        if sol.restored:
-            notes.append(
-                f"saturations exhausted the redundancy: best task scale s* = {sol.scale:.6g} restored"
+        if sol.scale < 1.0:
+            events.append(
+                Event(
+                    Flag.TASK_SCALED,
+                    sol.scale,
+                    f"task scaled by s = {sol.scale:.6g}"
+                    + (
+                        " (saturations exhausted the redundancy: best s* restored)"
+                        if sol.restored
+                        else ""
+                    ),
+                )
             )
         if sol.clipped > float(np.max(_violation_tol(lo, hi))):
-            notes.append(f"final clip to the velocity bounds moved q̇ by {sol.clipped:.3g}")
+            info.append(f"final clip to the velocity bounds moved q̇ by {sol.clipped:.3g}")
+        qdot = exact_position_fix(x.q, sol.qdot, x.dt, x.limits)
         diag = Diagnostics(
             method=self.name,
             task_rank=task_rank,
@@ -356,6 +378,7 @@ class SaturationInNullSpace(Law):
             iterations=sol.iterations,
             overconstrained=sol.scale < 1.0,
             scale=sol.scale,
-            notes=tuple(notes),
+            events=tuple(events),
+            info=tuple(info),
         )
-        return LawResult(sol.qdot, diag)
+        return LawResult(qdot, diag)

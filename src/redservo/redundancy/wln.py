@@ -59,7 +59,8 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
+from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events
 
 __all__ = [
     "WeightedLeastNorm",
@@ -170,7 +171,7 @@ class WeightedLeastNorm(Law):
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
         xdot = -x.lam * x.e_eff
-        svd = task_svd(x.J1, self.rcond)
+        svd = self.svd(x.J1)
         qdot0 = svd.pinv @ xdot
         if x.secondary is not None:
             qdot0 = qdot0 + svd.null @ (svd.null.T @ x.secondary)
@@ -179,7 +180,7 @@ class WeightedLeastNorm(Law):
         d = np.sqrt(wln_inverse_weights(grad, toward))
 
         JD = x.J1 * d  # scales column i by d_i
-        wsvd = task_svd(JD, self.rcond)
+        wsvd = self.svd(JD)
         qdot = d * (wsvd.pinv @ xdot)
         projector_rank = 0
         if x.secondary is not None:
@@ -187,19 +188,35 @@ class WeightedLeastNorm(Law):
             qdot = qdot + DE @ (DE.T @ x.secondary)
             projector_rank = int(np.linalg.matrix_rank(DE)) if DE.size else 0
 
-        notes: list[str] = []
-        if svd.rank < m:
-            notes.append(f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse")
+        events = [
+            e
+            for e in svd_events(m, n, svd, self.filter_threshold)
+            if e.flag is not Flag.NO_REDUNDANCY
+        ]
+        if wsvd.filtered and not svd.filtered:
+            events.extend(
+                e for e in svd_events(m, n, wsvd, self.filter_threshold) if e.flag is Flag.DAMPED
+            )
         if wsvd.rank < svd.rank:
             smax = float(wsvd.sigma[0]) if wsvd.sigma.size else 0.0
             negligible = np.linalg.norm(JD, axis=0) <= self.rcond * smax
             blocked = np.flatnonzero(negligible & (d < 1.0)).tolist()
-            notes.append(
-                f"weighted task rank {wsvd.rank} < rank J1 = {svd.rank} (joints blocked at a "
-                f"limit: {blocked}): task tracked in the least-squares sense"
+            events.append(
+                Event(
+                    Flag.LEAST_SQUARES,
+                    svd.rank - wsvd.rank,
+                    f"weighted task rank {wsvd.rank} < rank J1 = {svd.rank} (joints blocked at a "
+                    f"limit: {blocked}): task tracked in the least-squares sense",
+                )
             )
         if svd.rank >= n:
-            notes.append("no redundancy (rank J1 = n): W has no effect on a full-rank square J1")
+            events.append(
+                Event(
+                    Flag.NO_REDUNDANCY,
+                    n,
+                    "no redundancy (rank J1 = n): W has no effect on a full-rank square J1",
+                )
+            )
         penalized = tuple(int(i) for i in np.flatnonzero(toward & (np.abs(grad) > _REPORT_GRAD)))
         diag = Diagnostics(
             method=self.name,
@@ -207,7 +224,7 @@ class WeightedLeastNorm(Law):
             rank_deficient=svd.rank < m,
             projector_rank=projector_rank,
             critical=(penalized,) if penalized else (),
-            notes=tuple(notes),
+            events=tuple(events),
         )
         return LawResult(qdot, diag)
 

@@ -1,0 +1,72 @@
+"""Typed diagnostic flags: what a control law did that a robot program should know about.
+
+Every law reports unusual events as :class:`Event` records, a :class:`Flag` with a number
+attached (its meaning is listed with each flag) and a human-readable message. The
+simulator logs the numbers per step (one column per flag, NaN when the flag was not
+raised), ``redservo run`` prints one warning line per flag with the first iteration and
+the count, and campaign tables count the runs in which each occurred.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import NamedTuple
+
+__all__ = ["Event", "Flag"]
+
+
+class Flag(enum.Enum):
+    """The kinds of events a law reports. The value attached to each is given in brackets."""
+
+    RANK_LOSS = "rank-loss"
+    """``J1`` is rank-deficient; the truncated pseudo-inverse was used [rank deficiency m - r]."""
+    NO_REDUNDANCY = "no-redundancy"
+    """``rank J1 = n``: no null space, the law reduces to the classical one [n]."""
+    ILL_CONDITIONED = "ill-conditioned"
+    """A matrix the law inverts is ill-conditioned [amplification 1/σ_min it implies]."""
+    DAMPED = "damped"
+    """The robust inverse filtered small singular values [the amplification bound used]."""
+    OVERCONSTRAINED = "more-constraints-than-redundancy"
+    """More constrained axes than available redundancy [excess count]."""
+    LEAST_SQUARES = "least-squares"
+    """Constraints met only in the least-squares sense [number of levels affected]."""
+    AXES_NOT_HANDLED = "axes-not-handled"
+    """Critical axes the law does not act on (``gpm-auto`` stops one) [count]."""
+    GAIN_ADJUSTED = "gain-adjusted"
+    """A computed secondary gain was undefined, negative or capped [the gain used]."""
+    TASK_SCALED = "task-scaled"
+    """The main task was executed only in part (``sns``, ``qp``) [task scale or residual]."""
+    SOLVER_FALLBACK = "solver-fallback"
+    """The optimization solver failed and a fallback was used [1]."""
+    BOUNDS_CONFLICT = "bounds-conflict"
+    """Joint bounds are inconsistent; the velocity limit won [number of joints]."""
+    NO_SECONDARY = "no-secondary"
+    """No secondary command to project (``directional``) [0]."""
+    VELOCITY_SCALED = "velocity-scaled"
+    """The command was scaled down to respect the velocity limits [scale factor in (0, 1)]."""
+    ACCELERATION_LIMITED = "acceleration-limited"
+    """The command was scaled or moved to respect the acceleration limits [scale factor]."""
+    ACCELERATION_EXCEEDED = "acceleration-exceeded"
+    """The acceleration limit could not be kept without breaking a velocity or position
+    limit; those won [largest excess, rad/s² or m/s²]."""
+    SHIELD_ACTED = "shield-acted"
+    """The position shield changed the command [largest change |Δq̇|, rad/s or m/s]."""
+    NON_FINITE_REPLACED = "non-finite-replaced"
+    """The law produced NaN or inf; the safe fallback command was sent [number of entries]."""
+
+    @property
+    def label(self) -> str:
+        """The flag's name as printed and used in log columns (``flag.<label>``)."""
+        return self.value
+
+
+FLAGS: tuple[Flag, ...] = tuple(Flag)
+"""Every flag, in a stable order (log columns follow it)."""
+
+
+class Event(NamedTuple):
+    """One flag raised by one law call."""
+
+    flag: Flag
+    value: float
+    message: str
