@@ -7,13 +7,14 @@ import json
 import numpy as np
 import pytest
 
-from redservo import ConfigurationError, JointLimitError, make_law
+from redservo import ConfigurationError, Flag, JointLimitError, make_law
 from redservo.features import PointFeature
 from redservo.robots import Afma6
 from redservo.scene import ConstantVelocity, PointSet, Scene, Sphere, Static
 from redservo.simulation import Occlusion, SimulationOptions, simulate
 from redservo.spatial import make_transform
 from redservo.task import TaskTerm, VisualTask
+from tests.laws import paper_law
 
 # Start near the limits of axes 1 and 3 (found by a seeded search, see docs/decisions.md):
 # classical hits axis 1 around iteration 40, iterative-smooth converges.
@@ -35,8 +36,10 @@ OPT = SimulationOptions(lam=0.5, dt=0.08, max_iterations=400)
 
 def test_classical_hits_a_joint_limit_and_stops_before_crossing() -> None:
     robot, scene, task = _gaze()
-    res = simulate(robot, scene, task, make_law("classical"), Q0, options=OPT)
+    lim = robot.limits().without_rates()
+    res = simulate(robot, scene, task, paper_law("classical"), Q0, options=OPT, limits=lim)
     assert res.outcome == "joint_limit"
+    assert not res.summary.success
     assert res.summary["limit_hit"]["axis"] == 0
     it = res.summary["limit_hit"]["iteration"]
     assert it == len(res.log) - 1
@@ -212,7 +215,45 @@ def test_a_step_commanded_exactly_onto_a_limit_is_not_a_crossing() -> None:
 
     robot, scene, task = _gaze()
     opt = SimulationOptions(lam=0.5, dt=0.08, max_iterations=5)
-    res = simulate(robot, scene, task, OntoTheLimit(), Q0, options=opt)
+    law = OntoTheLimit().set_safety(shield=False)
+    lim = robot.limits().without_rates()
+    res = simulate(robot, scene, task, law, Q0, options=opt, limits=lim)
     assert res.outcome == "max_iterations"
     assert res.log.q[1][0] == robot.q_min[0]  # clipped onto the limit
     assert robot.limits().contains(res.log.q[-1])
+
+
+def test_the_shield_keeps_classical_off_the_limit_but_the_run_is_no_success() -> None:
+    """With the defaults (shield on, the Afma6's rate limits) classical never crosses; the
+    shield had to act, so the run does not count as a success."""
+    robot, scene, task = _gaze()
+    res = simulate(robot, scene, task, make_law("classical"), Q0, options=OPT)
+    assert res.outcome != "joint_limit"
+    assert res.summary.shield_activations > 0
+    assert "shield-acted" in res.summary.flags
+    assert not res.summary.success
+    lim = robot.limits()
+    assert np.all(np.abs(res.log.qdot) <= lim.qdot_max)
+    assert res.summary.velocity_violations == 0
+    assert res.summary.acceleration_violations == 0
+    j = list(res.log.flag(Flag.SHIELD_ACTED))
+    assert any(np.isfinite(j))
+
+
+def test_iterative_smooth_default_run_is_a_safe_success() -> None:
+    robot, scene, task = _gaze()
+    res = simulate(robot, scene, task, make_law("iterative-smooth"), Q0, options=OPT)
+    assert res.outcome == "converged"
+    assert res.summary.success, res.summary.to_dict()
+    assert res.summary.peak_velocity_ratio is not None
+    assert res.summary.peak_velocity_ratio <= 1.0
+
+
+def test_two_identical_runs_give_identical_logs() -> None:
+    """Stateful laws (wln history mode) are reset at the start of every run."""
+    robot, scene, task = _gaze()
+    law = make_law("wln", mode="history")
+    a = simulate(robot, scene, task, law, Q0, options=OPT)
+    b = simulate(robot, scene, task, law, Q0, options=OPT)
+    for name, arr in a.log.arrays().items():
+        np.testing.assert_array_equal(arr, b.log.arrays()[name], err_msg=name)

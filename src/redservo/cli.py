@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +48,7 @@ def _progress(
     return update, bar.close
 
 
-def _summary_line(name: str, summary: dict[str, Any]) -> str:
+def _summary_line(name: str, summary: Mapping[str, Any]) -> str:
     hit = summary["limit_hit"]
     hit_s = f" (axis {hit['axis'] + 1} at iteration {hit['iteration']})" if hit else ""
     cam = summary["max_camera_speed"]

@@ -267,13 +267,31 @@ class VisualTask:
         s, inv_depth = self.measure(scene, bMc, t)
         if noise is not None:
             s = s + noise
+        return self.evaluate_measured(s, inv_depth, J, depth_scale=depth_scale)
+
+    def evaluate_measured(
+        self,
+        s: FloatArray,
+        inv_depth: Sequence[FloatArray],
+        J: FloatArray,
+        *,
+        depth_scale: float = 1.0,
+    ) -> TaskState:
+        """Build ``e1`` and ``J1`` from *measured* features (the sensor hook's entry point).
+
+        Args:
+            s: (k,) measured feature values (normalized image units).
+            inv_depth: Inverse-depth parameters per term, as the sensor estimated them.
+            J: (6, n) robot Jacobian the controller uses.
+            depth_scale: Extra depth-estimate factor ``Ẑ = depth_scale · Z``.
+        """
         L = self.interaction(s, inv_depth, depth_scale=depth_scale)
         e = self.error(s)
         if self.C is None:
             e1, CL = e, L
         else:
             e1, CL = self.C @ e, self.C @ L
-        return TaskState(s, e, e1, L, CL @ J, inv_depth)
+        return TaskState(s, e, e1, L, CL @ J, tuple(inv_depth))
 
     def interaction(
         self, s: FloatArray, inv_depth: Sequence[FloatArray], *, depth_scale: float = 1.0

@@ -19,6 +19,7 @@ from redservo.scenario import apply_overrides, load_scenario
 from redservo.simulation import SimulationResult
 
 __all__ = [
+    "PAPER_EXACT",
     "WIDE_LIMIT",
     "Claim",
     "ExperimentSpec",
@@ -27,6 +28,11 @@ __all__ = [
     "run_experiment",
     "without_limits",
 ]
+
+PAPER_EXACT: Mapping[str, Any] = {"shield": False, "robust": False}
+"""The reproductions run the papers' laws exactly as printed: no position shield, no robust
+inverse, no velocity or acceleration limits (the papers' figures show the crossings and the
+transients that the safety layer would remove; docs/safety.md)."""
 
 WIDE_LIMIT = 5.0
 """Half-width (m or rad) of the limits of a reference run 'without limits'."""
@@ -145,10 +151,13 @@ def run_experiment(
     for run in spec.runs:
         if run.overrides not in built:
             sc = apply_overrides(base, list(run.overrides)) if run.overrides else base
-            built[run.overrides] = build(sc)
+            exp = build(sc)
+            exp.limits = exp.limits.without_rates()  # the papers' robots: position limits only
+            built[run.overrides] = exp
         exp = built[run.overrides]
         if progress is not None:
             progress(f"{spec.id}: {run.label}")
-        results[run.label] = exp.run(method=run.method, law_options=dict(run.law_options))
+        options = {**PAPER_EXACT, **run.law_options}
+        results[run.label] = exp.run(method=run.method, law_options=options)
         experiments[run.label] = exp
     return Runs(results, experiments)

@@ -162,7 +162,7 @@ def _speed(r: SimulationResult) -> float:
 def _claims(runs: Runs) -> list[Claim]:
     thr = _threshold(runs)
     opt = runs.base.options
-    lam, dt = opt.lam, opt.dt
+    lam, dt = opt.constant_lam, opt.dt
     out: list[Claim] = []
 
     # classical ----------------------------------------------------------------------------

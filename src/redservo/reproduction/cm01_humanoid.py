@@ -327,7 +327,7 @@ def _sphere_claims(runs: Runs) -> list[Claim]:
         "area rate exact (1/s)": r_exact,
         "area rate eq. 27 (1/s)": r_27,
         "rate ratio eq. 27 / exact": ratio,
-        "lambda (1/s)": exp.options.lam,
+        "lambda (1/s)": exp.options.constant_lam,
         "predicted ratio 2(1 + R*²)": predicted,
     }
     out.append(

@@ -136,7 +136,7 @@ def avoidance_split(result: SimulationResult, exp: Experiment) -> AvoidanceSplit
     valid for runs without noise, depth or calibration error and without feed-forward.
     """
     log = result.log
-    lam = exp.options.lam
+    lam = exp.options.constant_lam
     n = exp.robot.n
     N = len(log)
     qdot1 = np.zeros((N, n))
@@ -395,7 +395,7 @@ def claims_joint_limits(runs: Runs) -> list[Claim]:
         )
     )
     worst = _worst_step(d, exp)
-    lam_dt = exp.options.lam * exp.options.dt
+    lam_dt = exp.options.constant_lam * exp.options.dt
     it_d, it_ref = d.summary["iterations"], ref.summary["iterations"]
     ok = (
         d.outcome == "converged"
@@ -547,7 +547,7 @@ def _fig7(runs: Runs, out: Path) -> Path:
     for label, (color, ls) in styles.items():
         log = runs[label].log
         ax.semilogy(log.t, log.error_norm, color=color, ls=ls, lw=1.3, label=label)
-    lam, dt = exp.options.lam, exp.options.dt
+    lam, dt = exp.options.constant_lam, exp.options.dt
     e0 = float(runs[DIRECTIONAL].log.error_norm[0])
     ax.semilogy(
         t_dir,
@@ -631,7 +631,7 @@ def claims_occlusion(runs: Runs) -> list[Claim]:
             },
         )
     )
-    lam = runs.experiments[DIRECTIONAL].options.lam
+    lam = runs.experiments[DIRECTIONAL].options.constant_lam
     worst = _worst_step(d, runs.experiments[DIRECTIONAL])
     out.append(
         Claim(

@@ -1,0 +1,137 @@
+"""Options of :func:`redservo.simulation.simulate` (units: s, m, rad, 1/s)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from redservo._validation import FloatArray, as_transform
+from redservo.errors import ConfigurationError
+from redservo.redundancy.gain import AdaptiveGain
+
+__all__ = ["Feedforward", "Occlusion", "SimulationOptions"]
+
+Feedforward = Literal["none", "known", "estimated"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Occlusion:
+    """An occluding sphere that may hide a point-set target (MC05 experiment 2).
+
+    The occluder's image is approximated by the disc of centre ``X0/Z0`` and
+    radius ``r / sqrt(Z0² - r²)`` (normalized units). The target is *occluded*
+    when one of its points falls inside that disc while the occluder is nearer
+    the camera. With ``avoid=True`` the MC05 occlusion force (eq. 31), computed
+    from the occluder's image point closest to the nearest target point, is
+    passed to the law as its ``secondary`` command, scaled by ``gain``
+    (:class:`~redservo.simulation.objectives.OcclusionAvoidance`).
+
+    Attributes:
+        occluder: Scene name of the occluding :class:`~redservo.scene.Sphere`.
+        target: Scene name of the observed :class:`~redservo.scene.PointSet`.
+        beta: ``β`` of the cost ``V = exp(-β d²)`` (MC05 eq. 30), 1/(normalized units)².
+        gain: Scale of the artificial force (joint velocity per unit force).
+        avoid: Feed the force to the law as ``secondary``.
+    """
+
+    occluder: str
+    target: str
+    beta: float = 50.0
+    gain: float = 1.0
+    avoid: bool = True
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimulationOptions:
+    """Options of :func:`~redservo.simulation.simulate`.
+
+    Attributes:
+        lam: Gain λ (1/s), or an :class:`~redservo.AdaptiveGain` λ(‖e1‖∞).
+        dt: Control period (s).
+        max_iterations: Iteration cap.
+        tolerance: Convergence threshold on ``‖e1‖`` (task units).
+        rho: Band width of the joint-limit thresholds (CM01 eq. 3).
+        min_margin: Success criterion: every joint stays at least this fraction of its
+            range from its hard limits all along the run (default 0.01).
+        qdot_max: Actuator saturation applied *after* the law (scalar or (n,), rad/s or
+            m/s): the whole command is scaled down uniformly (direction kept). None = none.
+            The joint velocity limits every law honours are those of the ``limits``.
+        noise_std: Standard deviation of additive noise on the features (feature units).
+        seed: Seed of the noise generator.
+        depth_scale: The controller's depth estimate is ``Ẑ = depth_scale · Z``.
+        eMc_model: 4x4 hand-eye transform the *controller* believes in (None =
+            the true one); models a calibration error.
+        feedforward: ``"none"``, ``"known"`` (∂e1/∂t from the target's known
+            motion) or ``"estimated"`` (``(e1_k - e1_{k-1})/dt - J1 q̇_{k-1}``).
+        image_margin_px: A feature point closer than this to the image border counts as lost.
+        check_image: Stop with ``target_lost`` when an object leaves the image.
+        occlusion: Occlusion set-up, or None.
+        stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
+            tracking tasks: the run then lasts ``max_iterations`` and its outcome is
+            ``converged`` when the final error is below the tolerance.
+    """
+
+    lam: float | AdaptiveGain = 0.5
+    dt: float = 0.04
+    max_iterations: int = 1000
+    tolerance: float = 1e-3
+    rho: float = 0.1
+    min_margin: float = 0.01
+    qdot_max: float | tuple[float, ...] | None = None
+    noise_std: float = 0.0
+    seed: int = 0
+    depth_scale: float = 1.0
+    eMc_model: FloatArray | None = None
+    feedforward: Feedforward = "none"
+    image_margin_px: float = 0.0
+    check_image: bool = True
+    occlusion: Occlusion | None = None
+    stop_at_convergence: bool = True
+
+    @property
+    def constant_lam(self) -> float:
+        """The gain λ (1/s) when it is constant; raises for an adaptive gain."""
+        if isinstance(self.lam, AdaptiveGain):
+            raise ConfigurationError(
+                "this needs a constant gain lam, not an AdaptiveGain", argument="lam"
+            )
+        return float(self.lam)
+
+    def __post_init__(self) -> None:
+        lam_ok = isinstance(self.lam, AdaptiveGain) or _finite_positive(self.lam)
+        checks: list[tuple[str, bool, str]] = [
+            ("lam", lam_ok, "a finite positive gain (1/s) or an AdaptiveGain"),
+            ("dt", _finite_positive(self.dt), "a finite positive period (s)"),
+            ("max_iterations", self.max_iterations >= 1, "at least 1"),
+            ("tolerance", _finite_positive(self.tolerance), "positive"),
+            ("rho", 0 < self.rho < 0.5, "in (0, 0.5)"),
+            ("min_margin", 0.0 <= self.min_margin < 0.5, "in [0, 0.5)"),
+            ("noise_std", self.noise_std >= 0, "non-negative"),
+            ("depth_scale", _finite_positive(self.depth_scale), "positive"),
+            ("image_margin_px", self.image_margin_px >= 0, "non-negative"),
+        ]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ConfigurationError(
+                    f"{name} must be {allowed}, got {getattr(self, name)!r}", argument=name
+                )
+        if self.qdot_max is not None and np.any(np.asarray(self.qdot_max, dtype=float) <= 0):
+            raise ConfigurationError(
+                f"qdot_max must be positive, got {self.qdot_max!r}", argument="qdot_max"
+            )
+        if self.feedforward not in ("none", "known", "estimated"):
+            raise ConfigurationError(
+                f"feedforward must be 'none', 'known' or 'estimated', got {self.feedforward!r}",
+                argument="feedforward",
+            )
+        if self.eMc_model is not None:
+            object.__setattr__(self, "eMc_model", as_transform(self.eMc_model, "eMc_model"))
+
+
+def _finite_positive(value: object) -> bool:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        return False
+    return math.isfinite(float(value)) and float(value) > 0.0
