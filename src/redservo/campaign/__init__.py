@@ -143,6 +143,7 @@ from redservo.campaign.stats import (
     MethodStats,
     _figures,
     _heading,
+    flag_table,
     method_stats,
     stats_table,
     wilson_interval,
@@ -216,7 +217,10 @@ class CampaignResult:
             "samples": self.samples,
             "methods": list(self.methods),
             "fingerprint": d.fingerprint(self.seed),
-            "success": "outcome == converged (no limit hit, target never lost)",
+            "success": (
+                "converged, every joint at least min_margin from its limits all along, no "
+                "velocity or acceleration limit exceeded, and the position shield never acted"
+            ),
             "stats": {
                 m: {k: clean(v) for k, v in s._asdict().items()} for m, s in self.stats.items()
             },
@@ -371,7 +375,12 @@ def run_campaign(
     order = {m: k for k, m in enumerate(names)}
     rows = tuple(sorted(done.values(), key=lambda r: (r["sample"], order[r["method"]])))
     stats = {m: method_stats(m, [r for r in rows if r["method"] == m]) for m in names}
-    markdown = _heading(defn, n, seed, rows) + stats_table(stats.values()) + "\n"
+    markdown = (
+        _heading(defn, n, seed, rows)
+        + stats_table(stats.values())
+        + "\n\nRuns in which each diagnostic flag occurred (docs/safety.md):\n\n"
+        + flag_table(stats.values())
+    )
     figures: tuple[Path, ...] = ()
     result = CampaignResult(defn, seed, n, names, rows, stats, len(todo), out_dir, (), markdown)
     if out_dir is not None:

@@ -22,7 +22,7 @@ from redservo.errors import RedservoError, ScenarioError
 from redservo.limits import JointLimits
 from redservo.scenario import Scenario, load_scenario, parse_scenario, shipped_descriptions
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 """Version of the sampling algorithm and the row format, part of the fingerprint."""
 
 Range = tuple[float, float]

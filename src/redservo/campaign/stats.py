@@ -70,6 +70,14 @@ class MethodStats(NamedTuple):
     cam_rotation_p95: float
     discontinuity_median: float
     min_margin_median: float
+    shield_runs: int = 0
+    """Runs in which the position shield had to act (never a success)."""
+    velocity_violation_runs: int = 0
+    """Runs in which a command exceeded a velocity limit (must be 0)."""
+    peak_velocity_ratio_p95: float = float("nan")
+    """95th percentile over runs of the peak |q̇_i| / q̇_max,i."""
+    flag_runs: tuple[tuple[str, int], ...] = ()
+    """For each diagnostic flag, the number of runs in which it occurred."""
 
 
 def _pct(values: Sequence[float], q: float) -> float:
@@ -111,7 +119,27 @@ def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
         cam_rotation_p95=_pct(col("max_cam_rotation"), 95),
         discontinuity_median=_pct(col("discontinuity"), 50),
         min_margin_median=_pct(col("min_margin"), 50),
+        shield_runs=sum(int(r.get("shield_activations") or 0) > 0 for r in rows),
+        velocity_violation_runs=sum(int(r.get("velocity_violations") or 0) > 0 for r in rows),
+        peak_velocity_ratio_p95=_pct(
+            [
+                float(r["peak_velocity_ratio"])
+                for r in rows
+                if r.get("peak_velocity_ratio") is not None
+            ],
+            95,
+        ),
+        flag_runs=_flag_runs(rows),
     )
+
+
+def _flag_runs(rows: Sequence[Mapping[str, Any]]) -> tuple[tuple[str, int], ...]:
+    counts: dict[str, int] = {}
+    for r in rows:
+        for label in str(r.get("flags") or "").split(";"):
+            if label:
+                counts[label] = counts.get(label, 0) + 1
+    return tuple(sorted(counts.items()))
 
 
 def _g(v: float, fmt: str = ".3g") -> str:
@@ -121,10 +149,11 @@ def _g(v: float, fmt: str = ".3g") -> str:
 def stats_table(stats: Iterable[MethodStats]) -> str:
     """Return a markdown table, one row per method, of :class:`MethodStats`."""
     head = (
-        "| method | success [95% CI] | limit hits | target lost | max. iter. | "
-        "iterations med (p90) | peak q̇ med (p95) | peak cam. v (m/s) med (p95) | "
-        "peak cam. ω (rad/s) med (p95) | discontinuity med | min margin med |\n"
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| method | success [95% CI] | limit hits | shield runs | target lost | max. iter. | "
+        "iterations med (p90) | peak q̇ med (p95) | p95 peak q̇/limit | "
+        "peak cam. v (m/s) med (p95) | peak cam. ω (rad/s) med (p95) | discontinuity med | "
+        "min margin med |\n"
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     )
     lines = []
     for s in stats:
@@ -132,9 +161,10 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
         lines.append(
             f"| {s.method} | {s.successes}/{s.runs} = {_g(100 * s.success_rate, '.1f')} % "
             f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {s.limit_hits} | "
-            f"{s.target_lost} | {s.max_iterations} | "
+            f"{s.shield_runs} | {s.target_lost} | {s.max_iterations} | "
             f"{_g(s.iterations_median, '.0f')} ({_g(s.iterations_p90, '.0f')}) | "
             f"{_g(s.joint_speed_median)} ({_g(s.joint_speed_p95)}) | "
+            f"{_g(s.peak_velocity_ratio_p95, '.2f')} | "
             f"{_g(s.cam_translation_median)} ({_g(s.cam_translation_p95)}) | "
             f"{_g(s.cam_rotation_median)} ({_g(s.cam_rotation_p95)}) | "
             f"{_g(s.discontinuity_median)} | {_g(s.min_margin_median, '.3f')} |"
@@ -158,13 +188,17 @@ def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping
     if sim.get("stop_at_convergence", True):
         success = (
             f"Success = converged (‖e1‖ < {float(sim.get('tolerance', 1e-3)):g}) within {cap} "
-            "iterations with no limit hit and the target never lost."
+            "iterations with no limit hit and the target never lost, every joint at least "
+            f"{100 * float(sim.get('min_margin', 0.01)):g} % of its range from its limits all "
+            "along, no velocity or acceleration limit exceeded, and the position shield never "
+            "acted (a run that needed the shield did not avoid the limit by itself)."
         )
     else:
         success = (
             f"Tracking task: every run lasts {cap} iterations; success = final ‖e1‖ < "
             f"{float(sim.get('tolerance', 1e-3)):g} with no limit hit and the target never "
-            "lost (the iteration columns are then the run length)."
+            "lost, the same safety conditions (margin, rate limits, no shield action); the "
+            "iteration columns are then the run length."
         )
     return (
         f"## Campaign {defn.name}\n\n"
@@ -244,3 +278,17 @@ def _figures(
     fig.tight_layout()
     fig.savefig(p2, dpi=120)
     return p1, p2
+
+
+def flag_table(stats: Iterable[MethodStats]) -> str:
+    """Markdown table: for each method, the number of runs in which each flag occurred."""
+    stats = list(stats)
+    labels = sorted({label for s in stats for label, _ in s.flag_runs})
+    if not labels:
+        return "No diagnostic flag was raised in any run.\n"
+    head = "| method | " + " | ".join(labels) + " |\n|---|" + "---:|" * len(labels) + "\n"
+    lines = []
+    for s in stats:
+        counts = dict(s.flag_runs)
+        lines.append(f"| {s.method} | " + " | ".join(str(counts.get(k, 0)) for k in labels) + " |")
+    return head + "\n".join(lines) + "\n"

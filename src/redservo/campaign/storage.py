@@ -44,6 +44,11 @@ def _columns(joint_names: Sequence[str]) -> list[tuple[str, str]]:
         ("max_cam_rotation", "float"),
         ("discontinuity", "float"),
         ("final_error", "float"),
+        ("peak_velocity_ratio", "float"),
+        ("velocity_violations", "int"),
+        ("acceleration_violations", "int"),
+        ("shield_activations", "int"),
+        ("flags", "str"),
         ("error", "str"),
     ]
 
@@ -67,7 +72,7 @@ def _summary_columns(summary: Mapping[str, Any], joint_names: Sequence[str]) -> 
     cam = summary["max_camera_speed"]
     return {
         "outcome": summary["outcome"],
-        "success": summary["outcome"] == "converged",
+        "success": bool(summary.get("success", summary["outcome"] == "converged")),
         "iterations": int(summary["iterations"]),
         "limit_axis": int(hit["axis"]) + 1 if hit else None,
         "limit_joint": joint_names[int(hit["axis"])] if hit else "",
@@ -78,8 +83,17 @@ def _summary_columns(summary: Mapping[str, Any], joint_names: Sequence[str]) -> 
         "max_cam_rotation": float(cam["rotation"]),
         "discontinuity": float(summary["discontinuity"]),
         "final_error": float(summary["final_error_norm"]),
+        "peak_velocity_ratio": _nan_if_none(summary.get("peak_velocity_ratio")),
+        "velocity_violations": int(summary.get("velocity_violations", 0)),
+        "acceleration_violations": int(summary.get("acceleration_violations", 0)),
+        "shield_activations": int(summary.get("shield_activations", 0)),
+        "flags": ";".join(sorted(summary.get("flags", {}))),
         "error": "",
     }
+
+
+def _nan_if_none(value: Any) -> float:
+    return float("nan") if value is None else float(value)
 
 
 def _error_columns(exc: BaseException) -> dict[str, Any]:
@@ -97,6 +111,11 @@ def _error_columns(exc: BaseException) -> dict[str, Any]:
         "max_cam_rotation": nan,
         "discontinuity": nan,
         "final_error": nan,
+        "peak_velocity_ratio": nan,
+        "velocity_violations": 0,
+        "acceleration_violations": 0,
+        "shield_activations": 0,
+        "flags": "",
         "error": f"{type(exc).__name__}: {exc}",
     }
 
