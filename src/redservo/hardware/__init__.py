@@ -1,0 +1,36 @@
+"""Run a control law on a robot: interfaces, a fixed-period servo loop, a simulated arm.
+
+* :class:`RobotInterface` and :class:`FeatureSource`: what to implement for a real arm
+  and camera (docs/real-robot.md);
+* :class:`ServoLoop`: the loop (fixed period, watchdog, guard, clean stops), writing the
+  simulator's log format;
+* :class:`ActuatorModel`, :class:`SimulatedRobot`, :class:`IdealFeatureSource`,
+  :class:`VirtualClock`: a realistic simulated arm (lag, delay, saturation, encoder)
+  behind the same interfaces, to rehearse a run (``examples/real_robot.py``).
+"""
+
+from __future__ import annotations
+
+from redservo.hardware.actuators import ACTUATOR_KEYS, ActuatorModel
+from redservo.hardware.guard import GuardReport, guard_command
+from redservo.hardware.loop import ServoLoop
+from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
+from redservo.hardware.recorder import SERVO_OUTCOMES, ServoOutcome, ServoResult
+from redservo.hardware.simulated import IdealFeatureSource, SimulatedRobot, VirtualClock
+
+__all__ = [
+    "ACTUATOR_KEYS",
+    "SERVO_OUTCOMES",
+    "ActuatorModel",
+    "FeatureMeasurement",
+    "FeatureSource",
+    "GuardReport",
+    "IdealFeatureSource",
+    "RobotInterface",
+    "ServoLoop",
+    "ServoOutcome",
+    "ServoResult",
+    "SimulatedRobot",
+    "VirtualClock",
+    "guard_command",
+]

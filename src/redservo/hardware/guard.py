@@ -1,0 +1,97 @@
+"""The servo loop's last check on a joint-velocity command before it is sent.
+
+The control laws already honour the limits (docs/safety.md); this guard is the
+last line of defence against a law that does not (a custom one, a bug, a NaN). In order:
+
+1. **Finite**: a command holding NaN or inf is replaced by zeros and flagged; the loop
+   then stops the robot.
+2. **Velocity**: if some ``|q̇_i| > q̇max_i`` the *whole* command is scaled down by the
+   largest ratio, so its direction (and the camera motion's direction) is kept.
+3. **Acceleration**: if ``|q̇_i - q̇prev_i| > q̈max_i T`` the *change* is scaled down
+   uniformly. The result is a convex combination of the previous and the new command,
+   so when both respect ``q̇max`` it does too.
+4. **Position**: no joint may be commanded to move beyond its safe range
+   ``[q̄_min + margin, q̄_max - margin]`` within one period: an outward velocity is reduced
+   to land on the bound (0 if the joint is already there or beyond). This clips joints
+   individually (the direction changes): it is a last resort, not a control strategy.
+
+Units: rad/s or m/s for velocities, rad/s² or m/s² for accelerations, s for ``T``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.limits import JointLimits
+
+__all__ = ["GuardReport", "guard_command"]
+
+
+class GuardReport(NamedTuple):
+    """What :func:`guard_command` changed (all neutral when the command passed unchanged)."""
+
+    non_finite: bool = False
+    """The command held NaN or inf and was replaced by zeros."""
+    velocity_scale: float = 1.0
+    """Factor in (0, 1] applied to the whole command to respect ``qdot_max``."""
+    acceleration_scale: float = 1.0
+    """Factor in [0, 1] applied to the change of command to respect ``qddot_max``."""
+    position_clipped: tuple[int, ...] = ()
+    """Joints whose outward velocity was reduced to stay within the safe range."""
+
+    @property
+    def changed(self) -> bool:
+        """True when the command was modified."""
+        return (
+            self.non_finite
+            or self.velocity_scale < 1.0
+            or self.acceleration_scale < 1.0
+            or bool(self.position_clipped)
+        )
+
+
+def guard_command(
+    qdot: FloatArray,
+    *,
+    q: FloatArray,
+    qdot_prev: FloatArray,
+    limits: JointLimits,
+    period: float,
+) -> tuple[FloatArray, GuardReport]:
+    """Return the command to send and what was changed (see the module docstring).
+
+    Args:
+        qdot: (n,) command from the law (rad/s or m/s).
+        q: (n,) measured joint positions (m or rad).
+        qdot_prev: (n,) the command sent last period (zeros at start).
+        limits: Position limits, and the optional ``qdot_max``, ``qddot_max`` and margin.
+        period: Control period T (s).
+    """
+    cmd = np.array(qdot, dtype=float)
+    if not np.all(np.isfinite(cmd)):
+        return np.zeros_like(cmd), GuardReport(non_finite=True)
+    v_scale = a_scale = 1.0
+    qdot_max = getattr(limits, "qdot_max", None)
+    if qdot_max is not None:
+        ratio = float(np.max(np.abs(cmd) / qdot_max))
+        if ratio > 1.0:
+            v_scale = 1.0 / ratio
+            cmd *= v_scale
+    qddot_max = getattr(limits, "qddot_max", None)
+    if qddot_max is not None:
+        delta = cmd - qdot_prev
+        ratio = float(np.max(np.abs(delta) / (qddot_max * period)))
+        if ratio > 1.0:
+            a_scale = 1.0 / ratio
+            cmd = qdot_prev + delta * a_scale
+    lo = getattr(limits, "safe_min", limits.q_min)
+    hi = getattr(limits, "safe_max", limits.q_max)
+    up = np.maximum((hi - q) / period, 0.0)
+    down = np.minimum((lo - q) / period, 0.0)
+    clipped = np.flatnonzero((cmd > up) | (cmd < down))
+    if clipped.size:
+        cmd = np.clip(cmd, down, up)
+    return cmd, GuardReport(False, v_scale, a_scale, tuple(int(i) for i in clipped))

@@ -1,0 +1,463 @@
+"""The hardware servo loop against fake and simulated robots (issue 11, items 4 and 6).
+
+Every test runs on a :class:`VirtualClock`, so it is fast and deterministic.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from redservo import ConfigurationError, JointLimits, make_law
+from redservo.experiment import build
+from redservo.features import PointFeature
+from redservo.hardware import (
+    ActuatorModel,
+    FeatureMeasurement,
+    FeatureSource,
+    IdealFeatureSource,
+    RobotInterface,
+    ServoLoop,
+    SimulatedRobot,
+    VirtualClock,
+    guard_command,
+)
+from redservo.robots import Afma6
+from redservo.scenario import load_scenario
+from redservo.scene import PointSet, Scene, Static
+from redservo.spatial import make_transform
+from redservo.task import TaskTerm, VisualTask
+
+ROOT = Path(__file__).resolve().parents[1]
+Q_MID = np.array([0.0, 0.0, 0.3, 0.0, 0.3, 0.0])
+T = 0.04
+
+
+class Spy:
+    """A robot interface wrapper that records commands and stops and injects faults."""
+
+    def __init__(
+        self,
+        inner: RobotInterface,
+        *,
+        fail_at: int | None = None,
+        exc: BaseException | None = None,
+        on_read: Callable[[int], None] | None = None,
+    ) -> None:
+        self.inner, self.fail_at, self.exc, self.on_read = inner, fail_at, exc, on_read
+        self.sent: list[np.ndarray] = []
+        self.stops = 0
+        self.reads = 0
+
+    def read_joints(self) -> tuple[float, np.ndarray]:
+        if self.on_read is not None:
+            self.on_read(self.reads)
+        self.reads += 1
+        return self.inner.read_joints()
+
+    def send_velocity(self, qdot: np.ndarray) -> None:
+        if self.fail_at is not None and len(self.sent) == self.fail_at:
+            assert self.exc is not None
+            raise self.exc
+        self.sent.append(np.array(qdot))
+        self.inner.send_velocity(qdot)
+
+    def stop(self) -> None:
+        self.stops += 1
+        self.inner.stop()
+
+
+class Dropping:
+    """A feature source that returns None on the calls where ``drop(call_index)`` is True."""
+
+    def __init__(self, inner: FeatureSource, drop: Callable[[int], bool]) -> None:
+        self.inner, self.drop, self.calls = inner, drop, 0
+
+    def measure(self, t: float) -> FeatureMeasurement | None:
+        i, self.calls = self.calls, self.calls + 1
+        m = self.inner.measure(t)
+        return None if self.drop(i) else m
+
+
+def _setup(
+    actuator: ActuatorModel | None = None,
+) -> tuple[VirtualClock, Afma6, SimulatedRobot, Any, VisualTask]:
+    """Afma6 at mid-range gazing at a point seen at (0.13, -0.08), 0.6 m away."""
+    clock = VirtualClock(50.0)
+    robot = Afma6()
+    sim = SimulatedRobot(robot, actuator or ActuatorModel.ideal(), Q_MID, clock, period=T)
+    wMo = robot.fkine(Q_MID) @ make_transform(t=(0.08, -0.05, 0.6))
+    scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
+    task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
+    return clock, robot, sim, IdealFeatureSource(task, scene, sim), task
+
+
+def _loop(
+    robot_iface: RobotInterface,
+    source: FeatureSource,
+    robot: Afma6,
+    task: VisualTask,
+    clock: VirtualClock,
+    *,
+    law: Any = None,
+    limits: JointLimits | None = None,
+    **kw: Any,
+) -> ServoLoop:
+    kw.setdefault("max_iterations", 400)
+    return ServoLoop(
+        robot_iface,
+        source,
+        robot,
+        task,
+        law or make_law("classical"),
+        limits or robot.limits(),
+        period=T,
+        lam=1.0,
+        clock=clock,
+        sleep=clock.sleep,
+        **kw,
+    )
+
+
+# -- nominal runs ------------------------------------------------------------------------------
+
+
+def test_converges_on_an_ideal_robot_and_stops_it_once() -> None:
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    res = _loop(spy, src, robot, task, clock).run()
+    assert res.outcome == "converged"
+    assert res.summary["final_error_norm"] < 1e-3
+    assert spy.stops == 1 and res.overruns == 0
+    assert res.measured.all() and len(res.log) == res.iterations
+    # The simulator's log format, and t on the loop's clock since the start.
+    np.testing.assert_allclose(res.log.t, np.arange(len(res.log)) * T, atol=1e-9)
+    assert res.log.q.shape == (len(res.log), 6) and res.log.e1.shape == (len(res.log), 2)
+
+
+def test_converges_with_a_lagging_delayed_robot() -> None:
+    act = ActuatorModel(tau=0.1, delay_steps=2, qddot_max=5.0, encoder_resolution=1e-5, seed=0)
+    clock, robot, sim, src, task = _setup(act)
+    res = _loop(sim, src, robot, task, clock).run()
+    assert res.outcome == "converged", res.reason
+    assert res.iterations < 250
+
+
+def test_ideal_loop_reproduces_the_simulator_bit_for_bit() -> None:
+    exp = build(load_scenario("cm01-gaze"))
+    sim_res = exp.run()
+    clock = VirtualClock()
+    dt = exp.options.dt
+    sim = SimulatedRobot(exp.robot, ActuatorModel.ideal(), exp.q0, clock, period=dt)
+    loop = ServoLoop(
+        sim,
+        IdealFeatureSource(exp.task, exp.scene, sim),
+        exp.robot,
+        exp.task,
+        exp.law,
+        exp.limits,
+        period=dt,
+        lam=exp.options.lam,
+        max_iterations=exp.options.max_iterations,
+        clock=clock,
+        sleep=clock.sleep,
+    )
+    res = loop.run()
+    assert res.outcome == sim_res.outcome == "converged"
+    for name in ("q", "qdot", "s", "e1", "camera_twist", "constrained", "gamma"):
+        assert np.array_equal(getattr(res.log, name), getattr(sim_res.log, name)), name
+
+
+def test_save_writes_the_simulators_files(tmp_path: Path) -> None:
+    clock, robot, sim, src, task = _setup()
+    res = _loop(sim, src, robot, task, clock, max_iterations=5).run()
+    assert res.outcome == "max_iterations"
+    out = res.save(tmp_path / "run")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "max_iterations" and summary["iterations"] == 5
+    assert summary["overruns"] == 0 and "max_cycle_time" in summary
+    with np.load(out / "log.npz") as data:
+        assert data["q"].shape == (5, 6)
+    assert (out / "log.csv").read_text().startswith("t,q[0]")
+
+
+# -- measurements: drops and the watchdog ------------------------------------------------------
+
+
+@pytest.mark.parametrize("on_missing", ["hold", "zero"])
+def test_short_dropout_is_bridged_and_the_loop_recovers(on_missing: str) -> None:
+    clock, robot, sim, src, task = _setup()
+    res = _loop(
+        sim, Dropping(src, lambda i: 10 <= i < 14), robot, task, clock, on_missing=on_missing
+    ).run()
+    assert res.outcome == "converged"
+    assert res.summary["held"] == 4 and res.summary["missing"] == 4
+    assert not res.measured[10:14].any() and res.measured[14]
+    held = res.log.qdot[10:14]
+    if on_missing == "hold":
+        assert np.array_equal(held, np.repeat(res.log.qdot[9:10], 4, axis=0))
+    else:  # zero, reached at the robot's acceleration limit (Afma6: 1 m/s², 3 rad/s²)
+        assert not held[-1].any()
+        steps = np.abs(np.diff(res.log.qdot[9:14], axis=0))
+        assert np.all(steps <= robot.limits().qddot_max * T + 1e-12)
+
+
+def test_long_dropout_stops_on_the_watchdog() -> None:
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    loop = _loop(spy, Dropping(src, lambda i: i >= 10), robot, task, clock, watchdog_timeout=0.3)
+    res = loop.run()
+    assert res.outcome == "stale_measurement" and "watchdog" in res.reason
+    assert spy.stops == 1
+    # Last fresh image at iteration 9 (t = 0.36 s): stale once older than 0.3 s, at t = 0.68 s.
+    assert res.iterations == 18 and len(spy.sent) == 17
+
+
+def test_old_measurements_are_not_used() -> None:
+    class Late:
+        def measure(self, t: float) -> FeatureMeasurement | None:
+            m = src.measure(t)
+            return None if m is None else m._replace(t_measured=t - 1.0)
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    res = _loop(spy, Late(), robot, task, clock, watchdog_timeout=0.2).run()
+    assert res.outcome == "stale_measurement" and len(res.log) == 0
+    assert all(not c.any() for c in spy.sent) and spy.stops == 1
+
+
+def test_frozen_joint_readings_stop_on_the_watchdog() -> None:
+    class Frozen(Spy):
+        def read_joints(self) -> tuple[float, np.ndarray]:
+            t, q = super().read_joints()
+            return (min(t, 50.0 + 4 * T), q)  # the driver stopped updating at t = 0.16 s
+
+    clock, robot, sim, src, task = _setup()
+    spy = Frozen(sim)
+    res = _loop(spy, src, robot, task, clock, watchdog_timeout=0.2).run()
+    assert res.outcome == "stale_measurement" and "joint readings" in res.reason
+    assert res.iterations == 11 and spy.stops == 1  # stale once 0.2 s old: at t = 0.40 s
+
+
+# -- faults ------------------------------------------------------------------------------------
+
+
+def test_robot_exception_stops_then_reraises_with_the_iteration() -> None:
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim, fail_at=5, exc=ConnectionError("link down"))
+    loop = _loop(spy, src, robot, task, clock)
+    with pytest.raises(ConnectionError, match="link down") as info:
+        loop.run()
+    note = " ".join(info.value.__notes__)
+    assert "robot.send_velocity" in note and "iteration 5" in note
+    assert spy.stops == 1
+    assert loop.last_result is not None and loop.last_result.outcome == "error"
+    assert len(loop.last_result.log) == 6  # the row of the failed send is logged
+
+
+def test_law_exception_stops_then_reraises_or_returns() -> None:
+    inner = make_law("classical")
+    calls = []
+
+    def law(**kw: Any) -> Any:
+        calls.append(1)
+        if len(calls) == 4:
+            raise RuntimeError("solver diverged")
+        return inner(**kw)
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    with pytest.raises(RuntimeError, match="solver diverged") as info:
+        _loop(spy, src, robot, task, clock, law=law).run()
+    assert "in law at iteration 3" in " ".join(info.value.__notes__)
+    assert spy.stops == 1
+    calls.clear()
+    res = _loop(spy, src, robot, task, clock, law=law).run(raise_errors=False)
+    assert res.outcome == "error" and isinstance(res.error, RuntimeError)
+    assert spy.stops == 2
+
+
+def test_nan_from_the_law_sends_zero_and_stops() -> None:
+    inner = make_law("classical")
+    calls = []
+
+    def law(**kw: Any) -> Any:
+        calls.append(1)
+        res = inner(**kw)
+        return res._replace(qdot=res.qdot * np.nan) if len(calls) == 3 else res
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    res = _loop(spy, src, robot, task, clock, law=law).run()
+    assert res.outcome == "error" and "non-finite" in res.reason
+    assert len(spy.sent) == 3 and not spy.sent[-1].any() and spy.stops == 1
+    assert all(np.isfinite(c).all() for c in spy.sent)
+
+
+def test_a_law_that_replaced_a_nan_command_also_stops_the_loop() -> None:
+    from redservo.redundancy.base import Law, LawInputs, LawResult
+
+    class Broken(Law):
+        name = "broken"
+
+        def compute(self, x: LawInputs) -> LawResult:
+            return make_law("classical").compute(x)._replace(qdot=np.full(x.q.shape, np.nan))
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    res = _loop(spy, src, robot, task, clock, law=Broken()).run()
+    assert res.outcome == "error" and "non-finite" in res.reason
+    assert len(spy.sent) == 1 and not spy.sent[0].any() and spy.stops == 1
+
+
+def test_overruns_are_counted_and_the_loop_goes_on() -> None:
+    clock, robot, sim, src, task = _setup()
+
+    def slow(i: int) -> None:
+        if i in (3, 7):
+            clock.advance(2.5 * T)  # the joint read took 100 ms
+
+    res = _loop(Spy(sim, on_read=slow), src, robot, task, clock, max_iterations=12).run()
+    assert res.outcome == "max_iterations"
+    assert res.overruns == 2 and res.summary["overruns"] == 2
+    assert res.summary["max_cycle_time"] == pytest.approx(2.5 * T)
+    # t is stamped after the (slow) read. After an overrun the next iteration starts at
+    # once, then the period resumes from there.
+    np.testing.assert_allclose(res.log.t[2:7] / T, [2.0, 5.5, 5.5, 6.5, 7.5])
+
+
+def test_keyboard_interrupt_stops_cleanly() -> None:
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    sleeps = []
+
+    def sleep(d: float) -> None:
+        sleeps.append(d)
+        if len(sleeps) == 5:
+            raise KeyboardInterrupt
+        clock.sleep(d)
+
+    loop = ServoLoop(
+        spy, src, robot, task, make_law("classical"), robot.limits(),
+        period=T, lam=1.0, clock=clock, sleep=sleep,
+    )  # fmt: skip
+    res = loop.run()
+    assert res.outcome == "interrupted" and spy.stops == 1 and len(spy.sent) == 5
+
+
+def test_request_stop_ends_the_run() -> None:
+    clock, robot, sim, src, task = _setup()
+    loop = _loop(sim, src, robot, task, clock)
+
+    class Stopper:
+        def measure(self, t: float) -> FeatureMeasurement | None:
+            if clock() >= 50.0 + 6 * T - 1e-9:
+                loop.request_stop()
+            return src.measure(t)
+
+    loop.source = Stopper()
+    res = loop.run()
+    assert res.outcome == "stopped" and res.iterations == 7
+
+
+def test_duration_limit() -> None:
+    clock, robot, sim, src, task = _setup()
+    res = _loop(sim, src, robot, task, clock, max_iterations=None, duration=0.2).run()
+    assert res.outcome == "max_iterations" and res.iterations == 5
+
+
+# -- the command guard -------------------------------------------------------------------------
+
+
+def test_commands_never_exceed_qdot_max_and_keep_their_direction() -> None:
+    inner = make_law("classical")
+    wanted: list[np.ndarray] = []
+
+    def reckless(**kw: Any) -> Any:  # ignores the rate limits, and is 20 times too fast
+        res = inner(**{**kw, "limits": kw["limits"].without_rates()})
+        wanted.append(20.0 * res.qdot)
+        return res._replace(qdot=wanted[-1])
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    qdot_max = np.full(6, 0.02)
+    limits = JointLimits(robot.q_min, robot.q_max, 0.1, qdot_max=qdot_max)
+    res = _loop(spy, src, robot, task, clock, limits=limits, law=reckless).run()
+    assert res.outcome == "converged"
+    sent = np.array(spy.sent)
+    assert np.all(np.abs(sent) <= qdot_max + 1e-15)
+    assert res.summary["guarded"] > 0
+    for w, c in zip(wanted, sent, strict=False):  # same direction
+        assert float(w @ c) == pytest.approx(np.linalg.norm(w) * np.linalg.norm(c), rel=1e-9)
+
+
+def test_guard_scales_velocity_and_acceleration_and_clips_position() -> None:
+    lim = JointLimits([-1.0, -1.0], [1.0, 1.0], 0.1, qdot_max=1.0, qddot_max=10.0)
+    z = np.zeros(2)
+    cmd, rep = guard_command(np.array([4.0, -2.0]), q=z, qdot_prev=np.array([1.0, -0.5]), limits=lim, period=0.01)  # fmt: skip
+    np.testing.assert_allclose(cmd, [1.0, -0.5])  # scaled by 1/4, direction kept
+    assert rep.velocity_scale == 0.25 and rep.acceleration_scale == 1.0
+    cmd, rep = guard_command(np.array([1.0, 0.5]), q=z, qdot_prev=z, limits=lim, period=0.01)
+    np.testing.assert_allclose(cmd, [0.1, 0.05])  # the change is scaled to 10 rad/s² · 10 ms
+    cmd, rep = guard_command(np.array([0.0, 0.5]), q=np.array([0.0, 0.999]), qdot_prev=np.array([0.0, 0.5]), limits=lim, period=0.01)  # fmt: skip
+    np.testing.assert_allclose(cmd, [0.0, 0.1]) and rep.position_clipped == (1,)
+    cmd, rep = guard_command(np.array([np.nan, 0.0]), q=z, qdot_prev=z, limits=lim, period=0.01)
+    assert rep.non_finite and not cmd.any()
+
+
+def test_qdot_prev_is_passed_when_the_law_accepts_it() -> None:
+    inner = make_law("classical")
+    seen: list[np.ndarray] = []
+
+    def law(*, qdot_prev: np.ndarray, **kw: Any) -> Any:
+        seen.append(qdot_prev.copy())
+        return inner(**kw)
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    loop = _loop(spy, src, robot, task, clock, law=law, max_iterations=6)
+    assert loop.passes_qdot_prev
+    loop.run()
+    assert not seen[0].any()
+    for prev, sent in zip(seen[1:], spy.sent, strict=False):
+        assert np.array_equal(prev, sent)
+    assert _loop(spy, src, robot, task, clock).passes_qdot_prev  # the laws take it
+
+    def plain(*, J1: Any, e1: Any, q: Any, limits: Any, lam: Any, dt: Any) -> Any:
+        return inner(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
+
+    loop = _loop(spy, src, robot, task, clock, law=plain, max_iterations=3)
+    assert not loop.passes_qdot_prev and loop.run().outcome == "max_iterations"
+
+
+def test_invalid_settings_are_rejected() -> None:
+    clock, robot, sim, src, task = _setup()
+    with pytest.raises(ConfigurationError, match="period"):
+        _loop(sim, src, robot, task, clock, watchdog_timeout=0.01)
+    with pytest.raises(ConfigurationError, match="on_missing"):
+        _loop(sim, src, robot, task, clock, on_missing="guess")
+    with pytest.raises(ConfigurationError, match="max_iterations"):
+        _loop(sim, src, robot, task, clock, max_iterations=0)
+
+
+# -- the example ---------------------------------------------------------------------------------
+
+
+def test_real_robot_example_runs(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "real_robot.py"), "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "converged" in proc.stdout
+    assert (tmp_path / "summary.json").is_file()
