@@ -32,6 +32,8 @@ from redservo.task import VisualTask
 
 __all__ = ["IdealFeatureSource", "SimulatedRobot", "VirtualClock"]
 
+_LIMIT_TOL = 1e-9  # m or rad, as JointLimits.check and the simulator
+
 
 class VirtualClock:
     """A monotonic clock that only moves when told: ``sleep(d)`` and ``advance(d)`` add ``d``.
@@ -120,7 +122,9 @@ class SimulatedRobot:
             q_next, _ = self.actuator.step(self.q, cmd, self.period)
             self._t += self.period
             lo, hi = self._limits.q_min, self._limits.q_max
-            crossed = np.flatnonzero((q_next < lo) | (q_next > hi))
+            # Beyond a limit by more than the roundoff of a step commanded onto it (the
+            # simulator's LIMIT_TOLERANCE): a crossing.
+            crossed = np.flatnonzero((q_next < lo - _LIMIT_TOL) | (q_next > hi + _LIMIT_TOL))
             if crossed.size and self.fault is None:
                 i = int(crossed[0])
                 self.fault = (
