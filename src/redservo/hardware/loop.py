@@ -41,6 +41,7 @@ from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, Robot
 from redservo.hardware.recorder import LoopRecorder, ServoOutcome, ServoResult
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
+from redservo.redundancy.flags import Flag
 from redservo.robots.base import Robot
 from redservo.simulation import summarize
 from redservo.task import TaskState, VisualTask
@@ -81,10 +82,7 @@ def _accepts_qdot_prev(law: Callable[..., LawResult]) -> bool:
 
 def _law_replaced_non_finite(d: Diagnostics | None) -> bool:
     """True when a :class:`~redservo.Law` reported that it replaced a NaN/inf command."""
-    return d is not None and any(
-        getattr(getattr(e, "flag", None), "value", None) == "non-finite-replaced"
-        for e in getattr(d, "events", ())
-    )
+    return d is not None and d.has(Flag.NON_FINITE_REPLACED)
 
 
 def _positive(value: float | None, name: str, unit: str) -> None:
