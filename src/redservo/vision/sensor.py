@@ -1,0 +1,396 @@
+"""The image sensor: render the camera image, detect the task's features in it.
+
+:class:`ImageSensor` implements :class:`redservo.sensors.Sensor`. Each
+``read(task, scene, bMc, t)`` renders the image (:class:`~redservo.vision.render.Renderer`),
+detects every task term in it in the features' own conventions and order, and
+attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`):
+
+* ``PointFeature``, ``MomentFeatures``: the dots of the term's point set (all
+  sets tracked by one :class:`~redservo.vision.dots.DotTracker`); a point term
+  is the dot of its point, the moments come from all dots of the set;
+* ``SphereFeature``: its ellipse, ``(xc, yc, a)`` or ``(xc, yc, n20, n11, n02)``;
+* ``CylinderFeature``: both limbs (edges); ``LineFeature``: the stripe's centre line.
+
+Initialisation (decision): on the first frame after :meth:`reset`, trackers
+start from the true projections (as a user clicking on the dots would); from
+then on only the image is used. Thresholds come from the renderer's gray levels.
+
+Losses: a term not detected in a frame is listed in ``SensorReading.lost`` (task
+term indices) and keeps its last value (a dot coasts on its constant-velocity
+prediction); a different number of dots than expected is said in ``reason``. A
+term lost for more than ``max_lost_frames`` consecutive frames (or never seen)
+makes ``s`` None with a ``reason`` starting with ``"feature_lost:"``
+(:data:`FEATURE_LOST`), the cue for the simulator to stop with outcome
+``feature_lost``; :attr:`ImageSensor.feature_lost` says the same.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from redservo._validation import FloatArray
+from redservo.camera import MIN_DEPTH, Camera
+from redservo.errors import ConfigurationError, GeometryError
+from redservo.features import (
+    CylinderFeature,
+    LineFeature,
+    MomentFeatures,
+    PointFeature,
+    SphereFeature,
+)
+from redservo.scene import PointSet
+from redservo.sensors import SensorReading
+from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy, estimate_inv_depth
+from redservo.vision.dots import DotTracker
+from redservo.vision.ellipse import EllipseMethod
+from redservo.vision.moments import dot_moment_features
+from redservo.vision.render import Renderer, RenderOptions
+from redservo.vision.terms import TermState, measure_lines, measure_sphere, rendered_dots
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.scene import Scene
+    from redservo.task import VisualTask
+
+__all__ = ["FEATURE_LOST", "ImageSensor"]
+
+_KINDS: dict[type, str] = {
+    SphereFeature: "sphere",
+    CylinderFeature: "cylinder",
+    LineFeature: "line",
+}
+
+FEATURE_LOST = "feature_lost"
+"""Prefix of ``SensorReading.reason`` when a feature is lost for good."""
+
+_CONFIG_KEYS: tuple[str, ...] = ("noise_px", "blur_px", "distortion", "texture", "seed")
+_CONFIG_KEYS += ("depth", "max_lost_frames", "ellipse_method", "dot_radius_px")
+
+
+class ImageSensor:
+    """Features measured in a rendered image (module docstring).
+
+    Args:
+        camera: Intrinsics and image size (default :class:`~redservo.camera.Camera`).
+        noise_px: Gaussian pixel noise, standard deviation in gray levels.
+        blur_px: Gaussian blur, standard deviation in pixels.
+        distortion: Radial distortion ``k1`` or ``(k1, k2)``.
+        texture: Textured background.
+        seed: Seed of the image noise and texture.
+        depth: ``"desired"``, ``"estimated"`` or ``"true"`` (:mod:`redservo.vision.depth`).
+        max_lost_frames: A term lost for more than this many consecutive frames is lost for good.
+        ellipse_method: ``"moments"`` or ``"contour"`` (:mod:`redservo.vision.ellipse`).
+        dot_radius_px: Radius of the rendered dots (pixels).
+        options: Full :class:`RenderOptions`; overrides the image arguments above.
+    """
+
+    def __init__(
+        self,
+        camera: Camera | None = None,
+        *,
+        noise_px: float = 0.0,
+        blur_px: float = 0.0,
+        distortion: float | tuple[float, float] | list[float] = 0.0,
+        texture: bool = False,
+        seed: int | None = 0,
+        depth: DepthPolicy = "desired",
+        max_lost_frames: int = 3,
+        ellipse_method: EllipseMethod = "moments",
+        dot_radius_px: float = 4.0,
+        options: RenderOptions | None = None,
+    ) -> None:
+        if depth not in DEPTH_POLICIES:
+            raise ConfigurationError(
+                f"depth must be one of {', '.join(DEPTH_POLICIES)}, got {depth!r}"
+            )
+        if not isinstance(max_lost_frames, int) or max_lost_frames < 0:
+            raise ConfigurationError(
+                f"max_lost_frames must be an integer >= 0, got {max_lost_frames!r}"
+            )
+        if ellipse_method not in ("moments", "contour"):
+            raise ConfigurationError(
+                f"ellipse_method must be 'moments' or 'contour', got {ellipse_method!r}"
+            )
+        if options is None:
+            k = np.atleast_1d(np.asarray(distortion, dtype=float))
+            if k.size not in (1, 2):
+                raise ConfigurationError(f"distortion must be k1 or [k1, k2], got {distortion!r}")
+            base = RenderOptions()
+            options = RenderOptions(
+                noise_px=float(noise_px),
+                blur_px=float(blur_px),
+                k1=float(k[0]),
+                k2=float(k[1]) if k.size == 2 else 0.0,
+                texture=bool(texture),
+                seed=seed,
+                levels=replace(base.levels, dot_radius_px=float(dot_radius_px)),
+            )
+        self.renderer = Renderer(camera, options)
+        self.depth: DepthPolicy = depth
+        self.max_lost_frames = max_lost_frames
+        self.ellipse_method: EllipseMethod = ellipse_method
+        self._tracker: DotTracker | None = None
+        self._terms: list[TermState] = []
+        self._sets: dict[str, FloatArray] = {}
+        self._detected: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+        self._task_id: int | None = None
+        self.feature_lost = False
+        self.dots_uv: FloatArray = np.zeros((0, 2))
+        """Pixel positions (N, 2) of the tracked dots after the last read (for overlays)."""
+
+    @classmethod
+    def from_config(cls, camera: Camera | None, table: Mapping[str, Any]) -> ImageSensor:
+        """Build from a scenario's ``[sensor]`` table (``kind`` is ignored; other keys checked).
+
+        Raises:
+            ConfigurationError: an unknown key (the message lists the allowed ones).
+        """
+        opts = {k: v for k, v in table.items() if k != "kind"}
+        unknown = sorted(set(opts) - set(_CONFIG_KEYS))
+        if unknown:
+            raise ConfigurationError(
+                f"unknown [sensor] key(s) {', '.join(unknown)} for kind = 'image'; "
+                f"allowed: kind, {', '.join(_CONFIG_KEYS)}"
+            )
+        try:
+            return cls(camera, **opts)
+        except (TypeError, ValueError) as exc:
+            raise ConfigurationError(f"invalid [sensor] value: {exc}") from None
+
+    @property
+    def camera(self) -> Camera:
+        """The camera intrinsics."""
+        return self.renderer.camera
+
+    def reset(self) -> None:
+        """Forget the trackers and restart the noise stream."""
+        self.renderer.reset()
+        self._tracker = None
+        self._terms = []
+        self._task_id = None
+        self.feature_lost = False
+        self.dots_uv = np.zeros((0, 2))
+
+    # -- set-up ---------------------------------------------------------------------------------
+
+    def _plan(self, task: VisualTask, scene: Scene) -> None:
+        """Map each term to its detector; all point sets share one dot tracker."""
+        if self.depth == "desired" and task.inv_depth_star is None:
+            raise ConfigurationError(
+                "depth='desired' needs the task's desired inverse depths; build the task "
+                "with VisualTask.from_desired_poses or use depth='estimated' or 'true'"
+            )
+        self._sets = {}
+        self._terms = []
+        for i, term in enumerate(task.terms):
+            f = term.feature
+            if isinstance(f, PointFeature | MomentFeatures):
+                self._terms.append(self._dot_term(i, f, term.target, scene))
+            elif isinstance(f, SphereFeature | CylinderFeature | LineFeature):
+                if self.depth == "estimated" and isinstance(f, LineFeature):
+                    raise ConfigurationError(
+                        f"term {i}: depth='estimated' is not available for a line (no known "
+                        "size); use depth='desired' or 'true'"
+                    )
+                self._terms.append(TermState(_KINDS[type(f)]))
+            else:
+                raise ConfigurationError(
+                    f"term {i}: the image sensor cannot measure {type(f).__name__}"
+                )
+        n_dots = sum(len(p) for p in self._sets.values())
+        self._tracker = None
+        if n_dots:
+            jump = 25.0 + 3.0 * self.renderer.options.blur_px
+            self._tracker = DotTracker(n_dots, jump, self.max_lost_frames)
+        self._task_id = id(task)
+
+    def _dot_term(
+        self, i: int, f: PointFeature | MomentFeatures, target: str, scene: Scene
+    ) -> TermState:
+        """The term of a point or moment feature: indices of its dots in the shared tracker."""
+        obj = scene.object(target)
+        if not isinstance(obj, PointSet):
+            raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
+        if target not in self._sets:
+            self._sets[target] = obj.points
+        offset = 0
+        for name, pts_ in self._sets.items():
+            if name == target:
+                break
+            offset += len(pts_)
+        pts = f.point_o[None, :] if isinstance(f, PointFeature) else f.points_o
+        idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
+        if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
+            raise ConfigurationError(
+                f"term {i}: a point of the feature is not a dot of point set {target!r}; "
+                "the image sensor measures only drawn dots"
+            )
+        if self.depth == "estimated" and len(obj.points) < 2:
+            raise ConfigurationError(
+                f"term {i}: depth='estimated' needs a point set of at least 2 dots "
+                f"({target!r} has 1); use depth='desired' or 'true'"
+            )
+        kind = "point" if isinstance(f, PointFeature) else "moments"
+        return TermState(kind, np.array(idx) + offset)
+
+    def _truth_uv(self, scene: Scene, bMc: FloatArray, t: float) -> FloatArray:
+        """True pixel positions of every tracked dot (NaN behind the camera)."""
+        out = []
+        for name, pts in self._sets.items():
+            cMo = scene.cMo(name, bMc, t)
+            P = pts @ cMo[:3, :3].T + cMo[:3, 3]
+            z = np.where(P[:, 2] > MIN_DEPTH, P[:, 2], np.nan)
+            out.append(self.renderer.optics.to_pixel(P[:, :2] / z[:, None]))
+        return np.vstack(out)
+
+    # -- reading --------------------------------------------------------------------------------
+
+    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
+        """Render, detect and return the measured features (see the module docstring)."""
+        image = self.renderer.render(scene, bMc, t)
+        first = self._task_id != id(task)
+        if first:
+            self._plan(task, scene)
+        truth: list[FloatArray | None] = [None] * len(task.terms)
+        truth_d: list[FloatArray | None] = [None] * len(task.terms)
+        if first or self.depth == "true":
+            for i, term in enumerate(task.terms):
+                try:
+                    meas = term.feature.measure(scene.cMo(term.target, bMc, t))
+                    truth[i], truth_d[i] = meas.s, meas.inv_depth
+                except GeometryError:
+                    pass
+        notes: list[str] = []
+        set_xy = self._read_dots(image, scene, bMc, t, first, notes)
+        lost, gone = [], []
+        for i, (term, st) in enumerate(zip(task.terms, self._terms)):
+            s = self._measure(term.feature, st, image, set_xy, truth[i], notes, i)
+            if s is None:
+                st.lost += 1
+                if st.s is None or st.lost > self.max_lost_frames:
+                    gone.append(i)
+                lost.append(i)
+            else:
+                if st.kind in ("point", "moments") and st.lost_dots:
+                    lost.append(i)
+                    st.lost += 1
+                    if st.lost > self.max_lost_frames:
+                        gone.append(i)
+                else:
+                    st.lost = 0
+                st.prev_s, st.s = st.s, s
+        if gone:
+            self.feature_lost = True
+            what = ", ".join(f"{i} ({task.terms[i].target})" for i in gone)
+            why = "; ".join(notes)
+            reason = (
+                f"{FEATURE_LOST}: term(s) {what} not detected for more than "
+                f"{self.max_lost_frames} consecutive frame(s)" + (f" ({why})" if why else "")
+            )
+            return SensorReading(None, (), tuple(lost), reason, image)
+        s_all = np.concatenate([st.s for st in self._terms if st.s is not None])
+        inv_depth = self._inv_depth(task, truth_d, set_xy)
+        if inv_depth is None:
+            notes.append(f"no {self.depth} depth available yet")
+            return SensorReading(None, (), tuple(lost), "; ".join(notes), image)
+        return SensorReading(s_all, inv_depth, tuple(lost), "; ".join(notes), image)
+
+    def _read_dots(
+        self,
+        image: NDArray[np.uint8],
+        scene: Scene,
+        bMc: FloatArray,
+        t: float,
+        first: bool,
+        notes: list[str],
+    ) -> FloatArray:
+        """Detect and track the dots; return their normalized positions (N, 2)."""
+        if self._tracker is None:
+            return np.zeros((0, 2))
+        det = rendered_dots(image, self.renderer.options)
+        if first:
+            self._tracker.start(self._truth_uv(scene, bMc, t))
+        track = self._tracker.update(det.uv)
+        n = self._tracker.n_dots
+        if track.n_blobs != n:
+            notes.append(f"found {track.n_blobs} dot blob(s), expected {n}")
+        if det.n_border:
+            notes.append(f"{det.n_border} blob(s) cut by the image border")
+        self._detected = track.detected
+        self.dots_uv = track.uv
+        return self.renderer.optics.to_normalized(track.uv)
+
+    def _measure(
+        self,
+        feature: Any,
+        st: TermState,
+        image: NDArray[np.uint8],
+        set_xy: FloatArray,
+        truth: FloatArray | None,
+        notes: list[str],
+        i: int,
+    ) -> FloatArray | None:
+        """One term's value, or None when it was not detected (the reason goes to ``notes``)."""
+        st.lost_dots = False
+        if st.kind in ("point", "moments"):
+            st.lost_dots = not bool(self._detected[st.dots].all())
+            xy = set_xy[st.dots]
+            if not np.isfinite(xy).all():
+                notes.append(f"term {i}: a dot was never seen")
+                return None
+            if st.lost_dots:
+                notes.append(f"term {i}: dot(s) lost, using their predicted positions")
+            if st.kind == "point":
+                return np.asarray(xy[0], dtype=float)
+            try:
+                return dot_moment_features(xy, feature)
+            except GeometryError as exc:
+                notes.append(f"term {i}: {exc}")
+                return None
+        if st.kind == "sphere":
+            s, why = measure_sphere(image, self.renderer, st, feature, self.ellipse_method, truth)
+        else:
+            s, why = measure_lines(image, self.renderer, st, truth)
+        if s is None:
+            notes.append(f"term {i} ({st.kind}): {why}")
+        return s
+
+    def _inv_depth(
+        self, task: VisualTask, truth_d: list[FloatArray | None], set_xy: FloatArray
+    ) -> tuple[FloatArray, ...] | None:
+        if self.depth == "desired":
+            assert task.inv_depth_star is not None  # checked in _plan
+            return task.inv_depth_star
+        out = []
+        for i, (term, st) in enumerate(zip(task.terms, self._terms)):
+            d: FloatArray | None = truth_d[i]
+            if self.depth == "estimated" and st.s is not None:
+                kw: dict[str, Any] = {}
+                if st.kind in ("point", "moments"):
+                    name = term.target
+                    kw = {"set_points": self._sets[name], "set_xy": self._set_xy(name, set_xy)}
+                try:
+                    d = estimate_inv_depth(term.feature, st.s, **kw)
+                except GeometryError:
+                    d = None  # keep the last estimate
+            if d is not None:
+                st.inv_depth = d
+            if st.inv_depth is None:
+                return None
+            out.append(st.inv_depth)
+        return tuple(out)
+
+    def _set_xy(self, name: str, set_xy: FloatArray) -> FloatArray:
+        """Normalized dots (N, 2) of point set ``name``; NaN for the dots lost this frame."""
+        start = 0
+        for other, pts in self._sets.items():
+            if other == name:
+                xy = set_xy[start : start + len(pts)].copy()
+                xy[~self._detected[start : start + len(pts)]] = np.nan
+                return xy
+            start += len(pts)
+        raise ConfigurationError(f"no point set {name!r}")  # pragma: no cover

@@ -1,0 +1,211 @@
+"""Real input: frames from a video file, an image folder or a camera, and dots measured in them.
+
+:func:`frames` yields grayscale ``uint8`` frames from
+
+* an ``int`` (or a string of digits): a ``cv2.VideoCapture`` device index
+  (``0`` = the first webcam);
+* a folder: its image files (``.png .jpg .jpeg .bmp .tif .tiff .pgm .ppm``) in
+  name order;
+* a file: a video read by ``cv2.VideoCapture`` (``.avi``, ``.mp4``, ... whatever
+  this OpenCV build decodes);
+* an opened ``cv2.VideoCapture``;
+* a list or tuple of images (already read).
+
+:func:`track_dots` runs the dot detector and tracker of
+:mod:`redservo.vision.dots` on such a source and returns, per frame, the dots
+in pixels and in normalized coordinates (through the camera intrinsics and the
+distortion), which dots were found, and why not. The dot order is the one of
+``initial_uv`` if given, else that of the first frame with exactly ``n_dots``
+blobs, sorted top to bottom then left to right (by ``v``, ties by ``u``, in
+rows 10 px high).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.camera import Camera
+from redservo.errors import ConfigurationError
+from redservo.vision.dots import DotTracker, Polarity, detect_dots
+from redservo.vision.optics import Optics, require_cv2
+
+__all__ = ["IMAGE_SUFFIXES", "DotFrame", "frames", "iter_dots", "track_dots"]
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
+"""Files of an image folder that :func:`frames` reads."""
+
+
+def _gray(frame: NDArray[Any]) -> NDArray[np.uint8]:
+    cv2 = require_cv2()
+    if frame.ndim == 3:
+        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+    if frame.dtype != np.uint8:
+        frame = cv2.convertScaleAbs(frame, alpha=255.0 / max(float(frame.max()), 1.0))
+    return np.ascontiguousarray(frame)
+
+
+def _capture(cap: Any, what: str, max_frames: int | None) -> Iterator[NDArray[np.uint8]]:
+    if not cap.isOpened():
+        raise ConfigurationError(f"cannot open {what} with cv2.VideoCapture")
+    try:
+        k = 0
+        while max_frames is None or k < max_frames:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            yield _gray(frame)
+            k += 1
+    finally:
+        cap.release()
+
+
+def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np.uint8]]:
+    """Yield the grayscale frames (H, W) uint8 of ``source`` (module docstring).
+
+    Args:
+        source: Device index, folder, video file, or an opened ``cv2.VideoCapture``.
+        max_frames: Stop after this many frames (None = all; a camera never ends).
+
+    Raises:
+        ConfigurationError: the source does not exist, holds no image, or cannot be opened.
+    """
+    cv2 = require_cv2()
+    if isinstance(source, cv2.VideoCapture):
+        yield from _capture(source, "the given capture", max_frames)
+        return
+    if isinstance(source, list | tuple):
+        for img in source[:max_frames]:
+            yield _gray(np.asarray(img))
+        return
+    if isinstance(source, int) or (isinstance(source, str) and source.isdigit()):
+        yield from _capture(cv2.VideoCapture(int(source)), f"camera device {source}", max_frames)
+        return
+    path = Path(source)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise ConfigurationError(
+                f"{path}: no image files ({', '.join(IMAGE_SUFFIXES)}) in this folder"
+            )
+        for k, f in enumerate(files):
+            if max_frames is not None and k >= max_frames:
+                return
+            img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+            if img is None:
+                raise ConfigurationError(f"{f}: not a readable image")
+            yield img
+        return
+    if not path.is_file():
+        raise ConfigurationError(
+            f"{path}: no such file or folder (a source is a video file, an image folder "
+            "or a camera index)"
+        )
+    yield from _capture(cv2.VideoCapture(str(path)), f"video file {path}", max_frames)
+
+
+class DotFrame(NamedTuple):
+    """The dots measured in one frame."""
+
+    frame: int
+    """Frame number (0-based)."""
+    uv: FloatArray
+    """(N, 2) dot positions (pixels); NaN before the tracker started; predictions for lost dots."""
+    xy: FloatArray
+    """(N, 2) the same in undistorted normalized coordinates (the point features ``(x, y)``)."""
+    detected: NDArray[np.bool_]
+    """(N,) dots found in this frame."""
+    n_blobs: int
+    """Blobs found in the frame."""
+    reason: str
+    """What went wrong (wrong number of blobs, lost dots), empty when all is well."""
+
+
+def _initial_order(uv: FloatArray) -> FloatArray:
+    order = np.lexsort((uv[:, 0], np.floor(uv[:, 1] / 10.0)))
+    return uv[order]
+
+
+def track_dots(source: Any, n_dots: int | None = None, **options: Any) -> list[DotFrame]:
+    """Detect and track dots in every frame of ``source``; one :class:`DotFrame` per frame.
+
+    The list of :func:`iter_dots` (same arguments).
+    """
+    return list(iter_dots(source, n_dots, **options))
+
+
+def iter_dots(
+    source: Any,
+    n_dots: int | None = None,
+    *,
+    camera: Camera | None = None,
+    distortion: float | tuple[float, float] = 0.0,
+    threshold: float | str = "otsu",
+    polarity: Polarity = "bright",
+    initial_uv: ArrayLike | None = None,
+    min_size_px: float = 2.0,
+    max_size_px: float = 30.0,
+    max_jump_px: float = 25.0,
+    max_lost_frames: int = 3,
+    max_frames: int | None = None,
+) -> Iterator[DotFrame]:
+    """Detect and track dots in each frame of ``source``, yielding a :class:`DotFrame` per frame.
+
+    Args:
+        source: See :func:`frames`.
+        n_dots: Number of dots; default the number in ``initial_uv``, else in the first frame.
+        camera: Intrinsics (default :class:`~redservo.camera.Camera`; its size is not checked
+            against the frames).
+        distortion: Radial distortion ``k1`` or ``(k1, k2)``.
+        threshold: Gray level or ``"otsu"`` (per frame).
+        polarity: ``"bright"`` or ``"dark"`` dots.
+        initial_uv: (N, 2) initial dot positions (pixels), fixing the order.
+        min_size_px: Smallest dot (bounding-box size, pixels).
+        max_size_px: Largest dot.
+        max_jump_px: Largest motion (pixels) of a dot between frames, after prediction.
+        max_lost_frames: A dot lost for more consecutive frames is reported gone.
+        max_frames: Stop after this many frames.
+    """
+    k = np.atleast_1d(np.asarray(distortion, dtype=float))
+    optics = Optics(camera or Camera(), float(k[0]), float(k[1]) if k.size > 1 else 0.0)
+    init = None if initial_uv is None else np.asarray(initial_uv, dtype=float).reshape(-1, 2)
+    if n_dots is None and init is not None:
+        n_dots = init.shape[0]
+    tracker: DotTracker | None = None
+    for i, img in enumerate(frames(source, max_frames=max_frames)):
+        det = detect_dots(
+            img,
+            threshold=threshold,
+            polarity=polarity,
+            min_size_px=min_size_px,
+            max_size_px=max_size_px,
+        )
+        m = det.uv.shape[0]
+        if tracker is None:
+            want = m if n_dots is None else n_dots
+            if init is None and (m != want or m == 0):
+                nan = np.full((max(want, 0), 2), np.nan)
+                reason = f"waiting for a frame with exactly {want} dots (found {m})"
+                yield DotFrame(i, nan, nan.copy(), np.zeros(len(nan), bool), m, reason)
+                continue
+            tracker = DotTracker(want, max_jump_px, max_lost_frames)
+            tracker.start(init if init is not None else _initial_order(det.uv))
+        track = tracker.update(det.uv)
+        notes = []
+        if m != tracker.n_dots:
+            notes.append(f"found {m} blob(s), expected {tracker.n_dots}")
+        missing = np.flatnonzero(~track.detected)
+        if missing.size:
+            notes.append(f"dot(s) {', '.join(str(int(j)) for j in missing)} lost")
+        if track.gone:
+            notes.append(
+                f"feature_lost: dot(s) {', '.join(map(str, track.gone))} lost for more than "
+                f"{max_lost_frames} frame(s)"
+            )
+        xy = optics.to_normalized(track.uv)
+        yield DotFrame(i, track.uv, xy, track.detected, m, "; ".join(notes))

@@ -1,0 +1,294 @@
+"""Write the camera view as a GIF or MP4: detected and desired features, and the error beside it.
+
+:func:`write_video` draws, on each frame (OpenCV drawing, anti-aliased):
+
+* the tracked dots (``dots_uv``, pixels) as green circles;
+* the detected features ``s`` in green and the desired ``s*`` in red, term by
+  term when a task is given — a point as a cross, a sphere as its ellipse, a
+  cylinder's limbs and a line as lines, moments as the centroid ``(xn/an,
+  yn/an)`` with a segment along the orientation α; without a task ``s`` is read
+  as stacked points ``(x1, y1, x2, y2, ...)``;
+* to the right, the error norm per frame (log scale when every value is
+  positive) up to the current frame.
+
+Output by extension: ``.gif`` with Pillow (``pip install 'redservo[viewer]'``);
+``.mp4`` with imageio-ffmpeg when installed, else OpenCV's ``mp4v`` encoder
+when this OpenCV build has one, else a :class:`ConfigurationError` suggesting
+``.gif``. Nothing is downloaded.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.camera import Camera
+from redservo.errors import ConfigurationError, ShapeError
+from redservo.features import (
+    CylinderFeature,
+    LineFeature,
+    MomentFeatures,
+    PointFeature,
+    SphereFeature,
+    sphere_moments_from_area,
+)
+from redservo.vision.optics import Optics, require_cv2
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.task import VisualTask
+
+__all__ = ["compose_frame", "write_video"]
+
+_GREEN = (40, 210, 40)
+_RED = (230, 50, 50)
+_DOT = (60, 230, 230)
+
+
+def _px(optics: Optics, xy: ArrayLike) -> NDArray[np.int32]:
+    uv = optics.to_pixel(np.asarray(xy, dtype=float).reshape(-1, 2))
+    uv = np.where(np.isfinite(uv), uv, -1e4)
+    return np.clip(np.round(uv), -1e4, 1e4).astype(np.int32)
+
+
+def _draw_line(
+    img: NDArray[np.uint8], optics: Optics, rho: float, theta: float, color: Any
+) -> None:
+    cv2 = require_cv2()
+    n = np.array([np.cos(theta), np.sin(theta)])
+    d = np.array([-n[1], n[0]])
+    t = np.linspace(-3.0, 3.0, 241)
+    pts = _px(optics, rho * n + t[:, None] * d)
+    cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, color, 1, cv2.LINE_AA)
+
+
+def _draw_term(
+    img: NDArray[np.uint8], optics: Optics, feature: Any, s: FloatArray, color: Any
+) -> None:
+    cv2 = require_cv2()
+    if isinstance(feature, PointFeature):
+        ((u, v),) = _px(optics, s[:2])
+        cv2.drawMarker(img, (int(u), int(v)), color, cv2.MARKER_CROSS, 12, 1, cv2.LINE_AA)
+    elif isinstance(feature, SphereFeature):
+        if feature.variant == "moments":
+            xc, yc, n20, n11, n02 = s
+        else:
+            xc, yc = s[0], s[1]
+            n20, n11, n02 = sphere_moments_from_area(s[0], s[1], s[2])
+        evals, evecs = np.linalg.eigh(4.0 * np.array([[n20, n11], [n11, n02]]))
+        t = np.linspace(0.0, 2.0 * np.pi, 73)
+        axes = evecs * np.sqrt(np.maximum(evals, 0.0))
+        pts = _px(optics, np.array([xc, yc]) + (axes @ np.stack([np.cos(t), np.sin(t)])).T)
+        cv2.polylines(img, [pts.reshape(-1, 1, 2)], True, color, 1, cv2.LINE_AA)
+    elif isinstance(feature, CylinderFeature):
+        _draw_line(img, optics, float(s[0]), float(s[1]), color)
+        _draw_line(img, optics, float(s[2]), float(s[3]), color)
+    elif isinstance(feature, LineFeature):
+        _draw_line(img, optics, float(s[0]), float(s[1]), color)
+    elif isinstance(feature, MomentFeatures):
+        xg, yg, alpha = s[0] / s[2], s[1] / s[2], s[3]
+        c = _px(optics, [xg, yg])[0]
+        cv2.circle(img, (int(c[0]), int(c[1])), 5, color, 1, cv2.LINE_AA)
+        tip = c + np.round(40.0 * np.array([np.cos(alpha), np.sin(alpha)])).astype(np.int32)
+        cv2.line(img, (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), color, 1, cv2.LINE_AA)
+
+
+def _draw_features(
+    img: NDArray[np.uint8], optics: Optics, task: VisualTask | None, s: FloatArray, color: Any
+) -> None:
+    cv2 = require_cv2()
+    if task is None:
+        for u, v in _px(optics, s.reshape(-1, 2)):
+            cv2.drawMarker(img, (int(u), int(v)), color, cv2.MARKER_CROSS, 12, 1, cv2.LINE_AA)
+        return
+    i = 0
+    for term, size in zip(task.terms, task.sizes):
+        _draw_term(img, optics, term.feature, s[i : i + size], color)
+        i += size
+
+
+def _plot(errors: FloatArray, k: int, height: int, width: int) -> NDArray[np.uint8]:
+    """The error-norm panel (height, width, 3) with the curve up to frame ``k``."""
+    cv2 = require_cv2()
+    panel = np.full((height, width, 3), 255, np.uint8)
+    x0, x1, y0, y1 = 50, width - 12, 20, height - 30
+    cv2.rectangle(panel, (x0, y0), (x1, y1), (0, 0, 0), 1)
+    finite = errors[np.isfinite(errors)]
+    if finite.size == 0:
+        return panel
+    log = bool(np.all(finite > 0.0))
+    vals = np.log10(errors) if log else errors
+    fv = vals[np.isfinite(vals)]
+    lo, hi = float(fv.min()), float(fv.max())
+    if hi - lo < 1e-12:
+        lo, hi = lo - 1.0, hi + 1.0
+    n = max(len(errors) - 1, 1)
+    xs = x0 + (np.arange(k + 1) / n) * (x1 - x0)
+    ys = y1 - (vals[: k + 1] - lo) / (hi - lo) * (y1 - y0)
+    ok = np.isfinite(ys)
+    pts = np.stack([xs[ok], ys[ok]], 1).round().astype(np.int32)
+    if pts.shape[0] > 1:
+        cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, (200, 40, 40), 1, cv2.LINE_AA)
+    if pts.shape[0]:
+        cv2.circle(panel, (int(pts[-1, 0]), int(pts[-1, 1])), 3, (200, 40, 40), -1)
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    label = "log10 |e|" if log else "|e|"
+    cv2.putText(panel, label, (x0, y0 - 6), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(panel, f"{hi:.2g}", (2, y0 + 10), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(panel, f"{lo:.2g}", (2, y1), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
+    now = errors[k]
+    cv2.putText(
+        panel,
+        f"frame {k}  |e| = {now:.3g}",
+        (x0, height - 10),
+        font,
+        0.4,
+        (0, 0, 0),
+        1,
+        cv2.LINE_AA,
+    )
+    return panel
+
+
+def compose_frame(
+    image: NDArray[np.uint8],
+    optics: Optics,
+    *,
+    task: VisualTask | None = None,
+    detected: FloatArray | None = None,
+    desired: FloatArray | None = None,
+    dots_uv: FloatArray | None = None,
+    errors: FloatArray | None = None,
+    k: int = 0,
+) -> NDArray[np.uint8]:
+    """One RGB frame (H, W [+ W/2], 3): the overlaid camera view and, if ``errors``, the plot."""
+    cv2 = require_cv2()
+    img = np.asarray(image)
+    if img.ndim != 2 or img.dtype != np.uint8:
+        raise ShapeError(f"frames must be 2-D uint8 images, got {img.dtype} of shape {img.shape}")
+    rgb = cv2.cvtColor(img, cv2.COLOR_GRAY2RGB)
+    if dots_uv is not None:
+        for u, v in np.asarray(dots_uv, dtype=float).reshape(-1, 2):
+            if np.isfinite(u) and np.isfinite(v):
+                cv2.circle(rgb, (int(np.rint(u)), int(np.rint(v))), 7, _DOT, 1, cv2.LINE_AA)
+    if desired is not None:
+        _draw_features(rgb, optics, task, np.asarray(desired, dtype=float), _RED)
+    if detected is not None:
+        _draw_features(rgb, optics, task, np.asarray(detected, dtype=float), _GREEN)
+    if errors is None:
+        return rgb
+    panel = _plot(np.asarray(errors, dtype=float), k, img.shape[0], max(img.shape[1] // 2, 200))
+    return np.concatenate([rgb, panel], axis=1)
+
+
+def _per_frame(value: Sequence[Any] | None, n: int, name: str) -> list[Any]:
+    if value is None:
+        return [None] * n
+    if len(value) != n:
+        raise ShapeError(f"{name} must have one entry per frame ({n}), got {len(value)}")
+    return list(value)
+
+
+def _write_mp4(path: Path, rgb: list[NDArray[np.uint8]], fps: float) -> None:
+    try:
+        import imageio.v2 as iio
+        import imageio_ffmpeg  # noqa: F401
+
+        with iio.get_writer(str(path), fps=fps, macro_block_size=1) as writer:
+            for f in rgb:
+                writer.append_data(f)  # type: ignore[attr-defined]
+        return
+    except ImportError:
+        pass
+    cv2 = require_cv2()
+    h, w = rgb[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w, h))
+    if not writer.isOpened():
+        raise ConfigurationError(
+            f"{path}: no MP4 encoder is available (neither imageio-ffmpeg nor an OpenCV mp4v "
+            "encoder); write a .gif instead"
+        )
+    for f in rgb:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+
+
+def write_video(
+    path: str | Path,
+    frames: Sequence[NDArray[np.uint8]],
+    *,
+    camera: Camera | None = None,
+    distortion: float | tuple[float, float] = 0.0,
+    task: VisualTask | None = None,
+    detected: Sequence[FloatArray | None] | None = None,
+    desired: FloatArray | None = None,
+    errors: ArrayLike | None = None,
+    dots_uv: Sequence[FloatArray | None] | None = None,
+    fps: float = 10.0,
+) -> Path:
+    """Write ``frames`` with overlays to ``path`` (``.gif`` or ``.mp4``); return the path.
+
+    Args:
+        path: Output file; its extension chooses the format.
+        frames: The camera images, (H, W) uint8 each (e.g. ``SensorReading.image``).
+        camera: Intrinsics the features are expressed with (default :class:`Camera`).
+        distortion: Radial distortion ``k1`` or ``(k1, k2)`` of the images.
+        task: The task whose terms give the layout of ``detected`` and ``desired``.
+        detected: Per frame, the measured ``s`` (k,) or None.
+        desired: The desired ``s*`` (k,), drawn on every frame.
+        errors: Per frame, the error norm (e.g. ``|e1|``), plotted beside the view.
+        dots_uv: Per frame, the tracked dots (N, 2) in pixels.
+        fps: Frames per second.
+
+    Raises:
+        ConfigurationError: unknown extension, no frames, or no encoder for ``.mp4``.
+        ShapeError: per-frame inputs of the wrong length, frames not 2-D uint8.
+    """
+    out = Path(path)
+    ext = out.suffix.lower()
+    if ext not in (".gif", ".mp4"):
+        raise ConfigurationError(f"{out}: the video format must be .gif or .mp4, got {ext!r}")
+    if not frames:
+        raise ConfigurationError("write_video needs at least one frame")
+    if not fps > 0.0:
+        raise ConfigurationError(f"fps must be positive, got {fps!r}")
+    n = len(frames)
+    k = np.atleast_1d(np.asarray(distortion, dtype=float))
+    optics = Optics(camera or Camera(), float(k[0]), float(k[1]) if k.size > 1 else 0.0)
+    det = _per_frame(detected, n, "detected")
+    dots = _per_frame(dots_uv, n, "dots_uv")
+    err = None if errors is None else np.asarray(errors, dtype=float).reshape(-1)
+    if err is not None and err.shape[0] != n:
+        raise ShapeError(f"errors must have one entry per frame ({n}), got {err.shape[0]}")
+    rgb = [
+        compose_frame(
+            frames[i],
+            optics,
+            task=task,
+            detected=det[i],
+            desired=desired,
+            dots_uv=dots[i],
+            errors=err,
+            k=i,
+        )
+        for i in range(n)
+    ]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if ext == ".mp4":
+        _write_mp4(out, rgb, fps)
+        return out
+    try:
+        from PIL import Image
+    except ImportError:  # pragma: no cover - pillow is in the test extras
+        raise ConfigurationError(
+            "writing a GIF needs Pillow: pip install 'redservo[viewer]'"
+        ) from None
+    images = [Image.fromarray(f).quantize(colors=128) for f in rgb]
+    images[0].save(
+        out, save_all=True, append_images=images[1:], duration=int(np.rint(1000.0 / fps)), loop=0
+    )
+    return out
