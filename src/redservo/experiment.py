@@ -26,6 +26,7 @@ from redservo.features import (
 from redservo.features.base import Feature
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
+from redservo.redundancy.gain import AdaptiveGain
 from redservo.robots import Robot, make_robot
 from redservo.scenario import Scenario, pose_from_table
 from redservo.scene import (
@@ -44,7 +45,10 @@ from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, 
 from redservo.spatial import inverse, make_transform
 from redservo.task import TaskTerm, VisualTask
 
-__all__ = ["Experiment", "build", "run_scenario"]
+__all__ = ["DEFAULT_MARGIN", "Experiment", "build", "run_scenario"]
+
+DEFAULT_MARGIN = 0.01
+"""Default ``[robot] margin``: the shield keeps joints 1 % of their range off the hard limits."""
 
 
 @dataclass
@@ -60,6 +64,13 @@ class Experiment:
     limits: JointLimits
     options: SimulationOptions
     camera: Camera
+    actuator: Any = None
+    """Actuator model (``[actuators]``), or None for the ideal robot."""
+
+    def safety_options(self) -> dict[str, Any]:
+        """The scenario's ``[control]`` safety settings (shield, robust, scaling) for any law."""
+        ctl = self.scenario.data["control"]
+        return {k: ctl[k] for k in ("shield", "robust", "scaling") if k in ctl}
 
     def run(
         self,
@@ -83,7 +94,7 @@ class Experiment:
                     else {}
                 )
             )
-            law = make_law(name, **opts)
+            law = make_law(name, **{**self.safety_options(), **opts})
         options = replace(self.options, **option_overrides) if option_overrides else self.options
         return simulate(
             self.robot,
@@ -94,6 +105,7 @@ class Experiment:
             options=options,
             camera=self.camera,
             limits=self.limits,
+            actuator=self.actuator,
             progress=progress,
         )
 
@@ -124,11 +136,18 @@ def _robot(sc: Scenario) -> tuple[Robot, JointLimits, FloatArray]:
             robot.set_limits(q_min, q_max)
         except RedservoError as exc:
             raise sc.error("robot.q_min", str(exc)) from None
+    for key in ("qdot_max", "qddot_max"):
+        if key in r:
+            try:
+                robot.set_limits(**{key: r[key]})
+            except RedservoError as exc:
+                raise sc.error(f"robot.{key}", str(exc)) from None
     rho = float(r.get("rho", 0.1))
     try:
-        limits = robot.limits(rho)
+        limits = robot.limits(rho, margin=float(r.get("margin", DEFAULT_MARGIN)))
     except RedservoError as exc:
-        raise sc.error("robot.rho", str(exc)) from None
+        key = "robot.margin" if getattr(exc, "argument", None) == "margin" else "robot.rho"
+        raise sc.error(key, str(exc)) from None
     if "q0" in r and "start_pose" in r:
         raise sc.error("robot", "give either q0 or start_pose, not both")
     if "q0" in r:
@@ -355,9 +374,21 @@ def build(sc: Scenario) -> Experiment:
         raise sc.error("task", str(exc)) from None
     ctl = sc.data["control"]
     try:
-        law = make_law(ctl["method"], **ctl.get("options", {}))
+        safety = {k: ctl[k] for k in ("shield", "robust", "scaling") if k in ctl}
+        law = make_law(ctl["method"], **safety, **ctl.get("options", {}))
     except RedservoError as exc:
-        raise sc.error("control.options", str(exc)) from None
+        arg = getattr(exc, "argument", None)
+        raise sc.error(
+            f"control.{arg}" if arg in ("scaling",) else "control.options", str(exc)
+        ) from None
+    actuator = None
+    if "actuators" in sc.data:
+        from redservo.hardware.actuators import ActuatorModel
+
+        try:
+            actuator = ActuatorModel.from_table(sc.data["actuators"])
+        except RedservoError as exc:
+            raise sc.error(getattr(exc, "argument", None) or "actuators", str(exc)) from None
     cam_t = sc.data.get("camera", {})
     try:
         camera = Camera(**cam_t) if cam_t else Camera()
@@ -371,13 +402,13 @@ def build(sc: Scenario) -> Experiment:
         raise sc.error(
             "objects", f"the task is not valid at the start configuration: {exc}"
         ) from None
-    return Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
+    return Experiment(sc, robot, scene, task, law, q0, limits, options, camera, actuator)
 
 
 def _options(sc: Scenario, robot: Robot) -> SimulationOptions:
     ctl, sim = sc.data["control"], sc.data.get("simulation", {})
     kw: dict[str, Any] = {
-        "lam": float(ctl.get("lam", 0.5)),
+        "lam": _gain(sc, ctl),
         "dt": float(ctl.get("dt", 0.04)),
         "rho": float(sc.data["robot"].get("rho", 0.1)),
     }
@@ -391,6 +422,7 @@ def _options(sc: Scenario, robot: Robot) -> SimulationOptions:
         "image_margin_px",
         "check_image",
         "stop_at_convergence",
+        "min_margin",
     ):
         if key in sim:
             kw[key] = sim[key]
@@ -406,6 +438,22 @@ def _options(sc: Scenario, robot: Robot) -> SimulationOptions:
         return SimulationOptions(**kw)
     except RedservoError as exc:
         raise sc.error("simulation", str(exc)) from None
+
+
+def _gain(sc: Scenario, ctl: Mapping[str, Any]) -> float | AdaptiveGain:
+    """``[control] lam`` (1/s), or the adaptive gain ``[control] gain = {zero, inf, slope}``."""
+    if "gain" not in ctl:
+        return float(ctl.get("lam", 0.5))
+    if "lam" in ctl:
+        raise sc.error("control.gain", "give either lam (constant) or gain (adaptive), not both")
+    g = ctl["gain"]
+    missing = [k for k in ("zero", "inf", "slope") if k not in g]
+    if missing:
+        raise sc.error(f"control.gain.{missing[0]}", "missing: gain needs zero, inf and slope")
+    try:
+        return AdaptiveGain(float(g["zero"]), float(g["inf"]), float(g["slope"]))
+    except RedservoError as exc:
+        raise sc.error(f"control.gain.{getattr(exc, 'argument', '') or 'zero'}", str(exc)) from None
 
 
 def run_scenario(

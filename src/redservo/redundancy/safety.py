@@ -234,6 +234,13 @@ def apply_safety(
     if task is not None and not np.isfinite(task).all():
         task = None
     rlo, rhi, dropped = rate_box(limits, dt, qdot_prev)
+    if shield:  # where the acceleration box misses the position box, the position wins
+        plo, phi = position_box(q, limits, dt)
+        clash = np.maximum(rlo, plo) > np.minimum(rhi, phi)
+        if clash.any():
+            vlo, vhi, _ = rate_box(limits, dt, None)
+            rlo, rhi = np.where(clash, vlo, rlo), np.where(clash, vhi, rhi)
+            dropped = True
     out, s = scale_into_box(qdot, rlo, rhi, task=task)
     if s < 1.0:
         v = limits.qdot_max
@@ -242,7 +249,12 @@ def apply_safety(
         events.append(Event(flag, s, f"command scaled by {s:.3g} into the rate limits"))
     if dropped:
         events.append(
-            Event(Flag.ACCELERATION_EXCEEDED, np.nan, "previous command above the velocity limit")
+            Event(
+                Flag.ACCELERATION_EXCEEDED,
+                np.nan,
+                "acceleration limit released on some joints (it conflicted with the velocity "
+                "or position limits, which win)",
+            )
         )
     if shield:
         plo, phi = command_box(q, limits, dt, qdot_prev)

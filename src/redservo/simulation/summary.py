@@ -38,6 +38,9 @@ OUTCOMES: tuple[Outcome, ...] = (
     "occluded",
     "feature_lost",
 )
+_MARGIN_ATOL = 1e-9
+"""A joint parked exactly on its margin (``sns``, ``qp``) has met it: the fraction computed back
+from the position may differ from it by roundoff."""
 _ACCEL_RTOL = 1e-9
 """Relative slack on ``|Δq̇| <= q̈_max dt`` (the subtraction of two commands rounds)."""
 
@@ -170,7 +173,7 @@ def summarize(
     shield = flags[Flag.SHIELD_ACTED.label].count if Flag.SHIELD_ACTED.label in flags else 0
     success = (
         outcome == "converged"
-        and margin >= min_margin
+        and margin >= min_margin - _MARGIN_ATOL
         and v_viol == 0
         and a_viol == 0
         and shield == 0
