@@ -57,7 +57,22 @@ def _summary_line(name: str, summary: Mapping[str, Any]) -> str:
         f"final |e| = {summary['final_error_norm']:.3g}, min margin = {summary['min_margin']:.3f}, "
         f"max camera speed = {cam['translation']:.3g} m/s / {cam['rotation']:.3g} rad/s, "
         f"discontinuity = {summary['discontinuity']:.3g}"
+        + _safety_text(summary)
     )
+
+
+def _safety_text(summary: Mapping[str, Any]) -> str:
+    """The safety part of the summary line, then one warning line per diagnostic flag."""
+    from redservo.simulation import flag_warnings
+
+    if "success" not in summary:
+        return ""
+    ratio = summary.get("peak_velocity_ratio")
+    text = f", peak |q̇|/limit = {ratio:.2f}" if ratio is not None else ""
+    text += f", {'success' if summary['success'] else 'no success'}"
+    if summary.get("shield_activations"):
+        text += f" (the shield acted at {summary['shield_activations']} step(s))"
+    return text + "".join(f"\n  warning: {line}" for line in flag_warnings(summary))
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -111,7 +126,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         print(_summary_line(m, results[m].summary))
     from redservo.report import summary_table
 
-    rows = {m: r.summary for m, r in results.items()}
+    rows = {m: r.summary.to_dict() for m, r in results.items()}
     (out / "compare.json").write_text(json.dumps({"scenario": sc.name, "methods": rows}, indent=2))
     (out / "compare.md").write_text(f"# {sc.name}\n\n" + summary_table(rows) + "\n")
     try:
