@@ -109,8 +109,9 @@ class JointLimits:
         margin: float = 0.0,
         margin_abs: ArrayLike | None = None,
     ) -> None:
-        lo = as_vector(q_min, "q_min")
-        hi = as_vector(q_max, "q_max", lo.shape[0])
+        with np.errstate(over="ignore"):  # ±1e308 limits are reported below, not warned about
+            lo = as_vector(q_min, "q_min")
+            hi = as_vector(q_max, "q_max", lo.shape[0])
         if lo.shape[0] == 0:
             raise JointLimitError("q_min and q_max must have at least one joint", argument="q_min")
         bad = np.flatnonzero(~(hi > lo))
@@ -251,7 +252,7 @@ class JointLimits:
             lo, hi, v = float(self.q_min[i]), float(self.q_max[i]), float(qa[i])
             by = lo - v if v < lo else v - hi
             raise JointLimitError(
-                f"{name}[{i}] = {v!r} is outside the joint limits [{lo!r}, {hi!r}] by {by:.3g} "
+                f"{name}[{i}] = {v!r} is outside the joint limits [{lo!r}, {hi!r}] by {by!r} "
                 f"(tolerance {tol:g}); {out.size} joint(s) out of range: {out.tolist()}",
                 argument=name,
                 joint=i,
