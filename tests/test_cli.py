@@ -49,8 +49,12 @@ def test_joint_limit_outcome_is_not_an_error(tmp_path: Path) -> None:
     ).replace("translation = [0.1, 0.05, 0.8]", "translation = [-0.368, 0.017, 0.876]")
     scenario.write_text(text.replace("dt = 0.04", "dt = 0.08"))
     out = tmp_path / "o"
-    assert main(["run", str(scenario), "--method", "classical", "--out", str(out), "-q"]) == 0
-    assert json.loads((out / "summary.json").read_text())["outcome"] == "joint_limit"
+    # The paper's law exactly (no shield) crosses; with the default shield it would not.
+    args = ["run", str(scenario), "--method", "classical", "--out", str(out), "-q"]
+    assert main([*args, "--set", "control.shield=false"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "joint_limit"
+    assert summary["success"] is False
 
 
 def test_set_and_compare(tmp_path: Path) -> None:

@@ -22,3 +22,4 @@ def test_readme_block_runs(index: int, capsys: pytest.CaptureFixture[str]) -> No
     if "simulate(" in BLOCKS[index]:
         # The quick-start's claim: classical hits a limit, iterative-smooth converges.
         assert "classical joint_limit" in out and "iterative-smooth converged None" in out
+        assert "classical success: False" in out and "iterative-smooth success: True" in out
