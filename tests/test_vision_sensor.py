@@ -255,3 +255,18 @@ def test_from_config() -> None:
         ImageSensor.from_config(None, {"max_lost_frames": -1})
     with pytest.raises(ConfigurationError, match="distortion"):
         ImageSensor.from_config(None, {"distortion": [0.1, 0.2, 0.3]})
+
+
+def test_in_the_loop_like_the_ideal_sensor() -> None:
+    # The shipped gazing scenario through the simulator, features measured in the image.
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+
+    base = load_scenario("cm01-gaze")
+    image = apply_overrides(
+        base, ['sensor.kind="image"', 'sensor.depth="true"', "sensor.noise_px=0.5"]
+    )
+    got, ideal = build(image).run(), build(base).run()
+    assert got.outcome == ideal.outcome == "converged"
+    n_got, n_ideal = got.summary.to_dict()["iterations"], ideal.summary.to_dict()["iterations"]
+    assert abs(n_got - n_ideal) <= 5

@@ -78,8 +78,7 @@ def _centroid(
     d = np.arange(-R, R + 1, dtype=np.float32)
     r2 = d[None, :] ** 2 + d[:, None] ** 2
     inner = r2 <= radius * radius
-    ring = (r2 > radius * radius) & ~inner
-    b = float(np.median(win[ring]))
+    b = float(np.median(win[~inner]))  # the ring between the disc and the window's edge
     wts = (win - b) if polarity == "bright" else (b - win)
     wts = np.where(inner, wts, 0.0)
     total = float(wts.sum())
