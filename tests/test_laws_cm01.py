@@ -320,6 +320,50 @@ def test_gpm_auto_stops_the_most_critical_axis(p: Problem, sec: bool) -> None:
         assert d.alpha == 0.0
 
 
+@SETTINGS
+@given(p=problems())
+def test_gpm_auto_current_rule_takes_the_candidates_from_q(p: Problem) -> None:
+    # CM01 §II-C as printed: q_k (not q̂_k) between its threshold and its limit, moving toward it;
+    # among those, k is the one whose q̂_k is closest to its limit (docs/formulas.md §6.2).
+    n = p.q.size
+    r = p.run("gpm-auto", options={"critical_rule": "current"})
+    d = r.diagnostics
+    Jp = np.linalg.pinv(p.J1)
+    P = np.eye(n) - Jp @ p.J1
+    w = Jp @ p.e1
+    q_hat = p.q - p.lam * p.dt * w
+    toward = (q_hat - p.q) * (q_hat - p.limits.center) > 0
+    crit = np.flatnonzero(p.limits.in_band(p.q) & toward)
+    g = P @ p.limits.gradient(p.q)
+    assert d.alpha is not None and d.alpha >= 0.0
+    if d.alpha > 0.0:
+        (k,) = d.critical[0]
+        assert k in crit
+        assert p.limits.margin(q_hat)[k] == p.limits.margin(q_hat)[crit].min()
+        np.testing.assert_allclose(d.alpha, -w[k] / g[k], rtol=1e-9)
+        assert abs(r.qdot[k]) <= tol(r.qdot, w)
+    else:
+        np.testing.assert_allclose(r.qdot, -p.lam * w, atol=tol(w))
+    if crit.size == 0:
+        assert d.alpha == 0.0 and d.critical == ()
+
+
+def test_gpm_auto_rules_differ_before_an_axis_enters_its_band() -> None:
+    # Axis 0 just outside its upper band, moving up: q̂_0 is in the band, q_0 is not.
+    lim = JointLimits(-np.ones(3), np.ones(3), rho=0.1)
+    J1 = np.array([[1.0, 0.5, 0.2]])
+    q = np.array([0.79, 0.0, 0.805])  # axis 2 just inside its band
+    lam, dt = 1.0, 0.1
+    e1 = np.array([-0.3])  # q̇ = -λ J1⁺ e1 moves axis 0 up by 0.02 in one step
+    pred = paper_law("gpm-auto")(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt)
+    cur = paper_law("gpm-auto", critical_rule="current")(
+        J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt
+    )
+    assert pred.diagnostics.critical == ()  # axis 0 chosen (q̂ closest) but e2_0 = 0: α = 0
+    assert cur.diagnostics.critical == ((2,),)  # only axis 2 is in its band now
+    assert abs(cur.qdot[2]) < 1e-12
+
+
 def test_gpm_auto_alpha_max_caps_the_gain() -> None:
     p = _single_band_axis(k=1, alpha_sign=1)
     free = p.run("gpm-auto").diagnostics.alpha
@@ -557,6 +601,7 @@ def test_zero_jacobian() -> None:
         ("gpm-auto", {"alpha_max": 0.0}),
         ("gpm-auto", {"alpha_max": -2.0}),
         ("gpm-auto", {"alpha_max": float("nan")}),
+        ("gpm-auto", {"critical_rule": "next"}),
         ("iterative", {"max_levels": 0}),
         ("iterative", {"max_levels": 1.5}),
         ("iterative", {"max_levels": True}),

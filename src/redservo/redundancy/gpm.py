@@ -41,6 +41,13 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
   Only one axis is ever stopped (CM01 §II-C); other critical axes are listed in
   a note.
+* ``critical_rule`` of ``gpm-auto`` (docs/formulas.md §6.2, §7.2): ``"predicted"``
+  (default) takes the candidates from ``q̂`` as above; ``"current"`` is CM01 §II-C's
+  text read literally: an axis is a candidate when its *current* position ``q_k``
+  lies between its threshold and its limit (or beyond) and it moves toward that
+  limit (``q̂_k`` nearer the limit than ``q_k``); among them k is still the one
+  whose ``q̂_k`` is closest to its limit. With ``"current"`` an axis is never
+  selected before it has entered its band, so ``e2_k ≠ 0`` whenever it is.
 * ``diagnostics.critical`` for ``gpm`` lists the axes currently in the band
   (``e2_i ≠ 0``), which are the only ones the gradient acts on (none when α = 0).
 """
@@ -121,14 +128,29 @@ class GradientProjectionAuto(Law):
     Options:
         alpha_max: Upper bound on α, or ``None`` (default) for no bound, which
             reproduces the large-gain transient of CM01 Fig. 10(c).
+        critical_rule: ``"predicted"`` (default): an axis is a candidate when ``q̂_k``
+            is in its band; ``"current"``: when ``q_k`` is (CM01 §II-C as printed).
+            Both require the axis to move toward its limit (module docstring).
         rcond: Relative singular-value cut-off of the pseudo-inverse.
     """
 
     name = "gpm-auto"
     description = "gradient projection with α chosen to stop the most critical axis (CM01 eq. 9)"
 
-    def __init__(self, *, alpha_max: float | None = None, rcond: float = DEFAULT_RCOND) -> None:
+    def __init__(
+        self,
+        *,
+        alpha_max: float | None = None,
+        critical_rule: str = "predicted",
+        rcond: float = DEFAULT_RCOND,
+    ) -> None:
         super().__init__(rcond=rcond)
+        if critical_rule not in ("predicted", "current"):
+            raise ConfigurationError(
+                f"critical_rule must be 'predicted' or 'current', got {critical_rule!r}",
+                argument="critical_rule",
+            )
+        self.critical_rule = critical_rule
         if alpha_max is not None:
             amax = float(alpha_max)
             if not (amax > 0.0):  # also rejects NaN; inf is allowed (= no cap)
@@ -146,7 +168,11 @@ class GradientProjectionAuto(Law):
         e2 = x.limits.gradient(x.q)
         g = null_project(svd, e2)
         q_hat = x.q - (x.lam * x.dt) * w  # eq. 8
-        candidates = np.flatnonzero(x.limits.critical(x.q, q_hat))
+        if self.critical_rule == "current":  # q_k itself in the band, moving toward the limit
+            toward = (q_hat - x.q) * (q_hat - x.limits.center) > 0.0
+            candidates = np.flatnonzero(np.asarray(x.limits.in_band(x.q), dtype=bool) & toward)
+        else:
+            candidates = np.flatnonzero(x.limits.critical(x.q, q_hat))
         events = svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)
         alpha = 0.0
         critical: tuple[tuple[int, ...], ...] = ()
