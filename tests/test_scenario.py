@@ -1,9 +1,15 @@
-"""Scenario files: validation messages name the file, the key and what is allowed."""
+"""Scenario files: a schema validates them (one-line errors naming the file and the key), the
+experiment is built through the registries, and every new key reaches the simulator."""
 
 from __future__ import annotations
 
+import inspect
+import json
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -11,6 +17,9 @@ import pytest
 from redservo import ScenarioError
 from redservo.experiment import build
 from redservo.scenario import apply_overrides, load_scenario, parse_scenario, shipped_scenarios
+
+ROOT = Path(__file__).resolve().parents[1]
+BAD = Path(__file__).parent / "data" / "bad_scenarios"
 
 GOOD = """
 name = "mine"
@@ -49,6 +58,13 @@ def _write(tmp_path: Path, text: str) -> Path:
     return p
 
 
+def _data(**tables: dict[str, Any]) -> dict[str, Any]:
+    data = tomllib.loads(GOOD)
+    for name, table in tables.items():
+        data.setdefault(name, {}).update(table)
+    return data
+
+
 def test_every_shipped_scenario_loads_and_builds() -> None:
     names = shipped_scenarios()
     assert "afma6-gaze-demo" in names
@@ -69,53 +85,125 @@ def test_user_file_runs(tmp_path: Path) -> None:
     [
         (lambda d: d["robot"].pop("model"), "robot.model", "missing"),
         (lambda d: d["robot"].__setitem__("model", "puma"), "robot.model", "afma6"),
-        (
-            lambda d: d["control"].__setitem__("method", "magic"),
-            "control.method",
-            "iterative-smooth",
-        ),
-        (lambda d: d["control"].__setitem__("lam", "fast"), "control.lam", "expected number"),
+        (lambda d: d["control"].__setitem__("method", "magic"), "control.method", "iterative"),
+        (lambda d: d["control"].__setitem__("lam", "fast"), "control.lam", "expected a number"),
+        (lambda d: d["control"].__setitem__("lam", float("inf")), "control.lam", "finite"),
+        (lambda d: d["control"].__setitem__("dt", 0.0), "control.dt", "> 0"),
         (lambda d: d["features"][0].__setitem__("kind", "blob"), "features[0].kind", "cylinder"),
         (lambda d: d["features"][0].__setitem__("object", "ghost"), "features[0].object", "target"),
-        (
-            lambda d: d["robot"].__setitem__("q0", [9.0, 0, 0, 0, 1, 0]),
-            "robot.q0",
-            "outside the joint limits",
-        ),
-        (lambda d: d["robot"].__setitem__("q0", [0.0, 0.0]), "robot.q0", "shape"),
         (lambda d: d["robot"].__setitem__("qzero", [0.0]), "robot.qzero", "unknown key"),
         (lambda d: d["objects"][0].__setitem__("kind", "cube"), "objects[0].kind", "sphere"),
         (
             lambda d: d["control"].__setitem__("options", {"alfa": 1.0}),
-            "control.options",
+            "control.options.alfa",
             "options are",
         ),
         (
-            lambda d: d["objects"][0].__setitem__("pose_in_camera", {"translation": [0, 0, -1]}),
-            "objects",
-            "behind",
+            lambda d: d["simulation"].__setitem__("max_iterations", 10**8),
+            "simulation.max_iterations",
+            "<= 10000000",
         ),
+        (lambda d: d["task"].__setitem__("desired", [0.0]), "task.desired", "expected 2 values"),
     ],
 )
-def test_validation_errors_name_file_key_and_allowed(
-    tmp_path: Path, edit, key: str, hint: str
-) -> None:
+def test_validation_errors_name_file_key_and_allowed(edit: Any, key: str, hint: str) -> None:
     data = tomllib.loads(GOOD)
     edit(data)
     with pytest.raises(ScenarioError) as info:
         parse_scenario(data, "my.toml")
     msg = str(info.value)
-    assert msg.startswith("my.toml: key '" + key), msg
-    assert hint in msg, msg
+    assert msg.startswith(f"my.toml: key '{key}'"), msg
+    assert hint in msg and "\n" not in msg, msg
+    assert info.value.argument == key
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "hint"),
+    [
+        (
+            lambda d: d["robot"].__setitem__("q0", [9.0, 0, 0, 0, 1, 0]),
+            "robot.q0[0]",
+            "outside the joint limits",
+        ),
+        (lambda d: d["robot"].__setitem__("q0", [0.0, 0.0]), "robot.q0", "6 values"),
+        (
+            lambda d: d["objects"][0].__setitem__("pose_in_camera", {"translation": [0, 0, -1]}),
+            "objects[0]",
+            "behind",
+        ),
+        (
+            lambda d: d["objects"][0].__setitem__("pose_in_camera", {"translation": [2, 0, 0.8]}),
+            "objects[0]",
+            "outside the image",
+        ),
+    ],
+)
+def test_geometry_is_checked_when_building_not_when_validating(
+    edit: Any, key: str, hint: str
+) -> None:
+    data = tomllib.loads(GOOD)
+    edit(data)
+    sc = parse_scenario(data, "my.toml")  # valid as a file
+    with pytest.raises(ScenarioError) as info:
+        build(sc)
+    assert str(info.value).startswith(f"my.toml: key '{key}'") and hint in str(info.value)
+
+
+def test_validating_does_not_build_or_import_the_simulator() -> None:
+    """The scenario ⇄ experiment import cycle is gone: validation imports neither."""
+    code = (
+        "import sys; from redservo.scenario import load_scenario; load_scenario('cm01-gaze'); "
+        "print([m for m in ('redservo.experiment', 'redservo.simulation') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def _corpus() -> list[tuple[str, dict[str, str]]]:
+    expected = json.loads((BAD / "expected.json").read_text())
+    files = sorted(p.name for p in BAD.glob("*.toml"))
+    assert sorted(expected) == files, "every broken file has its expected key in expected.json"
+    return sorted(expected.items())
+
+
+def test_the_corpus_covers_every_kind_of_breakage() -> None:
+    names = [n for n, _ in _corpus()]
+    assert len(names) >= 40
+    for prefix in ("syntax", "missing", "type", "typo", "absurd", "geometry", "empty", "inverted"):
+        assert any(n.startswith(prefix) for n in names), prefix
+    assert {"binary_garbage.toml", "latin1_encoding.toml"} <= set(names)
+    assert sum("did you mean" in c["expect"] for _, c in _corpus()) >= 4
+
+
+@pytest.mark.parametrize(("name", "case"), _corpus(), ids=[n for n, _ in _corpus()])
+def test_every_broken_file_is_one_line_naming_file_and_key(
+    name: str, case: dict[str, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from redservo.cli import main
+
+    path = BAD / name
+    assert main(["run", str(path), "-q", "--out", str(tmp_path / "o")]) == 2, case["what"]
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.endswith("\n") and err.count("\n") == 1, err
+    assert err.startswith(f"redservo: error: {path}: "), err
+    assert case["expect"] in err, (case, err)
+    assert "Traceback" not in err
+    assert not (tmp_path / "o").exists()  # nothing ran
 
 
 def test_malformed_toml_and_missing_file(tmp_path: Path) -> None:
-    with pytest.raises(ScenarioError, match="not valid TOML"):
-        load_scenario(_write(tmp_path, "[robot\nmodel = 1"))
+    with pytest.raises(ScenarioError, match=r"not valid TOML.*line 2"):
+        load_scenario(_write(tmp_path, "[robot]\nmodel = \n"))
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario(tmp_path / "absent.toml")
+    (tmp_path / "dir.toml").mkdir()
+    with pytest.raises(ScenarioError, match="is a directory"):
+        load_scenario(tmp_path / "dir.toml")
     with pytest.raises(ScenarioError, match=r"shipped scenarios: .*afma6-gaze-demo"):
         load_scenario("no-such-scenario")
+    with pytest.raises(ScenarioError, match="did you mean 'cm01-gaze'"):
+        load_scenario("cm01-gaz")
 
 
 def test_overrides(tmp_path: Path) -> None:
@@ -131,16 +219,21 @@ def test_overrides(tmp_path: Path) -> None:
         apply_overrides(sc, ["control.lam"])
     with pytest.raises(ScenarioError, match=r"control\.method"):
         apply_overrides(sc, ["control.method=nope"])
+    with pytest.raises(
+        ScenarioError, match=r"key 'simulation.max_iterations': expected an integer"
+    ):
+        apply_overrides(sc, ["simulation.max_iterations=1e12"])
+    with pytest.raises(ScenarioError, match="empty key segment"):
+        apply_overrides(sc, ["control..lam=1"])
 
 
 def test_start_pose_through_inverse_kinematics(tmp_path: Path) -> None:
     from redservo.robots import Afma6
+    from redservo.spatial import matrix_to_rotvec
 
     robot = Afma6()
     q_ref = robot.limits().center + np.array([0.1, -0.05, 0.02, 0.3, 0.1, -0.2])
     T = robot.fkine(q_ref)
-    from redservo.spatial import matrix_to_rotvec
-
     text = GOOD.replace(
         "q0 = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0]",
         f"start_pose = {{ translation = {T[:3, 3].tolist()}, rotvec = {matrix_to_rotvec(T[:3, :3]).tolist()} }}\n"
@@ -154,11 +247,17 @@ def test_documented_example_parses_and_runs() -> None:
     """docs/scenarios.md's fully commented example is a valid scenario."""
     import re
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "scenarios.md").read_text()
+    text = (ROOT / "docs" / "scenarios.md").read_text()
     block = re.search(r"```toml\n(.*?)```", text, re.S)
     assert block is not None
     sc = parse_scenario(tomllib.loads(block.group(1)), "docs/scenarios.md")
     assert build(sc).run().outcome == "converged"
+
+
+def test_reference_in_the_docs_is_generated_from_the_schema() -> None:
+    from redservo.schema.docs import main
+
+    assert main(["--check", str(ROOT)]) == 0, "run: python -m redservo.schema.docs"
 
 
 def test_hand_eye_error_is_applied_to_the_controllers_model(tmp_path: Path) -> None:
@@ -174,3 +273,146 @@ def test_hand_eye_error_is_applied_to_the_controllers_model(tmp_path: Path) -> N
     assert exp.options.eMc_model is not None
     np.testing.assert_allclose(exp.options.eMc_model, want, atol=1e-12)
     assert not np.allclose(exp.robot.eMc, want)
+
+
+# --------------------------------------------------------------------------- registries
+
+
+def test_kinds_match_the_registries() -> None:
+    """A kind is its runtime class plus one spec: the specs cover exactly the registries."""
+    from redservo.features import FEATURES
+    from redservo.schema.scene import FEATURE_KINDS, OBJECT_KINDS
+
+    assert set(FEATURE_KINDS) == set(FEATURES)
+    assert set(OBJECT_KINDS) == {"points", "sphere", "cylinder", "line"}
+
+
+@pytest.mark.parametrize(
+    ("feature", "obj"),
+    [
+        ({"kind": "point"}, {"kind": "points", "points": [[0, 0, 0], [0.05, 0, 0]]}),
+        ({"kind": "line"}, {"kind": "line", "direction": [0, 1, 0]}),
+        ({"kind": "cylinder"}, {"kind": "cylinder", "radius": 0.05}),
+        ({"kind": "sphere", "variant": "exact"}, {"kind": "sphere", "radius": 0.05}),
+        ({"kind": "sphere", "variant": "moments"}, {"kind": "sphere", "radius": 0.05}),
+        (
+            {"kind": "moments"},
+            {
+                "kind": "points",
+                "points": [[-0.05, -0.05, 0], [0.05, -0.04, 0], [0.06, 0.05, 0], [-0.04, 0.07, 0]],
+            },
+        ),
+    ],
+)
+def test_static_feature_sizes_match_the_built_features(
+    feature: dict[str, Any], obj: dict[str, Any]
+) -> None:
+    """The schema checks components and task.desired with sizes it knows without building."""
+    data = tomllib.loads(GOOD)
+    data["objects"][0] = {
+        "name": "target",
+        "pose_in_camera": {"translation": [0.0, 0.0, 0.8]},
+        **obj,
+    }
+    data["features"][0] = {"object": "target", **feature}
+    data["task"] = {"desired_pose": {"translation": [0.0, 0.0, 0.7]}}
+    sc = parse_scenario(data, "x.toml")
+    spec = sc.spec.features[0]
+    exp = build(sc)
+    assert exp.task.k == spec.size(sc.spec.objects[0]) * spec.count(sc.spec.objects[0])
+
+
+# --------------------------------------------------------------------------- new keys
+
+
+def test_robot_rate_limits_and_margin_reach_the_limits() -> None:
+    sc = parse_scenario(_data(robot={"qdot_max": 0.3, "qddot_max": [2.0] * 6, "margin": 0.02}))
+    exp = build(sc)
+    np.testing.assert_allclose(exp.limits.qdot_max, 0.3)
+    np.testing.assert_allclose(exp.limits.qddot_max, 2.0)
+    np.testing.assert_allclose(exp.limits.margin_fraction, 0.02)
+    default = build(parse_scenario(_data()))
+    np.testing.assert_allclose(default.limits.margin_fraction, 0.01)  # the documented default
+    with pytest.raises(ScenarioError, match=r"key 'robot.qdot_max': expected 6 values"):
+        build(parse_scenario(_data(robot={"qdot_max": [1.0, 1.0]})))
+
+
+def test_control_safety_and_adaptive_gain_reach_the_law_and_the_options() -> None:
+    from redservo import AdaptiveGain
+
+    data = _data(simulation={"min_margin": 0.05})
+    data["control"] = {
+        "method": "gpm",
+        "shield": False,
+        "robust": False,
+        "scaling": "secondary-first",
+        "gain": {"zero": 2.0, "inf": 0.5, "slope": 20.0},
+    }
+    sc = parse_scenario(data)
+    exp = build(sc)
+    assert (exp.law.shield, exp.law.robust, exp.law.scaling) == (False, False, "secondary-first")
+    assert exp.options.lam == AdaptiveGain(2.0, 0.5, 20.0)
+    assert exp.options.min_margin == 0.05
+    # Another method keeps the scenario's safety settings unless the caller sets them.
+    res = exp.run(method="classical", max_iterations=2)
+    assert res.summary.min_margin_required == 0.05
+    law_default = build(parse_scenario(_data())).law
+    assert (law_default.shield, law_default.robust, law_default.scaling) == (True, True, "uniform")
+    with pytest.raises(ScenarioError, match=r"key 'control.gain.inf'"):
+        data["control"]["gain"] = {"zero": 1.0, "inf": 2.0, "slope": 0.0}
+        parse_scenario(data)
+
+
+def test_actuator_table_builds_the_actuator_model() -> None:
+    from redservo.hardware.actuators import ACTUATOR_KEYS, ActuatorModel
+    from redservo.schema.scenario import ActuatorsSpec
+
+    assert set(ActuatorsSpec.model_fields) == set(ACTUATOR_KEYS)
+    sc = parse_scenario(
+        _data(actuators={"tau": 0.02, "delay_steps": 1, "encoder_noise_std": [1e-5] * 6, "seed": 3})
+    )
+    exp = build(sc)
+    assert isinstance(exp.actuator, ActuatorModel)
+    assert exp.run(max_iterations=5).outcome in ("max_iterations", "converged")
+    with pytest.raises(ScenarioError, match=r"key 'actuators.delay_steps'"):
+        parse_scenario(_data(actuators={"delay_steps": -1}))
+
+
+def test_image_sensor_keys_match_the_sensor() -> None:
+    from redservo.schema.scenario import SensorSpec
+
+    pytest.importorskip("cv2", reason="the image sensor needs OpenCV (redservo[vision])")
+    from redservo.vision import DEPTH_POLICIES, ImageSensor
+
+    params = inspect.signature(ImageSensor.__init__).parameters
+    fields = SensorSpec.model_fields
+    for name, field in fields.items():
+        if name != "kind":
+            assert field.default == params[name].default, name  # same defaults, one place each
+    assert set(fields) - {"kind"} == set(params) - {"self", "camera", "options"}
+    assert set(SensorSpec.model_fields["depth"].annotation.__args__) == set(DEPTH_POLICIES)  # type: ignore[union-attr]
+    exp = build(parse_scenario(_data(sensor={"kind": "image", "noise_px": 1.0, "seed": 5})))
+    assert isinstance(exp.sensor, ImageSensor) and exp.sensor.renderer.options.noise_px == 1.0
+
+
+def test_urdf_robot_from_a_shipped_file_and_a_relative_path(tmp_path: Path) -> None:
+    pytest.importorskip("pinocchio", reason="URDF robots need Pinocchio (redservo[urdf])")
+    from redservo.robots import URDFRobot, shipped_urdf
+
+    base = load_scenario("panda-4points").data if "panda-4points" in shipped_scenarios() else None
+    if base is None:
+        pytest.skip("no shipped Panda scenario")
+    data = json.loads(json.dumps(base))
+    data["robot"].pop("model")
+    data["robot"].pop("options", None)
+    data["robot"]["urdf"] = "panda"
+    exp = build(parse_scenario(data, "p.toml"))
+    assert isinstance(exp.robot, URDFRobot) and exp.robot.n == 7
+    (tmp_path / "arm.urdf").write_text(shipped_urdf("panda").read_text())
+    data["robot"]["urdf"] = "arm.urdf"
+    sc = parse_scenario(data, "p.toml", base_dir=tmp_path)
+    assert sc.data["robot"]["urdf"] == str((tmp_path / "arm.urdf").resolve())
+    assert isinstance(build(sc).robot, URDFRobot)
+    data["robot"]["urdf"] = "pandda"
+    with pytest.raises(ScenarioError, match="did you mean 'panda'"):
+        parse_scenario(data, "p.toml")

@@ -1,8 +1,11 @@
-"""Turn a :class:`~redservo.scenario.Scenario` into runnable objects, and run it.
+"""Turn a validated :class:`~redservo.scenario.Scenario` into runnable objects, and run it.
 
-See ``docs/scenarios.md`` for the file format. Defaults applied here:
-``rho = 0.1``, ``lam = 0.5`` (1/s), ``dt = 0.04`` (s), ``max_iterations = 1000``,
-``tolerance = 1e-3``, camera 640x480 with ``px = py = 600``, depth ``current``.
+:func:`build` reads the scenario's schema (:class:`redservo.schema.ScenarioSpec`, where
+every default lives) and builds through the registries: the robot by name
+(:func:`redservo.robots.make_robot`) or from a URDF file, each object and feature by its
+spec (:mod:`redservo.schema.scene`, which calls :func:`redservo.features.make_feature`),
+the law by name (:func:`redservo.make_law`). The geometry is checked here: ``q0`` within
+the limits, every observed object in front of the camera and in the image at the start.
 """
 
 from __future__ import annotations
@@ -16,39 +19,20 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import RedservoError, ScenarioError
-from redservo.features import (
-    CylinderFeature,
-    LineFeature,
-    MomentFeatures,
-    PointFeature,
-    SphereFeature,
-)
-from redservo.features.base import Feature
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
-from redservo.robots import Robot, make_robot
-from redservo.scenario import Scenario, pose_from_table
-from redservo.scene import (
-    ConstantVelocity,
-    Cylinder,
-    Line,
-    PointSet,
-    Scene,
-    SceneObject,
-    Sphere,
-    Static,
-    Trajectory,
-    Waypoints,
-)
+from redservo.robots import Robot
+from redservo.scenario import Scenario
+from redservo.scene import Scene
+from redservo.schema.scenario import ScenarioSpec
+from redservo.sensors import Sensor
 from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, simulate
-from redservo.spatial import inverse, make_transform
+from redservo.simulation.loop import Actuator
+from redservo.spatial import inverse
 from redservo.task import TaskTerm, VisualTask
 
-__all__ = ["DEFAULT_MARGIN", "Experiment", "build", "run_scenario"]
-
-DEFAULT_MARGIN = 0.01
-"""Default ``[robot] margin``: the shield keeps joints 1 % of their range off the hard limits."""
+__all__ = ["Experiment", "build", "build_robot", "run_scenario"]
 
 
 @dataclass
@@ -64,13 +48,8 @@ class Experiment:
     limits: JointLimits
     options: SimulationOptions
     camera: Camera
-    actuator: Any = None
-    """Actuator model (``[actuators]``), or None for the ideal robot."""
-
-    def safety_options(self) -> dict[str, Any]:
-        """The scenario's ``[control]`` safety settings (shield, robust, scaling) for any law."""
-        ctl = self.scenario.data["control"]
-        return {k: ctl[k] for k in ("shield", "robust", "scaling") if k in ctl}
+    sensor: Sensor | None = None
+    actuator: Actuator | None = None
 
     def run(
         self,
@@ -80,23 +59,22 @@ class Experiment:
         progress: Callable[[int], None] | None = None,
         **option_overrides: Any,
     ) -> SimulationResult:
-        """Simulate; ``method``/``law_options`` replace the scenario's law, and keyword
-        ``option_overrides`` replace fields of :class:`SimulationOptions`."""
+        """Simulate; ``method``/``law_options`` replace the scenario's law (the scenario's
+        ``control.shield``, ``robust`` and ``scaling`` still apply unless ``law_options``
+        sets them), and keyword ``option_overrides`` replace fields of
+        :class:`SimulationOptions`."""
         law = self.law
         if method is not None or law_options is not None:
-            name = method or self.scenario.method
-            opts = (
-                dict(law_options)
-                if law_options is not None
-                else (
-                    dict(self.scenario.data["control"].get("options", {}))
-                    if name == self.scenario.method
-                    else {}
-                )
-            )
-            law = make_law(name, **{**self.safety_options(), **opts})
+            ctl = self.scenario.spec.control
+            name = method or ctl.method
+            if law_options is not None:
+                opts = dict(law_options)
+            else:
+                opts = dict(ctl.options) if name == ctl.method else {}
+            safety = {"shield": ctl.shield, "robust": ctl.robust, "scaling": ctl.scaling}
+            law = make_law(name, **{**safety, **opts})
         options = replace(self.options, **option_overrides) if option_overrides else self.options
-        return simulate(
+        result = simulate(
             self.robot,
             self.scene,
             self.task,
@@ -105,355 +83,298 @@ class Experiment:
             options=options,
             camera=self.camera,
             limits=self.limits,
+            sensor=self.sensor,
             actuator=self.actuator,
             progress=progress,
         )
+        result.provenance = self._provenance(method, law_options, options)
+        return result
+
+    def _provenance(
+        self, method: str | None, law_options: Mapping[str, Any] | None, options: Any
+    ) -> Any:
+        """What :meth:`run` ran, for a self-describing run directory (redservo.provenance)."""
+        from redservo.provenance import Provenance
+
+        ctl = self.scenario.spec.control
+        name = method or ctl.method
+        if law_options is not None:
+            opts = dict(law_options)
+        else:
+            opts = dict(ctl.options) if name == ctl.method else {}
+        sc = self.scenario
+        return Provenance(sc.data, sc.source, name, opts, options, self.limits, self.q0.copy())
 
 
-def _arr(sc: Scenario, key: str, value: Any, shape: tuple[int, ...] | None = None) -> FloatArray:
+def _key(
+    sc: Scenario, table: str, exc: RedservoError, fields: Mapping[str, Any], default: str
+) -> ScenarioError:
+    """A ScenarioError for ``exc`` under ``table.ARGUMENT`` when that key exists, else ``default``."""
+    arg = getattr(exc, "argument", None)
+    key = f"{table}.{arg}" if arg and arg in fields else default
+    return sc.error(key, str(exc))
+
+
+def _robot(sc: Scenario, spec: ScenarioSpec) -> Robot:
+    r = spec.robot
     try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise sc.error(key, f"expected numbers, got {value!r}") from None
-    if shape is not None and a.shape != shape:
-        raise sc.error(key, f"expected shape {shape}, got {a.shape} from {value!r}")
-    if not np.all(np.isfinite(a)):
-        raise sc.error(key, "values must be finite")
-    return a
+        if r.model is not None:
+            from redservo.robots import make_robot
 
+            return make_robot(r.model, **r.options)
+        from redservo.robots.urdf import URDFRobot, shipped_urdf
 
-def _robot(sc: Scenario) -> tuple[Robot, JointLimits, FloatArray]:
-    r = sc.data["robot"]
-    try:
-        robot = make_robot(r["model"], **r.get("options", {}))
+        assert r.urdf is not None
+        path = r.urdf if r.urdf.endswith(".urdf") or "/" in r.urdf else shipped_urdf(r.urdf)
+        return URDFRobot(
+            path,
+            camera_link=r.camera_link,
+            joints=r.joints,
+            eMc=None if r.eMc is None else r.eMc.matrix(),
+            base_link=r.base_link,
+            locked_q=r.locked_q,
+        )
     except RedservoError as exc:
-        raise sc.error("robot.options", str(exc)) from None
-    n = robot.n
-    if "q_min" in r or "q_max" in r:
-        q_min = _arr(sc, "robot.q_min", r.get("q_min", robot.q_min), (n,))
-        q_max = _arr(sc, "robot.q_max", r.get("q_max", robot.q_max), (n,))
-        try:
-            robot.set_limits(q_min, q_max)
-        except RedservoError as exc:
-            raise sc.error("robot.q_min", str(exc)) from None
-    for key in ("qdot_max", "qddot_max"):
-        if key in r:
-            try:
-                robot.set_limits(**{key: r[key]})
-            except RedservoError as exc:
-                raise sc.error(f"robot.{key}", str(exc)) from None
-    rho = float(r.get("rho", 0.1))
+        default = "robot.options" if r.model is not None else "robot.urdf"
+        raise _key(sc, "robot", exc, type(r).model_fields, default) from None
+
+
+def _per_joint(sc: Scenario, key: str, value: Any, n: int, *, scalar_ok: bool = True) -> Any:
+    if value is None or (scalar_ok and not isinstance(value, list)):
+        return value
+    if len(value) != n:
+        raise sc.error(key, f"expected {n} values (one per joint of the robot), got {len(value)}")
+    return np.array(value, dtype=float)
+
+
+def _limits(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> JointLimits:
+    r, n = spec.robot, robot.n
+    q_min = _per_joint(sc, "robot.q_min", r.q_min, n)
+    q_max = _per_joint(sc, "robot.q_max", r.q_max, n)
+    qdot = _per_joint(sc, "robot.qdot_max", r.qdot_max, n)
+    qddot = _per_joint(sc, "robot.qddot_max", r.qddot_max, n)
     try:
-        limits = robot.limits(rho, margin=float(r.get("margin", DEFAULT_MARGIN)))
+        robot.set_limits(
+            q_min,
+            q_max,
+            qdot_max="keep" if qdot is None else qdot,
+            qddot_max="keep" if qddot is None else qddot,
+        )
+        return robot.limits(r.rho, margin=r.margin)
     except RedservoError as exc:
-        key = "robot.margin" if getattr(exc, "argument", None) == "margin" else "robot.rho"
-        raise sc.error(key, str(exc)) from None
-    if "q0" in r and "start_pose" in r:
-        raise sc.error("robot", "give either q0 or start_pose, not both")
-    if "q0" in r:
-        q0 = _arr(sc, "robot.q0", r["q0"], (n,))
+        raise _key(sc, "robot", exc, type(r).model_fields, "robot.q_min") from None
+
+
+def _start(sc: Scenario, spec: ScenarioSpec, robot: Robot, limits: JointLimits) -> FloatArray:
+    r, n = spec.robot, robot.n
+    if r.q0 is not None:
+        q0 = _per_joint(sc, "robot.q0", r.q0, n, scalar_ok=False)
         bad = np.flatnonzero((q0 < limits.q_min) | (q0 > limits.q_max))
         if bad.size:
             i = int(bad[0])
             raise sc.error(
-                "robot.q0",
+                f"robot.q0[{i}]",
                 f"q0[{i}] = {q0[i]:.6g} is outside the joint limits "
-                f"[{limits.q_min[i]:.6g}, {limits.q_max[i]:.6g}] of joint {robot.joint_names[i]!r}",
+                f"[{limits.q_min[i]:.6g}, {limits.q_max[i]:.6g}] of joint {i} "
+                f"({robot.joint_names[i]!r}; joints are numbered from 0)",
             )
-    elif "start_pose" in r:
-        bMc = pose_from_table(r["start_pose"], "robot.start_pose", sc)
-        guess = _arr(sc, "robot.q_guess", r["q_guess"], (n,)) if "q_guess" in r else None
-        try:
-            q0 = robot.ikine(bMc, guess)
-        except RedservoError as exc:
-            raise sc.error("robot.start_pose", str(exc)) from None
-    else:
-        raise sc.error("robot.q0", "missing: give q0 (joint positions) or start_pose (camera pose)")
-    return robot, limits, q0
-
-
-def _trajectory(sc: Scenario, where: str, obj: Mapping[str, Any], wMo0: FloatArray) -> Trajectory:
-    motion = obj.get("motion")
-    if motion is None:
-        return Static(wMo0)
-    kind = motion.get("kind", "static")
-    if kind == "static":
-        return Static(wMo0)
-    if kind == "constant_velocity":
-        v = _arr(sc, f"{where}.motion.velocity", motion.get("velocity", [0, 0, 0]), (3,))
-        w = _arr(
-            sc, f"{where}.motion.angular_velocity", motion.get("angular_velocity", [0, 0, 0]), (3,)
-        )
-        return ConstantVelocity(wMo0, v, w)
-    if kind == "waypoints":
-        times = _arr(sc, f"{where}.motion.times", motion.get("times"))
-        k = times.shape[0] if times.ndim == 1 else -1
-        tr = _arr(sc, f"{where}.motion.translations", motion.get("translations"), (k, 3))
-        rv = _arr(
-            sc, f"{where}.motion.rotvecs", motion.get("rotvecs", np.zeros((k, 3)).tolist()), (k, 3)
-        )
-        # Offsets are world-frame translations of the origin and rotations about the origin.
-        poses = np.stack([np.eye(4)] * k)
-        for i in range(k):
-            poses[i][:3, :3] = make_transform(rotvec=rv[i])[:3, :3] @ wMo0[:3, :3]
-            poses[i][:3, 3] = wMo0[:3, 3] + tr[i]
-        try:
-            return Waypoints(times, poses)
-        except RedservoError as exc:
-            raise sc.error(f"{where}.motion", str(exc)) from None
-    raise sc.error(
-        f"{where}.motion.kind",
-        f"unknown motion {kind!r}; allowed: static, constant_velocity, waypoints",
-    )
-
-
-def _scene(sc: Scenario, robot: Robot, q0: FloatArray) -> Scene:
-    bMc0 = robot.fkine(q0)
-    objects: list[SceneObject] = []
-    for i, o in enumerate(sc.data.get("objects", [])):
-        where = f"objects[{i}]"
-        if "pose" in o and "pose_in_camera" in o:
-            raise sc.error(where, "give either pose or pose_in_camera, not both")
-        if "pose_in_camera" in o:
-            wMo0 = bMc0 @ pose_from_table(o["pose_in_camera"], f"{where}.pose_in_camera", sc)
-        else:
-            wMo0 = pose_from_table(o.get("pose", {}), f"{where}.pose", sc)
-        traj = _trajectory(sc, where, o, wMo0)
-        kind, name = o["kind"], o["name"]
-        try:
-            if kind == "points":
-                pts = _arr(sc, f"{where}.points", o.get("points", [[0.0, 0.0, 0.0]]))
-                objects.append(PointSet(name, pts, trajectory=traj))
-            elif kind == "sphere":
-                center = _arr(sc, f"{where}.center", o.get("center", [0, 0, 0]), (3,))
-                objects.append(Sphere(name, float(o.get("radius", 0.05)), center, trajectory=traj))
-            elif kind == "cylinder":
-                axis = _arr(sc, f"{where}.axis", o.get("axis", [0, 1, 0]), (3,))
-                point = _arr(sc, f"{where}.point", o.get("point", [0, 0, 0]), (3,))
-                objects.append(
-                    Cylinder(name, float(o.get("radius", 0.05)), axis, point, trajectory=traj)
-                )
-            else:  # line
-                point = _arr(sc, f"{where}.point", o.get("point", [0, 0, 0]), (3,))
-                direction = _arr(sc, f"{where}.direction", o.get("direction", [0, 1, 0]), (3,))
-                objects.append(Line(name, point, direction, trajectory=traj))
-        except ScenarioError:
-            raise
-        except RedservoError as exc:
-            raise sc.error(where, str(exc)) from None
+        return np.asarray(q0, dtype=float)
+    assert r.start_pose is not None
+    guess = _per_joint(sc, "robot.q_guess", r.q_guess, n, scalar_ok=False)
     try:
-        return Scene(objects)
+        return robot.ikine(r.start_pose.matrix(), guess)
     except RedservoError as exc:
-        raise sc.error("objects", str(exc)) from None
+        raise sc.error("robot.start_pose", str(exc)) from None
 
 
-def _desired_poses(sc: Scenario, scene: Scene, ref: str) -> dict[str, FloatArray]:
-    """``c*Mo`` for every object: the desired pose is given relative to the reference object."""
-    table = sc.data["task"]["desired_pose"]
-    cdMref = pose_from_table(table, "task.desired_pose", sc)
-    wMref = scene.wMo(ref, 0.0)
-    return {name: cdMref @ inverse(wMref) @ scene.wMo(name, 0.0) for name in scene.names}
-
-
-def _features(
-    sc: Scenario, scene: Scene, desired: Mapping[str, FloatArray] | None
-) -> tuple[list[TaskTerm], list[int]]:
-    """The task terms, and for each the index of the ``[[features]]`` entry it came from."""
-    terms: list[TaskTerm] = []
-    entry_of: list[int] = []
-    for i, f in enumerate(sc.data["features"]):
-        where = f"features[{i}]"
-        obj = scene.object(f["object"])
-        kind = f["kind"]
-        feats: list[Feature]
+def _scene(sc: Scenario, spec: ScenarioSpec, robot: Robot, q0: FloatArray) -> Scene:
+    bMc0 = robot.fkine(q0)
+    objects = []
+    for i, o in enumerate(spec.objects):
+        if o.pose_in_camera is not None:
+            wMo0 = bMc0 @ o.pose_in_camera.matrix()
+        else:
+            wMo0 = o.pose.matrix() if o.pose is not None else np.eye(4)
         try:
-            if kind == "point":
-                if not isinstance(obj, PointSet):
-                    raise sc.error(f"{where}.kind", "a point feature needs a 'points' object")
-                pts = np.asarray(obj.points, dtype=float)
-                idx = [int(f["index"])] if "index" in f else list(range(pts.shape[0]))
-                for j in idx:
-                    if not 0 <= j < pts.shape[0]:
-                        raise sc.error(f"{where}.index", f"must be in [0, {pts.shape[0] - 1}]")
-                feats = [PointFeature(pts[j]) for j in idx]
-            elif kind == "sphere":
-                if not isinstance(obj, Sphere):
-                    raise sc.error(f"{where}.kind", "a sphere feature needs a 'sphere' object")
-                feats = [SphereFeature(obj.radius, obj.center, variant=f.get("variant", "exact"))]
-            elif kind == "cylinder":
-                if not isinstance(obj, Cylinder):
-                    raise sc.error(f"{where}.kind", "a cylinder feature needs a 'cylinder' object")
-                feats = [CylinderFeature(obj.radius, obj.axis, obj.point)]
-            elif kind == "line":
-                if not isinstance(obj, Line):
-                    raise sc.error(f"{where}.kind", "a line feature needs a 'line' object")
-                feats = [LineFeature(obj.point, obj.direction)]
-            else:  # moments
-                if not isinstance(obj, PointSet):
-                    raise sc.error(f"{where}.kind", "moment features need a 'points' object")
-                if desired is None:
-                    raise sc.error("task.desired_pose", "moment features need task.desired_pose")
-                opts = {}
-                if "rotation_features" in f:
-                    opts["rotation_features"] = f["rotation_features"]
-                feats = [MomentFeatures.at_desired_pose(obj.points, desired[obj.name], **opts)]
-        except ScenarioError:
-            raise
+            traj = o.motion.trajectory(wMo0) if o.motion is not None else _static(wMo0)
         except RedservoError as exc:
-            raise sc.error(where, str(exc)) from None
-        terms.extend(TaskTerm(feat, obj.name) for feat in feats)
-        entry_of.extend(i for _ in feats)
-    return terms, entry_of
+            raise sc.error(f"objects[{i}].motion", str(exc)) from None
+        try:
+            objects.append(o.scene_object(traj))
+        except RedservoError as exc:
+            raise sc.error(f"objects[{i}]", str(exc)) from None
+    return Scene(objects)
 
 
-def _selection(sc: Scenario, terms: list[TaskTerm], entry_of: list[int]) -> FloatArray | None:
-    """Selection matrix ``C`` (m, k) from the ``features[i].components`` lists, or None.
+def _static(wMo0: FloatArray) -> Any:
+    from redservo.scene import Static
 
-    ``components`` keeps only the listed components (0-based, in the feature's
-    order, e.g. ``[0, 1, 2, 3]`` = xn, yn, an, α of the moments) in the task:
-    ``e1 = C (s - s*)`` and ``J1 = C L J``, while the whole ``s`` is still
-    measured and logged. When an entry expands to several terms (the point
-    features of a point set) the list applies to each of them. An explicit
-    selection replaces the automatic combination matrix of :class:`VisualTask`.
+    return Static(wMo0)
 
-    Args:
-        sc: The scenario (for error messages).
-        terms: The task terms, in order.
-        entry_of: For each term, the index of the ``[[features]]`` entry it came from.
-    """
-    entries = sc.data["features"]
-    if not any("components" in f for f in entries):
-        return None
+
+def _task(sc: Scenario, spec: ScenarioSpec, scene: Scene) -> VisualTask:
+    t = spec.task
+    desired = None
+    if t.desired_pose is not None:
+        ref = spec.features[0].object
+        cdMref = t.desired_pose.matrix()
+        wMref = scene.wMo(ref, 0.0)
+        desired = {name: cdMref @ inverse(wMref) @ scene.wMo(name, 0.0) for name in scene.names}
+    terms: list[TaskTerm] = []
     rows: list[int] = []
-    offset = 0
-    for term, i in zip(terms, entry_of, strict=True):
-        size = term.feature.size
-        comps = entries[i].get("components", list(range(size)))
-        key = f"features[{i}].components"
-        if not comps or not all(isinstance(c, int) and not isinstance(c, bool) for c in comps):
-            raise sc.error(key, f"expected a non-empty list of integers, got {comps!r}")
-        if len(set(comps)) != len(comps) or not all(0 <= c < size for c in comps):
+    for i, f in enumerate(spec.features):
+        obj = scene.object(f.object)
+        try:
+            feats = f.features(obj, desired)
+        except RedservoError as exc:
+            raise sc.error(f"features[{i}]", str(exc)) from None
+        for feat in feats:
+            comps = f.components if f.components is not None else range(feat.size)
+            offset = sum(term.feature.size for term in terms)
+            rows.extend(offset + c for c in sorted(comps))
+            terms.append(TaskTerm(feat, obj.name))
+    k = sum(term.feature.size for term in terms)
+    C = np.eye(k)[rows] if any(f.components is not None for f in spec.features) else None
+    try:
+        if desired is not None:
+            return VisualTask.from_desired_poses(terms, desired, depth=t.depth, C=C)
+        return VisualTask(terms, np.array(t.desired, dtype=float), depth=t.depth, C=C)
+    except RedservoError as exc:
+        raise sc.error("task.desired_pose" if desired is not None else "task", str(exc)) from None
+
+
+def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> SimulationOptions:
+    ctl, sim = spec.control, spec.simulation
+    lam: float | AdaptiveGain = 0.5 if ctl.lam is None else ctl.lam
+    if ctl.gain is not None:
+        lam = AdaptiveGain(ctl.gain.zero, ctl.gain.inf, ctl.gain.slope)
+    qdot_max: float | tuple[float, ...] | None = None
+    if isinstance(sim.qdot_max, list):
+        qdot_max = tuple(_per_joint(sc, "simulation.qdot_max", sim.qdot_max, robot.n).tolist())
+    else:
+        qdot_max = sim.qdot_max
+    occ = spec.occlusion
+    try:
+        return SimulationOptions(
+            lam=lam,
+            dt=ctl.dt,
+            max_iterations=sim.max_iterations,
+            tolerance=sim.tolerance,
+            rho=spec.robot.rho,
+            min_margin=sim.min_margin,
+            qdot_max=qdot_max,
+            noise_std=sim.noise_std,
+            seed=sim.seed,
+            depth_scale=sim.depth_scale,
+            eMc_model=None if sim.eMc_error is None else robot.eMc @ sim.eMc_error.matrix(),
+            feedforward=sim.feedforward,
+            image_margin_px=sim.image_margin_px,
+            check_image=sim.check_image,
+            occlusion=None if occ is None else Occlusion(**occ.model_dump()),
+            stop_at_convergence=sim.stop_at_convergence,
+        )
+    except RedservoError as exc:  # pragma: no cover - the schema checks every field
+        raise _key(sc, "simulation", exc, type(sim).model_fields, "simulation") from None
+
+
+def _sensor(sc: Scenario, spec: ScenarioSpec, camera: Camera) -> Sensor | None:
+    s = spec.sensor
+    if s.kind == "ideal":
+        return None
+    from redservo.vision import ImageSensor
+
+    kwargs = s.model_dump(exclude={"kind"})
+    try:
+        return ImageSensor(camera, **kwargs)
+    except RedservoError as exc:
+        raise _key(sc, "sensor", exc, type(s).model_fields, "sensor.kind") from None
+
+
+def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
+    a = spec.actuators
+    if a is None:
+        return None
+    from redservo.hardware.actuators import ActuatorModel
+
+    kwargs = a.model_dump()
+    for key, value in kwargs.items():
+        if isinstance(value, list):
+            kwargs[key] = _per_joint(sc, f"actuators.{key}", value, n)
+    try:
+        return ActuatorModel(**kwargs)
+    except RedservoError as exc:
+        raise _key(sc, "actuators", exc, type(a).model_fields, "actuators") from None
+
+
+def _check_start(sc: Scenario, spec: ScenarioSpec, exp: Experiment) -> None:
+    """Every observed object is valid, in front of the camera and in the image at the start."""
+    bMc = exp.robot.fkine(exp.q0)
+    index = {o.name: i for i, o in enumerate(spec.objects)}
+    for term in exp.task.terms:
+        i = index[term.target]
+        cMo = exp.scene.cMo(term.target, bMc, 0.0)
+        try:
+            term.feature.measure(cMo)
+        except RedservoError as exc:
             raise sc.error(
-                key,
-                f"components must be distinct indices in [0, {size - 1}] "
-                f"(the feature has {size} components), got {comps!r}",
+                f"objects[{i}]", f"the task is not valid at the start configuration: {exc}"
+            ) from None
+        if not spec.simulation.check_image:
+            continue
+        P = spec.objects[i].reference_points() @ cMo[:3, :3].T + cMo[:3, 3]
+        margin = spec.simulation.image_margin_px
+        if np.any(P[:, 2] <= 1e-9):
+            raise sc.error(f"objects[{i}]", f"{term.target!r} is behind the camera at the start")
+        uv = exp.camera.normalized_to_pixel(P[:, :2] / P[:, 2:3])
+        inside = exp.camera.in_image(P[:, :2] / P[:, 2:3], margin_px=margin)
+        if not np.all(inside):
+            j = int(np.flatnonzero(~np.asarray(inside))[0])
+            cam = exp.camera
+            raise sc.error(
+                f"objects[{i}]",
+                f"{term.target!r} is outside the image at the start: point {j} at "
+                f"(u, v) = ({uv[j][0]:.1f}, {uv[j][1]:.1f}) px, image {cam.width}x{cam.height} "
+                f"px, margin {margin:g} px",
             )
-        rows.extend(offset + c for c in sorted(comps))
-        offset += size
-    return np.asarray(np.eye(offset)[rows])
+
+
+def build_robot(sc: Scenario) -> Robot:
+    """Only the scenario's robot, with the file's limit overrides (no scene, task or law).
+
+    Raises:
+        ScenarioError: the robot keys are invalid (names the key).
+    """
+    robot = _robot(sc, sc.spec)
+    _limits(sc, sc.spec, robot)
+    return robot
 
 
 def build(sc: Scenario) -> Experiment:
     """Build the robot, scene, task, law and options of a scenario.
 
     Raises:
-        ScenarioError: anything in the file is inconsistent (names the key).
+        ScenarioError: anything in the file is invalid or inconsistent (names the key).
     """
-    robot, limits, q0 = _robot(sc)
-    scene = _scene(sc, robot, q0)
-    task_t = sc.data.get("task", {})
-    ref = sc.data["features"][0]["object"]
-    desired = _desired_poses(sc, scene, ref) if "desired_pose" in task_t else None
-    terms, entry_of = _features(sc, scene, desired)
-    C = _selection(sc, terms, entry_of)
-    depth = task_t.get("depth", "current")
+    spec = sc.spec
+    robot = _robot(sc, spec)
+    limits = _limits(sc, spec, robot)
+    q0 = _start(sc, spec, robot, limits)
+    scene = _scene(sc, spec, robot, q0)
+    task = _task(sc, spec, scene)
+    ctl = spec.control
+    law = make_law(
+        ctl.method, shield=ctl.shield, robust=ctl.robust, scaling=ctl.scaling, **ctl.options
+    )
     try:
-        if desired is not None:
-            task = VisualTask.from_desired_poses(terms, desired, depth=depth, C=C)
-        elif "desired" in task_t:
-            k = sum(t.feature.size for t in terms)
-            s_star = _arr(sc, "task.desired", task_t["desired"], (k,))
-            task = VisualTask(terms, s_star, depth=depth, C=C)
-        else:
-            raise sc.error(
-                "task", "give task.desired_pose (c*Mo of the target) or task.desired (s*)"
-            )
-    except ScenarioError:
-        raise
-    except RedservoError as exc:
-        raise sc.error("task", str(exc)) from None
-    ctl = sc.data["control"]
-    try:
-        safety = {k: ctl[k] for k in ("shield", "robust", "scaling") if k in ctl}
-        law = make_law(ctl["method"], **safety, **ctl.get("options", {}))
-    except RedservoError as exc:
-        arg = getattr(exc, "argument", None)
-        raise sc.error(
-            f"control.{arg}" if arg in ("scaling",) else "control.options", str(exc)
-        ) from None
-    actuator = None
-    if "actuators" in sc.data:
-        from redservo.hardware.actuators import ActuatorModel
-
-        try:
-            actuator = ActuatorModel.from_table(sc.data["actuators"])
-        except RedservoError as exc:
-            raise sc.error(getattr(exc, "argument", None) or "actuators", str(exc)) from None
-    cam_t = sc.data.get("camera", {})
-    try:
-        camera = Camera(**cam_t) if cam_t else Camera()
+        camera = Camera(**spec.camera.model_dump())
     except RedservoError as exc:
         raise sc.error("camera", str(exc)) from None
-    options = _options(sc, robot)
-    # The task must be valid at the start: a target behind the camera is a scenario error.
-    try:
-        task.evaluate(scene, robot.fkine(q0), robot.jacobian(q0), 0.0)
-    except RedservoError as exc:
-        raise sc.error(
-            "objects", f"the task is not valid at the start configuration: {exc}"
-        ) from None
-    return Experiment(sc, robot, scene, task, law, q0, limits, options, camera, actuator)
-
-
-def _options(sc: Scenario, robot: Robot) -> SimulationOptions:
-    ctl, sim = sc.data["control"], sc.data.get("simulation", {})
-    kw: dict[str, Any] = {
-        "lam": _gain(sc, ctl),
-        "dt": float(ctl.get("dt", 0.04)),
-        "rho": float(sc.data["robot"].get("rho", 0.1)),
-    }
-    for key in (
-        "max_iterations",
-        "tolerance",
-        "noise_std",
-        "seed",
-        "depth_scale",
-        "feedforward",
-        "image_margin_px",
-        "check_image",
-        "stop_at_convergence",
-        "min_margin",
-    ):
-        if key in sim:
-            kw[key] = sim[key]
-    if "qdot_max" in sim:
-        q = sim["qdot_max"]
-        kw["qdot_max"] = tuple(float(v) for v in q) if isinstance(q, list) else float(q)
-    if "eMc_error" in sim:
-        robot_eMc = robot.eMc
-        kw["eMc_model"] = robot_eMc @ pose_from_table(sim["eMc_error"], "simulation.eMc_error", sc)
-    if "occlusion" in sc.data:
-        kw["occlusion"] = Occlusion(**sc.data["occlusion"])
-    try:
-        return SimulationOptions(**kw)
-    except RedservoError as exc:
-        raise sc.error("simulation", str(exc)) from None
-
-
-def _gain(sc: Scenario, ctl: Mapping[str, Any]) -> float | AdaptiveGain:
-    """``[control] lam`` (1/s), or the adaptive gain ``[control] gain = {zero, inf, slope}``."""
-    if "gain" not in ctl:
-        return float(ctl.get("lam", 0.5))
-    if "lam" in ctl:
-        raise sc.error("control.gain", "give either lam (constant) or gain (adaptive), not both")
-    g = ctl["gain"]
-    missing = [k for k in ("zero", "inf", "slope") if k not in g]
-    if missing:
-        raise sc.error(f"control.gain.{missing[0]}", "missing: gain needs zero, inf and slope")
-    try:
-        return AdaptiveGain(float(g["zero"]), float(g["inf"]), float(g["slope"]))
-    except RedservoError as exc:
-        raise sc.error(f"control.gain.{getattr(exc, 'argument', '') or 'zero'}", str(exc)) from None
+    options = _options(sc, spec, robot)
+    exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
+    exp.sensor = _sensor(sc, spec, camera)
+    exp.actuator = _actuator(sc, spec, robot.n)
+    _check_start(sc, spec, exp)
+    return exp
 
 
 def run_scenario(

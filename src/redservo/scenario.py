@@ -1,10 +1,11 @@
 """Scenario files: one TOML file fully describes one experiment.
 
-The format is documented, with a fully commented example, in
-``docs/scenarios.md``. :func:`load_scenario` parses and validates a file (or a
-shipped scenario name) and :func:`build` turns it into the objects
-:func:`redservo.simulation.simulate` needs. Every validation error is a
-:class:`~redservo.errors.ScenarioError` that names the file, the key and what
+The format is documented, with a fully commented example and a reference generated from
+the schema, in ``docs/scenarios.md``. :func:`load_scenario` reads and validates a file (or
+a shipped scenario name) against :class:`redservo.schema.ScenarioSpec`, without building
+anything; :func:`redservo.experiment.build` turns it into the objects
+:func:`redservo.simulation.simulate` needs and checks the geometry. Every error is a
+:class:`~redservo.errors.ScenarioError` of one line that names the file, the key and what
 is allowed.
 """
 
@@ -17,159 +18,61 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
+from redservo.errors import ScenarioError
 
-from redservo._validation import FloatArray
-from redservo.errors import RedservoError, ScenarioError
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.schema.scenario import ScenarioSpec
 
 __all__ = [
+    "MAX_FILE_BYTES",
     "Scenario",
     "apply_overrides",
     "load_scenario",
     "parse_scenario",
+    "read_toml",
     "shipped_scenarios",
 ]
 
-_SCHEMA: dict[str, Any] = {
-    "name": str,
-    "description": str,
-    "paper": str,
-    "robot": {
-        "model": str,
-        "options": dict,
-        "q0": list,
-        "start_pose": dict,
-        "q_guess": list,
-        "rho": float,
-        "q_min": list,
-        "q_max": list,
-        "qdot_max": (float, list),
-        "qddot_max": (float, list),
-        "margin": float,
-    },
-    "camera": {"px": float, "py": float, "u0": float, "v0": float, "width": int, "height": int},
-    "objects": list,
-    "features": list,
-    "task": {"desired_pose": dict, "desired": list, "depth": str},
-    "control": {
-        "method": str,
-        "lam": float,
-        "gain": {"zero": float, "inf": float, "slope": float},
-        "dt": float,
-        "options": dict,
-        "shield": bool,
-        "robust": bool,
-        "scaling": str,
-    },
-    "simulation": {
-        "max_iterations": int,
-        "tolerance": float,
-        "qdot_max": (float, list),
-        "noise_std": float,
-        "seed": int,
-        "depth_scale": float,
-        "eMc_error": dict,
-        "feedforward": str,
-        "image_margin_px": float,
-        "check_image": bool,
-        "stop_at_convergence": bool,
-        "min_margin": float,
-    },
-    "actuators": {
-        "tau": (float, list),
-        "delay_steps": int,
-        "qdot_max": (float, list),
-        "qddot_max": (float, list),
-        "encoder_resolution": (float, list),
-        "encoder_noise_std": (float, list),
-        "seed": int,
-    },
-    "occlusion": {
-        "occluder": str,
-        "target": str,
-        "beta": float,
-        "gain": float,
-        "avoid": bool,
-    },
-}
-_REQUIRED = {"robot": ("model",), "control": ("method",)}
-_OBJECT_KEYS = {
-    "name": str,
-    "kind": str,
-    "points": list,
-    "radius": float,
-    "center": list,
-    "axis": list,
-    "point": list,
-    "direction": list,
-    "pose": dict,
-    "pose_in_camera": dict,
-    "motion": dict,
-}
-_OBJECT_KINDS = ("points", "sphere", "cylinder", "line")
-_MOTION_KEYS = {
-    "kind": str,
-    "velocity": list,
-    "angular_velocity": list,
-    "times": list,
-    "translations": list,
-    "rotvecs": list,
-}
-_FEATURE_KEYS = {
-    "kind": str,
-    "object": str,
-    "variant": str,
-    "index": int,
-    "rotation_features": str,
-    "components": list,
-}
-_POSE_KEYS = {"translation": list, "rotvec": list, "rpy_deg": list}
-
-
-def _type_name(t: Any) -> str:
-    if isinstance(t, tuple):
-        return " or ".join(_type_name(x) for x in t)
-    return {
-        str: "string",
-        float: "number",
-        int: "integer",
-        bool: "boolean",
-        list: "array",
-        dict: "table",
-    }[t]
-
-
-def _type_ok(value: Any, t: Any) -> bool:
-    if isinstance(t, tuple):
-        return any(_type_ok(value, x) for x in t)
-    if t is float:
-        return isinstance(value, int | float) and not isinstance(value, bool)
-    if t is int:
-        return isinstance(value, int) and not isinstance(value, bool)
-    return isinstance(value, t)
+MAX_FILE_BYTES = 10_000_000
+"""Largest scenario or campaign file read (bytes): anything larger is not a set-up."""
 
 
 @dataclass
 class Scenario:
-    """A parsed, validated scenario: the raw table and where it came from.
+    """A scenario: its TOML table (as written, without defaults) and where it came from.
 
     Attributes:
-        data: The validated TOML table (defaults are applied by :func:`build`).
-        source: File path or ``shipped:NAME``.
+        data: The TOML table; :attr:`spec` is its validated form (defaults applied).
+        source: File path or ``shipped:NAME`` (used in every error message).
+        name: ``data["name"]`` or the file name.
     """
 
     data: dict[str, Any]
     source: str
     name: str = field(init=False)
+    _spec: ScenarioSpec | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.name = str(self.data.get("name") or Path(self.source).stem)
 
+    @property
+    def spec(self) -> ScenarioSpec:
+        """The validated scenario (:class:`redservo.schema.ScenarioSpec`), computed once.
+
+        Raises:
+            ScenarioError: the table fails validation (names the file and the key).
+        """
+        if self._spec is None:
+            from redservo.schema import ScenarioSpec, validate
+
+            self._spec = validate(ScenarioSpec, self.data, self.source)
+        return self._spec
+
     def error(self, key: str, message: str) -> ScenarioError:
         """Return a ScenarioError naming this file and ``key``."""
-        return ScenarioError(f"{self.source}: key '{key}': {message}")
+        return ScenarioError(f"{self.source}: key '{key}': {message}", argument=key)
 
     @property
     def method(self) -> str:
@@ -191,148 +94,148 @@ def shipped_descriptions(folder: str) -> dict[str, str]:
     for entry in sorted(root.iterdir(), key=lambda p: p.name):
         if entry.name.endswith(".toml"):
             try:
-                data = tomllib.loads(entry.read_text())
+                data = tomllib.loads(entry.read_text(encoding="utf-8"))
             except tomllib.TOMLDecodeError:  # pragma: no cover - shipped files are tested
                 continue
             out[entry.name[:-5]] = str(data.get("description", ""))
     return out
 
 
+def _decode(raw: bytes, source: str) -> str:
+    """UTF-8 text of a file, or a ScenarioError saying why it is not a text file."""
+    if len(raw) > MAX_FILE_BYTES:
+        raise ScenarioError(
+            f"{source}: file too large ({len(raw)} bytes; at most {MAX_FILE_BYTES})"
+        )
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        raise ScenarioError(
+            f"{source}: not a text file (NUL byte at offset {nul}); a scenario is a UTF-8 TOML file"
+        )
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ScenarioError(
+            f"{source}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}, "
+            f"line {line}); save the file as UTF-8"
+        ) from None
+
+
+def read_toml(path: Path | Any, source: str) -> dict[str, Any]:
+    """Read a TOML file (a path or a package resource); one-line ScenarioError on failure."""
+    try:
+        size = path.stat().st_size if isinstance(path, Path) else 0
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(
+                f"{source}: file too large ({size} bytes; at most {MAX_FILE_BYTES})"
+            )
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{source}: cannot read the file: {exc.strerror or exc}") from None
+    text = _decode(raw, source)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ScenarioError(f"{source}: not valid TOML: nested too deeply") from None
+
+
+def locate(name_or_path: str | Path, folder: str, what: str) -> tuple[Path | Any, str, Path | None]:
+    """Find a file by path or shipped name: ``(file, source, base_dir)``.
+
+    Raises:
+        ScenarioError: not a file and not a shipped name (the message lists them).
+    """
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.exists() or len(path.parts) > 1:
+        if not path.is_file():
+            reason = "is a directory" if path.is_dir() else "does not exist"
+            raise ScenarioError(f"{path}: no such {what} file ({reason})")
+        return path, str(path), path.parent
+    res = resources.files("redservo").joinpath(*folder.split("/"), f"{name_or_path}.toml")
+    if not res.is_file():
+        from redservo.schema.base import did_you_mean
+
+        names = list(shipped_descriptions(folder))
+        raise ScenarioError(
+            f"unknown {what} {str(name_or_path)!r}: not a file and not a shipped {what}; "
+            f"shipped {what}s: {', '.join(names) or '(none)'}{did_you_mean(name_or_path, names)}"
+        )
+    prefix = "shipped:" if folder == "scenarios" else f"shipped:{folder.split('/')[-1]}/"
+    return res, f"{prefix}{name_or_path}", None
+
+
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """Load a scenario by shipped name (``redservo list``) or by path to a TOML file.
 
     Raises:
-        ScenarioError: the file is missing, not valid TOML, or fails validation.
+        ScenarioError: the file is missing, not UTF-8, not valid TOML, or fails validation.
     """
-    path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
-            raise ScenarioError(f"{path}: no such scenario file")
-        text, source = path.read_text(), str(path)
-    else:
-        res = resources.files("redservo") / "scenarios" / f"{name_or_path}.toml"
-        if not res.is_file():
-            known = ", ".join(shipped_scenarios())
+    file, source, base_dir = locate(name_or_path, "scenarios", "scenario")
+    return parse_scenario(read_toml(file, source), source, base_dir=base_dir)
+
+
+def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, prefix: str) -> None:
+    """Make a relative ``robot.urdf`` path absolute (relative to the scenario file)."""
+    robot = table.get("robot")
+    if not isinstance(robot, dict) or not isinstance(robot.get("urdf"), str):
+        return
+    urdf: str = robot["urdf"]
+    if "/" not in urdf and "\\" not in urdf and not urdf.endswith(".urdf"):
+        from redservo.robots.urdf import SHIPPED_URDFS
+        from redservo.schema.base import unknown_name
+
+        if urdf.strip().lower() not in SHIPPED_URDFS:
             raise ScenarioError(
-                f"unknown scenario {str(name_or_path)!r}: not a file and not a shipped scenario; "
-                f"shipped scenarios: {known}"
+                f"{source}: key '{prefix}robot.urdf': {unknown_name('shipped URDF', urdf, SHIPPED_URDFS)}"
+                " (or give a path to a .urdf file)",
+                argument=f"{prefix}robot.urdf",
             )
-        text, source = res.read_text(), f"shipped:{name_or_path}"
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
-    return parse_scenario(data, source)
+        return
+    path = Path(urdf)
+    if not path.is_absolute():
+        path = (base_dir or Path.cwd()) / path
+    if not path.is_file():
+        raise ScenarioError(
+            f"{source}: key '{prefix}robot.urdf': no such file {str(path)!r} (a path is "
+            "relative to the scenario file)",
+            argument=f"{prefix}robot.urdf",
+        )
+    robot["urdf"] = str(path.resolve())
 
 
-def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scenario:
-    """Validate a scenario table (keys, types, names, q0 within limits) and return it."""
+def parse_scenario(
+    data: Mapping[str, Any],
+    source: str = "<scenario>",
+    *,
+    base_dir: Path | None = None,
+    key_prefix: str = "",
+) -> Scenario:
+    """Validate a scenario table (keys, types, ranges, names, references) and return it.
+
+    Nothing is built: geometry (``q0`` within the robot's limits, a target in front of the
+    camera and in the image) is checked by :func:`redservo.experiment.build`.
+
+    Args:
+        data: The TOML table.
+        source: Where it came from (used in error messages).
+        base_dir: Directory of the file, against which ``robot.urdf`` is resolved
+            (None: the current directory).
+        key_prefix: Put before every key in error messages (``overrides.`` when a
+            campaign file overrides its base scenario).
+
+    Raises:
+        ScenarioError: naming ``source``, the key and what is allowed.
+    """
+    from redservo.schema import ScenarioSpec, validate
+
     table = copy.deepcopy(dict(data))
-    _check_table(table, _SCHEMA, "", source)
-    for section, keys in _REQUIRED.items():
-        if section not in table:
-            raise ScenarioError(f"{source}: key '{section}': missing required table [{section}]")
-        for key in keys:
-            if key not in table[section]:
-                raise ScenarioError(f"{source}: key '{section}.{key}': missing required key")
-    for where, obj in _entries(table, "objects", _OBJECT_KEYS, ("name", "kind"), source):
-        if obj["kind"] not in _OBJECT_KINDS:
-            raise ScenarioError(
-                f"{source}: key '{where}.kind': unknown object kind {obj['kind']!r}; "
-                f"allowed: {', '.join(_OBJECT_KINDS)}"
-            )
-        for pose_key in ("pose", "pose_in_camera"):
-            if pose_key in obj:
-                _check_table(obj[pose_key], _POSE_KEYS, f"{where}.{pose_key}.", source)
-        if "motion" in obj:
-            _check_table(obj["motion"], _MOTION_KEYS, f"{where}.motion.", source)
-    names = [o["name"] for o in table.get("objects", [])]
-    for where, feat in _entries(table, "features", _FEATURE_KEYS, ("kind", "object"), source):
-        if feat["object"] not in names:
-            raise ScenarioError(
-                f"{source}: key '{where}.object': unknown object {feat['object']!r}; "
-                f"objects defined: {', '.join(names) or '(none)'}"
-            )
-    if not table.get("features"):
-        raise ScenarioError(f"{source}: key 'features': at least one [[features]] entry is needed")
+    _resolve_urdf(table, source, base_dir, key_prefix)
     scenario = Scenario(table, source)
-    _check_names(scenario)
-    # Building validates q0, poses, features and options: errors name this file.
-    from redservo.experiment import build
-
-    try:
-        build(scenario)
-    except ScenarioError:
-        raise
-    except RedservoError as exc:
-        raise ScenarioError(f"{source}: {exc}") from None
+    scenario._spec = validate(ScenarioSpec, table, source, key_prefix)
     return scenario
-
-
-def _entries(
-    table: Mapping[str, Any],
-    section: str,
-    schema: Mapping[str, Any],
-    required: tuple[str, ...],
-    source: str,
-) -> list[tuple[str, dict[str, Any]]]:
-    """Validate an array of tables (``[[objects]]``, ``[[features]]``); return ``(key, entry)``."""
-    out = []
-    for i, entry in enumerate(table.get(section, [])):
-        where = f"{section}[{i}]"
-        if not isinstance(entry, dict):
-            raise ScenarioError(f"{source}: key '{where}': expected a table, got {entry!r}")
-        _check_table(entry, schema, where + ".", source)
-        for key in required:
-            if key not in entry:
-                raise ScenarioError(f"{source}: key '{where}.{key}': missing required key")
-        out.append((where, entry))
-    return out
-
-
-def _check_table(table: Any, schema: Mapping[str, Any], prefix: str, source: str) -> None:
-    if not isinstance(table, dict):
-        raise ScenarioError(f"{source}: key '{prefix.rstrip('.')}': expected a table")
-    for key, value in table.items():
-        if key not in schema:
-            allowed = ", ".join(sorted(schema))
-            raise ScenarioError(
-                f"{source}: key '{prefix}{key}': unknown key; allowed here: {allowed}"
-            )
-        want = schema[key]
-        if isinstance(want, dict):
-            _check_table(value, want, f"{prefix}{key}.", source)
-        elif not _type_ok(value, want):
-            raise ScenarioError(
-                f"{source}: key '{prefix}{key}': expected {_type_name(want)}, "
-                f"got {type(value).__name__} {value!r}"
-            )
-
-
-def _check_names(sc: Scenario) -> None:
-    from redservo.features import FEATURES
-    from redservo.redundancy import METHODS
-    from redservo.robots import ROBOTS
-
-    d = sc.data
-    if d["robot"]["model"] not in ROBOTS:
-        raise sc.error(
-            "robot.model", f"unknown robot {d['robot']['model']!r}; allowed: {', '.join(ROBOTS)}"
-        )
-    if d["control"]["method"] not in METHODS:
-        raise sc.error(
-            "control.method",
-            f"unknown method {d['control']['method']!r}; allowed: {', '.join(METHODS)}",
-        )
-    for i, feat in enumerate(d.get("features", [])):
-        if feat["kind"] not in FEATURES:
-            raise sc.error(
-                f"features[{i}].kind",
-                f"unknown feature {feat['kind']!r}; allowed: {', '.join(FEATURES)}",
-            )
-    depth = d.get("task", {}).get("depth", "current")
-    if depth not in ("current", "desired", "mean"):
-        raise sc.error("task.depth", f"unknown depth {depth!r}; allowed: current, desired, mean")
 
 
 _INDEXED_KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_-]*)\[([0-9]+)\]")
@@ -360,10 +263,12 @@ def apply_overrides(scenario: Scenario, assignments: list[str]) -> Scenario:
         key = key.strip()
         try:
             value = tomllib.loads(f"v = {raw}")["v"]
-        except tomllib.TOMLDecodeError:
+        except (tomllib.TOMLDecodeError, RecursionError):
             value = raw.strip()
-        node = data
+        node: dict[str, Any] = data
         parts = key.split(".")
+        if not all(parts):
+            raise ScenarioError(f"--set {item!r}: empty key segment in {key!r}")
         for part in parts[:-1]:
             indexed = _INDEXED_KEY.fullmatch(part)
             if indexed is not None:
@@ -381,25 +286,3 @@ def apply_overrides(scenario: Scenario, assignments: list[str]) -> Scenario:
             node = nxt
         node[parts[-1]] = value
     return parse_scenario(data, f"{scenario.source} (with --set {' '.join(assignments)})")
-
-
-def pose_from_table(table: Mapping[str, Any], where: str, sc: Scenario) -> FloatArray:
-    """Build a 4x4 transform from ``{translation, rotvec | rpy_deg}``."""
-    from redservo.spatial import make_transform, rpy_to_matrix
-
-    t = np.asarray(table.get("translation", [0.0, 0.0, 0.0]), dtype=float)
-    if t.shape != (3,):
-        raise sc.error(
-            f"{where}.translation", f"expected 3 numbers, got {table.get('translation')!r}"
-        )
-    if "rotvec" in table and "rpy_deg" in table:
-        raise sc.error(where, "give either rotvec or rpy_deg, not both")
-    if "rpy_deg" in table:
-        r = np.asarray(table["rpy_deg"], dtype=float)
-        if r.shape != (3,):
-            raise sc.error(f"{where}.rpy_deg", "expected 3 numbers (roll, pitch, yaw in degrees)")
-        return make_transform(rpy_to_matrix(r, degrees=True), t)
-    rv = np.asarray(table.get("rotvec", [0.0, 0.0, 0.0]), dtype=float)
-    if rv.shape != (3,):
-        raise sc.error(f"{where}.rotvec", f"expected 3 numbers, got {table.get('rotvec')!r}")
-    return make_transform(t=t, rotvec=rv)

@@ -1,0 +1,374 @@
+"""Schema of a scenario file (``docs/scenarios.md`` is generated from it).
+
+:class:`ScenarioSpec` is the whole file; validating it checks every key, type, range and
+name, and the references between tables (a feature's object, the occluder, the length
+of ``task.desired``), without building anything: geometry (a target behind the camera,
+``q0`` outside the robot's limits) is checked by :func:`redservo.experiment.build`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from redservo.schema.base import (
+    BIG,
+    Doc,
+    PerJoint,
+    Table,
+    choice,
+    fail,
+    integer,
+    num,
+    unknown_name,
+)
+from redservo.schema.scene import AnyFeature, AnyObject, Pose
+from redservo.task import DepthMode
+
+__all__ = [
+    "ActuatorsSpec",
+    "CameraSpec",
+    "ControlSpec",
+    "GainSpec",
+    "OcclusionSpec",
+    "RobotSpec",
+    "ScenarioSpec",
+    "SensorSpec",
+    "SimulationSpec",
+    "TaskSpec",
+]
+
+MAX_ITERATIONS = 10_000_000
+"""Largest ``simulation.max_iterations`` (the log is preallocated)."""
+SEED_MAX = 2**63 - 1
+
+_Joint = Annotated[float, Field(ge=-BIG, le=BIG, allow_inf_nan=False)]
+_Joints = Annotated[
+    list[_Joint], Field(min_length=1, max_length=1000), Doc("array of numbers (one per joint)")
+]
+
+
+class RobotSpec(Table):
+    """The robot: a shipped model *or* a URDF file, the start and the limits."""
+
+    model: str | None = Field(
+        None, description="a shipped robot (redservo list): afma6 | humanoid9 | panda"
+    )
+    options: dict[str, Any] = Field(
+        {}, description="constructor options of the model (afma6: tool)"
+    )
+    urdf: str | None = Field(
+        None,
+        description="a URDF file (path relative to the scenario file) or a shipped one: panda | "
+        "ur5e (needs redservo[urdf])",
+    )
+    camera_link: str = Field("camera_link", description="URDF: the link the camera is fixed to")
+    base_link: str | None = Field(None, description="URDF: the base link (default: the root)")
+    joints: list[str] | None = Field(
+        None, min_length=1, description="URDF: the servoed joints (default: every movable one)"
+    )
+    locked_q: dict[str, Annotated[float, Field(allow_inf_nan=False)]] | None = Field(
+        None, description="URDF: positions (m or rad) of the locked joints"
+    )
+    eMc: Pose | None = Field(
+        None, description="URDF: camera pose in camera_link (default identity)"
+    )
+    q0: _Joints | None = Field(None, description="start configuration (m or rad)")
+    start_pose: Pose | None = Field(
+        None,
+        description="...or a start camera pose in the base frame, reached by inverse kinematics",
+    )
+    q_guess: _Joints | None = Field(None, description="initial guess of the inverse kinematics")
+    rho: float = num(0.1, gt=0.0, lt=0.5, description="band width of the thresholds (CM01 eq. 3)")
+    margin: float = num(
+        0.01,
+        ge=0.0,
+        lt=0.5,
+        description="keep-out of the position shield at each limit, fraction of the range, < rho",
+    )
+    q_min: _Joints | None = Field(None, description="override of the lower joint limits (m or rad)")
+    q_max: _Joints | None = Field(None, description="override of the upper joint limits (m or rad)")
+    qdot_max: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
+    ) = Field(
+        None, description="override of the joint velocity limits (default: the robot's datasheet)"
+    )
+    qddot_max: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=1e5, unit="rad/s² or m/s²")] | None
+    ) = Field(None, description="override of the joint acceleration limits")
+
+    @field_validator("model")
+    @classmethod
+    def _known_model(cls, v: str | None) -> str | None:
+        from redservo.robots import ROBOTS
+
+        if v is not None and v.strip().lower() not in ROBOTS:
+            fail(unknown_name("robot", v, ROBOTS))
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RobotSpec:
+        urdf_keys = ("base_link", "joints", "locked_q", "eMc")
+        if self.model is None and self.urdf is None:
+            fail("missing required key (a shipped robot; or give robot.urdf, a URDF file)", "model")
+        if self.model is not None and self.urdf is not None:
+            fail("give either model (a shipped robot) or urdf (a URDF file), not both", "urdf")
+        if self.model is not None:
+            for key in [*urdf_keys, "camera_link"]:
+                if key in self.model_fields_set:
+                    fail("only with robot.urdf (a URDF file), not with robot.model", key)
+        elif "options" in self.model_fields_set:
+            fail("only with robot.model; a URDF robot takes camera_link, joints, ...", "options")
+        if self.q0 is None and self.start_pose is None:
+            fail("missing: give q0 (joint positions) or start_pose (camera pose)", "q0")
+        if self.q0 is not None and self.start_pose is not None:
+            fail(
+                "give either q0 (joint positions) or start_pose (camera pose), not both",
+                "start_pose",
+            )
+        if self.q_guess is not None and self.start_pose is None:
+            fail("only with start_pose (it seeds the inverse kinematics)", "q_guess")
+        if self.margin >= self.rho:
+            fail(
+                f"must be below rho = {self.rho:g} (the shield's keep-out lies inside the band), "
+                f"got {self.margin:g}",
+                "margin",
+            )
+        if self.q_min is not None and self.q_max is not None:
+            if len(self.q_min) != len(self.q_max):
+                fail(f"q_min has {len(self.q_min)} entries and q_max {len(self.q_max)}", "q_max")
+            for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max)):
+                if not lo < hi:
+                    fail(
+                        f"q_max[{i}] = {hi:g} must be above q_min[{i}] = {lo:g} (inverted limits)",
+                        f"q_max[{i}]",
+                    )
+        return self
+
+
+class CameraSpec(Table):
+    """Intrinsics and image size (pixels)."""
+
+    px: float = num(600.0, gt=0.0, le=1e5, description="pixels per normalized unit, horizontally")
+    py: float = num(600.0, gt=0.0, le=1e5, description="pixels per normalized unit, vertically")
+    u0: float = num(320.0, ge=-1e5, le=1e5, description="principal point (px)")
+    v0: float = num(240.0, ge=-1e5, le=1e5, description="principal point (px)")
+    width: int = integer(640, ge=1, le=8192, description="image width (px)")
+    height: int = integer(480, ge=1, le=8192, description="image height (px)")
+
+
+class TaskSpec(Table):
+    """The desired features: ``desired`` (s*) or ``desired_pose`` (what the camera sees there)."""
+
+    desired: (
+        Annotated[
+            list[Annotated[float, Field(ge=-1e6, le=1e6, allow_inf_nan=False)]],
+            Doc("array of numbers"),
+        ]
+        | None
+    ) = Field(None, min_length=1, max_length=100_000, description="s*, stacked in feature order")
+    desired_pose: Pose | None = Field(
+        None,
+        description="c*Mo of the first feature's object: s* is what the camera sees there "
+        "(needed by moments and by depth = desired | mean)",
+    )
+    depth: DepthMode = choice(
+        "current", what="depth mode", description="depth in L: current | desired | mean"
+    )
+
+
+class GainSpec(Table):
+    """Adaptive gain λ(‖e1‖∞) = (zero − inf) exp(−slope ‖e1‖∞ / (zero − inf)) + inf."""
+
+    zero: float = num(gt=0.0, le=BIG, description="λ0 = λ(0) (1/s)")
+    inf: float = num(gt=0.0, le=BIG, description="λ∞, the gain for large errors (1/s), <= zero")
+    slope: float = num(ge=0.0, le=1e6, description="λ'0, minus the slope at 0 (1/s per task unit)")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> GainSpec:
+        if self.inf > self.zero:
+            fail(f"must be <= zero = {self.zero:g} (λ∞ <= λ0), got {self.inf:g}", "inf")
+        return self
+
+
+class ControlSpec(Table):
+    """The control law and its gains."""
+
+    method: str = Field(description="the control law (redservo list)")
+    lam: float | None = num(None, gt=0.0, le=BIG, description="constant gain λ (1/s), default 0.5")
+    gain: GainSpec | None = Field(None, description="...or an adaptive gain (exclusive with lam)")
+    dt: float = num(0.04, gt=0.0, le=10.0, description="control period (s)")
+    shield: bool = Field(True, description="position shield: no command may cross the margin")
+    robust: bool = Field(True, description="filtered inverses near singularities (paper laws)")
+    scaling: Literal["uniform", "secondary-first"] = choice(
+        "uniform", what="scaling", description="how a command is scaled into the rate limits"
+    )
+    options: dict[str, Any] = Field({}, description="the method's keyword options, e.g. alpha")
+
+    @field_validator("method")
+    @classmethod
+    def _known_method(cls, v: str) -> str:
+        from redservo.redundancy import METHODS
+
+        if v not in METHODS:
+            fail(unknown_name("method", v, METHODS))
+        return v
+
+    @model_validator(mode="after")
+    def _law(self) -> ControlSpec:
+        from redservo.errors import RedservoError
+        from redservo.redundancy import make_law
+
+        if self.lam is not None and self.gain is not None:
+            fail("give either lam (constant) or gain (adaptive), not both", "gain")
+        for key in ("shield", "robust", "scaling"):
+            if key in self.options:
+                fail(f"set control.{key}, not control.options.{key}", f"options.{key}")
+        try:
+            make_law(self.method, **self.options)
+        except RedservoError as exc:
+            arg = getattr(exc, "argument", None)
+            fail(str(exc), f"options.{arg}" if arg and arg in self.options else "options")
+        return self
+
+
+class SimulationSpec(Table):
+    """Simulator options (all optional)."""
+
+    max_iterations: int = integer(1000, ge=1, le=MAX_ITERATIONS, description="iteration cap")
+    tolerance: float = num(1e-3, gt=0.0, le=BIG, description="convergence threshold on ‖e1‖")
+    stop_at_convergence: bool = Field(True, description="false for tracking tasks")
+    min_margin: float = num(
+        0.01,
+        ge=0.0,
+        lt=0.5,
+        description="success needs every joint this far from its limits (fraction of the range)",
+    )
+    qdot_max: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
+    ) = Field(
+        None, description="actuator saturation after the law (the law honours robot.qdot_max)"
+    )
+    noise_std: float = num(0.0, ge=0.0, le=10.0, description="feature noise (feature units)")
+    seed: int = integer(0, ge=0, le=SEED_MAX, description="seed of the feature noise")
+    depth_scale: float = num(
+        1.0, gt=0.0, le=100.0, description="the controller's depth is depth_scale × Z"
+    )
+    eMc_error: Pose | None = Field(None, description="hand-eye calibration error of the controller")
+    feedforward: Literal["none", "known", "estimated"] = choice(
+        "none", what="feed-forward", description="none | known | estimated (moving targets)"
+    )
+    image_margin_px: float = num(
+        0.0, ge=0.0, le=1e4, description="lost this close to the border (px)"
+    )
+    check_image: bool = Field(
+        True, description="stop with target_lost when an object leaves the image"
+    )
+
+
+class OcclusionSpec(Table):
+    """An occluding sphere that may hide a points target (MC05 experiment 2)."""
+
+    occluder: str = Field(description="a sphere object")
+    target: str = Field(description="the points object it may hide")
+    beta: float = num(50.0, gt=0.0, le=1e6, description="β of V = exp(−β d²) (MC05 eq. 30)")
+    gain: float = num(1.0, ge=0.0, le=BIG, description="scale of the artificial force")
+    avoid: bool = Field(True, description="false: detect only")
+
+
+class SensorSpec(Table):
+    """Where the features come from: exact (``ideal``) or detected in a rendered camera image
+    (``image``: :class:`redservo.vision.ImageSensor`, extra ``redservo[vision]``,
+    docs/vision.md). Every other key is for ``kind = "image"`` only."""
+
+    kind: Literal["ideal", "image"] = choice("ideal", what="sensor", description="ideal | image")
+    noise_px: float = num(
+        0.0, ge=0.0, le=255.0, description="Gaussian image noise, std in gray levels (0-255)"
+    )
+    blur_px: float = num(0.0, ge=0.0, le=50.0, description="Gaussian blur, std (px)")
+    distortion: Annotated[
+        float | list[float],
+        PerJoint(ge=-10.0, le=10.0, doc="number k1 or array [k1, k2], each in [-10, 10]"),
+    ] = Field(0.0, description="radial distortion k1, or [k1, k2]")
+    depth: Literal["desired", "estimated", "true"] = choice(
+        "desired",
+        what="sensor depth",
+        description="depth given to the controller: desired | estimated (from the image) | true",
+    )
+    seed: int = integer(0, ge=0, le=SEED_MAX, description="seed of the image noise and texture")
+    max_lost_frames: int = integer(
+        3, ge=0, le=1_000_000, description="a feature lost longer stops the run (feature_lost)"
+    )
+    texture: bool = Field(False, description="textured background")
+    ellipse_method: Literal["moments", "contour"] = choice(
+        "moments", what="ellipse method", description="how a sphere's ellipse is measured"
+    )
+    dot_radius_px: float = num(4.0, gt=0.0, le=100.0, description="radius of a rendered dot (px)")
+
+    @model_validator(mode="after")
+    def _image_keys(self) -> SensorSpec:
+        if isinstance(self.distortion, list) and len(self.distortion) > 2:
+            fail("expected k1 or [k1, k2]", "distortion")
+        if self.kind == "ideal":
+            for key in sorted(self.model_fields_set - {"kind"}):
+                fail("only with sensor.kind = 'image'", key)
+        return self
+
+
+class ActuatorsSpec(Table):
+    """Joint actuator model: delay, lag, saturation, encoder (redservo.hardware.actuators)."""
+
+    tau: Annotated[float | list[float], PerJoint(ge=0.0, le=100.0, unit="s")] = Field(
+        0.0, description="time constant of the first-order velocity lag (s), 0 = none"
+    )
+    delay_steps: int = integer(0, ge=0, le=1000, description="transport delay (control periods)")
+    qdot_max: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
+    ) = Field(None, description="velocity saturation of the drives")
+    qddot_max: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=1e5, unit="rad/s² or m/s²")] | None
+    ) = Field(None, description="acceleration saturation of the drives")
+    encoder_resolution: (
+        Annotated[float | list[float], PerJoint(gt=0.0, le=1.0, unit="rad or m")] | None
+    ) = Field(None, description="encoder step (rad or m), default continuous")
+    encoder_noise_std: Annotated[float | list[float], PerJoint(ge=0.0, le=1.0, unit="rad or m")] = (
+        Field(0.0, description="encoder noise std (rad or m)")
+    )
+    seed: int | None = integer(None, ge=0, le=SEED_MAX, description="seed of the encoder noise")
+
+
+class ScenarioSpec(Table):
+    """A scenario file."""
+
+    name: str | None = Field(None, max_length=200, description="default: the file name")
+    description: str = Field("", max_length=2000, description="one line")
+    paper: str = Field("", max_length=200, description="free text, e.g. CM01 §V-A1")
+    robot: RobotSpec = Field(description="the robot")
+    camera: CameraSpec = Field(
+        default_factory=lambda: CameraSpec.model_validate({}), description="the camera"
+    )
+    objects: list[AnyObject] = Field(min_length=1, max_length=1000, description="the scene")
+    features: list[AnyFeature] = Field(
+        min_length=1, max_length=1000, description="stacked in order"
+    )
+    task: TaskSpec = Field(description="the desired features")
+    control: ControlSpec = Field(description="the control law")
+    simulation: SimulationSpec = Field(
+        default_factory=lambda: SimulationSpec.model_validate({}), description="simulator options"
+    )
+    occlusion: OcclusionSpec | None = Field(None, description="an occluding sphere")
+    sensor: SensorSpec = Field(
+        default_factory=lambda: SensorSpec.model_validate({}),
+        description="where the features come from",
+    )
+    actuators: ActuatorsSpec | None = Field(
+        None, description="joint actuator model (default ideal)"
+    )
+
+    @model_validator(mode="after")
+    def _references(self) -> ScenarioSpec:
+        from redservo.schema.crossref import check_references
+
+        check_references(self)
+        return self

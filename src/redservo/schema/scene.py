@@ -1,0 +1,447 @@
+"""Schema of the scene part of a scenario: poses, object motions, objects and features.
+
+Each object kind and each feature kind is one :class:`~redservo.schema.base.Table` with a
+``kind`` literal, its keys (types, ranges, defaults, units) and the method that builds
+the runtime object from it: :meth:`ObjectSpec.scene_object` (:mod:`redservo.scene`) and
+:meth:`FeatureSpec.features` (through :func:`redservo.features.make_feature`). A new kind
+is its runtime class in its own module plus one spec class here, listed in
+:data:`OBJECT_KINDS` or :data:`FEATURE_KINDS`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar, Literal, cast
+
+import numpy as np
+from pydantic import Discriminator, Field, Tag, model_validator
+
+from redservo._validation import FloatArray
+from redservo.features.base import Feature
+from redservo.features.moments import RotationFeatures
+from redservo.features.sphere import SphereVariant
+from redservo.scene import SceneObject, Trajectory
+from redservo.schema.base import BIG, Doc, Table, Vec3, choice, fail, integer, kind_of, num
+
+__all__ = [
+    "FEATURE_KINDS",
+    "MOTION_KINDS",
+    "OBJECT_KINDS",
+    "AnyFeature",
+    "AnyMotion",
+    "AnyObject",
+    "FeatureSpec",
+    "ObjectSpec",
+    "Pose",
+]
+
+
+class Pose(Table):
+    """A rigid transform: translation (m) and rotation (rotation vector, rad, or roll-pitch-yaw,
+    degrees; give at most one of the two)."""
+
+    translation: Vec3 = Field([0.0, 0.0, 0.0], description="translation (m)")
+    rotvec: Vec3 | None = Field(None, description="rotation vector, axis times angle (rad)")
+    rpy_deg: Vec3 | None = Field(
+        None, description="roll, pitch, yaw (deg): R = Rz(yaw) Ry(pitch) Rx(roll)"
+    )
+
+    @model_validator(mode="after")
+    def _one_rotation(self) -> Pose:
+        if self.rotvec is not None and self.rpy_deg is not None:
+            fail("give either rotvec or rpy_deg, not both", "rpy_deg")
+        return self
+
+    def matrix(self) -> FloatArray:
+        """The 4x4 homogeneous transform."""
+        from redservo.spatial import make_transform, rpy_to_matrix
+
+        if self.rpy_deg is not None:
+            return make_transform(rpy_to_matrix(self.rpy_deg, degrees=True), self.translation)
+        return make_transform(t=self.translation, rotvec=self.rotvec or [0.0, 0.0, 0.0])
+
+
+# --------------------------------------------------------------------------- motions
+
+
+class StaticMotion(Table):
+    """The object does not move (the default)."""
+
+    kind: Literal["static"] = "static"
+
+    def trajectory(self, wMo0: FloatArray) -> Trajectory:
+        """The runtime trajectory from the start pose ``wMo0`` (4x4)."""
+        from redservo.scene import Static
+
+        return Static(wMo0)
+
+
+class ConstantVelocityMotion(Table):
+    """Constant linear and angular velocity, world frame, from the start pose."""
+
+    kind: Literal["constant_velocity"]
+    velocity: Vec3 = Field([0.0, 0.0, 0.0], description="velocity of the origin (m/s)")
+    angular_velocity: Vec3 = Field([0.0, 0.0, 0.0], description="angular velocity (rad/s)")
+
+    def trajectory(self, wMo0: FloatArray) -> Trajectory:
+        """The runtime trajectory from the start pose ``wMo0`` (4x4)."""
+        from redservo.scene import ConstantVelocity
+
+        return ConstantVelocity(wMo0, np.array(self.velocity), np.array(self.angular_velocity))
+
+
+_Time = Annotated[float, Field(ge=0.0, le=1e7, allow_inf_nan=False)]
+
+
+class WaypointsMotion(Table):
+    """Timed world-frame offsets of the object origin (and rotations about it)."""
+
+    kind: Literal["waypoints"]
+    times: Annotated[list[_Time], Doc("array of numbers >= 0, increasing")] = Field(
+        min_length=1, max_length=100_000, description="times of the waypoints (s)"
+    )
+    translations: list[Vec3] = Field(
+        min_length=1, max_length=100_000, description="offsets of the origin (m), one per time"
+    )
+    rotvecs: list[Vec3] | None = Field(
+        None, description="rotations about the origin (rad), one per time (default none)"
+    )
+
+    @model_validator(mode="after")
+    def _consistent(self) -> WaypointsMotion:
+        k = len(self.times)
+        if any(b <= a for a, b in zip(self.times, self.times[1:])):
+            fail(f"times must be strictly increasing, got {self.times}", "times")
+        for key in ("translations", "rotvecs"):
+            value = getattr(self, key)
+            if value is not None and len(value) != k:
+                fail(f"expected {k} entries (one per time), got {len(value)}", key)
+        return self
+
+    def trajectory(self, wMo0: FloatArray) -> Trajectory:
+        """The runtime trajectory from the start pose ``wMo0`` (4x4)."""
+        from redservo.scene import Waypoints
+        from redservo.spatial import make_transform
+
+        k = len(self.times)
+        rv = np.zeros((k, 3)) if self.rotvecs is None else np.array(self.rotvecs)
+        poses = np.stack([np.eye(4)] * k)
+        for i in range(k):
+            poses[i][:3, :3] = make_transform(rotvec=rv[i])[:3, :3] @ wMo0[:3, :3]
+            poses[i][:3, 3] = wMo0[:3, 3] + np.asarray(self.translations[i])
+        return Waypoints(np.array(self.times), poses)
+
+
+MOTION_KINDS: tuple[type[Table], ...] = (StaticMotion, ConstantVelocityMotion, WaypointsMotion)
+AnyMotion = Annotated[
+    Annotated[StaticMotion, Tag("static")]
+    | Annotated[ConstantVelocityMotion, Tag("constant_velocity")]
+    | Annotated[WaypointsMotion, Tag("waypoints")],
+    Discriminator(kind_of("static")),
+    Field(json_schema_extra={"what": "motion kind"}),
+]
+
+
+# --------------------------------------------------------------------------- objects
+
+
+class ObjectSpec(Table):
+    """Keys every object has. The start pose is ``pose`` (world frame) or ``pose_in_camera``
+    (relative to the start camera), default the world origin."""
+
+    kind: str
+    name: str = Field(
+        min_length=1, max_length=100, description="unique name (features refer to it)"
+    )
+    pose: Pose | None = Field(None, description="start pose in the world (= robot base) frame")
+    pose_in_camera: Pose | None = Field(None, description="start pose in the start camera frame")
+    motion: AnyMotion | None = Field(None, description="motion (default static)")
+
+    @model_validator(mode="after")
+    def _one_pose(self) -> ObjectSpec:
+        if self.pose is not None and self.pose_in_camera is not None:
+            fail("give either pose or pose_in_camera, not both", "pose_in_camera")
+        return self
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:  # pragma: no cover - abstract
+        """The runtime :class:`~redservo.scene.SceneObject` moving along ``trajectory``."""
+        raise NotImplementedError
+
+    def reference_points(self) -> FloatArray:
+        """(N, 3) points (object frame, m) that must stay in the image."""
+        return np.zeros((1, 3))
+
+
+class PointsObject(ObjectSpec):
+    """Points fixed in the object frame (e.g. the dots of a planar target)."""
+
+    kind: Literal["points"]
+    points: list[Vec3] = Field(
+        [[0.0, 0.0, 0.0]], min_length=1, max_length=10_000, description="(N, 3) points (m)"
+    )
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:
+        """The runtime :class:`~redservo.scene.PointSet`."""
+        from redservo.scene import PointSet
+
+        return PointSet(self.name, np.array(self.points, dtype=float), trajectory=trajectory)
+
+    def reference_points(self) -> FloatArray:
+        return np.array(self.points, dtype=float)
+
+
+_Radius = num(0.05, gt=0.0, le=BIG, description="radius (m)")
+
+
+class SphereObject(ObjectSpec):
+    """A sphere."""
+
+    kind: Literal["sphere"]
+    radius: float = _Radius
+    center: Vec3 = Field([0.0, 0.0, 0.0], description="centre in the object frame (m)")
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:
+        """The runtime :class:`~redservo.scene.Sphere`."""
+        from redservo.scene import Sphere
+
+        return Sphere(self.name, self.radius, np.array(self.center), trajectory=trajectory)
+
+    def reference_points(self) -> FloatArray:
+        return np.array([self.center], dtype=float)
+
+
+def _nonzero(v: list[float], key: str) -> None:
+    if float(np.linalg.norm(v)) < 1e-9:
+        fail(f"must not be the zero vector, got {v}", key)
+
+
+class CylinderObject(ObjectSpec):
+    """An infinite cylinder around the line through ``point`` along ``axis``."""
+
+    kind: Literal["cylinder"]
+    radius: float = _Radius
+    axis: Vec3 = Field([0.0, 1.0, 0.0], description="axis direction, object frame (non-zero)")
+    point: Vec3 = Field([0.0, 0.0, 0.0], description="a point of the axis, object frame (m)")
+
+    @model_validator(mode="after")
+    def _axis(self) -> CylinderObject:
+        _nonzero(self.axis, "axis")
+        return self
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:
+        """The runtime :class:`~redservo.scene.Cylinder`."""
+        from redservo.scene import Cylinder
+
+        return Cylinder(
+            self.name, self.radius, np.array(self.axis), np.array(self.point), trajectory=trajectory
+        )
+
+    def reference_points(self) -> FloatArray:
+        return np.array([self.point], dtype=float)
+
+
+class LineObject(ObjectSpec):
+    """A straight line through ``point`` along ``direction``."""
+
+    kind: Literal["line"]
+    point: Vec3 = Field([0.0, 0.0, 0.0], description="a point of the line, object frame (m)")
+    direction: Vec3 = Field([0.0, 1.0, 0.0], description="direction, object frame (non-zero)")
+
+    @model_validator(mode="after")
+    def _direction(self) -> LineObject:
+        _nonzero(self.direction, "direction")
+        return self
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:
+        """The runtime :class:`~redservo.scene.Line`."""
+        from redservo.scene import Line
+
+        return Line(
+            self.name, np.array(self.point), np.array(self.direction), trajectory=trajectory
+        )
+
+    def reference_points(self) -> FloatArray:
+        return np.array([self.point], dtype=float)
+
+
+OBJECT_KINDS: dict[str, type[ObjectSpec]] = {
+    "points": PointsObject,
+    "sphere": SphereObject,
+    "cylinder": CylinderObject,
+    "line": LineObject,
+}
+"""Object kinds of ``[[objects]]``, by ``kind``."""
+AnyObject = Annotated[
+    Annotated[PointsObject, Tag("points")]
+    | Annotated[SphereObject, Tag("sphere")]
+    | Annotated[CylinderObject, Tag("cylinder")]
+    | Annotated[LineObject, Tag("line")],
+    Discriminator(kind_of(None)),
+    Field(json_schema_extra={"what": "object kind"}),
+]
+
+
+# --------------------------------------------------------------------------- features
+
+_Components = Annotated[
+    list[Annotated[int, Field(ge=0, le=1000)]],
+    Field(min_length=1, max_length=1000),
+    Doc("array of distinct integers >= 0"),
+]
+
+
+class FeatureSpec(Table):
+    """Keys every feature has."""
+
+    kind: str
+    object: str = Field(min_length=1, description="name of the object it observes")
+    components: _Components | None = Field(
+        None,
+        description="keep only these components in the task (0-based, in the feature's order): "
+        "e1 = C (s - s*), J1 = C L J with C a selection matrix; s is still measured in full",
+    )
+    object_kind: ClassVar[str] = "points"
+    """The object kind this feature observes."""
+
+    @model_validator(mode="after")
+    def _distinct(self) -> FeatureSpec:
+        if self.components is not None and len(set(self.components)) != len(self.components):
+            fail(f"components must be distinct, got {self.components}", "components")
+        return self
+
+    def size(self, obj: ObjectSpec) -> int:
+        """Number of components of one feature of this entry (per point for ``point``)."""
+        raise NotImplementedError  # pragma: no cover - abstract
+
+    def count(self, obj: ObjectSpec) -> int:
+        """Number of features this entry expands to (one per point for ``point``)."""
+        return 1
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        """The runtime features observing ``obj`` (``desired``: ``c*Mo`` per object, or None)."""
+        raise NotImplementedError  # pragma: no cover - abstract
+
+
+def _feature(kind: str, **options: Any) -> Feature:
+    from redservo.features import make_feature
+
+    return make_feature(kind, **options)
+
+
+class PointSpec(FeatureSpec):
+    """Image point(s) ``(x, y)`` of a ``points`` object: one feature per point."""
+
+    kind: Literal["point"]
+    index: int | None = integer(
+        None,
+        ge=0,
+        le=9_999,
+        description="only this point of the set (0-based; default: every point)",
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 2
+
+    def count(self, obj: ObjectSpec) -> int:
+        return 1 if self.index is not None else len(getattr(obj, "points", [[0.0]]))
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
+        idx = [self.index] if self.index is not None else range(pts.shape[0])
+        return [_feature("point", point_o=pts[j]) for j in idx]
+
+
+class LineSpec(FeatureSpec):
+    """``(ρ, θ)`` of a straight line."""
+
+    kind: Literal["line"]
+    object_kind: ClassVar[str] = "line"
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 2
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("line", point=o.point, direction=o.direction)]
+
+
+class CylinderSpec(FeatureSpec):
+    """``(ρ1, θ1, ρ2, θ2)`` of a cylinder's two limb lines."""
+
+    kind: Literal["cylinder"]
+    object_kind: ClassVar[str] = "cylinder"
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 4
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("cylinder", radius=o.radius, axis=o.axis, point=o.point)]
+
+
+class SphereSpec(FeatureSpec):
+    """The ellipse of a sphere (variants in :mod:`redservo.features.sphere`)."""
+
+    kind: Literal["sphere"]
+    object_kind: ClassVar[str] = "sphere"
+    variant: SphereVariant = choice(
+        "exact",
+        what="sphere variant",
+        description="exact (xc, yc, a) | paper (CM01 eq. 27) | moments (xc, yc, n20, n11, n02)",
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 5 if self.variant == "moments" else 3
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("sphere", radius=o.radius, center=o.center, variant=self.variant)]
+
+
+class MomentsSpec(FeatureSpec):
+    """The six decoupled moment features of a planar ``points`` object (needs
+    ``task.desired_pose``)."""
+
+    kind: Literal["moments"]
+    rotation_features: RotationFeatures = choice(
+        "c4c6", what="rotation features", description="the last two features: c4c6 | pxpy | sxsy"
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 6
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        from redservo.features import MomentFeatures
+
+        assert desired is not None  # checked by the scenario schema
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
+        T = desired[obj.name]
+        target = MomentFeatures.desired_from(pts @ T[:3, :3].T + T[:3, 3])
+        return [
+            _feature(
+                "moments",
+                points_o=pts,
+                desired_area=target[0],
+                desired_depth=target[1],
+                rotation_features=self.rotation_features,
+            )
+        ]
+
+
+FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
+    "point": PointSpec,
+    "line": LineSpec,
+    "cylinder": CylinderSpec,
+    "sphere": SphereSpec,
+    "moments": MomentsSpec,
+}
+"""Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`)."""
+AnyFeature = Annotated[
+    Annotated[PointSpec, Tag("point")]
+    | Annotated[LineSpec, Tag("line")]
+    | Annotated[CylinderSpec, Tag("cylinder")]
+    | Annotated[SphereSpec, Tag("sphere")]
+    | Annotated[MomentsSpec, Tag("moments")],
+    Discriminator(kind_of(None)),
+    Field(json_schema_extra={"what": "feature kind"}),
+]
