@@ -216,7 +216,7 @@ def test_bad_definition_names_file_and_key(change: dict[str, Any], key: str) -> 
     with pytest.raises(ScenarioError) as info:
         parse_campaign({**BASE, **change}, "my-campaign.toml")
     msg = str(info.value)
-    assert msg.startswith("my-campaign.toml: ") and f"key '{key}'" in msg
+    assert msg.startswith("my-campaign.toml: ") and f"key '{key}" in msg, msg
 
 
 def test_missing_scenario_key_and_bad_files(tmp_path: Path) -> None:
@@ -439,3 +439,245 @@ def test_object_motion_follows_the_start_camera(tmp_path: Path, frame: str) -> N
             d, samples=1, methods=["gpm"], workers=1, out=tmp_path / "o", progress=False
         )
         assert {p.name for p in out.figures} == {"success_rate.png", "final_error.png"}
+
+
+# --------------------------------------------------------------------------- storage
+
+
+def _csv_keys(path: Path) -> list[tuple[int, str]]:
+    import csv
+
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return [(int(r["sample"]), r["method"]) for r in rows]
+
+
+def test_resume_removes_duplicates_and_torn_rows(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    d, out = quick(), tmp_path / "c"
+    first = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    csv = out / "samples.csv"
+    lines = csv.read_text().splitlines(keepends=True)
+    # What two unlocked writers used to leave: every row twice, then a line cut short.
+    csv.write_text("".join(lines) + "".join(lines[1:]) + lines[1][:30])
+    capsys.readouterr()
+    again = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    assert again.computed == 0 and _strip(again.rows) == _strip(first.rows)
+    keys = _csv_keys(csv)
+    assert len(keys) == len(set(keys)) == 4
+    err = capsys.readouterr().err
+    assert "removed 1 torn, 4 duplicate" in err and "kept 4 row(s)" in err
+
+
+def test_an_error_row_is_replaced_by_a_finished_one(tmp_path: Path) -> None:
+    d, out = quick(), tmp_path / "c"
+    run_campaign(d, samples=1, seed=0, workers=1, out=out, progress=False)
+    csv = out / "samples.csv"
+    header, *rows = csv.read_text().splitlines(keepends=True)
+    broken = rows[0].replace(",converged,", ",error,").replace(",max_iterations,", ",error,")
+    csv.write_text(header + broken + "".join(rows))  # an error row first, then the real one
+    res = run_campaign(d, samples=1, seed=0, workers=1, out=out, progress=False)
+    assert res.computed == 0 and all(r["outcome"] != "error" for r in res.rows)
+    assert len(_csv_keys(csv)) == 2
+
+
+def test_the_output_directory_is_locked(tmp_path: Path) -> None:
+    import threading
+
+    from redservo.campaign.lock import DirectoryLock
+
+    d, out = quick(), tmp_path / "c"
+    lock = DirectoryLock(out)
+    with pytest.raises(ConfigurationError, match=r"in use by another redservo campaign.*--wait"):
+        run_campaign(d, samples=1, workers=1, out=out, progress=False)
+    timer = threading.Timer(0.5, lock.release)
+    timer.start()
+    res = run_campaign(d, samples=1, workers=1, out=out, progress=False, wait=True)
+    timer.join()
+    assert res.computed == 2
+    with DirectoryLock(out):  # released at the end of the campaign
+        pass
+
+
+def test_a_damaged_definition_is_named_and_repaired(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    d, out = quick(), tmp_path / "c"
+    first = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    meta = out / "definition.json"
+    meta.write_text(meta.read_text()[:50])  # cut short
+    with pytest.raises(ConfigurationError, match=r"definition.json is damaged.*--repair"):
+        run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    fixed = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False, repair=True)
+    assert fixed.computed == 0 and _strip(fixed.rows) == _strip(first.rows)
+    # Missing definition.json next to rows of *another* seed: repair keeps none of them.
+    meta.unlink()
+    with pytest.raises(ConfigurationError, match=r"definition.json is missing.*--repair"):
+        run_campaign(d, samples=2, seed=2, workers=1, out=out, progress=False)
+    other = run_campaign(d, samples=2, seed=2, workers=1, out=out, progress=False, repair=True)
+    assert other.computed == 4 and len(_csv_keys(out / "samples.csv")) == 4
+
+
+def test_a_damaged_header_is_named_and_repaired(tmp_path: Path) -> None:
+    d, out = quick(), tmp_path / "c"
+    first = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    csv = out / "samples.csv"
+    header, rest = csv.read_text().split("\n", 1)
+    csv.write_text(header[:25] + "\n" + rest)
+    with pytest.raises(ConfigurationError, match=r"header of .*samples.csv is damaged.*--repair"):
+        run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
+    fixed = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False, repair=True)
+    assert fixed.computed == 0 and _strip(fixed.rows) == _strip(first.rows)
+    assert csv.read_text().split("\n", 1)[0] == header
+
+
+def test_another_row_format_is_refused(tmp_path: Path) -> None:
+    import json
+
+    d, out = quick(), tmp_path / "c"
+    run_campaign(d, samples=1, seed=1, workers=1, out=out, progress=False)
+    meta = json.loads((out / "definition.json").read_text())
+    meta.update(format=2, fingerprint="0" * 64)
+    (out / "definition.json").write_text(json.dumps(meta))
+    with pytest.raises(ConfigurationError, match="row format 2"):
+        run_campaign(d, samples=1, seed=1, workers=1, out=out, progress=False)
+
+
+def test_parquet_next_to_the_csv(tmp_path: Path) -> None:
+    pq = pytest.importorskip("pyarrow.parquet", reason="Parquet needs pyarrow (redservo[parquet])")
+    pd = pytest.importorskip("pandas")
+    res = run_campaign(quick(), samples=2, seed=0, workers=1, out=tmp_path, progress=False)
+    table = pq.read_table(tmp_path / "samples.parquet")
+    schema = table.schema
+    assert str(schema.field("sample").type) == "int64" and not schema.field("sample").nullable
+    assert str(schema.field("success").type) == "bool"
+    assert str(schema.field("min_margin").type) == "double"
+    assert schema.field("limit_axis").nullable and str(schema.field("method").type) == "string"
+    assert schema.metadata[b"fingerprint"].decode() == res.to_dict()["fingerprint"]
+    frame, csv = table.to_pandas(), pd.read_csv(tmp_path / "samples.csv")
+    assert list(frame.columns) == list(csv.columns) and len(frame) == len(csv) == 4
+    assert np.allclose(frame["q0_x"], csv["q0_x"])
+
+
+def test_limit_axis_is_zero_based_like_the_summary(tmp_path: Path) -> None:
+    """One joint numbering: the CSV's limit_axis is summary.json's limit_hit.axis (0-based)."""
+    from redservo.campaign.storage import _summary_columns
+
+    summary = {
+        "outcome": "joint_limit",
+        "iterations": 3,
+        "limit_hit": {"axis": 0, "iteration": 2},
+        "min_margin": 0.0,
+        "max_joint_speed": [0.1],
+        "max_camera_speed": {"translation": 0.0, "rotation": 0.0},
+        "discontinuity": 0.0,
+        "final_error_norm": 0.1,
+    }
+    row = _summary_columns(summary, ("x", "y"))
+    assert row["limit_axis"] == 0 and row["limit_joint"] == "x"
+
+
+# --------------------------------------------------------------------------- processes
+
+CAMPAIGN = """
+scenario = "afma6-gaze-demo"
+methods = ["classical", "iterative-smooth"]
+samples = {samples}
+[overrides]
+simulation = {{ max_iterations = 40 }}
+[target]
+translation = [0.05, 0.05, 0.05]
+"""
+
+
+def _campaign_cmd(path: Path, out: Path, *extra: str) -> list[str]:
+    """``redservo campaign`` in a fresh interpreter (without the figures, to keep it quick)."""
+    import sys
+
+    code = (
+        "import sys; sys.modules['matplotlib'] = None; from redservo.cli import main; "
+        "sys.exit(main(sys.argv[1:]))"
+    )
+    args = ["campaign", str(path), "--out", str(out), "-q", *extra]
+    return [sys.executable, "-c", code, *args]
+
+
+def _processes_mentioning(token: str) -> list[int]:
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                cmd = (entry / "cmdline").read_bytes()
+            except OSError:
+                continue
+            if token.encode() in cmd:
+                pids.append(int(entry.name))
+    return pids
+
+
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="needs /proc (Linux)")
+def test_killed_campaigns_leave_no_orphans_and_one_row_per_pair(tmp_path: Path) -> None:
+    """SIGKILL the parent at random moments: its workers exit, and resuming leaves exactly one
+    row per (sample, method)."""
+    import random
+    import signal
+    import subprocess
+    import time
+
+    seed = 20261123
+    rng = random.Random(seed)
+    path, out = tmp_path / "c.toml", tmp_path / "out-killed"
+    path.write_text(CAMPAIGN.format(samples=8))
+    token = str(out)
+    with_workers = 0
+    for round_ in range(3):
+        proc = subprocess.Popen(_campaign_cmd(path, out, "--workers", "2"), stderr=subprocess.PIPE)
+        start = time.monotonic()
+        if round_ > 0:  # once the pool is up: the parent and its two workers
+            while len(_processes_mentioning(token)) < 3 and proc.poll() is None:
+                assert time.monotonic() - start < 60.0
+                time.sleep(0.05)
+        time.sleep(rng.uniform(0.0, 0.8) if round_ > 0 else rng.uniform(0.3, 1.5))
+        with_workers += len(_processes_mentioning(token)) >= 3
+        delay = time.monotonic() - start
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        deadline = time.monotonic() + 5.0
+        while _processes_mentioning(token) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _processes_mentioning(token) == [], f"orphans (seed {seed}, round {round_})"
+        csv = out / "samples.csv"
+        if csv.exists():
+            keys = _csv_keys(csv)
+            assert len(keys) == len(set(keys)), f"duplicates after a kill at {delay:.2f} s"
+    assert with_workers >= 1, "the workers were never alive when the parent was killed"
+    done = subprocess.run(
+        _campaign_cmd(path, out, "--workers", "2"), capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    keys = _csv_keys(out / "samples.csv")
+    assert sorted(keys) == sorted(
+        {(i, m) for i in range(8) for m in ("classical", "iterative-smooth")}
+    )
+
+
+def test_two_concurrent_writers(tmp_path: Path) -> None:
+    """Two campaigns started together on one directory: one waits for the other (--wait), the
+    second reuses the first's rows, and the file has exactly one row per (sample, method).
+    (Without --wait the second stops at once: test_the_output_directory_is_locked.)"""
+    import subprocess
+
+    path, out = tmp_path / "c.toml", tmp_path / "out-shared"
+    path.write_text(CAMPAIGN.format(samples=4))
+    cmd = _campaign_cmd(path, out, "--workers", "1", "--wait")
+    procs = [
+        subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
+    errs = [p.communicate(timeout=120)[1] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], errs
+    keys = _csv_keys(out / "samples.csv")
+    assert sorted(keys) == sorted(
+        {(i, m) for i in range(4) for m in ("classical", "iterative-smooth")}
+    )

@@ -4,12 +4,17 @@
     redservo compare SCENARIO --methods a,b,c [--out DIR]
     redservo list
     redservo reproduce [--out DIR] [--only ID] [--fast]
-    redservo campaign SCENARIO --methods a,b --samples N --seed S [--workers K] [--out DIR]
+    redservo campaign CAMPAIGN [--methods a,b] [--samples N] [--seed S] [--workers K]
+                      [--out DIR] [--wait] [--repair]
     redservo bench [--repeat N]
 
-Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not
-an error), 2 on bad input (unknown scenario, method or key, malformed file),
-1 on an unexpected internal error.
+Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not an error);
+2 on bad input (unknown scenario, method or key, malformed or absurd file, bad option, a
+missing optional extra, an output directory that cannot be written or is in use), printed
+as one line ``redservo: error: FILE: key 'KEY': ...``; 1 on an unexpected internal error
+(a bug: ``--debug`` shows the traceback to report); 130 when interrupted. Diagnostic flags
+raised during a run are printed as ``warning:`` lines on stderr, one per flag with its
+count and first iteration. Joints and iterations are numbered from 0 everywhere.
 """
 
 from __future__ import annotations
@@ -17,15 +22,68 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import traceback
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from redservo.errors import RedservoError
 
 __all__ = ["main"]
 
-_EPILOG = "Scenario format: docs/scenarios.md. Methods and scenarios: redservo list."
+_EPILOG = "Scenario format: docs/scenarios.md; campaigns: docs/campaigns.md. Names: redservo list."
+
+_EXTRAS = {
+    "matplotlib": "plot",
+    "tqdm": "progress",
+    "qpsolvers": "qp",
+    "daqp": "qp",
+    "pinocchio": "urdf",
+    "cv2": "vision",
+    "numba": "fast",
+    "distributed": "dask",
+    "dask": "dask",
+    "viser": "viewer",
+    "imageio": "viewer",
+    "PIL": "viewer",
+    "pyarrow": "parquet",
+}
+"""Optional imports and the extra that installs them (pyproject.toml)."""
+
+
+class _UsageError(Exception):
+    """A command-line usage error (reported in one line, exit code 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+
+
+def _int_in(lo: int, hi: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def _require(module: str, what: str) -> None:
+    """Fail early, in one line, when an optional dependency is missing."""
+    import importlib.util
+
+    try:
+        found = importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):
+        found = False
+    if not found:
+        raise ImportError(f"{what} need {module}: pip install 'redservo[{_EXTRAS[module]}]'")
 
 
 def _progress(
@@ -48,23 +106,25 @@ def _progress(
     return update, bar.close
 
 
-def _summary_line(name: str, summary: Mapping[str, Any]) -> str:
+def _summary_line(name: str, summary: Mapping[str, Any], joints: Sequence[str] = ()) -> str:
+    """One line per run; joints and iterations numbered from 0 (README, Conventions)."""
     hit = summary["limit_hit"]
-    hit_s = f" (axis {hit['axis'] + 1} at iteration {hit['iteration']})" if hit else ""
+    hit_s = ""
+    if hit:
+        j = int(hit["axis"])
+        label = f" {joints[j]!r}" if j < len(joints) else ""
+        hit_s = f" (joint {j}{label} at iteration {hit['iteration']})"
     cam = summary["max_camera_speed"]
     return (
         f"{name}: {summary['outcome']}{hit_s} after {summary['iterations']} iterations, "
         f"final |e| = {summary['final_error_norm']:.3g}, min margin = {summary['min_margin']:.3f}, "
         f"max camera speed = {cam['translation']:.3g} m/s / {cam['rotation']:.3g} rad/s, "
-        f"discontinuity = {summary['discontinuity']:.3g}"
-        + _safety_text(summary)
+        f"discontinuity = {summary['discontinuity']:.3g}" + _safety_text(summary)
     )
 
 
 def _safety_text(summary: Mapping[str, Any]) -> str:
-    """The safety part of the summary line, then one warning line per diagnostic flag."""
-    from redservo.simulation import flag_warnings
-
+    """The safety part of the summary line (docs/safety.md): rates, success, shield."""
     if "success" not in summary:
         return ""
     ratio = summary.get("peak_velocity_ratio")
@@ -72,13 +132,23 @@ def _safety_text(summary: Mapping[str, Any]) -> str:
     text += f", {'success' if summary['success'] else 'no success'}"
     if summary.get("shield_activations"):
         text += f" (the shield acted at {summary['shield_activations']} step(s))"
-    return text + "".join(f"\n  warning: {line}" for line in flag_warnings(summary))
+    return text
+
+
+def _warn(summary: Any, prefix: str = "") -> None:
+    """Print one ``warning:`` line per diagnostic flag raised in a run (stderr)."""
+    from redservo.simulation import flag_warnings
+
+    for line in flag_warnings(summary):
+        print(f"warning: {prefix}{line}", file=sys.stderr)
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from redservo.experiment import build
     from redservo.scenario import apply_overrides, load_scenario
 
+    if args.plot:
+        _require("matplotlib", "figures (--plot)")
     sc = load_scenario(args.scenario)
     sets = list(args.set or [])
     if args.method:
@@ -97,7 +167,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         from redservo import plots
 
         plots.run_figures(result, exp, out)
-    print(_summary_line(f"{sc.name} [{sc.method}]", result.summary))
+    print(_summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
+    _warn(result.summary)
     print(f"wrote {out}/summary.json, log.npz, log.csv" + (" and figures" if args.plot else ""))
     return 0
 
@@ -111,6 +182,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.set:
         sc = apply_overrides(sc, list(args.set))
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    if not methods:
+        raise _UsageError("redservo compare: --methods: give at least one method name")
     for m in methods:
         law_class(m)  # unknown names fail before anything runs
     exp = build(sc)
@@ -123,7 +196,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         finally:
             close()
         results[m].save(out / m, extra={"scenario": sc.name, "method": m})
-        print(_summary_line(m, results[m].summary))
+        print(_summary_line(m, results[m].summary, exp.robot.joint_names))
+        _warn(results[m].summary, f"{m}: ")
     from redservo.report import summary_table
 
     rows = {m: r.summary.to_dict() for m, r in results.items()}
@@ -133,18 +207,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         from redservo import plots
 
         plots.compare_figures(results, exp, out)
-    except ImportError as exc:  # matplotlib is optional
+    except ImportError as exc:  # matplotlib is optional here: the tables are the result
         print(f"figures skipped: {exc}", file=sys.stderr)
     print(f"wrote {out}/compare.md, compare.json and figures")
     return 0
 
 
 def _cmd_list(_args: argparse.Namespace) -> int:
+    from redservo.campaign import shipped_campaigns
     from redservo.redundancy import METHOD_DESCRIPTIONS
     from redservo.scenario import shipped_scenarios
 
     print("Scenarios (redservo run NAME):")
     for name, desc in shipped_scenarios().items():
+        print(f"  {name:28s} {desc}")
+    print("\nCampaigns (redservo campaign NAME):")
+    for name, desc in shipped_campaigns().items():
         print(f"  {name:28s} {desc}")
     print("\nMethods (--method NAME):")
     for name, desc in METHOD_DESCRIPTIONS.items():
@@ -155,6 +233,7 @@ def _cmd_list(_args: argparse.Namespace) -> int:
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from redservo.reproduction import reproduce
 
+    _require("matplotlib", "the reproduction's figures")
     report = reproduce(Path(args.out), only=args.only, fast=args.fast, progress=not args.quiet)
     n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
     n_all = sum(len(e["claims"]) for e in report["experiments"])
@@ -165,18 +244,23 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 def _cmd_campaign(args: argparse.Namespace) -> int:
     from redservo.campaign import run_campaign
 
-    methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
+    default_out = Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"
     result = run_campaign(
         args.scenario,
         methods=methods,
         samples=args.samples,
         seed=args.seed,
         workers=args.workers,
-        out=Path(args.out or Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"),
+        out=Path(args.out or default_out),
         progress=not args.quiet,
+        wait=args.wait,
+        repair=args.repair,
     )
     print(result.markdown)
-    print(f"wrote {result.out}/samples.csv, campaign.md, campaign.json and figures")
+    print(
+        f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json and figures"
+    )
     return 0
 
 
@@ -188,14 +272,23 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    from redservo.schema.campaign import MAX_SAMPLES
+
+    p = _Parser(
         prog="redservo",
         description="Redundancy-based joint-limit avoidance for visual servoing "
         "(Chaumette & Marchand 2001, Mansard & Chaumette 2005, and baselines).",
         epilog=_EPILOG,
     )
-    common = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--debug", action="store_true", help="show the traceback of an error")
+    common = _Parser(add_help=False)
     common.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    common.add_argument(
+        "--debug",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="show the traceback of an error",
+    )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     r = sub.add_parser("run", help="run one scenario", parents=[common], epilog=_EPILOG)
@@ -223,7 +316,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--out", help="output directory (default runs/SCENARIO-compare)")
     c.set_defaults(func=_cmd_compare)
 
-    ls = sub.add_parser("list", help="list the shipped scenarios and the methods", parents=[common])
+    ls = sub.add_parser(
+        "list", help="list the shipped scenarios, campaigns and methods", parents=[common]
+    )
     ls.set_defaults(func=_cmd_list)
 
     rp = sub.add_parser(
@@ -237,41 +332,96 @@ def _parser() -> argparse.ArgumentParser:
     rp.set_defaults(func=_cmd_reproduce)
 
     cp = sub.add_parser(
-        "campaign", help="Monte Carlo comparison of methods on random variations", parents=[common]
+        "campaign",
+        help="Monte Carlo comparison of methods on random variations",
+        parents=[common],
+        epilog=_EPILOG,
     )
     cp.add_argument("scenario", help="a shipped campaign name or a campaign .toml file")
     cp.add_argument("--methods", help="comma-separated methods (default: the campaign's list)")
-    cp.add_argument("--samples", type=int, default=None, help="number of random variations")
     cp.add_argument(
-        "--seed", type=int, default=0, help="random seed (results do not depend on --workers)"
+        "--samples", type=_int_in(1, MAX_SAMPLES), default=None, help="number of random variations"
     )
     cp.add_argument(
-        "--workers", type=int, default=None, help="parallel processes (default: all cores)"
+        "--seed",
+        type=_int_in(0, 2**63 - 1),
+        default=0,
+        help="random seed (results do not depend on --workers)",
+    )
+    cp.add_argument(
+        "--workers",
+        type=_int_in(1, 1024),
+        default=None,
+        help="parallel processes (default: all cores)",
     )
     cp.add_argument(
         "--out",
         help="output directory (default runs/campaign-NAME-seedS); finished samples are "
         "stored there and reused by a rerun",
     )
+    cp.add_argument(
+        "--wait", action="store_true", help="wait while another campaign writes to --out"
+    )
+    cp.add_argument(
+        "--repair",
+        action="store_true",
+        help="rebuild a damaged definition.json or samples.csv from the rows that are intact",
+    )
     cp.set_defaults(func=_cmd_campaign)
 
     b = sub.add_parser("bench", help="time the control step of every method", parents=[common])
-    b.add_argument("--repeat", type=int, default=2000, help="timed calls per case")
+    b.add_argument(
+        "--repeat", type=_int_in(1, 1_000_000), default=2000, help="timed calls per case"
+    )
     b.set_defaults(func=_cmd_bench)
     return p
 
 
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _describe(exc: BaseException) -> tuple[int, str]:
+    """Exit code and one-line message of an exception that ended a command."""
+    if isinstance(exc, RedservoError | _UsageError):
+        return 2, _one_line(str(exc))
+    if isinstance(exc, ImportError):
+        text = str(exc)
+        if "pip install" in text:
+            return 2, _one_line(text)
+        top = (exc.name or "").split(".")[0]
+        extra = _EXTRAS.get(top)
+        hint = f": pip install 'redservo[{extra}]'" if extra else ""
+        return 2, _one_line(f"missing optional dependency {top or text}{hint}")
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        return 2, _one_line(f"{where}{exc.strerror or exc}")
+    if isinstance(exc, MemoryError):
+        return 2, "out of memory (lower simulation.max_iterations, the samples or the workers)"
+    return 1, _one_line(
+        f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback, "
+        "and please report it)"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``redservo`` console script; returns the exit code."""
-    args = _parser().parse_args(argv)
     try:
-        return int(args.func(args))
-    except RedservoError as exc:
+        args = _parser().parse_args(argv)
+    except _UsageError as exc:
         print(f"redservo: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # pragma: no cover
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:  # pragma: no cover - interactive
         print("redservo: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:
+        code, line = _describe(exc)
+        if args.debug:
+            traceback.print_exc()
+        print(f"redservo: error: {line}", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -137,6 +137,7 @@ from redservo.campaign.definition import (
     parse_campaign,
     shipped_campaigns,
 )
+from redservo.campaign.lock import worker_init
 from redservo.campaign.sampling import Sample, draw_sample, sample_start
 from redservo.campaign.sampling import _start_problem as _start_problem
 from redservo.campaign.stats import (
@@ -151,6 +152,7 @@ from redservo.campaign.stats import (
 from redservo.campaign.storage import _error_columns, _sample_columns, _Store, _summary_columns
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.scenario import Scenario
+from redservo.schema.campaign import MAX_SAMPLES
 
 __all__ = [
     "FORMAT_VERSION",
@@ -251,14 +253,21 @@ def _run_task(task: _Task) -> dict[str, Any]:
 
 
 def _executor_map(
-    tasks: Iterator[_Task], workers: int, on_row: Callable[[dict[str, Any]], None]
+    tasks: Iterator[_Task], workers: int, on_rows: Callable[[list[dict[str, Any]]], None]
 ) -> None:
-    """Run tasks (in-process when ``workers == 1``), calling ``on_row`` as each finishes."""
+    """Run tasks (in-process when ``workers == 1``), calling ``on_rows`` with each batch of
+    rows that finished together (stored as one atomic write).
+
+    Worker processes exit when this process dies, even by SIGKILL
+    (:func:`redservo.campaign.lock.worker_init`).
+    """
     if workers == 1:
         for task in tasks:
-            on_row(_run_task(task))
+            on_rows([_run_task(task)])
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with ProcessPoolExecutor(
+        max_workers=workers, initializer=worker_init, initargs=(os.getpid(),)
+    ) as pool:
         pending: set[Future[dict[str, Any]]] = set()
         try:
             for task in tasks:
@@ -266,12 +275,10 @@ def _executor_map(
                 # Keep a bounded queue so rows are stored while samples are still being drawn.
                 while len(pending) >= 4 * workers:
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        on_row(fut.result())
+                    on_rows([fut.result() for fut in done])
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    on_row(fut.result())
+                on_rows([fut.result() for fut in done])
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -286,6 +293,8 @@ def run_campaign(
     workers: int | None = None,
     out: str | Path | None = None,
     progress: bool = True,
+    wait: bool = False,
+    repair: bool = False,
 ) -> CampaignResult:
     """Run a Monte Carlo campaign: every method on the same ``samples`` random variations.
 
@@ -298,6 +307,9 @@ def run_campaign(
         out: Output directory for ``samples.csv`` (resumable), ``definition.json``,
             ``campaign.json``, ``campaign.md`` and figures; None writes nothing.
         progress: Show a progress bar on stderr (tqdm, if installed and stderr is a terminal).
+        wait: When another process is writing to ``out``, wait for it instead of raising.
+        repair: Rebuild a damaged ``definition.json`` or ``samples.csv`` header, keeping the
+            rows that are intact and belong to this campaign (docs/campaigns.md, "Storage").
 
     Returns:
         :class:`CampaignResult`.
@@ -305,8 +317,9 @@ def run_campaign(
     Raises:
         ScenarioError: bad definition, or no valid start for a sample.
         UnknownNameError: unknown method.
-        ConfigurationError: bad ``samples``/``seed``/``workers``, or ``out`` holds another
-            campaign.
+        ConfigurationError: bad ``samples``/``seed``/``workers``; ``out`` holds another
+            campaign, is in use by another process (without ``wait``) or is damaged (without
+            ``repair``).
     """
     from redservo.redundancy import METHODS
 
@@ -318,16 +331,34 @@ def run_campaign(
     if not names or len(set(names)) != len(names):
         raise ConfigurationError(f"methods must be a non-empty list without repeats, got {names}")
     n = defn.samples if samples is None else int(samples)
-    if n < 1:
-        raise ConfigurationError(f"samples must be at least 1, got {samples}")
+    if not 1 <= n <= MAX_SAMPLES:
+        raise ConfigurationError(f"samples must be in [1, {MAX_SAMPLES}], got {samples}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ConfigurationError(f"seed must be a non-negative integer, got {seed!r}")
     seed = int(seed)
     n_workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if n_workers < 1:
-        raise ConfigurationError(f"workers must be at least 1, got {workers}")
+    if not 1 <= n_workers <= 1024:
+        raise ConfigurationError(f"workers must be in [1, 1024], got {workers}")
     out_dir = Path(out) if out is not None else None
-    store = _Store(out_dir, defn, seed) if out_dir is not None else None
+    store = _Store(out_dir, defn, seed, wait=wait, repair=repair) if out_dir is not None else None
+    try:
+        return _run(defn, names, n, seed, n_workers, out_dir, store, progress)
+    finally:
+        if store is not None:
+            store.close()
+
+
+def _run(
+    defn: CampaignDefinition,
+    names: tuple[str, ...],
+    n: int,
+    seed: int,
+    n_workers: int,
+    out_dir: Path | None,
+    store: _Store | None,
+    progress: bool,
+) -> CampaignResult:
+    """The body of :func:`run_campaign`, with the output directory locked."""
     done: dict[tuple[int, str], dict[str, Any]] = {
         key: row
         for key, row in (store.rows.items() if store else ())
@@ -357,17 +388,20 @@ def run_campaign(
     bar = _bar(len(todo), defn.name, progress)
     errors: list[str] = []
 
-    def on_row(row: dict[str, Any]) -> None:
+    stored = dict(store.rows) if store is not None else {}
+
+    def on_rows(batch: list[dict[str, Any]]) -> None:
         if store is not None:
-            store.append(row)
-            row = store.normalize(row)
-        done[(row["sample"], row["method"])] = row
-        if row["outcome"] == "error":
-            errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
-        bar(1)
+            store.append(batch)
+            batch = [store.normalize(row) for row in batch]
+        for row in batch:
+            done[(row["sample"], row["method"])] = stored[(row["sample"], row["method"])] = row
+            if row["outcome"] == "error":
+                errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
+        bar(len(batch))
 
     try:
-        _executor_map(tasks(), min(n_workers, max(1, len(todo))), on_row)
+        _executor_map(tasks(), min(n_workers, max(1, len(todo))), on_rows)
     finally:
         bar(None)
     for msg in errors:
@@ -392,6 +426,8 @@ def run_campaign(
         meta = {**result.to_dict(), "written": datetime.now(UTC).isoformat()}
         (out_dir / "campaign.json").write_text(json.dumps(meta, indent=2) + "\n")
         (out_dir / "campaign.md").write_text(markdown)
+        if store is not None and store.write_parquet(stored.values(), meta["fingerprint"]) is None:
+            store.notify("samples.parquet not written: pip install 'redservo[parquet]'")
     return result
 
 
