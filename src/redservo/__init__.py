@@ -28,6 +28,7 @@ from redservo.redundancy import (
 )
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain
+from redservo.runs import Run, load_run
 
 __version__ = "0.1.0"
 
@@ -46,9 +47,11 @@ __all__ = [
     "Law",
     "LawResult",
     "RedservoError",
+    "Run",
     "ScenarioError",
     "ShapeError",
     "UnknownNameError",
     "__version__",
+    "load_run",
     "make_law",
 ]

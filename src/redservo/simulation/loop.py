@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, cast
 
@@ -85,10 +85,17 @@ class SimulationResult:
     outcome: Outcome
     summary: RunSummary
     log: SimulationLog
+    provenance: Any = field(default=None, repr=False, compare=False)
+    """What the run was made from (:class:`redservo.provenance.Provenance`), set by
+    :meth:`redservo.experiment.Experiment.run`; None for a bare :func:`simulate`."""
 
     def save(self, directory: str | Path, *, extra: dict[str, Any] | None = None) -> Path:
-        """Write ``summary.json``, ``log.npz`` and ``log.csv`` into ``directory``."""
+        """Write ``summary.json``, ``log.npz``, ``log.csv`` and ``diagnostics.json`` into
+        ``directory``, and with a provenance the resolved ``scenario.toml`` and ``run.json``
+        (:mod:`redservo.provenance`: ``redservo run DIR/scenario.toml`` re-runs it)."""
         import json
+
+        from redservo.provenance import write_run_files
 
         out = Path(directory)
         out.mkdir(parents=True, exist_ok=True)
@@ -96,6 +103,7 @@ class SimulationResult:
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         self.log.save_npz(out / "log.npz")
         self.log.save_csv(out / "log.csv")
+        write_run_files(out, self)
         return out
 
 
