@@ -281,7 +281,8 @@ def test_hand_eye_error_is_applied_to_the_controllers_model(tmp_path: Path) -> N
 def test_kinds_match_the_registries() -> None:
     """A kind is its runtime class plus one spec: the specs cover exactly the registries."""
     from redservo.features import FEATURES
-    from redservo.schema.scene import FEATURE_KINDS, OBJECT_KINDS
+    from redservo.schema.features import FEATURE_KINDS
+    from redservo.schema.scene import OBJECT_KINDS
 
     assert set(FEATURE_KINDS) == set(FEATURES)
     assert set(OBJECT_KINDS) == {"points", "sphere", "cylinder", "line"}

@@ -126,6 +126,7 @@ def _section(title: str, model: type[BaseModel], *, skip: Iterable[str] = ()) ->
 
 def scenario_reference() -> str:
     """The reference of every scenario key (markdown)."""
+    from redservo.schema import features as sf
     from redservo.schema import scenario as s
     from redservo.schema import scene as sc
 
@@ -151,10 +152,10 @@ def scenario_reference() -> str:
     for model in sc.MOTION_KINDS:
         kind = typing.get_args(model.model_fields["kind"].annotation)[0]
         parts.append(_section(f'`[objects.motion]` with `kind = "{kind}"`', model, skip=("kind",)))
-    parts.append(_section("`[[features]]`: keys of every kind", sc.FeatureSpec, skip=("kind",)))
-    for kind, fmodel in sc.FEATURE_KINDS.items():
+    parts.append(_section("`[[features]]`: keys of every kind", sf.FeatureSpec, skip=("kind",)))
+    for kind, fmodel in sf.FEATURE_KINDS.items():
         title = f'`[[features]]` with `kind = "{kind}"`'
-        parts.append(_section(title, fmodel, skip=sc.FeatureSpec.model_fields))
+        parts.append(_section(title, fmodel, skip=sf.FeatureSpec.model_fields))
     for title, model in (
         ("`[task]`", s.TaskSpec),
         ("`[control]`", s.ControlSpec),

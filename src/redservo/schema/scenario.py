@@ -23,7 +23,8 @@ from redservo.schema.base import (
     num,
     unknown_name,
 )
-from redservo.schema.scene import AnyFeature, AnyObject, Pose
+from redservo.schema.features import AnyFeature
+from redservo.schema.scene import AnyObject, Pose
 from redservo.task import DepthMode
 
 __all__ = [

@@ -1,0 +1,191 @@
+"""Schema of the ``[[features]]`` entries of a scenario, one spec per feature kind.
+
+Each spec has a ``kind`` literal, its keys, the object kind it observes, its size (known
+without building, so that ``components`` and ``task.desired`` are checked when the file is
+validated) and :meth:`FeatureSpec.features`, which builds the runtime features through
+:func:`redservo.features.make_feature`. A new feature kind is its class in
+:mod:`redservo.features` (registered in ``FEATURES``) plus one spec here, listed in
+:data:`FEATURE_KINDS` and :data:`AnyFeature`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar, Literal, cast
+
+import numpy as np
+from pydantic import Discriminator, Field, Tag, model_validator
+
+from redservo._validation import FloatArray
+from redservo.features.base import Feature
+from redservo.features.moments import RotationFeatures
+from redservo.features.sphere import SphereVariant
+from redservo.scene import SceneObject
+from redservo.schema.base import Doc, Table, choice, fail, integer, kind_of
+from redservo.schema.scene import ObjectSpec
+
+__all__ = ["FEATURE_KINDS", "AnyFeature", "FeatureSpec"]
+
+
+_Components = Annotated[
+    list[Annotated[int, Field(ge=0, le=1000)]],
+    Field(min_length=1, max_length=1000),
+    Doc("array of distinct integers >= 0"),
+]
+
+
+class FeatureSpec(Table):
+    """Keys every feature has."""
+
+    kind: str
+    object: str = Field(min_length=1, description="name of the object it observes")
+    components: _Components | None = Field(
+        None,
+        description="keep only these components in the task (0-based, in the feature's order): "
+        "e1 = C (s - s*), J1 = C L J with C a selection matrix; s is still measured in full",
+    )
+    object_kind: ClassVar[str] = "points"
+    """The object kind this feature observes."""
+
+    @model_validator(mode="after")
+    def _distinct(self) -> FeatureSpec:
+        if self.components is not None and len(set(self.components)) != len(self.components):
+            fail(f"components must be distinct, got {self.components}", "components")
+        return self
+
+    def size(self, obj: ObjectSpec) -> int:
+        """Number of components of one feature of this entry (per point for ``point``)."""
+        raise NotImplementedError  # pragma: no cover - abstract
+
+    def count(self, obj: ObjectSpec) -> int:
+        """Number of features this entry expands to (one per point for ``point``)."""
+        return 1
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        """The runtime features observing ``obj`` (``desired``: ``c*Mo`` per object, or None)."""
+        raise NotImplementedError  # pragma: no cover - abstract
+
+
+def _feature(kind: str, **options: Any) -> Feature:
+    from redservo.features import make_feature
+
+    return make_feature(kind, **options)
+
+
+class PointSpec(FeatureSpec):
+    """Image point(s) ``(x, y)`` of a ``points`` object: one feature per point."""
+
+    kind: Literal["point"]
+    index: int | None = integer(
+        None,
+        ge=0,
+        le=9_999,
+        description="only this point of the set (0-based; default: every point)",
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 2
+
+    def count(self, obj: ObjectSpec) -> int:
+        return 1 if self.index is not None else len(getattr(obj, "points", [[0.0]]))
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
+        idx = [self.index] if self.index is not None else range(pts.shape[0])
+        return [_feature("point", point_o=pts[j]) for j in idx]
+
+
+class LineSpec(FeatureSpec):
+    """``(ρ, θ)`` of a straight line."""
+
+    kind: Literal["line"]
+    object_kind: ClassVar[str] = "line"
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 2
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("line", point=o.point, direction=o.direction)]
+
+
+class CylinderSpec(FeatureSpec):
+    """``(ρ1, θ1, ρ2, θ2)`` of a cylinder's two limb lines."""
+
+    kind: Literal["cylinder"]
+    object_kind: ClassVar[str] = "cylinder"
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 4
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("cylinder", radius=o.radius, axis=o.axis, point=o.point)]
+
+
+class SphereSpec(FeatureSpec):
+    """The ellipse of a sphere (variants in :mod:`redservo.features.sphere`)."""
+
+    kind: Literal["sphere"]
+    object_kind: ClassVar[str] = "sphere"
+    variant: SphereVariant = choice(
+        "exact",
+        what="sphere variant",
+        description="exact (xc, yc, a) | paper (CM01 eq. 27) | moments (xc, yc, n20, n11, n02)",
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 5 if self.variant == "moments" else 3
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        o: Any = obj
+        return [_feature("sphere", radius=o.radius, center=o.center, variant=self.variant)]
+
+
+class MomentsSpec(FeatureSpec):
+    """The six decoupled moment features of a planar ``points`` object (needs
+    ``task.desired_pose``)."""
+
+    kind: Literal["moments"]
+    rotation_features: RotationFeatures = choice(
+        "c4c6", what="rotation features", description="the last two features: c4c6 | pxpy | sxsy"
+    )
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 6
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        from redservo.features import MomentFeatures
+
+        assert desired is not None  # checked by the scenario schema
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
+        T = desired[obj.name]
+        target = MomentFeatures.desired_from(pts @ T[:3, :3].T + T[:3, 3])
+        return [
+            _feature(
+                "moments",
+                points_o=pts,
+                desired_area=target[0],
+                desired_depth=target[1],
+                rotation_features=self.rotation_features,
+            )
+        ]
+
+
+FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
+    "point": PointSpec,
+    "line": LineSpec,
+    "cylinder": CylinderSpec,
+    "sphere": SphereSpec,
+    "moments": MomentsSpec,
+}
+"""Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`)."""
+AnyFeature = Annotated[
+    Annotated[PointSpec, Tag("point")]
+    | Annotated[LineSpec, Tag("line")]
+    | Annotated[CylinderSpec, Tag("cylinder")]
+    | Annotated[SphereSpec, Tag("sphere")]
+    | Annotated[MomentsSpec, Tag("moments")],
+    Discriminator(kind_of(None)),
+    Field(json_schema_extra={"what": "feature kind"}),
+]
