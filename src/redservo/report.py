@@ -15,7 +15,7 @@ def _f(v: Any, fmt: str = ".3g") -> str:
 def summary_table(rows: Mapping[str, Mapping[str, Any]]) -> str:
     """Return a markdown table, one row per method, of the simulator summaries.
 
-    Columns: outcome (with the axis, 1-based, and iteration of a limit hit),
+    Columns: outcome (with the joint, 0-based, and iteration of a limit hit),
     iterations, minimum margin (fraction of the range), maximum joint speed
     (largest over axes, rad/s or m/s), maximum camera translation speed (m/s),
     maximum camera rotation speed (rad/s), discontinuity (max ‖Δq̇‖ per step).
@@ -29,7 +29,7 @@ def summary_table(rows: Mapping[str, Mapping[str, Any]]) -> str:
     for name, s in rows.items():
         hit = s.get("limit_hit")
         outcome = s["outcome"] + (
-            f" (axis {hit['axis'] + 1}, it. {hit['iteration']})" if hit else ""
+            f" (joint {hit['axis']}, it. {hit['iteration']})" if hit else ""
         )
         cam = s["max_camera_speed"]
         lines.append(
