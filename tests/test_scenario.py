@@ -392,8 +392,16 @@ def test_image_sensor_keys_match_the_sensor() -> None:
             assert field.default == params[name].default, name  # same defaults, one place each
     assert set(fields) - {"kind"} == set(params) - {"self", "camera", "options"}
     assert set(SensorSpec.model_fields["depth"].annotation.__args__) == set(DEPTH_POLICIES)  # type: ignore[union-attr]
-    exp = build(parse_scenario(_data(sensor={"kind": "image", "noise_px": 1.0, "seed": 5})))
+    with pytest.raises(ScenarioError, match=r"key 'sensor.depth': .*needs task.desired_pose"):
+        parse_scenario(_data(sensor={"kind": "image"}))
+    sensor = {"kind": "image", "noise_px": 1.0, "seed": 5, "depth": "true"}
+    exp = build(parse_scenario(_data(sensor=sensor)))
     assert isinstance(exp.sensor, ImageSensor) and exp.sensor.renderer.options.noise_px == 1.0
+    hidden = _data(sensor=sensor)
+    hidden["camera"] = {"u0": 700.0}  # the principal point far off: the dot is not in the image
+    hidden["simulation"]["check_image"] = False
+    with pytest.raises(ScenarioError, match=r"key 'sensor': the image sensor does not see"):
+        build(parse_scenario(hidden))
 
 
 def test_urdf_robot_from_a_shipped_file_and_a_relative_path(tmp_path: Path) -> None:

@@ -336,6 +336,19 @@ def _check_start(sc: Scenario, spec: ScenarioSpec, exp: Experiment) -> None:
                 f"(u, v) = ({uv[j][0]:.1f}, {uv[j][1]:.1f}) px, image {cam.width}x{cam.height} "
                 f"px, margin {margin:g} px",
             )
+    if exp.sensor is not None:  # the image sensor must see the features at the start
+        exp.sensor.reset()
+        try:
+            reading = exp.sensor.read(exp.task, exp.scene, bMc, 0.0)
+        except RedservoError as exc:
+            raise sc.error("sensor", str(exc)) from None
+        exp.sensor.reset()
+        if reading.s is None or reading.lost:
+            raise sc.error(
+                "sensor",
+                f"the image sensor does not see the features at the start (lost: "
+                f"{list(reading.lost)}): {reading.reason}",
+            )
 
 
 def build_robot(sc: Scenario) -> Robot:

@@ -76,6 +76,13 @@ def _task(spec: ScenarioSpec, size: int) -> None:
         )
     if task.depth != "current" and task.desired_pose is None:
         fail(f"depth = {task.depth!r} needs task.desired_pose", "task.depth")
+    sensor = spec.sensor
+    if sensor.kind == "image" and sensor.depth == "desired" and task.desired_pose is None:
+        fail(
+            "depth = 'desired' (the default) needs task.desired_pose; give it, or use "
+            "'estimated' or 'true'",
+            "sensor.depth",
+        )
 
 
 def _occlusion(spec: ScenarioSpec, objects: dict[str, ObjectSpec]) -> None:
