@@ -390,9 +390,8 @@ def _describe(exc: BaseException) -> tuple[int, str]:
         if "pip install" in text:
             return 2, _one_line(text)
         top = (exc.name or "").split(".")[0]
-        extra = _EXTRAS.get(top)
-        hint = f": pip install 'redservo[{extra}]'" if extra else ""
-        return 2, _one_line(f"missing optional dependency {top or text}{hint}")
+        if top in _EXTRAS:
+            return 2, f"missing optional dependency {top}: pip install 'redservo[{_EXTRAS[top]}]'"
     if isinstance(exc, OSError):
         where = f"{exc.filename}: " if exc.filename else ""
         return 2, _one_line(f"{where}{exc.strerror or exc}")
