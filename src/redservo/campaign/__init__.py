@@ -81,7 +81,7 @@ stored in the ``attempts`` column. After ``max_attempts`` rejections a
 
 Determinism and resumption. A sample depends only on ``(definition, seed, index)``, so the
 rows do not depend on the number of workers or on the order runs finish. With an output
-directory, every finished row is appended to ``samples.csv`` (flushed at once) and the
+directory, every finished row is appended to ``samples.csv`` (fsynced at once) and the
 definition's fingerprint (SHA-256 of the canonical JSON of the definition, the base scenario
 after overrides, the seed and :data:`FORMAT_VERSION`; not ``methods``, ``samples`` or
 ``description``) is stored in ``definition.json``. A rerun in the same directory reuses every
@@ -89,7 +89,9 @@ stored row and computes only the missing (sample, method) pairs, so adding sampl
 extends a campaign; a different fingerprint is refused with a
 :class:`~redservo.errors.ConfigurationError`. A run that raised an exception is stored with
 outcome ``error`` (and the message in ``error``), counted as a failure, and recomputed on the
-next rerun.
+next rerun. The storage is locked, written in atomic batches, cleaned of torn and duplicated
+rows on resume, repairable, and mirrored to ``samples.parquet``: docs/campaigns.md, "Storage"
+(:mod:`redservo.campaign.storage`).
 
 Statistics (per method, over the first ``samples`` samples). Success = outcome ``converged``
 (the simulator stops a run at the first limit crossing or lost target, so a converged run
