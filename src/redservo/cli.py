@@ -1,12 +1,17 @@
 """The ``redservo`` command line.
 
-    redservo run SCENARIO [--method NAME] [--set key=value ...] [--out DIR] [--plot]
-    redservo compare SCENARIO --methods a,b,c [--out DIR]
-    redservo list
-    redservo reproduce [--out DIR] [--only ID] [--fast]
-    redservo campaign CAMPAIGN [--methods a,b] [--samples N] [--seed S] [--workers K]
-                      [--out DIR] [--wait] [--repair]
+    redservo run SCENARIO [--method NAME] [--set key=value ...] [--out DIR]
+    redservo compare SCENARIO --methods a,b,c [--set ...] [--out DIR]
+    redservo list [-q]
+    redservo reproduce [--out DIR] [--only ID[,ID]] [--fast] [--robustness N] [--seed S]
+                       [--workers K] [--no-pixel-noise]
+    redservo campaign CAMPAIGN [--methods a,b] [--set ...] [--samples N] [--seed S]
+                      [--workers K] [--out DIR] [--wait] [--repair]
     redservo bench [--repeat N]
+    redservo plot | replay | view | animate PATH ...   (redservo.cli_tools)
+
+Commands that write figures take ``--format png,pdf,svg`` and ``--no-plot``; ``--version``
+prints the version.
 
 Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not an error);
 2 on bad input (unknown scenario, method or key, malformed or absurd file, bad option, a
@@ -147,8 +152,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from redservo.experiment import build
     from redservo.scenario import apply_overrides, load_scenario
 
-    if args.plot:
-        _require("matplotlib", "figures (--plot)")
     sc = load_scenario(args.scenario)
     sets = list(args.set or [])
     if args.method:
@@ -163,14 +166,36 @@ def _cmd_run(args: argparse.Namespace) -> int:
         close()
     out = Path(args.out or Path("runs") / f"{sc.name}-{sc.method}")
     result.save(out, extra={"scenario": sc.name, "source": sc.source, "method": sc.method})
-    if args.plot:
-        from redservo import plots
-
-        plots.run_figures(result, exp, out)
+    figs = _figures(args, lambda: _plots().run_figures(result, exp, out))
     print(_summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
     _warn(result.summary)
-    print(f"wrote {out}/summary.json, log.npz, log.csv" + (" and figures" if args.plot else ""))
+    print(
+        f"wrote {out}/: scenario.toml, summary.json, log.npz, log.csv, diagnostics.json"
+        + (f" and {figs} figure(s)" if figs else "")
+    )
     return 0
+
+
+def _plots() -> Any:
+    from redservo import plots
+
+    return plots
+
+
+def _figures(args: argparse.Namespace, draw: Callable[[], list[Path]]) -> int:
+    """Draw figures in ``--format`` unless ``--no-plot``; without matplotlib say so on
+    stderr (the numbers are the result). Returns the number of figures."""
+    import importlib.util
+
+    from redservo.cli_tools import figures
+
+    with figures(args) as wanted:
+        if not wanted:
+            return 0
+        if importlib.util.find_spec("matplotlib") is None:
+            print("figures skipped: pip install 'redservo[plot]'", file=sys.stderr)
+            return 0
+        return len(draw())
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -203,60 +228,66 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     rows = {m: r.summary.to_dict() for m, r in results.items()}
     (out / "compare.json").write_text(json.dumps({"scenario": sc.name, "methods": rows}, indent=2))
     (out / "compare.md").write_text(f"# {sc.name}\n\n" + summary_table(rows) + "\n")
-    try:
-        from redservo import plots
-
-        plots.compare_figures(results, exp, out)
-    except ImportError as exc:  # matplotlib is optional here: the tables are the result
-        print(f"figures skipped: {exc}", file=sys.stderr)
-    print(f"wrote {out}/compare.md, compare.json and figures")
+    figs = _figures(args, lambda: _plots().compare_figures(results, exp, out))
+    print(
+        f"wrote {out}/compare.md, compare.json, one run directory per method"
+        + (f" and {figs} figure(s)" if figs else "")
+    )
     return 0
 
 
-def _cmd_list(_args: argparse.Namespace) -> int:
-    from redservo.campaign import shipped_campaigns
-    from redservo.redundancy import METHOD_DESCRIPTIONS
-    from redservo.scenario import shipped_scenarios
+def _cmd_list(args: argparse.Namespace) -> int:
+    from redservo.cli_tools import print_list
 
-    print("Scenarios (redservo run NAME):")
-    for name, desc in shipped_scenarios().items():
-        print(f"  {name:28s} {desc}")
-    print("\nCampaigns (redservo campaign NAME):")
-    for name, desc in shipped_campaigns().items():
-        print(f"  {name:28s} {desc}")
-    print("\nMethods (--method NAME):")
-    for name, desc in METHOD_DESCRIPTIONS.items():
-        print(f"  {name:28s} {desc}")
+    print_list(args.quiet)
     return 0
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from redservo.cli_tools import figures
     from redservo.reproduction import reproduce
+    from redservo.reproduction.report import console_summary
 
     _require("matplotlib", "the reproduction's figures")
-    report = reproduce(Path(args.out), only=args.only, fast=args.fast, progress=not args.quiet)
-    n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
-    n_all = sum(len(e["claims"]) for e in report["experiments"])
-    print(f"reproduced {n_ok}/{n_all} claims; wrote {args.out}/report.md and report.json")
+    with figures(args):
+        report = reproduce(
+            Path(args.out),
+            only=args.only,
+            fast=args.fast,
+            progress=not args.quiet,
+            robustness=args.robustness,
+            seed=args.seed,
+            workers=args.workers,
+            pixel_noise=False if args.no_pixel_noise else None,
+        )
+    print("\n".join(console_summary(report, Path(args.out))))
     return 0
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
-    from redservo.campaign import run_campaign
+    from dataclasses import replace
+
+    from redservo.campaign import load_campaign, run_campaign
+    from redservo.cli_tools import figures
+    from redservo.scenario import apply_overrides
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
     default_out = Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"
-    result = run_campaign(
-        args.scenario,
-        methods=methods,
-        samples=args.samples,
-        seed=args.seed,
-        workers=args.workers,
-        out=Path(args.out or default_out),
-        progress=not args.quiet,
-        wait=args.wait,
-        repair=args.repair,
-    )
+    defn = load_campaign(args.scenario)
+    if args.set:  # on the base scenario, after the campaign's own overrides
+        defn = replace(defn, scenario=apply_overrides(defn.scenario, list(args.set)))
+    with figures(args):
+        result = run_campaign(
+            defn,
+            methods=methods,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            out=Path(args.out or default_out),
+            progress=not args.quiet,
+            wait=args.wait,
+            repair=args.repair,
+        )
     print(result.markdown)
     print(
         f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json and figures"
@@ -272,6 +303,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from redservo.cli_tools import add_figure_options, register
     from redservo.schema.campaign import MAX_SAMPLES
 
     p = _Parser(
@@ -281,6 +313,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog=_EPILOG,
     )
     p.add_argument("--debug", action="store_true", help="show the traceback of an error")
+    p.add_argument("--version", action="version", version=f"redservo {_version()}")
     common = _Parser(add_help=False)
     common.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     common.add_argument(
@@ -304,7 +337,8 @@ def _parser() -> argparse.ArgumentParser:
         "(values are TOML; repeatable)",
     )
     r.add_argument("--out", help="output directory (default runs/SCENARIO-METHOD)")
-    r.add_argument("--plot", action="store_true", help="also write figures (needs matplotlib)")
+    r.add_argument("--plot", action="store_true", help=argparse.SUPPRESS)  # now the default
+    add_figure_options(r)
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser(
@@ -314,6 +348,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--methods", required=True, help="comma-separated method names")
     c.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scenario key")
     c.add_argument("--out", help="output directory (default runs/SCENARIO-compare)")
+    add_figure_options(c)
     c.set_defaults(func=_cmd_compare)
 
     ls = sub.add_parser(
@@ -327,8 +362,36 @@ def _parser() -> argparse.ArgumentParser:
         help="run every experiment of both papers; write figures, report.md and report.json",
     )
     rp.add_argument("--out", default="out", help="output directory (default out/)")
-    rp.add_argument("--only", help="run only this experiment id (see report.md)")
+    rp.add_argument("--only", help="run only these experiment ids, comma-separated (see report.md)")
     rp.add_argument("--fast", action="store_true", help="coarser, quicker version (for tests)")
+    rp.add_argument(
+        "--robustness",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also re-run every experiment on N perturbed set-ups and report, per claim, how "
+        "often it holds (default 0: none)",
+    )
+    rp.add_argument("--seed", type=int, default=0, help="seed of the perturbed set-ups (default 0)")
+    rp.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="K",
+        help="processes of the robustness sweep (default: the number of cores)",
+    )
+    rp.add_argument(
+        "--no-pixel-noise",
+        action="store_true",
+        help="robustness: keep the ideal feature sensor (default: a noisy rendered image when "
+        "OpenCV is installed)",
+    )
+    rp.add_argument(
+        "--format",
+        default="svg,png",
+        help="figure formats among png (300 dpi), pdf, svg; the report links the first "
+        "(default svg,png: vector for the report)",
+    )
     rp.set_defaults(func=_cmd_reproduce)
 
     cp = sub.add_parser(
@@ -339,6 +402,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     cp.add_argument("scenario", help="a shipped campaign name or a campaign .toml file")
     cp.add_argument("--methods", help="comma-separated methods (default: the campaign's list)")
+    cp.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a key of the base scenario (after the campaign's overrides)",
+    )
+    add_figure_options(cp)
     cp.add_argument(
         "--samples", type=_int_in(1, MAX_SAMPLES), default=None, help="number of random variations"
     )
@@ -374,7 +444,14 @@ def _parser() -> argparse.ArgumentParser:
         "--repeat", type=_int_in(1, 1_000_000), default=2000, help="timed calls per case"
     )
     b.set_defaults(func=_cmd_bench)
+    register(sub, common, _int_in)
     return p
+
+
+def _version() -> str:
+    from redservo import __version__
+
+    return __version__
 
 
 def _one_line(text: str) -> str:

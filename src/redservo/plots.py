@@ -1,31 +1,119 @@
-"""Figures of runs and comparisons (matplotlib, imported lazily: ``pip install redservo[plot]``).
+"""Figures of runs and comparisons, and the house style every figure uses.
 
-Every function writes PNG files and returns their paths. Joint positions are
-plotted normalized to [-1, 1] (CM01's convention), with the activation
-thresholds ``q̃`` drawn as dashed lines.
+matplotlib is imported lazily (``pip install 'redservo[plot]'``). The style, shared by the
+run, comparison, campaign and reproduction figures:
+
+* :func:`savefig` writes one file per format (``png`` at 300 dpi, ``pdf``, ``svg``) with a
+  tight bounding box, so no label is clipped; the formats come from the argument or from
+  :func:`figure_formats` (the ``--format`` option of the command line);
+* :func:`method_style` gives each method one fixed colour (and line style) in every
+  figure, from a colour-blind-safe palette (Okabe & Ito 2008, completed with four colours
+  of Paul Tol's "muted" scheme, and a dashed line where two colours are close);
+* every axis carries its unit; titles name the scenario and the method(s).
+
+Joint positions are plotted normalized to [-1, 1] (CM01's convention), with the
+activation thresholds ``q̃`` (CM01 eq. 3) as dashed lines.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import contextlib
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.experiment import Experiment
     from redservo.simulation import SimulationLog, SimulationResult
 
 __all__ = [
+    "FORMATS",
+    "METHOD_STYLES",
+    "FigureContext",
+    "clipped",
     "compare_figures",
+    "draw_compare",
+    "draw_run",
+    "figure_formats",
+    "method_style",
+    "parse_formats",
     "plot_image_trajectory",
     "plot_joints",
     "run_figures",
     "save",
+    "savefig",
 ]
+
+FORMATS = ("png", "pdf", "svg")
+"""Formats :func:`savefig` writes."""
+DPI = 300
+"""Resolution of PNG files (dots per inch)."""
+
+METHOD_STYLES: dict[str, tuple[str, str]] = {
+    "classical": ("#000000", "-"),
+    "gpm": ("#E69F00", "-"),
+    "gpm-auto": ("#D55E00", "--"),
+    "iterative-basic": ("#56B4E9", "-"),
+    "iterative": ("#0072B2", "-"),
+    "iterative-smooth": ("#009E73", "-"),
+    "iterative-smooth-e2": ("#117733", "--"),
+    "directional": ("#CC79A7", "-"),
+    "wln": ("#882255", "-"),
+    "sns": ("#332288", "--"),
+    "qp": ("#999933", "-"),
+    "large-projection": ("#44AA99", "--"),
+}
+"""(colour, line style) of each method, the same in every figure (colour-blind safe)."""
+_OTHERS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#D55E00", "#56B4E9", "#882255")
+_formats: tuple[str, ...] = ("png",)
+
+
+def method_style(label: str, index: int = 0) -> dict[str, str]:
+    """``{"color", "linestyle"}`` of a method (or of a label starting with a method name,
+    e.g. ``"gpm α=2"``: same colour, dotted); other labels cycle through the palette."""
+    if label in METHOD_STYLES:
+        color, ls = METHOD_STYLES[label]
+        return {"color": color, "linestyle": ls}
+    base = label.split()[0] if label.split() else label
+    if base in METHOD_STYLES:
+        return {"color": METHOD_STYLES[base][0], "linestyle": ":"}
+    return {"color": _OTHERS[index % len(_OTHERS)], "linestyle": "-"}
+
+
+def parse_formats(text: str | Sequence[str]) -> tuple[str, ...]:
+    """``"png,pdf"`` -> ``("png", "pdf")``.
+
+    Raises:
+        ConfigurationError: an unknown format (names ``--format`` and the allowed ones).
+    """
+    items = text.split(",") if isinstance(text, str) else list(text)
+    out = tuple(dict.fromkeys(s.strip().lower().lstrip(".") for s in items if s.strip()))
+    bad = [f for f in out if f not in FORMATS]
+    if bad or not out:
+        raise ConfigurationError(
+            f"--format: unknown figure format {bad[0] if bad else text!r}; allowed: "
+            f"{', '.join(FORMATS)} (comma-separated, e.g. png,pdf)",
+            argument="format",
+        )
+    return out
+
+
+@contextlib.contextmanager
+def figure_formats(formats: Sequence[str]) -> Iterator[tuple[str, ...]]:
+    """Within the block, :func:`savefig` and :func:`save` write these formats by default
+    (none at all for an empty sequence: ``--no-plot``)."""
+    global _formats
+    before, _formats = _formats, (parse_formats(formats) if len(formats) else ())
+    try:
+        yield _formats
+    finally:
+        _formats = before
 
 
 def _plt() -> Any:
@@ -39,13 +127,116 @@ def _plt() -> Any:
     return plt
 
 
-def save(fig: Any, path: Path) -> Path:
-    """Save ``fig`` to ``path`` (PNG, 120 dpi) and close it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+def clipped(fig: Any, tol_px: float = 1.0) -> bool:
+    """True when some artist (a label, a title, a legend) reaches outside the figure."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    fig.draw_without_rendering()
+    tight, box = fig.get_tightbbox(renderer), fig.bbox_inches
+    return bool(
+        tight.x0 < box.x0 - tol_px / fig.dpi
+        or tight.y0 < box.y0 - tol_px / fig.dpi
+        or tight.x1 > box.x1 + tol_px / fig.dpi
+        or tight.y1 > box.y1 + tol_px / fig.dpi
+    )
+
+
+def savefig(fig: Any, stem: Path | str, formats: Sequence[str] | None = None) -> list[Path]:
+    """Write ``fig`` as ``stem.<format>`` for each format, then close it.
+
+    PNG at :data:`DPI`; PDF with embedded TrueType fonts; every file with a tight bounding
+    box (nothing clipped). A figure without a layout engine gets ``tight_layout`` first.
+
+    Args:
+        fig: A matplotlib figure.
+        stem: Path without suffix (a suffix, if any, is replaced).
+        formats: Among :data:`FORMATS` (default: :func:`figure_formats`' or ``png``).
+
+    Returns:
+        The paths written, in the order of ``formats``.
+    """
+    import matplotlib
+
+    fmts = _formats if formats is None else parse_formats(formats)
+    if not fmts:  # figures are off (--no-plot)
+        _plt().close(fig)
+        return []
+    stem = Path(stem)
+    stem = stem.with_suffix("") if stem.suffix.lower().lstrip(".") in FORMATS else stem
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
+    paths = []
+    with matplotlib.rc_context({"pdf.fonttype": 42, "svg.hashsalt": "redservo"}):
+        for fmt in fmts:
+            path = stem.parent / f"{stem.name}.{fmt}"
+            meta = {"Date": None} if fmt in ("pdf", "svg") else {}
+            fig.savefig(
+                path, dpi=DPI, bbox_inches="tight", pad_inches=0.05, format=fmt, metadata=meta
+            )
+            paths.append(path)
     _plt().close(fig)
-    return path
+    return paths
+
+
+def save(fig: Any, path: Path) -> Path:
+    """Save ``fig`` like :func:`savefig` (stem of ``path``, the active formats) and return
+    the first file written (the one a report links to)."""
+    return savefig(fig, path)[0]
+
+
+@dataclass(frozen=True)
+class FigureContext:
+    """What the figures of a run need besides its log.
+
+    Attributes:
+        scenario: Scenario name (titles).
+        joint_names: Joint names, 0-based order.
+        joint_units: ``"rad"`` or ``"m"`` per joint.
+        rho: Band width of the thresholds (CM01 eq. 3).
+        dt: Control period (s).
+        camera: The camera (:class:`redservo.camera.Camera`), for the image plane.
+        point_slices: (x, y) indices in ``s`` of each point feature.
+        s_star: Desired features, or None.
+    """
+
+    scenario: str
+    joint_names: tuple[str, ...]
+    joint_units: tuple[str, ...]
+    rho: float = 0.1
+    dt: float | None = None
+    camera: Any = None
+    point_slices: tuple[tuple[int, int], ...] = ()
+    s_star: FloatArray | None = None
+
+    @classmethod
+    def of(cls, exp: Experiment) -> FigureContext:
+        """The context of an experiment."""
+        from redservo.features import PointFeature
+
+        slices, i = [], 0
+        for term in exp.task.terms:
+            if isinstance(term.feature, PointFeature):
+                slices.append((i, i + 1))
+            i += term.feature.size
+        return cls(
+            scenario=exp.scenario.name,
+            joint_names=tuple(exp.robot.joint_names),
+            joint_units=tuple("m" if t == "prismatic" else "rad" for t in exp.robot.joint_types),
+            rho=exp.limits.rho,
+            dt=exp.options.dt,
+            camera=exp.camera,
+            point_slices=tuple(slices),
+            s_star=np.asarray(exp.task.s_star),
+        )
+
+
+def _xlabel(ctx: FigureContext | None) -> str:
+    if ctx is not None and ctx.dt:
+        return f"iteration (dt = {ctx.dt:g} s)"
+    return "iteration (-)"
 
 
 def _threshold(ax: Any, rho: float) -> None:
@@ -63,20 +254,25 @@ def plot_joints(
     rho: float = 0.1,
     title: str = "",
     names: Sequence[str] | None = None,
+    xlabel: str = "iteration (-)",
 ) -> Path:
-    """Normalized positions of ``axes`` (0-based) vs iteration, one subplot per axis, one line per run."""
+    """Normalized positions of ``axes`` (0-based) vs iteration, one subplot per axis, one
+    line per run (thresholds dashed, limits ±1 solid)."""
     plt = _plt()
-    fig, axs = plt.subplots(len(axes), 1, figsize=(7, 2.2 * len(axes)), sharex=True, squeeze=False)
+    axes = list(axes)
+    fig, axs = plt.subplots(
+        len(axes), 1, figsize=(7, 1.6 * len(axes) + 0.9), sharex=True, squeeze=False
+    )
     for ax, j in zip(axs[:, 0], axes, strict=True):
-        for label, log in logs.items():
-            ax.plot(log.q_normalized[:, j], label=label, lw=1.2)
+        for k, (label, log) in enumerate(logs.items()):
+            ax.plot(log.q_normalized[:, j], label=label, lw=1.2, **method_style(label, k))
         _threshold(ax, rho)
-        ax.set_ylabel(f"q{j + 1} (normalized)" if names is None else names[j])
+        name = f"q{j}" if names is None else names[j]
+        ax.set_ylabel(f"{name} (norm., -)", fontsize=8)
         ax.set_ylim(-1.08, 1.08)
-    axs[0, 0].legend(fontsize=7, loc="best")
-    axs[-1, 0].set_xlabel("iteration")
-    if title:
-        axs[0, 0].set_title(title)
+    axs[0, 0].legend(fontsize=7, loc="upper right", ncol=min(len(logs), 4))
+    axs[-1, 0].set_xlabel(xlabel)
+    axs[0, 0].set_title(title or "normalized joint positions (±1 limits, dashed thresholds)")
     return save(fig, path)
 
 
@@ -89,10 +285,11 @@ def plot_series(
     labels: Sequence[str] | None = None,
     title: str = "",
     ylabel: str = "",
+    xlabel: str = "iteration (-)",
 ) -> Path:
     """One subplot per run of a logged array (e.g. ``qdot``, ``camera_twist``) vs iteration."""
     plt = _plt()
-    fig, axs = plt.subplots(len(logs), 1, figsize=(7, 2.3 * len(logs)), squeeze=False)
+    fig, axs = plt.subplots(len(logs), 1, figsize=(7, 2.3 * len(logs) + 0.4), squeeze=False)
     for ax, (name, log) in zip(axs[:, 0], logs.items(), strict=True):
         data = np.asarray(getattr(log, field))
         data = data[:, None] if data.ndim == 1 else data
@@ -101,20 +298,26 @@ def plot_series(
             ax.plot(data[:, c], lw=1.0, label=(labels[c] if labels else f"{field}[{c}]"))
         ax.set_title(f"{title} — {name}" if title else name, fontsize=9)
         ax.set_ylabel(ylabel)
-        ax.legend(fontsize=6, ncol=3, loc="best")
-    axs[-1, 0].set_xlabel("iteration")
+        ax.legend(fontsize=6, ncol=3, loc="upper right")
+    axs[-1, 0].set_xlabel(xlabel)
     return save(fig, path)
 
 
-def plot_error(logs: Mapping[str, SimulationLog], path: Path, *, title: str = "") -> Path:
+def plot_error(
+    logs: Mapping[str, SimulationLog],
+    path: Path,
+    *,
+    title: str = "",
+    xlabel: str = "iteration (-)",
+) -> Path:
     """``‖e1‖`` (log scale) vs iteration, one line per run."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 3))
-    for name, log in logs.items():
-        ax.semilogy(np.maximum(log.error_norm, 1e-12), label=name)
-    ax.set_xlabel("iteration")
-    ax.set_ylabel("‖e1‖")
-    ax.set_title(title)
+    for k, (name, log) in enumerate(logs.items()):
+        ax.semilogy(np.maximum(log.error_norm, 1e-12), label=name, **method_style(name, k))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("‖e1‖ (feature units)")
+    ax.set_title(title or "task error")
     ax.legend(fontsize=7)
     return save(fig, path)
 
@@ -130,12 +333,12 @@ def plot_image_trajectory(
 ) -> Path:
     """Image-plane trajectories (pixels) of point features given by (x, y) index pairs in ``s``."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(6, 4.5))
+    fig, ax = plt.subplots(figsize=(6, 4.8))
     for ix, iy in point_slices:
         uv = camera.normalized_to_pixel(log.s[:, [ix, iy]])
-        ax.plot(uv[:, 0], uv[:, 1], lw=1.0)
-        ax.plot(uv[0, 0], uv[0, 1], "o", color="tab:red", ms=4)
-        ax.plot(uv[-1, 0], uv[-1, 1], "s", color="tab:green", ms=4)
+        ax.plot(uv[:, 0], uv[:, 1], lw=1.0, color="#0072B2")
+        ax.plot(uv[0, 0], uv[0, 1], "o", color="#D55E00", ms=4)
+        ax.plot(uv[-1, 0], uv[-1, 1], "s", color="#009E73", ms=4)
         if s_star is not None:
             uvs = camera.normalized_to_pixel(s_star[[ix, iy]])
             ax.plot(uvs[0], uvs[1], "+", color="k", ms=10)
@@ -144,57 +347,100 @@ def plot_image_trajectory(
     ax.set_aspect("equal")
     ax.set_xlabel("u (px)")
     ax.set_ylabel("v (px)")
-    ax.set_title(title or "image trajectory (o start, □ end, + desired)")
+    ax.set_title(title or "image trajectory (o start, □ end, + desired)", fontsize=9)
     return save(fig, path)
 
 
-def _point_slices(exp: Experiment) -> list[tuple[int, int]]:
-    from redservo.features import PointFeature
-
-    out, i = [], 0
-    for term in exp.task.terms:
-        if isinstance(term.feature, PointFeature):
-            out.append((i, i + 1))
-        i += term.feature.size
-    return out
+def _velocity_labels(ctx: FigureContext) -> list[str]:
+    return [f"{n} ({u}/s)" for n, u in zip(ctx.joint_names, ctx.joint_units)]
 
 
-def run_figures(result: SimulationResult, exp: Experiment, out: Path) -> list[Path]:
+def draw_run(log: SimulationLog, ctx: FigureContext, method: str, out: Path) -> list[Path]:
     """Figures of one run: joints, error, velocities, and the image for point features."""
-    log = result.log
-    logs = {exp.scenario.method: log}
+    logs = {method: log}
+    where = f"{ctx.scenario} [{method}]"
+    x = _xlabel(ctx)
+    units = set(ctx.joint_units)
+    vunit = " or ".join(sorted(f"{u}/s" for u in units)) or "rad/s"
     paths = [
-        plot_joints(logs, range(exp.robot.n), out / "joints.png", rho=exp.limits.rho),
-        plot_error(logs, out / "error.png"),
-        plot_series(logs, "qdot", out / "joint_velocities.png", labels=exp.robot.joint_names),
+        plot_joints(
+            logs,
+            range(len(ctx.joint_names)),
+            out / "joints.png",
+            rho=ctx.rho,
+            names=ctx.joint_names,
+            title=f"{where}: normalized joint positions",
+            xlabel=x,
+        ),
+        plot_error(logs, out / "error.png", title=f"{where}: task error", xlabel=x),
+        plot_series(
+            logs,
+            "qdot",
+            out / "joint_velocities.png",
+            labels=_velocity_labels(ctx),
+            title=f"{ctx.scenario}: joint velocities",
+            ylabel=f"q̇ ({vunit})",
+            xlabel=x,
+        ),
         plot_series(
             logs,
             "camera_twist",
             out / "camera_velocities.png",
-            labels=("vx", "vy", "vz", "wx", "wy", "wz"),
+            labels=("vx (m/s)", "vy (m/s)", "vz (m/s)", "ωx (rad/s)", "ωy (rad/s)", "ωz (rad/s)"),
+            title=f"{ctx.scenario}: camera velocity (camera frame)",
+            ylabel="v (m/s), ω (rad/s)",
+            xlabel=x,
         ),
     ]
-    slices = _point_slices(exp)
-    if slices:
+    if ctx.point_slices and ctx.camera is not None:
         paths.append(
             plot_image_trajectory(
                 log,
                 out / "image.png",
-                camera=exp.camera,
-                point_slices=slices,
-                s_star=exp.task.s_star,
+                camera=ctx.camera,
+                point_slices=ctx.point_slices,
+                s_star=ctx.s_star,
+                title=f"{where}: image (o start, □ end, + desired)",
             )
         )
     return paths
 
 
+def draw_compare(logs: Mapping[str, SimulationLog], ctx: FigureContext, out: Path) -> list[Path]:
+    """Overlaid figures of several runs of one scenario."""
+    where = f"{ctx.scenario}: {len(logs)} methods"
+    x = _xlabel(ctx)
+    return [
+        plot_joints(
+            logs,
+            range(len(ctx.joint_names)),
+            out / "joints.png",
+            rho=ctx.rho,
+            names=ctx.joint_names,
+            title=f"{where}, normalized joint positions",
+            xlabel=x,
+        ),
+        plot_error(logs, out / "error.png", title=f"{where}, task error", xlabel=x),
+        plot_series(
+            logs,
+            "qdot",
+            out / "joint_velocities.png",
+            labels=_velocity_labels(ctx),
+            title=f"{ctx.scenario}: joint velocities",
+            ylabel="q̇ (rad/s or m/s)",
+            xlabel=x,
+        ),
+    ]
+
+
+def run_figures(result: SimulationResult, exp: Experiment, out: Path) -> list[Path]:
+    """Figures of one run of ``exp`` (:func:`draw_run`)."""
+    method = result.provenance.method if result.provenance is not None else exp.scenario.method
+    return draw_run(result.log, FigureContext.of(exp), method, out)
+
+
 def compare_figures(
     results: Mapping[str, SimulationResult], exp: Experiment, out: Path
 ) -> list[Path]:
-    """Overlaid figures of several runs of one scenario."""
-    logs = {name: r.log for name, r in results.items()}
-    return [
-        plot_joints(logs, range(exp.robot.n), out / "joints.png", rho=exp.limits.rho),
-        plot_error(logs, out / "error.png"),
-        plot_series(logs, "qdot", out / "joint_velocities.png", labels=exp.robot.joint_names),
-    ]
+    """Overlaid figures of several runs of one scenario (:func:`draw_compare`)."""
+    return draw_compare({m: r.log for m, r in results.items()}, FigureContext.of(exp), out)

@@ -421,7 +421,7 @@ def _run(
     result = CampaignResult(defn, seed, n, names, rows, stats, len(todo), out_dir, (), markdown)
     if out_dir is not None:
         tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
-        figures = _figures(list(stats.values()), rows, out_dir, tracking=tracking)
+        figures = _figures(list(stats.values()), rows, out_dir, tracking=tracking, name=defn.name)
         result = CampaignResult(
             defn, seed, n, names, rows, stats, len(todo), out_dir, figures, markdown
         )

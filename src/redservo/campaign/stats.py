@@ -233,16 +233,29 @@ def _figures(
     out: Path,
     *,
     tracking: bool = False,
+    name: str = "",
+    formats: Sequence[str] | None = None,
 ) -> tuple[Path, ...]:
-    """Write ``success_rate.png`` and ``iterations.png`` (tracking: ``final_error.png``)."""
+    """Write ``success_rate`` and ``iterations`` (tracking: ``final_error``) figures.
+
+    Titles give the campaign ``name`` and N (runs per method); each method has its colour
+    of :func:`redservo.plots.method_style`; files as :func:`redservo.plots.savefig`
+    writes them (``formats``: default the active ones). Returns the first file of each.
+    """
     try:
         from matplotlib.figure import Figure
+
+        from redservo.plots import method_style, savefig
     except ImportError:  # matplotlib is optional
         return ()
     names = [s.method for s in result_stats]
     x = np.arange(len(names))
-    size = (max(6.0, 0.7 * len(names) + 2), 4.0)
-    fig = Figure(figsize=size)
+    colors = [method_style(m, k)["color"] for k, m in enumerate(names)]
+    runs = sorted({s.runs for s in result_stats})
+    n_text = f"N = {runs[0]}" if len(runs) == 1 else f"N = {runs[0]}-{runs[-1]}"
+    head = f"Campaign {name}: " if name else "Campaign: "
+    size = (max(6.0, 0.7 * len(names) + 2), 4.2)
+    fig = Figure(figsize=size, layout="constrained")
     ax = fig.add_subplot()
     rate = np.array([s.success_rate for s in result_stats]) * 100
     err = np.array(
@@ -251,14 +264,16 @@ def _figures(
             [100 * s.ci_high - r for r, s in zip(rate, result_stats)],
         ]
     ).clip(min=0.0)  # rounding can make a bound cross p̂ by 1e-15 when p̂ is 0 or 1
-    ax.bar(x, rate, yerr=err, capsize=3, color="tab:blue")
+    ax.bar(x, rate, yerr=err, capsize=3, color=colors, edgecolor="k", linewidth=0.5)
     ax.set_xticks(x, names, rotation=45, ha="right")
+    ax.set_xlabel(f"method ({n_text} runs each)")
     ax.set_ylim(0, 105)
-    ax.set_ylabel("success rate (%) with 95% Wilson CI")
-    fig.tight_layout()
-    p1 = out / "success_rate.png"
-    fig.savefig(p1, dpi=120)
-    fig = Figure(figsize=size)
+    ax.set_ylabel("success rate (%), 95% Wilson CI")
+    ax.set_title(f"{head}success rate, {n_text} runs per method", fontsize=10)
+    first = savefig(fig, out / "success_rate", formats)
+    if not first:  # figures are off (--no-plot)
+        return ()
+    fig = Figure(figsize=size, layout="constrained")
     ax = fig.add_subplot()
     if tracking:  # every run lasts the same: show how well the runs that lasted tracked
         full = ("converged", "max_iterations")
@@ -267,17 +282,19 @@ def _figures(
             for m in names
         ]
         ax.set_yscale("log")
-        ax.set_ylabel("final ‖e1‖ (runs that lasted)")
-        p2 = out / "final_error.png"
+        ax.set_ylabel("final ‖e1‖ (feature units)")
+        what, stem = "final error of the runs that lasted", "final_error"
     else:
         data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
-        ax.set_ylabel("iterations to converge (successes)")
-        p2 = out / "iterations.png"
-    ax.boxplot([d if d else [np.nan] for d in data], positions=x)
-    ax.set_xticks(x, names, rotation=45, ha="right")
-    fig.tight_layout()
-    fig.savefig(p2, dpi=120)
-    return p1, p2
+        ax.set_ylabel("iterations to converge (-)")
+        what, stem = "iterations to converge (successes only)", "iterations"
+    box = ax.boxplot([d if d else [np.nan] for d in data], positions=x, patch_artist=True)
+    for patch, color in zip(box["boxes"], colors):
+        patch.set(facecolor=color, alpha=0.6)
+    ax.set_xticks(x, [f"{m}\n(n={len(d)})" for m, d in zip(names, data)], rotation=45, ha="right")
+    ax.set_xlabel("method (n = runs shown)")
+    ax.set_title(f"{head}{what}, {n_text}", fontsize=10)
+    return first[0], savefig(fig, out / stem, formats)[0]
 
 
 def flag_table(stats: Iterable[MethodStats]) -> str:

@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.errors import UnknownNameError
+from redservo.kernels import lazy
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
 from redservo.spatial import make_transform
@@ -54,6 +55,8 @@ interface (0.2 m/s in translation, 0.7 rad/s in rotation), which ViSP applies to
 AFMA6_QDDOT_MAX: Final = (1.0, 1.0, 1.0, 3.0, 3.0, 3.0)
 """Acceleration limits (m/s², rad/s²). A documented choice (no public datasheet): the
 gantry reaches its velocity limit in 0.2 s and the wrist in about 0.23 s."""
+
+_K = lazy("kinematics")
 
 COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""
@@ -140,25 +143,9 @@ class Afma6(Robot):
             math.sin(c3q),
         )
 
-    @staticmethod
-    def _rotation(c1: float, s1: float, c2: float, s2: float, c3: float, s3: float) -> FloatArray:
-        return np.array(
-            [
-                [s1 * s2 * c3 + c1 * s3, -s1 * s2 * s3 + c1 * c3, -s1 * c2],
-                [-c1 * s2 * c3 + s1 * s3, c1 * s2 * s3 + s1 * c3, c1 * c2],
-                [c2 * c3, -c2 * s3, s2],
-            ]
-        )
-
     def fkine_ee(self, q: FloatArray) -> FloatArray:
         """Return ``fMe`` (4x4) for a validated (6,) q (literature.md §F)."""
-        c1, s1, c2, s2, c3, s3 = self._trig(q)
-        T = np.eye(4)
-        T[:3, :3] = self._rotation(c1, s1, c2, s2, c3, s3)
-        T[0, 3] = q[0] + OFFSET * c1
-        T[1, 3] = q[1] + OFFSET * s1
-        T[2, 3] = q[2]
-        return T
+        return np.asarray(_K.afma6_fkine_ee(np.ascontiguousarray(q), COUPLING, OFFSET))
 
     def jacobe_base(self, q: FloatArray) -> FloatArray:
         """Return ``fJe`` (6, 6): ee-origin velocity and angular velocity in the base frame."""
@@ -174,28 +161,47 @@ class Afma6(Robot):
 
     def jacobe(self, q: FloatArray) -> FloatArray:
         """Return ``eJe`` (6, 6) for a validated (6,) q: ``blkdiag(fRe^T, fRe^T) fJe``."""
-        c1, s1, c2, s2, c3, s3 = self._trig(q)
-        Rt = self._rotation(c1, s1, c2, s2, c3, s3).T
-        fJe = self.jacobe_base(q)
-        return np.vstack([Rt @ fJe[:3], Rt @ fJe[3:]])
+        return np.asarray(_K.afma6_jacobe(np.ascontiguousarray(q), COUPLING, OFFSET))
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """Return ``(fkine(q), jacobian(q))``, evaluating the trigonometry once (hot path)."""
+        """Return ``(fkine(q), jacobian(q))`` in one kernel call (hot path; the products with
+        ``eMc`` and ``cVe`` included)."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        bMc, J = _K.afma6_kinematics(qa, self._eMc, self._cVe, COUPLING, OFFSET)
+        return bMc, J
+
+    # -- viewer ---------------------------------------------------------------------------------
+
+    def link_poses(self, q: ArrayLike, *, check_limits: bool = True) -> dict[str, FloatArray]:
+        """Return the pose (4x4, m) of each moving part in the base frame (for the viewer).
+
+        The gantry is drawn as its three carriages, each translated along its axis from
+        the base origin, then the wrist: ``"A"`` (rotated about the base z axis by A, at
+        the end of the z carriage), ``"B"`` (the wrist offset L along the rotated x axis)
+        and ``"ee"`` (``fMe``, literature.md §F). The camera is ``fkine(q)``.
+
+        Args:
+            q: (6,) joint positions (m, m, m, rad, rad, rad).
+            check_limits: Raise :class:`JointLimitError` if ``q`` is outside the limits.
+
+        Returns:
+            ``{"base", "x", "y", "z", "A", "B", "ee"}``, base to tip.
+        """
         qa = self.check_q(q, check_limits=check_limits)
-        c1, s1, c2, s2, c3, s3 = self._trig(qa)
-        R = self._rotation(c1, s1, c2, s2, c3, s3)
-        T = np.empty((4, 4))
-        T[:3, :3] = R
-        T[:3, 3] = (qa[0] + OFFSET * c1, qa[1] + OFFSET * s1, qa[2])
-        T[3] = (0.0, 0.0, 0.0, 1.0)
-        # eJe = blkdiag(R^T, R^T) fJe, written with the columns of fJe (literature.md §F).
-        Rt = R.T
-        eJe = np.zeros((6, 6))
-        eJe[:3, :3] = Rt
-        eJe[:3, 3] = Rt @ (-OFFSET * s1, OFFSET * c1, 0.0)
-        eJe[3:, 3] = Rt[:, 2]
-        eJe[3:, 4] = Rt @ (c1 + COUPLING * s1 * c2, s1 - COUPLING * c1 * c2, -COUPLING * s2)
-        eJe[3:, 5] = Rt @ (-s1 * c2, c1 * c2, s2)
-        return T @ self._eMc, self._cVe @ eJe
+        x, y, z, a = (float(v) for v in qa[:4])
+        ee = self.fkine_ee(qa)
+        rz = np.array(
+            [[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0, 0, 1]]
+        )
+        poses = {
+            "base": np.eye(4),
+            "x": make_transform(t=(x, 0.0, 0.0)),
+            "y": make_transform(t=(x, y, 0.0)),
+            "z": make_transform(t=(x, y, z)),
+            "A": make_transform(rz, (x, y, z)),
+            "B": make_transform(rz, ee[:3, 3]),
+            "ee": ee,
+        }
+        return poses

@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError
+from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
 
 __all__ = ["DHConvention", "DHLink", "DHRobot"]
@@ -46,6 +47,8 @@ __all__ = ["DHConvention", "DHLink", "DHRobot"]
 DHConvention = Literal["standard", "modified"]
 
 _LIMIT_TOL = 1e-9  # allowed excess beyond a limit, joint units (same as JointLimits.check)
+
+_K = lazy("kinematics")
 
 
 @dataclass(frozen=True, slots=True)
@@ -222,6 +225,21 @@ class DHRobot(Robot):
         self._revolute = np.array([link.joint_type == "revolute" for link in links])
         self._rev_f = self._revolute.astype(float)
         self._pri_f = 1.0 - self._rev_f
+        # The same table as the kernels take it (kernels/kinematics.py, rows DH_ROWS).
+        self._par = np.ascontiguousarray(
+            np.vstack(
+                [
+                    self._offset,
+                    self._theta0,
+                    self._d0,
+                    self._a,
+                    self._ca,
+                    self._sa,
+                    self._rev_f,
+                    self._pri_f,
+                ]
+            )
+        )
         # (q bytes, (bMe, Z, P)) of the last evaluation; one attribute so that it is swapped atomically.
         self._cache: tuple[bytes, tuple[FloatArray, FloatArray, FloatArray]] | None = None
 
@@ -255,38 +273,8 @@ class DHRobot(Robot):
 
     def link_transforms(self, q: FloatArray) -> FloatArray:
         """Return the (n, 4, 4) stack of link transforms ``A_i(q_i)`` (module docstring)."""
-        jv = q + self._offset
-        theta = self._theta0 + self._rev_f * jv
-        d = self._d0 + self._pri_f * jv
-        ct, st = np.cos(theta), np.sin(theta)
-        ca, sa, a = self._ca, self._sa, self._a
-        A = np.zeros((q.shape[0], 4, 4))
-        A[:, 3, 3] = 1.0
-        if self._convention == "standard":  # Rz(θ) Tz(d) Tx(a) Rx(α)
-            A[:, 0, 0] = ct
-            A[:, 0, 1] = -st * ca
-            A[:, 0, 2] = st * sa
-            A[:, 0, 3] = a * ct
-            A[:, 1, 0] = st
-            A[:, 1, 1] = ct * ca
-            A[:, 1, 2] = -ct * sa
-            A[:, 1, 3] = a * st
-            A[:, 2, 1] = sa
-            A[:, 2, 2] = ca
-            A[:, 2, 3] = d
-        else:  # Rx(α) Tx(a) Rz(θ) Tz(d)
-            A[:, 0, 0] = ct
-            A[:, 0, 1] = -st
-            A[:, 0, 3] = a
-            A[:, 1, 0] = st * ca
-            A[:, 1, 1] = ct * ca
-            A[:, 1, 2] = -sa
-            A[:, 1, 3] = -sa * d
-            A[:, 2, 0] = st * sa
-            A[:, 2, 1] = ct * sa
-            A[:, 2, 2] = ca
-            A[:, 2, 3] = ca * d
-        return A
+        qa = np.ascontiguousarray(q, dtype=np.float64)
+        return np.asarray(_K.dh_links(qa, self._par, self._convention == "standard"))
 
     def _chain(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Return ``(bMe, Z, P)``: ee pose, joint axes (n, 3) and points on them (n, 3), base frame."""
@@ -294,18 +282,13 @@ class DHRobot(Robot):
         cache = self._cache
         if cache is not None and cache[0] == key:
             return cache[1]
-        A = self.link_transforms(q)
-        M = self._base
-        prefix = [M]
-        for Ai in A:  # (ndarray.dot is the cheapest 4x4 product here)
-            M = M.dot(Ai)
-            prefix.append(M)
-        T = np.array(prefix)  # T[i] = base · A_1 ⋯ A_i, (n + 1, 4, 4)
-        # Standard DH: joint i acts on z_{i-1} (T[i-1]); modified: on z_i (T[i]).
-        axes = T[:-1] if self._convention == "standard" else T[1:]
-        Z = axes[:, :3, 2]
-        P = axes[:, :3, 3]
-        bMe = M @ self._flange
+        bMe, Z, P = _K.dh_chain(
+            np.ascontiguousarray(q, dtype=np.float64),
+            self._par,
+            self._base,
+            self._flange,
+            self._convention == "standard",
+        )
         out = (bMe, Z, P)
         self._cache = (key, out)
         return out
@@ -317,13 +300,42 @@ class DHRobot(Robot):
     def jacobe(self, q: FloatArray) -> FloatArray:
         """Return the analytic ``eJe`` (6, n) for a validated (n,) q (module docstring)."""
         bMe, Z, P = self._chain(q)
-        R = bMe[:3, :3]
-        Ze = Z @ R  # rows: R^T z_j
-        De = (bMe[:3, 3] - P) @ R  # rows: R^T (p_e - p_j)
-        J = np.empty((6, Ze.shape[0]))
-        rev = self._rev_f
-        J[0] = rev * (Ze[:, 1] * De[:, 2] - Ze[:, 2] * De[:, 1]) + self._pri_f * Ze[:, 0]
-        J[1] = rev * (Ze[:, 2] * De[:, 0] - Ze[:, 0] * De[:, 2]) + self._pri_f * Ze[:, 1]
-        J[2] = rev * (Ze[:, 0] * De[:, 1] - Ze[:, 1] * De[:, 0]) + self._pri_f * Ze[:, 2]
-        J[3:] = (Ze * rev[:, None]).T
-        return J
+        return np.asarray(_K.dh_jacobe(bMe, Z, P, self._par))
+
+    def kinematics(
+        self, q: ArrayLike, *, check_limits: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """Return ``(fkine(q), jacobian(q))`` in one kernel call (the control hot path)."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        bMc, J = _K.dh_kinematics(
+            qa,
+            self._par,
+            self._base,
+            self._flange,
+            self._convention == "standard",
+            self._eMc,
+            self._cVe,
+        )
+        return bMc, J
+
+    # -- viewer ---------------------------------------------------------------------------------
+
+    def link_poses(self, q: ArrayLike, *, check_limits: bool = True) -> dict[str, FloatArray]:
+        """Return the pose (4x4, m) of every link frame in the base frame (for the viewer).
+
+        Args:
+            q: (n,) joint positions (m or rad).
+            check_limits: Raise :class:`JointLimitError` if ``q`` is outside the limits.
+
+        Returns:
+            ``{"base": base, <joint i's name>: DH frame i (moved by joint i), ..., "ee":
+            bMe}``, base to tip (n + 2 entries). The camera is ``fkine(q)``.
+        """
+        qa = self.check_q(q, check_limits=check_limits)
+        out = {"base": self._base.copy()}
+        M = self._base
+        for name, Ai in zip(self.joint_names, self.link_transforms(qa)):
+            M = M @ Ai
+            out[name] = M
+        out["ee"] = M @ self._flange
+        return out

@@ -1,0 +1,214 @@
+"""``redservo animate PATH --out run.gif|mp4``: a video of a saved run.
+
+Each frame shows, side by side: the 3-D scene (robot links, joint axes coloured by their
+closeness to the limits as in the viewer, camera frustum and path, target objects; base
+frame, m), the camera image with the current and desired features
+(:func:`redservo.viewer.image.camera_image`), and the normalized joint positions with
+their thresholds ``±(1 - 2 rho)`` (CM01 eq. 3) and limits ``±1`` up to the current time.
+
+Drawn with matplotlib (``redservo[plot]``) and written with Pillow (GIF) or, for MP4, an
+encoder already installed (imageio-ffmpeg, or OpenCV's ``mp4v``); nothing is downloaded,
+and without an MP4 encoder the error says to write a ``.gif``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from redservo.errors import ConfigurationError
+from redservo.viewer.playback import Frame, limit_color
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.viewer.playback import Playback
+
+__all__ = ["write_animation"]
+
+_LINK = "#8E44AD"
+_TARGET = "#E69F00"
+
+
+def _frustum(bMc: NDArray[np.float64], cam: Any, size: float) -> NDArray[np.float64]:
+    """Segments (8, 2, 3) of the camera's view pyramid, ``size`` m deep (base frame)."""
+    w, h = cam.width / (2 * cam.px), cam.height / (2 * cam.py)
+    corners = np.array([[-w, -h, 1], [w, -h, 1], [w, h, 1], [-w, h, 1]]) * size
+    P = corners @ bMc[:3, :3].T + bMc[:3, 3]
+    o = bMc[:3, 3]
+    segs = [[o, p] for p in P] + [[P[i], P[(i + 1) % 4]] for i in range(4)]
+    return np.array(segs)
+
+
+def _polyline(segs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Segments (S, 2, 3) as one polyline with NaN breaks (S * 3, 3)."""
+    gap = np.full((segs.shape[0], 1, 3), np.nan)
+    return np.concatenate([segs, gap], axis=1).reshape(-1, 3)
+
+
+class _Scene3D:
+    """The 3-D panel: artists made once, moved at each frame (a redraw from scratch is slow)."""
+
+    def __init__(self, ax: Any, pb: Playback, lims: NDArray[np.float64]) -> None:
+        self.ax, self.pb = ax, pb
+        self.path = np.array([pb.exp.robot.fkine(q, check_limits=False)[:3, 3] for q in pb.q])
+        self.half = 0.06 * float(np.ptp(lims, axis=1).max())
+        (self.links,) = ax.plot([], [], [], "-", color=_LINK, lw=3.5, solid_capstyle="round")
+        n = len(pb.joint_names)
+        self.axes = [ax.plot([], [], [], lw=3)[0] for _ in range(n)]
+        self.joints = ax.scatter(np.zeros(n), np.zeros(n), np.zeros(n), s=18, depthshade=False)
+        (self.frustum,) = ax.plot([], [], [], color="0.15", lw=0.8)
+        (self.trail,) = ax.plot([], [], [], color="#56B4E9", lw=1)
+        self.objects: list[Any] = []
+        for _, kind, _geo in pb.frame(0).objects:
+            if kind in ("points", "sphere"):
+                size = 10 if kind == "points" else 60
+                self.objects.append(
+                    ax.scatter([0], [0], [0], color=_TARGET, s=size, depthshade=False)
+                )
+            else:
+                self.objects.append(ax.plot([], [], [], color=_TARGET, lw=3)[0])
+        ax.set(xlim=lims[0], ylim=lims[1], zlim=lims[2])
+        ax.set_box_aspect(np.ptp(lims, axis=1))
+        for name, axis in zip("xyz", (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
+            axis(f"{name} (m)", fontsize=7, labelpad=-8)
+        ax.tick_params(labelsize=6, pad=-3)
+        for a in (ax.xaxis, ax.yaxis, ax.zaxis):
+            a.set_major_locator(_locator(4))
+
+    def update(self, fr: Frame) -> None:
+        pts = np.array([T[:3, 3] for T in fr.links.values()] + [fr.bMc[:3, 3]])
+        self.links.set_data_3d(pts[:, 0], pts[:, 1], pts[:, 2])
+        colors = []
+        for line, (p, d, _), lvl in zip(self.axes, fr.axes, fr.levels):
+            c = np.array(limit_color(float(lvl))) / 255
+            seg = np.array([p - self.half * d, p + self.half * d])
+            line.set_data_3d(seg[:, 0], seg[:, 1], seg[:, 2])
+            line.set_color(c)
+            colors.append(c)
+        P = np.array([p for p, _, _ in fr.axes])
+        self.joints._offsets3d = (P[:, 0], P[:, 1], P[:, 2])
+        self.joints.set_color(colors)
+        f = _polyline(_frustum(fr.bMc, self.pb.exp.camera, 1.2 * self.half))
+        self.frustum.set_data_3d(f[:, 0], f[:, 1], f[:, 2])
+        tr = self.path[: fr.k + 1]
+        self.trail.set_data_3d(tr[:, 0], tr[:, 1], tr[:, 2])
+        for artist, (_, kind, geo) in zip(self.objects, fr.objects):
+            if kind == "points":
+                artist._offsets3d = (geo[:, 0], geo[:, 1], geo[:, 2])
+            elif kind == "sphere":
+                artist._offsets3d = ([geo[0][0]], [geo[0][1]], [geo[0][2]])
+            else:
+                artist.set_data_3d(geo[0][:, 0], geo[0][:, 1], geo[0][:, 2])
+        self.ax.set_title(f"t = {fr.t:.2f} s (iteration {fr.k})", fontsize=9)
+
+
+def _locator(n: int) -> Any:
+    from matplotlib.ticker import MaxNLocator
+
+    return MaxNLocator(n)
+
+
+def _limits(pb: Playback, ks: list[int]) -> NDArray[np.float64]:
+    pts = []
+    for k in [*ks[:: max(1, len(ks) // 20)], ks[-1]]:
+        fr = pb.frame(k)
+        pts += [T[:3, 3] for T in fr.links.values()] + [fr.bMc[:3, 3]]
+        for _, kind, geo in fr.objects:
+            pts += (
+                list(geo.reshape(-1, 3))
+                if kind == "points"
+                else [np.asarray(geo[0]).reshape(-1, 3)[0]]
+            )
+    P = np.array(pts)
+    c, half = 0.5 * (P.min(0) + P.max(0)), 0.55 * float(np.ptp(P, axis=0).max()) + 0.05
+    return np.array([[c[i] - half, c[i] + half] for i in range(3)])
+
+
+def _frames(pb: Playback, ks: list[int], dpi: int) -> list[NDArray[np.uint8]]:
+    from redservo.plots import _plt
+    from redservo.viewer.image import camera_image
+
+    plt = _plt()
+    fig = plt.figure(figsize=(12.0, 5.0), dpi=dpi, layout="constrained")
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
+    ax3 = fig.add_subplot(grid[:, 0], projection="3d")
+    axi = fig.add_subplot(grid[0, 1])
+    axj = fig.add_subplot(grid[1, 1])
+    fig.suptitle(f"{pb.run.name} [{pb.run.method}]: {pb.run.outcome}", fontsize=10)
+    scene = _Scene3D(ax3, pb, _limits(pb, ks))
+    t, qn, edge = pb.t, pb.qn, 1 - 2 * pb.rho
+    for y in (edge, -edge):
+        axj.axhline(y, color="0.5", ls="--", lw=0.8)
+    for y in (1.0, -1.0):
+        axj.axhline(y, color="k", lw=0.8)
+    lines = [axj.plot([], [], lw=1.1, label=n)[0] for n in pb.joint_names]
+    axj.set(xlim=(t[0], max(t[-1], t[0] + 1e-9)), ylim=(-1.08, 1.08))
+    axj.set_xlabel("t (s)", fontsize=8)
+    axj.set_ylabel("normalized q (-)", fontsize=8)
+    axj.tick_params(labelsize=7)
+    axj.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    cursor = axj.axvline(t[0], color="0.3", lw=0.8)
+    image = axi.imshow(camera_image(pb, ks[0]))
+    axi.set_axis_off()
+    axi.set_title("camera: current (blue), desired (orange)", fontsize=8)
+    out = []
+    for k in ks:
+        scene.update(pb.frame(k))
+        image.set_data(camera_image(pb, k))
+        for j, line in enumerate(lines):
+            line.set_data(t[: k + 1], qn[: k + 1, j])
+        cursor.set_xdata([t[k], t[k]])
+        fig.canvas.draw()
+        if fig.get_layout_engine() is not None:  # lay out once: the panels do not move
+            fig.set_layout_engine("none")
+        out.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+    plt.close(fig)
+    return out
+
+
+def write_animation(
+    pb: Playback,
+    path: str | Path,
+    *,
+    fps: float = 12.0,
+    max_frames: int = 120,
+    dpi: int = 80,
+) -> Path:
+    """Write the video of a run (module docstring); returns ``path``.
+
+    Args:
+        pb: The run (:class:`redservo.viewer.Playback`).
+        path: ``.gif`` or ``.mp4``.
+        fps: Frames per second.
+        max_frames: At most this many frames (evenly spaced iterations, the last kept).
+        dpi: Resolution (the frame is 12 x 5 inches).
+
+    Raises:
+        ConfigurationError: another extension; no MP4 encoder (the message says to use
+            ``.gif``); Pillow or matplotlib missing.
+    """
+    out = Path(path)
+    ext = out.suffix.lower()
+    if ext not in (".gif", ".mp4"):
+        raise ConfigurationError(
+            f"--out {out}: the video format must be .gif or .mp4, got {ext or 'no extension'!r}",
+            argument="out",
+        )
+    if not fps > 0:
+        raise ConfigurationError(f"--fps must be positive, got {fps}", argument="fps")
+    rgb = _frames(pb, pb.frames(max_frames), dpi)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if ext == ".mp4":
+        from redservo.vision.video import _write_mp4
+
+        _write_mp4(out, rgb, fps)
+        return out
+    try:
+        from PIL import Image
+    except ImportError:
+        raise ConfigurationError("a GIF needs Pillow: pip install 'redservo[viewer]'") from None
+    images = [Image.fromarray(f).quantize(colors=128) for f in rgb]
+    images[0].save(out, save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0)
+    return out
