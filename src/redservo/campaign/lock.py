@@ -43,12 +43,19 @@ def _try_lock(fd: int) -> bool:
         except OSError:
             return False
         return True
+    import errno
     import fcntl
 
     try:
         fcntl.lockf(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        return False
+    except OSError as exc:
+        if exc.errno in (errno.EACCES, errno.EAGAIN):
+            return False  # held by another process
+        raise ConfigurationError(
+            f"cannot lock the output directory ({exc.strerror}); a file system without locks? "
+            "use a local directory",
+            argument="out",
+        ) from None
     return True
 
 

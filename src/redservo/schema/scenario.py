@@ -69,8 +69,8 @@ class RobotSpec(Table):
     joints: list[str] | None = Field(
         None, min_length=1, description="URDF: the servoed joints (default: every movable one)"
     )
-    locked_q: dict[str, Annotated[float, Field(allow_inf_nan=False)]] | None = Field(
-        None, description="URDF: positions (m or rad) of the locked joints"
+    locked_q: dict[str, Annotated[float, Field(ge=-BIG, le=BIG, allow_inf_nan=False)]] | None = (
+        Field(None, description="URDF: positions (m or rad) of the locked joints")
     )
     eMc: Pose | None = Field(
         None, description="URDF: camera pose in camera_link (default identity)"
