@@ -98,3 +98,72 @@ def test_bad_input_exits_2_with_a_message(
     )
     err = capsys.readouterr().err
     assert err.startswith("redservo: error: ") and "Traceback" not in err
+
+
+# -- issue 14: the commands on saved results, and the flags every command shares ----------
+
+
+@pytest.mark.parametrize("command", ["plot", "replay", "view", "animate"])
+def test_help_of_the_result_commands(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0
+    assert "usage: redservo " + command in capsys.readouterr().out
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    from redservo import __version__
+
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"redservo {__version__}"
+
+
+def test_list_names_everything_and_q_gives_names_only(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for title in ("Scenarios", "Campaigns", "Robots", "Methods", "Experiments"):
+        assert f"\n{title} (" in f"\n{out}", title
+    assert "panda" in out and "cm01-gaze" in out and "(7 joints)" in out
+    assert main(["list", "-q"]) == 0
+    names = capsys.readouterr().out.split()
+    assert "afma6-gaze-demo" in names and "classical" in names and "humanoid9" in names
+    assert all(" " not in n for n in names)
+
+
+def test_run_plots_by_default_in_the_formats_asked(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    scenario = tmp_path / "my.toml"
+    scenario.write_text(GOOD.replace("max_iterations = 300", "max_iterations = 30"))
+    out = tmp_path / "o"
+    assert main(["run", str(scenario), "--out", str(out), "-q", "--format", "svg,pdf"]) == 0
+    assert (out / "joints.svg").is_file() and (out / "joints.pdf").is_file()
+    assert not (out / "joints.png").exists()
+    assert main(["run", str(scenario), "--out", str(tmp_path / "n"), "-q", "--no-plot"]) == 0
+    assert not list((tmp_path / "n").glob("*.png"))
+    assert main(["run", str(scenario), "--out", str(out), "--format", "jpg"]) == 2
+
+
+def test_reproduce_summary_names_the_claims_not_reproduced() -> None:
+    from redservo.cli_tools import reproduce_lines
+
+    report = {
+        "experiments": [
+            {"id": "a", "claims": [{"claim": "x converges", "reproduced": True}]},
+            {"id": "b", "claims": [{"claim": "y   avoids\nthe limit", "reproduced": False}]},
+        ]
+    }
+    lines = reproduce_lines(report, Path("out"))
+    assert lines[0] == "reproduced 1/2 claims"
+    assert "  - [b] y avoids the limit" in lines
+    assert lines[-1].startswith("details, evidence and figures: out/report.md")
+
+
+def test_campaign_set_overrides_the_base_scenario(tmp_path: Path) -> None:
+    out = tmp_path / "c"
+    args = ["campaign", "afma6-gaze-demo", "--samples", "1", "--methods", "gpm", "--workers", "1"]
+    args += ["--set", "simulation.max_iterations=5", "--out", str(out), "-q", "--no-plot"]
+    assert main(args) == 0
+    row = (out / "samples.csv").read_text().splitlines()[1]
+    assert ",max_iterations,False,5," in row
