@@ -1,29 +1,33 @@
-"""`make demo`: reproduce both papers and run a small Monte Carlo comparison.
+"""`make demo`: reproduce both papers, run a small Monte Carlo comparison, and animate a run.
 
 Writes, under ``--out`` (default ``out/``):
 
 * ``report.md``, ``report.json`` and every figure of the reproduction of
-  Chaumette & Marchand 2001 and Mansard & Chaumette 2005 (``redservo reproduce``);
-* ``campaign/``: a small campaign (seconds, not minutes) comparing the methods on
-  random starts near the joint limits (``redservo campaign afma6-gaze-demo``).
+  Chaumette & Marchand 2001 and Mansard & Chaumette 2005 (``redservo reproduce``; SVG for
+  the report and 300 dpi PNG);
+* ``campaign/``: a small campaign (seconds, not minutes) comparing the methods on random
+  starts near the joint limits (``redservo campaign afma6-gaze-demo``);
+* ``panda-4points/``: one self-describing run of the Franka Panda whose elbow starts near
+  its limit (``redservo run panda-4points``), its figures and ``run.gif``, a video of it
+  (``redservo animate``).
+
+It ends with the list of what it wrote and the commands to look further
+(``redservo view``, ``plot``, ``replay``).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from redservo.cli import main
 
 
-def run() -> int:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--out", default="out", help="output directory (default out/)")
-    args = parser.parse_args()
-    code = main(["reproduce", "--out", args.out])
-    if code:
-        return code
-    return main(
+def _steps(out: Path) -> list[list[str]]:
+    run = out / "panda-4points"
+    return [
+        ["reproduce", "--out", str(out)],
         [
             "campaign",
             "afma6-gaze-demo",
@@ -32,9 +36,54 @@ def run() -> int:
             "--seed",
             "0",
             "--out",
-            f"{args.out}/campaign",
-        ]
+            f"{out}/campaign",
+        ],
+        ["run", "panda-4points", "--out", str(run), "-q"],
+        ["animate", str(run), "--out", str(run / "run.gif"), "--frames", "60"],
+    ]
+
+
+def _count(root: Path, pattern: str) -> int:
+    return sum(1 for _ in root.rglob(pattern))
+
+
+def written(out: Path) -> list[str]:
+    """What the demo wrote, one line each (paths relative to the working directory)."""
+    run, camp = out / "panda-4points", out / "campaign"
+    figures = [p for p in out.glob("*/*") if p.suffix in (".svg", ".png", ".pdf")]
+    lines = [
+        f"  {out / 'report.md'}  the reproduction report (claims, tables, figures)",
+        f"  {out / 'report.json'}  the same, machine-readable",
+        f"  {out}/<experiment>/  {len(figures)} figure files (SVG for the report, 300 dpi PNG)"
+        f" and {_count(out, 'scenario.toml') - _count(camp, 'scenario.toml')} saved runs",
+        f"  {camp / 'campaign.md'}  the campaign's statistics ({camp}/samples.csv, figures)",
+        f"  {run}/  one run: scenario.toml, log.csv, summary.json, figures",
+        f"  {run / 'run.gif'}  its animation (3-D scene, camera image, joints)",
+    ]
+    return lines
+
+
+def run() -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--out", default="out", help="output directory (default out/)")
+    args = parser.parse_args()
+    out = Path(args.out)
+    for step in _steps(out):
+        print(f"$ redservo {' '.join(step)}", flush=True)
+        code = main(step)
+        if code:
+            return code
+    run_dir = out / "panda-4points"
+    print("\nThe demo wrote:")
+    print("\n".join(written(out)))
+    print(
+        "\nLook further:\n"
+        f"  redservo view {run_dir}        # interactive 3-D view in the browser\n"
+        f"  redservo plot {out / 'campaign'} --format pdf   # re-draw figures from the files\n"
+        f"  redservo replay {out / 'campaign'} --sample 0 --method gpm   # re-run one sample\n"
+        f"  redservo run {run_dir / 'scenario.toml'}   # re-run the run exactly"
     )
+    return 0
 
 
 if __name__ == "__main__":
