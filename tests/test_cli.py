@@ -57,6 +57,38 @@ def test_joint_limit_outcome_is_not_an_error(tmp_path: Path) -> None:
     assert summary["success"] is False
 
 
+def test_one_joint_numbering_everywhere(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Joints are numbered from 0 on the console, in summary.json, in compare.md and in the
+    log columns (README, Conventions)."""
+    scenario = tmp_path / "edge.toml"
+    text = GOOD.replace(
+        "q0 = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0]",
+        "q0 = [-0.5967, -0.165, 0.4119, 1.2829, 0.3967, -0.6108]",
+    ).replace("translation = [0.1, 0.05, 0.8]", "translation = [-0.368, 0.017, 0.876]")
+    scenario.write_text(text.replace("dt = 0.04", "dt = 0.08"))
+    out = tmp_path / "o"
+    args = [
+        "compare",
+        str(scenario),
+        "--methods",
+        "classical",
+        "--out",
+        str(out),
+        "-q",
+        "--no-plot",
+    ]
+    assert main([*args, "--set", "control.shield=false"]) == 0
+    hit = json.loads((out / "classical" / "summary.json").read_text())["limit_hit"]
+    from redservo.robots import Afma6
+
+    name = Afma6().joint_names[hit["axis"]]
+    console = capsys.readouterr().out
+    assert f"(joint {hit['axis']} {name!r} at iteration {hit['iteration']})" in console
+    assert f"(joint {hit['axis']}, it. {hit['iteration']})" in (out / "compare.md").read_text()
+    header = (out / "classical" / "log.csv").read_text().split("\n", 1)[0].split(",")
+    assert "q[0]" in header and "q[6]" not in header  # 6 joints: q[0] ... q[5]
+
+
 def test_set_and_compare(tmp_path: Path) -> None:
     scenario = tmp_path / "my.toml"
     scenario.write_text(GOOD)
@@ -98,6 +130,129 @@ def test_bad_input_exits_2_with_a_message(
     )
     err = capsys.readouterr().err
     assert err.startswith("redservo: error: ") and "Traceback" not in err
+
+
+# --------------------------------------------------------------------------- failure modes
+
+
+def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if not line.startswith("redservo campaign: ")]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("redservo: error: ") and "Traceback" not in err, err
+    return lines[0]
+
+
+BAD_CAMPAIGN = Path(__file__).parent / "data" / "bad_scenarios" / "binary_garbage.toml"
+
+
+@pytest.mark.parametrize(
+    ("argv", "expect"),
+    [
+        (["run", "afma6-gaze-demo", "--set", "control.dt=-1"], "key 'control.dt'"),
+        (["run", "afma6-gaze-demo", "--set", "control.lam=inf"], "key 'control.lam'"),
+        (["compare", "afma6-gaze-demo", "--methods", " , "], "give at least one method"),
+        (["compare", str(BAD_CAMPAIGN), "--methods", "classical"], "not a text file"),
+        (["campaign", str(BAD_CAMPAIGN)], "not a text file"),
+        (["campaign", "no-such-campaign"], "shipped campaigns"),
+        (["campaign", "afma6-gaze-demo", "--samples", "0"], "--samples: must be in [1, 1000000]"),
+        (["campaign", "afma6-gaze-demo", "--samples", "1e12"], "expected an integer"),
+        (["campaign", "afma6-gaze-demo", "--workers", "0"], "--workers"),
+        (["campaign", "afma6-gaze-demo", "--seed", "-3"], "--seed"),
+        (["campaign", "afma6-gaze-demo", "--methods", "nope"], "unknown method 'nope'"),
+        (["reproduce", "--only", "nope"], "unknown experiment 'nope'"),
+        (["bench", "--repeat", "0"], "--repeat: must be in [1, 1000000]"),
+        (["bench", "--repeat", "many"], "expected an integer"),
+        (["frobnicate"], "invalid choice"),
+        (["run"], "the following arguments are required"),
+    ],
+)
+def test_every_command_fails_in_one_line_with_exit_2(
+    argv: list[str], expect: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    extra = (
+        ["--out", str(tmp_path / "o")] if argv[0] in ("compare", "campaign", "reproduce") else []
+    )
+    assert main([*argv, *extra]) == 2
+    assert expect in _one_error_line(capsys)
+
+
+def test_a_bad_campaign_file_names_file_and_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text('scenario = "afma6-gaze-demo"\nsamples = 5\n[start]\np_bnd = 0.5\n')
+    assert main(["campaign", str(path), "--out", str(tmp_path / "o"), "-q"]) == 2
+    line = _one_error_line(capsys)
+    assert (
+        line.startswith(f"redservo: error: {path}: key 'start.p_bnd'")
+        and "did you mean 'p_band'" in line
+    )
+    path.write_text('scenario = "afma6-gaze-demo"\n[overrides]\ncontrol = { lam = 1e300 }\n')
+    assert main(["campaign", str(path), "--out", str(tmp_path / "o"), "-q"]) == 2
+    assert f"{path}: key 'overrides.control.lam': must be <= 1000" in _one_error_line(capsys)
+
+
+def test_an_unwritable_output_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    assert main(["run", "afma6-gaze-demo", "--out", str(blocker / "o"), "-q"]) == 2
+    assert str(blocker) in _one_error_line(capsys)
+
+
+def test_a_missing_extra_is_one_line_with_pip_install(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without matplotlib: the reproduction (figures are its result) stops in one line before
+    running; a run keeps its numbers and says in one line that the figures were skipped."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # as if it were not installed
+    out = tmp_path / "repro"
+    assert main(["reproduce", "--fast", "--out", str(out), "-q"]) == 2
+    assert "pip install 'redservo[plot]'" in _one_error_line(capsys)
+    assert not out.exists()  # it failed before running anything
+    assert main(["run", "afma6-gaze-demo", "--out", str(tmp_path / "run"), "-q"]) == 0
+    assert capsys.readouterr().err == "figures skipped: pip install 'redservo[plot]'\n"
+    assert (tmp_path / "run" / "summary.json").is_file()
+
+
+def test_debug_shows_the_traceback_and_a_bug_exits_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    argv = ["run", "afma6-gaze-demo", "--set", "control.dt=0", "--out", str(tmp_path), "-q"]
+    assert main([*argv, "--debug"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err and err.rstrip().splitlines()[-1].startswith("redservo: error: ")
+    assert main(["--debug", *argv]) == 2  # before or after the command
+    assert "Traceback" in capsys.readouterr().err
+
+    import redservo.experiment
+
+    def broken(*_a: object, **_k: object) -> None:
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(redservo.experiment, "build", broken)
+    assert main(["run", "afma6-gaze-demo", "--out", str(tmp_path), "-q"]) == 1
+    line = _one_error_line(capsys)
+    assert "internal error: RuntimeError: a bug" in line and "--debug" in line
+
+
+def test_run_prints_one_warning_per_flag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from redservo.simulation import flag_warnings
+
+    out = tmp_path / "o"
+    argv = ["run", "panda-4points", "--method", "classical", "--out", str(out), "-q", "--no-plot"]
+    assert main(argv) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    want = flag_warnings(summary)
+    assert want, "the classical law needs the shield on this scenario"
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"warning: {line}" for line in want]
 
 
 # -- issue 14: the commands on saved results, and the flags every command shares ----------
