@@ -14,11 +14,19 @@ import difflib
 import math
 import types
 import typing
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any, NoReturn
 
-from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler, Tag, ValidationError
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    GetCoreSchemaHandler,
+    Tag,
+    ValidationError,
+)
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError, PydanticUndefined, core_schema
 
@@ -35,6 +43,7 @@ __all__ = [
     "fail",
     "integer",
     "num",
+    "tagged_union",
     "to_error",
     "unknown_name",
 ]
@@ -376,6 +385,21 @@ def validate(model: type[BaseModel], data: Any, source: str, key_prefix: str = "
         return model.model_validate(data)
     except ValidationError as exc:
         raise to_error(exc, model, source, key_prefix) from None
+
+
+def tagged_union(kinds: Mapping[str, type[BaseModel]], *, default: str | None, what: str) -> Any:
+    """The type "one of these tables, chosen by its ``kind`` key" over a registry of kinds.
+
+    A new kind is one more entry in the registry (``OBJECT_KINDS``, ``FEATURE_KINDS``, ...).
+    An unknown kind reads ``unknown WHAT 'x'; allowed: ...``; ``default`` is the kind of a
+    table without ``kind`` (None: ``kind`` is required).
+    """
+    members = tuple(Annotated[model, Tag(kind)] for kind, model in kinds.items())
+    return Annotated[
+        typing.Union[members],  # noqa: UP007 - a runtime tuple of members
+        Discriminator(kind_of(default)),
+        Field(json_schema_extra={"what": what}),
+    ]
 
 
 def kind_of(default: str | None) -> Callable[[Any], str | None]:

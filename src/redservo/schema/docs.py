@@ -149,8 +149,7 @@ def scenario_reference() -> str:
                 f'`[[objects]]` with `kind = "{kind}"`', model, skip=sc.ObjectSpec.model_fields
             )
         )
-    for model in sc.MOTION_KINDS:
-        kind = typing.get_args(model.model_fields["kind"].annotation)[0]
+    for kind, model in sc.MOTION_KINDS.items():
         parts.append(_section(f'`[objects.motion]` with `kind = "{kind}"`', model, skip=("kind",)))
     parts.append(_section("`[[features]]`: keys of every kind", sf.FeatureSpec, skip=("kind",)))
     for kind, fmodel in sf.FEATURE_KINDS.items():

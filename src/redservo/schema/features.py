@@ -5,23 +5,23 @@ without building, so that ``components`` and ``task.desired`` are checked when t
 validated) and :meth:`FeatureSpec.features`, which builds the runtime features through
 :func:`redservo.features.make_feature`. A new feature kind is its class in
 :mod:`redservo.features` (registered in ``FEATURES``) plus one spec here, listed in
-:data:`FEATURE_KINDS` and :data:`AnyFeature`.
+:data:`FEATURE_KINDS`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Annotated, Any, ClassVar, Literal, cast
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, cast
 
 import numpy as np
-from pydantic import Discriminator, Field, Tag, model_validator
+from pydantic import Field, model_validator
 
 from redservo._validation import FloatArray
 from redservo.features.base import Feature
 from redservo.features.moments import RotationFeatures
 from redservo.features.sphere import SphereVariant
 from redservo.scene import SceneObject
-from redservo.schema.base import Doc, Table, choice, fail, integer, kind_of
+from redservo.schema.base import Doc, Table, choice, fail, integer, tagged_union
 from redservo.schema.scene import ObjectSpec
 
 __all__ = ["FEATURE_KINDS", "AnyFeature", "FeatureSpec"]
@@ -179,13 +179,9 @@ FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
     "sphere": SphereSpec,
     "moments": MomentsSpec,
 }
-"""Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`)."""
-AnyFeature = Annotated[
-    Annotated[PointSpec, Tag("point")]
-    | Annotated[LineSpec, Tag("line")]
-    | Annotated[CylinderSpec, Tag("cylinder")]
-    | Annotated[SphereSpec, Tag("sphere")]
-    | Annotated[MomentsSpec, Tag("moments")],
-    Discriminator(kind_of(None)),
-    Field(json_schema_extra={"what": "feature kind"}),
-]
+"""Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`):
+a new kind is one entry here."""
+if TYPE_CHECKING:
+    AnyFeature = FeatureSpec
+else:
+    AnyFeature = tagged_union(FEATURE_KINDS, default=None, what="feature kind")

@@ -4,19 +4,19 @@ Each object kind (and motion kind) is one :class:`~redservo.schema.base.Table` w
 ``kind`` literal, its keys (types, ranges, defaults, units) and the method that builds the
 runtime object from it (:meth:`ObjectSpec.scene_object`, :mod:`redservo.scene`). A new
 kind is its runtime class in its own module plus one spec class here, listed in
-:data:`OBJECT_KINDS` and :data:`AnyObject`. Features: :mod:`redservo.schema.features`.
+:data:`OBJECT_KINDS`. Features: :mod:`redservo.schema.features`.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
-from pydantic import Discriminator, Field, Tag, model_validator
+from pydantic import Field, model_validator
 
 from redservo._validation import FloatArray
 from redservo.scene import SceneObject, Trajectory
-from redservo.schema.base import BIG, Doc, Table, Vec3, fail, kind_of, num
+from redservo.schema.base import BIG, Doc, Table, Vec3, fail, num, tagged_union
 
 __all__ = ["MOTION_KINDS", "OBJECT_KINDS", "AnyMotion", "AnyObject", "ObjectSpec", "Pose"]
 
@@ -117,14 +117,16 @@ class WaypointsMotion(Table):
         return Waypoints(np.array(self.times), poses)
 
 
-MOTION_KINDS: tuple[type[Table], ...] = (StaticMotion, ConstantVelocityMotion, WaypointsMotion)
-AnyMotion = Annotated[
-    Annotated[StaticMotion, Tag("static")]
-    | Annotated[ConstantVelocityMotion, Tag("constant_velocity")]
-    | Annotated[WaypointsMotion, Tag("waypoints")],
-    Discriminator(kind_of("static")),
-    Field(json_schema_extra={"what": "motion kind"}),
-]
+MOTION_KINDS: dict[str, type[Table]] = {
+    "static": StaticMotion,
+    "constant_velocity": ConstantVelocityMotion,
+    "waypoints": WaypointsMotion,
+}
+"""Motion kinds of ``[objects.motion]``, by ``kind`` (one entry per kind)."""
+if TYPE_CHECKING:
+    AnyMotion = StaticMotion | ConstantVelocityMotion | WaypointsMotion
+else:
+    AnyMotion = tagged_union(MOTION_KINDS, default="static", what="motion kind")
 
 
 # --------------------------------------------------------------------------- objects
@@ -255,12 +257,8 @@ OBJECT_KINDS: dict[str, type[ObjectSpec]] = {
     "cylinder": CylinderObject,
     "line": LineObject,
 }
-"""Object kinds of ``[[objects]]``, by ``kind``."""
-AnyObject = Annotated[
-    Annotated[PointsObject, Tag("points")]
-    | Annotated[SphereObject, Tag("sphere")]
-    | Annotated[CylinderObject, Tag("cylinder")]
-    | Annotated[LineObject, Tag("line")],
-    Discriminator(kind_of(None)),
-    Field(json_schema_extra={"what": "object kind"}),
-]
+"""Object kinds of ``[[objects]]``, by ``kind``: a new kind is one entry here."""
+if TYPE_CHECKING:
+    AnyObject = ObjectSpec
+else:
+    AnyObject = tagged_union(OBJECT_KINDS, default=None, what="object kind")
