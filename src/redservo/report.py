@@ -28,9 +28,7 @@ def summary_table(rows: Mapping[str, Mapping[str, Any]]) -> str:
     lines = []
     for name, s in rows.items():
         hit = s.get("limit_hit")
-        outcome = s["outcome"] + (
-            f" (joint {hit['axis']}, it. {hit['iteration']})" if hit else ""
-        )
+        outcome = s["outcome"] + (f" (joint {hit['axis']}, it. {hit['iteration']})" if hit else "")
         cam = s["max_camera_speed"]
         lines.append(
             f"| {name} | {outcome} | {s['iterations']} | {_f(s['min_margin'], '.3f')} | "
