@@ -213,12 +213,15 @@ def _base_scenario(spec: CampaignSpec, src: str, base_dir: Path | None) -> Scena
         raise ScenarioError(f"{src}: key 'scenario': {exc}", argument="scenario") from None
     if not spec.overrides:
         return base
-    return parse_scenario(
+    merged = parse_scenario(  # errors name the campaign file and overrides.KEY
         _merge(base.data, spec.overrides),
         src,
         base_dir=Path(base.source).parent if base.source.endswith(".toml") else None,
         key_prefix="overrides.",
     )
+    out = Scenario(merged.data, f"{base.source} (overrides from {src})")
+    out._spec = merged.spec
+    return out
 
 
 def parse_campaign(
