@@ -1,0 +1,285 @@
+"""Kernels of the safety layer: rate box, position box, scaling and the exact shield.
+
+The formulas and priorities are those of :mod:`redservo.redundancy.safety` (which wraps
+these kernels and documents them; docs/safety.md). ``lp`` is the (11, n) packed limits
+of :func:`redservo.kernels.pack.limits_pack`; ``has_v``/``has_a`` say whether velocity
+and acceleration limits exist; ``prev``/``has_prev`` carry the previous command.
+Units: rad (m), rad/s (m/s), rad/s² (m/s²), s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redservo.kernels._jit import kernel
+from redservo.kernels.pack import AMAX, SAFE_MAX, SAFE_MIN, VMAX
+
+__all__ = [
+    "apply_safety",
+    "command_box",
+    "exact_position_fix",
+    "intersect_boxes",
+    "position_box",
+    "rate_box",
+    "scale_into_box",
+]
+
+TOL = 1e-12
+"""Relative slack below which a command counts as inside a box (roundoff)."""
+
+
+@kernel
+def rate_box(lp: Any, has_v: bool, has_a: bool, dt: float, prev: Any, has_prev: bool) -> Any:
+    """``(lo, hi, dropped)``: velocity box ∩ acceleration box (the latter dropped per joint
+    where it misses the velocity box)."""
+    n = lp.shape[1]
+    lo = np.empty(n)
+    hi = np.empty(n)
+    dropped = False
+    for i in range(n):
+        if has_v:
+            lo[i] = -lp[VMAX, i]
+            hi[i] = lp[VMAX, i]
+        else:
+            lo[i] = -np.inf
+            hi[i] = np.inf
+        if has_a and has_prev:
+            alo = prev[i] - lp[AMAX, i] * dt
+            ahi = prev[i] + lp[AMAX, i] * dt
+            nlo = max(lo[i], alo)
+            nhi = min(hi[i], ahi)
+            if nlo <= nhi:
+                lo[i] = nlo
+                hi[i] = nhi
+            else:
+                dropped = True
+    return lo, hi, dropped
+
+
+@kernel
+def position_box(q: Any, lp: Any, has_v: bool, has_a: bool, dt: float) -> Any:
+    """``(lo, hi)``: the velocities keeping ``q + dt q̇`` within the safe limits, with the
+    braking bound and the retreat from the margin band at most at the velocity limit."""
+    n = q.shape[0]
+    lo = np.empty(n)
+    hi = np.empty(n)
+    for i in range(n):
+        d_hi = lp[SAFE_MAX, i] - q[i]
+        d_lo = q[i] - lp[SAFE_MIN, i]
+        h = d_hi / dt
+        low = -d_lo / dt
+        if has_a:
+            a = lp[AMAX, i]
+            h = min(h, np.sqrt(2.0 * a * max(d_hi, 0.0)))
+            low = max(low, -np.sqrt(2.0 * a * max(d_lo, 0.0)))
+        back = -lp[VMAX, i] if has_v else 0.0
+        if d_hi < 0.0:
+            h = max(h, back)
+        if d_lo < 0.0:
+            low = min(low, -back)
+        lo[i] = low
+        hi[i] = h
+    return lo, hi
+
+
+@kernel
+def command_box(
+    q: Any, lp: Any, has_v: bool, has_a: bool, dt: float, prev: Any, has_prev: bool
+) -> Any:
+    """``P ∩ R``; where they miss, the acceleration part is dropped (velocity, then position)."""
+    rlo, rhi, _ = rate_box(lp, has_v, has_a, dt, prev, has_prev)
+    plo, phi = position_box(q, lp, has_v, has_a, dt)
+    n = q.shape[0]
+    lo = np.empty(n)
+    hi = np.empty(n)
+    for i in range(n):
+        lo[i] = max(rlo[i], plo[i])
+        hi[i] = min(rhi[i], phi[i])
+        if lo[i] > hi[i]:
+            vlo = -lp[VMAX, i] if has_v else -np.inf
+            vhi = lp[VMAX, i] if has_v else np.inf
+            lo[i] = max(vlo, plo[i])
+            hi[i] = min(vhi, phi[i])
+    return lo, hi
+
+
+@kernel
+def intersect_boxes(lo: Any, hi: Any, lo2: Any, hi2: Any) -> Any:
+    """Intersect two boxes; where they do not meet, the second one wins."""
+    n = lo.shape[0]
+    nlo = np.empty(n)
+    nhi = np.empty(n)
+    for i in range(n):
+        a = max(lo[i], lo2[i])
+        b = min(hi[i], hi2[i])
+        if a > b:
+            a = lo2[i]
+            b = hi2[i]
+        nlo[i] = a
+        nhi[i] = b
+    return nlo, nhi
+
+
+@kernel
+def _inside(x: Any, lo: Any, hi: Any) -> bool:
+    for i in range(x.shape[0]):
+        slack = TOL * (1.0 + abs(x[i]))
+        if not (x[i] >= lo[i] - slack and x[i] <= hi[i] + slack):
+            return False
+    return True
+
+
+@kernel
+def _clip(x: float, lo: float, hi: float) -> float:
+    """``np.clip`` of one number: ``min(max(x, lo), hi)``."""
+    return min(max(x, lo), hi)
+
+
+@kernel
+def _max_scale(base: Any, step: Any, lo: Any, hi: Any) -> float:
+    """Largest ``s ∈ [0, 1]`` with ``lo <= base + s step <= hi`` (``base`` inside the box)."""
+    s = 1.0
+    for i in range(base.shape[0]):
+        if step[i] > 0.0:
+            s = min(s, (hi[i] - base[i]) / step[i])
+        elif step[i] < 0.0:
+            s = min(s, (lo[i] - base[i]) / step[i])
+    return max(s, 0.0)
+
+
+@kernel
+def scale_into_box(qdot: Any, lo: Any, hi: Any, task: Any, has_task: bool) -> Any:
+    """``(q̇, s)``: ``qdot`` scaled into the box keeping its direction (secondary-first when
+    ``has_task``: the part beyond ``task`` first), then clipped (roundoff)."""
+    n = qdot.shape[0]
+    out = np.empty(n)
+    if _inside(qdot, lo, hi):
+        for i in range(n):
+            out[i] = _clip(qdot[i], lo[i], hi[i])
+        return out, 1.0
+    anchor = np.empty(n)
+    for i in range(n):
+        anchor[i] = _clip(0.0, lo[i], hi[i])
+    if has_task and _inside(task, lo, hi):
+        t = np.empty(n)
+        rest = np.empty(n)
+        for i in range(n):
+            t[i] = _clip(task[i], lo[i], hi[i])
+            rest[i] = qdot[i] - task[i]
+        s = _max_scale(t, rest, lo, hi)
+        for i in range(n):
+            out[i] = _clip(t[i] + s * rest[i], lo[i], hi[i])
+        return out, s
+    step = np.empty(n)
+    for i in range(n):
+        step[i] = (task[i] if has_task else qdot[i]) - anchor[i]
+    s = _max_scale(anchor, step, lo, hi)
+    for i in range(n):
+        out[i] = _clip(anchor[i] + s * step[i], lo[i], hi[i])
+    return out, s
+
+
+@kernel
+def exact_position_fix(q: Any, qdot: Any, dt: float, lp: Any) -> Any:
+    """``(q̇, changed)``: each joint moved by whole float64 steps (at most 64) until
+    ``q + dt q̇`` lies in ``[min(q_safe_min, q), max(q_safe_max, q)]``."""
+    n = q.shape[0]
+    out = qdot.copy()
+    changed = False
+    for i in range(n):
+        top = max(lp[SAFE_MAX, i], q[i])
+        bottom = min(lp[SAFE_MIN, i], q[i])
+        v = qdot[i]
+        for _ in range(64):
+            nxt = q[i] + dt * v
+            if nxt > top:
+                v = np.nextafter(v, -np.inf)
+            elif nxt < bottom:
+                v = np.nextafter(v, np.inf)
+            else:
+                break
+        if v != qdot[i]:
+            out[i] = v
+            changed = True
+    return out, changed
+
+
+@kernel
+def apply_safety(
+    qdot: Any,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+    task: Any,
+    has_task: bool,
+) -> Any:
+    """The rate stage and the shield on a raw command (redundancy/safety.py).
+
+    Returns:
+        ``(q̇, non_finite, s, over_v, dropped, change, shield_acted, accel_excess,
+        accel_exceeded)``: the safe command, the number of non-finite entries replaced
+        (then q̇ = 0), the rate scale s, whether the raw command exceeded the velocity
+        limit, whether the acceleration limit was released on some joint, the largest
+        change made by the shield and whether it counts, the largest acceleration excess
+        (rad/s²) and whether it is reported.
+    """
+    n = q.shape[0]
+    bad = 0
+    for i in range(n):
+        if not np.isfinite(qdot[i]):
+            bad += 1
+    cmd = qdot
+    use_task = has_task
+    if bad:
+        cmd = np.zeros(n)
+        use_task = False
+    if use_task:
+        for i in range(n):
+            if not np.isfinite(task[i]):
+                use_task = False
+    rlo, rhi, dropped = rate_box(lp, has_v, has_a, dt, prev, has_prev)
+    if shield:  # where the acceleration box misses the position box, the position wins
+        plo, phi = position_box(q, lp, has_v, has_a, dt)
+        for i in range(n):
+            if max(rlo[i], plo[i]) > min(rhi[i], phi[i]):
+                rlo[i] = -lp[VMAX, i] if has_v else -np.inf
+                rhi[i] = lp[VMAX, i] if has_v else np.inf
+                dropped = True
+    out, s = scale_into_box(cmd, rlo, rhi, task, use_task)
+    over_v = False
+    if s < 1.0 and has_v:
+        for i in range(n):
+            if abs(cmd[i]) > lp[VMAX, i] * (1.0 + TOL):
+                over_v = True
+    change = 0.0
+    acted = False
+    worst = np.nan
+    exceeded = False
+    if shield:
+        plo, phi = command_box(q, lp, has_v, has_a, dt, prev, has_prev)
+        clamped = np.empty(n)
+        for i in range(n):
+            clamped[i] = _clip(out[i], plo[i], phi[i])
+        fixed, _ = exact_position_fix(q, clamped, dt, lp)
+        big = 0.0
+        for i in range(n):
+            change = max(change, abs(fixed[i] - out[i]))
+            big = max(big, abs(out[i]))
+        acted = change > TOL * (1.0 + big)
+        if has_prev and has_a:
+            worst = -np.inf
+            amax = 0.0
+            for i in range(n):
+                worst = max(worst, abs(fixed[i] - prev[i]) - lp[AMAX, i] * dt)
+                amax = max(amax, lp[AMAX, i])
+            worst = worst / dt
+            exceeded = worst > TOL * (1.0 + amax) and not dropped
+        out = fixed
+    return out, bad, s, over_v, dropped, change, acted, worst, exceeded
