@@ -36,9 +36,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_transform, as_vector
-from redservo.camera import MIN_DEPTH
 from redservo.errors import GeometryError
-from redservo.features.base import Feature, Measurement, wrap_angle
+from redservo.features.base import Feature, Measurement
+from redservo.kernels import lazy
+
+_K = lazy("features")
+_BEHIND, _ZERO_AXIS, _THROUGH, _PARALLEL, _INFINITY, _INSIDE = 1, 2, 3, 4, 5, 6
+"""Codes of :mod:`redservo.kernels.features`."""
 
 __all__ = [
     "CylinderFeature",
@@ -52,7 +56,8 @@ __all__ = [
 ]
 
 _PARALLEL_TOL = 1e-9
-"""|u_z| below this counts as parallel to the image plane; relative tolerance for degeneracy."""
+"""|u_z| below this counts as parallel to the image plane; relative tolerance for degeneracy
+(the value :mod:`redservo.kernels.features` uses)."""
 
 
 class LineProjection(NamedTuple):
@@ -90,27 +95,8 @@ def line_interaction(rho: float, theta: float, plane: ArrayLike) -> FloatArray:
         plane: (3,) ``(A, B, C)/D`` of any plane through the 3-D line, not through
             the optical centre (1/m).
     """
-    a, b, c = np.asarray(plane, dtype=float)
-    ct, st = np.cos(theta), np.sin(theta)
-    lr = a * rho * ct + b * rho * st + c
-    lt = a * st - b * ct
-    r2 = 1.0 + rho * rho
-    return np.array(
-        [
-            [lr * ct, lr * st, -lr * rho, r2 * st, -r2 * ct, 0.0],
-            [lt * ct, lt * st, -lt * rho, -rho * ct, -rho * st, -1.0],
-        ]
-    )
-
-
-def _image_line(n: FloatArray, what: str) -> tuple[float, float]:
-    """``(ρ, θ)`` of the image of the interpretation plane ``n · X = 0``."""
-    nu = float(np.hypot(n[0], n[1]))
-    if nu <= _PARALLEL_TOL * float(np.linalg.norm(n)):
-        raise GeometryError(
-            f"{what} lies in the camera plane Z = 0 and images to the line at infinity"
-        )
-    return float(-n[2] / nu), float(wrap_angle(np.arctan2(n[1], n[0])))
+    P = np.ascontiguousarray(plane, dtype=np.float64)
+    return np.asarray(_K.line_interaction(float(rho), float(theta), P))
 
 
 def project_line(point_c: ArrayLike, direction_c: ArrayLike) -> LineProjection:
@@ -123,23 +109,29 @@ def project_line(point_c: ArrayLike, direction_c: ArrayLike) -> LineProjection:
     """
     P0 = as_vector(point_c, "point_c", 3)
     u = as_vector(direction_c, "direction_c", 3)
-    nu = float(np.linalg.norm(u))
-    if nu < 1e-12:
+    rho, theta, plane, code, value = _K.project_line(
+        np.ascontiguousarray(P0), np.ascontiguousarray(u)
+    )
+    if code == _ZERO_AXIS:
         raise GeometryError(f"zero-length axis: the line direction must be non-zero, got {u}")
-    u = u / nu
-    perp = P0 - (u @ P0) * u  # point of the line nearest the optical centre
-    d2 = float(perp @ perp)
-    if d2 <= MIN_DEPTH**2:
+    if code == _THROUGH:
         raise GeometryError(
-            f"the line passes through the optical centre (distance {np.sqrt(d2):.3g} m) "
+            f"the line passes through the optical centre (distance {value:.3g} m) "
             "and images to a point"
         )
-    if abs(u[2]) < _PARALLEL_TOL and perp[2] <= MIN_DEPTH:
+    if code == _PARALLEL:
         raise GeometryError(
-            f"the line is parallel to the image plane at or behind the camera (Z = {perp[2]:.6g} m)"
+            f"the line is parallel to the image plane at or behind the camera (Z = {value:.6g} m)"
         )
-    rho, theta = _image_line(np.cross(P0, u), "the line")
-    return LineProjection(rho, theta, -perp / d2)
+    if code == _INFINITY:
+        raise _at_infinity("the line")
+    return LineProjection(float(rho), float(theta), plane)
+
+
+def _at_infinity(what: str) -> GeometryError:
+    return GeometryError(
+        f"{what} lies in the camera plane Z = 0 and images to the line at infinity"
+    )
 
 
 def cylinder_lines(radius: float, axis_c: ArrayLike, point_c: ArrayLike) -> CylinderProjection:
@@ -165,40 +157,29 @@ def cylinder_lines(radius: float, axis_c: ArrayLike, point_c: ArrayLike) -> Cyli
     if not (np.isfinite(R) and R > 0.0):
         raise GeometryError(f"cylinder radius must be positive and finite (m), got {radius!r}")
     a = as_vector(axis_c, "axis_c", 3)
-    na = float(np.linalg.norm(a))
-    if na < 1e-12:
-        raise GeometryError(f"zero-length axis: the cylinder axis must be non-zero, got {a}")
-    a = a / na
     X0 = as_vector(point_c, "point_c", 3)
-    X0 = X0 - (a @ X0) * a
-    d = float(np.linalg.norm(X0))
-    if d - R <= MIN_DEPTH:
+    s, plane, code, value = _K.cylinder_lines(R, np.ascontiguousarray(a), np.ascontiguousarray(X0))
+    if code == _ZERO_AXIS:
+        raise GeometryError(f"zero-length axis: the cylinder axis must be non-zero, got {a}")
+    if code == _INSIDE:
         raise GeometryError(
-            f"the camera is inside or on the cylinder (distance to the axis {d:.6g} m, "
+            f"the camera is inside or on the cylinder (distance to the axis {value:.6g} m, "
             f"radius {R:.6g} m); it must be outside"
         )
-    D = d * d - R * R
-    s = 1.0 / np.sqrt(D)
-    w = np.cross(X0, a)
-    if abs(a[2]) < _PARALLEL_TOL:
-        # Contour generators parallel to the image plane: both must be in front.
-        k = np.cross(a, X0)
-        for sign in (1.0, -1.0):
-            T = (1.0 - R * R / (d * d)) * X0 + sign * (R * np.sqrt(D) / (d * d)) * k
-            if T[2] <= MIN_DEPTH:
-                raise GeometryError(
-                    "a limb of the cylinder is parallel to the image plane at or behind "
-                    f"the camera (Z = {T[2]:.6g} m)"
-                )
-    rho1, theta1 = _image_line(R * s * X0 - w, "limb 1 of the cylinder")
-    rho2, theta2 = _image_line(R * s * X0 + w, "limb 2 of the cylinder")
-    return CylinderProjection(np.array([rho1, theta1, rho2, theta2]), -X0 / D)
+    if code == _PARALLEL:
+        raise GeometryError(
+            "a limb of the cylinder is parallel to the image plane at or behind "
+            f"the camera (Z = {value:.6g} m)"
+        )
+    if code == _INFINITY:
+        raise _at_infinity(f"limb {int(value)} of the cylinder")
+    return CylinderProjection(s, plane)
 
 
 def cylinder_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
     """Interaction matrix (4, 6) of ``(ρ1, θ1, ρ2, θ2)``: both limbs with the polar ``plane`` (3,)."""
-    rho1, theta1, rho2, theta2 = np.asarray(s, dtype=float)
-    return np.vstack([line_interaction(rho1, theta1, plane), line_interaction(rho2, theta2, plane)])
+    c = np.ascontiguousarray
+    return np.asarray(_K.cylinder_interaction(c(s, dtype=np.float64), c(plane, dtype=np.float64)))
 
 
 class LineFeature(Feature):

@@ -74,16 +74,30 @@ Other decisions:
 from __future__ import annotations
 
 from collections import OrderedDict
-from collections.abc import Callable
 from typing import Any, Literal, NamedTuple, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
-from redservo.camera import project_points
+from redservo.camera import MIN_DEPTH, project_points
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.base import Feature, Measurement, wrap_angle
+from redservo.kernels import lazy
+
+_K = lazy("moments")
+_KIND = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
+(
+    _BEHIND,
+    _COLLINEAR,
+    _NOT_COPLANAR,
+    _THROUGH_CENTRE,
+    _COINCIDE,
+    _ISOTROPIC,
+    _SYMMETRIC,
+    _I6_ZERO,
+) = range(1, 9)
+"""Codes of :mod:`redservo.kernels.moments`."""
 
 __all__ = [
     "ROTATION_FEATURES",
@@ -157,44 +171,43 @@ def object_plane(points_c: ArrayLike) -> FloatArray:
         ShapeError: wrong shape or non-finite values.
     """
     P = as_matrix(points_c, "points_c", None, 3)
-    normal, centroid = _fit_plane(P, "points_c")
-    d = float(normal @ centroid)
-    if abs(d) <= 1e-6:
-        raise GeometryError(
-            f"the object plane passes through the optical centre (distance {abs(d):.3g} m); "
-            "its image is a line and the moments are degenerate"
-        )
-    return np.asarray(normal / d, dtype=float)
+    return _fit_plane(P, "points_c")
 
 
-def _fit_plane(P: FloatArray, name: str) -> tuple[FloatArray, FloatArray]:
-    """Unit normal and centroid of coplanar points (N, 3), validating the set."""
+def _fit_plane(P: FloatArray, name: str, *, through_centre_ok: bool = False) -> FloatArray:
+    """``(A, B, C)`` of the plane of points (N, 3), validating the set (kernel ``fit_plane``).
+
+    ``through_centre_ok`` only checks that the points span a plane (object-frame points
+    may lie on a plane through the origin)."""
     if P.shape[0] < 3:
         raise GeometryError(f"{name} needs at least 3 coplanar points, got {P.shape[0]}")
-    centroid = P.mean(axis=0)
-    _, sv, Vt = np.linalg.svd(P - centroid)
-    if sv[0] <= 0.0 or sv[1] <= _PLANE_TOL * sv[0]:
-        raise GeometryError(f"the points of {name} are coincident or collinear; they span no plane")
-    if sv[2] > _PLANE_TOL * sv[0]:
-        raise GeometryError(
-            f"the points of {name} are not coplanar (out-of-plane spread {sv[2] / sv[0]:.3g} "
+    plane, code, value = _K.fit_plane(np.ascontiguousarray(P))
+    if code != 0 and not (through_centre_ok and code == _THROUGH_CENTRE):
+        raise _plane_error(int(code), float(value), name)
+    return np.asarray(plane)
+
+
+def _plane_error(code: int, value: float, name: str) -> GeometryError:
+    if code == _COLLINEAR:
+        return GeometryError(
+            f"the points of {name} are coincident or collinear; they span no plane"
+        )
+    if code == _NOT_COPLANAR:
+        return GeometryError(
+            f"the points of {name} are not coplanar (out-of-plane spread {value:.3g} "
             f"relative to in-plane; allowed <= {_PLANE_TOL:g})"
         )
-    return np.asarray(Vt[2], dtype=float), np.asarray(centroid, dtype=float)
+    return GeometryError(
+        f"the object plane passes through the optical centre (distance {value:.3g} m); "
+        "its image is a line and the moments are degenerate"
+    )
 
 
 def image_moments(xy: ArrayLike) -> ImageMoments:
     """Centroid and centred moments up to order 4 of image points ``xy`` (N, 2)."""
     pts = as_matrix(xy, "xy", None, 2)
-    n = pts.shape[0]
-    xg, yg = pts.mean(axis=0)
-    dx, dy = pts[:, 0] - xg, pts[:, 1] - yg
-    px = np.vander(dx, _ORDER + 1, increasing=True)  # (N, 5): dx^i
-    py = np.vander(dy, _ORDER + 1, increasing=True)
-    mu = px.T @ py  # mu[i, j] = Σ dx^i dy^j
-    i, j = np.indices(mu.shape)
-    mu[i + j > _ORDER] = 0.0
-    return ImageMoments(n, float(xg), float(yg), mu)
+    xg, yg, mu = _K.image_moments(np.ascontiguousarray(pts))
+    return ImageMoments(pts.shape[0], float(xg), float(yg), mu)
 
 
 # --------------------------------------------------------------------------- interaction of moments
@@ -208,16 +221,12 @@ def centroid_interaction(mom: ImageMoments, plane: ArrayLike) -> FloatArray:
         L_xg = [-1/Zg, 0, xg/Zg + A n20 + B n11, xg yg + n11, -(1 + xg² + n20), yg]
         L_yg = [0, -1/Zg, yg/Zg + A n11 + B n02, 1 + yg² + n02, -(xg yg + n11), -xg]
     """
-    A, B, C = np.asarray(plane, dtype=float)
-    xg, yg = mom.xg, mom.yg
-    n20, n11, n02 = mom.mu[2, 0] / mom.n, mom.mu[1, 1] / mom.n, mom.mu[0, 2] / mom.n
-    izg = A * xg + B * yg + C
-    return np.array(
-        [
-            [-izg, 0.0, xg * izg + A * n20 + B * n11, xg * yg + n11, -(1.0 + xg * xg + n20), yg],
-            [0.0, -izg, yg * izg + A * n11 + B * n02, 1.0 + yg * yg + n02, -(xg * yg + n11), -xg],
-        ]
-    )
+    P = np.ascontiguousarray(plane, dtype=np.float64)
+    return np.asarray(_K.centroid_rows(int(mom.n), mom.xg, mom.yg, _mu(mom), P))
+
+
+def _mu(mom: ImageMoments) -> FloatArray:
+    return np.ascontiguousarray(mom.mu, dtype=np.float64)
 
 
 def centred_moment_interaction(
@@ -252,52 +261,14 @@ def centred_moment_interaction(
     """
     if i < 0 or j < 0 or i + j > _ORDER - 1:
         raise ConfigurationError(f"L_mu is available for 0 <= i + j <= 3, got (i, j) = ({i}, {j})")
-    A, B, C = np.asarray(plane, dtype=float)
-    mu = mom.mu
-    xg, yg = mom.xg, mom.yg
-
-    def m(p: int, q: int) -> float:
-        return float(mu[p, q]) if p >= 0 and q >= 0 else 0.0
-
-    m00 = m(0, 0)
-    n20, n11, n02 = m(2, 0) / m00, m(1, 1) / m00, m(0, 2) / m00
-    d = delta
-    vx = -(i + d) * A * m(i, j) - i * B * m(i - 1, j + 1)
-    vy = -j * A * m(i + 1, j - 1) - (j + d) * B * m(i, j)
-    wx = (
-        (i + j + 3 * d) * m(i, j + 1)
-        + (i + 2 * j + 3 * d) * yg * m(i, j)
-        + i * xg * m(i - 1, j + 1)
-        - i * eps * n11 * m(i - 1, j)
-        - j * eps * n02 * m(i, j - 1)
+    P = np.ascontiguousarray(plane, dtype=np.float64)
+    row = _K.centred_moment_row(
+        int(i), int(j), _mu(mom), float(mom.xg), float(mom.yg), P, int(delta), float(eps)
     )
-    wy = (
-        -(i + j + 3 * d) * m(i + 1, j)
-        - (2 * i + j + 3 * d) * xg * m(i, j)
-        - j * yg * m(i + 1, j - 1)
-        + i * eps * n20 * m(i - 1, j)
-        + j * eps * n11 * m(i, j - 1)
-    )
-    vz = -A * wy + B * wx + (i + j + 2 * d) * C * m(i, j)
-    wz = i * m(i - 1, j + 1) - j * m(i + 1, j - 1)
-    return np.array([vx, vy, vz, wx, wy, wz])
+    return np.asarray(row)
 
 
 # --------------------------------------------------------------------------- features
-
-
-def _i6(m30: Any, m21: Any, m12: Any, m03: Any) -> Any:
-    """The invariant I6 of :func:`rotation_invariants`; real or complex input."""
-    return (
-        3 * m12**4
-        + 2 * m30 * m12**3
-        + (3 * m30**2 - 6 * m03 * m21) * m12**2
-        - 6 * m30 * m21 * (m21 + m03) * m12
-        + 2 * m30**2 * m03**2
-        + 2 * m21**3 * m03
-        + 3 * m21**2 * m03**2
-        + 3 * m21**4
-    )
 
 
 def rotation_invariants(mu: ArrayLike, kind: RotationFeatures = "c4c6") -> NDArray[Any]:
@@ -316,65 +287,41 @@ def rotation_invariants(mu: ArrayLike, kind: RotationFeatures = "c4c6") -> NDArr
         pxpy: (I1/I3², I2/I3³)
         sxsy: ((c2 c3 + s2 s3)/K, (s2 c3 - c2 s3)/K),  K = I1 I3^(3/2)/sqrt(a),  a = I3
     """
-    m20, m11, m02, m30, m21, m12, m03 = np.asarray(mu)
-    if kind == "c4c6":
-        I6 = _i6(m30, m21, m12, m03)
-        I7 = (
-            (3 * m21 + 2 * m03) * m12**3
-            + 3 * m30 * (m03 + 2 * m21) * m12**2
-            - 3 * m21 * (m30 + m03 + m21) * (-m30 + m03 + m21) * m12
-            + m30 * (-(m30**2) * m03 - 2 * m21**3 - 3 * m03 * m21**2 + m03**3)
+    if kind not in _KIND:
+        raise ConfigurationError(
+            f"unknown rotation features {kind!r}; allowed: {', '.join(ROTATION_FEATURES)}"
         )
-        I9 = (m03**2 + 3 * m03 * m21 + m30 * (m30 + 3 * m12)) ** 2
-        return np.array([I7 / I6, I9 / I6])
-    c1, s1 = m20 - m02, 2 * m11
-    c2, s2 = m03 - 3 * m21, m30 - 3 * m12
-    I1 = c1**2 + s1**2
-    I3 = m20 + m02
-    if kind == "pxpy":
-        I2 = c2**2 + s2**2
-        return np.array([I1 / I3**2, I2 / I3**3])
-    if kind == "sxsy":
-        c3, s3 = c1**2 - s1**2, 2 * s1 * c1
-        K = I1 * I3**1.5 / np.sqrt(I3)
-        return np.array([(c2 * c3 + s2 * s3) / K, (s2 * c3 - c2 * s3) / K])
-    raise ConfigurationError(
-        f"unknown rotation features {kind!r}; allowed: {', '.join(ROTATION_FEATURES)}"
-    )
-
-
-def _invariant_inputs(mom: ImageMoments) -> FloatArray:
-    return np.array([mom.mu[k] for k in _INV_KEYS])
+    arr = np.asarray(mu)
+    if np.iscomplexobj(arr):
+        return np.asarray(_K.rotation_invariants(np.ascontiguousarray(arr, complex), _KIND[kind]))
+    return np.asarray(_K.rotation_invariants(np.ascontiguousarray(arr, float), _KIND[kind]))
 
 
 def _check_moments(mom: ImageMoments, kind: RotationFeatures) -> None:
     """Raise GeometryError where the features are undefined or singular."""
-    mu = mom.mu
-    I3 = float(mu[2, 0] + mu[0, 2])
-    if not I3 > 0.0:
-        raise GeometryError("the image points coincide; the moment features are undefined")
-    delta = float(np.hypot(mu[2, 0] - mu[0, 2], 2.0 * mu[1, 1]))
-    if delta <= _ISOTROPY_TOL * I3:
-        raise GeometryError(
+    code, _ = _K.check_moments(_mu(mom), _KIND[kind])
+    if code != 0:
+        raise _moment_error(int(code), kind)
+
+
+def _moment_error(code: int, kind: str) -> GeometryError:
+    if code == _COINCIDE:
+        return GeometryError("the image points coincide; the moment features are undefined")
+    if code == _ISOTROPIC:
+        return GeometryError(
             "the second-order moments are isotropic (μ20 = μ02, μ11 = 0), so the orientation α "
             "is undefined; use a point set without 3-fold or 4-fold symmetry"
         )
-    if kind in ("c4c6", "pxpy"):
-        third = np.array([mu[3, 0], mu[2, 1], mu[1, 2], mu[0, 3]])
-        t3 = float(np.sqrt(third @ third))
-        if t3 <= _SYMMETRY_TOL * I3**1.5:
-            raise GeometryError(
-                "the third-order moments vanish (a centrally symmetric point set, e.g. a square "
-                f"or a rectangle), so the rotation features {kind!r} are undefined or singular; "
-                "use a non-symmetric point set"
-            )
-        if kind == "c4c6":
-            I6 = float(_i6(mu[3, 0], mu[2, 1], mu[1, 2], mu[0, 3]))
-            if I6 <= _I6_TOL * t3**4:
-                raise GeometryError(
-                    "the invariant I6 vanishes (e.g. collinear image points), so C4 = I7/I6 and "
-                    "C6 = I9/I6 are undefined; use another pose or rotation_features='pxpy'"
-                )
+    if code == _SYMMETRIC:
+        return GeometryError(
+            "the third-order moments vanish (a centrally symmetric point set, e.g. a square "
+            f"or a rectangle), so the rotation features {kind!r} are undefined or singular; "
+            "use a non-symmetric point set"
+        )
+    return GeometryError(
+        "the invariant I6 vanishes (e.g. collinear image points), so C4 = I7/I6 and "
+        "C6 = I9/I6 are undefined; use another pose or rotation_features='pxpy'"
+    )
 
 
 def moment_features(
@@ -390,24 +337,15 @@ def moment_features(
         GeometryError: the moments are degenerate for these features.
     """
     _check_moments(mom, rotation_features)
-    mu = mom.mu
-    a = mu[2, 0] + mu[0, 2]
-    an = depth_star * np.sqrt(area_star / a)
-    alpha = 0.5 * np.arctan2(2.0 * mu[1, 1], mu[2, 0] - mu[0, 2])
-    r = rotation_invariants(_invariant_inputs(mom), rotation_features).real
-    return np.array([an * mom.xg, an * mom.yg, an, alpha, r[0], r[1]], dtype=float)
-
-
-def _complex_step_jacobian(
-    f: Callable[[NDArray[Any]], NDArray[Any]], x: FloatArray, h: float = 1e-30
-) -> FloatArray:
-    """Jacobian (m, n) of ``f`` at real ``x`` (n,) by complex steps: ``Im f(x + i h e_k) / h``."""
-    cols = []
-    for k in range(x.shape[0]):
-        xc = x.astype(complex)
-        xc[k] += 1j * h
-        cols.append(np.imag(f(xc)) / h)
-    return np.asarray(np.stack(cols, axis=1), dtype=float)
+    s = _K.moment_features(
+        float(mom.xg),
+        float(mom.yg),
+        _mu(mom),
+        float(area_star),
+        float(depth_star),
+        _KIND[rotation_features],
+    )
+    return np.asarray(s)
 
 
 def moment_features_interaction(
@@ -434,29 +372,17 @@ def moment_features_interaction(
         depth_star: ``Z*`` (m).
         rotation_features: See the module docstring.
     """
-    P = np.asarray(plane, dtype=float)
-    mu = mom.mu
-    Lmu = {k: centred_moment_interaction(k[0], k[1], mom, P) for k in _INV_KEYS}
-    a = mu[2, 0] + mu[0, 2]
-    an = depth_star * np.sqrt(area_star / a)
-    L_g = centroid_interaction(mom, P)
-    L_an = -an / (2.0 * a) * (Lmu[2, 0] + Lmu[0, 2])
-    c1 = mu[2, 0] - mu[0, 2]
-    Delta = c1 * c1 + 4.0 * mu[1, 1] ** 2
-    L_alpha = (c1 * Lmu[1, 1] - mu[1, 1] * (Lmu[2, 0] - Lmu[0, 2])) / Delta
-    grad = _complex_step_jacobian(
-        lambda x: rotation_invariants(x, rotation_features), _invariant_inputs(mom)
+    L = _K.moment_features_interaction(
+        int(mom.n),
+        float(mom.xg),
+        float(mom.yg),
+        _mu(mom),
+        np.ascontiguousarray(plane, dtype=np.float64),
+        float(area_star),
+        float(depth_star),
+        _KIND[rotation_features],
     )
-    L_r = grad @ np.stack([Lmu[k] for k in _INV_KEYS])
-    return np.vstack(
-        [
-            an * L_g[0] + mom.xg * L_an,
-            an * L_g[1] + mom.yg * L_an,
-            L_an,
-            L_alpha,
-            L_r,
-        ]
-    )
+    return np.asarray(L)
 
 
 # --------------------------------------------------------------------------- the Feature
@@ -484,7 +410,7 @@ class MomentFeatures(Feature):
         rotation_features: RotationFeatures = "c4c6",
     ) -> None:
         P = as_matrix(points_o, "points_o", None, 3)
-        _fit_plane(P, "points_o")
+        _fit_plane(P, "points_o", through_centre_ok=True)
         if rotation_features not in ROTATION_FEATURES:
             raise ConfigurationError(
                 f"unknown rotation features {rotation_features!r}; "
@@ -494,6 +420,7 @@ class MomentFeatures(Feature):
             if not (np.isfinite(value) and value > 0.0):
                 raise ConfigurationError(f"{name} must be positive and finite, got {value!r}")
         self.points_o = P
+        self._points = np.ascontiguousarray(P)
         self.desired_area = float(desired_area)
         self.desired_depth = float(desired_depth)
         self.rotation_features: RotationFeatures = rotation_features
@@ -538,22 +465,33 @@ class MomentFeatures(Feature):
         return feat
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = as_transform(cMo, "cMo")
-        P = self.points_o @ T[:3, :3].T + T[:3, 3]
-        mom = image_moments(project_points(P))
-        plane = object_plane(P)
-        s = moment_features(
-            mom,
-            area_star=self.desired_area,
-            depth_star=self.desired_depth,
-            rotation_features=self.rotation_features,
+        T = np.ascontiguousarray(as_transform(cMo, "cMo"))
+        s, plane, xg, yg, mu, code, value = _K.moment_measure(
+            self._points,
+            T,
+            self.desired_area,
+            self.desired_depth,
+            _KIND[self.rotation_features],
         )
+        if code != 0:
+            raise self._measure_error(int(code), float(value), s)
+        mom = ImageMoments(self._points.shape[0], float(xg), float(yg), mu)
         key = s.tobytes()
         self._cache[key] = (s, mom)
         self._cache.move_to_end(key)
         while len(self._cache) > _CACHE_SIZE:
             self._cache.popitem(last=False)
         return Measurement(s, plane)
+
+    def _measure_error(self, code: int, value: float, s: FloatArray) -> GeometryError:
+        if code == _BEHIND:
+            return GeometryError(
+                f"point {int(value)} is at or behind the camera plane (Z = {float(s[0]):.6g} m); "
+                f"projection needs Z > {MIN_DEPTH:g} m"
+            )
+        if code in (_COLLINEAR, _NOT_COPLANAR, _THROUGH_CENTRE):
+            return _plane_error(code, value, "points_c")
+        return _moment_error(code, self.rotation_features)
 
     def _moments_for(self, s: FloatArray) -> ImageMoments:
         hit = self._cache.get(s.tobytes())

@@ -9,6 +9,9 @@ from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.camera import MIN_DEPTH
 from redservo.errors import GeometryError
 from redservo.features.base import Feature, Measurement
+from redservo.kernels import lazy
+
+_K = lazy("features")
 
 __all__ = ["PointFeature", "point_interaction", "project_point"]
 
@@ -20,12 +23,17 @@ def project_point(point_c: ArrayLike) -> tuple[float, float, float]:
         GeometryError: ``Z <= MIN_DEPTH`` (the point is at or behind the camera plane).
     """
     X, Y, Z = as_vector(point_c, "point_c", 3)
-    if Z <= MIN_DEPTH:
-        raise GeometryError(
-            f"the point is at or behind the camera plane (Z = {Z:.6g} m); "
-            f"a point feature needs Z > {MIN_DEPTH:g} m"
-        )
-    return float(X / Z), float(Y / Z), float(1.0 / Z)
+    x, y, inv_z, ok = _K.project_point(float(X), float(Y), float(Z))
+    if not ok:
+        raise _behind(float(Z))
+    return float(x), float(y), float(inv_z)
+
+
+def _behind(Z: float) -> GeometryError:
+    return GeometryError(
+        f"the point is at or behind the camera plane (Z = {Z:.6g} m); "
+        f"a point feature needs Z > {MIN_DEPTH:g} m"
+    )
 
 
 def point_interaction(x: float, y: float, inv_z: float) -> FloatArray:
@@ -39,12 +47,7 @@ def point_interaction(x: float, y: float, inv_z: float) -> FloatArray:
         y: Normalized ordinate ``Y/Z``.
         inv_z: Inverse depth ``1/Z`` (1/m).
     """
-    return np.array(
-        [
-            [-inv_z, 0.0, x * inv_z, x * y, -(1.0 + x * x), y],
-            [0.0, -inv_z, y * inv_z, 1.0 + y * y, -x * y, -x],
-        ]
-    )
+    return np.asarray(_K.point_interaction(float(x), float(y), float(inv_z)))
 
 
 class PointFeature(Feature):
@@ -62,11 +65,14 @@ class PointFeature(Feature):
 
     def __init__(self, point_o: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         self.point_o = as_vector(point_o, "point_o", 3)
+        self._points = np.ascontiguousarray(self.point_o.reshape(1, 3))
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = as_transform(cMo, "cMo")
-        x, y, inv_z = project_point(T[:3, :3] @ self.point_o + T[:3, 3])
-        return Measurement(np.array([x, y]), np.array([inv_z]))
+        T = np.ascontiguousarray(as_transform(cMo, "cMo"))
+        s, inv_z, bad = _K.points_measure(T, self._points)
+        if bad >= 0:
+            raise _behind(float(T[2, :3] @ self.point_o + T[2, 3]))
+        return Measurement(s, inv_z)
 
     def interaction(self, s: FloatArray, inv_depth: FloatArray) -> FloatArray:
         x, y = as_vector(s, "s", 2)

@@ -38,9 +38,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_transform, as_vector
-from redservo.camera import MIN_DEPTH
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.base import Feature, Measurement
+from redservo.kernels import lazy
+
+_K = lazy("features")
+_INSIDE, _NOT_IN_FRONT = 6, 7
+"""Codes of :func:`redservo.kernels.features.sphere_ellipse`."""
 
 __all__ = [
     "SPHERE_VARIANTS",
@@ -94,28 +98,27 @@ def sphere_ellipse(radius: float, center_c: ArrayLike) -> SphereImage:
     if not (np.isfinite(r) and r > 0.0):
         raise GeometryError(f"sphere radius must be positive and finite (m), got {radius!r}")
     X, Y, Z = as_vector(center_c, "center_c", 3)
-    dist = float(np.sqrt(X * X + Y * Y + Z * Z))
-    if dist - r <= MIN_DEPTH:
+    xc, yc, area, n20, n11, n02, plane, code, value = _K.sphere_ellipse(
+        r, float(X), float(Y), float(Z)
+    )
+    if code == _INSIDE:
         raise GeometryError(
-            f"the camera is inside or on the sphere (centre distance {dist:.6g} m, "
+            f"the camera is inside or on the sphere (centre distance {value:.6g} m, "
             f"radius {r:.6g} m); it must be outside"
         )
-    if Z - r <= MIN_DEPTH:
+    if code == _NOT_IN_FRONT:
         raise GeometryError(
-            f"the sphere is not entirely in front of the camera (centre depth {Z:.6g} m, "
+            f"the sphere is not entirely in front of the camera (centre depth {value:.6g} m, "
             f"radius {r:.6g} m); its image is an ellipse only when Z0 > r"
         )
-    m = Z * Z - r * r
-    k = dist * dist - r * r
-    r2 = r * r
     return SphereImage(
-        xc=float(X * Z / m),
-        yc=float(Y * Z / m),
-        area=float(np.pi * r2 * np.sqrt(k) / m**1.5),
-        n20=float(r2 * (m + X * X) / (4.0 * m * m)),
-        n11=float(r2 * X * Y / (4.0 * m * m)),
-        n02=float(r2 * (m + Y * Y) / (4.0 * m * m)),
-        plane=np.array([X, Y, Z]) / k,
+        xc=float(xc),
+        yc=float(yc),
+        area=float(area),
+        n20=float(n20),
+        n11=float(n11),
+        n02=float(n02),
+        plane=plane,
     )
 
 
@@ -136,53 +139,8 @@ def sphere_moments_from_area(xc: float, yc: float, area: float) -> tuple[float, 
         yc: Ellipse centre ordinate (normalized).
         area: Ellipse area (normalized units²); its sign is ignored.
     """
-    alpha2 = (area / np.pi) ** 2
-    c2 = 1.0 + xc * xc + yc * yc
-    beta = abs(area) / np.pi
-    for _ in range(100):
-        f = ((beta + c2) * beta - alpha2) * beta - alpha2
-        fp = (3.0 * beta + 2.0 * c2) * beta - alpha2
-        if fp <= 0.0:
-            break
-        step = f / fp
-        beta -= step
-        if abs(step) <= 4.0 * np.finfo(float).eps * beta:
-            break
-    g = beta / (1.0 + beta)
-    return (
-        float(0.25 * (beta + g * xc * xc)),
-        float(0.25 * g * xc * yc),
-        float(0.25 * (beta + g * yc * yc)),
-    )
-
-
-def _centre_rows(
-    xc: float, yc: float, n20: float, n11: float, n02: float, plane: FloatArray
-) -> tuple[FloatArray, float]:
-    """``[L_xc; L_yc]`` (2, 6) of an ellipse (Chaumette 2004 eq. 14) and ``1/Zg``."""
-    A, B, C = plane
-    izg = A * xc + B * yc + C
-    rows = np.array(
-        [
-            [
-                -izg,
-                0.0,
-                xc * izg + 4.0 * (A * n20 + B * n11),
-                xc * yc + 4.0 * n11,
-                -(1.0 + xc * xc + 4.0 * n20),
-                yc,
-            ],
-            [
-                0.0,
-                -izg,
-                yc * izg + 4.0 * (A * n11 + B * n02),
-                1.0 + yc * yc + 4.0 * n02,
-                -xc * yc - 4.0 * n11,
-                -xc,
-            ],
-        ]
-    )
-    return rows, float(izg)
+    n20, n11, n02 = _K.sphere_moments_from_area(float(xc), float(yc), float(area))
+    return float(n20), float(n11), float(n02)
 
 
 def sphere_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
@@ -196,13 +154,11 @@ def sphere_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
         s: (3,) ``(xc, yc, a)``.
         plane: (3,) ``(A, B, C)`` (1/m).
     """
-    xc, yc, a = np.asarray(s, dtype=float)
-    P = np.asarray(plane, dtype=float)
-    n20, n11, n02 = sphere_moments_from_area(xc, yc, a)
-    rows, izg = _centre_rows(xc, yc, n20, n11, n02, P)
-    A, B, C = P
-    L_a = [-a * A, -a * B, a * (3.0 * izg - C), 3.0 * a * yc, -3.0 * a * xc, 0.0]
-    return np.vstack([rows, L_a])
+    return np.asarray(_K.sphere_interaction(_vec(s), _vec(plane)))
+
+
+def _vec(value: ArrayLike) -> FloatArray:
+    return np.ascontiguousarray(value, dtype=np.float64)
 
 
 def sphere_paper_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
@@ -214,17 +170,7 @@ def sphere_paper_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
          [0, -1/z_d, 0, 1 + R², 0, 0],
          [0, 0, π R²/z_d, 0, 0, 0]]
     """
-    _, _, a = np.asarray(s, dtype=float)
-    C = float(np.asarray(plane, dtype=float)[2])
-    R2 = a / np.pi
-    iz = C / (1.0 + R2)
-    return np.array(
-        [
-            [-iz, 0.0, 0.0, 0.0, -(1.0 + R2), 0.0],
-            [0.0, -iz, 0.0, 1.0 + R2, 0.0, 0.0],
-            [0.0, 0.0, np.pi * R2 * iz, 0.0, 0.0, 0.0],
-        ]
-    )
+    return np.asarray(_K.sphere_paper_interaction(_vec(s), _vec(plane)))
 
 
 def ellipse_moment_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
@@ -240,35 +186,7 @@ def ellipse_moment_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
         L_n02 = [0, -2(A n11 + B n02), 2((1/Zg + B yc) n02 + A yc n11),
                  4 yc n02, -2(yc n11 + xc n02), -2 n11]
     """
-    xc, yc, n20, n11, n02 = np.asarray(s, dtype=float)
-    P = np.asarray(plane, dtype=float)
-    rows, izg = _centre_rows(xc, yc, n20, n11, n02, P)
-    A, B, C = P
-    L_n20 = [
-        -2.0 * (A * n20 + B * n11),
-        0.0,
-        2.0 * ((izg + A * xc) * n20 + B * xc * n11),
-        2.0 * (yc * n20 + xc * n11),
-        -4.0 * n20 * xc,
-        2.0 * n11,
-    ]
-    L_n11 = [
-        -A * n11 - B * n02,
-        -A * n20 - B * n11,
-        A * yc * n20 + (3.0 * izg - C) * n11 + B * xc * n02,
-        3.0 * yc * n11 + xc * n02,
-        -yc * n20 - 3.0 * xc * n11,
-        n02 - n20,
-    ]
-    L_n02 = [
-        0.0,
-        -2.0 * (A * n11 + B * n02),
-        2.0 * ((izg + B * yc) * n02 + A * yc * n11),
-        4.0 * yc * n02,
-        -2.0 * (yc * n11 + xc * n02),
-        -2.0 * n11,
-    ]
-    return np.vstack([rows, L_n20, L_n11, L_n02])
+    return np.asarray(_K.ellipse_moment_interaction(_vec(s), _vec(plane)))
 
 
 class SphereFeature(Feature):

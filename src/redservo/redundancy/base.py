@@ -373,8 +373,8 @@ class Law(abc.ABC):
         safe = apply_safety(
             result.qdot, x.q, x.limits, x.dt, qdot_prev=x.qdot_prev, shield=self.shield, task=task
         )
-        if not safe.events and safe.qdot is result.qdot:
-            return result
+        if not safe.events:  # the diagnostics are unchanged
+            return result if safe.qdot is result.qdot else LawResult(safe.qdot, result.diagnostics)
         d = result.diagnostics
         return LawResult(
             safe.qdot, Diagnostics(**{**_asdict(d), "events": (*d.events, *safe.events)})

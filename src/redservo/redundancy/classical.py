@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.linalg import svd_events
+from redservo.redundancy.flags import Flag
+from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
+from redservo.redundancy.linalg import rank_events
+
+_K = lazy("laws")
 
 __all__ = ["Classical"]
 
@@ -23,20 +28,20 @@ class Classical(Law):
     description = "q̇ = -λ J1⁺ e1 (CM01 eq. 2): no avoidance"
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = self.svd(x.J1)
-        qdot = -x.lam * (svd.pinv @ x.e_eff)
-        if x.secondary is not None:
-            qdot = qdot + svd.null @ (svd.null.T @ x.secondary)
+        k = kernel_inputs(x)
+        qdot, iout, fout, _, _, _ = _K.classical(
+            k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, self.filter_threshold
+        )
         m, n = x.J1.shape
+        rank = int(iout[I_RANK])
+        events = rank_events(
+            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+        )
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < m,
-            projector_rank=svd.null.shape[1] if x.secondary is not None else 0,
-            events=tuple(
-                e
-                for e in svd_events(m, n, svd, self.filter_threshold)
-                if e.flag.value != "no-redundancy"
-            ),
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]),
+            events=tuple(e for e in events if e.flag is not Flag.NO_REDUNDANCY),
         )
         return LawResult(qdot, diag)

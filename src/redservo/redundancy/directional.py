@@ -96,10 +96,15 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
+from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.costs import joint_limit_force
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events
+from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs, optional
+from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
+
+_K = lazy("directional")
+_I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
+"""Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
 
 __all__ = ["Directional", "DirectionalProjection", "directional_projection"]
 
@@ -176,17 +181,9 @@ def directional_projection(
         if arr.shape != (size,):
             raise ShapeError(f"{name} must have shape ({size},), got shape {arr.shape}")
 
-    a = Ua[:, :r].T @ (ea + dea)  # ẽ_i + dẽ_i, i < r
-    zt = Va.T @ za  # z̃
-    y = sig[:r] * zt[:r]  # σ_i z̃_i
-    far = -2.0 * mu * a  # far end of the admissible interval (eq. 18), the other end is 0
-    y_adm = np.clip(y, np.minimum(0.0, far), np.maximum(0.0, far))
-    p = np.ones(n)
-    np.divide(y_adm, y, out=p[:r], where=y != 0.0)  # p_i = 1 where z̃_i = 0 (eq. 21)
-    dq2_t = p * zt
-    dq2 = Va @ dq2_t
-    P = (Va * p) @ Va.T
-    return DirectionalProjection(np.asarray(dq2, dtype=float), p, np.asarray(P, dtype=float))
+    c = np.ascontiguousarray
+    dq2, p, P = _K.projection(c(Ua), c(sig), c(Va), r, c(ea), c(dea), c(za), mu, True)
+    return DirectionalProjection(dq2, p, P)
 
 
 def _finite(value: ArrayLike, name: str, ndim: int) -> FloatArray:
@@ -254,27 +251,35 @@ class Directional(Law):
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
-        dt = x.dt
-        svd = self.svd(x.J1)
-        de = -x.lam * dt * x.e_eff
-        e_start = x.e1 if x.de1_dt is None else x.e1 + dt * x.de1_dt
-        dq1 = svd.pinv @ de
-
-        force = np.zeros(n)
-        if self.use_joint_limits:
-            force = force + joint_limit_force(x.q, x.limits, kappa=self.kappa)
-        if x.secondary is not None:
-            force = force + x.secondary
-        z = dt * force
-
-        proj = directional_projection(
-            svd.U, svd.sigma, svd.V, svd.rank, e_start, de, z, margin=self.margin
+        k = kernel_inputs(x)
+        ff, has_ff = optional(x.de1_dt, m)
+        qdot, iout, fout, _, _, _ = _K.directional(
+            k.J1,
+            np.ascontiguousarray(x.e1),
+            k.e,
+            ff,
+            has_ff,
+            k.q,
+            k.lp,
+            x.lam,
+            x.dt,
+            k.sec,
+            k.has_sec,
+            self.kappa,
+            self.use_joint_limits,
+            self.margin,
+            self.rcond,
+            self.filter_threshold,
         )
-        qdot = (dq1 + proj.dq2) / dt
-
-        events = [e for e in svd_events(m, n, svd, self.filter_threshold) if e.flag is Flag.DAMPED]
+        r = int(iout[I_RANK])
+        events = [
+            e
+            for e in rank_events(
+                m, n, r, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+            )
+            if e.flag is Flag.DAMPED
+        ]
         info: list[str] = []
-        r = svd.rank
         if r < m:
             events.append(
                 Event(
@@ -284,26 +289,19 @@ class Directional(Law):
                     "sub-threshold singular directions treated as free",
                 )
             )
-        zt = svd.V[:, :r].T @ z
-        p_r = proj.p[:r]
-        moving = zt != 0.0
-        used_rank = (n - r) + int(np.count_nonzero(moving & (p_r > 0.0)))
-        if not np.any(z):
+        if not iout[_I_ANY_Z]:
             events.append(Event(Flag.NO_SECONDARY, 0.0, "no secondary command (z = 0)"))
         else:
-            freed = int(np.count_nonzero(moving & (p_r == 1.0)))
-            clipped = int(np.count_nonzero(moving & (p_r > 0.0) & (p_r < 1.0)))
-            blocked = int(np.count_nonzero(moving & (p_r == 0.0)))
             info.append(
-                f"task directions: {freed} free, {clipped} clipped, {blocked} blocked "
-                f"(of {r}); {n - r} null-space direction(s)"
+                f"task directions: {int(iout[_I_FREED])} free, {int(iout[_I_CLIPPED])} clipped, "
+                f"{int(iout[_I_BLOCKED])} blocked (of {r}); {n - r} null-space direction(s)"
             )
         diag = Diagnostics(
             method=self.name,
             task_rank=r,
             rank_deficient=r < m,
-            projector_rank=used_rank,
+            projector_rank=int(iout[I_PROJ]),
             events=tuple(events),
             info=tuple(info),
         )
-        return LawResult(np.asarray(qdot, dtype=float), diag)
+        return LawResult(qdot, diag)

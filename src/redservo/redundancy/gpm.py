@@ -58,23 +58,33 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, filtered_reciprocal, svd_events
+from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, rank_events
 
 __all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
 
 _DEN_TOL = 1e-10
 """``|(J1^⊥ e2)_k|`` at or below ``_DEN_TOL * max|e2|`` counts as zero in eq. 9."""
+_I_K, _I_ALPHA_CODE, _I_DAMPED = 5, 7, 8
+_F_ALPHA_RAW, _F_DEN = 3, 4
+_ALPHA_UNDEFINED, _ALPHA_NEGATIVE, _ALPHA_CAPPED = 1, 2, 3
+"""Outputs of :func:`redservo.kernels.laws.gpm_auto` (layout documented there)."""
 ALPHA_FILTER = 1e-2
 """Robust eq. 9: ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` (``g = J1^⊥ e2``), so the
 secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|`` it stops."""
 
 
+_K = lazy("laws")
+_KL = lazy("linalg")
+
+
 def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
     """Return ``J1^⊥ v = E (E^T v)`` (n,) without forming the n x n projector."""
-    E = svd.null
-    return np.asarray(E @ (E.T @ v))
+    V = np.ascontiguousarray(svd.V)
+    return np.asarray(_KL.null_project(V, svd.rank, np.ascontiguousarray(v, dtype=np.float64)))
 
 
 @register
@@ -98,21 +108,34 @@ class GradientProjection(Law):
         self.alpha = a
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = self.svd(x.J1)
-        e2 = x.limits.gradient(x.q)
-        v = svd.pinv @ x.e_eff + self.alpha * null_project(svd, e2)
-        qdot = -x.lam * v
-        if x.secondary is not None:
-            qdot += null_project(svd, x.secondary)
-        band = tuple(int(i) for i in np.flatnonzero(e2)) if self.alpha > 0.0 else ()
+        k = kernel_inputs(x)
+        qdot, iout, fout, axes, _, _ = _K.gpm(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            x.lam,
+            k.sec,
+            k.has_sec,
+            self.alpha,
+            self.rcond,
+            self.filter_threshold,
+        )
+        m, n = x.J1.shape
+        rank = int(iout[I_RANK])
+        band = tuple(int(i) for i in np.flatnonzero(axes))
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < x.J1.shape[0],
-            projector_rank=svd.null.shape[1],
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]),
             critical=(band,) if band else (),
             alpha=self.alpha,
-            events=tuple(svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)),
+            events=tuple(
+                rank_events(
+                    m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+                )
+            ),
         )
         return LawResult(qdot, diag)
 
@@ -161,25 +184,31 @@ class GradientProjectionAuto(Law):
         self.alpha_max = alpha_max
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = self.svd(x.J1)
-        w = svd.pinv @ x.e_eff
-        if x.secondary is not None:
-            w = w - null_project(svd, x.secondary) / x.lam
-        e2 = x.limits.gradient(x.q)
-        g = null_project(svd, e2)
-        q_hat = x.q - (x.lam * x.dt) * w  # eq. 8
-        if self.critical_rule == "current":  # q_k itself in the band, moving toward the limit
-            toward = (q_hat - x.q) * (q_hat - x.limits.center) > 0.0
-            candidates = np.flatnonzero(np.asarray(x.limits.in_band(x.q), dtype=bool) & toward)
-        else:
-            candidates = np.flatnonzero(x.limits.critical(x.q, q_hat))
-        events = svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)
-        alpha = 0.0
-        critical: tuple[tuple[int, ...], ...] = ()
-        if candidates.size:
-            k = int(candidates[np.argmin(x.limits.margin(q_hat)[candidates])])
-            if candidates.size > 1:
-                others = sorted(set(candidates.tolist()) - {k})
+        k = kernel_inputs(x)
+        qdot, iout, fout, _, cand, _ = _K.gpm_auto(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            x.lam,
+            x.dt,
+            k.sec,
+            k.has_sec,
+            np.inf if self.alpha_max is None else self.alpha_max,
+            self.critical_rule == "current",
+            self.rcond,
+            self.filter_threshold,
+            self.robust,
+        )
+        m, n = x.J1.shape
+        rank = int(iout[I_RANK])
+        events = rank_events(
+            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+        )
+        axis = int(iout[_I_K])
+        if axis >= 0:
+            others = [int(i) for i in np.flatnonzero(cand) if i != axis]
+            if others:
                 events.append(
                     Event(
                         Flag.AXES_NOT_HANDLED,
@@ -187,61 +216,53 @@ class GradientProjectionAuto(Law):
                         f"critical axes {others} not handled (gpm-auto stops one axis)",
                     )
                 )
-            alpha = self._alpha(k, w, g, e2, events)
-            if alpha > 0.0:
-                critical = ((k,),)
-        qdot = -x.lam * (w + alpha * g)
+            events.extend(self._alpha_events(axis, iout, fout))
+        alpha = float(fout[F_ALPHA])
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < x.J1.shape[0],
-            projector_rank=svd.null.shape[1],
-            critical=critical,
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]),
+            critical=((axis,),) if alpha > 0.0 else (),
             alpha=alpha,
             events=tuple(events),
         )
         return LawResult(qdot, diag)
 
-    def _alpha(
-        self, k: int, w: FloatArray, g: FloatArray, e2: FloatArray, events: list[Event]
-    ) -> float:
-        """Eq. 9 corrected, ``α = -w_k / g_k``, with its degenerate cases (module docstring).
+    def _alpha_events(self, k: int, iout: FloatArray, fout: FloatArray) -> list[Event]:
+        """Events of eq. 9 corrected, ``α = -w_k / g_k``, with its degenerate cases (module
+        docstring), from the kernel's codes.
 
         With ``robust`` on, ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` so that
         ``‖α g‖ <= |w_k| / ALPHA_FILTER`` (a nearly-zero ``g_k`` no longer gives a huge α).
         """
-        den = float(g[k])
-        if abs(den) <= _DEN_TOL * float(np.abs(e2).max()):
-            events.append(
+        code = int(iout[_I_ALPHA_CODE])
+        if code == _ALPHA_UNDEFINED:
+            return [
                 Event(
                     Flag.GAIN_ADJUSTED,
                     0.0,
                     f"axis {k} critical but (J1^⊥ e2)_k ≈ 0: α undefined, set to 0",
                 )
-            )
-            return 0.0
-        inv = 1.0 / den
-        if self.robust:
-            thr = ALPHA_FILTER * float(np.linalg.norm(g))
-            if abs(den) < thr:
-                inv = float(filtered_reciprocal(np.array([abs(den)]), thr)[0]) * np.sign(den)
-                events.append(
-                    Event(
-                        Flag.DAMPED,
-                        1.0 / ALPHA_FILTER,
-                        f"axis {k}: |(J1^⊥ e2)_k| = {abs(den):.3g} small, eq. 9 filtered "
-                        f"(amplification bounded by {1.0 / ALPHA_FILTER:.3g})",
-                    )
+            ]
+        events: list[Event] = []
+        if iout[_I_DAMPED]:
+            events.append(
+                Event(
+                    Flag.DAMPED,
+                    1.0 / ALPHA_FILTER,
+                    f"axis {k}: |(J1^⊥ e2)_k| = {float(fout[_F_DEN]):.3g} small, eq. 9 filtered "
+                    f"(amplification bounded by {1.0 / ALPHA_FILTER:.3g})",
                 )
-        alpha = -float(w[k]) * float(inv)  # eq. 9, corrected
-        if alpha < 0.0:
+            )
+        alpha = float(fout[_F_ALPHA_RAW])
+        if code == _ALPHA_NEGATIVE:
             events.append(
                 Event(
                     Flag.GAIN_ADJUSTED, 0.0, f"axis {k}: eq. 9 gives α = {alpha:.3g} < 0, set to 0"
                 )
             )
-            return 0.0
-        if self.alpha_max is not None and alpha > self.alpha_max:
+        elif code == _ALPHA_CAPPED and self.alpha_max is not None:
             events.append(
                 Event(
                     Flag.GAIN_ADJUSTED,
@@ -249,5 +270,4 @@ class GradientProjectionAuto(Law):
                     f"α = {alpha:.3g} capped to alpha_max = {self.alpha_max:.3g}",
                 )
             )
-            return self.alpha_max
-        return alpha
+        return events

@@ -99,16 +99,26 @@ from __future__ import annotations
 from typing import ClassVar, NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
-from scipy.linalg.lapack import dgesvd
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.gpm import null_project
-from redservo.redundancy.linalg import DEFAULT_RCOND, filtered_reciprocal, svd_events
+from redservo.redundancy.kio import (
+    F_COND,
+    I_FILTERED,
+    I_ITER,
+    I_OVER,
+    I_PROJ,
+    I_RANK,
+    kernel_inputs,
+    levels,
+    optional,
+)
+from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
 
 __all__ = [
     "Iterative",
@@ -119,14 +129,16 @@ __all__ = [
     "iterate_null_space",
 ]
 
-_RESIDUAL_TOL = 1e-9
 ILL_CONDITIONED = 1e-3
 """Constraint rows with a singular value below this amplify the null-space motion by
 more than 1000x; the law reports it (``Flag.ILL_CONDITIONED``)."""
 CONSTRAINT_FILTER = 1e-2
 """Absolute filter threshold of the robust constraint inverse (``robust=True``): each
 level's null-space motion is at most 100x its right-hand side."""
-"""A least-squares residual above this fraction of the right-hand side means 'not met'."""
+
+_K = lazy("iterative")
+_I_NCON, _I_NA, _F_MIN_SIGMA = 5, 6, 3
+"""Outputs of :func:`redservo.kernels.iterative.iterative` (layout documented there)."""
 
 
 class IterativeSolution(NamedTuple):
@@ -145,31 +157,6 @@ class IterativeSolution(NamedTuple):
     min_sigma: float = float("inf")
     """Smallest singular value of the constraint rows used (inf if none): the
     null-space motion is amplified up to ``1/min_sigma``."""
-
-
-def _constrain(
-    N: FloatArray, K: NDArray[np.intp], rhs: FloatArray, tol: float, robust: float = 0.0
-) -> tuple[FloatArray, FloatArray, bool, float]:
-    """Minimum-norm motion ``Δ = N c`` with ``Δ_K = rhs``; return ``(Δ, N Z, met, σ_min)``.
-
-    ``Z`` is an orthonormal basis of ``Ker N_K``, so ``N Z`` spans the directions
-    left free. Singular values of ``N_K`` at or below ``tol`` count as zero. LAPACK's
-    ``dgesvd`` is called directly: on these tiny blocks numpy's wrapper costs 3-4x
-    the decomposition itself (hot path). With ``robust > 0`` the singular values below
-    it are inverted with the bounded filter (amplification at most ``1/robust``).
-    """
-    A = N[K]
-    p, f = A.shape
-    if f == 0:  # no free direction left
-        return np.zeros(N.shape[0]), N, not rhs.any(), np.inf
-    U, s, Vt, info = dgesvd(A)
-    if info != 0:  # LAPACK did not converge (never seen on finite input): do nothing
-        return np.zeros(N.shape[0]), N, not rhs.any(), np.inf
-    r = int(np.count_nonzero(s > tol))
-    inv = filtered_reciprocal(s[:r], robust) if robust > 0.0 else 1.0 / s[:r]
-    c = Vt[:r].T @ ((U[:, :r].T @ rhs) * inv)
-    met = r == p or bool(np.abs(U[:, r:].T @ rhs).max() <= _RESIDUAL_TOL * np.abs(rhs).max())
-    return N @ c, N @ Vt[r:].T, met, float(s[r - 1]) if r else np.inf
 
 
 def iterate_null_space(
@@ -203,33 +190,28 @@ def iterate_null_space(
         robust: Absolute filter threshold of the robust constraint inverse (0: exact).
     """
     n = q.shape[0]
-    N = E
-    d = np.zeros(n)
-    free = np.ones(n, dtype=bool)
-    gamma = np.zeros(n)
-    levels: list[tuple[int, ...]] = []
-    steps: list[FloatArray] = []
-    unmet: list[int] = []
-    min_sigma = np.inf
-    v = w  # level 1: d = 0 and no extra term (eqs. 8, 16)
-    for level in range(1, n + 1 if max_levels is None else max_levels + 1):
-        if level > 1:
-            v = (w + d) if extra is None else (w + extra + d)  # eqs. 12 / 20
-        q_hat = q - lam_dt * v  # eq. 8, with the current level's control
-        K = (limits.critical(q, q_hat) & free).nonzero()[0]
-        if K.size == 0:
-            break
-        g = limits.gamma(q_hat)[K] if smooth else np.ones(K.size)
-        step, N, met, sig = _constrain(N, K, -g * v[K], tol, robust)  # eqs. 11/16, 15/18/21
-        min_sigma = min(min_sigma, sig)
-        d = d + step
-        free[K] = False
-        gamma[K] = g
-        levels.append(tuple(K.tolist()))
-        steps.append(step)
-        if not met:
-            unmet.append(level)
-    return IterativeSolution(d, tuple(levels), tuple(steps), gamma, tuple(unmet), float(min_sigma))
+    ex, has_extra = optional(extra, n)
+    d, level_of, count, steps, gamma, unmet, min_sigma = _K.iterate_null_space(
+        np.ascontiguousarray(E, dtype=np.float64),
+        np.ascontiguousarray(w, dtype=np.float64),
+        np.ascontiguousarray(q, dtype=np.float64),
+        limits_pack(limits).rows,
+        float(lam_dt),
+        bool(smooth),
+        ex,
+        has_extra,
+        -1 if max_levels is None else int(max_levels),
+        float(tol),
+        float(robust),
+    )
+    return IterativeSolution(
+        d,
+        levels(level_of, int(count)),
+        tuple(steps[:count]),
+        gamma,
+        tuple(lv for lv in range(1, int(count) + 1) if unmet[lv]),
+        float(min_sigma),
+    )
 
 
 def _check_levels(max_levels: int | None) -> int | None:
@@ -268,54 +250,56 @@ class _IterativeLaw(Law):
     constraint_rcond: float | None = None
 
     def compute(self, x: LawInputs) -> LawResult:
-        svd = self.svd(x.J1)
-        E = svd.null
-        w = svd.pinv @ x.e_eff
-        if x.secondary is not None:
-            w = w - null_project(svd, x.secondary) / x.lam
-        extra = None
-        if self.with_e2 and self.alpha > 0.0:
-            extra = self.alpha * null_project(svd, x.limits.gradient(x.q))
+        k = kernel_inputs(x)
         robust = CONSTRAINT_FILTER if self.robust else 0.0
-        sol = iterate_null_space(
-            E,
-            w,
-            x.q,
-            x.limits,
-            lam_dt=x.lam * x.dt,
-            smooth=self.smooth,
-            extra=extra,
-            max_levels=self.max_levels,
-            tol=self.rcond if self.constraint_rcond is None else self.constraint_rcond,
-            robust=robust,
+        qdot, iout, fout, axes, gamma, vec = _K.iterative(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            x.lam,
+            x.dt,
+            k.sec,
+            k.has_sec,
+            self.smooth,
+            self.alpha if self.with_e2 else 0.0,
+            -1 if self.max_levels is None else self.max_levels,
+            self.rcond,
+            self.filter_threshold,
+            self.rcond if self.constraint_rcond is None else self.constraint_rcond,
+            robust,
         )
-        v = w + sol.motion if extra is None else w + extra + sol.motion
-        qdot = -x.lam * v
-
-        n_a = E.shape[1]
-        n_constrained = sum(len(level) for level in sol.levels)
-        events = svd_events(x.J1.shape[0], x.J1.shape[1], svd, self.filter_threshold)
-        events.extend(_constraint_events(sol, n_constrained, n_a, robust))
-        b = [E.T @ s for s in sol.steps[1:]]
+        m, n = x.J1.shape
+        rank = int(iout[I_RANK])
+        count = int(iout[I_ITER])
+        n_a = int(iout[_I_NA])
+        nb = max(count - 1, 0) * n_a
+        unmet = tuple(lv for lv in range(1, count + 1) if vec[n_a + nb + lv - 1])
+        events = rank_events(
+            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+        )
+        events.extend(
+            _constraint_events(unmet, float(fout[_F_MIN_SIGMA]), int(iout[_I_NCON]), n_a, robust)
+        )
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < x.J1.shape[0],
-            projector_rank=n_a,
-            critical=sol.levels,
-            iterations=len(sol.levels),
-            overconstrained=n_constrained > n_a or bool(sol.unmet),
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]),
+            critical=levels(axes, count),
+            iterations=count,
+            overconstrained=bool(iout[I_OVER]),
             alpha=self.alpha if self.with_e2 else None,
-            a=E.T @ sol.motion,
-            b=np.concatenate(b) if b else np.zeros(0),
-            gamma=sol.gamma,
+            a=vec[:n_a],
+            b=vec[n_a : n_a + nb],
+            gamma=gamma,
             events=tuple(events),
         )
         return LawResult(qdot, diag)
 
 
 def _constraint_events(
-    sol: IterativeSolution, n_constrained: int, n_a: int, robust: float
+    unmet: tuple[int, ...], min_sigma: float, n_constrained: int, n_a: int, robust: float
 ) -> list[Event]:
     """Typed events of the iterative scheme's constraint levels."""
     events: list[Event] = []
@@ -327,21 +311,21 @@ def _constraint_events(
                 f"{n_constrained} constrained axes > n_a = {n_a}: least-squares, not all met",
             )
         )
-    if sol.unmet:
+    if unmet:
         events.append(
             Event(
                 Flag.LEAST_SQUARES,
-                len(sol.unmet),
-                f"constraints met only in the least-squares sense at levels {sol.unmet}",
+                len(unmet),
+                f"constraints met only in the least-squares sense at levels {unmet}",
             )
         )
-    if sol.min_sigma < ILL_CONDITIONED:
+    if min_sigma < ILL_CONDITIONED:
         events.append(
             Event(
                 Flag.ILL_CONDITIONED,
-                1.0 / sol.min_sigma,
-                f"ill-conditioned constraints: smallest singular value {sol.min_sigma:.2g}, "
-                f"null-space motion amplified up to {1.0 / sol.min_sigma:.3g}x"
+                1.0 / min_sigma,
+                f"ill-conditioned constraints: smallest singular value {min_sigma:.2g}, "
+                f"null-space motion amplified up to {1.0 / min_sigma:.3g}x"
                 + (
                     " (filtered: robust inverse)"
                     if robust
@@ -349,7 +333,7 @@ def _constraint_events(
                 ),
             )
         )
-    if robust and sol.min_sigma < robust:
+    if robust and min_sigma < robust:
         events.append(
             Event(
                 Flag.DAMPED,

@@ -60,17 +60,23 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, svd_events, task_svd
+from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, rank_events, task_svd
+
+_K = lazy("projection")
+_I_DEGENERATE = 5
+_MODES = {"switched": 0, "norm": 1, "classical": 2}
 
 __all__ = [
     "LargeProjection",
@@ -83,7 +89,6 @@ __all__ = [
 ]
 
 _PROJECTORS: tuple[str, ...] = ("switched", "norm", "classical")
-_TINY_PII = 10.0 * float(np.finfo(float).eps)
 
 
 class Projector(NamedTuple):
@@ -110,19 +115,12 @@ def sigmoid_gain(x: float, x0: float, x1: float) -> float:
     0.0025 at ``x = x0``, 0.5 halfway, 0.9975 at ``x = x1``. ``x1 < x0`` is allowed
     (the lower joint limit side).
     """
-    t = -12.0 * (x - x0) / (x1 - x0) + 6.0
-    if t > 700.0:  # exp overflow: the gain is 0 to double precision
-        return 0.0
-    return 1.0 / (1.0 + math.exp(t))
+    return float(_K.sigmoid_gain(float(x), float(x0), float(x1)))
 
 
 def switching_value(e_norm: float, e0: float, e1: float) -> float:
     """Return λ(‖e‖) of ICRA'10 eq. 24: 0 below ``e0``, 1 above ``e1``, sigmoid between."""
-    if e_norm > e1:
-        return 1.0
-    if e_norm < e0:
-        return 0.0
-    return sigmoid_gain(e_norm, e0, e1)
+    return float(_K.switching_value(float(e_norm), float(e0), float(e1)))
 
 
 def norm_projector(
@@ -137,14 +135,10 @@ def norm_projector(
         e1: (m,) task error.
         rcond: Relative threshold for ``J1^T e1 ≈ 0``.
     """
-    n = J1.shape[1]
-    v = J1.T @ e1
-    nv = float(np.linalg.norm(v))
-    smax = float(np.linalg.norm(J1, 2)) if J1.size else 0.0
-    if nv == 0.0 or nv <= rcond * smax * float(np.linalg.norm(e1)):
-        return np.eye(n), True
-    u = v / nv
-    return np.eye(n) - np.outer(u, u), False
+    J = np.ascontiguousarray(J1, dtype=np.float64)
+    smax = float(task_svd(J).sigma[0]) if J.size else 0.0
+    P, degenerate = _K.norm_projector(J, np.ascontiguousarray(e1, float), smax, float(rcond))
+    return P, bool(degenerate)
 
 
 def switched_projector(
@@ -172,24 +166,21 @@ def switched_projector(
         raise ConfigurationError(
             f"projector mode must be one of {', '.join(repr(p) for p in _PROJECTORS)}, got {mode!r}"
         )
-    n = J1.shape[1]
-    s = task_svd(J1, rcond) if svd is None else svd
-    if mode == "norm":
-        lam = 1.0
-    elif mode == "classical":
-        lam = 0.0
-    else:
-        lam = switching_value(float(np.linalg.norm(e1)), e0, e_switch)
-    degenerate = False
-    if lam > 0.0:
-        Pn, degenerate = norm_projector(J1, e1, rcond=rcond)
-        P = lam * Pn + (1.0 - lam) * s.null_projector() if lam < 1.0 else Pn
-        # Ker J1 lies in the range of P_‖e‖, so the sum has the rank of P_‖e‖.
-        rank = n if degenerate else n - 1
-    else:
-        P = s.null_projector()
-        rank = n - s.rank
-    return Projector(P, rank, lam, degenerate)
+    J = np.ascontiguousarray(J1, dtype=np.float64)
+    sv = task_svd(J, rcond) if svd is None else svd
+    smax = float(sv.sigma[0]) if sv.sigma.size else 0.0
+    P, rank, lam, degenerate = _K.switched_projector(
+        J,
+        np.ascontiguousarray(e1, dtype=np.float64),
+        float(e0),
+        float(e_switch),
+        _MODES[mode],
+        np.ascontiguousarray(sv.V),
+        sv.rank,
+        smax,
+        float(rcond),
+    )
+    return Projector(P, int(rank), float(lam), bool(degenerate))
 
 
 def joint_limit_term(
@@ -219,36 +210,18 @@ def joint_limit_term(
         robust: Filter threshold on ``|P_ii|`` (0: exact): ``1/|P_ii|`` in ``b_i`` is
             filtered below it, so ``b_i <= |q̇1_i| / robust``.
     """
-    n = q.shape[0]
-    rng = limits.range
-    l0_min = limits.q_min + rho * rng
-    l0_max = limits.q_max - rho * rng
-    l1_min = l0_min - rho * rho1 * rng
-    l1_max = l0_max + rho * rho1 * rng
-    qdot2 = np.zeros(n)
-    activated: list[int] = []
-    for i in range(n):
-        if q[i] > l0_max[i]:
-            sign, l0, l1 = 1.0, l0_max[i], l1_max[i]
-            beyond = q[i] >= l1
-        elif q[i] < l0_min[i]:
-            sign, l0, l1 = -1.0, l0_min[i], l1_min[i]
-            beyond = q[i] <= l1
-        else:
-            continue
-        activated.append(i)
-        lam_l = 1.0 if beyond else sigmoid_gain(float(q[i]), float(l0), float(l1))
-        Pg = sign * P[:, i]
-        p_ii = abs(float(Pg[i]))
-        if p_ii < _TINY_PII:
-            b = 1.0
-        else:
-            inv = 1.0 / p_ii if p_ii >= robust else p_ii / (robust * robust)
-            b = abs(float(qdot1[i])) * inv
-            if not beyond:
-                b = min(b, 1.0)
-        qdot2 -= lam_l * (1.0 + lambda_tune) * b * Pg
-    return qdot2, tuple(activated)
+    c = np.ascontiguousarray
+    qdot2, activated = _K.joint_limit_term(
+        c(q, dtype=np.float64),
+        c(qdot1, dtype=np.float64),
+        c(P, dtype=np.float64),
+        limits_pack(limits).rows,
+        float(rho),
+        float(rho1),
+        float(lambda_tune),
+        float(robust),
+    )
+    return qdot2, tuple(int(i) for i in np.flatnonzero(activated))
 
 
 @register
@@ -312,46 +285,47 @@ class LargeProjection(Law):
         self.projector = projector
 
     def compute(self, x: LawInputs) -> LawResult:
-        m = x.J1.shape[0]
-        svd = self.svd(x.J1)
-        proj = switched_projector(
-            x.J1,
-            x.e1,
-            e0=self.e0,
-            e_switch=self.e1,
-            mode=self.projector,
-            svd=svd,
-            rcond=self.rcond,
+        m, n = x.J1.shape
+        k = kernel_inputs(x)
+        qdot, iout, fout, axes, _, _ = _K.large_projection(
+            k.J1,
+            np.ascontiguousarray(x.e1),
+            k.e,
+            k.q,
+            k.lp,
+            x.lam,
+            k.sec,
+            k.has_sec,
+            self.e0,
+            self.e1,
+            _MODES[self.projector],
+            self.rho,
+            self.rho1,
+            self.lambda_tune,
+            self.rcond,
+            self.filter_threshold,
+            P_FILTER if self.robust else 0.0,
         )
-        qdot1 = -x.lam * (svd.pinv @ x.e_eff)
-        if x.secondary is not None:
-            qdot1 = qdot1 + proj.P @ x.secondary
-        qdot2, activated = joint_limit_term(
-            x.q,
-            qdot1,
-            proj.P,
-            x.limits,
-            rho=self.rho,
-            rho1=self.rho1,
-            lambda_tune=self.lambda_tune,
-            robust=P_FILTER if self.robust else 0.0,
-        )
+        rank = int(iout[I_RANK])
         events = [
             e
-            for e in svd_events(m, x.J1.shape[1], svd, self.filter_threshold)
+            for e in rank_events(
+                m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
+            )
             if e.flag is not Flag.NO_REDUNDANCY
         ]
         info: list[str] = []
-        if proj.degenerate:
+        if iout[_I_DEGENERATE]:
             info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
+        activated = tuple(int(i) for i in np.flatnonzero(axes))
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < m,
-            projector_rank=proj.rank,
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]),
             critical=(activated,) if activated else (),
-            alpha=proj.switching,
+            alpha=float(fout[F_ALPHA]),
             events=tuple(events),
             info=tuple(info),
         )
-        return LawResult(qdot1 + qdot2, diag)
+        return LawResult(qdot, diag)

@@ -23,9 +23,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg import lapack
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
 from redservo.redundancy.flags import Event, Flag
 
 __all__ = [
@@ -34,6 +34,7 @@ __all__ = [
     "TaskSVD",
     "filtered_reciprocal",
     "pinv",
+    "rank_events",
     "svd_events",
     "task_svd",
 ]
@@ -43,11 +44,13 @@ DEFAULT_RCOND = 1e-8
 ROBUST_FILTER = 1e-3
 """Relative threshold ε of the robust task inverse: the amplification is at most ``1/ε``."""
 
+_K = lazy("linalg")
+
 
 def filtered_reciprocal(sigma: FloatArray, threshold: float) -> FloatArray:
     """Return ``1/σ`` for ``σ >= threshold`` and ``σ/threshold²`` below (bounded by 1/threshold)."""
-    with np.errstate(divide="ignore"):
-        return np.where(sigma >= threshold, 1.0 / sigma, sigma / (threshold * threshold))
+    s = np.ascontiguousarray(sigma, dtype=np.float64)
+    return np.asarray(_K.filtered_reciprocal(s.ravel(), float(threshold))).reshape(s.shape)
 
 
 class TaskSVD(NamedTuple):
@@ -76,31 +79,17 @@ class TaskSVD(NamedTuple):
 def task_svd(J: FloatArray, rcond: float = DEFAULT_RCOND, robust: float = 0.0) -> TaskSVD:
     """Decompose ``J`` (m x n) once; see the module docstring.
 
+    LAPACK's ``dgesvd`` is called by the kernel :func:`redservo.kernels.linalg.task_svd`
+    (no numpy wrapper: on these small matrices it costs more than the decomposition).
+
     Args:
         J: (m, n) task Jacobian, finite.
         rcond: Relative threshold on the singular values for the numerical rank.
         robust: Relative filter threshold ε of the robust inverse, 0 for the exact ``J^+``.
     """
-    m, n = J.shape
-    # LAPACK's dgesvd directly: a third of numpy.linalg.svd's cost on these small matrices.
-    info = 1
-    if J.size:
-        U, sigma, Vt, info = lapack.dgesvd(J, full_matrices=1)
-    if info != 0:  # no convergence (or empty input): numpy's driver as a fallback
-        U, sigma, Vt = np.linalg.svd(J, full_matrices=True)
-    smax = sigma[0] if sigma.size else 0.0
-    rank = int(np.count_nonzero(sigma > rcond * smax)) if smax > 0.0 else 0
-    V = Vt.T
-    filtered = 0
-    if rank:
-        inv = 1.0 / sigma[:rank]
-        if robust > 0.0 and sigma[rank - 1] < robust * smax:
-            inv = filtered_reciprocal(sigma[:rank], robust * smax)
-            filtered = int(np.count_nonzero(sigma[:rank] < robust * smax))
-        pinv = (V[:, :rank] * inv) @ U[:, :rank].T
-    else:
-        pinv = np.zeros((n, m))
-    return TaskSVD(U, sigma, V, rank, pinv, V[:, rank:], filtered)
+    A = np.ascontiguousarray(J, dtype=np.float64)
+    U, sigma, V, rank, pinv_, filtered = _K.task_svd(A, float(rcond), float(robust))
+    return TaskSVD(U, sigma, V, int(rank), pinv_, V[:, rank:], int(filtered))
 
 
 def pinv(A: FloatArray, rcond: float = DEFAULT_RCOND) -> FloatArray:
@@ -112,28 +101,35 @@ def pinv(A: FloatArray, rcond: float = DEFAULT_RCOND) -> FloatArray:
 
 def svd_events(m: int, n: int, svd: TaskSVD, robust: float = 0.0) -> list[Event]:
     """Typed events for a task SVD: rank loss, no redundancy, filtered (damped) directions."""
+    cond = float(svd.sigma[0] / svd.sigma[svd.rank - 1]) if svd.filtered else 0.0
+    return rank_events(m, n, svd.rank, svd.filtered, cond, robust)
+
+
+def rank_events(
+    m: int, n: int, rank: int, filtered: int, cond: float, robust: float = 0.0
+) -> list[Event]:
+    """:func:`svd_events` from the numbers a kernel returns (``cond = σ_max/σ_r``)."""
     events: list[Event] = []
-    if svd.rank < m:
+    if rank < m:
         events.append(
             Event(
                 Flag.RANK_LOSS,
-                m - svd.rank,
-                f"J1 rank-deficient (rank {svd.rank} < m = {m}): truncated pseudo-inverse",
+                m - rank,
+                f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
             )
         )
-    if svd.rank >= n:
+    if rank >= n:
         events.append(
             Event(
                 Flag.NO_REDUNDANCY, n, "no redundancy (rank J1 = n): reduces to the classical law"
             )
         )
-    if svd.filtered:
-        cond = float(svd.sigma[0] / svd.sigma[svd.rank - 1])
+    if filtered:
         events.append(
             Event(
                 Flag.DAMPED,
                 1.0 / robust,
-                f"J1 ill-conditioned (σ_max/σ_min = {cond:.3g}): {svd.filtered} direction(s) "
+                f"J1 ill-conditioned (σ_max/σ_min = {cond:.3g}): {filtered} direction(s) "
                 f"filtered, amplification bounded by {1.0 / robust:.3g}",
             )
         )

@@ -69,16 +69,19 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import lsq_linear
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events, task_svd
-from redservo.redundancy.safety import command_box, exact_position_fix, intersect_boxes
+from redservo.redundancy.kio import kernel_inputs, optional
+from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.sns import validate_positive_option
+
+_K = lazy("bounded")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
@@ -91,6 +94,14 @@ def _qpsolvers() -> Any | None:
     """Return the :mod:`qpsolvers` module, or None when the optional extra is not installed."""
     try:
         return importlib.import_module("qpsolvers")
+    except ImportError:
+        return None
+
+
+def _daqp() -> Any | None:
+    """The :mod:`daqp` module, or None when it is not installed."""
+    try:
+        return importlib.import_module("daqp")
     except ImportError:
         return None
 
@@ -118,25 +129,27 @@ def qp_velocity_bounds(
         v_max: Velocity limits, 0-d or (n,) array (rad/s or m/s), or None.
     """
     n = q.shape[0]
-    band = margin * limits.range
-    lo = k_p * (limits.q_min + band - q) / dt
-    hi = k_p * (limits.q_max - band - q) / dt
-    conflicts: tuple[int, ...] = ()
-    if v_max is not None:
-        v = np.full(n, float(v_max)) if v_max.ndim == 0 else v_max
-        if v.shape != (n,):
-            raise ConfigurationError(
-                f"v_max has {v.shape[0]} entries but the robot has {n} joints; give a scalar or "
-                f"one value per joint"
-            )
-        push_up = lo > v  # must move up faster than v_max allows
-        push_down = hi < -v
-        lo = np.where(push_up, v, np.maximum(lo, -v))
-        hi = np.where(push_down, -v, np.minimum(hi, v))
-        lo = np.where(push_down, -v, lo)
-        hi = np.where(push_up, v, hi)
-        conflicts = tuple(int(i) for i in np.flatnonzero(push_up | push_down))
-    return lo, hi, conflicts
+    v, has_v = optional(None if v_max is None else _v_per_joint(v_max, n), n)
+    lo, hi, conflicts = _K.qp_velocity_bounds(
+        np.ascontiguousarray(q, dtype=np.float64),
+        limits_pack(limits).rows,
+        float(dt),
+        float(k_p),
+        float(margin),
+        v,
+        has_v,
+    )
+    return lo, hi, tuple(int(i) for i in np.flatnonzero(conflicts))
+
+
+def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
+    v = np.full(n, float(v_max)) if v_max.ndim == 0 else v_max
+    if v.shape != (n,):
+        raise ConfigurationError(
+            f"v_max has {v.shape[0]} entries but the robot has {n} joints; give a scalar or "
+            f"one value per joint"
+        )
+    return v
 
 
 def _scipy_solve(
@@ -146,6 +159,8 @@ def _scipy_solve(
     se = np.sqrt(eps)
     A = np.vstack([J, se * np.eye(n)])
     b = np.concatenate([r, se * z])
+    from scipy.optimize import lsq_linear  # heavy import, only when this fallback runs
+
     res = lsq_linear(A, b, bounds=(lo, hi), method="bvls")
     return np.asarray(res.x, dtype=float)
 
@@ -163,6 +178,13 @@ def _qp_solve(
     n = J.shape[1]
     P = J.T @ J + eps * np.eye(n)
     c = -(J.T @ r + eps * z)
+    if solver == "daqp":  # the call qpsolvers makes, without its per-call overhead (~20 µs)
+        daqp = _daqp()
+        if daqp is not None:
+            x, _, exitflag, _ = daqp.solve(
+                P, c, np.zeros((0, n)), hi, lo, np.zeros(n, dtype=np.intc)
+            )
+            return np.asarray(x, dtype=float) if exitflag > 0 else None
     x = qpsolvers.solve_qp(P, c, lb=lo, ub=hi, solver=solver)
     if x is None:
         return None
@@ -216,7 +238,9 @@ def solve_bounded_least_squares(
             used = f"{solver} failed ({type(exc).__name__}); fallback scipy lsq_linear (bvls)"
             xf = None
         else:
-            used = f"qpsolvers/{solver}" if xf is not None else f"{solver} failed; fallback scipy"
+            direct = solver == "daqp" and _daqp() is not None
+            name = "daqp" if direct else f"qpsolvers/{solver}"
+            used = name if xf is not None else f"{solver} failed; fallback scipy"
     if xf is None or not np.all(np.isfinite(xf)):
         try:
             xf = _scipy_solve(*args)
@@ -245,22 +269,9 @@ def _polish(
     least-squares solution ``J_F⁺ r' + (I - J_F⁺ J_F) z_F``. Returned only if it
     respects the bounds and does not increase the task residual.
     """
-    tol = _ACTIVE_RTOL * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
-    at_bound = (x - lo <= tol) | (hi - x <= tol)
-    free = np.flatnonzero(~at_bound)
-    if free.size == 0:
-        return None
-    y = x.copy()
-    Jf = J[:, free]
-    rf = r - J[:, at_bound] @ x[at_bound]
-    Jf_pinv = np.linalg.pinv(Jf, rcond=DEFAULT_RCOND)
-    y[free] = Jf_pinv @ rf + z[free] - Jf_pinv @ (Jf @ z[free])
-    if not (np.all(np.isfinite(y)) and np.all(y >= lo - tol) and np.all(y <= hi + tol)):
-        return None
-    y = np.clip(y, lo, hi)
-    if np.linalg.norm(J @ y - r) > np.linalg.norm(J @ x - r) * (1.0 + 1e-9) + 1e-15:
-        return None
-    return y
+    c = np.ascontiguousarray
+    y, ok = _K.polish(c(J), c(r), c(z, float), c(lo), c(hi), c(x), DEFAULT_RCOND)
+    return y if ok else None
 
 
 @register
@@ -340,46 +351,67 @@ class BoundedLeastSquares(Law):
         return self._backend
 
     def compute(self, x: LawInputs) -> LawResult:
-        m = x.J1.shape[0]
-        lo, hi, conflicts = qp_velocity_bounds(
-            x.q, x.limits, x.dt, k_p=self.k_p, margin=self.margin, v_max=self.v_max
+        m, n = x.J1.shape
+        k = kernel_inputs(x)
+        v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
+        prev, has_prev = optional(x.qdot_prev, n)
+        qdot, inside, lo, hi, conflicts, xdot, rank, smax = _K.qp_prepare(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            k.has_v,
+            k.has_a,
+            x.dt,
+            prev,
+            has_prev,
+            k.sec,
+            k.has_sec,
+            x.lam,
+            self.k_p,
+            self.margin,
+            v,
+            has_v,
+            self.rcond,
         )
-        lo, hi = intersect_boxes(lo, hi, *command_box(x.q, x.limits, x.dt, x.qdot_prev))
-        xdot = -x.lam * x.e_eff
-        svd = task_svd(x.J1, self.rcond)
-        qdot = svd.pinv @ xdot
-        if x.secondary is not None:
-            qdot = qdot + svd.null @ (svd.null.T @ x.secondary)
-        events = [e for e in svd_events(m, x.J1.shape[1], svd) if e.flag is Flag.RANK_LOSS]
+        rank = int(rank)
+        events: list[Event] = []
+        if rank < m:
+            events.append(
+                Event(
+                    Flag.RANK_LOSS,
+                    m - rank,
+                    f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
+                )
+            )
         info: list[str] = []
-        if conflicts:
+        if conflicts.any():
+            joints = np.flatnonzero(conflicts).tolist()
             events.append(
                 Event(
                     Flag.BOUNDS_CONFLICT,
-                    len(conflicts),
-                    f"joints {list(conflicts)}: push-back toward the allowed band exceeds v_max; "
+                    len(joints),
+                    f"joints {joints}: push-back toward the allowed band exceeds v_max; "
                     f"velocity fixed at ±v_max",
                 )
             )
         critical: tuple[tuple[int, ...], ...] = ()
         overconstrained = False
-        if np.all(lo <= qdot) and np.all(qdot <= hi):
+        if inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
         else:
-            smax = float(svd.sigma[0]) if svd.sigma.size else 0.0
             eps_abs = self.eps * smax * smax if smax > 0.0 else self.eps
             qdot, used = solve_bounded_least_squares(
-                x.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary, solver=self._resolve_backend()
+                k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary, solver=self._resolve_backend()
             )
             info.append(f"solver: {used}")
             if "fallback" in used or "failed" in used:
                 events.append(Event(Flag.SOLVER_FALLBACK, 1.0, f"solver: {used}"))
-            tol = _ACTIVE_RTOL * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
-            active = np.flatnonzero((qdot - lo <= tol) | (hi - qdot <= tol))
-            critical = (tuple(int(i) for i in active),) if active.size else ()
-            nx = float(np.linalg.norm(xdot))
-            if nx > 0.0:
-                resid = float(np.linalg.norm(x.J1 @ qdot - xdot)) / nx
+        fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
+        if not inside:
+            at = tuple(int(i) for i in np.flatnonzero(active))
+            critical = (at,) if at else ()
+            if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
                 overconstrained = resid > _OVERCONSTRAINED_RTOL
                 if overconstrained:
@@ -390,15 +422,14 @@ class BoundedLeastSquares(Law):
                             f"bounds prevent the task: relative task residual {resid:.3g}",
                         )
                     )
-        qdot = exact_position_fix(x.q, np.clip(qdot, lo, hi), x.dt, x.limits)
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < m,
-            projector_rank=svd.null.shape[1] if x.secondary is not None else 0,
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=n - rank if x.secondary is not None else 0,
             critical=critical,
             overconstrained=overconstrained,
             events=tuple(events),
             info=tuple(info),
         )
-        return LawResult(qdot, diag)
+        return LawResult(fixed, diag)

@@ -25,7 +25,9 @@ A law's raw command ``q̇_des`` goes through two stages before it leaves
 Priorities when the boxes conflict: the velocity limit, then the position shield, then
 the acceleration limit (its excess is reported as ``ACCELERATION_EXCEEDED``).
 
-Everything here works on plain float64 arrays (n,); units rad/s (m/s), rad/s² (m/s²), s.
+Everything here works on plain float64 arrays (n,); units rad/s (m/s), rad/s² (m/s²), s. The
+numbers are computed by the kernels of :mod:`redservo.kernels.safety`; this module wraps them
+and turns their flags into typed events.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ from typing import NamedTuple
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.flags import Event, Flag
 
@@ -46,11 +50,32 @@ __all__ = [
     "intersect_boxes",
     "position_box",
     "rate_box",
+    "safety_events",
     "scale_into_box",
 ]
 
 _TOL = 1e-12
 """Relative slack below which a command counts as inside a box (roundoff)."""
+
+_K = lazy("safety")
+
+
+def _prev(qdot_prev: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
+    """The previous command as the kernels take it: an array and a flag."""
+    if qdot_prev is None:
+        return _zeros(n), False
+    return np.ascontiguousarray(qdot_prev, dtype=np.float64), True
+
+
+def _zeros(n: int) -> FloatArray:
+    z = _ZEROS.get(n)
+    if z is None:
+        z = np.zeros(n)
+        _ZEROS[n] = z
+    return z
+
+
+_ZEROS: dict[int, FloatArray] = {}
 
 
 def rate_box(
@@ -61,37 +86,17 @@ def rate_box(
     The acceleration part is dropped (``accel_dropped``) on the joints where it does not
     meet the velocity box (a previous command above the velocity limit).
     """
-    n = limits.n
-    v = limits.qdot_max
-    lo = np.full(n, -np.inf) if v is None else -v
-    hi = np.full(n, np.inf) if v is None else v.copy()
-    dropped = False
-    a = limits.qddot_max
-    if a is not None and qdot_prev is not None:
-        alo = qdot_prev - a * dt
-        ahi = qdot_prev + a * dt
-        nlo, nhi = np.maximum(lo, alo), np.minimum(hi, ahi)
-        ok = nlo <= nhi
-        dropped = not bool(ok.all())
-        lo = np.where(ok, nlo, lo)
-        hi = np.where(ok, nhi, hi)
-    return lo, hi, dropped
+    lp = limits_pack(limits)
+    prev, has_prev = _prev(qdot_prev, limits.n)
+    lo, hi, dropped = _K.rate_box(lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev)
+    return lo, hi, bool(dropped)
 
 
 def position_box(q: FloatArray, limits: JointLimits, dt: float) -> tuple[FloatArray, FloatArray]:
     """Return ``(lo, hi)``, the shield's box P of velocities keeping ``q + dt q̇`` safe."""
-    d_hi = limits.safe_max - q  # < 0 when q lies in the upper margin band
-    d_lo = q - limits.safe_min
-    hi = d_hi / dt
-    lo = -d_lo / dt
-    a = limits.qddot_max
-    if a is not None:  # braking bound: the joint can still stop before its safe limit
-        hi = np.minimum(hi, np.sqrt(2.0 * a * np.maximum(d_hi, 0.0)))
-        lo = np.maximum(lo, -np.sqrt(2.0 * a * np.maximum(d_lo, 0.0)))
-    v = limits.qdot_max
-    back = np.zeros_like(q) if v is None else -v  # retreat from the band at most at v
-    hi = np.where(d_hi < 0.0, np.maximum(hi, back), hi)
-    lo = np.where(d_lo < 0.0, np.minimum(lo, -back), lo)
+    lp = limits_pack(limits)
+    qa = np.ascontiguousarray(q, dtype=np.float64)
+    lo, hi = _K.position_box(qa, lp.rows, lp.has_v, lp.has_a, float(dt))
     return lo, hi
 
 
@@ -103,14 +108,10 @@ def command_box(
     This is the feasible set ``sns`` and ``qp`` optimize over, so that they satisfy the
     shield without it.
     """
-    rlo, rhi, _ = rate_box(limits, dt, qdot_prev)
-    plo, phi = position_box(q, limits, dt)
-    lo, hi = np.maximum(rlo, plo), np.minimum(rhi, phi)
-    bad = lo > hi
-    if bad.any():  # drop the acceleration part where it conflicts with the position box
-        vlo, vhi, _ = rate_box(limits, dt, None)
-        lo = np.where(bad, np.maximum(vlo, plo), lo)
-        hi = np.where(bad, np.minimum(vhi, phi), hi)
+    lp = limits_pack(limits)
+    qa = np.ascontiguousarray(q, dtype=np.float64)
+    prev, has_prev = _prev(qdot_prev, limits.n)
+    lo, hi = _K.command_box(qa, lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev)
     return lo, hi
 
 
@@ -119,29 +120,9 @@ def intersect_boxes(
 ) -> tuple[FloatArray, FloatArray]:
     """Intersect a law's own box with :func:`command_box`; where they do not meet, the
     command box (the limits' priorities) wins."""
-    nlo, nhi = np.maximum(lo, lo2), np.minimum(hi, hi2)
-    bad = nlo > nhi
-    if bad.any():
-        nlo = np.where(bad, lo2, nlo)
-        nhi = np.where(bad, hi2, nhi)
+    c = np.ascontiguousarray
+    nlo, nhi = _K.intersect_boxes(c(lo, float), c(hi, float), c(lo2, float), c(hi2, float))
     return nlo, nhi
-
-
-def _max_scale(base: FloatArray, step: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
-    """Largest ``s ∈ [0, 1]`` with ``lo <= base + s step <= hi`` (``base`` inside the box)."""
-    s = 1.0
-    up = step > 0.0
-    if up.any():
-        s = min(s, float(np.min((hi[up] - base[up]) / step[up])))
-    down = step < 0.0
-    if down.any():
-        s = min(s, float(np.min((lo[down] - base[down]) / step[down])))
-    return max(s, 0.0)
-
-
-def _inside(x: FloatArray, lo: FloatArray, hi: FloatArray) -> bool:
-    slack = _TOL * (1.0 + np.abs(x))
-    return bool(np.all((x >= lo - slack) & (x <= hi + slack)))
 
 
 def scale_into_box(
@@ -158,16 +139,11 @@ def scale_into_box(
     is inside the box, else the task alone scaled toward ``a`` (``s`` is then that
     scale, and the rest is dropped). The result is clipped to the box (roundoff).
     """
-    if _inside(qdot, lo, hi):
-        return np.clip(qdot, lo, hi), 1.0
-    anchor = np.clip(0.0, lo, hi)
-    if task is not None and _inside(task, lo, hi):
-        t = np.clip(task, lo, hi)
-        s = _max_scale(t, qdot - task, lo, hi)
-        return np.clip(t + s * (qdot - task), lo, hi), s
-    base = qdot if task is None else task
-    s = _max_scale(anchor, base - anchor, lo, hi)
-    return np.clip(anchor + s * (base - anchor), lo, hi), s
+    c = np.ascontiguousarray
+    x = c(qdot, dtype=np.float64)
+    t = _zeros(x.shape[0]) if task is None else c(task, dtype=np.float64)
+    out, s = _K.scale_into_box(x, c(lo, float), c(hi, float), t, task is not None)
+    return out, float(s)
 
 
 def exact_position_fix(
@@ -177,21 +153,12 @@ def exact_position_fix(
 
     The target is ``[min(q_safe_min, q), max(q_safe_max, q)]``: a joint in the margin band
     may stay where it is. A few ``nextafter`` steps suffice (the box was already exact up
-    to roundoff).
+    to roundoff). Returns ``qdot`` itself when nothing had to move.
     """
-    top = np.maximum(limits.safe_max, q)
-    bottom = np.minimum(limits.safe_min, q)
-    out = qdot
-    for _ in range(64):
-        nxt = q + dt * out
-        over = nxt > top
-        under = nxt < bottom
-        if not (over.any() or under.any()):
-            break
-        out = out.copy() if out is qdot else out
-        out[over] = np.nextafter(out[over], -np.inf)
-        out[under] = np.nextafter(out[under], np.inf)
-    return out
+    lp = limits_pack(limits)
+    c = np.ascontiguousarray
+    out, changed = _K.exact_position_fix(c(q, float), c(qdot, float), float(dt), lp.rows)
+    return out if changed else qdot
 
 
 class SafetyOutcome(NamedTuple):
@@ -223,28 +190,47 @@ def apply_safety(
         task: (n,) primary-task part of ``qdot`` for ``secondary-first`` scaling, or None
             for uniform scaling.
     """
+    lp = limits_pack(limits)
+    n = limits.n
+    prev, has_prev = _prev(qdot_prev, n)
+    c = np.ascontiguousarray
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded = _K.apply_safety(
+        c(qdot, dtype=np.float64),
+        c(q, dtype=np.float64),
+        lp.rows,
+        lp.has_v,
+        lp.has_a,
+        float(dt),
+        prev,
+        has_prev,
+        bool(shield),
+        _zeros(n) if task is None else c(task, dtype=np.float64),
+        task is not None,
+    )
+    return SafetyOutcome(
+        out, safety_events(bad, s, over_v, dropped, change, acted, worst, exceeded)
+    )
+
+
+def safety_events(
+    bad: int,
+    s: float,
+    over_v: bool,
+    dropped: bool,
+    change: float,
+    acted: bool,
+    worst: float,
+    exceeded: bool,
+) -> tuple[Event, ...]:
+    """The typed events of :func:`apply_safety` from the numbers its kernel returns."""
+    if not (bad or s < 1.0 or dropped or acted or exceeded):
+        return ()
     events: list[Event] = []
-    if not np.isfinite(qdot).all():
-        bad = int(np.count_nonzero(~np.isfinite(qdot)))
+    if bad:
         events.append(
             Event(Flag.NON_FINITE_REPLACED, bad, f"{bad} non-finite entries: command replaced")
         )
-        qdot = np.zeros_like(q)
-        task = None
-    if task is not None and not np.isfinite(task).all():
-        task = None
-    rlo, rhi, dropped = rate_box(limits, dt, qdot_prev)
-    if shield:  # where the acceleration box misses the position box, the position wins
-        plo, phi = position_box(q, limits, dt)
-        clash = np.maximum(rlo, plo) > np.minimum(rhi, phi)
-        if clash.any():
-            vlo, vhi, _ = rate_box(limits, dt, None)
-            rlo, rhi = np.where(clash, vlo, rlo), np.where(clash, vhi, rhi)
-            dropped = True
-    out, s = scale_into_box(qdot, rlo, rhi, task=task)
     if s < 1.0:
-        v = limits.qdot_max
-        over_v = v is not None and bool(np.any(np.abs(qdot) > v * (1.0 + _TOL)))
         flag = Flag.VELOCITY_SCALED if over_v else Flag.ACCELERATION_LIMITED
         events.append(Event(flag, s, f"command scaled by {s:.3g} into the rate limits"))
     if dropped:
@@ -256,25 +242,16 @@ def apply_safety(
                 "or position limits, which win)",
             )
         )
-    if shield:
-        plo, phi = command_box(q, limits, dt, qdot_prev)
-        clamped = np.clip(out, plo, phi)
-        fixed = exact_position_fix(q, clamped, dt, limits)
-        change = float(np.max(np.abs(fixed - out))) if out.size else 0.0
-        if change > _TOL * (1.0 + float(np.max(np.abs(out)))):
-            events.append(
-                Event(Flag.SHIELD_ACTED, change, f"position shield changed q̇ by {change:.3g}")
+    if acted:
+        events.append(
+            Event(Flag.SHIELD_ACTED, change, f"position shield changed q̇ by {change:.3g}")
+        )
+    if exceeded:
+        events.append(
+            Event(
+                Flag.ACCELERATION_EXCEEDED,
+                worst,
+                f"acceleration limit exceeded by {worst:.3g} to keep the position limit",
             )
-        if qdot_prev is not None and limits.qddot_max is not None:
-            excess = np.abs(fixed - qdot_prev) - limits.qddot_max * dt
-            worst = float(np.max(excess)) / dt
-            if worst > _TOL * (1.0 + float(np.max(limits.qddot_max))) and not dropped:
-                events.append(
-                    Event(
-                        Flag.ACCELERATION_EXCEEDED,
-                        worst,
-                        f"acceleration limit exceeded by {worst:.3g} to keep the position limit",
-                    )
-                )
-        out = fixed
-    return SafetyOutcome(out, tuple(events))
+        )
+    return tuple(events)

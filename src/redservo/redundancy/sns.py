@@ -64,11 +64,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, InfeasibleError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, task_svd
-from redservo.redundancy.safety import command_box, exact_position_fix, intersect_boxes
+from redservo.redundancy.kio import kernel_inputs, optional
+from redservo.redundancy.linalg import DEFAULT_RCOND
+
+_K = lazy("bounded")
 
 __all__ = [
     "SNSSolution",
@@ -137,30 +141,27 @@ def sns_velocity_bounds(
         InfeasibleError: some lower bound exceeds its upper bound (see the module docstring).
     """
     n = q.shape[0]
-    d_lo = q - limits.q_min  # may be slightly < 0 within the validation tolerance
-    d_hi = limits.q_max - q
-    lo = -d_lo / dt
-    hi = d_hi / dt
-    if v_max is not None:
-        v = _per_joint(v_max, n, "v_max")
-        lo = np.maximum(lo, -v)
-        hi = np.minimum(hi, v)
-    if a_max is not None:
-        a = _per_joint(a_max, n, "a_max")
-        lo = np.maximum(lo, -np.sqrt(2.0 * a * np.maximum(d_lo, 0.0)))
-        hi = np.minimum(hi, np.sqrt(2.0 * a * np.maximum(d_hi, 0.0)))
-    lo = margin * lo
-    hi = margin * hi
-    bad = np.flatnonzero(lo > hi)
-    if bad.size:
-        i = int(bad[0])
-        raise InfeasibleError(
-            f"SNS velocity bounds are inconsistent for joint {i}: lower {lo[i]:.6g} > upper "
-            f"{hi[i]:.6g} (q[{i}] = {q[i]:.9g} lies outside [{limits.q_min[i]:.9g}, "
-            f"{limits.q_max[i]:.9g}] by more than v_max/a_max allow to recover in dt = {dt:.6g} s); "
-            f"increase v_max or a_max"
-        )
+    qa = np.ascontiguousarray(q, dtype=np.float64)
+    v, has_v = optional(None if v_max is None else _per_joint(v_max, n, "v_max"), n)
+    a, has_a = optional(None if a_max is None else _per_joint(a_max, n, "a_max"), n)
+    lo, hi, bad = _K.sns_velocity_bounds(
+        qa, limits_pack(limits).rows, float(dt), v, has_v, a, has_a, float(margin)
+    )
+    if bad >= 0:
+        _infeasible(int(bad), lo, hi, qa, limits, dt)
     return lo, hi
+
+
+def _infeasible(
+    i: int, lo: FloatArray, hi: FloatArray, q: FloatArray, limits: JointLimits, dt: float
+) -> None:
+    """Raise the InfeasibleError of inconsistent SNS bounds on joint ``i``."""
+    raise InfeasibleError(
+        f"SNS velocity bounds are inconsistent for joint {i}: lower {lo[i]:.6g} > upper "
+        f"{hi[i]:.6g} (q[{i}] = {q[i]:.9g} lies outside [{limits.q_min[i]:.9g}, "
+        f"{limits.q_max[i]:.9g}] by more than v_max/a_max allow to recover in dt = {dt:.6g} s); "
+        f"increase v_max or a_max"
+    )
 
 
 class SNSSolution(NamedTuple):
@@ -183,7 +184,7 @@ class SNSSolution(NamedTuple):
 
 
 def _violation_tol(lo: FloatArray, hi: FloatArray) -> FloatArray:
-    return _VIOLATION_RTOL * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
+    return np.asarray(_K.violation_tol(np.ascontiguousarray(lo), np.ascontiguousarray(hi)))
 
 
 def _task_scaling(
@@ -199,28 +200,11 @@ def _task_scaling(
     ``q̇(s) = a s + b``. Returns ``(s_f, j)``: the largest feasible scale (0 if none
     in [0, 1]) and the free joint whose bound limits it (-1 if no free joint).
     """
-    idx = np.flatnonzero(free)
-    if idx.size == 0:
-        return 0.0, -1
-    ai, bi, li, hi_ = a[idx], b[idx], lo[idx], hi[idx]
-    s_lo = np.full(idx.size, -np.inf)
-    s_hi = np.full(idx.size, np.inf)
-    nz = ai != 0.0
-    with np.errstate(over="ignore"):
-        s1 = (li[nz] - bi[nz]) / ai[nz]
-        s2 = (hi_[nz] - bi[nz]) / ai[nz]
-    s_lo[nz] = np.minimum(s1, s2)
-    s_hi[nz] = np.maximum(s1, s2)
-    # a_i = 0: feasible for every s if b_i is within its bounds, for none otherwise.
-    zero_out = ~nz & ((bi < li - tol[idx]) | (bi > hi_ + tol[idx]))
-    s_hi[zero_out] = -np.inf
-    k = int(np.argmin(s_hi))
-    smax = float(s_hi[k])
-    smin = float(np.max(s_lo))
-    j = int(idx[k])
-    if smin > smax or smax < 0.0 or smin > 1.0:
-        return 0.0, j
-    return min(smax, 1.0), j
+    c = np.ascontiguousarray
+    s, j = _K.task_scaling(
+        c(a, float), c(b, float), c(lo, float), c(hi, float), c(free, bool), c(tol, float)
+    )
+    return float(s), int(j)
 
 
 def sns_solve(
@@ -243,55 +227,19 @@ def sns_solve(
         rcond: Relative singular-value cut-off of the pseudo-inverses.
     """
     n = J.shape[1]
-    tol = _violation_tol(lo, hi)
-    rank_J = task_svd(J, rcond).rank
-    w = np.ones(n)
-    qdot_n = np.zeros(n) if qdot_pref is None else qdot_pref.astype(float, copy=True)
-    s = 1.0
-    best_s, best_w, best_qn = 0.0, np.ones(n), np.zeros(n)  # fallback: q̇ = 0
-    restored = False
-    iterations = 0
-    svd = task_svd(J * w, rcond)
-    qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
-    for iterations in range(1, n + 2):
-        violated = (qdot < lo - tol) | (qdot > hi + tol)
-        if not violated.any():
-            break
-        a = svd.pinv @ xdot
-        b = qdot - a  # q̇(s) = a s + b (s = 1 here)
-        sf, j = _task_scaling(a, b, lo, hi, w > 0.0, tol)
-        if sf > best_s:
-            best_s, best_w, best_qn = sf, w.copy(), qdot_n.copy()
-        if j < 0:  # no free joint left
-            restored = True
-        else:
-            w[j] = 0.0
-            if qdot[j] > hi[j] + tol[j]:
-                qdot_n[j] = hi[j]
-            elif qdot[j] < lo[j] - tol[j]:
-                qdot_n[j] = lo[j]
-            else:
-                qdot_n[j] = hi[j] if a[j] > 0.0 else lo[j]
-            svd = task_svd(J * w, rcond)
-            restored = svd.rank < rank_J
-        if restored or iterations == n + 1:
-            restored = True
-            s, w, qdot_n = best_s, best_w, best_qn
-            svd = task_svd(J * w, rcond)
-            qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
-            break
-        qdot = qdot_n + svd.pinv @ (s * xdot - J @ qdot_n)
-    clipped_qdot = np.clip(qdot, lo, hi)
-    clipped = float(np.max(np.abs(clipped_qdot - qdot))) if n else 0.0
-    saturated = tuple(int(i) for i in np.flatnonzero(w == 0.0))
+    c = np.ascontiguousarray
+    pref, has_pref = optional(qdot_pref, n)
+    qdot, s, saturated, iterations, free_null, restored, clipped, _ = _K.sns_solve(
+        c(J, float), c(xdot, float), c(lo, float), c(hi, float), pref, has_pref, float(rcond)
+    )
     return SNSSolution(
-        qdot=clipped_qdot,
+        qdot=qdot,
         scale=float(s),
-        saturated=saturated,
-        iterations=iterations,
-        free_null_dim=int(np.count_nonzero(w)) - svd.rank,
-        restored=restored,
-        clipped=clipped,
+        saturated=tuple(int(i) for i in np.flatnonzero(saturated)),
+        iterations=int(iterations),
+        free_null_dim=int(free_null),
+        restored=bool(restored),
+        clipped=float(clipped),
     )
 
 
@@ -335,14 +283,50 @@ class SaturationInNullSpace(Law):
         self.margin = mg
 
     def compute(self, x: LawInputs) -> LawResult:
-        m = x.J1.shape[0]
-        lo, hi = sns_velocity_bounds(
-            x.q, x.limits, x.dt, v_max=self.v_max, a_max=self.a_max, margin=self.margin
+        m, n = x.J1.shape
+        k = kernel_inputs(x)
+        v, has_v = optional(None if self.v_max is None else _per_joint(self.v_max, n, "v_max"), n)
+        a, has_a = optional(None if self.a_max is None else _per_joint(self.a_max, n, "a_max"), n)
+        prev, has_prev = optional(x.qdot_prev, n)
+        out = _K.sns(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            k.has_v,
+            k.has_a,
+            x.lam,
+            x.dt,
+            prev,
+            has_prev,
+            k.sec,
+            k.has_sec,
+            v,
+            has_v,
+            a,
+            has_a,
+            self.margin,
+            self.rcond,
         )
-        lo, hi = intersect_boxes(lo, hi, *command_box(x.q, x.limits, x.dt, x.qdot_prev))
-        xdot = -x.lam * x.e_eff
-        task_rank = task_svd(x.J1, self.rcond).rank
-        sol = sns_solve(x.J1, xdot, lo, hi, qdot_pref=x.secondary, rcond=self.rcond)
+        (
+            qdot,
+            scale,
+            saturated,
+            iterations,
+            free_null,
+            restored,
+            clipped,
+            rank,
+            noted,
+            bad,
+            lo,
+            hi,
+        ) = out
+        if bad >= 0:
+            _infeasible(int(bad), lo, hi, x.q, x.limits, x.dt)
+        task_rank = int(rank)
+        sat = tuple(int(i) for i in np.flatnonzero(saturated))
+        scale = float(scale)
         events: list[Event] = []
         info: list[str] = []
         if task_rank < m:
@@ -353,31 +337,30 @@ class SaturationInNullSpace(Law):
                     f"J1 rank-deficient (rank {task_rank} < m = {m}): truncated pseudo-inverse",
                 )
             )
-        if sol.scale < 1.0:
+        if scale < 1.0:
             events.append(
                 Event(
                     Flag.TASK_SCALED,
-                    sol.scale,
-                    f"task scaled by s = {sol.scale:.6g}"
+                    scale,
+                    f"task scaled by s = {scale:.6g}"
                     + (
                         " (saturations exhausted the redundancy: best s* restored)"
-                        if sol.restored
+                        if restored
                         else ""
                     ),
                 )
             )
-        if sol.clipped > float(np.max(_violation_tol(lo, hi))):
-            info.append(f"final clip to the velocity bounds moved q̇ by {sol.clipped:.3g}")
-        qdot = exact_position_fix(x.q, sol.qdot, x.dt, x.limits)
+        if noted:
+            info.append(f"final clip to the velocity bounds moved q̇ by {float(clipped):.3g}")
         diag = Diagnostics(
             method=self.name,
             task_rank=task_rank,
             rank_deficient=task_rank < m,
-            projector_rank=sol.free_null_dim,
-            critical=(sol.saturated,) if sol.saturated else (),
-            iterations=sol.iterations,
-            overconstrained=sol.scale < 1.0,
-            scale=sol.scale,
+            projector_rank=int(free_null),
+            critical=(sat,) if sat else (),
+            iterations=int(iterations),
+            overconstrained=scale < 1.0,
+            scale=scale,
             events=tuple(events),
             info=tuple(info),
         )

@@ -57,10 +57,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.linalg import DEFAULT_RCOND, svd_events
+from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs, optional
+from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
+
+_K = lazy("directional")
+_I_WRANK, _I_WFILTERED, _F_WCOND = 5, 6, 3
+"""Outputs of :func:`redservo.kernels.directional.wln` (layout documented there)."""
 
 __all__ = [
     "WeightedLeastNorm",
@@ -109,11 +116,8 @@ def joint_limit_index_gradient(q: ArrayLike, limits: JointLimits) -> FloatArray:
         q: (n,) joint positions; values beyond a limit count as at it.
         limits: The joint limits.
     """
-    qc, d_hi, d_lo = _distances(q, limits)
-    num = limits.range**2 * (2.0 * qc - limits.q_max - limits.q_min)
-    with np.errstate(divide="ignore", over="ignore", under="ignore"):
-        grad = num / (4.0 * (d_hi * d_lo) ** 2)
-    return np.asarray(grad, dtype=float)
+    qa = np.ascontiguousarray(q, dtype=np.float64)
+    return np.asarray(_K.wln_gradient(qa, limits_pack(limits).rows))
 
 
 def wln_inverse_weights(grad: FloatArray, toward: BoolArray) -> FloatArray:
@@ -126,8 +130,8 @@ def wln_inverse_weights(grad: FloatArray, toward: BoolArray) -> FloatArray:
         grad: (n,) ``∂H/∂q`` (may hold ±inf).
         toward: (n,) booleans, joint moving toward a limit.
     """
-    inv = 1.0 / (1.0 + np.abs(grad))
-    return np.where(np.asarray(toward, dtype=bool), inv, 1.0)
+    t = np.broadcast_to(np.asarray(toward, dtype=bool), np.shape(grad))
+    return np.array([_K.inverse_weight(float(g), bool(b)) for g, b in zip(grad, t)])
 
 
 @register
@@ -164,52 +168,59 @@ class WeightedLeastNorm(Law):
             )
         self.mode = mode
 
-    def _toward(self, grad: FloatArray, qdot0: FloatArray) -> BoolArray:
-        """Stateless direction rule: ``sign(∂H/∂q_i) q̇0_i > 0``."""
-        return np.asarray(np.sign(grad) * qdot0 > 0.0, dtype=bool)
+    def _history(self) -> tuple[FloatArray | None, bool]:
+        """The previous ``|∂H/∂q|`` for the paper's rule, and whether this mode uses it."""
+        return None, False
+
+    def _remember(self, abs_grad: FloatArray) -> None:
+        """Keep ``|∂H/∂q|`` for the next call (``mode="history"``)."""
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
-        xdot = -x.lam * x.e_eff
-        svd = self.svd(x.J1)
-        qdot0 = svd.pinv @ xdot
-        if x.secondary is not None:
-            qdot0 = qdot0 + svd.null @ (svd.null.T @ x.secondary)
-        grad = joint_limit_index_gradient(x.q, x.limits)
-        toward = self._toward(grad, qdot0)
-        d = np.sqrt(wln_inverse_weights(grad, toward))
-
-        JD = x.J1 * d  # scales column i by d_i
-        wsvd = self.svd(JD)
-        qdot = d * (wsvd.pinv @ xdot)
-        projector_rank = 0
-        if x.secondary is not None:
-            DE = d[:, None] * wsvd.null
-            qdot = qdot + DE @ (DE.T @ x.secondary)
-            projector_rank = int(np.linalg.matrix_rank(DE)) if DE.size else 0
-
+        k = kernel_inputs(x)
+        prev, history = self._history()
+        prev_arr, has_prev = optional(prev if prev is not None and prev.shape == (n,) else None, n)
+        qdot, iout, fout, penalized, abs_grad, blocked = _K.wln(
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            x.lam,
+            k.sec,
+            k.has_sec,
+            history,
+            prev_arr,
+            has_prev,
+            self.rcond,
+            self.filter_threshold,
+            _REPORT_GRAD,
+        )
+        self._remember(abs_grad)
+        rank, wrank = int(iout[I_RANK]), int(iout[_I_WRANK])
+        filtered, wfiltered = int(iout[I_FILTERED]), int(iout[_I_WFILTERED])
+        thr = self.filter_threshold
         events = [
             e
-            for e in svd_events(m, n, svd, self.filter_threshold)
+            for e in rank_events(m, n, rank, filtered, float(fout[F_COND]), thr)
             if e.flag is not Flag.NO_REDUNDANCY
         ]
-        if wsvd.filtered and not svd.filtered:
+        if wfiltered and not filtered:
             events.extend(
-                e for e in svd_events(m, n, wsvd, self.filter_threshold) if e.flag is Flag.DAMPED
+                e
+                for e in rank_events(m, n, wrank, wfiltered, float(fout[_F_WCOND]), thr)
+                if e.flag is Flag.DAMPED
             )
-        if wsvd.rank < svd.rank:
-            smax = float(wsvd.sigma[0]) if wsvd.sigma.size else 0.0
-            negligible = np.linalg.norm(JD, axis=0) <= self.rcond * smax
-            blocked = np.flatnonzero(negligible & (d < 1.0)).tolist()
+        if wrank < rank:
             events.append(
                 Event(
                     Flag.LEAST_SQUARES,
-                    svd.rank - wsvd.rank,
-                    f"weighted task rank {wsvd.rank} < rank J1 = {svd.rank} (joints blocked at a "
-                    f"limit: {blocked}): task tracked in the least-squares sense",
+                    rank - wrank,
+                    f"weighted task rank {wrank} < rank J1 = {rank} (joints blocked at a "
+                    f"limit: {np.flatnonzero(blocked).tolist()}): task tracked in the "
+                    "least-squares sense",
                 )
             )
-        if svd.rank >= n:
+        if rank >= n:
             events.append(
                 Event(
                     Flag.NO_REDUNDANCY,
@@ -217,13 +228,13 @@ class WeightedLeastNorm(Law):
                     "no redundancy (rank J1 = n): W has no effect on a full-rank square J1",
                 )
             )
-        penalized = tuple(int(i) for i in np.flatnonzero(toward & (np.abs(grad) > _REPORT_GRAD)))
+        axes = tuple(int(i) for i in np.flatnonzero(penalized))
         diag = Diagnostics(
             method=self.name,
-            task_rank=svd.rank,
-            rank_deficient=svd.rank < m,
-            projector_rank=projector_rank,
-            critical=(penalized,) if penalized else (),
+            task_rank=rank,
+            rank_deficient=rank < m,
+            projector_rank=int(iout[I_PROJ]) if k.has_sec else 0,
+            critical=(axes,) if axes else (),
             events=tuple(events),
         )
         return LawResult(qdot, diag)
@@ -242,14 +253,8 @@ class _WeightedLeastNormHistory(WeightedLeastNorm):
         """Forget the previous ``|∂H/∂q|`` (call between runs)."""
         self._prev_abs_grad = None
 
-    def _toward(self, grad: FloatArray, qdot0: FloatArray) -> BoolArray:
-        stateless = super()._toward(grad, qdot0)
-        cur = np.abs(grad)
-        prev = self._prev_abs_grad
-        self._prev_abs_grad = cur
-        if prev is None or prev.shape != cur.shape:
-            return stateless
-        informative = np.isfinite(cur) | np.isfinite(prev)
-        with np.errstate(invalid="ignore"):
-            by_history = cur - prev >= 0.0  # inf - finite = inf >= 0: reached a limit
-        return np.asarray(np.where(informative, by_history, stateless), dtype=bool)
+    def _history(self) -> tuple[FloatArray | None, bool]:
+        return self._prev_abs_grad, True
+
+    def _remember(self, abs_grad: FloatArray) -> None:
+        self._prev_abs_grad = abs_grad

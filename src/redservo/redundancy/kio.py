@@ -1,0 +1,145 @@
+"""Glue between the laws and their kernels: inputs as plain arrays, outputs as diagnostics.
+
+A law's :meth:`~redservo.redundancy.Law.compute` calls one kernel of
+:mod:`redservo.kernels` with :func:`kernel_inputs` and reads the kernel's fixed-size
+integer and float outputs (layout in :mod:`redservo.kernels.laws`) back into a
+:class:`~redservo.Diagnostics`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.kernels.pack import limits_pack
+from redservo.redundancy.base import Law, LawInputs
+
+__all__ = [
+    "I_FILTERED",
+    "I_PROJ",
+    "I_RANK",
+    "KernelInputs",
+    "LawOptions",
+    "kernel_inputs",
+    "law_options",
+    "levels",
+    "optional",
+]
+
+I_RANK, I_FILTERED, I_PROJ, I_ITER, I_OVER = 0, 1, 2, 3, 4
+F_COND, F_ALPHA, F_SCALE = 0, 1, 2
+
+_ZEROS: dict[int, FloatArray] = {}
+
+
+def optional(value: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
+    """An optional (n,) array as a kernel takes it: the array (zeros if None) and a flag."""
+    if value is None:
+        z = _ZEROS.get(n)
+        if z is None:
+            z = _ZEROS[n] = np.zeros(n)
+        return z, False
+    return np.ascontiguousarray(value, dtype=np.float64), True
+
+
+class KernelInputs(NamedTuple):
+    """:class:`~redservo.redundancy.base.LawInputs` as C-contiguous arrays and flags."""
+
+    J1: FloatArray
+    e: FloatArray
+    q: FloatArray
+    lp: FloatArray
+    has_v: bool
+    has_a: bool
+    sec: FloatArray
+    has_sec: bool
+
+
+def kernel_inputs(x: LawInputs) -> KernelInputs:
+    """Contiguous ``J1``, the effective error, ``q``, the packed limits and ``secondary``."""
+    n = x.J1.shape[1]
+    pack = limits_pack(x.limits)
+    sec, has_sec = optional(x.secondary, n)
+    return KernelInputs(
+        np.ascontiguousarray(x.J1),
+        np.ascontiguousarray(x.e_eff),
+        np.ascontiguousarray(x.q),
+        pack.rows,
+        pack.has_v,
+        pack.has_a,
+        sec,
+        has_sec,
+    )
+
+
+def levels(axes: NDArray[np.int64], count: int | None = None) -> tuple[tuple[int, ...], ...]:
+    """``((axes at level 1), (level 2), ...)`` from a kernel's per-axis level marks."""
+    top = int(axes.max()) if count is None and axes.size else (count or 0)
+    return tuple(tuple(int(i) for i in np.flatnonzero(axes == lv)) for lv in range(1, top + 1))
+
+
+class LawOptions(NamedTuple):
+    """A law's options as :func:`redservo.kernels.step.law_step` takes them."""
+
+    law_id: int
+    fopt: FloatArray
+    iopt: NDArray[np.int64]
+    vopt: FloatArray
+
+
+def law_options(law: Law, n: int) -> LawOptions:
+    """Pack ``law``'s options for the compiled step (layout in :mod:`redservo.kernels.step`).
+
+    Raises:
+        ConfigurationError: the law has no compiled step (``qp``, user-defined laws).
+    """
+    from redservo.kernels.step import LAW_IDS
+
+    name = law.name
+    if name not in LAW_IDS or type(law).__module__.split(".")[1:2] != ["redundancy"]:
+        raise ConfigurationError(
+            f"method {name!r} has no compiled step; compiled methods: {', '.join(LAW_IDS)}",
+            argument="method",
+        )
+    f = np.zeros(8)
+    i = np.zeros(4, dtype=np.int64)
+    v = np.full((2, n), np.inf)
+    f[0] = law.rcond
+    f[1] = law.filter_threshold
+    i[0] = int(law.shield)
+    i[1] = int(law.scaling == "secondary-first")
+    o = vars(law)
+    if name == "gpm":
+        f[2] = o["alpha"]
+    elif name == "gpm-auto":
+        f[2] = np.inf if o["alpha_max"] is None else o["alpha_max"]
+        i[2] = int(o.get("critical_rule", "predicted") == "current")
+        i[3] = int(law.robust)
+    elif name.startswith("iterative"):
+        smooth, with_e2 = type(law).smooth, type(law).with_e2  # type: ignore[attr-defined]
+        i[2] = int(smooth)
+        f[2] = law.alpha if with_e2 else 0.0  # type: ignore[attr-defined]
+        levels = law.max_levels  # type: ignore[attr-defined]
+        i[3] = -1 if levels is None else levels
+        cr = law.constraint_rcond  # type: ignore[attr-defined]
+        f[3] = law.rcond if cr is None else cr
+        f[4] = 1e-2 if law.robust else 0.0
+    elif name == "directional":
+        f[2], i[2], f[3] = o["kappa"], int(o["use_joint_limits"]), o["margin"]
+    elif name == "wln":
+        i[2] = int(o["mode"] == "history")
+    elif name == "sns":
+        f[2] = o["margin"]
+        for row, key in ((0, "v_max"), (1, "a_max")):
+            if o[key] is not None:
+                v[row] = np.broadcast_to(o[key], (n,))
+                i[2 + row] = 1
+    elif name == "large-projection":
+        f[2], f[3], f[4], f[5], f[6] = o["e0"], o["e1"], o["rho"], o["rho1"], o["lambda_tune"]
+        i[2] = {"switched": 0, "norm": 1, "classical": 2}[o["projector"]]
+        f[7] = 1e-2 if law.robust else 0.0
+    return LawOptions(LAW_IDS[name], f, i, np.ascontiguousarray(v))
