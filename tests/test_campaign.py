@@ -681,3 +681,15 @@ def test_two_concurrent_writers(tmp_path: Path) -> None:
     assert sorted(keys) == sorted(
         {(i, m) for i in range(4) for m in ("classical", "iterative-smooth")}
     )
+
+
+def test_documented_campaign_example_parses() -> None:
+    """docs/campaigns.md's example is a valid campaign file."""
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "campaigns.md").read_text()
+    block = re.search(r"```toml\n(.*?)```", text, re.S)
+    assert block is not None
+    d = parse_campaign(tomllib.loads(block.group(1)), "docs/campaigns.md")
+    assert d.methods == ("classical", "gpm") and d.start.joints == ("x", "z", "B")
+    assert d.target.translation[2] == (-0.1, 0.3) and d.errors.depth_scale == (0.7, 1.3)
