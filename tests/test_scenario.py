@@ -225,6 +225,8 @@ def test_overrides(tmp_path: Path) -> None:
         apply_overrides(sc, ["simulation.max_iterations=1e12"])
     with pytest.raises(ScenarioError, match="empty key segment"):
         apply_overrides(sc, ["control..lam=1"])
+    unnamed = load_scenario(_write(tmp_path, GOOD.replace('name = "mine"', "")))
+    assert apply_overrides(unnamed, ["control.lam=0.5"]).name == unnamed.name == "my"
 
 
 def test_start_pose_through_inverse_kinematics(tmp_path: Path) -> None:

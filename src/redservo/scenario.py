@@ -285,4 +285,6 @@ def apply_overrides(scenario: Scenario, assignments: list[str]) -> Scenario:
                 raise ScenarioError(f"--set {item!r}: '{part}' is not a table")
             node = nxt
         node[parts[-1]] = value
-    return parse_scenario(data, f"{scenario.source} (with --set {' '.join(assignments)})")
+    out = parse_scenario(data, f"{scenario.source} (with --set {' '.join(assignments)})")
+    out.name = str(data.get("name") or scenario.name)  # not the stem of the longer source
+    return out
