@@ -11,15 +11,19 @@ import pytest
 from redservo.errors import ScenarioError
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs, run_experiment
+from redservo.reproduction.checks import IMPL, PAPER
 from redservo.reproduction.cm01_humanoid import (
-    EXPERIMENTS,
     decay_rate,
+    fig16_humanoid_model,
     group_activation,
     group_speed_shares,
 )
+from redservo.reproduction.cm01_humanoid_sphere import EQ27, EQ27_CURRENT, PrintedEq27Task
+from redservo.reproduction.cm01_humanoid_sphere import EXPERIMENTS as SPHERE
+from redservo.reproduction.cm01_humanoid_tracking import EXPERIMENTS as TRACKING
 from redservo.scenario import apply_overrides, load_scenario
 
-SPECS = {spec.id: spec for spec in EXPERIMENTS}
+SPECS = {spec.id: spec for spec in (*SPHERE, *TRACKING)}
 
 
 def test_override_selects_an_entry_of_an_array_of_tables() -> None:
@@ -85,23 +89,38 @@ def test_registered() -> None:
 
 
 def test_sphere_claims(sphere: Runs) -> None:
-    claims = {c.claim: c for c in SPECS["cm01-humanoid-sphere"].claims(sphere)}
-    slower = next(c for text, c in claims.items() if "2x slower" in text)
-    others = [c for c in claims.values() if c is not slower]
-    assert len(others) == 4
-    assert all(c.reproduced for c in others), [(c.claim, c.evidence) for c in others]
-    # literature.md A3 says "2x slower"; the logs show eq. 27 makes the area ~2x faster.
-    assert not slower.reproduced
-    assert slower.evidence["rate ratio eq. 27 / exact"] > 1.5
+    claims = {c.name: c for c in SPECS["cm01-humanoid-sphere"].claims(sphere)}
+    assert len(claims) == 5
+    assert all(c.reproduced for c in claims.values()), [
+        (c.name, c.evidence) for c in claims.values() if not c.reproduced
+    ]
+    assert claims["eq27-printed-converges"].kind == PAPER
+    assert claims["classical-reaches-a-limit"].kind == IMPL  # a property of our set-up
+    # Eq. 27's area entry is about half the exact one: the area converges ~2(1 + R²) faster.
+    ratio = claims["eq27-printed-area-faster"].evidence["rate ratio eq. 27 / exact"]
+    assert 1.6 < ratio < 2.4
 
 
-def test_sphere_eq27_run_uses_the_paper_matrix(sphere: Runs) -> None:
+def test_sphere_eq27_runs_use_the_paper_matrix(sphere: Runs) -> None:
+    printed = sphere.experiments[EQ27].task
+    assert isinstance(printed, PrintedEq27Task)
+    # As printed: one constant matrix, whatever the feature value and the depth.
+    L = printed.interaction(np.array([0.3, -0.2, 0.01]), [np.array([0.1, 0.2, 3.0])])
+    np.testing.assert_array_equal(L, printed.L)
+    np.testing.assert_allclose(L[0, 0], L[1, 1])  # -1/z_d twice
+    assert L[2, 2] > 0 and np.count_nonzero(L[2]) == 1  # the area row: π R² / z_d only
     variants = {
         label: getattr(exp.task.terms[0].feature, "variant", None)
         for label, exp in sphere.experiments.items()
     }
-    assert variants["iterative-smooth-eq27"] == "paper"
+    assert variants[EQ27_CURRENT] == "paper"
     assert variants["iterative-smooth"] == "exact"
+    assert not isinstance(sphere.experiments["iterative-smooth"].task, PrintedEq27Task)
+
+
+def test_fig16_is_labelled_as_our_geometry(tmp_path: Path) -> None:
+    path = fig16_humanoid_model(tmp_path / "fig16.png")
+    assert path.is_file() and path.stat().st_size > 10_000
 
 
 def test_tracking_claims(tracking: Runs) -> None:
@@ -109,6 +128,7 @@ def test_tracking_claims(tracking: Runs) -> None:
     assert len(claims) == 5
     failed = [(c.claim, c.evidence) for c in claims if not c.reproduced]
     assert not failed, failed
+    assert [c.kind for c in claims].count(PAPER) == 4
 
 
 def test_tracking_order_read_from_the_logs(tracking: Runs) -> None:
@@ -134,5 +154,9 @@ def test_figures_written(sphere: Runs, tracking: Runs, tmp_path: Path) -> None:
     paths = SPECS["cm01-humanoid-sphere"].figures(sphere, tmp_path)
     paths += SPECS["cm01-humanoid-tracking"].figures(tracking, tmp_path)
     names = {p.name for p in paths}
-    assert {"fig17_humanoid_sphere.png", "fig18_humanoid_tracking.png"} <= names
+    assert {
+        "fig16_humanoid_model.png",
+        "fig17_humanoid_sphere.png",
+        "fig18_humanoid_tracking.png",
+    } <= names
     assert all(p.is_file() and p.stat().st_size > 10_000 for p in paths)

@@ -1,24 +1,51 @@
 """One-command reproduction of every experiment of CM01 and MC05 (``redservo reproduce``).
 
 Each experiment lives in its own module and registers an
-:class:`~redservo.reproduction.base.ExperimentSpec`; :func:`reproduce` runs
-them, draws the figures and writes ``report.md`` and ``report.json``.
+:class:`~redservo.reproduction.base.ExperimentSpec` whose claims are named
+:class:`~redservo.reproduction.checks.Check` objects; :func:`reproduce` runs them, draws
+the figures, optionally re-runs every experiment on perturbed set-ups
+(:mod:`~redservo.reproduction.robustness`), and writes ``report.md`` and ``report.json``
+(:mod:`~redservo.reproduction.report`).
 """
 
 from __future__ import annotations
 
 import importlib
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from redservo.errors import UnknownNameError
-from redservo.reproduction.base import Claim, ExperimentSpec, Runs, RunSpec, run_experiment
+import numpy as np
 
-__all__ = ["EXPERIMENTS", "Claim", "ExperimentSpec", "RunSpec", "Runs", "experiments", "reproduce"]
+from redservo.errors import ConfigurationError, UnknownNameError
+from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec, run_experiment
+from redservo.reproduction.checks import IMPL, PAPER, Check, Claim, Verdict
 
-_MODULES = ("cm01_gaze", "cm01_cylinder", "cm01_humanoid", "mc05")
+__all__ = [
+    "IMPL",
+    "PAPER",
+    "Check",
+    "Claim",
+    "ExperimentSpec",
+    "RunSpec",
+    "Runs",
+    "Verdict",
+    "experiments",
+    "reproduce",
+]
+
+_MODULES = (
+    "cm01_gaze",
+    "cm01_cylinder",
+    "cm01_humanoid_sphere",
+    "cm01_humanoid_tracking",
+    "mc05_joint_limits",
+    "mc05_optical_axis",
+    "mc05_occlusion",
+    "cross",
+)
 
 
 def experiments() -> dict[str, ExperimentSpec]:
@@ -31,47 +58,39 @@ def experiments() -> dict[str, ExperimentSpec]:
     return out
 
 
-EXPERIMENTS = tuple(experiments())
-"""Experiment ids, in report order."""
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if hasattr(value, "to_dict"):
+        return value.to_dict()
+    return str(value)
 
 
-def _section(
-    spec: ExperimentSpec, runs: Runs, claims: list[Claim], figs: list[Path], out: Path
-) -> str:
-    from redservo.report import summary_table
-
-    rows = {label: r.summary for label, r in runs.results.items()}
-    lines = [
-        f"## {spec.title}",
-        "",
-        f"*{spec.paper}* — scenario `{spec.scenario}` (`redservo run {spec.scenario}`), "
-        f"experiment id `{spec.id}`.",
-        "",
-    ]
-    if spec.notes:
-        lines += [spec.notes, ""]
-    lines += [summary_table(rows), "", "### Claims", ""]
-    for c in claims:
-        mark = "reproduced" if c.reproduced else "**not reproduced**"
-        ev = ", ".join(f"{k} = {_fmt(v)}" for k, v in c.evidence.items())
-        lines.append(f"- {c.claim} — {mark}. Evidence: {ev}." + (f" {c.note}" if c.note else ""))
-    lines += ["", "### Figures", ""]
-    lines += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figs]
-    return "\n".join(lines) + "\n"
+def _select(only: str | None) -> dict[str, ExperimentSpec]:
+    specs = experiments()
+    if only is None:
+        return specs
+    wanted = [s.strip() for s in only.split(",") if s.strip()]
+    unknown = [w for w in wanted if w not in specs]
+    if unknown or not wanted:
+        raise UnknownNameError(
+            f"unknown experiment {', '.join(map(repr, unknown)) or repr(only)}; "
+            f"known: {', '.join(specs)}"
+        )
+    return {w: specs[w] for w in wanted}
 
 
-def _slug(label: str) -> str:
-    """A directory name for a run label (``gpm α=2`` -> ``gpm_α2``)."""
-    keep = [c if c.isalnum() or c in "-_." else "_" for c in label.replace("=", "")]
-    return "".join(keep).strip("_") or "run"
-
-
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    if isinstance(v, list | tuple) and v and isinstance(v[0], float):
-        return "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
-    return str(v)
+def _command(only: str | None, fast: bool, robustness: int, seed: int) -> str:
+    parts = ["redservo reproduce"]
+    if only:
+        parts.append(f"--only {only}")
+    if fast:
+        parts.append("--fast")
+    if robustness:
+        parts.append(f"--robustness {robustness}" + (f" --seed {seed}" if seed else ""))
+    return " ".join(parts)
 
 
 def reproduce(
@@ -81,62 +100,74 @@ def reproduce(
     fast: bool = False,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    robustness: int = 0,
+    seed: int = 0,
+    workers: int | None = None,
+    pixel_noise: bool | None = None,
 ) -> dict[str, Any]:
     """Run the experiments, write figures, ``report.md`` and ``report.json`` into ``out``.
 
     Args:
         out: Output directory.
-        only: Run a single experiment id.
+        only: Run only these experiment ids (comma-separated).
         fast: Quick version (coarser; used by the tests).
-        progress: Print one line per run on stderr.
+        progress: Print one line per run (and per robustness set-up) on stderr.
         log: Custom progress sink (overrides ``progress``).
+        robustness: Re-run every experiment on this many perturbed set-ups (0: none).
+        seed: Seed of the perturbed set-ups.
+        workers: Processes of the robustness sweep (default: the number of cores).
+        pixel_noise: Measure the features in a noisy image in the sweep (default: when
+            OpenCV is installed).
 
     Returns:
         The report as a dict (the content of ``report.json``).
 
     Raises:
-        UnknownNameError: ``only`` is not an experiment id.
+        UnknownNameError: ``only`` names an unknown experiment.
+        ConfigurationError: ``robustness`` or ``workers`` is negative or zero where it
+            must be positive.
     """
-    import sys
+    from redservo.reproduction.report import ExperimentResult, markdown, to_json
+    from redservo.reproduction.robustness import run_robustness
 
-    specs = experiments()
-    if only is not None:
-        if only not in specs:
-            raise UnknownNameError(f"unknown experiment {only!r}; known: {', '.join(specs)}")
-        specs = {only: specs[only]}
+    if robustness < 0:
+        raise ConfigurationError(
+            f"robustness must be >= 0 set-ups, got {robustness}", argument="robustness"
+        )
+    if workers is not None and workers < 1:
+        raise ConfigurationError(f"workers must be >= 1, got {workers}", argument="workers")
+    specs = _select(only)
     sink = log or ((lambda msg: print(msg, file=sys.stderr)) if progress else None)
     out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, Any] = {"fast": fast, "experiments": []}
-    md = [
-        "# redservo: reproduction of Chaumette & Marchand 2001 and Mansard & Chaumette 2005",
-        "",
-        "Generated by `redservo reproduce`" + (" --fast" if fast else "") + ". Every verdict "
-        "below is computed from the simulation logs by code (`src/redservo/reproduction/`).",
-        "Joint axes are numbered from 1 as in the papers.",
-        "",
-    ]
+    results: list[ExperimentResult] = []
     for spec in specs.values():
         runs = run_experiment(spec, fast=fast, progress=sink)
         exp_dir = out / spec.id
         figs = spec.figures(runs, exp_dir)
-        claims = spec.claims(runs)
         for label, r in runs.results.items():
             r.save(exp_dir / "runs" / _slug(label), extra={"label": label})
-        md.append(_section(spec, runs, claims, figs, out))
-        report["experiments"].append(
-            {
-                "id": spec.id,
-                "title": spec.title,
-                "paper": spec.paper,
-                "scenario": spec.scenario,
-                "runs": {label: r.summary for label, r in runs.results.items()},
-                "claims": [c.to_dict() for c in claims],
-                "figures": [p.relative_to(out).as_posix() for p in figs],
-            }
+        results.append(ExperimentResult(spec, runs, spec.claims(runs), figs))
+    rob = None
+    if robustness:
+        nominal = {(e.spec.id, c.name): bool(c.reproduced) for e in results for c in e.claims}
+        rob = run_robustness(
+            list(specs.values()),
+            robustness,
+            seed=seed,
+            fast=fast,
+            workers=workers,
+            pixel_noise=pixel_noise,
+            nominal=nominal,
+            progress=sink,
         )
-    n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
-    n_all = sum(len(e["claims"]) for e in report["experiments"])
-    md.insert(5, f"**{n_ok} of {n_all} claims reproduced.**\n")
-    (out / "report.md").write_text("\n".join(md))
-    (out / "report.json").write_text(json.dumps(report, indent=2, default=float) + "\n")
+    command = _command(only, fast, robustness, seed)
+    (out / "report.md").write_text(markdown(results, rob, out, command=command))
+    report = to_json(results, rob, out, fast=fast)
+    (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
     return report
+
+
+def _slug(label: str) -> str:
+    """A directory name for a run label (``gpm α=2`` -> ``gpm_α2``)."""
+    keep = [c if c.isalnum() or c in "-_." else "_" for c in label.replace("=", "")]
+    return "".join(keep).strip("_") or "run"

@@ -1,6 +1,6 @@
 """CM01 §V-A4 (Figs. 14-15): the Afma6 positions its camera wrt a cylinder seen vertical and centred.
 
-The task ``s = (ρ1, θ1, ρ2, θ2)`` (the two limb lines, literature.md A2) constrains four
+The task ``s = (ρ1, θ1, ρ2, θ2)`` (the two limb lines, docs/formulas.md §3.2) constrains four
 camera DOF, leaving ``n_a = 2`` (translation along the cylinder axis, rotation about it).
 CM01 reports: with nothing done (``classical``) a joint limit is hit after a few iterations;
 with the iterative scheme axis 1, which starts in its critical band, is stopped, axis 3 moves
@@ -12,7 +12,8 @@ Runs: ``classical``, ``iterative`` (Fig. 15a), ``iterative-smooth`` (Fig. 15b) a
 it never stops: the motion the task would ask of each axis if there were no limits, the
 reference for "the motion is transferred".
 
-Claim criteria (decisions; CM01 gives no numbers for this experiment):
+The claims are named checks (:data:`CHECKS`); their criteria (decisions; CM01 gives no
+numbers for this experiment):
 
 * *stopped*: an axis is in the band at ``q0`` (``JointLimits.in_band``); with ``iterative``
   it is constrained, ``|q̇| <= STOPPED_SPEED`` at every iteration where it is constrained, and
@@ -43,20 +44,27 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.reproduction.base import (
     WIDE_LIMIT,
-    Claim,
     ExperimentSpec,
     Runs,
     RunSpec,
     without_limits,
 )
+from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar
+from redservo.reproduction.metrics import (
+    first,
+    hit,
+    max_jump,
+    path_length,
+    stopped_speed,
+    succeeded,
+)
 
-__all__ = ["EXPERIMENTS", "limb_line_pixels", "path_length"]
+__all__ = ["CHECKS", "EXPERIMENTS", "limb_line_pixels", "path_length"]
 
 SCENARIO = "cm01-cylinder"
 """Shipped scenario of this experiment."""
 UNLIMITED = "classical-unlimited"
-"""Label of the reference run without joint limits."""
-"""Joint limits (m or rad, ±) of the reference run: far outside any motion of this task."""
+"""Label of the reference run without joint limits (±``WIDE_LIMIT``, far outside any motion)."""
 APPROACHING_AXIS = 2
 """0-based index of the axis CM01 sees approach its band (axis 3)."""
 TRANSFER_AXES = (1, 5)
@@ -65,14 +73,6 @@ TRANSFER_RATIO = 1.2
 """Minimum path-length ratio (iterative / unlimited classical) for 'the motion is transferred'."""
 STOPPED_SPEED = 1e-9
 """Largest |q̇| (m/s or rad/s) of a constrained axis still called 'stopped'."""
-
-
-def path_length(q: FloatArray) -> FloatArray:
-    """Return (n,) the distance travelled by each joint, ``Σ_k |q_{k+1} - q_k|``, for q (N, n)."""
-    qa = np.asarray(q, dtype=float)
-    if qa.shape[0] < 2:
-        return np.zeros(qa.shape[1])
-    return np.asarray(np.abs(np.diff(qa, axis=0)).sum(axis=0))
 
 
 def limb_line_pixels(
@@ -88,11 +88,6 @@ def limb_line_pixels(
     d = np.array([-s, c])
     ends = np.stack([foot - half_length * d, foot + half_length * d])
     return np.asarray(camera.normalized_to_pixel(ends), dtype=float)
-
-
-def _first(mask: FloatArray) -> int | None:
-    idx = np.flatnonzero(np.asarray(mask) > 0)
-    return int(idx[0]) if idx.size else None
 
 
 def _normalized(runs: Runs, label: str) -> FloatArray:
@@ -194,144 +189,159 @@ def figures(runs: Runs, out: Path) -> list[Path]:
     return [_fig14(runs, out), _fig15(runs, out), _joints(runs, out)]
 
 
-# --------------------------------------------------------------------------- claims
+# --------------------------------------------------------------------------- checks
+
+CHECKS: list[Check] = []
+check = registrar(CHECKS)
 
 
-def claims(runs: Runs) -> list[Claim]:
-    """Check CM01 §V-A4's statements on the logs (criteria in the module docstring)."""
-    lim = runs.experiments["iterative"].limits
-    q0 = runs.experiments["iterative"].q0
-    it, sm, cl = runs["iterative"], runs["iterative-smooth"], runs["classical"]
-    out: list[Claim] = []
-
-    hit = cl.summary["limit_hit"]
-    out.append(
-        Claim(
-            "With nothing done (classical), a joint limit is encountered after a few iterations",
-            cl.outcome == "joint_limit",
-            {
-                "outcome": cl.outcome,
-                "axis": None if hit is None else hit["axis"] + 1,
-                "iteration": None if hit is None else hit["iteration"],
-            },
-        )
+@check(
+    "classical-hits-a-limit",
+    PAPER,
+    "With nothing done (classical), a joint limit is encountered after a few iterations",
+    "CM01 §V-A4",
+)
+def _classical(runs: Runs) -> Verdict:
+    cl = runs["classical"]
+    axis, it = hit(cl)
+    return Verdict(
+        cl.outcome == "joint_limit", {"outcome": cl.outcome, "axis": axis, "iteration": it}
     )
 
-    out.append(
-        Claim(
-            "The iterative scheme, with and without γ_k, positions the camera with no limit hit",
-            it.outcome == "converged" and sm.outcome == "converged",
-            {
-                "iterative": it.outcome,
-                "iterative iterations": it.summary["iterations"],
-                "iterative min margin": it.summary["min_margin"],
-                "iterative-smooth": sm.outcome,
-                "iterative-smooth iterations": sm.summary["iterations"],
-                "iterative-smooth min margin": sm.summary["min_margin"],
-            },
-        )
-    )
 
-    band = np.flatnonzero(lim.in_band(q0))
+@check(
+    "iterative-converges",
+    PAPER,
+    "The iterative scheme, with and without γ_k, positions the camera with no limit hit",
+    "CM01 §V-A4, Fig. 15",
+)
+def _converges(runs: Runs) -> Verdict:
+    it, sm = runs["iterative"], runs["iterative-smooth"]
+    ev = {
+        "iterative": it.outcome,
+        "iterative iterations": it.summary["iterations"],
+        "iterative min margin": it.summary["min_margin"],
+        "iterative-smooth": sm.outcome,
+        "iterative-smooth iterations": sm.summary["iterations"],
+        "iterative-smooth min margin": sm.summary["min_margin"],
+    }
+    return Verdict(succeeded(it) and succeeded(sm), ev)
+
+
+def _band_axis(runs: Runs) -> int:
+    """0-based index of the first axis in its band at the start (ValueError if none)."""
+    exp = runs.experiments["iterative"]
+    band = np.flatnonzero(exp.limits.in_band(exp.q0))
     if band.size == 0:
-        out.append(
-            Claim(
-                "Axis 1 starts in its critical band and is stopped (iterative)",
-                False,
-                {"axes in band at start": []},
-                "No axis starts in its band in this scenario.",
-            )
-        )
-    else:
-        j = int(band[0])
-        con = it.log.constrained[:, j] > 0
-        qn = np.abs(it.log.q_normalized[:, j])
-        speed = float(np.max(np.abs(it.log.qdot[con, j]))) if con.any() else float("nan")
-        ok = bool(con.any()) and speed <= STOPPED_SPEED and float(qn.max()) <= qn[0] + 1e-9
-        out.append(
-            Claim(
-                f"Axis {j + 1} starts in its critical band and is stopped: its velocity is 0 "
-                "while constrained and it goes no deeper (iterative; CM01: axis 1)",
-                ok,
-                {
-                    "axis": j + 1,
-                    "constrained iterations": int(con.sum()),
-                    "iterations": len(it.log),
-                    "max |qdot| while constrained": speed,
-                    "start |normalized q|": float(qn[0]),
-                    "max |normalized q|": float(qn.max()),
-                },
-            )
-        )
-        qs = np.abs(sm.log.q_normalized[:, j])
-        deeper = float(qs.max()) > float(qn.max()) + 1e-3
-        out.append(
-            Claim(
-                f"With γ_k (iterative-smooth) axis {j + 1} is slowed progressively instead of "
-                "stopped: it uses more of the band than with iterative but never reaches its limit",
-                deeper and sm.outcome == "converged" and float(qs.max()) < 1.0,
-                {
-                    "iterative max |normalized q|": float(qn.max()),
-                    "iterative-smooth max |normalized q|": float(qs.max()),
-                    "iterative-smooth outcome": sm.outcome,
-                },
-            )
-        )
+        raise ValueError("no axis starts in its band")
+    return int(band[0])
 
+
+@check(
+    "band-axis-stopped",
+    IMPL,
+    "Axis 1 starts in its critical band and is stopped: its velocity is 0 while constrained "
+    "and it goes no deeper (iterative)",
+    "CM01 §V-A4, Fig. 15a",
+)
+def _stopped(runs: Runs) -> Verdict:
+    j = _band_axis(runs)
+    log = runs["iterative"].log
+    con = log.constrained[:, j] > 0
+    qn = np.abs(log.q_normalized[:, j])
+    speed = stopped_speed(log, j)
+    ok = bool(con.any()) and speed <= STOPPED_SPEED and float(qn.max()) <= qn[0] + 1e-9
+    ev = {
+        "axis": j + 1,
+        "constrained iterations": int(con.sum()),
+        "iterations": len(log),
+        "max |qdot| while constrained": speed,
+        "start |normalized q|": float(qn[0]),
+        "max |normalized q|": float(qn.max()),
+    }
+    return Verdict(ok, ev)
+
+
+@check(
+    "smooth-uses-band",
+    PAPER,
+    "With γ_k (iterative-smooth) axis 1 is slowed progressively instead of stopped: it uses "
+    "more of the band than with iterative but never reaches its limit",
+    "CM01 §V-A4, Fig. 15b",
+)
+def _smooth_band(runs: Runs) -> Verdict:
+    j = _band_axis(runs)
+    sm = runs["iterative-smooth"]
+    qn = np.abs(runs["iterative"].log.q_normalized[:, j])
+    qs = np.abs(sm.log.q_normalized[:, j])
+    deeper = float(qs.max()) > float(qn.max()) + 1e-3
+    ev = {
+        "axis": j + 1,
+        "iterative max |normalized q|": float(qn.max()),
+        "iterative-smooth max |normalized q|": float(qs.max()),
+        "iterative-smooth outcome": sm.outcome,
+    }
+    return Verdict(deeper and succeeded(sm) and float(qs.max()) < 1.0, ev)
+
+
+@check(
+    "axis-3-constrained-later",
+    PAPER,
+    "Axis 3 moves toward its band and is then constrained too (iterative; CM01: after about "
+    "iteration 100)",
+    "CM01 §V-A4, Fig. 15a",
+)
+def _axis3(runs: Runs) -> Verdict:
     k = APPROACHING_AXIS
-    first = _first(it.log.constrained[:, k])
-    out.append(
-        Claim(
-            f"Axis {k + 1} moves toward its band and is then constrained too (iterative; CM01: "
-            "after about iteration 100)",
-            (not bool(lim.in_band(q0)[k])) and first is not None and first > 0,
-            {
-                "start normalized q": float(it.log.q_normalized[0, k]),
-                "first constrained iteration": first,
-                "max |normalized q|": float(np.max(np.abs(it.log.q_normalized[:, k]))),
-            },
-        )
-    )
+    exp = runs.experiments["iterative"]
+    log = runs["iterative"].log
+    k_first = first(log.constrained[:, k])
+    ev = {
+        "start normalized q": float(log.q_normalized[0, k]),
+        "first constrained iteration": k_first,
+        "max |normalized q|": float(np.max(np.abs(log.q_normalized[:, k]))),
+    }
+    return Verdict((not bool(exp.limits.in_band(exp.q0)[k])) and bool(k_first), ev)
 
-    ref = runs[UNLIMITED]
+
+@check(
+    "motion-transferred",
+    PAPER,
+    "The motion is transferred to axes 2 and 6: they travel farther than the task alone asks "
+    f"(classical without limits), by at least {TRANSFER_RATIO}x",
+    "CM01 §V-A4",
+)
+def _transfer(runs: Runs) -> Verdict:
+    it, ref = runs["iterative"], runs[UNLIMITED]
     p_it, p_ref = path_length(it.log.q), path_length(ref.log.q)
     ratios = [float(p_it[a] / max(p_ref[a], 1e-12)) for a in TRANSFER_AXES]
-    ok = ref.outcome == "converged" and all(r >= TRANSFER_RATIO for r in ratios)
-    out.append(
-        Claim(
-            "The motion is transferred to axes 2 and 6: they travel farther than the task alone "
-            f"asks (classical without limits), by at least {TRANSFER_RATIO}x",
-            ok,
-            {
-                "path iterative (axes 1-6)": [float(v) for v in p_it],
-                "path classical-unlimited (axes 1-6)": [float(v) for v in p_ref],
-                "ratio axis 2": ratios[0],
-                "ratio axis 6": ratios[1],
-                "classical-unlimited outcome": ref.outcome,
-            },
-        )
-    )
+    ev = {
+        "path iterative (axes 1-6)": [float(v) for v in p_it],
+        "path classical-unlimited (axes 1-6)": [float(v) for v in p_ref],
+        "ratio axis 2": ratios[0],
+        "ratio axis 6": ratios[1],
+        "classical-unlimited outcome": ref.outcome,
+    }
+    return Verdict(succeeded(ref) and all(r >= TRANSFER_RATIO for r in ratios), ev)
 
+
+@check(
+    "smooth-smaller-jumps",
+    PAPER,
+    "γ_k smooths the discontinuities: the largest jump of the command is smaller with "
+    "iterative-smooth than with iterative (though still present)",
+    "CM01 §V-A4, Fig. 15",
+)
+def _jumps(runs: Runs) -> Verdict:
+    it, sm = runs["iterative"], runs["iterative-smooth"]
     d_it, d_sm = float(it.summary["discontinuity"]), float(sm.summary["discontinuity"])
-    out.append(
-        Claim(
-            "γ_k smooths the discontinuities: the largest jump of the command is smaller with "
-            "iterative-smooth than with iterative (though still present)",
-            d_sm < d_it,
-            {
-                "iterative max |Δqdot|": d_it,
-                "iterative-smooth max |Δqdot|": d_sm,
-                "iterative max |Δ twist|": _twist_jump(it.log.camera_twist),
-                "iterative-smooth max |Δ twist|": _twist_jump(sm.log.camera_twist),
-            },
-        )
-    )
-    return out
-
-
-def _twist_jump(twist: FloatArray) -> float:
-    d = np.diff(np.asarray(twist, dtype=float), axis=0)
-    return float(np.max(np.linalg.norm(d, axis=1))) if d.size else 0.0
+    ev = {
+        "iterative max |Δqdot|": d_it,
+        "iterative-smooth max |Δqdot|": d_sm,
+        "iterative max |Δ twist|": max_jump(it.log.camera_twist),
+        "iterative-smooth max |Δ twist|": max_jump(sm.log.camera_twist),
+    }
+    return Verdict(d_sm < d_it, ev)
 
 
 _NO_LIMITS = without_limits(6)
@@ -349,7 +359,7 @@ EXPERIMENTS: tuple[ExperimentSpec, ...] = (
             RunSpec(UNLIMITED, "classical", overrides=_NO_LIMITS),
         ),
         figures=figures,
-        claims=claims,
+        checks=tuple(CHECKS),
         fast=(),
         notes=(
             "The start and the cylinder pose were found by a random search (rounded values) for "
