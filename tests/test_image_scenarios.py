@@ -28,3 +28,17 @@ def test_the_gaze_converges_through_images() -> None:
     res = build(apply_overrides(load_scenario("cm01-gaze"), IMAGE)).run()
     assert res.outcome == "converged"
     assert res.summary.success
+
+
+def test_run_writes_a_video_of_the_camera_view(tmp_path) -> None:
+    pytest.importorskip("PIL", reason="GIF writing needs Pillow (redservo[viewer])")
+    from redservo.cli import main
+
+    gif = tmp_path / "run.gif"
+    args = ["run", "cm01-gaze", "--set", IMAGE[0], "--set", "simulation.max_iterations=12"]
+    assert main([*args, "--no-plot", "-q", "--out", str(tmp_path / "r"), "--video", str(gif)]) == 0
+    from PIL import Image
+
+    with Image.open(gif) as im:
+        assert im.n_frames == 12
+        assert im.size[0] > im.size[1]  # the camera view with the error plot beside it

@@ -169,6 +169,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     figs = _figures(args, lambda: _plots().run_figures(result, exp, out))
     print(_summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
     _warn(result.summary)
+    if args.video:
+        from redservo.vision.runvideo import run_video
+
+        print(f"wrote {run_video(exp, result, args.video)} (camera view, features, error)")
     print(
         f"wrote {out}/: scenario.toml, summary.json, log.npz, log.csv, diagnostics.json"
         + (f" and {figs} figure(s)" if figs else "")
@@ -338,6 +342,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--out", help="output directory (default runs/SCENARIO-METHOD)")
     r.add_argument("--plot", action="store_true", help=argparse.SUPPRESS)  # now the default
+    r.add_argument(
+        "--video",
+        metavar="FILE",
+        help="also write the camera view with the measured and desired features and the error "
+        "(.gif, or .mp4 when an encoder is installed; needs redservo[vision])",
+    )
     add_figure_options(r)
     r.set_defaults(func=_cmd_run)
 
