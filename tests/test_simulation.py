@@ -257,3 +257,23 @@ def test_two_identical_runs_give_identical_logs() -> None:
     b = simulate(robot, scene, task, law, Q0, options=OPT)
     for name, arr in a.log.arrays().items():
         np.testing.assert_array_equal(arr, b.log.arrays()[name], err_msg=name)
+
+
+def test_the_log_grows_as_it_fills_and_an_empty_log_saves(tmp_path) -> None:
+    """A huge iteration cap costs nothing until used; a run stopped at iteration 0 saves."""
+    robot, scene, task = _gaze()
+    small = SimulationOptions(lam=0.5, dt=0.08, max_iterations=2500, stop_at_convergence=False)
+    res = simulate(robot, scene, task, make_law("iterative-smooth"), Q0, options=small)
+    assert len(res.log) == 2500 and res.log.q.shape == (2500, 6)  # past the first 1024 rows
+    assert np.all(np.diff(res.log.t) > 0)
+    empty = simulate(
+        robot,
+        scene,
+        task,
+        make_law("classical"),
+        Q0,
+        options=SimulationOptions(image_margin_px=1000.0),
+    )
+    assert empty.outcome == "target_lost" and len(empty.log) == 0
+    empty.save(tmp_path / "empty")
+    assert (tmp_path / "empty" / "log.csv").read_text().startswith("t,q[0]")

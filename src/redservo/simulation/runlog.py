@@ -105,7 +105,7 @@ class SimulationLog:
         cols: list[str] = []
         blocks: list[FloatArray] = []
         for name, arr in self.arrays().items():
-            a = arr.reshape(len(self), -1)
+            a = arr.reshape(len(self), int(np.prod(arr.shape[1:])))  # also for an empty log
             if name == "flags":
                 cols.extend(FLAG_COLUMNS)
             elif a.shape[1] == 1:
@@ -129,11 +129,19 @@ class LogBuffer:
         n: Joints; k: stacked feature components; m: task dimension.
     """
 
+    _FIRST = 1024
+    """Rows allocated at first; the buffer doubles as it fills (up to ``capacity``), so a
+    huge iteration cap costs nothing until it is used."""
+
     def __init__(self, capacity: int, n: int, k: int, m: int) -> None:
-        N = capacity
+        self.capacity = capacity
         self.rows = 0
         self.diagnostics: list[Diagnostics] = []
-        self.buf: dict[str, FloatArray] = {
+        self.buf = self._alloc(min(capacity, self._FIRST), n, k, m)
+
+    @staticmethod
+    def _alloc(N: int, n: int, k: int, m: int) -> dict[str, FloatArray]:
+        return {
             "t": np.zeros(N),
             "q": np.zeros((N, n)),
             "qdot": np.zeros((N, n)),
@@ -154,6 +162,15 @@ class LogBuffer:
             "flags": np.full((N, len(FLAGS)), np.nan),
         }
 
+    def _grow(self) -> None:
+        old = self.buf
+        size = min(self.capacity, 2 * old["t"].shape[0])
+        n, k, m = old["q"].shape[1], old["s"].shape[1], old["e1"].shape[1]
+        new = self._alloc(size, n, k, m)
+        for name, arr in old.items():
+            new[name][: self.rows] = arr[: self.rows]
+        self.buf = new
+
     def append(
         self,
         t: float,
@@ -166,6 +183,8 @@ class LogBuffer:
     ) -> None:
         """Record one iteration: time (s), joints, the command, the camera twist, the task
         state the law saw, and the law's diagnostics."""
+        if self.rows == self.buf["t"].shape[0]:
+            self._grow()
         buf, i = self.buf, self.rows
         buf["t"][i] = t
         buf["q"][i] = q
