@@ -1,270 +1,385 @@
-"""Control-step timing (``redservo bench``) and campaign throughput.
+"""Control-step benchmarks (``redservo bench``): what users run, compiled and reference.
 
-For each case and each method it measures, over ``repeat`` timed calls:
+For each case of :mod:`redservo.bench_cases` and each method, up to four paths are timed:
 
-1. **law**: the law alone, given ``J1`` and ``e1`` (what a real controller pays);
-2. **full**: a whole control step: forward kinematics, Jacobian, feature
-   measurement, interaction matrix, ``J1`` and the law.
+* ``compiled``: the whole step (kinematics, features, ``J1``, law, safety) as one kernel
+  call (:func:`redservo.kernels.bind.compiled_step`); for ``qp`` the compiled kinematics
+  and features followed by the law's public call (its QP solver is a Python library);
+* ``api``: the same step through the public objects, ``robot.kinematics`` then
+  ``task.evaluate`` then ``law(...)`` (what :func:`redservo.simulation.simulate` runs);
+* ``law``: the law's public call alone, given ``J1`` and ``e1``;
+* ``reference``: the ``compiled`` step with numba disabled (the same kernel source run as
+  plain Python, in a subprocess with ``REDSERVO_NO_NUMBA=1``; main cases only).
 
-Times are reported as the median and 95th percentile in µs, and as a ratio to
-the median time of one ``numpy.linalg.svd`` of a 6x6 matrix measured in the same
-run ("SVD units"), so figures from different machines can be compared. The
-target (issue 5) is a full step of ``iterative-smooth`` on the Afma6 gazing task
-≤ 60 µs median and ≤ 7 SVD units on a 2-core CI-class machine.
-
-Cases (self-contained, no scenario file needed): the Afma6 gazing task (m = 2,
-n = 6) from near the limits; the Afma6 four-point moment task (m = 6, n = 6);
-the humanoid torso gazing at a point (m = 2, n = 9).
+Every (case, method, path) is timed in ``rounds`` interleaved rounds of ``batch`` calls
+(each round visits every item once, so a change of machine load affects all items
+alike); the tables report the median over rounds of the per-call time, in µs, and the
+interquartile range. The moment features are also timed alone (``features``). The
+harness prints progress through a callback and reports no targets: the targets of
+issue 10 are checked by ``benchmarks/bench_control_step.py``.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import platform
+import subprocess
+import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
-from redservo.features import MomentFeatures, PointFeature
-from redservo.limits import JointLimits
+from redservo.bench_cases import SCALING_N, BenchCase, bench_cases
 from redservo.redundancy import METHODS, make_law
-from redservo.robots import Afma6, Humanoid9, Robot
-from redservo.scene import PointSet, Scene, Static
-from redservo.simulation import SimulationOptions, simulate
-from redservo.spatial import make_transform
-from redservo.task import TaskTerm, VisualTask
 
-__all__ = ["BenchResult", "BenchRow", "bench_cases", "run_bench", "svd_reference"]
+__all__ = ["BenchResult", "BenchRow", "bench_cases", "run_bench"]
 
-TARGET_US = 60.0
-TARGET_SVD_UNITS = 7.0
-
-
-@dataclass(frozen=True)
-class BenchCase:
-    """A robot, a scene, a task and a configuration to time the control step at."""
-
-    name: str
-    robot: Robot
-    scene: Scene
-    task: VisualTask
-    q: np.ndarray
-    limits: JointLimits
-    lam: float = 0.5
-    dt: float = 0.04
-
-
-def bench_cases() -> list[BenchCase]:
-    """The three benchmark cases of issue 5."""
-    afma = Afma6()
-    q_g = np.array([-0.5967, -0.165, 0.4119, 1.2829, 0.3967, -0.6108])  # near the limits
-    gaze_scene = Scene(
-        [
-            PointSet(
-                "t",
-                np.zeros((1, 3)),
-                trajectory=Static(afma.fkine(q_g) @ make_transform(t=(-0.368, 0.017, 0.876))),
-            )
-        ]
-    )
-    gaze = VisualTask([TaskTerm(PointFeature(), "t")], [0.0, 0.0])
-
-    q_m = afma.limits().center + np.array([0.2, -0.1, 0.1, 0.3, 0.2, -0.2])
-    pts = np.array([[-0.05, -0.04, 0.0], [0.07, -0.05, 0.0], [0.04, 0.06, 0.0], [-0.06, 0.03, 0.0]])
-    mom_scene = Scene(
-        [
-            PointSet(
-                "t",
-                pts,
-                trajectory=Static(
-                    afma.fkine(q_m) @ make_transform(t=(0.05, -0.03, 0.7), rotvec=(0.1, -0.1, 0.2))
-                ),
-            )
-        ]
-    )
-    desired = make_transform(t=(0.0, 0.0, 0.5))
-    mom = VisualTask.from_desired_poses(
-        [TaskTerm(MomentFeatures.at_desired_pose(pts, desired), "t")], {"t": desired}
-    )
-
-    hum = Humanoid9()
-    q_h = hum.rest_configuration()
-    hum_scene = Scene(
-        [
-            PointSet(
-                "t",
-                np.zeros((1, 3)),
-                trajectory=Static(hum.fkine(q_h) @ make_transform(t=(0.3, 0.1, 2.0))),
-            )
-        ]
-    )
-    hum_task = VisualTask([TaskTerm(PointFeature(), "t")], [0.0, 0.0])
-    return [
-        BenchCase("afma6-gaze (m=2, n=6)", afma, gaze_scene, gaze, q_g, afma.limits()),
-        BenchCase("afma6-moments (m=6, n=6)", afma, mom_scene, mom, q_m, afma.limits()),
-        BenchCase("humanoid-gaze (m=2, n=9)", hum, hum_scene, hum_task, q_h, hum.limits()),
-    ]
-
-
-def _time_calls(fn: Callable[[], Any], repeat: int) -> np.ndarray:
-    """Per-call times in µs (after a warm-up)."""
-    for _ in range(min(50, repeat)):
-        fn()
-    out = np.empty(repeat)
-    clock = time.perf_counter_ns
-    for i in range(repeat):
-        t0 = clock()
-        fn()
-        out[i] = clock() - t0
-    return out / 1e3
-
-
-def svd_reference(repeat: int = 2000) -> float:
-    """Median time (µs) of one ``numpy.linalg.svd`` of a 6x6 matrix."""
-    A = np.random.default_rng(0).normal(size=(6, 6))
-    return float(np.median(_time_calls(lambda: np.linalg.svd(A), repeat)))
+Progress = Callable[[int, int, str], None]
+MAIN_CASES = ("afma6-4points", "afma6-gaze", "afma6-moments", "panda-6d-free", "panda-6d-bounds")
+_REFERENCE_CASES = ("afma6-4points", "afma6-gaze")
 
 
 @dataclass(frozen=True)
 class BenchRow:
-    """Timing of one method on one case (µs and SVD units)."""
+    """One timed item: median and quartiles of the per-call time over the rounds (µs)."""
 
     case: str
     method: str
-    law_median: float
-    law_p95: float
-    full_median: float
-    full_p95: float
-    svd_us: float
-
-    @property
-    def full_units(self) -> float:
-        return self.full_median / self.svd_us
-
-    @property
-    def law_units(self) -> float:
-        return self.law_median / self.svd_us
+    path: str
+    median_us: float
+    q25_us: float
+    q75_us: float
+    rounds: int
+    batch: int
 
 
 @dataclass
 class BenchResult:
-    """All rows, the SVD reference and the campaign throughput."""
+    """All rows, the machine, and the throughput and first-call figures."""
 
     rows: list[BenchRow]
-    svd_us: float
+    machine: dict[str, Any] = field(default_factory=dict)
     throughput: dict[str, float] = field(default_factory=dict)
-    cores: int = 1
+    first_call_s: dict[str, float] = field(default_factory=dict)
 
-    def target_row(self) -> BenchRow | None:
-        """The row the issue-5 target is about (iterative-smooth, Afma6 gazing)."""
+    def get(self, case: str, method: str, path: str) -> float | None:
+        """The median (µs) of an item, or None if it was not timed."""
         for r in self.rows:
-            if r.method == "iterative-smooth" and r.case.startswith("afma6-gaze"):
-                return r
+            if r.case == case and r.method == method and r.path == path:
+                return r.median_us
         return None
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-serialisable dict (``redservo bench --json``)."""
+        return {
+            "machine": self.machine,
+            "rows": [asdict(r) for r in self.rows],
+            "throughput_steps_per_s": self.throughput,
+            "first_call_s": self.first_call_s,
+        }
 
     @property
     def markdown(self) -> str:
-        lines = [
-            f"One numpy.linalg.svd of a 6x6 matrix: {self.svd_us:.1f} µs (the SVD unit). "
-            f"{self.cores} core(s).",
+        """The tables of the module docstring, as markdown."""
+        m = self.machine
+        out = [
+            f"{m.get('cores')} core(s), load average {m.get('load_before')} before and "
+            f"{m.get('load_after')} after; numba {m.get('numba') or 'absent (reference path)'}. "
+            f"Medians over {m.get('rounds')} interleaved rounds of {m.get('batch')} calls, µs "
+            "(interquartile range in brackets).",
             "",
-            "| case | method | law median (µs) | law p95 (µs) | law (SVD u.) | "
-            "full step median (µs) | full p95 (µs) | full (SVD u.) |",
+            "| case | method | compiled step | API step | API law only | reference step | "
+            "reference / compiled | API / compiled |",
             "|---|---|---:|---:|---:|---:|---:|---:|",
         ]
-        for r in self.rows:
-            lines.append(
-                f"| {r.case} | {r.method} | {r.law_median:.1f} | {r.law_p95:.1f} | "
-                f"{r.law_units:.2f} | {r.full_median:.1f} | {r.full_p95:.1f} | {r.full_units:.2f} |"
-            )
-        t = self.target_row()
-        if t is not None:
-            ok_us = "meets" if t.full_median <= TARGET_US else "misses"
-            ok_u = "meets" if t.full_units <= TARGET_SVD_UNITS else "misses"
-            lines += [
-                "",
-                f"Target (iterative-smooth, Afma6 gazing, full step): {t.full_median:.1f} µs median "
-                f"({ok_us} ≤ {TARGET_US:.0f} µs), {t.full_units:.2f} SVD units "
-                f"({ok_u} ≤ {TARGET_SVD_UNITS:.0f}).",
-            ]
+        cases = [c for c in dict.fromkeys(r.case for r in self.rows) if not c.startswith("dh-")]
+        for case in cases:
+            for method in dict.fromkeys(r.method for r in self.rows if r.case == case):
+                cells = [
+                    self._cell(case, method, p) for p in ("compiled", "api", "law", "reference")
+                ]
+                comp = self.get(case, method, "compiled")
+                ref = self.get(case, method, "reference")
+                api = self.get(case, method, "api")
+                ratio = f"{ref / comp:.0f}x" if comp and ref else "—"
+                api_ratio = f"{api / comp:.1f}x" if comp and api else "—"
+                out.append(f"| {case} | {method} | {' | '.join(cells)} | {ratio} | {api_ratio} |")
+        out += self._scaling_table()
         if self.throughput:
-            lines += ["", "Simulation throughput (one process, control steps per second):", ""]
-            lines += [f"- {m}: {v:,.0f} steps/s" for m, v in self.throughput.items()]
-            lines.append(
-                f"- a campaign on {self.cores} worker(s) runs about {self.cores}x this rate"
+            out += ["", "Steps per second from Python (one process):", ""]
+            out += [f"- {k}: {v:,.0f}" for k, v in self.throughput.items()]
+        if self.first_call_s:
+            out += ["", "First call in a fresh process (kernel cache warm), s:", ""]
+            out += [f"- {k}: {v:.3g}" for k, v in self.first_call_s.items()]
+        return "\n".join(out)
+
+    def _cell(self, case: str, method: str, path: str) -> str:
+        for r in self.rows:
+            if r.case == case and r.method == method and r.path == path:
+                return f"{r.median_us:.1f} [{r.q25_us:.1f}–{r.q75_us:.1f}]"
+        return "—"
+
+    def _scaling_table(self) -> list[str]:
+        ns = sorted({int(r.case[3:]) for r in self.rows if r.case.startswith("dh-")})
+        if not ns:
+            return []
+        methods = list(dict.fromkeys(r.method for r in self.rows if r.case.startswith("dh-")))
+        out = [
+            "",
+            "Scaling with the number of joints n (m = 6), compiled step / API law only, µs:",
+            "",
+            "| method | " + " | ".join(f"n = {n}" for n in ns) + " |",
+            "|---|" + "---:|" * len(ns),
+        ]
+        for method in methods:
+            cells = []
+            for n in ns:
+                c = self.get(f"dh-{n}", method, "compiled")
+                law = self.get(f"dh-{n}", method, "law")
+                cells.append(f"{c:.1f} / {law:.1f}" if c and law else "—")
+            out.append(f"| {method} | " + " | ".join(cells) + " |")
+        return out
+
+
+def _law_kwargs(case: BenchCase) -> dict[str, Any]:
+    bMc, J = case.robot.kinematics(case.q, check_limits=False)
+    st = case.task.evaluate(case.scene, bMc, J, 0.0)
+    return {"J1": st.J1, "e1": st.e1, "q": case.q, "limits": case.limits}
+
+
+def _items(
+    case: BenchCase, method: str, paths: Sequence[str]
+) -> list[tuple[str, Callable[[], Any]]]:
+    """The callables to time for (case, method) on ``paths``."""
+    from redservo.kernels.bind import compiled_step
+
+    law = make_law(method)
+    kw = {**_law_kwargs(case), "lam": case.lam, "dt": case.dt}
+    robot, task, scene, q = case.robot, case.task, case.scene, case.q
+    out: list[tuple[str, Callable[[], Any]]] = []
+    if "compiled" in paths:
+        if method == "qp":
+            step = compiled_step(
+                robot, scene, task, make_law("classical"), limits=case.limits, lam=1.0, dt=1.0
             )
-        return "\n".join(lines)
+            out.append(("compiled", _qp_compiled(step, law, kw)))
+        else:
+            step = compiled_step(
+                robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
+            )
+            out.append(("compiled", lambda: step(q)))
+    if "api" in paths:
+
+        def api() -> Any:
+            bMc, J = robot.kinematics(q)
+            st = task.evaluate(scene, bMc, J, 0.0)
+            return law(J1=st.J1, e1=st.e1, q=q, limits=case.limits, lam=case.lam, dt=case.dt)
+
+        out.append(("api", api))
+    if "law" in paths:
+        out.append(("law", lambda: law(**kw)))
+    return out
 
 
-def _full_step(case: BenchCase, law: Any) -> Callable[[], Any]:
-    robot, scene, task, q, lim = case.robot, case.scene, case.task, case.q, case.limits
-    lam, dt = case.lam, case.dt
+def _qp_compiled(step: Any, law: Any, kw: dict[str, Any]) -> Callable[[], Any]:
+    """``qp``: compiled kinematics and features (the step's task kernel), then the law."""
+    q = kw["q"]
 
-    def step() -> Any:
-        bMc, J = robot.kinematics(q)
-        st = task.evaluate(scene, bMc, J, 0.0)
-        return law(J1=st.J1, e1=st.e1, q=q, limits=lim, lam=lam, dt=dt)
+    def run() -> Any:
+        e1, J1 = step.task(q)
+        return law(**{**kw, "J1": J1, "e1": e1})
 
-    return step
+    return run
+
+
+def _time_batch(fn: Callable[[], Any], batch: int) -> float:
+    clock = time.perf_counter_ns
+    t0 = clock()
+    for _ in range(batch):
+        fn()
+    return (clock() - t0) / batch / 1e3
+
+
+def _measure(
+    items: list[tuple[str, str, str, Callable[[], Any]]],
+    rounds: int,
+    batch: int,
+    progress: Progress | None,
+) -> list[BenchRow]:
+    for *_, fn in items:  # warm-up: compile or load every kernel before timing
+        for _ in range(3):
+            fn()
+    times = np.empty((rounds, len(items)))
+    total = rounds * len(items)
+    for r in range(rounds):
+        for i, (case, method, path, fn) in enumerate(items):
+            times[r, i] = _time_batch(fn, batch)
+            if progress is not None:
+                progress(r * len(items) + i + 1, total, f"{case} {method} {path}")
+    rows = []
+    for i, (case, method, path, _) in enumerate(items):
+        q25, med, q75 = np.percentile(times[:, i], [25, 50, 75])
+        rows.append(BenchRow(case, method, path, float(med), float(q25), float(q75), rounds, batch))
+    return rows
+
+
+def _moment_features_items(case: BenchCase) -> list[tuple[str, str, str, Callable[[], Any]]]:
+    from redservo.kernels import lazy
+
+    km = lazy("moments")
+    feat = case.task.terms[0].feature
+    bMc = case.robot.fkine(case.q)
+    cMo = np.ascontiguousarray(case.scene.cMo("t", bMc, 0.0))
+    pts = np.ascontiguousarray(feat.points_o)  # type: ignore[attr-defined]
+    a, z = feat.desired_area, feat.desired_depth  # type: ignore[attr-defined]
+    kind = ("c4c6", "pxpy", "sxsy").index(feat.rotation_features)  # type: ignore[attr-defined]
+
+    def compiled() -> Any:
+        _, plane, xg, yg, mu, _, _ = km.moment_measure(pts, cMo, a, z, kind)
+        return km.moment_features_interaction(pts.shape[0], xg, yg, mu, plane, a, z, kind)
+
+    def api() -> Any:
+        m = feat.measure(cMo)
+        return feat.interaction(m.s, m.inv_depth)
+
+    return [(case.name, "-", "compiled", compiled), (case.name, "-", "api", api)]
+
+
+def _reference(cases: list[str], methods: list[str], rounds: int, batch: int) -> list[BenchRow]:
+    """Time the compiled step with numba disabled, in a subprocess."""
+    code = (
+        "import json, sys; from redservo.bench import _reference_main; "
+        "print(json.dumps(_reference_main(*json.loads(sys.argv[1]))))"
+    )
+    env = {**os.environ, "REDSERVO_NO_NUMBA": "1"}
+    arg = json.dumps([cases, methods, rounds, batch])
+    done = subprocess.run(
+        [sys.executable, "-c", code, arg], env=env, capture_output=True, text=True, check=True
+    )
+    return [BenchRow(**r) for r in json.loads(done.stdout.strip().splitlines()[-1])]
+
+
+def _reference_main(cases: list[str], methods: list[str], rounds: int, batch: int) -> list[Any]:
+    """Entry point of the reference subprocess (numba disabled by the environment)."""
+    by_name = {c.name: c for c in bench_cases(scaling=())}
+    items = [
+        (name, m, "reference", fn)
+        for name in cases
+        for m in methods
+        if m != "qp"
+        for _, fn in _items(by_name[name], m, ("compiled",))
+    ]
+    return [asdict(r) for r in _measure(items, rounds, batch, None)]
+
+
+def _first_call() -> dict[str, float]:
+    """``import redservo`` and the first compiled step in a fresh process (cache warm)."""
+    code = (
+        "import time; t0 = time.perf_counter(); import redservo; t1 = time.perf_counter()\n"
+        "from redservo.bench_cases import bench_cases; from redservo.redundancy import make_law\n"
+        "from redservo.kernels.bind import compiled_step\n"
+        "c = bench_cases(scaling=())[0]\n"
+        "s = compiled_step(c.robot, c.scene, c.task, make_law('iterative-smooth'), "
+        "limits=c.limits, lam=c.lam, dt=c.dt)\n"
+        "t2 = time.perf_counter(); s(c.q); t3 = time.perf_counter()\n"
+        "print(t1 - t0, t3 - t2)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    imp, first = (float(v) for v in out.stdout.split())
+    return {"import redservo": imp, "first compiled step (numba import + cache load)": first}
+
+
+def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
+    from redservo.kernels.bind import compiled_step
+    from redservo.simulation import SimulationOptions, simulate
+
+    opt = SimulationOptions(
+        lam=case.lam, dt=case.dt, max_iterations=steps, stop_at_convergence=False, check_image=False
+    )
+    out: dict[str, float] = {}
+    for name in ("classical", "iterative-smooth"):
+        t0 = time.perf_counter()
+        res = simulate(case.robot, case.scene, case.task, make_law(name), case.q, options=opt)
+        out[f"simulate(), {case.name}, {name}"] = len(res.log) / (time.perf_counter() - t0)
+        step = compiled_step(
+            case.robot, case.scene, case.task, make_law(name), limits=case.limits,
+            lam=case.lam, dt=case.dt,
+        )  # fmt: skip
+        q, prev = case.q.copy(), np.zeros(case.robot.n)
+        step(q, prev)  # warm-up: load the kernel before timing
+        t0 = time.perf_counter()
+        for _ in range(steps):  # closed loop: the command moves the robot
+            prev = step(q, prev)[0]
+            q = q + case.dt * prev
+        out[f"compiled step loop, {case.name}, {name}"] = steps / (time.perf_counter() - t0)
+    return out
 
 
 def run_bench(
     *,
-    repeat: int = 2000,
-    methods: tuple[str, ...] | None = None,
-    cases: list[BenchCase] | None = None,
-    throughput_steps: int = 300,
+    repeat: int = 1000,
+    rounds: int = 10,
+    methods: Sequence[str] | None = None,
+    cases: Sequence[str] | None = None,
+    scaling: Sequence[int] = SCALING_N,
+    reference: bool = True,
+    throughput_steps: int = 200,
+    first_call: bool = True,
+    progress: Progress | None = None,
 ) -> BenchResult:
-    """Time every method on every case; see the module docstring.
+    """Time every (case, method, path); see the module docstring.
 
     Args:
-        repeat: Timed calls per (case, method) and per measurement.
-        methods: Methods to time (default: all of :data:`redservo.METHODS`).
-        cases: Cases (default :func:`bench_cases`).
-        throughput_steps: Iterations of the throughput simulation (0 to skip).
+        repeat: Timed calls per item in total (``rounds`` batches of ``repeat // rounds``).
+        rounds: Interleaved rounds; the reported figure is the median over them.
+        methods: Methods to time (default :data:`redservo.METHODS`).
+        cases: Main cases to time (default all of :data:`MAIN_CASES`).
+        scaling: Joint counts of the scaling cases (``()`` to skip them).
+        reference: Also time the reference (numba disabled) path in a subprocess.
+        throughput_steps: Steps of the throughput runs (0 to skip).
+        first_call: Time ``import redservo`` and the first compiled step in a fresh process.
+        progress: ``progress(done, total, label)`` after each timed batch.
     """
-    names = methods or METHODS
-    rows: list[BenchRow] = []
-    svd_us = svd_reference(repeat)
-    for case in cases or bench_cases():
-        st = case.task.evaluate(case.scene, case.robot.fkine(case.q), case.robot.jacobian(case.q))
-        for name in names:
-            law = make_law(name)
+    from redservo.kernels import compiled
+    from redservo.kernels._jit import numba_version
 
-            def law_only(law: Any = law, st: Any = st, case: BenchCase = case) -> Any:
-                return law(
-                    J1=st.J1, e1=st.e1, q=case.q, limits=case.limits, lam=case.lam, dt=case.dt
-                )
-
-            t_law = _time_calls(law_only, repeat)
-            t_full = _time_calls(_full_step(case, law), repeat)
-            rows.append(
-                BenchRow(
-                    case.name,
-                    name,
-                    float(np.median(t_law)),
-                    float(np.percentile(t_law, 95)),
-                    float(np.median(t_full)),
-                    float(np.percentile(t_full, 95)),
-                    svd_us,
-                )
-            )
-    throughput: dict[str, float] = {}
-    if throughput_steps > 0:
-        case = (cases or bench_cases())[0]
-        opt = SimulationOptions(
-            lam=case.lam,
-            dt=case.dt,
-            max_iterations=throughput_steps,
-            stop_at_convergence=False,
-            check_image=False,
-        )
-        for name in ("classical", "iterative-smooth", "directional"):
-            if name not in names:
-                continue
-            t0 = time.perf_counter()
-            res = simulate(case.robot, case.scene, case.task, make_law(name), case.q, options=opt)
-            throughput[name] = len(res.log) / (time.perf_counter() - t0)
-    return BenchResult(rows, svd_us, throughput, os.cpu_count() or 1)
+    names = list(methods or METHODS)
+    wanted = list(cases) if cases is not None else list(MAIN_CASES)
+    batch = max(1, repeat // rounds)
+    load0 = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    all_cases = bench_cases(scaling=tuple(scaling))
+    items: list[tuple[str, str, str, Callable[[], Any]]] = []
+    for case in all_cases:
+        scal = case.name.startswith("dh-")
+        if not scal and case.name not in wanted:
+            continue
+        paths = ("compiled", "law") if scal else ("compiled", "api", "law")
+        for m in names:
+            items += [(case.name, m, p, fn) for p, fn in _items(case, m, paths)]
+        if case.name == "afma6-moments":
+            items += _moment_features_items(case)
+    rows = _measure(items, rounds, batch, progress)
+    ref_cases = [c for c in _REFERENCE_CASES if c in wanted]
+    if reference and ref_cases and compiled():
+        rows += _reference(ref_cases, names, max(3, rounds // 3), max(1, batch // 50))
+    machine = {
+        "cores": os.cpu_count(),
+        "load_before": round(load0, 2),
+        "load_after": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
+        "numba": numba_version(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "rounds": rounds,
+        "batch": batch,
+    }
+    main = next((c for c in all_cases if c.name == "afma6-4points"), None)
+    result = BenchResult(rows, machine)
+    if throughput_steps > 0 and main is not None and compiled():
+        result.throughput = _throughput(main, throughput_steps)
+    if first_call and compiled():
+        result.first_call_s = _first_call()
+    return result

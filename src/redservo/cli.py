@@ -300,10 +300,9 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from redservo.bench import run_bench
+    from redservo.bench_cli import main_bench
 
-    print(run_bench(repeat=args.repeat).markdown)
-    return 0
+    return main_bench(args)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -450,9 +449,9 @@ def _parser() -> argparse.ArgumentParser:
     cp.set_defaults(func=_cmd_campaign)
 
     b = sub.add_parser("bench", help="time the control step of every method", parents=[common])
-    b.add_argument(
-        "--repeat", type=_int_in(1, 1_000_000), default=2000, help="timed calls per case"
-    )
+    from redservo.bench_cli import add_bench_arguments
+
+    add_bench_arguments(b, _int_in)
     b.set_defaults(func=_cmd_bench)
     register(sub, common, _int_in)
     return p

@@ -16,6 +16,8 @@ from redservo.kernels.pack import Q_MAX, Q_MIN, RANGE
 from redservo.kernels.safety import command_box, exact_position_fix, intersect_boxes
 
 __all__ = [
+    "bls_expand",
+    "bls_reduce",
     "polish",
     "qp_finish",
     "qp_prepare",
@@ -435,3 +437,77 @@ def qp_finish(J1: Any, xdot: Any, lo: Any, hi: Any, x: Any, q: Any, dt: float, l
         clipped[i] = min(max(x[i], lo[i]), hi[i])
     fixed, _ = exact_position_fix(q, clipped, dt, lp)
     return fixed, active, resid
+
+
+@kernel
+def bls_reduce(J: Any, r: Any, lo: Any, hi: Any, z: Any, eps: float) -> Any:
+    """The bounded least squares ``min ‖J x - r‖² + eps ‖x - z‖²`` on its free variables.
+
+    Variables with ``lo == hi`` (to 1e-12 relative) are fixed at the midpoint and removed.
+
+    Returns:
+        ``(x, free, Jf, rf, zf, lof, hif, P, c)``: x (n,) with the fixed values (0 on the
+        free ones), the free indices, and the reduced problem, also as the QP
+        ``min ½ y^T P y + c^T y`` with ``P = Jf^T Jf + eps I``, ``c = -(Jf^T rf + eps zf)``.
+    """
+    m, n = J.shape
+    x = np.zeros(n)
+    fixed = np.empty(n, dtype=np.bool_)
+    k = 0
+    for i in range(n):
+        fixed[i] = hi[i] - lo[i] <= 1e-12 * (1.0 + abs(hi[i]))
+        if fixed[i]:
+            x[i] = 0.5 * (lo[i] + hi[i])
+        else:
+            k += 1
+    free = np.empty(k, dtype=np.int64)
+    j = 0
+    for i in range(n):
+        if not fixed[i]:
+            free[j] = i
+            j += 1
+    Jf = np.empty((m, k))
+    rf = np.empty(m)
+    for i in range(m):
+        acc = 0.0
+        for c_ in range(n):
+            if fixed[c_]:
+                acc += J[i, c_] * x[c_]
+        rf[i] = r[i] - acc
+        for c_ in range(k):
+            Jf[i, c_] = J[i, free[c_]]
+    zf = np.empty(k)
+    lof = np.empty(k)
+    hif = np.empty(k)
+    for c_ in range(k):
+        zf[c_] = z[free[c_]]
+        lof[c_] = lo[free[c_]]
+        hif[c_] = hi[free[c_]]
+    P = np.empty((k, k))
+    c = np.empty(k)
+    for a in range(k):
+        for b in range(k):
+            acc = 0.0
+            for i in range(m):
+                acc += Jf[i, a] * Jf[i, b]
+            P[a, b] = acc + eps if a == b else acc
+        acc = 0.0
+        for i in range(m):
+            acc += Jf[i, a] * rf[i]
+        c[a] = -(acc + eps * zf[a])
+    return x, free, Jf, rf, zf, lof, hif, P, c
+
+
+@kernel
+def bls_expand(
+    J: Any, r: Any, z: Any, lo: Any, hi: Any, x: Any, free: Any, xf: Any, rcond: float
+) -> Any:
+    """``(x, polished)``: the free values put back, clipped to the bounds, then
+    :func:`polish` applied when it is valid."""
+    out = x.copy()
+    for j in range(free.shape[0]):
+        out[free[j]] = xf[j]
+    for i in range(out.shape[0]):
+        out[i] = min(max(out[i], lo[i]), hi[i])
+    y, ok = polish(J, r, z, lo, hi, out, rcond)
+    return (y, True) if ok else (out, False)

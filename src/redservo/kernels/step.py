@@ -48,7 +48,11 @@ from redservo.kernels.safety import apply_safety
 
 __all__ = [
     "LAW_IDS",
+    "afma6_moments",
+    "afma6_moments_step",
+    "afma6_points",
     "afma6_step",
+    "dh_points",
     "dh_step",
     "inverse_transform",
     "law_step",
@@ -316,6 +320,88 @@ def moments_task(
 
 
 @kernel
+def afma6_points(
+    q: Any,
+    eMc: Any,
+    cVe: Any,
+    coupling: float,
+    offset: float,
+    bMo: Any,
+    pts: Any,
+    s_star: Any,
+    C: Any,
+) -> Any:
+    """``(e1, J1)`` of an image-point task on the Afma6."""
+    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
+    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
+    return e1, J1
+
+
+@kernel
+def dh_points(
+    q: Any,
+    par: Any,
+    base: Any,
+    flange: Any,
+    standard: bool,
+    eMc: Any,
+    cVe: Any,
+    bMo: Any,
+    pts: Any,
+    s_star: Any,
+    C: Any,
+) -> Any:
+    """``(e1, J1)`` of an image-point task on a DH chain."""
+    bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
+    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
+    return e1, J1
+
+
+@kernel
+def afma6_moments(
+    q: Any,
+    eMc: Any,
+    cVe: Any,
+    coupling: float,
+    offset: float,
+    bMo: Any,
+    pts: Any,
+    area_star: float,
+    depth_star: float,
+    kind: int,
+    s_star: Any,
+) -> Any:
+    """``(e1, J1)`` of the moment-feature task on the Afma6."""
+    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
+    e1, J1, _, _ = moments_task(bMc, J, bMo, pts, area_star, depth_star, kind, s_star)
+    return e1, J1
+
+
+@kernel
+def _after_task(
+    e1: Any,
+    J1: Any,
+    q: Any,
+    law_id: int,
+    fopt: Any,
+    iopt: Any,
+    vopt: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    lam: float,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+) -> Any:
+    z = np.zeros(q.shape[0])
+    return law_step(
+        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
+        z, False, prev, has_prev, z, False,
+    )  # fmt: skip
+
+
+@kernel
 def afma6_step(
     q: Any,
     eMc: Any,
@@ -339,13 +425,10 @@ def afma6_step(
     has_prev: bool,
 ) -> Any:
     """A full image-point step on the Afma6: kinematics, features, ``J1``, law, safety."""
-    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
-    z = np.zeros(q.shape[0])
-    return law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
-        z, False, prev, has_prev, z, False,
-    )  # fmt: skip
+    e1, J1 = afma6_points(q, eMc, cVe, coupling, offset, bMo, pts, s_star, C)
+    return _after_task(
+        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
+    )
 
 
 @kernel
@@ -374,13 +457,10 @@ def dh_step(
     has_prev: bool,
 ) -> Any:
     """A full image-point step on a DH chain (e.g. the Panda)."""
-    bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
-    z = np.zeros(q.shape[0])
-    return law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
-        z, False, prev, has_prev, z, False,
-    )  # fmt: skip
+    e1, J1 = dh_points(q, par, base, flange, standard, eMc, cVe, bMo, pts, s_star, C)
+    return _after_task(
+        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
+    )
 
 
 @kernel
@@ -409,10 +489,9 @@ def afma6_moments_step(
     has_prev: bool,
 ) -> Any:
     """A full moment-feature step on the Afma6."""
-    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    e1, J1, _, _ = moments_task(bMc, J, bMo, pts, area_star, depth_star, kind, s_star)
-    z = np.zeros(q.shape[0])
-    return law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
-        z, False, prev, has_prev, z, False,
-    )  # fmt: skip
+    e1, J1 = afma6_moments(
+        q, eMc, cVe, coupling, offset, bMo, pts, area_star, depth_star, kind, s_star
+    )
+    return _after_task(
+        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
+    )

@@ -86,7 +86,6 @@ _K = lazy("bounded")
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
 _PREFERRED_QP_SOLVERS = ("daqp", "proxsuite", "quadprog")
-_ACTIVE_RTOL = 1e-8
 _OVERCONSTRAINED_RTOL = 1e-3
 
 
@@ -168,16 +167,13 @@ def _scipy_solve(
 def _qp_solve(
     qpsolvers: Any,
     solver: str,
-    J: FloatArray,
-    r: FloatArray,
-    z: FloatArray,
-    eps: float,
+    P: FloatArray,
+    c: FloatArray,
     lo: FloatArray,
     hi: FloatArray,
 ) -> FloatArray | None:
-    n = J.shape[1]
-    P = J.T @ J + eps * np.eye(n)
-    c = -(J.T @ r + eps * z)
+    """``min ½ y^T P y + c^T y`` s.t. ``lo <= y <= hi`` with a QP backend (None: failed)."""
+    n = P.shape[0]
     if solver == "daqp":  # the call qpsolvers makes, without its per-call overhead (~20 µs)
         daqp = _daqp()
         if daqp is not None:
@@ -219,21 +215,19 @@ def solve_bounded_least_squares(
         the solver actually used (and any fallback).
     """
     n = J.shape[1]
-    zz = np.zeros(n) if z is None else z
-    fixed = hi - lo <= 1e-12 * (1.0 + np.abs(hi))
-    x = np.where(fixed, 0.5 * (lo + hi), 0.0)
-    free = np.flatnonzero(~fixed)
+    c_ = np.ascontiguousarray
+    zz = np.zeros(n) if z is None else c_(z, dtype=np.float64)
+    Jc, rc, loc, hic = c_(J, float), c_(r, float), c_(lo, float), c_(hi, float)
+    x, free, Jf, rf, zf, lof, hif, P, c = _K.bls_reduce(Jc, rc, loc, hic, zz, float(eps))
     if free.size == 0:
         return np.clip(x, lo, hi), "none (all velocities fixed by their bounds)"
-    Jf = J[:, free]
-    rf = r - J[:, fixed] @ x[fixed]
-    args = (Jf, rf, zz[free], eps, lo[free], hi[free])
+    args = (Jf, rf, zf, eps, lof, hif)
     used = "scipy lsq_linear (bvls)"
     xf: FloatArray | None = None
     if solver != "scipy":
         qps = _qpsolvers()
         try:
-            xf = _qp_solve(qps, solver, *args) if qps is not None else None
+            xf = _qp_solve(qps, solver, P, c, lof, hif) if qps is not None else None
         except Exception as exc:  # a solver failure must not stop the control loop
             used = f"{solver} failed ({type(exc).__name__}); fallback scipy lsq_linear (bvls)"
             xf = None
@@ -248,30 +242,13 @@ def solve_bounded_least_squares(
             used = f"{used}; scipy failed ({type(exc).__name__}): unconstrained solution clipped"
             xf = np.linalg.lstsq(
                 np.vstack([Jf, np.sqrt(eps) * np.eye(free.size)]),
-                np.concatenate([rf, np.sqrt(eps) * zz[free]]),
+                np.concatenate([rf, np.sqrt(eps) * zf]),
                 rcond=None,
             )[0]
-    x[free] = xf
-    x = np.clip(x, lo, hi)
-    polished = _polish(J, r, zz, lo, hi, x)
-    if polished is not None:
-        x = polished
+    out, polished = _K.bls_expand(Jc, rc, zz, loc, hic, x, free, c_(xf, float), DEFAULT_RCOND)
+    if polished:
         used = f"{used} + active-set polish"
-    return x, used
-
-
-def _polish(
-    J: FloatArray, r: FloatArray, z: FloatArray, lo: FloatArray, hi: FloatArray, x: FloatArray
-) -> FloatArray | None:
-    """Remove the O(ε) bias: exact cascade solution on the active set of ``x``, or None.
-
-    The variables at a bound stay there; the others get the minimum-``‖x - z‖``
-    least-squares solution ``J_F⁺ r' + (I - J_F⁺ J_F) z_F``. Returned only if it
-    respects the bounds and does not increase the task residual.
-    """
-    c = np.ascontiguousarray
-    y, ok = _K.polish(c(J), c(r), c(z, float), c(lo), c(hi), c(x), DEFAULT_RCOND)
-    return y if ok else None
+    return out, used
 
 
 @register

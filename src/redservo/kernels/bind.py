@@ -1,0 +1,152 @@
+"""Bind the public objects to one compiled control step (pure Python glue, no numba here).
+
+:func:`compiled_step` takes the objects a user builds — a robot (the Afma6 or a DH chain
+such as the Panda), a static scene, a visual task of image points or of moment features,
+a law — and returns a :class:`CompiledStep`: the arguments of one kernel of
+:mod:`redservo.kernels.step` packed once, so that each call runs kinematics, features,
+``J1``, the law and its safety layer in compiled code. ``step(q, qdot_prev)`` gives the
+same command as ``law(J1=..., e1=..., q=q, ...)`` after ``robot.kinematics`` and
+``task.evaluate`` (to rounding), without any Python object per call. A batched closed
+loop (many samples advanced together) calls the same kernels from compiled code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.kernels.pack import limits_pack
+from redservo.limits import JointLimits
+from redservo.redundancy.base import Law
+from redservo.redundancy.kio import law_options
+from redservo.robots import Robot
+from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
+from redservo.robots.dh import DHRobot
+from redservo.scene import PointSet, Scene, Static
+from redservo.spatial import inverse
+from redservo.task import VisualTask
+
+__all__ = ["CompiledStep", "compiled_step"]
+
+_K = lazy("step")
+
+
+@dataclass(frozen=True)
+class CompiledStep:
+    """One control step as a kernel call; ``__call__(q, qdot_prev)`` returns the kernel's
+    ``(q̇, iout, fout, axes, axf, vec, sout)`` (layouts in :mod:`redservo.kernels.step`)."""
+
+    kernel: Callable[..., Any]
+    """The kernel of :mod:`redservo.kernels.step`."""
+    args: tuple[Any, ...]
+    """The packed arguments between ``q`` and ``qdot_prev`` (robot, scene, task, law,
+    limits, λ, dt), then a zero previous command."""
+    task_kernel: Callable[..., Any]
+    """The kernel computing ``(e1, J1)`` alone (kinematics and features)."""
+    n_task: int
+    """How many of ``args`` :attr:`task_kernel` takes after ``q``."""
+
+    def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> Any:
+        prev = self.args[-1] if qdot_prev is None else qdot_prev
+        return self.kernel(q, *self.args[:-1], prev, qdot_prev is not None)
+
+    def task(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(e1, J1)`` at ``q``: the compiled kinematics and features of the step."""
+        e1, J1 = self.task_kernel(q, *self.args[: self.n_task])
+        return e1, J1
+
+
+def _robot_args(robot: Robot) -> tuple[str, tuple[Any, ...]]:
+    eMc, cVe = np.ascontiguousarray(robot.eMc), np.ascontiguousarray(robot.cVe)
+    if isinstance(robot, Afma6):
+        return "afma6", (eMc, cVe, COUPLING, OFFSET)
+    if isinstance(robot, DHRobot):
+        return "dh", (
+            robot._par,
+            np.ascontiguousarray(robot._base),
+            np.ascontiguousarray(robot._flange),
+            robot.convention == "standard",
+            eMc,
+            cVe,
+        )
+    raise ConfigurationError(
+        f"no compiled kinematics for {type(robot).__name__}; compiled robots: Afma6 and DH chains",
+        argument="robot",
+    )
+
+
+def _target(scene: Scene, task: VisualTask) -> tuple[FloatArray, list[Any]]:
+    names = {t.target for t in task.terms}
+    if len(names) != 1:
+        raise ConfigurationError("a compiled step observes one scene object", argument="task")
+    (name,) = names
+    obj = scene.object(name)
+    if not isinstance(obj, PointSet) or not isinstance(obj.trajectory, Static):
+        raise ConfigurationError("a compiled step needs a static point set", argument="scene")
+    bMo = inverse(scene.wMb) @ obj.trajectory.wMo
+    return np.ascontiguousarray(bMo), [t.feature for t in task.terms]
+
+
+def compiled_step(
+    robot: Robot,
+    scene: Scene,
+    task: VisualTask,
+    law: Law,
+    *,
+    limits: JointLimits,
+    lam: float,
+    dt: float,
+) -> CompiledStep:
+    """Pack the arguments of the compiled step of this set-up (module docstring).
+
+    Supported: the Afma6 or a DH robot; a static :class:`~redservo.scene.PointSet`; a task
+    of point features (current depth) or of one :class:`~redservo.features.MomentFeatures`;
+    every law except ``qp`` (:data:`redservo.kernels.step.LAW_IDS`).
+
+    Raises:
+        ConfigurationError: a set-up the compiled step does not cover.
+    """
+    from redservo.features import MomentFeatures, PointFeature
+
+    kind, robot_args = _robot_args(robot)
+    bMo, feats = _target(scene, task)
+    if task.depth != "current":
+        raise ConfigurationError("a compiled step uses the current depth", argument="task")
+    n = robot.n
+    o = law_options(law, n)
+    lp = limits_pack(limits)
+    law_args = (o.law_id, o.fopt, o.iopt, o.vopt, lp.rows, lp.has_v, lp.has_a, float(lam))
+    tail = (*law_args, float(dt), np.zeros(n))
+    s_star = np.ascontiguousarray(task.s_star)
+    if all(isinstance(f, PointFeature) for f in feats):
+        pts = np.ascontiguousarray(np.array([f.point_o for f in feats]))
+        C = np.eye(task.k) if task.C is None else np.ascontiguousarray(task.C)
+        visual: tuple[Any, ...] = (bMo, pts, s_star, C)
+        fn = _K.afma6_step if kind == "afma6" else _K.dh_step
+        task_fn = _K.afma6_points if kind == "afma6" else _K.dh_points
+    elif len(feats) == 1 and isinstance(feats[0], MomentFeatures) and task.C is None:
+        f = feats[0]
+        kinds = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
+        visual = (
+            bMo,
+            np.ascontiguousarray(f.points_o),
+            f.desired_area,
+            f.desired_depth,
+            kinds[f.rotation_features],
+            s_star,
+        )
+        if kind != "afma6":
+            raise ConfigurationError("compiled moment steps exist for the Afma6", argument="robot")
+        fn = _K.afma6_moments_step
+        task_fn = _K.afma6_moments
+    else:
+        raise ConfigurationError(
+            "a compiled step needs point features or one moment feature", argument="task"
+        )
+    return CompiledStep(fn, (*robot_args, *visual, *tail), task_fn, len(robot_args) + len(visual))
