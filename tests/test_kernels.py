@@ -23,7 +23,6 @@ from redservo.redundancy.kio import law_options
 numba = pytest.importorskip("numba", reason="the compiled path needs numba (redservo[fast])")
 
 from redservo.kernels import (  # noqa: E402
-    bounded,
     directional,
     features,
     iterative,
@@ -32,7 +31,9 @@ from redservo.kernels import (  # noqa: E402
     linalg,
     moments,
     projection,
+    qp,
     safety,
+    sns,
     step,
 )
 
@@ -144,9 +145,9 @@ def test_law_kernels_compiled_and_plain_agree(seed: int) -> None:
     has_v, has_a = p["lp"].has_v, p["lp"].has_a
     v = np.full(n, 0.5)
     args = (J1, e, q, lp, has_v, has_a, 0.7, 0.04, p["prev"], True, sec, hs)
-    both(bounded.sns, *args, v, True, v, False, 1.0, 1e-8)
+    both(sns.sns, *args, v, True, v, False, 1.0, 1e-8)
     both(
-        bounded.qp_prepare,
+        qp.qp_prepare,
         *args[:3],
         lp,
         has_v,
@@ -166,7 +167,7 @@ def test_law_kernels_compiled_and_plain_agree(seed: int) -> None:
     raw = sec * 30.0
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False)
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, sec, True)
-    both(bounded.bls_reduce, J1, e, -v, v, sec, 1e-6)
+    both(qp.bls_reduce, J1, e, -v, v, sec, 1e-6)
 
 
 @SETTINGS

@@ -34,7 +34,7 @@ from redservo.task import VisualTask
 
 __all__ = ["CompiledStep", "compiled_step"]
 
-_K = lazy("step")
+_K = lazy("tasks")
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,13 @@
-"""A whole control step in compiled code: kinematics, features, ``J1``, law and safety.
+"""One law call and its safety layer in compiled code, the law chosen by an id.
 
-These kernels are what a batched closed loop calls for each sample (the simulator's
-``simulate`` runs the same kernels one object at a time). A law is selected by its id
+:func:`law_step` (with the task kernels of :mod:`redservo.kernels.tasks`) is what a batched
+closed loop calls for each sample (the simulator's ``simulate`` runs the same kernels one
+object at a time). A law is selected by its id
 (:data:`LAW_IDS`) and its options are packed by
 :func:`redservo.redundancy.kio.law_options` into a float array ``fopt`` and an int
 array ``iopt`` (layout below); ``vopt`` (2, n) holds per-joint options (``sns``'s
 ``v_max`` and ``a_max``, inf when absent). ``qp`` is not here: its solver is a Python
-library (the law calls the kernels of :mod:`redservo.kernels.bounded` around it).
+library (the law calls the kernels of :mod:`redservo.kernels.qp` around it).
 
 Option layout, common to every law: ``fopt[0]`` rcond, ``fopt[1]`` the robust filter
 threshold ε (0 when ``robust`` is off), ``iopt[0]`` shield, ``iopt[1]`` secondary-first
@@ -33,32 +34,14 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.bounded import sns
 from redservo.kernels.directional import directional, wln
-from redservo.kernels.features import points_interaction, points_measure
 from redservo.kernels.iterative import iterative
-from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics, matmul
 from redservo.kernels.laws import classical, gpm, gpm_auto, new_outputs
-from redservo.kernels.moments import (
-    moment_features_interaction,
-    moment_measure,
-)
 from redservo.kernels.projection import large_projection
 from redservo.kernels.safety import apply_safety
+from redservo.kernels.sns import sns
 
-__all__ = [
-    "LAW_IDS",
-    "afma6_moments",
-    "afma6_moments_step",
-    "afma6_points",
-    "afma6_step",
-    "dh_points",
-    "dh_step",
-    "inverse_transform",
-    "law_step",
-    "moments_task",
-    "points_task",
-]
+__all__ = ["LAW_IDS", "law_step"]
 
 LAW_IDS: dict[str, int] = {
     "classical": 0,
@@ -260,238 +243,3 @@ def law_step(
     sout[8] = big
     sout[9] = 0.0
     return out, iout, fout, axes, axf, vec, sout
-
-
-@kernel
-def inverse_transform(T: Any) -> Any:
-    """Inverse of a 4x4 rigid transform (``R^T``, ``-R^T t``)."""
-    out = np.zeros((4, 4))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = T[j, i]
-        out[i, 3] = -(T[0, i] * T[0, 3] + T[1, i] * T[1, 3] + T[2, i] * T[2, 3])
-    out[3, 3] = 1.0
-    return out
-
-
-@kernel
-def points_task(bMc: Any, J: Any, bMo: Any, pts: Any, s_star: Any, C: Any) -> Any:
-    """``(e1, J1, s, bad)`` of N image points (current depth): ``e1 = C (s - s*)``,
-    ``J1 = C L J`` (CM01 eq. 25); ``bad`` the first point behind the camera (-1: none)."""
-    cMo = matmul(inverse_transform(bMc), bMo)
-    s, iz, bad = points_measure(cMo, pts)
-    L = points_interaction(s, iz)
-    k = s.shape[0]
-    e = np.empty(k)
-    for i in range(k):
-        e[i] = s[i] - s_star[i]
-    CL = matmul(C, L)
-    m = C.shape[0]
-    e1 = np.zeros(m)
-    for i in range(m):
-        for j in range(k):
-            e1[i] += C[i, j] * e[j]
-    return e1, matmul(CL, J), s, bad
-
-
-@kernel
-def moments_task(
-    bMc: Any,
-    J: Any,
-    bMo: Any,
-    pts: Any,
-    area_star: float,
-    depth_star: float,
-    kind: int,
-    s_star: Any,
-) -> Any:
-    """``(e1, J1, s, code)`` of the six moment features (α error wrapped to (-π/2, π/2])."""
-    cMo = matmul(inverse_transform(bMc), bMo)
-    s, plane, xg, yg, mu, code, _ = moment_measure(pts, cMo, area_star, depth_star, kind)
-    e1 = np.zeros(6)
-    if code != 0:
-        return e1, np.zeros((6, J.shape[1])), s, code
-    L = moment_features_interaction(pts.shape[0], xg, yg, mu, plane, area_star, depth_star, kind)
-    for i in range(6):
-        e1[i] = s[i] - s_star[i]
-    d = 2.0 * e1[3]
-    e1[3] = 0.5 * (np.pi - np.mod(np.pi - d, 2.0 * np.pi))
-    return e1, matmul(L, J), s, code
-
-
-@kernel
-def afma6_points(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-) -> Any:
-    """``(e1, J1)`` of an image-point task on the Afma6."""
-    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
-    return e1, J1
-
-
-@kernel
-def dh_points(
-    q: Any,
-    par: Any,
-    base: Any,
-    flange: Any,
-    standard: bool,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-) -> Any:
-    """``(e1, J1)`` of an image-point task on a DH chain."""
-    bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
-    return e1, J1
-
-
-@kernel
-def afma6_moments(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    area_star: float,
-    depth_star: float,
-    kind: int,
-    s_star: Any,
-) -> Any:
-    """``(e1, J1)`` of the moment-feature task on the Afma6."""
-    bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    e1, J1, _, _ = moments_task(bMc, J, bMo, pts, area_star, depth_star, kind, s_star)
-    return e1, J1
-
-
-@kernel
-def _after_task(
-    e1: Any,
-    J1: Any,
-    q: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    prev: Any,
-    has_prev: bool,
-) -> Any:
-    z = np.zeros(q.shape[0])
-    return law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
-        z, False, prev, has_prev, z, False,
-    )  # fmt: skip
-
-
-@kernel
-def afma6_step(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    prev: Any,
-    has_prev: bool,
-) -> Any:
-    """A full image-point step on the Afma6: kinematics, features, ``J1``, law, safety."""
-    e1, J1 = afma6_points(q, eMc, cVe, coupling, offset, bMo, pts, s_star, C)
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )
-
-
-@kernel
-def dh_step(
-    q: Any,
-    par: Any,
-    base: Any,
-    flange: Any,
-    standard: bool,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    prev: Any,
-    has_prev: bool,
-) -> Any:
-    """A full image-point step on a DH chain (e.g. the Panda)."""
-    e1, J1 = dh_points(q, par, base, flange, standard, eMc, cVe, bMo, pts, s_star, C)
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )
-
-
-@kernel
-def afma6_moments_step(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    area_star: float,
-    depth_star: float,
-    kind: int,
-    s_star: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    prev: Any,
-    has_prev: bool,
-) -> Any:
-    """A full moment-feature step on the Afma6."""
-    e1, J1 = afma6_moments(
-        q, eMc, cVe, coupling, offset, bMo, pts, area_star, depth_star, kind, s_star
-    )
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )

@@ -81,7 +81,7 @@ from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.sns import validate_positive_option
 
-_K = lazy("bounded")
+_K = lazy("qp")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 

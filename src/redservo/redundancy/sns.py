@@ -72,7 +72,7 @@ from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 
-_K = lazy("bounded")
+_K = lazy("sns")
 
 __all__ = [
     "SNSSolution",
