@@ -447,9 +447,29 @@ def test_position_box() -> None:
         assert hi[0] == pytest.approx(expect) and -v <= hi[0] < 0.0 and lo[0] <= hi[0]
     lo, hi = position_box(np.array([-0.95]), lim.replace(qdot_max=0.2), dt)
     assert lo[0] == pytest.approx(0.2) and lo[0] <= hi[0]
-    # braking bound: q̇ <= √(2 q̈_max d)
-    lo, hi = position_box(np.array([0.89]), lim.replace(qddot_max=2.0), 0.001)
-    assert hi[0] == pytest.approx(math.sqrt(2.0 * 2.0 * 0.01))
+    # braking bound, discrete time: q̇ <= √(h² + 2 a (d - a dt²/8)) - h, h = a dt/2; close to
+    # √(2 a d) for a short period
+    a, dt, d = 2.0, 0.001, 0.01
+    lo, hi = position_box(np.array([0.89]), lim.replace(qddot_max=a), dt)
+    half = 0.5 * a * dt
+    assert hi[0] == pytest.approx(math.sqrt(half**2 + 2 * a * (d - a * dt**2 / 8)) - half)
+    assert hi[0] == pytest.approx(math.sqrt(2.0 * a * d), rel=1e-2)
+
+
+def test_braking_from_the_bound_keeps_the_acceleration_limit() -> None:
+    """Start at the braking bound and brake at q̈_max: the joint stops within its safe limit
+    (the continuous √(2 a d) overshoots in discrete time)."""
+    lim = JointLimits([-1.0], [1.0], margin=0.05, qddot_max=12.5, qdot_max=10.0)
+    dt = 0.04
+    for q0 in (0.0, 0.5, 0.7, 0.85):
+        q = np.array([q0])
+        v = float(position_box(q, lim, dt)[1][0])
+        while v > 0.0:
+            q = q + dt * v
+            assert q[0] <= lim.safe_max[0] + 1e-12
+            hi = float(position_box(q, lim, dt)[1][0])
+            assert hi >= v - 12.5 * dt - 1e-12  # braking at q̈_max stays feasible
+            v = max(v - 12.5 * dt, 0.0)
 
 
 def test_command_box_prefers_the_position_to_the_acceleration() -> None:

@@ -70,10 +70,12 @@ def position_box(q: Any, lp: Any, has_v: bool, has_a: bool, dt: float) -> Any:
         d_lo = q[i] - lp[SAFE_MIN, i]
         h = d_hi / dt
         low = -d_lo / dt
-        if has_a:
+        if has_a:  # braking bound in discrete time (redundancy/safety.py, docs/safety.md)
             a = lp[AMAX, i]
-            h = min(h, np.sqrt(2.0 * a * max(d_hi, 0.0)))
-            low = max(low, -np.sqrt(2.0 * a * max(d_lo, 0.0)))
+            half = 0.5 * a * dt
+            slack = 0.125 * a * dt * dt
+            h = min(h, np.sqrt(half * half + 2.0 * a * max(d_hi - slack, 0.0)) - half)
+            low = max(low, half - np.sqrt(half * half + 2.0 * a * max(d_lo - slack, 0.0)))
         back = -lp[VMAX, i] if has_v else 0.0
         if d_hi < 0.0:
             h = max(h, back)

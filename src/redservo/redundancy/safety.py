@@ -14,8 +14,12 @@ A law's raw command ``q̇_des`` goes through two stages before it leaves
    of the command beyond the primary task, ``q̇_des - q̇_task``, and only then the task.
 2. **Shield** (``shield=True``, the default). The box
    ``P = [(q_safe_min - q)/dt, (q_safe_max - q)/dt]`` with
-   ``q_safe = q̄ ∓ margin``, tightened by the braking bound ``√(2 q̈_max d)`` when
-   acceleration limits are known (the joint can still stop before its safe limit).
+   ``q_safe = q̄ ∓ margin``, tightened by the braking bound when acceleration limits are
+   known: ``√(h² + 2 q̈_max (d - q̈_max dt²/8)) - h`` with ``h = q̈_max dt / 2``, the
+   discrete-time form of ``√(2 q̈_max d)``: commanding ``v``, then ``v - q̈_max dt``, ...
+   down to zero travels at most ``v²/(2 q̈_max) + v dt/2 + q̈_max dt²/8`` (the last term
+   bounds the rounding of the number of periods), so the joint can still stop before its
+   safe limit, period after period, without breaking the acceleration limit.
    The command is clamped per joint into ``P ∩ R`` (the smallest change); then every
    joint is moved by whole float64 steps until ``q + dt·q̇`` lies within
    ``[q_safe_min, q_safe_max]`` *exactly* as the robot computes it. A joint that
