@@ -231,7 +231,7 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
         )
         run = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
         out = run(c.q, prev)
-        assert np.allclose(out[0], ref.qdot, rtol=1e-9, atol=1e-12), method
+        assert np.allclose(out, ref.qdot, rtol=1e-9, atol=1e-12), method
         assert law_options(law, c.robot.n).law_id == step.LAW_IDS[method]
         e1, J1 = run.task(c.q)
         assert np.allclose(e1, state.e1, atol=1e-12) and np.allclose(J1, state.J1, atol=1e-10)

@@ -313,7 +313,7 @@ def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
         step(q, prev)  # warm-up: load the kernel before timing
         t0 = time.perf_counter()
         for _ in range(steps):  # closed loop: the command moves the robot
-            prev = step(q, prev)[0]
+            prev = step(q, prev).copy()
             q = q + case.dt * prev
         out[f"compiled step loop, {case.name}, {name}"] = steps / (time.perf_counter() - t0)
     return out

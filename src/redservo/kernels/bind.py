@@ -39,11 +39,16 @@ _K = lazy("tasks")
 
 @dataclass(frozen=True)
 class CompiledStep:
-    """One control step as a kernel call; ``__call__(q, qdot_prev)`` returns the kernel's
-    ``(q̇, iout, fout, axes, axf, vec, sout)`` (layouts in :mod:`redservo.kernels.step`)."""
+    """One control step as a kernel call: ``step(q, qdot_prev)`` returns the safe command.
+
+    The command is a view of :attr:`out`, the buffer the kernel fills (layout in
+    :func:`redservo.kernels.tasks.output_size`: ``q̇``, the law's integer and float
+    diagnostics, the safety numbers, the level of each axis); it is overwritten by the
+    next call, so copy it to keep it.
+    """
 
     kernel: Callable[..., Any]
-    """The kernel of :mod:`redservo.kernels.step`."""
+    """The kernel of :mod:`redservo.kernels.tasks`."""
     args: tuple[Any, ...]
     """The packed arguments between ``q`` and ``qdot_prev`` (robot, scene, task, law,
     limits, λ, dt), then a zero previous command."""
@@ -51,10 +56,23 @@ class CompiledStep:
     """The kernel computing ``(e1, J1)`` alone (kinematics and features)."""
     n_task: int
     """How many of ``args`` :attr:`task_kernel` takes after ``q``."""
+    out: FloatArray
+    """The output buffer the kernel fills."""
 
-    def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> Any:
+    def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
         prev = self.args[-1] if qdot_prev is None else qdot_prev
-        return self.kernel(q, *self.args[:-1], prev, qdot_prev is not None)
+        self.kernel(q, *self.args[:-1], prev, qdot_prev is not None, self.out)
+        return self.out[: q.shape[0]]
+
+    def diagnostics(self, n: int) -> dict[str, FloatArray]:
+        """Views of :attr:`out` after a call: ``iout``, ``fout``, ``sout``, ``levels``."""
+        o = self.out
+        return {
+            "iout": o[n : n + 16],
+            "fout": o[n + 16 : n + 32],
+            "sout": o[n + 32 : n + 42],
+            "levels": o[n + 42 : 2 * n + 42],
+        }
 
     def task(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(e1, J1)`` at ``q``: the compiled kinematics and features of the step."""
@@ -149,4 +167,12 @@ def compiled_step(
         raise ConfigurationError(
             "a compiled step needs point features or one moment feature", argument="task"
         )
-    return CompiledStep(fn, (*robot_args, *visual, *tail), task_fn, len(robot_args) + len(visual))
+    from redservo.kernels.tasks import output_size
+
+    return CompiledStep(
+        fn,
+        (*robot_args, *visual, *tail),
+        task_fn,
+        len(robot_args) + len(visual),
+        np.zeros(output_size(n)),
+    )

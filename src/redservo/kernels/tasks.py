@@ -2,7 +2,11 @@
 
 ``*_points``/``*_moments`` return ``(e1, J1)`` for a robot and an image-point or moment
 task (current depth; CM01 eq. 25 combination ``C``); ``*_step`` adds the law and its
-safety layer through :func:`redservo.kernels.step.law_step` (argument layouts there).
+safety layer through :func:`redservo.kernels.step.law_step` (argument layouts there) and
+writes into the caller's float buffer ``out`` (:func:`output_size`): ``q̇`` (n), the law's
+integer outputs ``iout`` (16), its ``fout`` (16), the safety numbers ``sout`` (10) and
+the level of each axis (n). Filling a buffer instead of returning arrays saves the
+boxing of seven arrays (several µs) on every call from Python.
 :func:`redservo.kernels.bind.compiled_step` packs these arguments from the public objects.
 """
 
@@ -27,7 +31,9 @@ __all__ = [
     "dh_step",
     "inverse_transform",
     "moments_task",
+    "output_size",
     "points_task",
+    "write_outputs",
 ]
 
 
@@ -162,12 +168,43 @@ def _after_task(
     dt: float,
     prev: Any,
     has_prev: bool,
-) -> Any:
+    out: Any,
+) -> None:
+    """Run the law and its safety layer on ``(e1, J1)``; fill ``out`` (module docstring)."""
     z = np.zeros(q.shape[0])
-    return law_step(
+    qdot, iout, fout, axes, _, _, sout = law_step(
         law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
         z, False, prev, has_prev, z, False,
     )  # fmt: skip
+    write_outputs(out, qdot, iout, fout, sout, axes)
+
+
+@kernel
+def write_outputs(out: Any, qdot: Any, iout: Any, fout: Any, sout: Any, axes: Any) -> None:
+    """Fill the step's output buffer ``out`` (layout :func:`output_size`)."""
+    n = qdot.shape[0]
+    k = 0
+    for i in range(n):
+        out[k] = qdot[i]
+        k += 1
+    for i in range(iout.shape[0]):
+        out[k] = iout[i]
+        k += 1
+    for i in range(fout.shape[0]):
+        out[k] = fout[i]
+        k += 1
+    for i in range(sout.shape[0]):
+        out[k] = sout[i]
+        k += 1
+    for i in range(n):
+        out[k] = axes[i]
+        k += 1
+
+
+def output_size(n: int) -> int:
+    """Length of a step's output buffer for n joints: ``q̇`` (n), the law's ``iout`` (16,
+    as floats), ``fout`` (16), the safety numbers ``sout`` (10), the per-axis levels (n)."""
+    return 2 * n + 16 + 16 + 10
 
 
 @kernel
@@ -192,12 +229,11 @@ def afma6_step(
     dt: float,
     prev: Any,
     has_prev: bool,
-) -> Any:
+    out: Any,
+) -> None:
     """A full image-point step on the Afma6: kinematics, features, ``J1``, law, safety."""
     e1, J1 = afma6_points(q, eMc, cVe, coupling, offset, bMo, pts, s_star, C)
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )
+    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
 
 
 @kernel
@@ -224,12 +260,11 @@ def dh_step(
     dt: float,
     prev: Any,
     has_prev: bool,
-) -> Any:
+    out: Any,
+) -> None:
     """A full image-point step on a DH chain (e.g. the Panda)."""
     e1, J1 = dh_points(q, par, base, flange, standard, eMc, cVe, bMo, pts, s_star, C)
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )
+    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
 
 
 @kernel
@@ -256,11 +291,10 @@ def afma6_moments_step(
     dt: float,
     prev: Any,
     has_prev: bool,
-) -> Any:
+    out: Any,
+) -> None:
     """A full moment-feature step on the Afma6."""
     e1, J1 = afma6_moments(
         q, eMc, cVe, coupling, offset, bMo, pts, area_star, depth_star, kind, s_star
     )
-    return _after_task(
-        e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev
-    )
+    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
