@@ -17,7 +17,9 @@ joint limits the motion is automatically transferred to the neck, then to the pe
   faster than the neck on ``[k_neck, k_end)`` (:func:`~redservo.reproduction.cm01_humanoid.group_speed_shares`). The eyes are not
   compared in the last phase: the eye tilt (range 30°) keeps correcting small vertical
   deviations while the trunk turns, which is large in normalized units.
-* *small tracking error*: ``max_k ‖e1‖ <= MAX_TRACKING_ERROR`` (normalized units; × 600 px).
+* *small tracking error*: from the first iteration at which ``‖e1‖ <= MAX_TRACKING_ERROR``
+  (normalized units; × 600 px) on, it stays there (the nominal start is centred; a perturbed
+  one needs a few iterations to acquire the point).
 
 Why it works: the minimum-norm solution spreads the gaze rotation over every rotational joint
 in radians, so in normalized coordinates the eyes (30° of range) move 4-5 times faster than
@@ -157,17 +159,24 @@ def _transferred(runs: Runs) -> Verdict:
 @check(
     "small-tracking-error",
     PAPER,
-    f"The tracking error stays small (max ‖e1‖ ≤ {MAX_TRACKING_ERROR}, i.e. 6 px at 600 px)",
+    f"Once the point is acquired, the tracking error stays small (‖e1‖ ≤ {MAX_TRACKING_ERROR}, "
+    "i.e. 6 px at 600 px)",
     "CM01 §V-B2",
 )
 def _error(runs: Runs) -> Verdict:
     px = float(runs.experiments["classical"].camera.px)
-    errs = {label: float(np.max(runs[label].log.error_norm)) for label in LAWS}
-    ev = {f"{label} max error (px)": errs[label] * px for label in LAWS}
-    ev.update(
-        {f"{label} final error (px)": float(runs[label].log.error_norm[-1]) * px for label in LAWS}
-    )
-    return Verdict(all(v <= MAX_TRACKING_ERROR for v in errs.values()), ev)
+    ev: dict[str, Any] = {}
+    ok = True
+    for label in LAWS:
+        err = runs[label].log.error_norm
+        k = first(err <= MAX_TRACKING_ERROR)
+        after = float(np.max(err[k:])) if k is not None else float("inf")
+        ok = ok and after <= MAX_TRACKING_ERROR
+        ev[f"{label} start error (px)"] = float(err[0]) * px
+        ev[f"{label} acquired at iteration"] = k
+        ev[f"{label} max error after (px)"] = after * px
+        ev[f"{label} final error (px)"] = float(err[-1]) * px
+    return Verdict(ok, ev)
 
 
 @check(
