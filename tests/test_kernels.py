@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from redservo import METHODS, JointLimits, make_law
 from redservo.bench_cases import bench_cases
-from redservo.kernels.bind import compiled_step
+from redservo.kernels.bind import compiled_qp_step, compiled_step
 from redservo.kernels.pack import limits_pack
 from redservo.redundancy.kio import law_options
 
@@ -235,6 +235,19 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
         assert law_options(law, c.robot.n).law_id == step.LAW_IDS[method]
         e1, J1 = run.task(c.q)
         assert np.allclose(e1, state.e1, atol=1e-12) and np.allclose(J1, state.J1, atol=1e-10)
+
+
+@pytest.mark.parametrize("case", ["afma6-4points", "panda-6d-free", "panda-6d-bounds"])
+def test_compiled_qp_step_gives_the_public_command(case: str) -> None:
+    pytest.importorskip("daqp", reason="the compiled qp step calls daqp")
+    c = next(x for x in bench_cases(scaling=()) if x.name == case)
+    bMc, J = c.robot.kinematics(c.q)
+    state = c.task.evaluate(c.scene, bMc, J, 0.0)
+    law = make_law("qp", v_max=1.5)
+    prev = np.linspace(-0.05, 0.05, c.robot.n)
+    ref = law(J1=state.J1, e1=state.e1, q=c.q, limits=c.limits, lam=c.lam, dt=c.dt, qdot_prev=prev)
+    run = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
+    assert np.allclose(run(c.q, prev), ref.qdot, rtol=1e-9, atol=1e-12)
 
 
 def test_plain_python_path_runs_every_law(tmp_path: Any) -> None:

@@ -3,8 +3,9 @@
 For each case of :mod:`redservo.bench_cases` and each method, up to four paths are timed:
 
 * ``compiled``: the whole step (kinematics, features, ``J1``, law, safety) as one kernel
-  call (:func:`redservo.kernels.bind.compiled_step`); for ``qp`` the compiled kinematics
-  and features followed by the law's public call (its QP solver is a Python library);
+  call (:func:`redservo.kernels.bind.compiled_step`); for ``qp`` the compiled task, one
+  kernel, the daqp solver (a Python library) and one kernel
+  (:func:`redservo.kernels.bind.compiled_qp_step`);
 * ``api``: the same step through the public objects, ``robot.kinematics`` then
   ``task.evaluate`` then ``law(...)`` (what :func:`redservo.simulation.simulate` runs);
 * ``law``: the law's public call alone, given ``J1`` and ``e1``;
@@ -155,7 +156,7 @@ def _items(
     case: BenchCase, method: str, paths: Sequence[str]
 ) -> list[tuple[str, Callable[[], Any]]]:
     """The callables to time for (case, method) on ``paths``."""
-    from redservo.kernels.bind import compiled_step
+    from redservo.kernels.bind import compiled_qp_step, compiled_step
 
     law = make_law(method)
     kw = {**_law_kwargs(case), "lam": case.lam, "dt": case.dt}
@@ -163,10 +164,10 @@ def _items(
     out: list[tuple[str, Callable[[], Any]]] = []
     if "compiled" in paths:
         if method == "qp":
-            step = compiled_step(
-                robot, scene, task, make_law("classical"), limits=case.limits, lam=1.0, dt=1.0
+            qp_step = compiled_qp_step(
+                robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
             )
-            out.append(("compiled", _qp_compiled(step, law, kw)))
+            out.append(("compiled", lambda: qp_step(q)))
         else:
             step = compiled_step(
                 robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
@@ -183,17 +184,6 @@ def _items(
     if "law" in paths:
         out.append(("law", lambda: law(**kw)))
     return out
-
-
-def _qp_compiled(step: Any, law: Any, kw: dict[str, Any]) -> Callable[[], Any]:
-    """``qp``: compiled kinematics and features (the step's task kernel), then the law."""
-    q = kw["q"]
-
-    def run() -> Any:
-        e1, J1 = step.task(q)
-        return law(**{**kw, "J1": J1, "e1": e1})
-
-    return run
 
 
 def _time_batch(fn: Callable[[], Any], batch: int) -> float:

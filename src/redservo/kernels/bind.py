@@ -32,7 +32,7 @@ from redservo.scene import PointSet, Scene, Static
 from redservo.spatial import inverse
 from redservo.task import VisualTask
 
-__all__ = ["CompiledStep", "compiled_step"]
+__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
 _K = lazy("tasks")
 
@@ -176,3 +176,74 @@ def compiled_step(
         len(robot_args) + len(visual),
         np.zeros(output_size(n)),
     )
+
+
+@dataclass(frozen=True)
+class CompiledQPStep:
+    """The ``qp`` step without Python objects per call: the compiled task, the kernel
+    :func:`redservo.kernels.qp.qp_setup`, daqp on the reduced problem, then the kernel
+    :func:`redservo.kernels.qp.qp_tail` (polish, checks, safety layer). Diagnostics are
+    not built; ``step(q, qdot_prev)`` returns the safe command. Needs daqp (``redservo[qp]``)."""
+
+    task: CompiledStep
+    """The compiled task (its :meth:`CompiledStep.task` gives ``(e1, J1)``)."""
+    law: Law
+    """The ``qp`` law whose options are used."""
+    limits: JointLimits
+    lam: float
+    dt: float
+
+    def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
+        import daqp
+
+        from redservo.kernels import lazy
+
+        kq = lazy("qp")
+        e1, J1 = self.task.task(q)
+        n = q.shape[0]
+        lp = limits_pack(self.limits)
+        z = np.zeros(n)
+        prev = z if qdot_prev is None else qdot_prev
+        has_prev = qdot_prev is not None
+        o = vars(self.law)
+        v = z if o["v_max"] is None else np.ascontiguousarray(np.broadcast_to(o["v_max"], (n,)))
+        out = kq.qp_setup(
+            J1, e1, q, lp.rows, lp.has_v, lp.has_a, self.dt, prev, has_prev, z, False,
+            self.lam, o["k_p"], o["margin"], v, o["v_max"] is not None, self.law.rcond, o["eps"],
+        )  # fmt: skip
+        qdot, inside, lo, hi, _, xdot, _, _, xfix, free, P, c, lof, hif = out
+        xf = z[:0]
+        if not inside and free.size:
+            nf = free.size
+            sense = np.zeros(nf, dtype=np.intc)
+            xf = np.ascontiguousarray(daqp.solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
+        return np.asarray(
+            kq.qp_tail(
+                J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False,
+                self.law.rcond, q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev,
+                self.law.shield,
+            )
+        )  # fmt: skip
+
+
+def compiled_qp_step(
+    robot: Robot,
+    scene: Scene,
+    task: VisualTask,
+    law: Law,
+    *,
+    limits: JointLimits,
+    lam: float,
+    dt: float,
+) -> CompiledQPStep:
+    """:class:`CompiledQPStep` for a ``qp`` law (set-ups as :func:`compiled_step`).
+
+    Raises:
+        ConfigurationError: ``law`` is not ``qp``, or a set-up :func:`compiled_step` rejects.
+    """
+    if law.name != "qp":
+        raise ConfigurationError("compiled_qp_step needs the 'qp' law", argument="law")
+    from redservo.redundancy import make_law
+
+    inner = compiled_step(robot, scene, task, make_law("classical"), limits=limits, lam=lam, dt=dt)
+    return CompiledQPStep(inner, law, limits, float(lam), float(dt))

@@ -14,9 +14,19 @@ import numpy as np
 from redservo.kernels._jit import kernel
 from redservo.kernels.linalg import matvec, null_project, task_svd
 from redservo.kernels.pack import Q_MAX, Q_MIN, RANGE
-from redservo.kernels.safety import command_box, exact_position_fix, intersect_boxes
+from redservo.kernels.safety import apply_safety, command_box, exact_position_fix, intersect_boxes
 
-__all__ = ["bls_expand", "bls_reduce", "polish", "qp_finish", "qp_prepare", "qp_velocity_bounds"]
+__all__ = [
+    "bls_expand",
+    "bls_reduce",
+    "polish",
+    "qp_complete",
+    "qp_finish",
+    "qp_prepare",
+    "qp_setup",
+    "qp_tail",
+    "qp_velocity_bounds",
+]
 
 ACTIVE_RTOL = 1e-8
 
@@ -255,3 +265,98 @@ def bls_expand(
         out[i] = min(max(out[i], lo[i]), hi[i])
     y, ok = polish(J, r, z, lo, hi, out, rcond)
     return (y, True) if ok else (out, False)
+
+
+@kernel
+def qp_setup(
+    J1: Any,
+    e: Any,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    sec: Any,
+    has_sec: bool,
+    lam: float,
+    k_p: float,
+    margin: float,
+    v_opt: Any,
+    has_v_opt: bool,
+    rcond: float,
+    eps: float,
+) -> Any:
+    """:func:`qp_prepare` then :func:`bls_reduce` in one call (the law's fast path).
+
+    ``eps`` is relative: the regularization is ``eps σ_max(J1)²`` (``eps`` if J1 = 0).
+
+    Returns:
+        ``(q̇*, inside, lo, hi, conflicts, ẋ, rank, ε, x, free, P, c, lof, hif)``: the
+        outputs of :func:`qp_prepare`, the absolute ε, and the QP of :func:`bls_reduce`
+        (``z`` = the secondary command).
+    """
+    qdot, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
+        J1, e, q, lp, has_v, has_a, dt, prev, has_prev, sec, has_sec, lam, k_p, margin,
+        v_opt, has_v_opt, rcond,
+    )  # fmt: skip
+    eps_abs = eps * smax * smax if smax > 0.0 else eps
+    z = sec if has_sec else np.zeros(q.shape[0])
+    x, free, _, _, _, lof, hif, P, c = bls_reduce(J1, xdot, lo, hi, z, eps_abs)
+    return qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, x, free, P, c, lof, hif
+
+
+@kernel
+def qp_complete(
+    J1: Any,
+    xdot: Any,
+    lo: Any,
+    hi: Any,
+    x: Any,
+    free: Any,
+    xf: Any,
+    sec: Any,
+    has_sec: bool,
+    rcond: float,
+    q: Any,
+    dt: float,
+    lp: Any,
+) -> Any:
+    """:func:`bls_expand` then :func:`qp_finish`: ``(q̇, polished, active, residual)``."""
+    z = sec if has_sec else np.zeros(q.shape[0])
+    x2, polished = bls_expand(J1, xdot, z, lo, hi, x, free, xf, rcond)
+    fixed, active, resid = qp_finish(J1, xdot, lo, hi, x2, q, dt, lp)
+    return fixed, polished, active, resid
+
+
+@kernel
+def qp_tail(
+    J1: Any,
+    xdot: Any,
+    lo: Any,
+    hi: Any,
+    inside: bool,
+    qdot_star: Any,
+    x: Any,
+    free: Any,
+    xf: Any,
+    sec: Any,
+    has_sec: bool,
+    rcond: float,
+    q: Any,
+    dt: float,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+) -> Any:
+    """After the solver: :func:`qp_complete` (or the unconstrained optimum when ``inside``)
+    and the safety layer; the safe command (n,) only (the compiled ``qp`` step)."""
+    if inside:
+        fixed = qp_finish(J1, xdot, lo, hi, qdot_star, q, dt, lp)[0]
+    else:
+        fixed = qp_complete(J1, xdot, lo, hi, x, free, xf, sec, has_sec, rcond, q, dt, lp)[0]
+    return apply_safety(fixed, q, lp, has_v, has_a, dt, prev, has_prev, shield, fixed, False)[0]

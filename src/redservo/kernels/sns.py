@@ -128,7 +128,6 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
     """
     n = J.shape[1]
     tol = violation_tol(lo, hi)
-    rank_J = task_svd(J, rcond, 0.0)[3]
     w = np.ones(n)
     qn = pref.copy() if has_pref else np.zeros(n)
     s = 1.0
@@ -138,6 +137,7 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
     restored = False
     iterations = 0
     qdot, rank, pinv = _masked_solution(J, w, xdot, qn, s, rcond)
+    rank_J = rank  # W = I here: the decomposition of J itself
     for it in range(1, n + 2):
         iterations = it
         violated = False

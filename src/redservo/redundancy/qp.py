@@ -68,7 +68,7 @@ import importlib
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
@@ -77,7 +77,7 @@ from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.kio import kernel_inputs, optional
+from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.sns import validate_positive_option
 
@@ -332,7 +332,7 @@ class BoundedLeastSquares(Law):
         k = kernel_inputs(x)
         v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
-        qdot, inside, lo, hi, conflicts, xdot, rank, smax = _K.qp_prepare(
+        out = _K.qp_setup(
             k.J1,
             k.e,
             k.q,
@@ -350,42 +350,22 @@ class BoundedLeastSquares(Law):
             v,
             has_v,
             self.rcond,
+            self.eps,
         )
-        rank = int(rank)
-        events: list[Event] = []
-        if rank < m:
-            events.append(
-                Event(
-                    Flag.RANK_LOSS,
-                    m - rank,
-                    f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
-                )
-            )
+        qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
+        events = _rank_and_conflict_events(int(rank), m, conflicts)
         info: list[str] = []
-        if conflicts.any():
-            joints = np.flatnonzero(conflicts).tolist()
-            events.append(
-                Event(
-                    Flag.BOUNDS_CONFLICT,
-                    len(joints),
-                    f"joints {joints}: push-back toward the allowed band exceeds v_max; "
-                    f"velocity fixed at ±v_max",
-                )
-            )
         critical: tuple[tuple[int, ...], ...] = ()
         overconstrained = False
         if inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
+            fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
         else:
-            eps_abs = self.eps * smax * smax if smax > 0.0 else self.eps
-            qdot, used = solve_bounded_least_squares(
-                k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary, solver=self._resolve_backend()
-            )
+            qp = (xfix, free, P, c, lof, hif)
+            fixed, used, active, resid = self._solve(k, x, xdot, lo, hi, float(eps_abs), qp)
             info.append(f"solver: {used}")
             if "fallback" in used or "failed" in used:
                 events.append(Event(Flag.SOLVER_FALLBACK, 1.0, f"solver: {used}"))
-        fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
-        if not inside:
             at = tuple(int(i) for i in np.flatnonzero(active))
             critical = (at,) if at else ()
             if resid >= 0.0:
@@ -401,12 +381,81 @@ class BoundedLeastSquares(Law):
                     )
         diag = Diagnostics(
             method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=n - rank if x.secondary is not None else 0,
+            task_rank=int(rank),
+            rank_deficient=int(rank) < m,
+            projector_rank=n - int(rank) if x.secondary is not None else 0,
             critical=critical,
             overconstrained=overconstrained,
             events=tuple(events),
             info=tuple(info),
         )
         return LawResult(fixed, diag)
+
+    def _solve(
+        self,
+        k: KernelInputs,
+        x: LawInputs,
+        xdot: FloatArray,
+        lo: FloatArray,
+        hi: FloatArray,
+        eps_abs: float,
+        qp: tuple[Any, ...],
+    ) -> tuple[FloatArray, str, NDArray[np.bool_], float]:
+        """The bounded least squares with the solver, then the polish and the final checks:
+        ``(q̇, solver note, joints at a bound, relative residual)``. With daqp (the usual
+        backend) the problem reduced by the kernel goes straight to it; any other backend or
+        a failure takes the general path of :func:`solve_bounded_least_squares`."""
+        xfix, free, P, c, lof, hif = qp
+        xf = None
+        if free.size and self._resolve_backend() == "daqp":
+            daqp = _daqp_module()
+            if daqp is not None:
+                nf = free.size
+                sense = np.zeros(nf, dtype=np.intc)
+                y, _, exitflag, _ = daqp.solve(P, c, np.zeros((0, nf)), hif, lof, sense)
+                if exitflag > 0 and np.isfinite(y).all():
+                    xf = np.ascontiguousarray(y, dtype=np.float64)
+        if xf is not None:
+            fixed, polished, active, resid = _K.qp_complete(
+                k.J1, xdot, lo, hi, xfix, free, xf, k.sec, k.has_sec, DEFAULT_RCOND, k.q, x.dt, k.lp
+            )
+            return fixed, "daqp + active-set polish" if polished else "daqp", active, float(resid)
+        sol, used = solve_bounded_least_squares(
+            k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary,
+            solver=self._resolve_backend(),
+        )  # fmt: skip
+        fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
+        return fixed, used, active, float(resid)
+
+
+def _rank_and_conflict_events(rank: int, m: int, conflicts: NDArray[np.bool_]) -> list[Event]:
+    events: list[Event] = []
+    if rank < m:
+        events.append(
+            Event(
+                Flag.RANK_LOSS,
+                m - rank,
+                f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
+            )
+        )
+    if conflicts.any():
+        joints = np.flatnonzero(conflicts).tolist()
+        events.append(
+            Event(
+                Flag.BOUNDS_CONFLICT,
+                len(joints),
+                f"joints {joints}: push-back toward the allowed band exceeds v_max; "
+                f"velocity fixed at ±v_max",
+            )
+        )
+    return events
+
+
+_DAQP: list[Any] = []
+
+
+def _daqp_module() -> Any | None:
+    """:func:`_daqp`, looked up once per process."""
+    if not _DAQP:
+        _DAQP.append(_daqp())
+    return _DAQP[0]
