@@ -163,6 +163,16 @@ class Afma6(Robot):
         """Return ``eJe`` (6, 6) for a validated (6,) q: ``blkdiag(fRe^T, fRe^T) fJe``."""
         return np.asarray(_K.afma6_jacobe(np.ascontiguousarray(q), COUPLING, OFFSET))
 
+    def fkine(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
+        """Return ``bMc`` (4x4): the same kernel product as :meth:`kinematics`, bit for bit."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        return np.asarray(_K.matmul(_K.afma6_fkine_ee(qa, COUPLING, OFFSET), self._eMc))
+
+    def jacobian(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
+        """Return ``J(q) = cVe eJe`` (6, 6): the same kernel product as :meth:`kinematics`."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        return np.asarray(_K.matmul(self._cVe, _K.afma6_jacobe(qa, COUPLING, OFFSET)))
+
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True
     ) -> tuple[FloatArray, FloatArray]:

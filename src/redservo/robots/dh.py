@@ -302,6 +302,16 @@ class DHRobot(Robot):
         bMe, Z, P = self._chain(q)
         return np.asarray(_K.dh_jacobe(bMe, Z, P, self._par))
 
+    def fkine(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
+        """Return ``bMc`` (4x4): the same kernel product as :meth:`kinematics`, bit for bit."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        return np.asarray(_K.matmul(self._chain(qa)[0], self._eMc))
+
+    def jacobian(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
+        """Return ``J(q) = cVe eJe`` (6, n): the same kernel product as :meth:`kinematics`."""
+        qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
+        return np.asarray(_K.matmul(self._cVe, self.jacobe(qa)))
+
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True
     ) -> tuple[FloatArray, FloatArray]:
