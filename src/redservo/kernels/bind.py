@@ -35,6 +35,17 @@ from redservo.task import VisualTask
 __all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
 _K = lazy("tasks")
+_KQ = lazy("qp")
+_DAQP: list[Any] = []
+
+
+def _daqp() -> Any:
+    """The daqp module, imported once."""
+    if not _DAQP:
+        import daqp
+
+        _DAQP.append(daqp)
+    return _DAQP[0]
 
 
 @dataclass(frozen=True)
@@ -194,11 +205,8 @@ class CompiledQPStep:
     dt: float
 
     def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
-        import daqp
-
-        from redservo.kernels import lazy
-
-        kq = lazy("qp")
+        daqp = _daqp()
+        kq = _KQ
         e1, J1 = self.task.task(q)
         n = q.shape[0]
         lp = limits_pack(self.limits)
