@@ -6,7 +6,7 @@
     redservo reproduce [--out DIR] [--only ID[,ID]] [--fast] [--robustness N] [--seed S]
                        [--workers K] [--no-pixel-noise]
     redservo campaign CAMPAIGN [--methods a,b] [--set ...] [--samples N] [--seed S]
-                      [--workers K] [--out DIR] [--wait] [--repair]
+                      [--workers K | --scheduler tcp://HOST:PORT] [--out DIR] [--wait] [--repair]
     redservo bench [--repeat N]
     redservo plot | replay | view | animate PATH ...   (redservo.cli_tools)
 
@@ -291,6 +291,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
             progress=not args.quiet,
             wait=args.wait,
             repair=args.repair,
+            scheduler=args.scheduler,
         )
     print(result.markdown)
     print(
@@ -432,6 +433,12 @@ def _parser() -> argparse.ArgumentParser:
         type=_int_in(1, 1024),
         default=None,
         help="parallel processes (default: all cores)",
+    )
+    cp.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="run the samples on the Dask cluster of this scheduler instead of local "
+        "processes (pip install 'redservo[dask]'; docs/scaling.md); this process stores the rows",
     )
     cp.add_argument(
         "--out",

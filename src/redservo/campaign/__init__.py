@@ -120,8 +120,7 @@ import json
 import math
 import os
 import sys
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -139,7 +138,7 @@ from redservo.campaign.definition import (
     parse_campaign,
     shipped_campaigns,
 )
-from redservo.campaign.lock import worker_init
+from redservo.campaign.engine import Engine, JobResult, execute, fallback_lines, make_jobs
 from redservo.campaign.sampling import Sample, draw_sample, sample_start
 from redservo.campaign.sampling import _start_problem as _start_problem
 from redservo.campaign.stats import (
@@ -151,7 +150,7 @@ from redservo.campaign.stats import (
     stats_table,
     wilson_interval,
 )
-from redservo.campaign.storage import _error_columns, _sample_columns, _Store, _summary_columns
+from redservo.campaign.storage import _error_columns, _Store, _summary_columns
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.scenario import Scenario
 from redservo.schema.campaign import MAX_SAMPLES
@@ -238,52 +237,36 @@ class _Task(NamedTuple):
     source: str
     law_options: dict[str, Any] | None
     params: dict[str, Any]
+    exp: Any = None
+    """The sample's built experiment, shared by its methods (None: built here)."""
+    fast: bool = False
+    """Try the compiled loop first (:mod:`redservo.campaign.fastloop`)."""
 
 
 def _run_task(task: _Task) -> dict[str, Any]:
-    """Run one (sample, method) and return its row; an exception becomes an ``error`` row."""
+    """Run one (sample, method) and return its row; an exception becomes an ``error`` row.
+
+    With ``task.fast`` the row's ``_path`` says whether the compiled loop ran it
+    (``"compiled loop"``) or why not (the job removes it).
+    """
     from redservo.experiment import build
 
     row: dict[str, Any] = {"sample": task.sample, "method": task.method, **task.params}
     try:
-        exp = build(Scenario(task.data, task.source))
-        result = exp.run(method=task.method, law_options=task.law_options)
-        row.update(_summary_columns(result.summary, exp.robot.joint_names))
+        exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
+        summary = None
+        if task.fast:
+            from redservo.campaign.fastloop import fast_run
+
+            summary, row["_path"] = fast_run(exp, task.method, task.law_options)
+        if summary is None:
+            summary = exp.run(method=task.method, law_options=task.law_options).summary
+        # The fields as a plain mapping (RunSummary["flags"] would build the whole dict form).
+        fields = {name: getattr(summary, name) for name in summary}
+        row.update(_summary_columns(fields, exp.robot.joint_names))
     except Exception as exc:  # recorded, counted as a failure, retried on the next rerun
         row.update(_error_columns(exc))
     return row
-
-
-def _executor_map(
-    tasks: Iterator[_Task], workers: int, on_rows: Callable[[list[dict[str, Any]]], None]
-) -> None:
-    """Run tasks (in-process when ``workers == 1``), calling ``on_rows`` with each batch of
-    rows that finished together (stored as one atomic write).
-
-    Worker processes exit when this process dies, even by SIGKILL
-    (:func:`redservo.campaign.lock.worker_init`).
-    """
-    if workers == 1:
-        for task in tasks:
-            on_rows([_run_task(task)])
-        return
-    with ProcessPoolExecutor(
-        max_workers=workers, initializer=worker_init, initargs=(os.getpid(),)
-    ) as pool:
-        pending: set[Future[dict[str, Any]]] = set()
-        try:
-            for task in tasks:
-                pending.add(pool.submit(_run_task, task))
-                # Keep a bounded queue so rows are stored while samples are still being drawn.
-                while len(pending) >= 4 * workers:
-                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    on_rows([fut.result() for fut in done])
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                on_rows([fut.result() for fut in done])
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
 
 
 def run_campaign(
@@ -297,6 +280,8 @@ def run_campaign(
     progress: bool = True,
     wait: bool = False,
     repair: bool = False,
+    scheduler: str | None = None,
+    fast: bool = True,
 ) -> CampaignResult:
     """Run a Monte Carlo campaign: every method on the same ``samples`` random variations.
 
@@ -312,6 +297,13 @@ def run_campaign(
         wait: When another process is writing to ``out``, wait for it instead of raising.
         repair: Rebuild a damaged ``definition.json`` or ``samples.csv`` header, keeping the
             rows that are intact and belong to this campaign (docs/campaigns.md, "Storage").
+        scheduler: Address of a Dask scheduler (``tcp://HOST:PORT``, extra ``redservo[dask]``)
+            to run the samples on that cluster instead of local processes (``workers`` is
+            then unused); this process still stores every row (docs/scaling.md).
+        fast: Run each covered (sample, method) on the compiled closed loop
+            (:mod:`redservo.campaign.fastloop`; identical rows, needs ``redservo[fast]``);
+            the others, and every run with ``fast=False``, on the object path. One line on
+            stderr names the methods that fell back and why.
 
     Returns:
         :class:`CampaignResult`.
@@ -319,9 +311,9 @@ def run_campaign(
     Raises:
         ScenarioError: bad definition, or no valid start for a sample.
         UnknownNameError: unknown method.
-        ConfigurationError: bad ``samples``/``seed``/``workers``; ``out`` holds another
-            campaign, is in use by another process (without ``wait``) or is damaged (without
-            ``repair``).
+        ConfigurationError: bad ``samples``/``seed``/``workers``/``scheduler``; ``out``
+            holds another campaign, is in use by another process (without ``wait``) or is
+            damaged (without ``repair``); no Dask scheduler at ``scheduler``.
     """
     from redservo.redundancy import METHODS
 
@@ -341,10 +333,17 @@ def run_campaign(
     n_workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if not 1 <= n_workers <= 1024:
         raise ConfigurationError(f"workers must be in [1, 1024], got {workers}")
+    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
+        raise ConfigurationError(
+            f"scheduler must be a Dask scheduler address such as tcp://HOST:8786, got "
+            f"{scheduler!r}",
+            argument="scheduler",
+        )
     out_dir = Path(out) if out is not None else None
     store = _Store(out_dir, defn, seed, wait=wait, repair=repair) if out_dir is not None else None
     try:
-        return _run(defn, names, n, seed, n_workers, out_dir, store, progress)
+        engine = Engine(n_workers, scheduler, bool(fast))
+        return _run(defn, names, n, seed, engine, out_dir, store, progress)
     finally:
         if store is not None:
             store.close()
@@ -355,7 +354,7 @@ def _run(
     names: tuple[str, ...],
     n: int,
     seed: int,
-    n_workers: int,
+    engine: Engine,
     out_dir: Path | None,
     store: _Store | None,
     progress: bool,
@@ -367,26 +366,6 @@ def _run(
         if key[0] < n and key[1] in names and row["outcome"] != "error"
     }
     todo = [(i, m) for i in range(n) for m in names if (i, m) not in done]
-    joint_names = defn.nominal.joint_names
-
-    def tasks() -> Iterator[_Task]:
-        by_sample: dict[int, list[str]] = {}
-        for i, m in todo:
-            by_sample.setdefault(i, []).append(m)
-        for i, ms in by_sample.items():
-            s = draw_sample(defn, seed, i)
-            params = _sample_columns(s, joint_names)
-            for m in ms:
-                opts = defn.method_options.get(m)
-                yield _Task(
-                    i,
-                    m,
-                    s.scenario.data,
-                    s.scenario.source,
-                    dict(opts) if opts is not None else None,
-                    params,
-                )
-
     bar = _bar(len(todo), defn.name, progress)
     errors: list[str] = []
 
@@ -402,10 +381,21 @@ def _run(
                 errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
         bar(len(batch))
 
+    paths: dict[tuple[str, str], int] = {}
+
+    def on_result(res: JobResult) -> None:
+        for key, count in res.paths.items():
+            paths[key] = paths.get(key, 0) + count
+        on_rows(res.rows)
+
+    n_todo = len({i for i, _ in todo})
+    jobs = make_jobs(defn, seed, todo, fast=engine.fast, per_job=engine.per_job(n_todo))
     try:
-        _executor_map(tasks(), min(n_workers, max(1, len(todo))), on_rows)
+        execute(jobs, engine._replace(workers=min(engine.workers, max(1, n_todo))), on_result)
     finally:
         bar(None)
+    for line in fallback_lines(paths):
+        print(f"redservo campaign: {line}", file=sys.stderr)
     for msg in errors:
         print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
     order = {m: k for k, m in enumerate(names)}

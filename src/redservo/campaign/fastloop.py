@@ -1,0 +1,345 @@
+"""The compiled fast path of a campaign run, and when it applies (docs/scaling.md).
+
+:func:`fast_summary` runs one (sample, method) of a campaign with the compiled closed loop
+of :mod:`redservo.campaign.loop_kernel` and returns the same
+:class:`~redservo.simulation.RunSummary` as ``Experiment.run`` (every row of
+``samples.csv`` bit for bit: tests/test_campaign_fast.py), or None when the set-up is not
+covered; the caller then runs the object path. :func:`fast_reason` says why a set-up is
+not covered:
+
+* numba is not installed (``pip install 'redservo[fast]'``): the loop would run as plain
+  Python, slower than the object path;
+* a method without a compiled step (``qp``, a user-registered law) or with
+  ``scaling = "secondary-first"``;
+* an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
+  calibration error, a feed-forward term, an adaptive gain;
+* a robot other than the Afma6 or a DH chain (URDF robots), features other than image
+  points, a depth option other than ``"current"``, a moving target.
+
+A covered run whose law would raise (non-finite ``J1``, inconsistent ``sns`` bounds) is
+also handed back to the object path, which records the exception as the object path does.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from collections.abc import Mapping
+from typing import Any, NamedTuple, cast
+
+import numpy as np
+
+from redservo.errors import ConfigurationError
+from redservo.experiment import Experiment
+from redservo.redundancy import Law, make_law
+from redservo.redundancy.flags import FLAGS
+from redservo.redundancy.gain import AdaptiveGain
+from redservo.simulation.runlog import SimulationLog
+from redservo.simulation.summary import Outcome, RunSummary, summarize
+
+__all__ = [
+    "campaign_law",
+    "experiment_reason",
+    "fast_reason",
+    "fast_run",
+    "fast_summary",
+    "law_reason",
+]
+
+_OUTCOMES: tuple[Outcome, ...] = ("max_iterations", "converged", "joint_limit", "target_lost")
+"""Outcome names by the kernel's codes (:mod:`redservo.campaign.loop_kernel`)."""
+_BUFFERS = threading.local()
+"""Per-thread reuse: the log buffers, the packed arguments of the last experiment (a
+sample's methods run one after the other on it) and the laws (one per method and options:
+the compiled loop only reads their options)."""
+
+
+def campaign_law(exp: Experiment, method: str, law_options: Mapping[str, Any] | None) -> Law:
+    """The law ``Experiment.run(method=..., law_options=...)`` builds: the scenario's safety
+    options, then ``law_options`` (or the scenario's own options for its own method)."""
+    ctl = exp.scenario.spec.control
+    if law_options is not None:
+        opts = dict(law_options)
+    else:
+        opts = dict(ctl.options) if method == ctl.method else {}
+    safety = {"shield": ctl.shield, "robust": ctl.robust, "scaling": ctl.scaling}
+    return make_law(method, **{**safety, **opts})
+
+
+def _compiled() -> bool:
+    from redservo.kernels import compiled
+
+    return compiled()
+
+
+def _robot_reason(exp: Experiment) -> str | None:
+    from redservo.robots.afma6 import Afma6
+    from redservo.robots.dh import DHRobot
+
+    kin = type(exp.robot).kinematics
+    if kin is not Afma6.kinematics and kin is not DHRobot.kinematics:
+        return f"robot {type(exp.robot).__name__}: no compiled kinematics in the loop"
+    return None
+
+
+def _scene_reason(exp: Experiment) -> str | None:
+    from redservo.features import PointFeature
+    from redservo.scene import PointSet, Static
+
+    if exp.task.depth != "current":
+        return f"depth = {exp.task.depth!r} (the compiled loop uses the current depth)"
+    for term in exp.task.terms:
+        if type(term.feature) is not PointFeature:
+            return f"feature {type(term.feature).__name__}: only image points are compiled"
+        obj = exp.scene.object(term.target)
+        if not isinstance(obj, PointSet) or not isinstance(obj.trajectory, Static):
+            return f"object {term.target!r}: only static point sets are compiled"
+    return None
+
+
+def law_reason(law: Law) -> str | None:
+    """Why the compiled loop cannot run ``law`` (None: it can)."""
+    from redservo.kernels.step import LAW_IDS
+    from redservo.redundancy.qp import BoundedLeastSquares
+
+    if not _compiled():
+        return "numba is not installed (pip install 'redservo[fast]')"
+    known = law.name in LAW_IDS or type(law) is BoundedLeastSquares
+    if not known or type(law).__module__.split(".")[1:2] != ["redundancy"]:
+        return f"method {law.name!r} has no compiled step"
+    if law.scaling != "uniform":
+        return "scaling = 'secondary-first'"
+    return None
+
+
+def experiment_reason(exp: Experiment) -> str | None:
+    """Why the compiled loop cannot run ``exp`` (None: it can); module docstring."""
+    opt = exp.options
+    checks: tuple[tuple[bool, str], ...] = (
+        (exp.sensor is not None, "image sensor"),
+        (exp.actuator is not None, "actuator model"),
+        (opt.occlusion is not None, "occlusion objective"),
+        (opt.noise_std > 0, "feature noise"),
+        (opt.eMc_model is not None, "hand-eye calibration error"),
+        (opt.feedforward != "none", "feed-forward"),
+        (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
+    )
+    for failed, reason in checks:
+        if failed:
+            return reason
+    return _robot_reason(exp) or _scene_reason(exp)
+
+
+def fast_reason(exp: Experiment, law: Law) -> str | None:
+    """Why the compiled loop cannot run ``law`` on ``exp`` (None: it can); module docstring."""
+    return law_reason(law) or experiment_reason(exp)
+
+
+def _robot_args(exp: Experiment) -> tuple[Any, ...]:
+    from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
+
+    r = exp.robot
+    c = np.ascontiguousarray
+    eMc, cVe = c(r.eMc, dtype=np.float64), c(r.cVe, dtype=np.float64)
+    if isinstance(r, Afma6):
+        return (0, eMc, cVe, COUPLING, OFFSET, np.zeros((8, r.n)), np.eye(4), np.eye(4), False)
+    par, base, flange = r._par, r._base, r._flange  # type: ignore[attr-defined]
+    standard = r._convention == "standard"  # type: ignore[attr-defined]
+    return (1, eMc, cVe, 0.0, 0.0, c(par), c(base), c(flange), bool(standard))
+
+
+def _scene_args(exp: Experiment) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    from redservo.features import PointFeature
+    from redservo.scene import PointSet
+    from redservo.spatial import inverse
+
+    task, scene, cam, opt = exp.task, exp.scene, exp.camera, exp.options
+    targets = sorted({term.target for term in task.terms})
+    index = {name: i for i, name in enumerate(targets)}
+    wMo = np.array([scene.wMo(name, 0.0) for name in targets])
+    pts = [np.asarray(cast(PointSet, scene.object(name)).points, np.float64) for name in targets]
+    vis = np.zeros((len(pts), max(p.shape[0] for p in pts), 3))
+    for i, p in enumerate(pts):
+        vis[i, : p.shape[0]] = p
+    cnt = np.array([p.shape[0] for p in pts], dtype=np.int64)
+    camera = np.array(
+        [cam.px, cam.py, cam.u0, cam.v0, cam.width, cam.height, opt.image_margin_px], dtype=float
+    )
+    scene_args = (inverse(scene.wMb), wMo, vis, cnt, camera, bool(opt.check_image))
+    term_obj = np.array([index[t.target] for t in task.terms], dtype=np.int64)
+    term_pt = np.array([cast(PointFeature, t.feature).point_o for t in task.terms], np.float64)
+    C = np.eye(task.k) if task.C is None else np.ascontiguousarray(task.C, dtype=np.float64)
+    s_star = np.ascontiguousarray(task.s_star, dtype=np.float64)
+    task_args = (term_obj, term_pt, s_star, C, task.C is not None, float(opt.depth_scale))
+    return scene_args, task_args
+
+
+def _buffers(N: int, n: int) -> tuple[Any, ...]:
+    """Per-thread log buffers ``(Q, QD, TW, EN, FL)``, reused from run to run (the summary
+    copies what it keeps)."""
+    key = (N, n)
+    bufs = getattr(_BUFFERS, "bufs", None)
+    if bufs is None or bufs[0] != key:
+        logs = (np.empty((N, n)), np.empty((N, n)), np.empty((N, 6)), np.empty(N),
+                np.empty(N, dtype=np.int64))  # fmt: skip
+        bufs = _BUFFERS.bufs = (key, logs)
+    out: tuple[Any, ...] = bufs[1]
+    return out
+
+
+def _summary(exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, ...]) -> RunSummary:
+    """The run's :class:`RunSummary`, by :func:`summarize` on the logged arrays."""
+    Q, QD, TW, EN, FL = logs
+    opt, n = exp.options, exp.robot.n
+    bits = (FL[:rows, None] >> np.arange(len(FLAGS))) & 1
+    empty = np.zeros((rows, 0))
+    log = SimulationLog(
+        t=np.arange(rows, dtype=np.float64) * opt.dt,
+        q=Q[:rows].copy(),
+        qdot=QD[:rows].copy(),
+        camera_twist=TW[:rows].copy(),
+        s=empty,
+        e=empty,
+        e1=empty,
+        error_norm=EN[:rows].copy(),
+        q_normalized=np.zeros((rows, n)),
+        alpha=np.full(rows, np.nan),
+        projector_rank=np.zeros(rows),
+        task_rank=np.zeros(rows),
+        levels=np.zeros(rows),
+        overconstrained=np.zeros(rows),
+        constrained=np.zeros((rows, n)),
+        gamma=np.zeros((rows, n)),
+        scale=np.full(rows, np.nan),
+        flags=np.where(bits != 0, 1.0, np.nan),
+    )
+    outcome = _OUTCOMES[code]
+    hit = {"axis": axis, "iteration": rows - 1} if outcome == "joint_limit" else None
+    return summarize(log, outcome, exp.limits, hit, dt=opt.dt, min_margin=opt.min_margin)
+
+
+def _law_args(law: Law, n: int) -> tuple[Any, ...]:
+    """``(law_id, fopt, iopt, vopt, has_cap)`` of the loop (:mod:`redservo.campaign.loop_kernel`)."""
+    from redservo.campaign.loop_kernel import QP
+    from redservo.redundancy.kio import law_options
+
+    if law.name != "qp":
+        o = law_options(law, n)
+        return o.law_id, o.fopt, o.iopt, o.vopt, getattr(law, "alpha_max", None) is not None
+    from redservo.redundancy.qp import _v_per_joint
+
+    v = getattr(law, "v_max", None)
+    vopt = np.zeros((2, n))
+    if v is not None:
+        vopt[0] = _v_per_joint(v, n)
+    fopt = np.array([law.rcond, 0.0, law.k_p, law.margin, law.eps])  # type: ignore[attr-defined]
+    iopt = np.array([int(law.shield), 0, int(v is not None), 0], dtype=np.int64)
+    return QP, fopt, iopt, vopt, False
+
+
+def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, int, int, int]:
+    """Call the loop kernel until the run ends, solving ``qp``'s bounded problems in Python
+    with the law's own solver (:func:`redservo.redundancy.qp.solve_bounded_least_squares`)."""
+    from redservo.campaign.loop_kernel import NEED_SOLVE, SOLVER_FALLBACK, closed_loop
+
+    m, n = exp.task.m, exp.robot.n
+    pJ, pv, plo, phi, peps, px = (np.zeros((m, n)), np.zeros(m), np.zeros(n),
+                                  np.zeros(n), np.zeros(1), np.zeros(n))  # fmt: skip
+    pend = np.zeros(3, dtype=np.int64)
+    solve = (pJ, pv, plo, phi, peps, px, pend)
+    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
+    prev = np.zeros(n)  # the robot starts at rest
+    while True:
+        robot, scene, task, law_args, limits, sim, logs = args
+        rows, code, axis, abort = closed_loop(
+            q, prev, robot, scene, task, law_args, limits, sim, logs, solve
+        )
+        if code != NEED_SOLVE:
+            return int(rows), int(code), int(axis), int(abort)
+        from redservo.redundancy.qp import solve_bounded_least_squares
+
+        backend = law._resolve_backend()  # type: ignore[attr-defined]
+        x, used = solve_bounded_least_squares(pJ, pv, plo, phi, eps=float(peps[0]), solver=backend)
+        px[:] = x
+        pend[0] = 1
+        pend[1] = SOLVER_FALLBACK if ("fallback" in used or "failed" in used) else 0
+
+
+class _Packed(NamedTuple):
+    """The loop's arguments that depend only on the experiment (shared by its methods)."""
+
+    robot: tuple[Any, ...]
+    scene: tuple[Any, ...]
+    task: tuple[Any, ...]
+    limits: tuple[Any, ...]
+    sim: tuple[Any, ...]
+
+
+def _pack(exp: Experiment) -> _Packed:
+    from redservo.kernels.pack import limits_pack
+
+    opt, lim, n = exp.options, exp.limits, exp.robot.n
+    lp = limits_pack(lim)
+    q_min, q_max = np.array(lim.q_min, np.float64), np.array(lim.q_max, np.float64)
+    qsat = np.ones(n)
+    if opt.qdot_max is not None:
+        qsat = np.broadcast_to(np.asarray(opt.qdot_max, dtype=np.float64), (n,)).copy()
+    sim = (float(opt.constant_lam), float(opt.dt), float(opt.tolerance),
+           bool(opt.stop_at_convergence), qsat, opt.qdot_max is not None)  # fmt: skip
+    scene_args, task_args = _scene_args(exp)
+    limits = (lp.rows, lp.has_v, lp.has_a, q_min, q_max)
+    return _Packed(_robot_args(exp), scene_args, task_args, limits, sim)
+
+
+def _packed(exp: Experiment) -> _Packed | str:
+    """The experiment's packed arguments or the reason it is not covered (cached per thread
+    for the last experiment, which a campaign sample shares between its methods)."""
+    last = getattr(_BUFFERS, "exp", None)
+    if last is not None and last[0]() is exp:
+        out: _Packed | str = last[1]
+        return out
+    out = experiment_reason(exp) or _pack(exp)
+    _BUFFERS.exp = (weakref.ref(exp), out)
+    return out
+
+
+def fast_summary(exp: Experiment, law: Law) -> RunSummary | None:
+    """Run ``law`` on ``exp`` in the compiled loop; None when not covered (:func:`fast_reason`)
+    or when the object path would raise (the caller then runs the object path)."""
+    packed = _packed(exp)
+    if isinstance(packed, str) or law_reason(law) is not None:
+        return None
+    try:
+        law_args = _law_args(law, exp.robot.n)
+    except ConfigurationError:
+        return None
+    logs = _buffers(exp.options.max_iterations, exp.robot.n)
+    p = packed
+    args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs)
+    rows, code, axis, abort = _run_loop(exp, law, args)
+    if abort:
+        return None
+    return _summary(exp, rows, code, axis, logs)
+
+
+def fast_run(
+    exp: Experiment, method: str, law_options: Mapping[str, Any] | None
+) -> tuple[RunSummary | None, str]:
+    """``(summary, path)`` of one campaign run on the compiled loop: the summary (None when
+    the caller must run the object path) and ``"compiled loop"`` or the reason it is not."""
+    ctl = exp.scenario.spec.control
+    key = (method, repr(law_options), ctl.method, repr(ctl.options), ctl.shield, ctl.robust,
+           ctl.scaling)  # fmt: skip
+    laws: dict[tuple[Any, ...], Law] | None = getattr(_BUFFERS, "laws", None)
+    if laws is None or len(laws) > 64:
+        laws = _BUFFERS.laws = {}
+    law = laws.get(key)
+    if law is None:
+        law = laws[key] = campaign_law(exp, method, law_options)
+    reason = fast_reason(exp, law)
+    if reason is not None:
+        return None, reason
+    from redservo.campaign.engine import FAST_PATH
+
+    summary = fast_summary(exp, law)
+    return summary, FAST_PATH if summary is not None else "the object path would raise"

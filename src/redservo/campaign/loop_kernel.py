@@ -1,0 +1,344 @@
+"""The closed loop of one campaign run as one compiled kernel (docs/scaling.md).
+
+:func:`closed_loop` runs :func:`redservo.simulation.simulate` for the set-ups it covers
+(:mod:`redservo.campaign.fastloop` checks them): an ideal sensor, static point targets,
+point features with the current depth, no actuator model, no objective, no noise, a
+constant gain and a law with a compiled step. It performs, at every iteration, the very
+operations of the object path, in the same order and with the same kernels:
+
+1. ``bMc, J = kinematics(q)`` (the Afma6 or a DH chain);
+2. ``cMo = (inverse(bMc) @ bMw) @ wMo`` per target, each feature measured by
+   :func:`~redservo.kernels.features.points_measure` (a point behind the camera ends the run
+   with ``target_lost``), ``L`` by :func:`~redservo.kernels.features.point_interaction`;
+3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points;
+4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` the
+   kernels of :mod:`redservo.kernels.qp` around its solver, which stays in Python: where
+   the bounds are active the loop returns :data:`NEED_SOLVE` with the problem and is called
+   again, from that iteration, with the solution;
+5. the actuator saturation, the camera twist ``J q̇``, ``‖e1‖``, the convergence test,
+   the hard-limit test (``joint_limit``) and ``q ← clip(q + q̇ dt)``.
+
+The small products that the object path leaves to numpy (``@`` on 4x4, (m, k) and
+(k, 6) matrices, ``J q̇``, ``e1·e1``) are ``np.dot`` calls here: numba hands them to the
+same BLAS routines, so every logged number is bit-for-bit the one of the object path
+(tested on campaigns, tests/test_campaign_fast.py). The typed diagnostics of a step are
+reduced to a bit mask of the flags raised (:mod:`redservo.campaign.loop_flags`).
+
+Outcome codes: :data:`MAX_ITERATIONS`, :data:`CONVERGED`, :data:`JOINT_LIMIT`,
+:data:`TARGET_LOST` (and :data:`NEED_SOLVE`). A run the object path would end with an exception (non-finite
+``J1``/``e1``, inconsistent ``sns`` bounds) returns an ``abort`` code instead, and the
+caller runs it on the object path. Units: m, rad, s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from redservo.campaign.loop_flags import (
+    BOUNDS_CONFLICT,
+    I_SNS_BAD,
+    RANK_LOSS,
+    SOLVER_FALLBACK,
+    TASK_SCALED,
+    law_flags,
+    safety_flags,
+)
+from redservo.kernels._jit import COMPILED, kernel
+from redservo.kernels.features import point_interaction, points_measure
+from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
+from redservo.kernels.qp import qp_finish, qp_prepare
+from redservo.kernels.safety import apply_safety
+from redservo.kernels.step import LAW_IDS, law_step
+from redservo.redundancy.qp import _OVERCONSTRAINED_RTOL
+from redservo.simulation.loop import LIMIT_TOLERANCE
+
+__all__ = [
+    "ABORT_INFEASIBLE",
+    "ABORT_NON_FINITE",
+    "CONVERGED",
+    "JOINT_LIMIT",
+    "MAX_ITERATIONS",
+    "NEED_SOLVE",
+    "QP",
+    "SOLVER_FALLBACK",
+    "TARGET_LOST",
+    "closed_loop",
+]
+
+MAX_ITERATIONS, CONVERGED, JOINT_LIMIT, TARGET_LOST, NEED_SOLVE = 0, 1, 2, 3, 4
+ABORT_NON_FINITE, ABORT_INFEASIBLE = 1, 2
+"""Why a run left the kernel early: the law would raise (ShapeError, InfeasibleError)."""
+
+QP = -1
+"""The law id of ``qp`` here (:data:`redservo.kernels.step.LAW_IDS` has no ``qp``)."""
+_WLN = LAW_IDS["wln"]
+_SNS = LAW_IDS["sns"]
+
+
+@kernel
+def _inverse(T: Any) -> Any:
+    """:func:`redservo.spatial.inverse` with the same arithmetic (``-(R^T @ t)`` by BLAS)."""
+    R = np.ascontiguousarray(T[:3, :3])
+    t = np.ascontiguousarray(T[:3, 3])
+    out = np.empty((4, 4))
+    out[:3, :3] = R.T
+    out[:3, 3] = -np.dot(R.T, t)
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+    return out
+
+
+@kernel
+def _in_image(cMo: Any, pts: Any, cam: Any) -> bool:
+    """``visible_points`` then ``_in_image`` of the simulator; ``cam`` = (px, py, u0, v0,
+    width, height, margin) in pixels."""
+    R = np.ascontiguousarray(cMo[:3, :3])
+    P = np.dot(pts, R.T)
+    for i in range(P.shape[0]):
+        for j in range(3):
+            P[i, j] = P[i, j] + cMo[j, 3]
+    for i in range(P.shape[0]):
+        if P[i, 2] <= 1e-9:
+            return False
+    margin = cam[6]
+    for i in range(P.shape[0]):
+        u = P[i, 0] / P[i, 2] * cam[0] + cam[2]
+        v = P[i, 1] / P[i, 2] * cam[1] + cam[3]
+        if not (u >= margin and u <= cam[4] - margin and v >= margin and v <= cam[5] - margin):
+            return False
+    return True
+
+
+@kernel
+def _measure(cMw: Any, wMo: Any, term_obj: Any, term_pt: Any, depth_scale: float) -> Any:
+    """``(s, L, cMo, lost)`` of the point features: the ideal sensor and ``L`` (current depth)."""
+    K = term_obj.shape[0]
+    n_obj = wMo.shape[0]
+    cMo = np.empty((n_obj, 4, 4))
+    for o in range(n_obj):
+        cMo[o] = np.dot(cMw, np.ascontiguousarray(wMo[o]))
+    s = np.empty(2 * K)
+    L = np.empty((2 * K, 6))
+    for j in range(K):
+        sj, iz, bad = points_measure(cMo[term_obj[j]], np.ascontiguousarray(term_pt[j : j + 1]))
+        if bad >= 0:
+            return s, L, cMo, True
+        s[2 * j] = sj[0]
+        s[2 * j + 1] = sj[1]
+        d = iz[0] if depth_scale == 1.0 else iz[0] / depth_scale
+        L[2 * j : 2 * j + 2] = point_interaction(sj[0], sj[1], d)
+    return s, L, cMo, False
+
+
+@kernel
+def _task(q: Any, robot: Any, scene: Any, task: Any) -> Any:
+    """Steps 1-3 of the module docstring: ``(J, e1, J1, lost)``."""
+    kind, eMc, cVe, coupling, offset, par, base, flange, standard = robot
+    bMw, wMo, vis_pts, vis_cnt, cam, check = scene
+    term_obj, term_pt, s_star, C, has_C, depth_scale = task
+    if kind == 0:
+        bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
+    else:
+        bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
+    cMw = np.dot(_inverse(bMc), bMw)
+    s, L, cMo, lost = _measure(cMw, wMo, term_obj, term_pt, depth_scale)
+    if lost:
+        return J, s, L, True
+    e = s - s_star
+    if has_C:
+        e1 = np.dot(C, e)
+        J1 = np.dot(np.dot(C, L), J)
+    else:
+        e1 = e
+        J1 = np.dot(L, J)
+    if check:
+        for o in range(wMo.shape[0]):
+            if not _in_image(cMo[o], np.ascontiguousarray(vis_pts[o, : vis_cnt[o]]), cam):
+                return J, e1, J1, True
+    return J, e1, J1, False
+
+
+@kernel
+def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, solve: Any) -> Any:
+    """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
+
+    Where the unconstrained optimum leaves the bounds, the problem goes into ``solve`` and
+    the loop returns to Python for the solver, unless ``solve`` holds its solution.
+    """
+    _, fopt, iopt, vopt, _ = law
+    lp, has_v, has_a, _, _ = limits
+    lam, dt = sim[0], sim[1]
+    pJ, pv, plo, phi, peps, px, pend = solve
+    m, n = J1.shape
+    zn = np.zeros(n)
+    x, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
+        J1, e1, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
+        vopt[0], iopt[2] != 0, fopt[0],
+    )  # fmt: skip
+    bits = RANK_LOSS if rank < m else 0
+    if np.any(conflicts):
+        bits |= BOUNDS_CONFLICT
+    if not inside:
+        if pend[0] == 0:
+            pJ[:, :] = J1
+            pv[:] = xdot
+            plo[:] = lo
+            phi[:] = hi
+            peps[0] = fopt[4] * smax * smax if smax > 0.0 else fopt[4]
+            return x, bits, True
+        x = px
+        bits |= pend[1]
+        pend[0] = 0
+    fixed, _, resid = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)
+    if not inside and resid >= 0.0 and resid > _OVERCONSTRAINED_RTOL:
+        bits |= TASK_SCALED
+    qd, bad, s, over_v, dropped, _, acted, _, exc = apply_safety(
+        fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
+    )
+    return qd, bits | safety_flags(bad, s, over_v, dropped, acted, exc), False
+
+
+@kernel
+def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: Any,
+         limits: Any, sim: Any) -> Any:  # fmt: skip
+    """Step 4 for a law of ``law_step``: ``(q̇, bits, abs_grad, abort)``."""
+    law_id, fopt, iopt, vopt, has_cap = law
+    lp, has_v, has_a, _, _ = limits
+    lam, dt = sim[0], sim[1]
+    n = q.shape[0]
+    zn = np.zeros(n)
+    qd, iout, fout, _, axf, vec, sout = law_step(
+        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
+        zn, False, prev, True, hist, has_hist,
+    )  # fmt: skip
+    if law_id == _SNS and iout[I_SNS_BAD] >= 0:
+        return qd, 0, axf, ABORT_INFEASIBLE
+    bits = law_flags(law_id, e1.shape[0], n, iout, fout, axf, vec, fopt, has_cap)
+    bits |= safety_flags(sout[0], sout[1], sout[2] != 0, sout[3] != 0, sout[5] != 0, sout[7] != 0)
+    return qd, bits, axf, 0
+
+
+@kernel
+def closed_loop(
+    q: Any,
+    prev: Any,
+    robot: Any,
+    scene: Any,
+    task: Any,
+    law: Any,
+    limits: Any,
+    sim: Any,
+    logs: Any,
+    solve: Any,
+) -> Any:
+    """Run the closed loop from ``q`` (module docstring), from iteration ``solve[6][2]``.
+
+    Args (tuples of arrays and numbers, packed by :mod:`redservo.campaign.fastloop`):
+        q, prev: (n,) joints and previous command; updated in place (the state of a run
+            resumed after a ``qp`` solve).
+        robot: ``(kind, eMc, cVe, coupling, offset, par, base, flange, standard)``,
+            kind 0 the Afma6, 1 a DH chain.
+        scene: ``(bMw, wMo (O, 4, 4), vis_pts (O, P, 3), vis_cnt (O,), cam (7,), check)``
+            for the O targets; ``cam`` = (px, py, u0, v0, width, height, margin).
+        task: ``(term_obj (K,), term_pt (K, 3), s_star (k,), C (m, k), has_C, depth_scale)``.
+        law: ``(law_id, fopt, iopt, vopt, has_cap)``: :func:`redservo.redundancy.kio.law_options`,
+            or :data:`QP` with ``fopt = (rcond, 0, k_p, margin, eps)``, ``iopt = (shield, 0,
+            has v_max)``, ``vopt[0] = v_max``.
+        limits: ``(lp, has_v, has_a, q_min, q_max)``.
+        sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat)``.
+        logs: ``(Q, QD, TW, EN, FL)``, (N, n), (N, n), (N, 6), (N,), (N,) int64; N is the
+            iteration cap.
+        solve: ``(J1, ẋ, lo, hi, eps (1,), x, pend)``: a ``qp`` problem for the solver and
+            its solution; ``pend`` = (solution given, its flag bits, first iteration).
+
+    Returns:
+        ``(rows, outcome, limit_axis, abort)``; outcome :data:`NEED_SOLVE` asks for a solve.
+    """
+    _, _, _, q_min, q_max = limits
+    dt, tol, stop, qsat, has_qsat = sim[1], sim[2], sim[3], sim[4], sim[5]
+    Q, QD, TW, EN, FL = logs
+    law_id, iopt = law[0], law[2]
+    n = q.shape[0]
+    max_it = Q.shape[0]
+    hist = np.zeros(n)
+    has_hist = False
+    history = law_id == _WLN and iopt[2] != 0
+    for it in range(solve[6][2], max_it):
+        J, e1, J1, lost = _task(q, robot, scene, task)
+        if lost:
+            return it, TARGET_LOST, -1, 0
+        if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
+            return it, MAX_ITERATIONS, -1, ABORT_NON_FINITE
+        if not np.isfinite(np.sum(J1) + np.sum(e1)):
+            return it, MAX_ITERATIONS, -1, ABORT_NON_FINITE
+        if law_id == QP:
+            qd, bits, need = _qp(J1, e1, q, prev, law, limits, sim, solve)
+            if need:
+                solve[6][2] = it
+                return it, NEED_SOLVE, -1, 0
+        else:
+            qd, bits, axf, abort = _law(J1, e1, q, prev, hist, has_hist, law, limits, sim)
+            if abort:
+                return it, MAX_ITERATIONS, -1, abort
+            if history:
+                hist = axf
+                has_hist = True
+        if has_qsat:
+            ratio = np.max(np.abs(qd) / qsat)
+            if ratio > 1.0:
+                qd = qd / ratio
+        Q[it] = q
+        QD[it] = qd
+        TW[it] = np.dot(J, qd)
+        err = np.sqrt(np.dot(e1, e1))
+        EN[it] = err
+        FL[it] = bits
+        if err < tol and (stop or it == max_it - 1):
+            return it + 1, CONVERGED, -1, 0
+        q_next = q + qd * dt
+        for i in range(n):
+            if q_next[i] < q_min[i] - LIMIT_TOLERANCE or q_next[i] > q_max[i] + LIMIT_TOLERANCE:
+                return it + 1, JOINT_LIMIT, i, 0
+        prev[:] = qd
+        for i in range(n):  # np.clip: min(max(x, lo), hi)
+            v = q_next[i] if q_next[i] > q_min[i] else q_min[i]
+            q[i] = v if v < q_max[i] else q_max[i]
+    return max_it, MAX_ITERATIONS, -1, 0
+
+
+def _stamp_with_sources(*dispatchers: Any) -> None:
+    """Make the on-disk cache of these kernels depend on every source they compile in.
+
+    numba's ``cache=True`` checks only the file of the function itself, while a compiled
+    caller embeds its callees: after an edit of :mod:`redservo.kernels` the cached loop
+    would run the old kernels. The cache index stamp becomes ``(numba's stamp, SHA-256 of
+    the sources)``, so any edit recompiles the loop. Relies on numba internals; if they
+    change, numba's own stamp is kept.
+    """
+    if not COMPILED:
+        return
+    src = Path(__file__).resolve().parents[1]
+    files = [
+        *sorted((src / "kernels").glob("*.py")),
+        *sorted((src / "redundancy").glob("*.py")),  # constants compiled in
+        *sorted(Path(__file__).resolve().parent.glob("loop_*.py")),
+        src / "simulation" / "loop.py",
+    ]
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in files)).hexdigest()
+    for dispatcher in dispatchers:
+        try:
+            cache_file = dispatcher._cache._cache_file
+            cache_file._source_stamp = (cache_file._source_stamp, digest)
+        except AttributeError:  # pragma: no cover - another numba layout
+            pass
+
+
+_stamp_with_sources(
+    law_flags, safety_flags, _inverse, _in_image, _measure, _task, _qp, _law, closed_loop
+)
