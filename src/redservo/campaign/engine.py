@@ -47,6 +47,8 @@ __all__ = [
 
 FAST_PATH = "compiled loop"
 """The ``path`` note of a run on the compiled loop (any other note is a fallback reason)."""
+CONNECT_TIMEOUT_S = 20.0
+"""How long :func:`connect` tries to reach the scheduler (s)."""
 _DEFS: dict[str, CampaignDefinition] = {}
 """Definitions unpickled in this worker, by fingerprint (their ``nominal`` computed once)."""
 
@@ -201,8 +203,9 @@ def _distributed() -> Any:
     return distributed
 
 
-def connect(scheduler: str, *, timeout: float = 20.0) -> Any:
-    """A :class:`distributed.Client` of the scheduler at ``scheduler`` (e.g. tcp://HOST:8786).
+def connect(scheduler: str, *, timeout: float | None = None) -> Any:
+    """A :class:`distributed.Client` of the scheduler at ``scheduler`` (e.g. tcp://HOST:8786),
+    tried for ``timeout`` seconds (default :data:`CONNECT_TIMEOUT_S`).
 
     Raises:
         ConfigurationError: not an address, ``distributed`` missing, or no scheduler there.
@@ -214,6 +217,7 @@ def connect(scheduler: str, *, timeout: float = 20.0) -> Any:
             argument="scheduler",
         )
     distributed = _distributed()
+    timeout = CONNECT_TIMEOUT_S if timeout is None else timeout
     try:
         return distributed.Client(scheduler, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple, cast
 
 import numpy as np
@@ -32,7 +32,7 @@ import numpy as np
 from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment
 from redservo.redundancy import Law, make_law
-from redservo.redundancy.flags import FLAGS
+from redservo.redundancy.flags import FLAGS, Event
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.simulation.runlog import SimulationLog
 from redservo.simulation.summary import Outcome, RunSummary, summarize
@@ -232,37 +232,44 @@ def _law_args(law: Law, n: int) -> tuple[Any, ...]:
     vopt = np.zeros((2, n))
     if v is not None:
         vopt[0] = _v_per_joint(v, n)
-    fopt = np.array([law.rcond, 0.0, law.k_p, law.margin, law.eps])  # type: ignore[attr-defined]
+    fopt = np.array([law.rcond, 0.0, law.k_p, law.margin])  # type: ignore[attr-defined]
     iopt = np.array([int(law.shield), 0, int(v is not None), 0], dtype=np.int64)
     return QP, fopt, iopt, vopt, False
 
 
+def _flag_bits(events: Iterable[Event]) -> int:
+    """The loop's bit mask (bit ``j`` is ``FLAGS[j]``) of a law's typed events."""
+    bits = 0
+    for ev in events:
+        bits |= 1 << FLAGS.index(ev.flag)
+    return bits
+
+
 def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, int, int, int]:
-    """Call the loop kernel until the run ends, solving ``qp``'s bounded problems in Python
-    with the law's own solver (:func:`redservo.redundancy.qp.solve_bounded_least_squares`)."""
-    from redservo.campaign.loop_kernel import NEED_SOLVE, SOLVER_FALLBACK, closed_loop
+    """Call the loop kernel until the run ends; a ``qp`` step with active bounds is computed
+    by the law itself (its solver is Python), exactly as the object path does."""
+    from redservo.campaign.loop_kernel import NEED_SOLVE, closed_loop
 
     m, n = exp.task.m, exp.robot.n
-    pJ, pv, plo, phi, peps, px = (np.zeros((m, n)), np.zeros(m), np.zeros(n),
-                                  np.zeros(n), np.zeros(1), np.zeros(n))  # fmt: skip
+    pJ, pe, px = np.zeros((m, n)), np.zeros(m), np.zeros(n)
     pend = np.zeros(3, dtype=np.int64)
-    solve = (pJ, pv, plo, phi, peps, px, pend)
+    solve = (pJ, pe, px, pend)
     q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
     prev = np.zeros(n)  # the robot starts at rest
+    robot, scene, task, law_args, limits, sim, logs = args
     while True:
-        robot, scene, task, law_args, limits, sim, logs = args
         rows, code, axis, abort = closed_loop(
             q, prev, robot, scene, task, law_args, limits, sim, logs, solve
         )
         if code != NEED_SOLVE:
             return int(rows), int(code), int(axis), int(abort)
-        from redservo.redundancy.qp import solve_bounded_least_squares
-
-        backend = law._resolve_backend()  # type: ignore[attr-defined]
-        x, used = solve_bounded_least_squares(pJ, pv, plo, phi, eps=float(peps[0]), solver=backend)
-        px[:] = x
+        res = law(
+            J1=pJ.copy(), e1=pe.copy(), q=q.copy(), limits=exp.limits, lam=sim[0], dt=sim[1],
+            qdot_prev=prev.copy(),
+        )  # fmt: skip
+        px[:] = res.qdot
         pend[0] = 1
-        pend[1] = SOLVER_FALLBACK if ("fallback" in used or "failed" in used) else 0
+        pend[1] = _flag_bits(res.diagnostics.events)
 
 
 class _Packed(NamedTuple):
@@ -341,5 +348,8 @@ def fast_run(
         return None, reason
     from redservo.campaign.engine import FAST_PATH
 
-    summary = fast_summary(exp, law)
+    try:
+        summary = fast_summary(exp, law)
+    except Exception:  # the object path runs it again and records what happens
+        summary = None
     return summary, FAST_PATH if summary is not None else "the object path would raise"

@@ -12,9 +12,9 @@ operations of the object path, in the same order and with the same kernels:
    with ``target_lost``), ``L`` by :func:`~redservo.kernels.features.point_interaction`;
 3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points;
 4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` the
-   kernels of :mod:`redservo.kernels.qp` around its solver, which stays in Python: where
-   the bounds are active the loop returns :data:`NEED_SOLVE` with the problem and is called
-   again, from that iteration, with the solution;
+   kernels of its solver-free steps, while a step whose bounds are active (a QP to solve)
+   returns :data:`NEED_SOLVE`: Python calls the law itself and calls the loop again from
+   that iteration with the command;
 5. the actuator saturation, the camera twist ``J q̇``, ``‖e1‖``, the convergence test,
    the hard-limit test (``joint_limit``) and ``q ← clip(q + q̇ dt)``.
 
@@ -42,8 +42,6 @@ from redservo.campaign.loop_flags import (
     BOUNDS_CONFLICT,
     I_SNS_BAD,
     RANK_LOSS,
-    SOLVER_FALLBACK,
-    TASK_SCALED,
     law_flags,
     safety_flags,
 )
@@ -53,7 +51,6 @@ from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.safety import apply_safety
 from redservo.kernels.step import LAW_IDS, law_step
-from redservo.redundancy.qp import _OVERCONSTRAINED_RTOL
 from redservo.simulation.loop import LIMIT_TOLERANCE
 
 __all__ = [
@@ -64,7 +61,6 @@ __all__ = [
     "MAX_ITERATIONS",
     "NEED_SOLVE",
     "QP",
-    "SOLVER_FALLBACK",
     "TARGET_LOST",
     "closed_loop",
 ]
@@ -168,36 +164,32 @@ def _task(q: Any, robot: Any, scene: Any, task: Any) -> Any:
 def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, solve: Any) -> Any:
     """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
 
-    Where the unconstrained optimum leaves the bounds, the problem goes into ``solve`` and
-    the loop returns to Python for the solver, unless ``solve`` holds its solution.
+    Where the unconstrained optimum lies within the bounds (no solver), the kernels of the
+    law's fast path: :func:`~redservo.kernels.qp.qp_prepare`, ``qp_finish``, the safety
+    layer. Elsewhere ``J1`` and ``e1`` go into ``solve`` and the loop returns to Python,
+    which calls the law itself and hands its command and flags back (``pend``).
     """
     _, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     lam, dt = sim[0], sim[1]
-    pJ, pv, plo, phi, peps, px, pend = solve
+    pJ, pe, px, pend = solve
+    if pend[0] != 0:  # resumed at this iteration: the law's command, computed in Python
+        pend[0] = 0
+        return px.copy(), pend[1], False
     m, n = J1.shape
     zn = np.zeros(n)
-    x, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
+    x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
         J1, e1, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
         vopt[0], iopt[2] != 0, fopt[0],
     )  # fmt: skip
+    if not inside:
+        pJ[:, :] = J1
+        pe[:] = e1
+        return x, 0, True
     bits = RANK_LOSS if rank < m else 0
     if np.any(conflicts):
         bits |= BOUNDS_CONFLICT
-    if not inside:
-        if pend[0] == 0:
-            pJ[:, :] = J1
-            pv[:] = xdot
-            plo[:] = lo
-            phi[:] = hi
-            peps[0] = fopt[4] * smax * smax if smax > 0.0 else fopt[4]
-            return x, bits, True
-        x = px
-        bits |= pend[1]
-        pend[0] = 0
-    fixed, _, resid = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)
-    if not inside and resid >= 0.0 and resid > _OVERCONSTRAINED_RTOL:
-        bits |= TASK_SCALED
+    fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
     qd, bad, s, over_v, dropped, _, acted, _, exc = apply_safety(
         fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
     )
@@ -248,14 +240,14 @@ def closed_loop(
             for the O targets; ``cam`` = (px, py, u0, v0, width, height, margin).
         task: ``(term_obj (K,), term_pt (K, 3), s_star (k,), C (m, k), has_C, depth_scale)``.
         law: ``(law_id, fopt, iopt, vopt, has_cap)``: :func:`redservo.redundancy.kio.law_options`,
-            or :data:`QP` with ``fopt = (rcond, 0, k_p, margin, eps)``, ``iopt = (shield, 0,
+            or :data:`QP` with ``fopt = (rcond, 0, k_p, margin)``, ``iopt = (shield, 0,
             has v_max)``, ``vopt[0] = v_max``.
         limits: ``(lp, has_v, has_a, q_min, q_max)``.
         sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat)``.
         logs: ``(Q, QD, TW, EN, FL)``, (N, n), (N, n), (N, 6), (N,), (N,) int64; N is the
             iteration cap.
-        solve: ``(J1, ẋ, lo, hi, eps (1,), x, pend)``: a ``qp`` problem for the solver and
-            its solution; ``pend`` = (solution given, its flag bits, first iteration).
+        solve: ``(J1, e1, q̇, pend)``: a ``qp`` step for Python and the command it got;
+            ``pend`` = (command given, its flag bits, first iteration).
 
     Returns:
         ``(rows, outcome, limit_axis, abort)``; outcome :data:`NEED_SOLVE` asks for a solve.
@@ -269,7 +261,7 @@ def closed_loop(
     hist = np.zeros(n)
     has_hist = False
     history = law_id == _WLN and iopt[2] != 0
-    for it in range(solve[6][2], max_it):
+    for it in range(solve[3][2], max_it):
         J, e1, J1, lost = _task(q, robot, scene, task)
         if lost:
             return it, TARGET_LOST, -1, 0
@@ -280,7 +272,7 @@ def closed_loop(
         if law_id == QP:
             qd, bits, need = _qp(J1, e1, q, prev, law, limits, sim, solve)
             if need:
-                solve[6][2] = it
+                solve[3][2] = it
                 return it, NEED_SOLVE, -1, 0
         else:
             qd, bits, axf, abort = _law(J1, e1, q, prev, hist, has_hist, law, limits, sim)

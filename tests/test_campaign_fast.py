@@ -1,0 +1,160 @@
+"""The compiled campaign loop (redservo.campaign.fastloop): identical rows, and its fallbacks.
+
+The first test in a fresh checkout compiles the loop (about a minute, then cached on disk).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import pytest
+
+pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
+
+from redservo import METHODS
+from redservo.campaign import fastloop, load_campaign, run_campaign
+from redservo.campaign.engine import FAST_PATH
+from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
+from redservo.experiment import build
+from redservo.scenario import apply_overrides, load_scenario
+
+
+def _exact(value: Any) -> Any:
+    """Floats by their repr (bit for bit, NaN equal to NaN), other values as they are."""
+    return repr(value) if isinstance(value, float) else value
+
+
+def _same_rows(a: tuple[dict[str, Any], ...], b: tuple[dict[str, Any], ...]) -> bool:
+    return [{k: _exact(v) for k, v in r.items()} for r in a] == [
+        {k: _exact(v) for k, v in r.items()} for r in b
+    ]
+
+
+def _same_summary(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    def walk(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: walk(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [walk(x) for x in v]
+        return _exact(v)
+
+    return bool(walk(a) == walk(b))
+
+
+def _variant(name: str, *sets: str) -> Any:
+    d = load_campaign(name)
+    return replace(d, scenario=apply_overrides(d.scenario, list(sets))) if sets else d
+
+
+def test_campaign_rows_are_those_of_the_object_path(capsys: pytest.CaptureFixture[str]) -> None:
+    """cm01-gaze, every method, the shield off (sample 1 of seed 0 hits a limit): the same rows
+    bit for bit, every run on the compiled loop."""
+    d = _variant("cm01-gaze", "control.shield=false")
+    fast = run_campaign(d, samples=2, workers=1, progress=False)
+    assert "object path" not in capsys.readouterr().err  # no run fell back, not even qp
+    slow = run_campaign(d, samples=2, workers=1, progress=False, fast=False)
+    assert len(fast.rows) == 2 * len(METHODS)
+    assert _same_rows(fast.rows, slow.rows)
+    outcomes = {r["outcome"] for r in fast.rows}
+    assert {"converged", "joint_limit"} <= outcomes
+    assert any(r["flags"] for r in fast.rows)
+
+
+def test_panda_rows_with_a_combination_matrix_and_lost_targets() -> None:
+    """A DH robot, four points with C (m = 6 of k = 8), runs that lose the target or reach the
+    iteration cap: the same rows on both paths."""
+    d = load_campaign("panda-near-limits")
+    methods = ["classical", "gpm-auto", "iterative", "directional", "qp"]
+    fast = run_campaign(d, samples=2, methods=methods, workers=1, progress=False)
+    slow = run_campaign(d, samples=2, methods=methods, workers=1, progress=False, fast=False)
+    assert _same_rows(fast.rows, slow.rows)
+    assert {"target_lost", "max_iterations"} <= {r["outcome"] for r in fast.rows}
+
+
+@pytest.mark.parametrize(
+    "sets",
+    [
+        (),
+        ("simulation.qdot_max=0.05", "simulation.depth_scale=1.3", "control.robust=false"),
+        ("control.shield=false", "simulation.check_image=false", "control.lam=1.5"),
+    ],
+)
+def test_summaries_and_flag_counts_match(sets: tuple[str, ...]) -> None:
+    """The whole typed summary (flag counts and first iterations included) of every method on
+    the CM01 start: actuator saturation, a depth error, the plain paper laws, no image check."""
+    exp = build(apply_overrides(load_scenario("cm01-gaze"), list(sets)))
+    flags: set[str] = set()
+    for method in METHODS:
+        summary, path = fast_run(exp, method, None)
+        assert path == FAST_PATH, (method, path)
+        assert summary is not None
+        ref = exp.run(method=method).summary
+        assert _same_summary(summary.to_dict(), ref.to_dict()), method
+        flags |= set(summary.flags)
+    assert len(flags) >= 3  # several kinds of flags were compared
+
+
+def test_uncovered_set_ups_fall_back_and_say_why(capsys: pytest.CaptureFixture[str]) -> None:
+    """Feature noise and secondary-first scaling run on the object path, with one stderr line
+    per reason, and give the rows of fast=False."""
+    d = replace(
+        load_campaign("cm01-gaze"),
+        scenario=apply_overrides(
+            load_campaign("cm01-gaze").scenario, ["simulation.noise_std=1e-4"]
+        ),
+    )
+    fast = run_campaign(d, samples=1, methods=["classical", "gpm"], workers=1, progress=False)
+    err = capsys.readouterr().err
+    assert "2 run(s) of classical, gpm on the object path" in err and "feature noise" in err
+    slow = run_campaign(
+        d, samples=1, methods=["classical", "gpm"], workers=1, progress=False, fast=False
+    )
+    assert _same_rows(fast.rows, slow.rows)
+    exp = build(load_scenario("cm01-gaze"))
+    law = campaign_law(exp, "gpm", {"scaling": "secondary-first"})
+    assert fastloop.fast_reason(exp, law) == "scaling = 'secondary-first'"
+    assert fast_summary(exp, law) is None
+    noisy = build(apply_overrides(load_scenario("cm01-gaze"), ["simulation.noise_std=1e-4"]))
+    assert fastloop.experiment_reason(noisy) == "feature noise"
+    assert fast_run(noisy, "classical", None) == (None, "feature noise")
+
+
+def test_a_run_the_law_would_abort_goes_to_the_object_path(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """When the loop reports that the law would raise (or anything goes wrong in it), the run
+    is done again on the object path, which records what happens there."""
+    exp = build(load_scenario("cm01-gaze"))
+    monkeypatch.setattr(fastloop, "_run_loop", lambda *_a: (3, 0, -1, 1))
+    assert fast_run(exp, "classical", None) == (None, "the object path would raise")
+
+    def broken(*_a: object) -> None:
+        raise RuntimeError("a bug in the loop")
+
+    monkeypatch.setattr(fastloop, "_run_loop", broken)
+    assert fast_run(exp, "sns", None) == (None, "the object path would raise")
+    d = load_campaign("cm01-gaze")
+    rows = run_campaign(d, samples=1, methods=["sns"], workers=1, progress=False).rows
+    ref = run_campaign(d, samples=1, methods=["sns"], workers=1, progress=False, fast=False).rows
+    assert _same_rows(rows, ref)
+
+
+def test_the_loop_as_plain_python_gives_the_compiled_numbers(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The loop's own body run uncompiled (``py_func``, its callees compiled) logs the same
+    numbers as the compiled loop: one source for both."""
+    from redservo.campaign import loop_kernel
+
+    exp = build(apply_overrides(load_scenario("cm01-gaze"), ["simulation.max_iterations=12"]))
+    for method in ("iterative-smooth", "qp"):
+        law = campaign_law(exp, method, None)
+        compiled = fast_summary(exp, law)
+        kernel: Any = loop_kernel.closed_loop
+        with monkeypatch.context() as m:
+            m.setattr(loop_kernel, "closed_loop", kernel.py_func)
+            plain = fast_summary(exp, law)
+        assert compiled is not None and plain is not None
+        assert _same_summary(compiled.to_dict(), plain.to_dict())
+        assert compiled.iterations == 12
