@@ -475,7 +475,9 @@ def test_braking_from_the_bound_keeps_the_acceleration_limit() -> None:
 def test_command_box_prefers_the_position_to_the_acceleration() -> None:
     lim = LIM2.replace(qdot_max=1.0, qddot_max=0.5)
     lo, hi = command_box(np.array([1.0, 0.0]), lim, 0.01, np.array([1.0, 0.0]))
-    assert hi[0] == 0.0 and lo[0] == -1.0  # the acceleration box [0.995, 1] was dropped
+    # the acceleration box [0.995, 1] misses P = [-1, 0]: the position wins, and the box is
+    # the edge of P nearest to it (the acceleration limit broken as little as possible)
+    assert hi[0] == 0.0 and lo[0] == 0.0
     assert lo[1] == pytest.approx(-0.005) and hi[1] == pytest.approx(0.005)
 
 
@@ -588,3 +590,13 @@ def test_q_past_a_limit_reports_the_excess_in_full(joint: int, value: float) -> 
     message = str(exc)
     assert repr(value) in message and repr(excess) in message
     assert re.search(r"by [0-9.e+-]{12,}", message)  # full digits, not 3 significant ones
+
+
+def test_a_joint_pinned_by_braking_does_not_stop_the_others() -> None:
+    """When the acceleration and position boxes of a braking joint touch (a single point), the
+    uniform scaling pins that joint and still moves the others (no stop-and-go)."""
+    lo = np.array([-1.0, -0.2, -0.111479])
+    hi = np.array([1.0, 0.2, -0.111479])
+    out, s = scale_into_box(np.array([0.5, 0.1, -0.3]), lo, hi)
+    assert out[2] == -0.111479
+    assert s == 1.0 and out[0] == 0.5 and out[1] == 0.1

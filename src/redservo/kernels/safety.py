@@ -90,7 +90,8 @@ def position_box(q: Any, lp: Any, has_v: bool, has_a: bool, dt: float) -> Any:
 def command_box(
     q: Any, lp: Any, has_v: bool, has_a: bool, dt: float, prev: Any, has_prev: bool
 ) -> Any:
-    """``P ∩ R``; where they miss, the acceleration part is dropped (velocity, then position)."""
+    """``P ∩ R``; where they miss, the position wins and the acceleration is broken as little
+    as possible (the box is the edge of P nearest to R)."""
     rlo, rhi, _ = rate_box(lp, has_v, has_a, dt, prev, has_prev)
     plo, phi = position_box(q, lp, has_v, has_a, dt)
     n = q.shape[0]
@@ -99,11 +100,10 @@ def command_box(
     for i in range(n):
         lo[i] = max(rlo[i], plo[i])
         hi[i] = min(rhi[i], phi[i])
-        if lo[i] > hi[i]:
-            vlo = -lp[VMAX, i] if has_v else -np.inf
-            vhi = lp[VMAX, i] if has_v else np.inf
-            lo[i] = max(vlo, plo[i])
-            hi[i] = min(vhi, phi[i])
+        if lo[i] > hi[i]:  # the position wins; the acceleration is broken as little as possible
+            edge = plo[i] if rhi[i] < plo[i] else phi[i]
+            lo[i] = edge
+            hi[i] = edge
     return lo, hi
 
 
@@ -141,9 +141,14 @@ def _clip(x: float, lo: float, hi: float) -> float:
 
 @kernel
 def _max_scale(base: Any, step: Any, lo: Any, hi: Any) -> float:
-    """Largest ``s ∈ [0, 1]`` with ``lo <= base + s step <= hi`` (``base`` inside the box)."""
+    """Largest ``s ∈ [0, 1]`` with ``lo <= base + s step <= hi`` (``base`` inside the box).
+
+    A joint whose box is a single point (a braking joint pinned where its acceleration and
+    position limits meet) does not limit ``s``: it takes its one allowed value anyway."""
     s = 1.0
     for i in range(base.shape[0]):
+        if hi[i] - lo[i] <= TOL * (1.0 + abs(lo[i])):
+            continue
         if step[i] > 0.0:
             s = min(s, (hi[i] - base[i]) / step[i])
         elif step[i] < 0.0:
@@ -251,8 +256,11 @@ def apply_safety(
         plo, phi = position_box(q, lp, has_v, has_a, dt)
         for i in range(n):
             if max(rlo[i], plo[i]) > min(rhi[i], phi[i]):
-                rlo[i] = -lp[VMAX, i] if has_v else -np.inf
-                rhi[i] = lp[VMAX, i] if has_v else np.inf
+                # the position wins; the acceleration is broken as little as possible (this
+                # also absorbs a one-ulp miss between the two boxes)
+                edge = plo[i] if rhi[i] < plo[i] else phi[i]
+                rlo[i] = edge
+                rhi[i] = edge
                 dropped = True
     out, s = scale_into_box(cmd, rlo, rhi, task, use_task)
     over_v = False
