@@ -131,7 +131,11 @@ def test_imperfect_robot_runs(runs: Runs) -> None:
     assert abs(ideal["iterative"] - ideal["iterative-smooth"]) <= 2
 
 
-def test_figures_are_written(runs: Runs, tmp_path: Path) -> None:
+def test_figures_are_written(runs: Runs, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from redservo.reproduction import cm01_gaze_figures
+
+    # Two levels of the saturation sweep are enough to draw it (each level is four runs).
+    monkeypatch.setattr(cm01_gaze_figures, "SATURATION_LEVELS", (None, IMPERFECT_QDOT_MAX))
     paths = SPEC.figures(runs, tmp_path)
     assert [p.name for p in paths] == [
         "fig08_image_and_error.png",
