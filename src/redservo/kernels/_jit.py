@@ -19,14 +19,16 @@ The kernels follow rules that keep both paths identical (docs/speed.md):
 **Cache invalidation.** numba keys a cached function on its own source file only, so a
 kernel calling a kernel of another module would keep running the callee's old machine
 code after an edit of that module. The kernels therefore use cache locators whose source
-stamp is a hash of *every* module of this package: editing any kernel recompiles them all
-(about a minute, docs/speed.md), and a stale cache is never loaded.
+stamp is a hash of the module *and of every kernel module it imports*, directly or not:
+an edit recompiles the kernels that may call the edited code (docs/speed.md gives the
+cost), and a stale cache is never loaded.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -52,17 +54,41 @@ def _load_numba() -> Any | None:
 _KERNELS_DIR = Path(__file__).resolve().parent
 
 
-def _package_stamp() -> str:
-    """A hash of the source of every module of this package."""
-    h = hashlib.sha256()
-    for path in sorted(_KERNELS_DIR.glob("*.py")):
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
+_IMPORTS = re.compile(r"^from redservo\.kernels\.(\w+) import", re.MULTILINE)
+_STAMPS: dict[str, str] = {}
+
+
+def _closure(name: str) -> list[str]:
+    """The kernel modules ``name`` imports, directly or not, itself included (sorted)."""
+    seen: set[str] = set()
+    todo = [name]
+    while todo:
+        mod = todo.pop()
+        if mod in seen:
+            continue
+        seen.add(mod)
+        path = _KERNELS_DIR / f"{mod}.py"
+        if path.is_file():
+            todo.extend(_IMPORTS.findall(path.read_text(encoding="utf-8")))
+    return sorted(seen)
+
+
+def _stamp(py_file: str) -> str:
+    """A hash of the source of the module ``py_file`` and of every kernel module it imports."""
+    name = Path(py_file).stem
+    hit = _STAMPS.get(name)
+    if hit is None:
+        h = hashlib.sha256()
+        for mod in _closure(name):
+            path = _KERNELS_DIR / f"{mod}.py"
+            h.update(mod.encode())
+            h.update(path.read_bytes() if path.is_file() else b"")
+        hit = _STAMPS[name] = h.hexdigest()
+    return hit
 
 
 def _install_locators(numba: Any) -> None:
-    """Put package-stamped cache locators first for the files of this package."""
+    """Put cache locators stamped with the imported kernel modules first, for this package."""
     try:
         from numba.core import caching
     except ImportError:  # pragma: no cover - numba's layout changed: plain per-file stamps
@@ -74,18 +100,22 @@ def _install_locators(numba: Any) -> None:
     ]
     if impl is None or any(b is None for b in bases) or getattr(impl, "_redservo", False):
         return
-    stamp = _package_stamp()
 
     def stamped(base: Any) -> Any:
         class Locator(base):
+            _redservo_stamp = ""
+
             @classmethod
             def from_function(cls, py_func: Any, py_file: str) -> Any:
                 if Path(py_file).resolve().parent != _KERNELS_DIR:
                     return None
-                return super().from_function(py_func, py_file)
+                self = super().from_function(py_func, py_file)
+                if self is not None:
+                    self._redservo_stamp = _stamp(py_file)
+                return self
 
             def get_source_stamp(self) -> str:
-                return stamp
+                return self._redservo_stamp
 
         Locator.__name__ = f"RedservoPackage{base.__name__}"
         return Locator
