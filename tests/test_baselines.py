@@ -1,4 +1,4 @@
-"""Tests of the modern baselines: wln, sns, qp and large-projection (literature.md §B1-B5).
+"""Tests of the modern baselines: wln, sns, qp and large-projection (docs/formulas.md §10).
 
 Expected values are computed independently in the tests (numpy's pinv, the printed
 closed forms, finite differences, a linear program), never copied from the laws.
@@ -353,7 +353,7 @@ def test_sns_and_qp_return_the_classical_solution_when_it_is_feasible(p: Problem
 
 
 def test_sns_scaling_ignores_saturated_joints() -> None:
-    """The masking fix of literature.md §B4 on the scaling step itself.
+    """The masking fix of docs/formulas.md §10.4 on the scaling step itself.
 
     Joint 0 is saturated at its upper bound; round-off left ``a_0 = -1e-17`` and
     ``b_0`` a hair above the bound. Unmasked, it would claim that no scale in
@@ -369,7 +369,7 @@ def test_sns_scaling_ignores_saturated_joints() -> None:
 
 
 def test_sns_masking_keeps_every_case_feasible() -> None:
-    """literature.md §B4: m = 3, n = 7, large errors, every case feasible and scaled along ẋ."""
+    """docs/formulas.md §10.4: m = 3, n = 7, large errors, every case feasible and scaled along ẋ."""
     rng = np.random.default_rng(12)
     law = paper_law("sns", v_max=1.0)
     saturated = 0

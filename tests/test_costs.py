@@ -24,7 +24,7 @@ seeds = st.integers(0, 2**32 - 1)
 
 
 def point_interaction(x: float, y: float, Z: float) -> np.ndarray:
-    """L of a 2-D point, literature.md §A1 (ṡ = L v_c, v_c = (v, ω) in the camera frame)."""
+    """L of a 2-D point, docs/formulas.md §3.1 (ṡ = L v_c, v_c = (v, ω) in the camera frame)."""
     return np.array(
         [
             [-1.0 / Z, 0.0, x / Z, x * y, -(1.0 + x * x), y],

@@ -424,8 +424,8 @@ def test_moment_features_at_a_parallel_pose(kind: str) -> None:
     assert np.linalg.matrix_rank(L) == 6
 
 
-def test_moment_rotational_columns_at_parallel_pose_match_literature() -> None:
-    """literature.md A4: closed-form ω columns of xn, yn, an, α at a parallel pose."""
+def test_moment_rotational_columns_at_parallel_pose_match_the_published_form() -> None:
+    """docs/formulas.md §3.4: closed-form ω columns of xn, yn, an, α at a parallel pose."""
     feat = MomentFeatures.at_desired_pose(DOTS, make_transform(t=[0, 0, 0.5]))
     cMo = make_transform(t=[0.05, 0.04, 0.7], rotvec=[0, 0, -0.4])
     m = feat.measure(cMo)

@@ -2,7 +2,7 @@
 
 The expected values come from an independent reference written here with
 ``numpy.linalg.pinv`` of stacked constraints (the "task priority" reading of
-literature.md §D.1: each level is the minimum-norm change of the previous command
+docs/formulas.md §7.4: each level is the minimum-norm change of the previous command
 that keeps ``J1 q̇`` and the earlier constrained axes and sets the new ones to
 ``(1 - γ_k)`` times their previous velocity), not from the laws' own output.
 """

@@ -178,7 +178,7 @@ def test_projection_never_increases_the_error(prob, margin) -> None:
 
 
 def literal_eq20(a: float, s: float, zt: float) -> float:
-    """MC05 eq. 20 as a case table (sign corrected, literature.md §E); independent oracle."""
+    """MC05 eq. 20 as a case table (sign corrected, docs/formulas.md §8); independent oracle."""
     y = s * zt
     lo, hi = sorted((0.0, -2.0 * a))
     if lo <= y <= hi:

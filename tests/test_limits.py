@@ -1,4 +1,4 @@
-"""Tests of JointLimits (CM01 eqs. 3-6 and 17; literature.md §D.1, §D.3 items 4, 6, 9)."""
+"""Tests of JointLimits (CM01 eqs. 3-6 and 17; docs/formulas.md §5.1, §7.2, §7.5)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ q_in = st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3).map(
 
 
 def test_thresholds_eq3_per_axis() -> None:
-    """q̃_min = q̄_min + ρ Δq̄_i, q̃_max = q̄_max - ρ Δq̄_i, with Δq̄ per axis (§D.3 item 6)."""
+    """q̃_min = q̄_min + ρ Δq̄_i, q̃_max = q̄_max - ρ Δq̄_i, with Δq̄ per axis (docs/formulas.md §5.1)."""
     np.testing.assert_allclose(LIM.q_tilde_min, [-0.8, 0.2, -0.1])
     np.testing.assert_allclose(LIM.q_tilde_max, [0.8, 1.8, 3.1])
     # With the [-1, 1] normalization the thresholds sit at ±(1 - 2ρ) = ±0.8 (see docs/decisions.md).
@@ -48,7 +48,7 @@ def test_gradient_is_the_derivative_of_the_cost(q: np.ndarray) -> None:
 
 
 def _gamma_eq17(qh: float, lo: float, hi: float, tlo: float, thi: float) -> float:
-    """CM01 eq. 17 as printed, with the third case corrected (§D.3 item 4), clamped beyond q̄."""
+    """CM01 eq. 17 as printed, with the third case corrected (docs/formulas.md §7.5), clamped beyond q̄."""
     if qh <= tlo:
         return min(1.0, (qh - tlo) / (lo - tlo))
     if qh >= thi:
@@ -70,7 +70,7 @@ def test_gamma_matches_eq_17(u: list[float]) -> None:
 @settings(max_examples=300, deadline=None)
 @given(q_in, st.lists(st.floats(-0.2, 0.2), min_size=3, max_size=3))
 def test_critical_rule(q: np.ndarray, step: list[float]) -> None:
-    """Critical iff q̂ is in the band (or beyond) and nearer its limit than q (§D.3 item 9)."""
+    """Critical iff q̂ is in the band (or beyond) and nearer its limit than q (docs/formulas.md §7.2)."""
     qh = q + np.asarray(step) * LIM.range
     got = LIM.critical(q, qh)
     for i in range(3):

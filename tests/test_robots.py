@@ -292,7 +292,7 @@ def test_afma6_ccmop_looks_up_the_base_z_axis_at_zero() -> None:
     assert np.allclose(robot.fkine_ee(np.zeros(6))[:3, 0], [0.0, 0.0, 1.0])
 
 
-def test_afma6_ccmop_hand_eye_matches_literature() -> None:
+def test_afma6_ccmop_hand_eye_matches_the_published_values() -> None:
     robot = Afma6()
     assert np.allclose(robot.eMc[:3, 3], [0.0117, 0.0033, 0.2272])
     rxyz = Rotation.from_matrix(robot.eMc[:3, :3]).as_euler("XYZ", degrees=True)

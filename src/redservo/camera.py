@@ -1,7 +1,7 @@
 """A pinhole camera: intrinsics, pixel <-> normalized coordinates, projection.
 
 Features work in *normalized* image coordinates ``x = X/Z``, ``y = Y/Z``
-(literature.md §0); pixels only matter for display and for visibility checks.
+(docs/formulas.md §1); pixels only matter for display and for visibility checks.
 The pixel of a normalized point is ``u = u0 + px x``, ``v = v0 + py y`` (no
 distortion).
 

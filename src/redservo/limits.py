@@ -313,7 +313,7 @@ class JointLimits:
         """Return (n,) the smoothing gains ``γ_k`` of CM01 eq. 17 (corrected), in [0, 1].
 
         ``γ = 0`` between the thresholds, rising linearly to 1 at the real limit
-        (literature.md §D.3 item 4 fixes the printed third case), clamped to 1
+        (docs/formulas.md §7.5 fixes the printed third case), clamped to 1
         beyond it. ``γ = 1`` everywhere is the basic scheme.
 
         Args:
@@ -326,7 +326,7 @@ class JointLimits:
         return np.maximum(g, 0.0, out=g)
 
     def critical(self, q: ArrayLike, q_hat: ArrayLike) -> FloatArray:
-        """Return (n,) booleans: the axes that are *critical* (literature.md §D.3 item 9).
+        """Return (n,) booleans: the axes that are *critical* (docs/formulas.md §7.2).
 
         Axis k is critical when its predicted position ``q̂_k`` lies in the band
         ``[q̄_min, q̃_min] ∪ [q̃_max, q̄_max]`` (or beyond the real limit) and it moves

@@ -107,7 +107,7 @@ def twist_transform(aMb: FloatArray) -> FloatArray:
 
     ``aVb = [[R, [t]_x R], [0, R]]`` maps a twist expressed in frame b (about b's
     origin) to the same rigid motion expressed in frame a (about a's origin):
-    ``v_a = aVb @ v_b``. With ``aMb = cMe`` this is the ``cVe`` of literature.md §0.
+    ``v_a = aVb @ v_b``. With ``aMb = cMe`` this is the ``cVe`` of docs/formulas.md §1.
     """
     R = aMb[:3, :3]
     V = np.zeros((6, 6))

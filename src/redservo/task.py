@@ -8,7 +8,7 @@ of the robot Jacobian the controller believes in, so that modelling errors
     state = task.evaluate(scene, bMc, J, t)
     law(J1=state.J1, e1=state.e1, ...)
 
-**Depth used in L** (literature.md §G; CM01 uses the current depth):
+**Depth used in L** (docs/formulas.md §4.3; CM01 uses the current depth):
 ``depth="current"`` (default) evaluates ``L_s`` at the current value and
 current inverse-depth parameters; ``"desired"`` uses the inverse-depth
 parameters of the desired pose; ``"mean"`` their average. In every case ``L_s``

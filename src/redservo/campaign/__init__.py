@@ -4,7 +4,7 @@ A *campaign definition* (TOML; shipped in ``redservo/scenarios/campaigns/`` and 
 name, or any path) names a base scenario and says how to vary it. :func:`run_campaign` draws
 ``N`` variations from a seed, runs every method on each of them (the same variations for all
 methods), appends one row per (sample, method) to ``samples.csv`` as soon as it is finished,
-and summarizes each method. This is the benchmark literature.md §C recommends: random starts
+and summarizes each method. This is the benchmark docs/formulas.md §12.6 recommends: random starts
 near the limits; success = task converged with no limit crossed.
 
 Definition format (every table is optional except ``scenario``)::

@@ -3,7 +3,7 @@
 Every feature subclasses :class:`Feature`: it holds its object's geometry in the
 object frame, ``measure(cMo)`` returns ``Measurement(s, inv_depth)`` and
 ``interaction(s, inv_depth)`` the matrix ``L_s`` (k, 6) with ``ṡ = L_s v_c``
-(literature.md §0). :func:`make_feature` builds one by kind name.
+(docs/formulas.md §1). :func:`make_feature` builds one by kind name.
 """
 
 from __future__ import annotations

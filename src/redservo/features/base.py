@@ -4,7 +4,7 @@ A feature holds its object's geometry in the object frame. Given the object's
 pose ``cMo`` in the camera frame it returns its value ``s`` (k,) and the depth
 information its interaction matrix needs. The interaction matrix ``L_s`` (k x 6)
 satisfies ``ṡ = L_s v_c`` with ``v_c = (v, ω)`` the camera twist in the camera
-frame (literature.md §0); normalized image coordinates throughout.
+frame (docs/formulas.md §1); normalized image coordinates throughout.
 
 The depth information is a small vector of *inverse-depth parameters*: ``1/Z``
 for a point; the plane coefficients ``(A, B, C)`` with ``1/Z = A x + B y + C``

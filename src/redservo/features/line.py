@@ -1,4 +1,4 @@
-"""Straight lines ``s = (ρ, θ)`` and cylinders as their two limb lines (literature.md A2).
+"""Straight lines ``s = (ρ, θ)`` and cylinders as their two limb lines (docs/formulas.md §3.2).
 
 An image line is ``x cos θ + y sin θ - ρ = 0`` (normalized coordinates). Its
 interaction matrix (Espiau, Chaumette & Rives 1992; Chaumette 1994, the
@@ -18,11 +18,11 @@ Decisions:
       orthogonal to ``u``), ``D = -|n|²``: the plane through the line
       orthogonal to the interpretation plane, well conditioned whenever the
       line misses the optical centre. Any plane of the pencil gives the same
-      matrix (literature.md A2).
+      matrix (docs/formulas.md §3.2).
     * Plane for a cylinder: the polar plane of the optical centre,
       ``(A, B, C) = -X0⊥``, ``D = |X0⊥|² - R²`` with ``X0⊥`` the axis point nearest
       the optical centre; it contains both contour generators and is exact for
-      both limbs although they slide on the surface (literature.md A2).
+      both limbs although they slide on the surface (docs/formulas.md §3.2).
     * A line (or limb) parallel to the image plane and at or behind it is
       rejected, as is a line through the optical centre (it images to a point)
       or lying in the plane ``Z = 0`` (it images to the line at infinity).
@@ -81,7 +81,7 @@ class CylinderProjection(NamedTuple):
 
 
 def line_interaction(rho: float, theta: float, plane: ArrayLike) -> FloatArray:
-    """Interaction matrix (2, 6) of an image line ``(ρ, θ)`` (literature.md A2).
+    """Interaction matrix (2, 6) of an image line ``(ρ, θ)`` (docs/formulas.md §3.2).
 
     With ``(A, B, C)/D`` = ``plane``::
 
@@ -135,7 +135,7 @@ def _at_infinity(what: str) -> GeometryError:
 
 
 def cylinder_lines(radius: float, axis_c: ArrayLike, point_c: ArrayLike) -> CylinderProjection:
-    """Project a cylinder to its two limb lines (literature.md A2, steps 1-4).
+    """Project a cylinder to its two limb lines (docs/formulas.md §3.2, steps 1-4).
 
     Args:
         radius: Cylinder radius R (m), > 0.

@@ -1,4 +1,4 @@
-"""Decoupled moment features of a set of coplanar points (Tahri & Chaumette 2005; literature.md A4).
+"""Decoupled moment features of a set of coplanar points (Tahri & Chaumette 2005; docs/formulas.md §3.4).
 
 For N coplanar points with normalized images ``(x_k, y_k)``: ``m_ij = Σ x^i y^j``,
 ``xg = m10/N``, ``yg = m01/N``, centred moments ``μ_ij = Σ (x - xg)^i (y - yg)^j``
@@ -18,12 +18,12 @@ image plane, and the translational block of ``(xn, yn, an)`` is ``-I3`` there.
 
 Interaction matrices hold for a general object plane: every feature is a
 function of ``(xg, yg)`` and of the centred moments, so ``L_s`` follows by the
-chain rule from the centroid rows and from ``L_μij`` (literature.md A4, with
+chain rule from the centroid rows and from ``L_μij`` (docs/formulas.md §3.4, with
 ``δ = 0``, ``ε = 1`` for points). The derivatives of ``r1, r2`` with respect to
 the moments use complex-step differentiation, exact to rounding for these
 rational functions.
 
-**Rotation features** (decision; literature.md A4 is [?] on Tahri's exact pair).
+**Rotation features** (decision; the papers do not give the exact pair, docs/formulas.md §3.4).
 ``rotation_features`` selects:
 
 * ``"c4c6"`` (default): ``C4 = I7/I6``, ``C6 = I9/I6``, the third-order invariants
@@ -35,7 +35,7 @@ rational functions.
   Singular set: ``I6 = |c30|⁴ + 9|c21|⁴ + 6|c30|²|c21|² - 16 Re(c30 c̄21³)``
   (× 1/64, with ``c_pq = Σ (z - zg)^p (z̄ - z̄g)^q``) is ≥ 0 by AM-GM and vanishes
   iff ``c30 = c21³/|c21|²``: for every centrally symmetric set (all third-order
-  moments vanish) and for collinear images (checked here, not in literature.md).
+  moments vanish) and for collinear images (checked here; docs/formulas.md §3.4).
 * ``"pxpy"``: ``Px = I1/I3²`` and ``Py = I2/I3³`` (not ViSP's ``a I2/I3³``,
   which scales as s² for points). Also similarity invariants, defined
   everywhere, but ``Py``'s gradient vanishes for symmetric sets.
@@ -214,7 +214,7 @@ def image_moments(xy: ArrayLike) -> ImageMoments:
 
 
 def centroid_interaction(mom: ImageMoments, plane: ArrayLike) -> FloatArray:
-    """Rows ``[L_xg; L_yg]`` (2, 6) of the centroid of points (literature.md A4).
+    """Rows ``[L_xg; L_yg]`` (2, 6) of the centroid of points (docs/formulas.md §3.4).
 
     With ``1/Zg = A xg + B yg + C`` and ``n_ij = μ_ij/N``::
 
@@ -238,7 +238,7 @@ def centred_moment_interaction(
     delta: int = 0,
     eps: float = 1.0,
 ) -> FloatArray:
-    """Interaction row ``L_μij`` (6,) of a centred moment (literature.md A4).
+    """Interaction row ``L_μij`` (6,) of a centred moment (docs/formulas.md §3.4).
 
     One formula for points (``delta = 0, eps = 1``, the default) and regions
     (Chaumette 2004: ``delta = 1, eps = 4``); ``n_ij = μ_ij / μ00``, terms with
@@ -275,7 +275,7 @@ def rotation_invariants(mu: ArrayLike, kind: RotationFeatures = "c4c6") -> NDArr
     """The two rotation features (2,) from ``mu = (μ20, μ11, μ02, μ30, μ21, μ12, μ03)``.
 
     Pure arithmetic, so it also accepts complex input (used for complex-step
-    differentiation). Definitions (literature.md A4)::
+    differentiation). Definitions (docs/formulas.md §3.4)::
 
         I6 = 3 μ12⁴ + 2 μ30 μ12³ + (3 μ30² - 6 μ03 μ21) μ12² - 6 μ30 μ21 (μ21 + μ03) μ12
              + 2 μ30² μ03² + 2 μ21³ μ03 + 3 μ21² μ03² + 3 μ21⁴

@@ -1,4 +1,4 @@
-"""The image of a 3-D point, ``s = (x, y)`` (literature.md A1; CM01 eq. 26)."""
+"""The image of a 3-D point, ``s = (x, y)`` (docs/formulas.md §3.1; CM01 eq. 26)."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def _behind(Z: float) -> GeometryError:
 
 
 def point_interaction(x: float, y: float, inv_z: float) -> FloatArray:
-    """Interaction matrix (2, 6) of a normalized image point (CM01 eq. 26, literature.md A1).
+    """Interaction matrix (2, 6) of a normalized image point (CM01 eq. 26, docs/formulas.md §3.1).
 
     ``L = [[-1/Z, 0, x/Z, x y, -(1 + x²), y], [0, -1/Z, y/Z, 1 + y², -x y, -x]]``
     (CM01 prints its transpose ``L_P^T``).

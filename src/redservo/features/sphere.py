@@ -1,4 +1,4 @@
-"""A sphere seen as an ellipse: centre, area and second-order moments (literature.md A3).
+"""A sphere seen as an ellipse: centre, area and second-order moments (docs/formulas.md §3.3).
 
 A sphere of radius ``r`` and centre ``X0`` (camera frame) images to an ellipse
 with centre ``(xc, yc)``, area ``a`` and normalized centred moments
@@ -6,7 +6,7 @@ with centre ``(xc, yc)``, area ``a`` and normalized centred moments
 optical centre, ``1/Z = A x + B y + C`` with ``(A, B, C) = X0/(|X0|² - r²)``.
 The general interaction matrices come from Chaumette 2004 (T-RO 20(4): eq. 14
 for the centre, eq. 26 for ``n_ij``, and the area formula), as transcribed in
-literature.md A3.
+docs/formulas.md §3.3.
 
 Variants of :class:`SphereFeature`:
 
@@ -21,7 +21,7 @@ Variants of :class:`SphereFeature`:
   ``R² = a/π`` (so that ``πR² = a``) and ``1/z_d = C/(1 + R²)``, which is exactly
   ``1/z_d`` on the optical axis (there ``C = z_d/(z_d² - r²) = (1 + R²)/z_d``).
   It keeps eq. 27's approximations (``-1/z_d`` for ``-(1 + R²)/z_d``, and
-  ``πR²/z_d`` for ``2πR²(1 + R²)/z_d`` on the area row, literature.md A3 and
+  ``πR²/z_d`` for ``2πR²(1 + R²)/z_d`` on the area row, docs/formulas.md §3.3 and
   D.3 item 11) and exists only so that the paper can be replayed as printed.
   It is *not* the derivative of ``s``.
 * ``"moments"``: ``s = (xc, yc, n20, n11, n02)`` with the exact matrices.
@@ -84,7 +84,7 @@ class SphereImage(NamedTuple):
 def sphere_ellipse(radius: float, center_c: ArrayLike) -> SphereImage:
     """Project a sphere of ``radius`` (m) centred at ``center_c`` (3,) in the camera frame.
 
-    With ``m = Z0² - r²`` (literature.md A3):
+    With ``m = Z0² - r²`` (docs/formulas.md §3.3):
     ``xc = X0 Z0/m``, ``yc = Y0 Z0/m``, ``a = π r² sqrt(|X0|² - r²)/m^(3/2)``,
     ``n20 = r²(m + X0²)/(4 m²)``, ``n02 = r²(m + Y0²)/(4 m²)``, ``n11 = r² X0 Y0/(4 m²)``
     (the semi-axis form of A3 with ``a_² - b_² = r²(X0² + Y0²)/m²``, which needs
@@ -126,7 +126,7 @@ def sphere_moments_from_area(xc: float, yc: float, area: float) -> tuple[float, 
     """Return ``(n20, n11, n02)`` of a sphere's ellipse from its centre and area.
 
     A sphere's image has three degrees of freedom. With ``β = b_²`` (squared minor
-    semi-axis) and ``ρ² = xc² + yc²``, the ellipse of literature.md A3 satisfies
+    semi-axis) and ``ρ² = xc² + yc²``, the ellipse of docs/formulas.md §3.3 satisfies
     ``a_² = β (1 + ρ²/(1 + β))`` and ``(a/π)² = a_² β``, i.e. the cubic
     ``β³ + (1 + ρ²) β² - (a/π)² β - (a/π)² = 0``, which has exactly one positive
     root (Descartes). Newton's method from ``β = a/π`` (an upper bound; the cubic
@@ -144,7 +144,7 @@ def sphere_moments_from_area(xc: float, yc: float, area: float) -> tuple[float, 
 
 
 def sphere_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
-    """Exact interaction matrix (3, 6) of ``s = (xc, yc, a)`` (literature.md A3).
+    """Exact interaction matrix (3, 6) of ``s = (xc, yc, a)`` (docs/formulas.md §3.3).
 
     ``L_a = [-a A, -a B, a (3/Zg - C), 3 a yc, -3 a xc, 0]`` with
     ``1/Zg = A xc + B yc + C``; the centre rows use the moments of
@@ -177,7 +177,7 @@ def ellipse_moment_interaction(s: ArrayLike, plane: ArrayLike) -> FloatArray:
     """Exact interaction matrix (5, 6) of ``s = (xc, yc, n20, n11, n02)`` of an ellipse.
 
     Chaumette 2004 eqs. 14 and 26 for a region on the plane ``1/Z = A x + B y + C``
-    (literature.md A3; ``1/Zg = A xc + B yc + C``)::
+    (docs/formulas.md §3.3; ``1/Zg = A xc + B yc + C``)::
 
         L_n20 = [-2(A n20 + B n11), 0, 2((1/Zg + A xc) n20 + B xc n11),
                  2(yc n20 + xc n11), -4 n20 xc, 2 n11]

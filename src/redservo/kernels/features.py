@@ -183,7 +183,7 @@ def project_line(P0: Any, u_in: Any) -> Any:
 @kernel
 def cylinder_lines(R: float, a_in: Any, X0_in: Any) -> Any:
     """``(s, plane, code, value)``: the two limb lines ``(ρ1, θ1, ρ2, θ2)`` of a cylinder and
-    the polar plane (literature.md A2); codes ZERO_AXIS, INSIDE (value: distance to the
+    the polar plane (docs/formulas.md §3.2); codes ZERO_AXIS, INSIDE (value: distance to the
     axis), PARALLEL_BEHIND (value: depth), AT_INFINITY (value: limb number)."""
     s = np.zeros(4)
     plane = np.zeros(3)

@@ -2,7 +2,7 @@
 
 The same formulas as the methods of :class:`~redservo.JointLimits` (limits.py documents
 them): the excess ``s_i`` and gradient ``e2_i = s_i/Δq̄_i`` (CM01 eqs. 5-6), the critical
-test of the iterative scheme (literature.md §D.3 item 9), the smoothing gains γ (eq. 17
+test of the iterative scheme (docs/formulas.md §7.2), the smoothing gains γ (eq. 17
 corrected) and the margin as a fraction of the range. Units: joint units (m or rad).
 """
 

@@ -120,10 +120,11 @@ def joint_limit_term(
     robust: float,
 ) -> Any:
     """``(q̇2, activated)``: the IROS'10 term ``-Σ λ_l,i λ_sec,i P g_i`` (corrected ViSP
-    variant, redundancy/large_projection.py); ``activated`` (n,) booleans."""
+    variant, redundancy/large_projection.py); ``activated`` (n,) int8: 0 inactive, 1 active,
+    2 active with ``1/|P_ii|`` filtered by the robust threshold."""
     n = q.shape[0]
     qdot2 = np.zeros(n)
-    activated = np.zeros(n, dtype=np.bool_)
+    activated = np.zeros(n, dtype=np.int8)
     for i in range(n):
         rng = lp[RANGE, i]
         l0_min = lp[Q_MIN, i] + rho * rng
@@ -140,13 +141,16 @@ def joint_limit_term(
             beyond = q[i] <= l1
         else:
             continue
-        activated[i] = True
+        activated[i] = 1
         lam_l = 1.0 if beyond else sigmoid_gain(q[i], l0, l1)
         p_ii = abs(sign * P[i, i])
         if p_ii < TINY_PII:
             b = 1.0
         else:
-            inv = 1.0 / p_ii if p_ii >= robust else p_ii / (robust * robust)
+            inv = 1.0 / p_ii
+            if p_ii < robust:
+                inv = p_ii / (robust * robust)
+                activated[i] = 2
             b = abs(qdot1[i]) * inv
             if not beyond:
                 b = min(b, 1.0)
@@ -199,7 +203,7 @@ def large_projection(
     qdot2, activated = joint_limit_term(q, qdot1, P, lp, rho, rho1, lambda_tune, p_robust)
     for i in range(n):
         qdot[i] = qdot1[i] + qdot2[i]
-        axes[i] = 1 if activated[i] else 0
+        axes[i] = activated[i]
     svd_outputs(sigma, rank, filtered, iout, fout)
     iout[I_PROJ] = prank
     iout[I_DEGENERATE] = 1 if degenerate else 0

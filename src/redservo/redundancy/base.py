@@ -6,14 +6,14 @@ A law is called exactly as a real robot's controller would call it::
     res = law(J1=J1, e1=e1, q=q, limits=limits, lam=0.5, dt=0.04)
     robot.send_velocity(res.qdot)
 
-Conventions (literature.md §0): ``e1 = C (s - s*)``, ``J1 = C L J(q)`` (m x n),
+Conventions (docs/formulas.md §1): ``e1 = C (s - s*)``, ``J1 = C L J(q)`` (m x n),
 ``ė1 = J1 q̇ + ∂e1/∂t``. Units: ``q̇`` in rad/s or m/s per axis, ``λ`` in 1/s,
 ``dt`` in s, ``e1`` in the task's units, ``de1_dt`` in task units per second.
 
 Feed-forward (CM01 eq. 2): the primary motion is
 ``q̇1 = -λ J1^+ e1 - J1^+ ∂e1/∂t = -λ J1^+ (e1 + ∂e1/∂t / λ)``. Every law works
 with the *effective error* ``e1 + ∂e1/∂t / λ`` so that the predictions of
-CM01 eq. 8 include the feed-forward term (literature.md §D.3 item 10).
+CM01 eq. 8 include the feed-forward term (docs/formulas.md §7.2).
 
 ``secondary`` is an extra joint-space command (an artificial force, in joint
 velocity units), projected by the law's own operator: ``J1^⊥`` for the

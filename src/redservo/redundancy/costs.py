@@ -165,7 +165,7 @@ def occlusion_force(
             instead the (2, 6) camera-space interaction matrix ``L_pa``
             (``ṗ_a = L_pa v_c``) and ``L_pa @ J`` is formed here.
         beta: Sharpness β > 0 of the cost (1/normalized-unit²).
-        J: Optional (6, n) robot Jacobian ``v_c = J(q) q̇`` (literature.md §0).
+        J: Optional (6, n) robot Jacobian ``v_c = J(q) q̇`` (docs/formulas.md §1).
         rcond: Relative singular-value cut-off of the pseudo-inverse ``H^+``.
 
     Returns:

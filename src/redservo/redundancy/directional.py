@@ -8,7 +8,7 @@ the main-task error after the step (eq. 9),
 
 so it may also use the task directions in which it *helps* the main task.
 
-Per control step of period ``dt`` (with the real period, literature.md §E):
+Per control step of period ``dt`` (with the real period, docs/formulas.md §8):
 
 1. ``de = -λ e_eff dt`` (main-task displacement, feed-forward folded in) and
    ``dq1 = J1^+ de`` (eq. 3).
@@ -46,7 +46,7 @@ the sub-threshold singular values (see below). So ``||e1 + J1 q̇ dt||`` is at m
 the classical prediction ``||e1 + J1 q̇1 dt||``, which is ``(1 - λ dt) ||e1||``
 when ``J1`` has full row rank.
 
-Decisions (literature.md §E; recorded for docs/decisions.md):
+Decisions (docs/formulas.md §8; recorded for docs/decisions.md):
 
 * **Eq. 20 sign.** The extracted eq. 20 zeroes the component when ``σ_i z̃_i`` and
   ``ẽ_i + dẽ_i`` have *opposite* signs; the derivation from eq. 18 requires

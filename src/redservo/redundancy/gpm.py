@@ -10,8 +10,8 @@ with ``e2 = (∂h_s/∂q)^T`` the gradient of the joint-limit cost of eqs. 4-6
 feed-forward of eq. 2 is included and ``J1 q̇ = -λ e1 - ∂e1/∂t``.
 
 ``gpm-auto`` (CM01 eqs. 7-9) computes α at every step to stop the most critical
-axis, with eq. 9 corrected to ``α = -(J1⁺e1)_k / (J1^⊥ e2)_k`` (literature.md
-§D.3 item 1; the printed ``J1⁺ e2`` is not even defined).
+axis, with eq. 9 corrected to ``α = -(J1⁺e1)_k / (J1^⊥ e2)_k`` (docs/formulas.md
+§6.2; the printed ``J1⁺ e2`` is not even defined).
 
 Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
@@ -19,7 +19,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   experiment succeeded (§V-A2: fails with 1.5, succeeds with α ≥ 2).
 * Critical axis of ``gpm-auto``: predict ``q̂ = q - λ dt w`` (eq. 8) with
   ``w = J1⁺e1 - J1^⊥ secondary / λ`` (the motion the law would produce with
-  α = 0). The candidates are the critical axes of literature.md §D.3 item 9
+  α = 0). The candidates are the critical axes of docs/formulas.md §7.2
   (:meth:`~redservo.JointLimits.critical`: ``q̂_k`` in the band or beyond, and
   moving toward that limit). Among them k is the one whose ``q̂_k`` is closest to
   its limit *as a fraction of the axis range*

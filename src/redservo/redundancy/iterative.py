@@ -1,12 +1,12 @@
 """CM01's iterative null-space scheme (§III, eqs. 10-21): four variants, one solver.
 
-The command is (eqs. 10, 12, 14, 20; eqs. 19-21 corrected per literature.md §D.3
+The command is (eqs. 10, 12, 14, 20; eqs. 19-21 corrected per docs/formulas.md §14
 items 2-3)::
 
     q̇ = -λ (J1⁺e1 + E a + α J1^⊥ e2) + J1^⊥ secondary
 
 with E (n x n_a) an **orthonormal** basis of ``Ker J1`` (the last ``n - r`` right
-singular vectors, r the numerical rank; literature.md §D.1) and ``a`` built level by
+singular vectors, r the numerical rank; docs/formulas.md §7.1) and ``a`` built level by
 level so that every *constrained* axis k gets ``q̇_k = (1 - γ_k) q̇_k^prev``,
 where ``q̇^prev`` is the command of the previous level (``γ_k = 1``: stopped).
 ``J1 q̇ = -λ e1 - ∂e1/∂t`` is never changed (``J1 E = 0``).
@@ -27,7 +27,7 @@ Algorithm (:func:`iterate_null_space`). Write ``w`` for the motion to constrain,
 
 1. ``v = w + d`` (``+ α J1^⊥ e2`` from level 2 on, see below) is the current
    control divided by -λ; predict ``q̂ = q - λ dt v`` (eq. 8, and eq. 12 or 20
-   at later levels, literature.md §D.3 item 10).
+   at later levels, docs/formulas.md §7.2).
 2. ``K`` = axes not constrained yet that are critical at ``q̂`` (rule below). None:
    stop.
 3. Solve, in the directions still free, ``Δ_K = -γ_K v_K`` for the minimum-norm
@@ -37,7 +37,7 @@ The free directions are kept as an orthonormal basis N (n x f) of
 ``Ker J1 ∩ {δ : δ_C = 0}``, C the constrained axes, starting from ``N = E``; one
 SVD of the small block ``N_K`` (p x f) per level gives both its pseudo-inverse and
 the basis of its kernel Z, and ``N <- N Z``. This is CM01's ``a0 = F⁺s`` and
-``a = a0 + F^⊥ b`` with all constrained rows stacked (§D.1 step 4): the joint
+``a = a0 + F^⊥ b`` with all constrained rows stacked (docs/formulas.md §7.4): the joint
 motions reachable by ``E F^⊥ b`` are exactly those reachable by ``N c``, and with
 both E and N orthonormal the minimum-norm b and c give the same (minimum-norm)
 joint motion. It avoids forming ``F^⊥ = I - F⁺F`` and a second pseudo-inverse
@@ -45,7 +45,7 @@ per level.
 
 Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
 
-* **Critical axis** (literature.md §D.3 item 9, :meth:`~redservo.JointLimits.critical`):
+* **Critical axis** (docs/formulas.md §7.2, :meth:`~redservo.JointLimits.critical`):
   k is critical when ``q̂_k`` lies in the band ``[q̄_min, q̃_min] ∪ [q̃_max, q̄_max]``
   (or beyond the real limit) *and* moves toward that limit (``q̂_k > q_k`` in the
   upper band, ``q̂_k < q_k`` in the lower one; an overshoot past the limit still
@@ -419,7 +419,7 @@ class IterativeSmooth(Iterative):
 class IterativeSmoothE2(_IterativeLaw):
     """The smooth iterative scheme plus ``α J1^⊥ e2`` to move away from the limits (CM01 eqs. 19-21).
 
-    Eqs. 19-21 corrected (literature.md §D.3 items 2-3); the level-1 system is
+    Eqs. 19-21 corrected (docs/formulas.md §7.6); the level-1 system is
     that of eq. 16, unchanged.
 
     Options:

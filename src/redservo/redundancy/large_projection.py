@@ -1,4 +1,4 @@
-"""Large projection operator and joint-limit law of Marey & Chaumette (ICRA'10, IROS'10; literature.md §B3).
+"""Large projection operator and joint-limit law of Marey & Chaumette (ICRA'10, IROS'10; docs/formulas.md §10.3).
 
 Norm-based projector (ICRA'10), with ``v = J1^T e1``::
 
@@ -30,7 +30,7 @@ terms is not bounded.
 
 Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
-* **ViSP variant reproduced: the corrected one** (literature.md §B3, ViSP
+* **ViSP variant reproduced: the corrected one** (docs/formulas.md §10.3, ViSP
   version caveat; PRs lagadic/visp#1945 and #1979). ``b_i`` is unbounded beyond
   l1, clamped to at most 1 in the transition zone [l0, l1], and ``b_i := 1``
   when ``|(P g_i)_i| < 10 ε_machine``. The older ViSP behaviour (skipping the
@@ -70,7 +70,7 @@ from redservo.kernels import lazy
 from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Flag
+from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, rank_events, task_svd
 
@@ -318,6 +318,16 @@ class LargeProjection(Law):
         if iout[_I_DEGENERATE]:
             info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
         activated = tuple(int(i) for i in np.flatnonzero(axes))
+        filtered = int(np.count_nonzero(axes == 2))
+        if filtered:
+            events.append(
+                Event(
+                    Flag.DAMPED,
+                    1.0 / P_FILTER,
+                    f"joint-limit term: |P_ii| < {P_FILTER:g} on {filtered} axis(es), 1/|P_ii| "
+                    f"filtered (b_i bounded by {1.0 / P_FILTER:.3g} |q̇1_i|)",
+                )
+            )
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,

@@ -4,7 +4,7 @@
 
 * ``J1^+ = V_r diag(1/σ_r) U_r^T`` (n x m), the Moore-Penrose pseudo-inverse;
 * ``E = V[:, r:]`` (n x (n - r)), an **orthonormal** basis of ``Ker J1``
-  (literature.md §D.1: CM01's minimal-norm property holds in joint space only
+  (docs/formulas.md §7.1: CM01's minimal-norm property holds in joint space only
   with an orthonormal E);
 * ``J1^⊥ = I - J1^+ J1 = E E^T``.
 

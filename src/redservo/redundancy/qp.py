@@ -1,4 +1,4 @@
-"""Velocity-level bounded least squares: the main task over hard joint limits (literature.md §B5).
+"""Velocity-level bounded least squares: the main task over hard joint limits (docs/formulas.md §10.5).
 
 ::
 
@@ -114,7 +114,7 @@ def qp_velocity_bounds(
     margin: float = 0.0,
     v_max: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, tuple[int, ...]]:
-    """Return ``(q̇_min, q̇_max, conflicts)``, the (n,) bounds of the QP (literature.md §B5).
+    """Return ``(q̇_min, q̇_max, conflicts)``, the (n,) bounds of the QP (docs/formulas.md §10.5).
 
     ``conflicts`` lists the joints whose push-back toward the allowed region
     exceeds ``v_max``; their velocity is fixed at ``±v_max`` (``q̇_min = q̇_max``).

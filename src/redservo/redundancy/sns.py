@@ -1,6 +1,6 @@
-"""Saturation in the Null Space (Flacco, De Luca & Khatib, ICRA 2012; literature.md §B4).
+"""Saturation in the Null Space (Flacco, De Luca & Khatib, ICRA 2012; docs/formulas.md §10.4).
 
-Velocity bounds for one control period ``T = dt`` (literature.md §B4)::
+Velocity bounds for one control period ``T = dt`` (docs/formulas.md §10.4)::
 
     q̇_min,i = margin · max{ (q_min,i - q_i)/T, -v_max,i, -√(2 a_max,i (q_i - q_min,i)) }
     q̇_max,i = margin · min{ (q_max,i - q_i)/T,  v_max,i,  √(2 a_max,i (q_max,i - q_i)) }
@@ -16,7 +16,7 @@ The task direction is kept and only its magnitude is scaled:
 
 Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
-* **Masking fix** (literature.md §B4): the task-scaling step only considers the
+* **Masking fix** (docs/formulas.md §10.4): the task-scaling step only considers the
   joints not yet saturated (``W_ii = 1``). A literal transcription re-selects a
   saturated joint (its ``a_i`` is only numerically 0), loops and returns
   infeasible velocities. The loop is capped at ``n + 1`` iterations.
@@ -125,7 +125,7 @@ def sns_velocity_bounds(
     a_max: FloatArray | None = None,
     margin: float = 1.0,
 ) -> tuple[FloatArray, FloatArray]:
-    """Return the (n,) joint-velocity bounds ``(q̇_min, q̇_max)`` of SNS (literature.md §B4).
+    """Return the (n,) joint-velocity bounds ``(q̇_min, q̇_max)`` of SNS (docs/formulas.md §10.4).
 
     Args:
         q: (n,) joint positions (m or rad).

@@ -1,4 +1,4 @@
-"""Weighted least norm (Chan & Dubey, IEEE T-RA 11(2):286-292, 1995; literature.md §B1).
+"""Weighted least norm (Chan & Dubey, IEEE T-RA 11(2):286-292, 1995; docs/formulas.md §10.1).
 
 ::
 
@@ -8,7 +8,7 @@
     w_i = 1 + |∂H/∂q_i|  if joint i moves toward a limit,  else 1
 
 The factor is 1/4 per joint (each term is 1 at mid-range), not Liégeois' 1/n
-(literature.md §B1). WLN only *slows* motion toward a limit; it does not
+(docs/formulas.md §10.1). WLN only *slows* motion toward a limit; it does not
 guarantee avoidance when the task demands that motion.
 
 Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
@@ -28,7 +28,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   decides from the command the law would send *without* weighting,
   ``q̇0 = J1⁺ ẋ + J1^⊥ secondary`` (the classical law): joint i moves toward a
   limit when ``sign(∂H/∂q_i) q̇0_i > 0``, the common equivalent of the paper's
-  rule (literature.md §B1). This keeps the law a pure function.
+  rule (docs/formulas.md §10.1). This keeps the law a pure function.
 * **``mode="history"``** reproduces the paper's rule: joint i is penalized when
   ``|∂H/∂q_i(q_k)| - |∂H/∂q_i(q_{k-1})| >= 0``. Such a law instance remembers
   the previous ``|∂H/∂q|`` (it is ``stateful``; call :meth:`~Law.reset` between
@@ -40,7 +40,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   (the weighted gradient projection), which lies in ``Ker J1`` and is damped on
   the joints the law penalizes. With no penalized joint it is ``J1^⊥ secondary``.
 * **Square ``J1``.** For a square, full-rank ``J1`` (m = n) the law reduces to
-  ``J1⁻¹ ẋ`` whatever W is (literature.md §B1, §G): WLN does nothing then,
+  ``J1⁻¹ ẋ`` whatever W is (docs/formulas.md §10.1): WLN does nothing then,
   except that a joint exactly at a limit and pushed further is blocked (its
   ``1/w_i = 0``), which makes the task least-squares.
 * ``diagnostics.critical`` is ``((penalized joints),)``: the joints with

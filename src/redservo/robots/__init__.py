@@ -2,9 +2,9 @@
 
 Every model is a :class:`Robot`: ``fkine(q)`` is the camera pose ``bMc`` and
 ``jacobian(q)`` the 6 x n ``J(q) = cVe · eJe(q)`` with ``v_c = J(q) q̇`` in the
-camera frame (literature.md §0). Shipped models, by name for :func:`make_robot`:
+camera frame (docs/formulas.md §1). Shipped models, by name for :func:`make_robot`:
 
-* ``"afma6"`` — :class:`Afma6`, the 6-DOF gantry of CM01 (literature.md §F).
+* ``"afma6"`` — :class:`Afma6`, the 6-DOF gantry of CM01 (docs/formulas.md §11.2).
 * ``"humanoid9"`` — :class:`Humanoid9`, CM01's 9-DOF virtual torso.
 * ``"panda"`` — :class:`Panda`, the 7-DOF Franka Emika Panda.
 

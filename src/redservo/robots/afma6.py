@@ -1,11 +1,11 @@
-"""The Afma6 gantry robot of CM01's experiments, with the kinematic model of literature.md §F.
+"""The Afma6 gantry robot of CM01's experiments, with the kinematic model of docs/formulas.md §11.2.
 
 Joints (``Afma6.joint_names``): ``x, y, z`` are the gantry translations (m);
 ``A, B, C`` are the wrist rotations (rad). ``A`` turns about the base z axis,
 and the last two wrist joints are mechanically coupled: the angle that enters
 the model is ``C' = C - g B`` with ``g = 0.009091``; the wrist has a constant
 offset ``L = -0.06924`` m. With ``c1, s1 = cos A, sin A``, ``c2, s2 = cos B, sin B``,
-``c3, s3 = cos C', sin C'`` (literature.md §F, re-derived and checked against
+``c3, s3 = cos C', sin C'`` (docs/formulas.md §11.2, re-derived and checked against
 finite differences in ``tests/test_robots.py``)::
 
     fRe = [[ s1 s2 c3 + c1 s3, -s1 s2 s3 + c1 c3, -s1 c2],
@@ -19,7 +19,7 @@ columns ``A: (0, 0, 1)``, ``B: (c1 + g s1 c2, s1 - g c1 c2, -g s2)`` (the
 ``-g`` share of the C axis is the coupling), ``C: (-s1 c2, c1 c2, s2)``; then
 ``eJe = blkdiag(fRe^T, fRe^T) fJe``.
 
-Choices (literature.md §F):
+Choices (docs/formulas.md §11.2):
 
 * Default joint limits: the older ViSP set (ViSP 3.5, the release Debian
   packages), ``joint_limits="visp3.5"``; the set updated in Sept. 2024 is
@@ -73,13 +73,13 @@ AFMA6_JOINT_LIMITS: Final[dict[str, tuple[tuple[float, ...], tuple[float, ...]]]
         (0.6001, 0.6701, 0.4601, 2.7301, 2.4801, 1.5901),
     ),
 }
-"""Named limit sets ``(q_min, q_max)`` (m, m, m, rad, rad, rad), literature.md §F."""
+"""Named limit sets ``(q_min, q_max)`` (m, m, m, rad, rad, rad), docs/formulas.md §11.2."""
 
 AFMA6_TOOLS: Final[dict[str, FloatArray]] = {
     "ccmop": make_transform(t=(0.0117, 0.0033, 0.2272), rotvec=(1.231184, 1.201529, 1.221731)),
     "generic": np.eye(4),
 }
-"""Named hand-eye transforms ``eMc`` (4x4), literature.md §F."""
+"""Named hand-eye transforms ``eMc`` (4x4), docs/formulas.md §11.2."""
 
 
 class Afma6(Robot):
@@ -144,7 +144,7 @@ class Afma6(Robot):
         )
 
     def fkine_ee(self, q: FloatArray) -> FloatArray:
-        """Return ``fMe`` (4x4) for a validated (6,) q (literature.md §F)."""
+        """Return ``fMe`` (4x4) for a validated (6,) q (docs/formulas.md §11.2)."""
         return np.asarray(_K.afma6_fkine_ee(np.ascontiguousarray(q), COUPLING, OFFSET))
 
     def jacobe_base(self, q: FloatArray) -> FloatArray:
@@ -190,7 +190,7 @@ class Afma6(Robot):
         The gantry is drawn as its three carriages, each translated along its axis from
         the base origin, then the wrist: ``"A"`` (rotated about the base z axis by A, at
         the end of the z carriage), ``"B"`` (the wrist offset L along the rotated x axis)
-        and ``"ee"`` (``fMe``, literature.md §F). The camera is ``fkine(q)``.
+        and ``"ee"`` (``fMe``, docs/formulas.md §11.2). The camera is ``fkine(q)``.
 
         Args:
             q: (6,) joint positions (m, m, m, rad, rad, rad).

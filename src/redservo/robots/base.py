@@ -3,7 +3,7 @@
 A robot carries an eye-in-hand camera. ``fkine(q)`` is the camera pose ``bMc``
 in the base frame and ``jacobian(q)`` is the 6 x n matrix ``J(q)`` of the
 papers, ``v_c = J(q) q̇``, with ``v_c = (v, ω)`` the camera twist expressed in
-the camera frame (literature.md §0): ``J(q) = cVe · eJe(q)``.
+the camera frame (docs/formulas.md §1): ``J(q) = cVe · eJe(q)``.
 
 Subclasses implement ``fkine_ee(q)`` (``bMe``, 4x4) and ``jacobe(q)`` (``eJe``,
 6 x n: the end-effector twist ``(v_e, ω_e)`` expressed in the end-effector frame,

@@ -3,7 +3,7 @@
 CM01 says only that the torso has "pelvis (3 d.o.f), spine (1 d.o.f), neck
 (3 d.o.f), eyes (2 d.o.f)" and that it was modelled with Denavit–Hartenberg
 parameters; it gives no numbers. Everything below is our choice, made to be
-anatomically plausible (literature.md §D.2 records the paper's statement).
+anatomically plausible (docs/formulas.md §11.4 records the paper's statement).
 
 Frames. The base frame is on the floor, midway between the feet: x forward,
 y to the person's left, z up. ``eMc`` maps the last DH frame (x along the gaze)
