@@ -42,6 +42,7 @@ __all__ = [
     "execute",
     "fallback_lines",
     "make_jobs",
+    "merge",
     "run_job",
 ]
 
@@ -64,10 +65,11 @@ class Engine(NamedTuple):
     """Use the compiled loop where it applies."""
 
     def per_job(self, n_samples: int) -> int:
-        """Samples per job: one locally; on Dask up to 16 (about 64 jobs in all), so that the
-        per-task cost of the scheduler (~1 ms) stays small."""
+        """Samples per job: one per job with up to 8 local workers (one more per 8 workers,
+        so that the client's writes keep up); on Dask up to 16 (about 64 jobs in all), so
+        that the scheduler's cost per task (~1 ms) stays small."""
         if self.scheduler is None:
-            return 1
+            return 1 + self.workers // 8
         return max(1, min(16, math.ceil(n_samples / 64)))
 
 
@@ -166,6 +168,15 @@ def run_job(job: Job) -> JobResult:
 OnResult = Callable[[JobResult], None]
 
 
+def merge(results: Sequence[JobResult]) -> JobResult:
+    """One result of several jobs that finished together (stored in one atomic write)."""
+    rows = [row for r in results for row in r.rows]
+    paths: Counter[tuple[str, str]] = Counter()
+    for r in results:
+        paths.update(r.paths)
+    return JobResult(rows, dict(paths))
+
+
 def _local(jobs: Iterable[Job], workers: int, on_result: OnResult) -> None:
     if workers == 1:
         for job in jobs:
@@ -181,12 +192,10 @@ def _local(jobs: Iterable[Job], workers: int, on_result: OnResult) -> None:
                 # A bounded queue: rows are stored while later jobs are still queued.
                 while len(pending) >= 2 * workers:
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        on_result(fut.result())
+                    on_result(merge([fut.result() for fut in done]))
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    on_result(fut.result())
+                on_result(merge([fut.result() for fut in done]))
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -234,18 +243,21 @@ def _dask(jobs: Iterable[Job], scheduler: str, on_result: OnResult) -> None:
     it = iter(jobs)
     with connect(scheduler) as client:
         threads = max(1, sum(client.nthreads().values()))
-        # A bounded queue (two jobs per worker thread), refilled as jobs complete.
+        # A bounded queue (two jobs per worker thread), refilled as jobs complete; the jobs
+        # that completed together are stored together.
         first = [client.submit(run_job, job, pure=False) for job, _ in zip(it, range(2 * threads))]
         if not first:
             return
         queue = distributed.as_completed(first, loop=client.loop)
-        for fut in queue:
-            result: JobResult = fut.result()
-            fut.release()
-            on_result(result)
-            job = next(it, None)
-            if job is not None:
-                queue.add(client.submit(run_job, job, pure=False))
+        for batch in queue.batches():
+            results: list[JobResult] = [fut.result() for fut in batch]
+            for fut in batch:
+                fut.release()
+            on_result(merge(results))
+            for _ in batch:
+                job = next(it, None)
+                if job is not None:
+                    queue.add(client.submit(run_job, job, pure=False))
 
 
 def execute(jobs: Iterable[Job], engine: Engine, on_result: OnResult) -> None:
