@@ -158,3 +158,80 @@ def test_the_loop_as_plain_python_gives_the_compiled_numbers(
         assert compiled is not None and plain is not None
         assert _same_summary(compiled.to_dict(), plain.to_dict())
         assert compiled.iterations == 12
+
+
+_OPTIONS: dict[str, list[dict[str, Any]]] = {
+    "gpm-auto": [{}, {"alpha_max": 5.0, "critical_rule": "current"}],
+    "iterative": [{}, {"max_levels": 1, "constraint_rcond": 0.01}],
+    "iterative-smooth-e2": [{}, {"alpha": 0.5}],
+    "directional": [{}, {"use_joint_limits": False}],
+    "sns": [{}, {"v_max": 0.05, "margin": 0.02}],
+    "large-projection": [{}, {"projector": "norm"}],
+}
+
+
+def _random_step(rng: Any, lim: Any) -> tuple[Any, ...]:
+    """A control step's inputs: J1 full rank, rank-deficient or nearly singular; q with joints
+    in their bands; a previous command within the velocity limits."""
+    import numpy as np
+
+    n = lim.n
+    m = int(rng.choice([2, 3, 6]))
+    J1 = rng.normal(size=(m, n))
+    kind = rng.integers(3)
+    if kind == 1 and m > 1:
+        J1[-1] = J1[0] * rng.uniform(-2, 2)
+    elif kind == 2:
+        U, s, Vt = np.linalg.svd(J1, full_matrices=False)
+        s[-1] = s[0] * 10.0 ** rng.uniform(-9, -3)
+        J1 = (U * s) @ Vt
+    e1 = rng.normal(size=m) * 10.0 ** rng.uniform(-3, 0)
+    near = rng.random(n) < 0.5
+    margin = rng.uniform(0.002, 0.15, n) * lim.range
+    upper = rng.random(n) < 0.5
+    q = np.where(upper, lim.q_max - margin, lim.q_min + margin)
+    q = np.where(near, q, lim.q_min + rng.uniform(0.2, 0.8, n) * lim.range)
+    prev = rng.uniform(-0.8, 0.8, n) * lim.qdot_max
+    lam, dt = float(rng.choice([0.3, 1.0, 5.0])), float(rng.choice([0.04, 0.08]))
+    return np.ascontiguousarray(J1), e1, q, prev, lam, dt
+
+
+@pytest.mark.parametrize("robot", ["afma6", "panda"])
+def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
+    """Every compiled law (options varied, robust on and off) on random steps: the loop's
+    command is the law's bit for bit, and its flag mask holds exactly the law's events."""
+    import numpy as np
+
+    from redservo import make_law
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.campaign.loop_kernel import ABORT_INFEASIBLE, _law
+    from redservo.errors import InfeasibleError
+    from redservo.kernels.pack import limits_pack
+    from redservo.kernels.step import LAW_IDS
+    from redservo.robots import make_robot
+
+    rng = np.random.default_rng(7)
+    lim = make_robot(robot).limits(0.1)
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    raised: set[int] = set()
+    for method in LAW_IDS:
+        for opts in _OPTIONS.get(method, [{}]):
+            for robust in (True, False):
+                law = make_law(method, robust=robust, **opts)
+                args = _law_args(law, lim.n)
+                for _ in range(25):
+                    J1, e1, q, prev, lam, dt = _random_step(rng, lim)
+                    sim = (lam, dt, 1e-3, True, np.ones(lim.n), False)
+                    z = np.zeros(lim.n)
+                    qd, bits, _, abort = _law(J1, e1, q, prev, z, False, args, limits, sim)
+                    try:
+                        res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev)
+                    except InfeasibleError:
+                        assert abort == ABORT_INFEASIBLE, method
+                        continue
+                    assert abort == 0
+                    assert np.array_equal(qd, res.qdot), (method, opts, robust)
+                    assert bits == _flag_bits(res.diagnostics.events), (method, opts, robust)
+                    raised.add(bits)
+    assert len(raised) >= 8  # many combinations of flags were met

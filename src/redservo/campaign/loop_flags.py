@@ -5,7 +5,9 @@ were raised (the run summary counts them). :func:`law_flags` applies the rules o
 law's ``compute`` in :mod:`redservo.redundancy` (``rank_events`` and the law's own events)
 to the integer and float outputs of its kernel, and :func:`safety_flags` those of
 :func:`redservo.redundancy.safety.safety_events`; the messages and numbers are not needed.
-tests/test_campaign_fast.py checks the flag counts against the object path.
+tests/test_campaign_fast.py checks the masks against the law objects' events on random steps
+(every law, options varied, robust on and off) and the flag counts of whole runs: a change of
+a law's events must be mirrored here, and those tests say so.
 """
 
 from __future__ import annotations
@@ -58,13 +60,23 @@ _ITER_LAST = LAW_IDS["iterative-smooth-e2"]
 _DIRECTIONAL = LAW_IDS["directional"]
 _WLN = LAW_IDS["wln"]
 _SNS = LAW_IDS["sns"]
+_LARGE_PROJECTION = LAW_IDS["large-projection"]
 I_SNS_BAD, F_SNS_SCALE = 6, 2
 """Where :func:`redservo.kernels.step.law_step` packs ``sns``'s infeasible joint and scale."""
 
 
 @kernel
 def law_flags(
-    law_id: int, m: int, n: int, iout: Any, fout: Any, axf: Any, vec: Any, fopt: Any, has_cap: bool
+    law_id: int,
+    m: int,
+    n: int,
+    iout: Any,
+    fout: Any,
+    axes: Any,
+    axf: Any,
+    vec: Any,
+    fopt: Any,
+    has_cap: bool,
 ) -> int:
     """Bit mask of the flags a law's ``compute`` raises, from its kernel's outputs.
 
@@ -120,6 +132,10 @@ def law_flags(
         if iout[I_WRANK] < rank:
             bits |= LEAST_SQUARES
         return bits
+    if law_id == _LARGE_PROJECTION:
+        for i in range(n):
+            if axes[i] == 2:  # its robust 1/|P_ii| filter acted on axis i
+                damped_b = DAMPED
     return rank_b | damped_b  # classical, large-projection: no NO_REDUNDANCY
 
 

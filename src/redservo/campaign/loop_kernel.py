@@ -205,13 +205,13 @@ def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: An
     lam, dt = sim[0], sim[1]
     n = q.shape[0]
     zn = np.zeros(n)
-    qd, iout, fout, _, axf, vec, sout = law_step(
+    qd, iout, fout, axes, axf, vec, sout = law_step(
         law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
         zn, False, prev, True, hist, has_hist,
     )  # fmt: skip
     if law_id == _SNS and iout[I_SNS_BAD] >= 0:
         return qd, 0, axf, ABORT_INFEASIBLE
-    bits = law_flags(law_id, e1.shape[0], n, iout, fout, axf, vec, fopt, has_cap)
+    bits = law_flags(law_id, e1.shape[0], n, iout, fout, axes, axf, vec, fopt, has_cap)
     bits |= safety_flags(sout[0], sout[1], sout[2] != 0, sout[3] != 0, sout[5] != 0, sout[7] != 0)
     return qd, bits, axf, 0
 
