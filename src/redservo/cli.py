@@ -4,7 +4,7 @@
     redservo compare SCENARIO --methods a,b,c [--set ...] [--out DIR]
     redservo list [-q]
     redservo reproduce [--out DIR] [--only ID[,ID]] [--fast] [--robustness N] [--seed S]
-                       [--workers K] [--no-pixel-noise]
+                       [--workers K] [--no-pixel-noise] [--sensor ideal|image]
     redservo campaign CAMPAIGN [--methods a,b] [--set ...] [--samples N] [--seed S]
                       [--workers K | --scheduler tcp://HOST:PORT] [--out DIR] [--wait] [--repair]
     redservo bench [--repeat N]
@@ -263,6 +263,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             seed=args.seed,
             workers=args.workers,
             pixel_noise=False if args.no_pixel_noise else None,
+            sensor=args.sensor,
         )
     print("\n".join(console_summary(report, Path(args.out))))
     return 0
@@ -389,6 +390,13 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         metavar="K",
         help="processes of the robustness sweep (default: the number of cores)",
+    )
+    rp.add_argument(
+        "--sensor",
+        choices=("ideal", "image"),
+        default="ideal",
+        help="image: also run every experiment with its features measured in the rendered "
+        "camera image, and report per claim whether it still holds (needs redservo[vision])",
     )
     rp.add_argument(
         "--no-pixel-noise",

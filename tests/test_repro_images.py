@@ -1,0 +1,41 @@
+"""`redservo reproduce --sensor image`: every claim's verdict through rendered images."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("cv2", reason="the image sensor needs redservo[vision] (opencv)")
+
+from redservo.cli import main
+
+
+def test_reproduce_through_images_reports_every_claim(tmp_path) -> None:
+    out = tmp_path / "rep"
+    assert (
+        main(
+            [
+                "reproduce",
+                "--fast",
+                "--only",
+                "mc05-occlusion",
+                "--sensor",
+                "image",
+                "--out",
+                str(out),
+                "-q",
+                "--format",
+                "png",
+            ]
+        )
+        == 0
+    )
+    report = json.loads((out / "report.json").read_text())
+    claims = [c for e in report["experiments"] for c in e["claims"]]
+    images = report["through_images"]
+    assert len(images) == len(claims) > 0
+    md = (out / "report.md").read_text()
+    assert "| through images |" in md and "## Through images" in md
+    # The occlusion is still avoided when the dots are detected in the image.
+    assert any(v for v in images.values())
