@@ -11,6 +11,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -142,10 +143,23 @@ def test_real_scheduler_and_two_worker_processes(
                 procs.append(subprocess.Popen([*worker, *more, "--death-timeout", "60"], **opts))
         with distributed.Client(address, timeout=60) as client:
             client.wait_for_workers(2, timeout=120)
-            d = load_campaign("cm01-gaze")
-            res = run_campaign(
-                d, samples=4, methods=METHODS, scheduler=address, out=tmp_path / "c", progress=False
-            )
+            done: dict[str, Any] = {}
+
+            def campaign() -> None:
+                try:
+                    done["res"] = run_campaign(
+                        load_campaign("cm01-gaze"), samples=4, methods=METHODS,
+                        scheduler=address, out=tmp_path / "c", progress=False,
+                    )  # fmt: skip
+                except BaseException as exc:  # reported below
+                    done["exc"] = exc
+
+            thread = threading.Thread(target=campaign, daemon=True)
+            thread.start()
+            thread.join(timeout=300.0)  # bounded: the finally below stops the cluster
+            assert not thread.is_alive(), "the campaign did not finish within 300 s"
+            assert "exc" not in done, done.get("exc")
+            res = done["res"]
             ran = client.run(lambda: len(engine._DEFS))  # a definition cached = jobs ran there
         assert _exact(res.rows) == local_rows, log.read_text()[-2000:]
         assert sorted(ran.values()) == [1, 1], ran
