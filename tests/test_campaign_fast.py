@@ -133,7 +133,7 @@ def test_a_run_the_law_would_abort_goes_to_the_object_path(
         raise RuntimeError("a bug in the loop")
 
     monkeypatch.setattr(fastloop, "_run_loop", broken)
-    assert fast_run(exp, "sns", None) == (None, "the object path would raise")
+    assert fast_run(exp, "sns", None) == (None, "the compiled loop raised RuntimeError")
     d = load_campaign("cm01-gaze")
     rows = run_campaign(d, samples=1, methods=["sns"], workers=1, progress=False).rows
     ref = run_campaign(d, samples=1, methods=["sns"], workers=1, progress=False, fast=False).rows

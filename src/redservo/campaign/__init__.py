@@ -80,7 +80,9 @@ stored in the ``attempts`` column. After ``max_attempts`` rejections a
 :class:`~redservo.errors.ScenarioError` says the variation spec is too wide.
 
 Determinism and resumption. A sample depends only on ``(definition, seed, index)``, so the
-rows do not depend on the number of workers or on the order runs finish. With an output
+rows do not depend on the number of workers or on the order runs finish, nor on the engine
+(local processes, or a Dask cluster with ``scheduler=``) or on whether a run took the compiled
+loop, which gives the rows of the object path (docs/scaling.md). With an output
 directory, every finished row is appended to ``samples.csv`` (fsynced at once) and the
 definition's fingerprint (SHA-256 of the canonical JSON of the definition, the base scenario
 after overrides, the seed and :data:`FORMAT_VERSION`; not ``methods``, ``samples`` or

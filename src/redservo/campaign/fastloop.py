@@ -350,6 +350,6 @@ def fast_run(
 
     try:
         summary = fast_summary(exp, law)
-    except Exception:  # the object path runs it again and records what happens
-        summary = None
+    except Exception as exc:  # the object path runs it again and records what happens
+        return None, f"the compiled loop raised {type(exc).__name__}"
     return summary, FAST_PATH if summary is not None else "the object path would raise"
