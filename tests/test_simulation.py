@@ -277,3 +277,18 @@ def test_the_log_grows_as_it_fills_and_an_empty_log_saves(tmp_path) -> None:
     assert empty.outcome == "target_lost" and len(empty.log) == 0
     empty.save(tmp_path / "empty")
     assert (tmp_path / "empty" / "log.csv").read_text().startswith("t,q[0]")
+
+
+def test_a_log_with_no_row_cap_grows_without_bound() -> None:
+    """The servo loop's recorder uses ``LogBuffer(None, ...)``: no cap, doubled as it fills."""
+    from redservo.redundancy.base import Diagnostics
+    from redservo.simulation import LogBuffer
+    from redservo.task import TaskState
+
+    lim = Afma6().limits()
+    state = TaskState(np.zeros(2), np.zeros(2), np.zeros(2), np.zeros((2, 6)), np.zeros((2, 6)), ())
+    buf = LogBuffer(None, 6, 2, 2)
+    for i in range(3000):
+        buf.append(0.01 * i, Q0, np.zeros(6), np.zeros(6), state, lim, Diagnostics(method="x"))
+    log = buf.to_log((), ())
+    assert len(log) == 3000 and log.t[-1] == pytest.approx(29.99)

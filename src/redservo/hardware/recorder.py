@@ -78,32 +78,23 @@ class ServoResult:
 
 
 class LoopRecorder:
-    """Rows of a servo run, one per iteration, in the simulator's :class:`LogBuffer`, grown
-    as needed (a loop on hardware may have no iteration cap), plus a flag per row saying
-    whether a fresh measurement was used.
+    """Rows of a servo run, one per iteration, in the simulator's :class:`LogBuffer` with no
+    row cap (it grows as it fills: a loop on hardware may have no iteration cap), plus a flag
+    per row saying whether a fresh measurement was used.
 
     Args:
         n: Number of joints.
         k: Number of stacked feature components.
         m: Task dimension.
-        capacity: Initial number of rows (doubled when full).
     """
 
-    def __init__(self, n: int, k: int, m: int, capacity: int = 1024) -> None:
+    def __init__(self, n: int, k: int, m: int) -> None:
         self.n, self.k, self.m = n, k, m
-        self.buffer = LogBuffer(max(int(capacity), 1), n, k, m)
+        self.buffer = LogBuffer(None, n, k, m)
         self.measured: list[bool] = []
 
     def __len__(self) -> int:
         return self.buffer.rows
-
-    def _grow(self) -> None:
-        old = self.buffer
-        new = LogBuffer(2 * old.buf["t"].shape[0], self.n, self.k, self.m)
-        for name, arr in old.buf.items():
-            new.buf[name][: old.rows] = arr[: old.rows]
-        new.rows, new.diagnostics = old.rows, old.diagnostics
-        self.buffer = new
 
     def append(
         self,
@@ -119,8 +110,6 @@ class LoopRecorder:
     ) -> None:
         """Add one row: time since start (s), joints, the command sent, the task state used,
         the law's diagnostics, and whether the measurement was fresh."""
-        if self.buffer.rows == self.buffer.buf["t"].shape[0]:
-            self._grow()
         self.buffer.append(t, q, qdot, twist, state, limits, diagnostics)
         self.measured.append(measured)
 

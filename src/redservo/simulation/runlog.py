@@ -125,7 +125,7 @@ class LogBuffer:
     """Preallocated rows of a run (the simulator's and the servo loop's recorder).
 
     Args:
-        capacity: Maximum number of rows.
+        capacity: Maximum number of rows, or None for no cap (a servo loop on hardware).
         n: Joints; k: stacked feature components; m: task dimension.
     """
 
@@ -133,11 +133,12 @@ class LogBuffer:
     """Rows allocated at first; the buffer doubles as it fills (up to ``capacity``), so a
     huge iteration cap costs nothing until it is used."""
 
-    def __init__(self, capacity: int, n: int, k: int, m: int) -> None:
+    def __init__(self, capacity: int | None, n: int, k: int, m: int) -> None:
         self.capacity = capacity
         self.rows = 0
         self.diagnostics: list[Diagnostics] = []
-        self.buf = self._alloc(min(capacity, self._FIRST), n, k, m)
+        first = self._FIRST if capacity is None else min(capacity, self._FIRST)
+        self.buf = self._alloc(first, n, k, m)
 
     @staticmethod
     def _alloc(N: int, n: int, k: int, m: int) -> dict[str, FloatArray]:
@@ -164,7 +165,9 @@ class LogBuffer:
 
     def _grow(self) -> None:
         old = self.buf
-        size = min(self.capacity, 2 * old["t"].shape[0])
+        size = 2 * old["t"].shape[0]
+        if self.capacity is not None:
+            size = min(self.capacity, size)
         n, k, m = old["q"].shape[1], old["s"].shape[1], old["e1"].shape[1]
         new = self._alloc(size, n, k, m)
         for name, arr in old.items():
