@@ -34,7 +34,7 @@ for m in METHODS:
     laws[m] = time.perf_counter() - t
 t2 = time.perf_counter()
 from redservo.bench_cases import bench_cases
-from redservo.kernels.bind import compiled_step
+from redservo.binding import compiled_step
 c = bench_cases(scaling=())[0]
 s = compiled_step(c.robot, c.scene, c.task, make_law("classical"), limits=c.limits, lam=0.5, dt=0.04)
 t3 = time.perf_counter()

@@ -206,8 +206,8 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
     from redservo.campaign.fastloop import _flag_bits, _law_args
     from redservo.campaign.loop_kernel import ABORT_INFEASIBLE, _law
     from redservo.errors import InfeasibleError
-    from redservo.kernels.pack import limits_pack
     from redservo.kernels.step import LAW_IDS
+    from redservo.packs import limits_pack
     from redservo.robots import make_robot
 
     rng = np.random.default_rng(7)

@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from redservo import METHODS, JointLimits, make_law
 from redservo.bench_cases import bench_cases
-from redservo.kernels.bind import compiled_qp_step, compiled_step
-from redservo.kernels.pack import limits_pack
+from redservo.binding import compiled_qp_step, compiled_step
+from redservo.packs import limits_pack
 from redservo.redundancy.kio import law_options
 
 numba = pytest.importorskip("numba", reason="the compiled path needs numba (redservo[fast])")

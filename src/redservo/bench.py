@@ -3,9 +3,9 @@
 For each case of :mod:`redservo.bench_cases` and each method, up to four paths are timed:
 
 * ``compiled``: the whole step (kinematics, features, ``J1``, law, safety) as one kernel
-  call (:func:`redservo.kernels.bind.compiled_step`); for ``qp`` the compiled task, one
+  call (:func:`redservo.binding.compiled_step`); for ``qp`` the compiled task, one
   kernel, the daqp solver (a Python library) and one kernel
-  (:func:`redservo.kernels.bind.compiled_qp_step`);
+  (:func:`redservo.binding.compiled_qp_step`);
 * ``api``: the same step through the public objects, ``robot.kinematics`` then
   ``task.evaluate`` then ``law(...)`` (what :func:`redservo.simulation.simulate` runs);
 * ``law``: the law's public call alone, given ``J1`` and ``e1``;
@@ -156,7 +156,7 @@ def _items(
     case: BenchCase, method: str, paths: Sequence[str]
 ) -> list[tuple[str, Callable[[], Any]]]:
     """The callables to time for (case, method) on ``paths``."""
-    from redservo.kernels.bind import compiled_qp_step, compiled_step
+    from redservo.binding import compiled_qp_step, compiled_step
 
     law = make_law(method)
     kw = {**_law_kwargs(case), "lam": case.lam, "dt": case.dt}
@@ -271,7 +271,7 @@ def _first_call() -> dict[str, float]:
     code = (
         "import time; t0 = time.perf_counter(); import redservo; t1 = time.perf_counter()\n"
         "from redservo.bench_cases import bench_cases; from redservo.redundancy import make_law\n"
-        "from redservo.kernels.bind import compiled_step\n"
+        "from redservo.binding import compiled_step\n"
         "c = bench_cases(scaling=())[0]\n"
         "s = compiled_step(c.robot, c.scene, c.task, make_law('iterative-smooth'), "
         "limits=c.limits, lam=c.lam, dt=c.dt)\n"
@@ -284,7 +284,7 @@ def _first_call() -> dict[str, float]:
 
 
 def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
-    from redservo.kernels.bind import compiled_step
+    from redservo.binding import compiled_step
     from redservo.simulation import SimulationOptions, simulate
 
     opt = SimulationOptions(

@@ -283,7 +283,7 @@ class _Packed(NamedTuple):
 
 
 def _pack(exp: Experiment) -> _Packed:
-    from redservo.kernels.pack import limits_pack
+    from redservo.packs import limits_pack
 
     opt, lim, n = exp.options, exp.limits, exp.robot.n
     lp = limits_pack(lim)

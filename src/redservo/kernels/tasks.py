@@ -7,7 +7,7 @@ writes into the caller's float buffer ``out`` (:func:`output_size`): ``q̇`` (n)
 integer outputs ``iout`` (16), its ``fout`` (16), the safety numbers ``sout`` (10) and
 the level of each axis (n). Filling a buffer instead of returning arrays saves the
 boxing of seven arrays (several µs) on every call from Python.
-:func:`redservo.kernels.bind.compiled_step` packs these arguments from the public objects.
+:func:`redservo.binding.compiled_step` packs these arguments from the public objects.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.kernels.pack import limits_pack
+from redservo.packs import limits_pack
 from redservo.redundancy.base import Law, LawInputs
 
 __all__ = [

@@ -67,8 +67,8 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
+from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs

@@ -73,8 +73,8 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
+from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional

@@ -42,8 +42,8 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
+from redservo.packs import limits_pack
 from redservo.redundancy.flags import Event, Flag
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Bind the public objects to one compiled control step (pure Python glue, no numba here).
+"""The public objects bound to one compiled control step (pure Python glue, no numba here).
 
 :func:`compiled_step` takes the objects a user builds — a robot (the Afma6 or a DH chain
 such as the Panda), a static scene, a visual task of image points or of moment features,
@@ -21,8 +21,8 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.pack import limits_pack
 from redservo.limits import JointLimits
+from redservo.packs import limits_pack
 from redservo.redundancy.base import Law
 from redservo.redundancy.kio import law_options
 from redservo.robots import Robot
