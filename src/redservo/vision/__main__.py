@@ -7,76 +7,231 @@ GIF or MP4. Examples::
     python -m redservo.vision 0 --dots 4 --frames 100          # first webcam
     python -m redservo.vision shots/ --dark --gif dots.gif     # an image folder
     python -m redservo.vision clip.avi --px 800 --py 800 --u0 320 --v0 240
+
+Exit codes, as for ``redservo``: 0 on success; 2 on bad input (a bad option, a missing or
+unreadable source, an image over the size cap, a file in an image folder that is not a
+regular file, an output that cannot be written), printed as one line
+``python -m redservo.vision: error: ...`` on stderr; 1 on an unexpected internal error
+(``--debug`` shows the traceback); 130 when interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import math
+import os
 import sys
-from collections.abc import Sequence
+import tempfile
+import traceback
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
 from redservo.camera import Camera
-from redservo.errors import RedservoError
+from redservo.errors import ConfigurationError, RedservoError
+
+__all__ = ["MAX_COUNT", "MAX_DOTS", "PROG", "main"]
+
+PROG = "python -m redservo.vision"
+
+MAX_DOTS = 10_000
+"""Largest ``--dots``."""
+MAX_COUNT = 10**9
+"""Largest ``--frames``."""
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the dot tracker on a source; return the exit status."""
-    parser = argparse.ArgumentParser(
-        prog="python -m redservo.vision", description=__doc__.split("\n")[0]
+class _UsageError(Exception):
+    """A command-line usage error (one line, exit code 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def _count(hi: int) -> Callable[[str], int]:
+    """An integer in [1, ``hi``] (a number of dots or frames)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+        if not 1 <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be in [1, {hi}], got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def _number(positive: bool, hi: float = math.inf, lo: float = 0.0) -> Callable[[str], float]:
+    """A finite number, > 0 and >= ``lo`` when ``positive``, at most ``hi`` in magnitude."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+        if positive and not (value > 0.0 and value >= lo):
+            least = f"at least {lo:g}" if lo > 0.0 else "positive"
+            raise argparse.ArgumentTypeError(f"must be {least}, got {value:g}")
+        if abs(value) > hi:
+            raise argparse.ArgumentTypeError(f"must be at most {hi:g} in magnitude, got {value:g}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def _threshold(text: str) -> float | str:
+    if text == "otsu":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a gray level in [0, 255] or 'otsu', got {text!r}"
+        ) from None
+    if not 0.0 <= value <= 255.0:  # NaN fails too
+        raise argparse.ArgumentTypeError(f"must be a gray level in [0, 255], got {text!r}")
+    return value
+
+
+def _output(text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() not in (".gif", ".mp4"):
+        raise argparse.ArgumentTypeError(f"{text}: the video format must be .gif or .mp4")
+    return path
+
+
+def _parser() -> _Parser:
+    p = _Parser(prog=PROG, description=(__doc__ or "").split("\n")[0])
+    p.add_argument("source", help="camera index (0), image folder, or video file")
+    p.add_argument(
+        "--dots", type=_count(MAX_DOTS), default=None, help="number of dots (default: first frame)"
     )
-    parser.add_argument("source", help="camera index (0), image folder, or video file")
-    parser.add_argument(
-        "--dots", type=int, default=None, help="number of dots (default: first frame)"
+    p.add_argument(
+        "--threshold", type=_threshold, default="otsu", help="gray level or 'otsu' (default)"
     )
-    parser.add_argument("--threshold", default="otsu", help="gray level or 'otsu' (default)")
-    parser.add_argument("--dark", action="store_true", help="dark dots on a bright background")
-    parser.add_argument("--frames", type=int, default=None, help="stop after this many frames")
-    parser.add_argument("--max-size", type=float, default=30.0, help="largest dot (pixels)")
-    parser.add_argument("--px", type=float, default=600.0, help="focal length, pixels")
-    parser.add_argument("--py", type=float, default=600.0, help="focal length, pixels")
-    parser.add_argument("--u0", type=float, default=320.0, help="principal point, pixels")
-    parser.add_argument("--v0", type=float, default=240.0, help="principal point, pixels")
-    parser.add_argument("--k1", type=float, default=0.0, help="radial distortion k1")
-    parser.add_argument("--gif", default=None, help="write the frames with the dots (.gif or .mp4)")
-    args = parser.parse_args(argv)
+    p.add_argument("--dark", action="store_true", help="dark dots on a bright background")
+    p.add_argument(
+        "--frames", type=_count(MAX_COUNT), default=None, help="stop after this many frames"
+    )
+    p.add_argument(
+        "--max-size",
+        type=_number(True, 1e5, lo=2.0),
+        default=30.0,
+        help="largest dot (pixels, at least 2, the smallest)",
+    )
+    p.add_argument("--px", type=_number(True, 1e7), default=600.0, help="focal length, pixels")
+    p.add_argument("--py", type=_number(True, 1e7), default=600.0, help="focal length, pixels")
+    p.add_argument("--u0", type=_number(False, 1e7), default=320.0, help="principal point, px")
+    p.add_argument("--v0", type=_number(False, 1e7), default=240.0, help="principal point, px")
+    p.add_argument("--k1", type=_number(False, 1.0), default=0.0, help="radial distortion k1")
+    p.add_argument(
+        "--gif", type=_output, default=None, help="write the frames with the dots (.gif or .mp4)"
+    )
+    p.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
+    return p
+
+
+def _check_writable(out: Path) -> None:
+    """Raise ConfigurationError, naming ``out``, when the video could not be written there."""
+    if out.is_dir():
+        raise ConfigurationError(f"{out}: is a folder; --gif takes a file name (.gif or .mp4)")
+    base = next((a for a in out.parents if a.exists()), None)
+    if base is not None and not base.is_dir():
+        raise ConfigurationError(f"{out}: cannot write the video there ({base} is not a folder)")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out.parent):
+            pass
+        if out.exists() and not os.access(out, os.W_OK):
+            raise PermissionError(errno.EACCES, "permission denied")
+    except OSError as exc:
+        raise ConfigurationError(
+            f"{out}: cannot write the video there ({exc.strerror or exc})"
+        ) from None
+
+
+def _run(args: argparse.Namespace) -> int:
     from redservo.vision.sources import frames, iter_dots
     from redservo.vision.video import write_video
 
-    threshold: float | str = args.threshold if args.threshold == "otsu" else float(args.threshold)
+    is_camera = args.source.isdigit()
+    if args.gif and is_camera and args.frames is None:
+        raise _UsageError("--gif with a camera needs --frames (the frames are kept in memory)")
     camera = Camera(args.px, args.py, args.u0, args.v0)
-    try:
-        # With --gif the frames are kept (read once); otherwise they stream.
-        source = list(frames(args.source, max_frames=args.frames)) if args.gif else args.source
-        result = []
-        for fr in iter_dots(
+    if args.gif:
+        _check_writable(args.gif)  # before reading every frame, not after
+    # With --gif the frames are kept (read once); otherwise they stream.
+    source = list(frames(args.source, max_frames=args.frames)) if args.gif else args.source
+    result = []
+    for fr in iter_dots(
+        source,
+        args.dots,
+        camera=camera,
+        distortion=args.k1,
+        threshold=args.threshold,
+        polarity="dark" if args.dark else "bright",
+        max_size_px=args.max_size,
+        max_frames=args.frames,
+    ):
+        result.append(fr)
+        coords = " ".join(f"{x:+.4f} {y:+.4f}" for x, y in fr.xy)
+        print(f"frame {fr.frame}: {coords}" + (f"  [{fr.reason}]" if fr.reason else ""))
+    if args.gif:
+        write_video(
+            args.gif,
             source,
-            args.dots,
             camera=camera,
             distortion=args.k1,
-            threshold=threshold,
-            polarity="dark" if args.dark else "bright",
-            max_size_px=args.max_size,
-            max_frames=args.frames,
-        ):
-            result.append(fr)
-            coords = " ".join(f"{x:+.4f} {y:+.4f}" for x, y in fr.xy)
-            print(f"frame {fr.frame}: {coords}" + (f"  [{fr.reason}]" if fr.reason else ""))
-        if args.gif:
-            write_video(
-                args.gif,
-                source,
-                camera=camera,
-                distortion=args.k1,
-                dots_uv=[fr.uv for fr in result],
-                detected=[None if np.isnan(fr.xy).any() else fr.xy.ravel() for fr in result],
-            )
-            print(f"wrote {args.gif}")
-    except RedservoError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+            dots_uv=[fr.uv for fr in result],
+            detected=[None if np.isnan(fr.xy).any() else fr.xy.ravel() for fr in result],
+        )
+        print(f"wrote {args.gif}")
     return 0
+
+
+def _describe(exc: BaseException) -> tuple[int, str]:
+    """Exit code and one-line message of an exception that ended the command."""
+    if isinstance(exc, RedservoError | _UsageError):
+        return 2, str(exc)
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        return 2, f"{where}{exc.strerror or exc}"
+    if isinstance(exc, MemoryError):
+        return 2, "out of memory (fewer --frames, or smaller images)"
+    return 1, (
+        f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback, "
+        "and please report it)"
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the dot tracker on a source; return the exit status (module docstring)."""
+    try:
+        args = _parser().parse_args(argv)
+    except _UsageError as exc:
+        print(f"{PROG}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    try:
+        return _run(args)
+    except KeyboardInterrupt:  # pragma: no cover - interactive
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        code, line = _describe(exc)
+        if args.debug:
+            traceback.print_exc()
+        print(f"{PROG}: error: {' '.join(line.split())}", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":  # pragma: no cover

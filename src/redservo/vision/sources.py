@@ -5,9 +5,13 @@
 * an ``int`` (or a string of digits): a ``cv2.VideoCapture`` device index
   (``0`` = the first webcam);
 * a folder: its image files (``.png .jpg .jpeg .bmp .tif .tiff .pgm .ppm``) in
-  name order;
+  name order; each must be a regular file (a FIFO, socket or device named ``a.png`` is an
+  error, as it could block forever) of at most
+  :data:`~redservo.vision.imagefile.MAX_IMAGE_PIXELS` pixels, checked from its header before
+  decoding (:func:`~redservo.vision.imagefile.read_gray`);
 * a file: a video read by ``cv2.VideoCapture`` (``.avi``, ``.mp4``, ... whatever
-  this OpenCV build decodes);
+  this OpenCV build decodes), whose frame size (from the container) must not exceed
+  ``MAX_IMAGE_PIXELS`` either;
 * an opened ``cv2.VideoCapture``;
 * a list or tuple of images (already read).
 
@@ -22,6 +26,8 @@ rows 10 px high).
 
 from __future__ import annotations
 
+import os
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -33,6 +39,7 @@ from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.vision.dots import DotTracker, Polarity, detect_dots
+from redservo.vision.imagefile import check_frame_size, read_gray
 from redservo.vision.optics import Optics, require_cv2
 
 __all__ = ["IMAGE_SUFFIXES", "DotFrame", "frames", "iter_dots", "track_dots"]
@@ -54,6 +61,10 @@ def _capture(cap: Any, what: str, max_frames: int | None) -> Iterator[NDArray[np
     if not cap.isOpened():
         raise ConfigurationError(f"cannot open {what} with cv2.VideoCapture")
     try:
+        cv2 = require_cv2()
+        w = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+        h = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        check_frame_size(max(w, 0), max(h, 0), what)
         k = 0
         while max_frames is None or k < max_frames:
             ok, frame = cap.read()
@@ -65,6 +76,26 @@ def _capture(cap: Any, what: str, max_frames: int | None) -> Iterator[NDArray[np
         cap.release()
 
 
+def _image_files(folder: Path) -> list[Path]:
+    """The image files of ``folder`` in name order; each must be a regular file."""
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise ConfigurationError(
+            f"{folder}: no image files ({', '.join(IMAGE_SUFFIXES)}) in this folder"
+        )
+    for f in files:
+        try:
+            regular = stat.S_ISREG(os.stat(f).st_mode)  # follows symbolic links
+        except OSError as exc:
+            raise ConfigurationError(f"{f}: cannot read ({exc.strerror})") from None
+        if not regular:
+            raise ConfigurationError(
+                f"{f}: not a regular file (a FIFO, socket, device or folder); an image folder "
+                "may hold only regular image files"
+            )
+    return files
+
+
 def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np.uint8]]:
     """Yield the grayscale frames (H, W) uint8 of ``source`` (module docstring).
 
@@ -73,9 +104,17 @@ def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np
         max_frames: Stop after this many frames (None = all; a camera never ends).
 
     Raises:
-        ConfigurationError: the source does not exist, holds no image, or cannot be opened.
+        ConfigurationError: the source does not exist, holds no image, cannot be opened, a
+            folder holds something other than regular files under an image name, or an
+            image is larger than ``MAX_IMAGE_PIXELS`` (the message names the file).
     """
     cv2 = require_cv2()
+    if max_frames is not None and not (
+        isinstance(max_frames, int | np.integer) and max_frames >= 1
+    ):
+        raise ConfigurationError(
+            f"max_frames must be a positive integer or None, got {max_frames!r}"
+        )
     if isinstance(source, cv2.VideoCapture):
         yield from _capture(source, "the given capture", max_frames)
         return
@@ -88,18 +127,11 @@ def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np
         return
     path = Path(source)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-        if not files:
-            raise ConfigurationError(
-                f"{path}: no image files ({', '.join(IMAGE_SUFFIXES)}) in this folder"
-            )
+        files = _image_files(path)
         for k, f in enumerate(files):
             if max_frames is not None and k >= max_frames:
                 return
-            img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
-            if img is None:
-                raise ConfigurationError(f"{f}: not a readable image")
-            yield img
+            yield read_gray(f)
         return
     if not path.is_file():
         raise ConfigurationError(
@@ -171,6 +203,13 @@ def iter_dots(
         max_lost_frames: A dot lost for more consecutive frames is reported gone.
         max_frames: Stop after this many frames.
     """
+    if n_dots is not None and not (isinstance(n_dots, int | np.integer) and n_dots >= 1):
+        raise ConfigurationError(f"n_dots must be a positive integer or None, got {n_dots!r}")
+    if not (np.isfinite(min_size_px) and 0.0 < min_size_px <= max_size_px < np.inf):
+        raise ConfigurationError(
+            "the dot sizes must be finite with 0 < min_size_px <= max_size_px, got "
+            f"min_size_px = {min_size_px!r}, max_size_px = {max_size_px!r}"
+        )
     k = np.atleast_1d(np.asarray(distortion, dtype=float))
     optics = Optics(camera or Camera(), float(k[0]), float(k[1]) if k.size > 1 else 0.0)
     init = None if initial_uv is None else np.asarray(initial_uv, dtype=float).reshape(-1, 2)
