@@ -7,6 +7,7 @@ redundancy) and modern baselines behind one pure-function law interface.
 
 from __future__ import annotations
 
+from redservo._version import __version__
 from redservo.errors import (
     ConfigurationError,
     GeometryError,
@@ -29,8 +30,6 @@ from redservo.redundancy import (
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.runs import Run, load_run
-
-__version__ = "0.1.0"
 
 __all__ = [
     "METHODS",

@@ -98,12 +98,12 @@ class Experiment:
 
         ctl = self.scenario.spec.control
         name = method or ctl.method
-        if law_options is not None:
-            opts = dict(law_options)
-        else:
-            opts = dict(ctl.options) if name == ctl.method else {}
-        sc = self.scenario
-        return Provenance(sc.data, sc.source, name, opts, options, self.limits, self.q0.copy())
+        if law_options is None:
+            law_options = ctl.options if name == ctl.method else {}
+        sc, opts = self.scenario, dict(law_options)
+        return Provenance(
+            sc.data, sc.source, name, opts, options, self.limits, self.q0.copy(), build
+        )
 
 
 def _key(
@@ -133,6 +133,8 @@ def _robot(sc: Scenario, spec: ScenarioSpec) -> Robot:
             eMc=None if r.eMc is None else r.eMc.matrix(),
             base_link=r.base_link,
             locked_q=r.locked_q,
+            qdot_max=r.qdot_max,  # given, they replace the file's (which may lack them)
+            qddot_max=r.qddot_max,
         )
     except RedservoError as exc:
         default = "robot.options" if r.model is not None else "robot.urdf"

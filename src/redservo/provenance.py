@@ -26,7 +26,7 @@ from __future__ import annotations
 import copy
 import inspect
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from datetime import UTC, datetime
 from pathlib import Path
@@ -35,12 +35,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo._version import __version__
 from redservo.errors import RedservoError
 from redservo.limits import JointLimits
-from redservo.simulation.options import SimulationOptions
 
 if TYPE_CHECKING:  # pragma: no cover
+    from redservo.scenario import Scenario
     from redservo.simulation import SimulationLog, SimulationResult
+    from redservo.simulation.options import SimulationOptions
 
 __all__ = ["Provenance", "resolve", "write_run_files"]
 
@@ -72,6 +74,9 @@ class Provenance:
         options: The simulation options used.
         limits: The joint limits the law was given.
         q0: Start configuration (m or rad).
+        rebuild: Builds the experiment of a scenario (:func:`redservo.experiment.build`,
+            given by the experiment so that this module, which the simulation's ``save``
+            imports, stays below it); :func:`resolve` rebuilds the resolved scenario with it.
     """
 
     data: Mapping[str, Any]
@@ -81,6 +86,7 @@ class Provenance:
     options: SimulationOptions
     limits: JointLimits
     q0: FloatArray = field(repr=False)
+    rebuild: Callable[[Scenario], Any] = field(repr=False)
 
 
 def law_defaults(method: str) -> dict[str, Any]:
@@ -175,8 +181,9 @@ def _fill_defaults(table: dict[str, Any], source: str) -> dict[str, Any]:
 def resolve(prov: Provenance) -> tuple[dict[str, Any], list[str]]:
     """The resolved scenario table of a run, and why it would not re-run exactly (empty: exact).
 
-    The table is checked by building it (:func:`redservo.experiment.build`) and comparing
-    the start, the joint limits and the simulation options with the run's.
+    The table is checked by building it (:attr:`Provenance.rebuild`, i.e.
+    :func:`redservo.experiment.build`) and comparing the start, the joint limits and the
+    simulation options with the run's.
     """
     table = copy.deepcopy(dict(prov.data))
     _control(table, prov)
@@ -200,11 +207,10 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _differences(table: dict[str, Any], prov: Provenance) -> list[str]:
-    from redservo.experiment import build
     from redservo.scenario import parse_scenario
 
     try:
-        exp = build(parse_scenario(table, prov.source))
+        exp = prov.rebuild(parse_scenario(table, prov.source))
     except RedservoError as exc:
         return [f"the resolved scenario does not build: {exc}"]
     why = []
@@ -215,7 +221,7 @@ def _differences(table: dict[str, Any], prov: Provenance) -> list[str]:
         if not _same(getattr(a, name), getattr(b, name)):
             what = "removed" if getattr(b, name) is None else "changed"
             why.append(f"the joint limits' {name} were {what} in code (no scenario key does it)")
-    for f in fields(SimulationOptions):
+    for f in fields(prov.options):
         if not _same(getattr(exp.options, f.name), getattr(prov.options, f.name)):
             why.append(f"simulation option {f.name} was set in code")
     return why
@@ -248,7 +254,6 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
     Returns:
         The paths written.
     """
-    from redservo import __version__
     from redservo.tomlwriter import dumps
 
     paths = [out / "diagnostics.json"]
