@@ -10,7 +10,6 @@ the figures, optionally re-runs every experiment on perturbed set-ups
 
 from __future__ import annotations
 
-import importlib
 import json
 import sys
 from collections.abc import Callable, Sequence
@@ -22,6 +21,7 @@ import numpy as np
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec, run_experiment
 from redservo.reproduction.checks import IMPL, PAPER, Check, Claim, Verdict
+from redservo.reproduction.registry import experiments
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.reproduction.report import ExperimentResult
@@ -38,27 +38,6 @@ __all__ = [
     "experiments",
     "reproduce",
 ]
-
-_MODULES = (
-    "cm01_gaze",
-    "cm01_cylinder",
-    "cm01_humanoid_sphere",
-    "cm01_humanoid_tracking",
-    "mc05_joint_limits",
-    "mc05_optical_axis",
-    "mc05_occlusion",
-    "cross",
-)
-
-
-def experiments() -> dict[str, ExperimentSpec]:
-    """Return the experiments ``{id: spec}`` in report order."""
-    out: dict[str, ExperimentSpec] = {}
-    for mod in _MODULES:
-        module = importlib.import_module(f"redservo.reproduction.{mod}")
-        for spec in module.EXPERIMENTS:
-            out[spec.id] = spec
-    return out
 
 
 def _json_default(value: Any) -> Any:

@@ -33,6 +33,7 @@ from redservo.errors import RedservoError, ScenarioError
 from redservo.reproduction.base import ExperimentSpec, run_experiment
 from redservo.reproduction.checks import Kind
 from redservo.reproduction.perturbation import PERIODS, draw_perturbation, image_sensor_available
+from redservo.reproduction.registry import experiments
 
 __all__ = [
     "MAX_ATTEMPTS",
@@ -77,8 +78,6 @@ def run_setup(
     spec_id: str, index: int, seed: int, fast: bool, pixel_noise: bool, periods: bool
 ) -> SetupResult:
     """Run experiment ``spec_id`` on set-up ``index`` and evaluate its checks (pool task)."""
-    from redservo.reproduction import experiments
-
     spec = experiments()[spec_id]
     t0 = time.perf_counter()
     last = ""
