@@ -126,16 +126,10 @@ def _robot(sc: Scenario, spec: ScenarioSpec) -> Robot:
 
         assert r.urdf is not None
         path = r.urdf if r.urdf.endswith(".urdf") or "/" in r.urdf else shipped_urdf(r.urdf)
-        return URDFRobot(
-            path,
-            camera_link=r.camera_link,
-            joints=r.joints,
-            eMc=None if r.eMc is None else r.eMc.matrix(),
-            base_link=r.base_link,
-            locked_q=r.locked_q,
-            qdot_max=r.qdot_max,  # given, they replace the file's (which may lack them)
-            qddot_max=r.qddot_max,
-        )
+        # Rate limits given in the scenario replace the file's (which may lack them).
+        keys = ("camera_link", "joints", "base_link", "locked_q", "qdot_max", "qddot_max")
+        eMc = None if r.eMc is None else r.eMc.matrix()
+        return URDFRobot(path, eMc=eMc, **{key: getattr(r, key) for key in keys})
     except RedservoError as exc:
         default = "robot.options" if r.model is not None else "robot.urdf"
         raise _key(sc, "robot", exc, type(r).model_fields, default) from None

@@ -19,9 +19,16 @@ Joints (``q`` in chain order, base to camera):
 * ``fixed`` joints are folded into the links; ``floating`` and ``planar`` joints
   on the chain are refused (:class:`ConfigurationError`).
 
-Velocity limits are read from ``<limit velocity>`` (rad/s or m/s) into
-``qdot_max`` (None if a servoed joint has none); efforts are ignored; URDF has no
-acceleration limit, so ``qddot_max`` is what the caller gives (default None).
+Rate limits (:mod:`redservo.robots.urdf_limits`): velocities come from ``<limit
+velocity>`` (rad/s or m/s) unless the caller gives ``qdot_max``; a servoed joint whose
+file velocity is missing, not > 0, not finite or absurd (> 100 rad/s, > 10 m/s) is an
+error naming the file and the joint, never a robot without velocity limits.
+Accelerations come from redservo's ``<redservo:limit acceleration>`` element (the shipped
+files carry the datasheet values) unless the caller gives ``qddot_max``; a file with none
+gives ``qddot_max = None``. Efforts are ignored. Origins, axes and position limits are
+checked (:mod:`redservo.robots.urdf_values`), and whatever urdfdom prints while Pinocchio
+reads a file it rejects is folded into our one error message
+(:mod:`redservo.robots.urdf_stderr`).
 
 Performance: the reduced Pinocchio model (only the servoed joints) is built once;
 one ``kinematics(q)`` call is one ``computeJointJacobians`` (a forward pass over
@@ -44,6 +51,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import check_q_named
+from redservo.robots.urdf_limits import RateLimit, rate_limits
 from redservo.robots.urdf_parse import (
     CONTINUOUS_LIMIT,
     URDFJoint,
@@ -53,6 +61,7 @@ from redservo.robots.urdf_parse import (
     pinocchio_xml,
     read_urdf,
 )
+from redservo.robots.urdf_stderr import captured_stderr, condense
 from redservo.spatial import inverse
 
 __all__ = ["URDFRobot", "shipped_urdf"]
@@ -190,15 +199,23 @@ class URDFRobot(Robot):
         locked_q: Values of locked joints (m or rad), by name. A locked joint not listed
             sits at 0, or at mid-range if 0 is outside its limits (floating and planar
             joints off the chain sit at Pinocchio's neutral configuration).
-        qddot_max: Joint acceleration limits (rad/s² or m/s²), scalar or (n,), or None.
+        qdot_max: Joint velocity limits (rad/s or m/s): None (default: the file's), a
+            scalar or (n,) (the file's are ignored), or ``{joint name: value}`` (replaces
+            the file's for those joints only).
+        qddot_max: Joint acceleration limits (rad/s² or m/s²), the same forms: None
+            (default) takes the file's ``<redservo:limit acceleration>``, or none if the
+            file has none.
         name: Model name (default: the ``<robot name>`` of the file).
 
     Raises:
-        ConfigurationError: the extra is missing; the file is missing or malformed;
-            ``camera_link`` is not downstream of ``base_link``; a chain joint is
-            floating or planar; ``joints`` is not a chain-order subset of the chain.
+        ConfigurationError: the extra is missing; the file is missing or malformed (an
+            origin, axis or position limit out of bounds included); ``camera_link`` is not
+            downstream of ``base_link``; a chain joint is floating or planar; ``joints``
+            is not a chain-order subset of the chain; a servoed joint's velocity (or
+            acceleration) limit is missing or invalid in the file and not given.
         UnknownNameError: unknown ``camera_link``, ``base_link``, or a name in
-            ``joints`` or ``locked_q`` (the message lists the allowed names).
+            ``joints``, ``locked_q``, ``qdot_max`` or ``qddot_max`` (the message lists
+            the allowed names).
         JointLimitError: a ``locked_q`` value is outside its joint's limits.
     """
 
@@ -211,7 +228,8 @@ class URDFRobot(Robot):
         eMc: ArrayLike | None = None,
         base_link: str | None = None,
         locked_q: Mapping[str, float] | None = None,
-        qddot_max: ArrayLike | None = None,
+        qdot_max: RateLimit = None,
+        qddot_max: RateLimit = None,
         name: str | None = None,
     ) -> None:
         pin = _pinocchio()
@@ -220,7 +238,7 @@ class URDFRobot(Robot):
         servo = _servo_joints(tree, chain(tree, base, camera_link), joints)
         locked = locked_values(tree, servo, locked_q)
         limits = np.array([_position_limits(j) for j in servo])
-        velocities = [j.velocity for j in servo]
+        qdot, qddot = rate_limits(tree.source, servo, qdot_max, qddot_max)
         super().__init__(
             name=name or tree.name or Path(path).stem,
             joint_names=[j.name for j in servo],
@@ -228,8 +246,8 @@ class URDFRobot(Robot):
             q_min=limits[:, 0],
             q_max=limits[:, 1],
             eMc=eMc,
-            qdot_max=None if None in velocities else np.array(velocities, dtype=float),
-            qddot_max=qddot_max,
+            qdot_max=qdot,
+            qddot_max=qddot,
         )
         self.path = Path(path)
         self.base_link = base
@@ -242,12 +260,22 @@ class URDFRobot(Robot):
 
     def _build_model(self, pin: Any, tree: URDFTree, locked: dict[str, float]) -> Any:
         """Build the Pinocchio model of the file and reduce it to the servoed joints."""
-        try:
-            full = pin.buildModelFromXML(pinocchio_xml(tree))
-        except Exception as exc:  # Pinocchio raises RuntimeError/ValueError with its own text
+        xml = pinocchio_xml(tree)
+        failure: Exception | None = None
+        with captured_stderr() as printed:  # urdfdom prints its complaints on fd 2
+            try:
+                full = pin.buildModelFromXML(xml)
+            except Exception as exc:  # Pinocchio raises RuntimeError/ValueError
+                failure = exc
+        said = condense(printed[0])
+        if failure is not None:
+            parser = f" (urdfdom: {said})" if said else ""
             raise ConfigurationError(
-                f"Pinocchio cannot build a model from {tree.source}: {exc}", argument="path"
-            ) from exc
+                f"Pinocchio cannot build a model from {tree.source}: {failure}{parser}",
+                argument="path",
+            ) from None
+        if printed[0]:  # not ours to drop: pass it on unchanged
+            os.write(2, printed[0].encode())
         q_ref = pin.neutral(full)
         to_lock = []
         for jid in range(1, full.njoints):

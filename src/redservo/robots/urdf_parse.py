@@ -5,8 +5,13 @@ sees the file, so that every mistake is reported with the file name and the
 offending link or joint: the XML is well formed, the root element is ``<robot>``,
 every link and joint has a unique name, every joint names existing ``parent`` and
 ``child`` links, every link has at most one parent joint and there is exactly one
-root link. Joint positions are read from ``<limit lower upper>`` (m or rad) and
-velocities from ``<limit velocity>`` (m/s or rad/s); efforts are ignored.
+root link. Joint positions are read from ``<limit lower upper>`` (m or rad), velocities
+from ``<limit velocity>`` (m/s or rad/s) and accelerations from the redservo extension
+``<redservo:limit acceleration>`` (m/s² or rad/s², namespace :data:`REDSERVO_NS`); efforts
+are ignored. Rates are kept as written: :mod:`redservo.robots.urdf_limits` checks those
+of the servoed joints (the caller may replace them).
+
+Geometry (origins, axes, position limits) is checked by :mod:`redservo.robots.urdf_values`.
 
 :func:`chain` finds the joints from a base link down to a tip link and
 :func:`locked_values` the values of the joints a sub-chain leaves out.
@@ -28,9 +33,21 @@ from typing import Final
 import numpy as np
 
 from redservo.errors import ConfigurationError, JointLimitError, UnknownNameError
+from redservo.robots.urdf_values import (
+    AXIS_KINDS,
+    REDSERVO_LIMIT,
+    REDSERVO_NS,
+    Triple,
+    as_float,
+    fail,
+    finite_or_zero,
+    joint_geometry,
+    position,
+)
 
 __all__ = [
     "CONTINUOUS_LIMIT",
+    "REDSERVO_NS",
     "URDFJoint",
     "URDFTree",
     "chain",
@@ -58,8 +75,13 @@ class URDFJoint:
         child: Child link name.
         lower: ``<limit lower>`` (m or rad), or None when absent.
         upper: ``<limit upper>`` (m or rad), or None when absent.
-        velocity: ``<limit velocity>`` (m/s or rad/s), or None when absent or not > 0.
+        velocity_text: ``<limit velocity>`` as written (m/s or rad/s), or None when absent.
+        acceleration_text: ``<redservo:limit acceleration>`` as written (m/s² or rad/s²), or
+            None when absent.
         mimic: The joint has a ``<mimic>`` element.
+        xyz: ``<origin xyz>`` (m), checked.
+        rpy: ``<origin rpy>`` (rad), checked.
+        axis: ``<axis xyz>``, normalised (``(1, 0, 0)`` when absent or not used).
     """
 
     name: str
@@ -68,8 +90,22 @@ class URDFJoint:
     child: str
     lower: float | None
     upper: float | None
-    velocity: float | None
+    velocity_text: str | None
+    acceleration_text: str | None
     mimic: bool
+    xyz: Triple = (0.0, 0.0, 0.0)
+    rpy: Triple = (0.0, 0.0, 0.0)
+    axis: Triple = (1.0, 0.0, 0.0)
+
+    @property
+    def velocity(self) -> float | None:
+        """``<limit velocity>`` (m/s or rad/s; NaN if not a number), or None when absent."""
+        return as_float(self.velocity_text)
+
+    @property
+    def acceleration(self) -> float | None:
+        """``<redservo:limit acceleration>`` (m/s² or rad/s²; NaN if not a number), or None."""
+        return as_float(self.acceleration_text)
 
     @property
     def movable(self) -> bool:
@@ -109,22 +145,7 @@ class URDFTree:
             )
 
 
-def _fail(source: str, what: str) -> ConfigurationError:
-    return ConfigurationError(f"malformed URDF {source}: {what}", argument="path")
-
-
-def _number(elem: ET.Element | None, attr: str, source: str, joint: str) -> float | None:
-    """Return a float attribute of ``elem`` (None if the element or attribute is absent)."""
-    if elem is None or elem.get(attr) is None:
-        return None
-    text = elem.get(attr, "")
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise _fail(source, f"joint {joint!r}: <limit {attr}={text!r}> is not a finite number")
-    return value
+_fail = fail
 
 
 def _read_joint(elem: ET.Element, source: str, links: set[str]) -> URDFJoint:
@@ -146,16 +167,22 @@ def _read_joint(elem: ET.Element, source: str, links: set[str]) -> URDFJoint:
             raise _fail(source, f"joint {name!r}: {tag} link {link!r} is not defined")
         ends.append(link)
     limit = elem.find("limit")
-    velocity = _number(limit, "velocity", source, name)
+    bounded = kind in ("revolute", "prismatic")
+    extension = elem.find(REDSERVO_LIMIT)
+    xyz, rpy, axis = joint_geometry(elem, kind, source, name)
     return URDFJoint(
         name=name,
         kind=kind,
         parent=ends[0],
         child=ends[1],
-        lower=_number(limit, "lower", source, name),
-        upper=_number(limit, "upper", source, name),
-        velocity=velocity if velocity is not None and velocity > 0.0 else None,
+        lower=position(limit, "lower", source, name, bounded),
+        upper=position(limit, "upper", source, name, bounded),
+        velocity_text=None if limit is None else limit.get("velocity"),
+        acceleration_text=None if extension is None else extension.get("acceleration"),
         mimic=elem.find("mimic") is not None,
+        xyz=xyz,
+        rpy=rpy,
+        axis=axis,
     )
 
 
@@ -255,21 +282,30 @@ def _ancestors(tree: URDFTree, link: str) -> list[str]:
 def pinocchio_xml(tree: URDFTree) -> str:
     """Return the URDF text for Pinocchio, with ``continuous`` joints made ``revolute``.
 
-    A rewritten joint gets ``<limit lower="-2π" upper="2π">`` (:data:`CONTINUOUS_LIMIT`);
-    its ``velocity`` and ``effort`` are kept (``0`` when absent, i.e. unknown).
+    A rewritten joint gets ``<limit lower="-2π" upper="2π">`` (:data:`CONTINUOUS_LIMIT`).
+    Every ``<limit>`` gets a ``velocity`` and an ``effort`` that urdfdom accepts (``0``, i.e.
+    unknown, where absent or not a finite number: redservo takes its rate limits from the
+    checked tree or from the caller, never from Pinocchio, and ignores efforts); every axis
+    is written normalised, and redservo's own elements are left out.
     """
     root = ET.fromstring(ET.tostring(tree.element))  # a copy; the tree stays as read
     for elem in root.findall("joint"):
-        if elem.get("type") != "continuous":
-            continue
-        elem.set("type", "revolute")
+        for extension in elem.findall(REDSERVO_LIMIT):
+            elem.remove(extension)
+        joint = tree.joints.get(elem.get("name", ""))
+        axis = elem.find("axis")
+        if joint is not None and axis is not None and joint.kind in AXIS_KINDS:
+            axis.set("xyz", " ".join(repr(v) for v in joint.axis))
         limit = elem.find("limit")
-        if limit is None:
-            limit = ET.SubElement(elem, "limit")
-        limit.set("lower", repr(-CONTINUOUS_LIMIT))
-        limit.set("upper", repr(CONTINUOUS_LIMIT))
-        limit.set("effort", limit.get("effort", "0"))
-        limit.set("velocity", limit.get("velocity", "0"))
+        if elem.get("type") == "continuous":
+            elem.set("type", "revolute")
+            if limit is None:
+                limit = ET.SubElement(elem, "limit")
+            limit.set("lower", repr(-CONTINUOUS_LIMIT))
+            limit.set("upper", repr(CONTINUOUS_LIMIT))
+        if limit is not None:
+            limit.set("effort", finite_or_zero(limit.get("effort")))
+            limit.set("velocity", finite_or_zero(limit.get("velocity")))
     return ET.tostring(root, encoding="unicode")
 
 
