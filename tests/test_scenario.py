@@ -80,6 +80,25 @@ def test_user_file_runs(tmp_path: Path) -> None:
     assert res.outcome == "converged"
 
 
+def test_dt_and_lam_have_lower_bounds_a_robot_can_use() -> None:
+    """dt = 1e-300 or lam = 1e-300 ran 600 motionless iterations; the bounds themselves (a
+    10 kHz loop, a 1000 s time constant) are valid, and the reason is in the docs."""
+    from redservo.schema.scenario import DT_MIN, LAM_MIN
+
+    assert (DT_MIN, LAM_MIN) == (1e-4, 1e-3)
+    data = tomllib.loads(GOOD)
+    data["control"].update(dt=DT_MIN, lam=LAM_MIN)
+    sc = parse_scenario(data, "my.toml")
+    assert (sc.spec.control.dt, sc.spec.control.lam) == (DT_MIN, LAM_MIN)
+    data["control"].pop("lam")
+    data["control"]["gain"] = {"zero": 1e-300, "inf": 1e-300, "slope": 0.0}
+    with pytest.raises(ScenarioError, match=r"key 'control\.gain\.zero': must be >= 0\.001"):
+        parse_scenario(data, "my.toml")
+    text = (ROOT / "docs" / "scenarios.md").read_text()
+    assert "number, >= 0.0001, <= 10" in text and "number, >= 0.001, <= 1000" in text
+    assert "10 kHz" in text and "1000 s" in text
+
+
 @pytest.mark.parametrize(
     ("edit", "key", "hint"),
     [
@@ -88,7 +107,10 @@ def test_user_file_runs(tmp_path: Path) -> None:
         (lambda d: d["control"].__setitem__("method", "magic"), "control.method", "iterative"),
         (lambda d: d["control"].__setitem__("lam", "fast"), "control.lam", "expected a number"),
         (lambda d: d["control"].__setitem__("lam", float("inf")), "control.lam", "finite"),
-        (lambda d: d["control"].__setitem__("dt", 0.0), "control.dt", "> 0"),
+        (lambda d: d["control"].__setitem__("dt", 0.0), "control.dt", ">= 0.0001"),
+        (lambda d: d["control"].__setitem__("dt", 1e-300), "control.dt", ">= 0.0001"),
+        (lambda d: d["control"].__setitem__("lam", 1e-300), "control.lam", ">= 0.001"),
+        (lambda d: d["control"].__setitem__("lam", 9.99e-4), "control.lam", ">= 0.001"),
         (lambda d: d["features"][0].__setitem__("kind", "blob"), "features[0].kind", "cylinder"),
         (lambda d: d["features"][0].__setitem__("object", "ghost"), "features[0].object", "target"),
         (lambda d: d["robot"].__setitem__("qzero", [0.0]), "robot.qzero", "unknown key"),

@@ -43,6 +43,13 @@ __all__ = [
 MAX_ITERATIONS = 10_000_000
 """Largest ``simulation.max_iterations`` (the log is preallocated)."""
 SEED_MAX = 2**63 - 1
+DT_MIN = 1e-4
+"""Shortest ``control.dt`` (s): a 10 kHz loop, ten times the fastest joint-level interfaces
+(1 kHz); no robot runs faster, and a run's iterations would cover almost no time
+(``dt = 1e-300`` ran 600 motionless iterations)."""
+LAM_MIN = 1e-3
+"""Smallest gain λ (1/s): a time constant 1/λ of 1000 s (17 min); below it the error does not
+visibly decrease in any run, e.g. ``lam = 1e-300`` ran 600 motionless iterations."""
 
 _Joint = Annotated[float, Field(ge=-BIG, le=BIG, allow_inf_nan=False)]
 _Joints = Annotated[
@@ -182,8 +189,12 @@ class TaskSpec(Table):
 class GainSpec(Table):
     """Adaptive gain λ(‖e1‖∞) = (zero − inf) exp(−slope ‖e1‖∞ / (zero − inf)) + inf."""
 
-    zero: float = num(gt=0.0, le=BIG, description="λ0 = λ(0) (1/s)")
-    inf: float = num(gt=0.0, le=BIG, description="λ∞, the gain for large errors (1/s), <= zero")
+    zero: float = num(ge=LAM_MIN, le=BIG, description="λ0 = λ(0) (1/s)")
+    inf: float = num(
+        ge=LAM_MIN,
+        le=BIG,
+        description="λ∞, the gain for large errors (1/s), <= zero; at least 0.001 as lam",
+    )
     slope: float = num(ge=0.0, le=1e6, description="λ'0, minus the slope at 0 (1/s per task unit)")
 
     @model_validator(mode="after")
@@ -197,9 +208,21 @@ class ControlSpec(Table):
     """The control law and its gains."""
 
     method: str = Field(description="the control law (redservo list)")
-    lam: float | None = num(None, gt=0.0, le=BIG, description="constant gain λ (1/s), default 0.5")
+    lam: float | None = num(
+        None,
+        ge=LAM_MIN,
+        le=BIG,
+        description="constant gain λ (1/s), default 0.5; at least 0.001, a time constant 1/λ "
+        "of 1000 s (lam = 1e-300 ran 600 motionless iterations)",
+    )
     gain: GainSpec | None = Field(None, description="...or an adaptive gain (exclusive with lam)")
-    dt: float = num(0.04, gt=0.0, le=10.0, description="control period (s)")
+    dt: float = num(
+        0.04,
+        ge=DT_MIN,
+        le=10.0,
+        description="control period (s); at least 1e-4, a 10 kHz loop, ten times the 1 kHz of "
+        "the fastest robot interfaces (dt = 1e-300 ran 600 motionless iterations)",
+    )
     shield: bool = Field(True, description="position shield: no command may cross the margin")
     robust: bool = Field(True, description="filtered inverses near singularities (paper laws)")
     scaling: Literal["uniform", "secondary-first"] = choice(
