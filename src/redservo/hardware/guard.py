@@ -14,6 +14,11 @@ last line of defence against a law that does not (a custom one, a bug, a NaN). I
    ``[q̄_min + margin, q̄_max - margin]`` within one period: an outward velocity is reduced
    to land on the bound (0 if the joint is already there or beyond). This clips joints
    individually (the direction changes): it is a last resort, not a control strategy.
+   Staying inside the range comes first: this clip may change the command by more than
+   ``q̈max T``. Every such excess is reported (``acceleration_exceeded``: the joints whose
+   command changed by more than ``q̈max_i T`` from ``q̇prev``, checked on the command
+   returned, whatever caused it, including a non-finite command replaced by zeros) and
+   counted by the servo loop (``summary["acceleration_exceeded"]``).
 
 Units: rad/s or m/s for velocities, rad/s² or m/s² for accelerations, s for ``T``.
 """
@@ -41,10 +46,14 @@ class GuardReport(NamedTuple):
     """Factor in [0, 1] applied to the change of command to respect ``qddot_max``."""
     position_clipped: tuple[int, ...] = ()
     """Joints whose outward velocity was reduced to stay within the safe range."""
+    acceleration_exceeded: tuple[int, ...] = ()
+    """Joints whose returned command differs from ``qdot_prev`` by more than ``q̈max_i T``
+    (the position clip or a non-finite command replaced by zeros can cause it)."""
 
     @property
     def changed(self) -> bool:
-        """True when the command was modified."""
+        """True when the command was modified (an acceleration excess is a consequence of a
+        change, not a change of its own)."""
         return (
             self.non_finite
             or self.velocity_scale < 1.0
@@ -71,8 +80,12 @@ def guard_command(
         period: Control period T (s).
     """
     cmd = np.array(qdot, dtype=float)
+    qddot_max = getattr(limits, "qddot_max", None)
     if not np.all(np.isfinite(cmd)):
-        return np.zeros_like(cmd), GuardReport(non_finite=True)
+        zero = np.zeros_like(cmd)
+        return zero, GuardReport(
+            True, acceleration_exceeded=_exceeded(zero, qdot_prev, qddot_max, period)
+        )
     v_scale = a_scale = 1.0
     qdot_max = getattr(limits, "qdot_max", None)
     if qdot_max is not None:
@@ -80,7 +93,6 @@ def guard_command(
         if ratio > 1.0:
             v_scale = 1.0 / ratio
             cmd *= v_scale
-    qddot_max = getattr(limits, "qddot_max", None)
     if qddot_max is not None:
         delta = cmd - qdot_prev
         ratio = float(np.max(np.abs(delta) / (qddot_max * period)))
@@ -94,4 +106,20 @@ def guard_command(
     clipped = np.flatnonzero((cmd > up) | (cmd < down))
     if clipped.size:
         cmd = np.clip(cmd, down, up)
-    return cmd, GuardReport(False, v_scale, a_scale, tuple(int(i) for i in clipped))
+    exceeded = _exceeded(cmd, qdot_prev, qddot_max, period)
+    return cmd, GuardReport(False, v_scale, a_scale, tuple(int(i) for i in clipped), exceeded)
+
+
+_ACCEL_RTOL = 1e-9
+"""Relative slack on ``|q̇ - q̇prev| <= q̈max T``: the uniform scaling of step 3 lands on the
+bound up to roundoff (the run summary's acceleration check uses the same slack)."""
+
+
+def _exceeded(
+    cmd: FloatArray, qdot_prev: FloatArray, qddot_max: FloatArray | None, period: float
+) -> tuple[int, ...]:
+    """Joints whose change of command exceeds ``q̈max_i T`` (none without ``qddot_max``)."""
+    if qddot_max is None:
+        return ()
+    bound = np.asarray(qddot_max, dtype=float) * period * (1.0 + _ACCEL_RTOL) + 1e-15
+    return tuple(int(i) for i in np.flatnonzero(np.abs(cmd - qdot_prev) > bound))
