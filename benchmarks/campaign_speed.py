@@ -1,6 +1,8 @@
-"""Measure campaign throughput: control steps per CPU second, and local scaling (docs/scaling.md).
+"""Benchmark: campaign throughput in control steps per CPU second, and local scaling.
 
-``python -m redservo.campaign.speed [--campaign cm01-gaze] [--samples 100] [--scaling 300]``
+    .venv/bin/python benchmarks/campaign_speed.py [--campaign cm01-gaze] [--samples 100] \
+        [--scaling 300]
+
 prints, for a campaign (default ``cm01-gaze``, every method of its definition):
 
 1. the compiled loop alone, per method: CPU µs per control step and steps per CPU second
@@ -14,6 +16,7 @@ prints, for a campaign (default ``cm01-gaze``, every method of its definition):
 
 CPU time is the process's (``time.process_time``); a machine shared with other jobs still
 inflates it (caches, memory bandwidth), so the load average is printed with the results.
+docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations
@@ -170,7 +173,7 @@ def _load() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the measurements of the module docstring."""
-    p = argparse.ArgumentParser(prog="python -m redservo.campaign.speed", description=__doc__)
+    p = argparse.ArgumentParser(prog="python benchmarks/campaign_speed.py", description=__doc__)
     p.add_argument("--campaign", default="cm01-gaze")
     p.add_argument("--samples", type=int, default=100, help="samples of the campaign rates")
     p.add_argument("--loop-samples", type=int, default=10, help="samples of the loop rates")
