@@ -50,9 +50,13 @@ class Spy:
         fail_at: int | None = None,
         exc: BaseException | None = None,
         on_read: Callable[[int], None] | None = None,
+        clock: Callable[[], float] | None = None,
     ) -> None:
         self.inner, self.fail_at, self.exc, self.on_read = inner, fail_at, exc, on_read
+        self.clock = clock
         self.sent: list[np.ndarray] = []
+        self.sent_at: list[float] = []  # loop time of each command (with ``clock``)
+        self.stopped_at: list[float] = []
         self.stops = 0
         self.reads = 0
 
@@ -67,10 +71,14 @@ class Spy:
             assert self.exc is not None
             raise self.exc
         self.sent.append(np.array(qdot))
+        if self.clock is not None:
+            self.sent_at.append(self.clock())
         self.inner.send_velocity(qdot)
 
     def stop(self) -> None:
         self.stops += 1
+        if self.clock is not None:
+            self.stopped_at.append(self.clock())
         self.inner.stop()
 
 
@@ -407,9 +415,47 @@ def test_guard_scales_velocity_and_acceleration_and_clips_position() -> None:
     cmd, rep = guard_command(np.array([1.0, 0.5]), q=z, qdot_prev=z, limits=lim, period=0.01)
     np.testing.assert_allclose(cmd, [0.1, 0.05])  # the change is scaled to 10 rad/s² · 10 ms
     cmd, rep = guard_command(np.array([0.0, 0.5]), q=np.array([0.0, 0.999]), qdot_prev=np.array([0.0, 0.5]), limits=lim, period=0.01)  # fmt: skip
-    np.testing.assert_allclose(cmd, [0.0, 0.1]) and rep.position_clipped == (1,)
+    np.testing.assert_allclose(cmd, [0.0, 0.1])
+    assert rep.position_clipped == (1,) and rep.acceleration_exceeded == (1,)
     cmd, rep = guard_command(np.array([np.nan, 0.0]), q=z, qdot_prev=z, limits=lim, period=0.01)
     assert rep.non_finite and not cmd.any()
+
+
+def test_guard_reports_an_acceleration_its_position_clip_exceeds() -> None:
+    lim = JointLimits([-1.0, -1.0], [1.0, 1.0], 0.1, qdot_max=1.0, qddot_max=10.0)
+    # Joint 1 cruises at 0.5 rad/s, 1 mm from its bound: the clip brings it to 0.1 rad/s in
+    # one period, a change of 0.4 rad/s where q̈max·T allows 0.1.
+    q, prev = np.array([0.0, 0.999]), np.array([0.05, 0.5])
+    cmd, rep = guard_command(prev.copy(), q=q, qdot_prev=prev, limits=lim, period=0.01)
+    np.testing.assert_allclose(cmd, [0.05, 0.1])
+    assert rep.position_clipped == (1,) and rep.acceleration_exceeded == (1,)
+    # A change landing exactly on q̈max·T (the acceleration scaling) is not an excess.
+    cmd, rep = guard_command(np.array([1.0, 0.0]), q=np.zeros(2), qdot_prev=np.zeros(2), limits=lim, period=0.01)  # fmt: skip
+    assert rep.acceleration_scale < 1.0 and rep.acceleration_exceeded == ()
+    # A non-finite command replaced by zeros at speed is an excess too.
+    cmd, rep = guard_command(np.array([np.nan, 0.0]), q=q, qdot_prev=prev, limits=lim, period=0.01)  # fmt: skip
+    assert rep.non_finite and rep.acceleration_exceeded == (1,)
+    no_rates = JointLimits([-1.0, -1.0], [1.0, 1.0], 0.1)
+    assert guard_command(prev, q=q, qdot_prev=prev, limits=no_rates, period=0.01)[1].acceleration_exceeded == ()  # fmt: skip
+
+
+def test_the_loop_counts_every_acceleration_the_guard_exceeds() -> None:
+    inner = make_law("classical")
+
+    def push(**kw: Any) -> Any:  # drives axis 0 into its bound at 0.18 m/s, whatever the task
+        return inner(**kw)._replace(qdot=np.array([0.18, 0.0, 0.0, 0.0, 0.0, 0.0]))
+
+    clock, robot, sim, src, task = _setup()
+    limits = robot.limits().replace(margin_abs=0.05)
+    spy = Spy(sim)
+    res = _loop(spy, src, robot, task, clock, law=push, limits=limits, max_iterations=150).run()
+    assert res.outcome == "max_iterations" and spy.stops == 1
+    assert sim.fault is None and np.max(res.log.q[:, 0]) <= limits.safe_max[0] + 1e-12
+    steps = np.abs(np.diff(np.vstack([np.zeros((1, 6)), res.log.qdot]), axis=0))
+    over = np.any(steps > limits.qddot_max * T * (1 + 1e-9) + 1e-15, axis=1)
+    assert over.sum() >= 1  # the clip at the bound
+    assert res.summary["acceleration_exceeded"] == int(over.sum())
+    assert res.summary["acceleration_exceeded"] == res.summary["acceleration_violations"]
 
 
 def test_qdot_prev_is_passed_when_the_law_accepts_it() -> None:
@@ -445,6 +491,257 @@ def test_invalid_settings_are_rejected() -> None:
         _loop(sim, src, robot, task, clock, on_missing="guess")
     with pytest.raises(ConfigurationError, match="max_iterations"):
         _loop(sim, src, robot, task, clock, max_iterations=0)
+
+
+# -- the clock contract (issue 17, item 2) -----------------------------------------------------
+#
+# Every stamp is on the loop's clock. Each reproducer ends with robot.stop() called once,
+# no command sent after the fault or the watchdog's deadline, and a bounded number of
+# iterations. The virtual clock starts at 50 s, one tick every T = 40 ms.
+
+T0 = 50.0
+
+
+class Scripted:
+    """A feature source whose i-th measurement is ``script(i, m)``, m being the true one."""
+
+    def __init__(
+        self, inner: FeatureSource, script: Callable[[int, FeatureMeasurement], Any]
+    ) -> None:
+        self.inner, self.script, self.calls = inner, script, 0
+
+    def measure(self, t: float) -> FeatureMeasurement | None:
+        i, self.calls = self.calls, self.calls + 1
+        m = self.inner.measure(t)
+        return None if m is None else self.script(i, m)
+
+
+class Restamped(Spy):
+    """Joint readings re-stamped (and possibly frozen) by ``stamp(k, t, q) -> (t, q)``."""
+
+    def __init__(self, inner: RobotInterface, stamp: Callable[..., Any], **kw: Any) -> None:
+        super().__init__(inner, **kw)
+        self.stamp = stamp
+
+    def read_joints(self) -> tuple[float, np.ndarray]:
+        k = self.reads
+        t, q = super().read_joints()
+        return self.stamp(k, t, q)
+
+
+def _frozen_after(n: int, replay: int | None = None) -> Callable[[int, Any], Any]:
+    """A tracker that freezes after call ``n - 1``: it returns measurement ``replay`` (default
+    the last good one, n - 1) forever."""
+    seen: list[Any] = []
+
+    def script(i: int, m: Any) -> Any:
+        if i < n:
+            seen.append(m)
+            return m
+        return seen[n - 1 if replay is None else replay]
+
+    return script
+
+
+def _run_spied(source_script: Any = None, stamp: Any = None, **kw: Any) -> tuple[Any, Spy]:
+    clock, robot, sim, src, task = _setup()
+    spy = Restamped(sim, stamp, clock=clock) if stamp else Spy(sim, clock=clock)
+    source = Scripted(src, source_script) if source_script else src
+    loop = _loop(spy, source, robot, task, clock, **kw)
+    res = loop.run()
+    assert spy.stops == 1, "robot.stop() must be called exactly once"
+    assert loop.last_result is res
+    return res, spy
+
+
+def _no_command_after(spy: Spy, deadline: float) -> None:
+    late = [t for t in spy.sent_at if t > deadline + 1e-9]
+    assert not late, f"commands sent after the deadline {deadline}: {late}"
+
+
+def test_an_epoch_stamped_camera_is_a_clock_fault_at_the_first_measurement() -> None:
+    epoch = 1.7e9  # time.time() in 2023, while the loop runs on a monotonic clock
+
+    res, spy = _run_spied(lambda i, m: m._replace(t_measured=epoch + m.t_measured))
+    assert res.outcome == "clock_fault" and res.iterations == 1 and spy.sent == []
+    assert res.clock_fault is not None
+    assert (res.clock_fault.source, res.clock_fault.kind) == ("measurement", "future")
+    assert "t_measured" in res.reason and "time.time()" in res.reason
+    assert res.summary["clock_fault"]["kind"] == "future"
+
+
+def test_an_inf_stamp_then_a_frozen_tracker_is_a_clock_fault() -> None:
+    frozen = _frozen_after(11)
+
+    def script(i: int, m: Any) -> Any:
+        return m._replace(t_measured=np.inf) if i == 10 else frozen(i, m)
+
+    res, spy = _run_spied(script)
+    assert res.outcome == "clock_fault" and "iteration 10" in res.reason
+    assert res.clock_fault is not None and res.clock_fault.kind == "non_finite"
+    assert res.clock_fault.source == "measurement" and "inf" in res.reason
+    assert len(spy.sent) == 10 and res.iterations == 11
+    _no_command_after(spy, T0 + 9 * T)
+
+
+def test_nan_measurement_stamps_are_a_clock_fault() -> None:
+    res, spy = _run_spied(lambda i, m: m._replace(t_measured=float("nan")))
+    assert res.outcome == "clock_fault" and spy.sent == [] and res.iterations == 1
+    assert res.clock_fault is not None and res.clock_fault.kind == "non_finite"
+
+
+def test_a_frozen_tracker_stops_the_arm_within_the_watchdog_time() -> None:
+    res, spy = _run_spied(_frozen_after(10), watchdog_timeout=0.2)
+    assert res.outcome == "stale_measurement" and "watchdog" in res.reason
+    last_fresh = T0 + 9 * T  # call 9 is the last new image
+    _no_command_after(spy, last_fresh + 0.2)
+    assert spy.stopped_at[0] <= last_fresh + 0.2 + T + 1e-9  # the first tick past it
+    assert res.iterations <= 16
+
+
+def test_a_tracker_replaying_an_older_image_is_a_clock_fault() -> None:
+    res, spy = _run_spied(_frozen_after(10, replay=5))
+    assert res.outcome == "clock_fault" and res.clock_fault is not None
+    assert res.clock_fault.kind == "backwards" and res.clock_fault.source == "measurement"
+    assert len(spy.sent) == 10 and res.iterations == 11
+
+
+def test_staleness_is_judged_on_arrival_too() -> None:
+    # Stamps 45 ms ahead (within a 50 ms tolerance), then a frozen tracker: judged on its
+    # stamps alone, the last image would stay "fresh" until 50.605 s and a command would be
+    # sent at 50.60 s. Judged on its arrival (50.36 s), nothing is sent after 50.56 s.
+    frozen = _frozen_after(10)
+    res, spy = _run_spied(
+        lambda i, m: frozen(i, m._replace(t_measured=m.t_measured + 0.045)),
+        watchdog_timeout=0.2,
+        clock_tolerance=0.05,
+    )
+    assert res.outcome == "stale_measurement"
+    _no_command_after(spy, T0 + 9 * T + 0.2)
+
+
+@pytest.mark.parametrize(
+    ("stamp", "kind"),
+    [
+        (lambda k, t, q: (float("nan"), q), "non_finite"),
+        (lambda k, t, q: (None, q), "non_finite"),
+        (lambda k, t, q: (1.7e9 + t, q), "future"),
+    ],
+    ids=["nan", "none", "epoch"],
+)
+def test_a_broken_joint_stamp_is_a_clock_fault(stamp: Any, kind: str) -> None:
+    res, spy = _run_spied(stamp=stamp)
+    assert res.outcome == "clock_fault" and spy.sent == [] and res.iterations == 1
+    assert res.clock_fault is not None
+    assert (res.clock_fault.source, res.clock_fault.kind) == ("joints", kind)
+    assert "read_joints" in res.reason
+
+
+def test_joint_stamps_alternating_0_1_on_frozen_joints_are_a_clock_fault() -> None:
+    first: list[np.ndarray] = []
+
+    def stamp(k: int, t: float, q: np.ndarray) -> tuple[float, np.ndarray]:
+        first.append(q) if not first else None
+        return float(k % 2), first[0]  # q frozen, the stamp flips between 0 and 1
+
+    res, spy = _run_spied(stamp=stamp)
+    assert res.outcome == "clock_fault" and res.iterations == 3
+    assert res.clock_fault is not None
+    assert (res.clock_fault.source, res.clock_fault.kind) == ("joints", "backwards")
+    # Stamps 49 s old were never fresh: the arm was only ever told to keep still.
+    assert all(not c.any() for c in spy.sent) and len(res.log) == 0
+
+
+def test_joint_stamps_going_back_near_now_stop_the_arm_at_once() -> None:
+    q_frozen: list[np.ndarray] = []
+
+    def stamp(k: int, t: float, q: np.ndarray) -> tuple[float, np.ndarray]:
+        q_frozen.append(q) if not q_frozen else None
+        return T0 + 0.001 * (k % 2), q_frozen[0]
+
+    res, spy = _run_spied(stamp=stamp)
+    assert res.outcome == "clock_fault" and res.iterations == 3 and len(spy.sent) == 2
+    assert res.clock_fault is not None and res.clock_fault.kind == "backwards"
+    _no_command_after(spy, T0 + T)
+
+
+def test_old_joint_stamps_are_not_fresh_and_stop_on_the_watchdog() -> None:
+    res, spy = _run_spied(stamp=lambda k, t, q: (t - 1.0, q), watchdog_timeout=0.2)
+    assert res.outcome == "stale_measurement" and "joint readings" in res.reason
+    assert "monotonic clock" in res.reason  # the hint: never fresh, stamps far behind
+    assert all(not c.any() for c in spy.sent) and res.iterations <= 7
+
+
+def test_a_clock_fault_run_saves_and_loads(tmp_path: Path) -> None:
+    from redservo import load_run
+
+    res, _ = _run_spied(lambda i, m: m._replace(t_measured=np.inf) if i == 3 else m)
+    out = res.save(tmp_path / "run")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "clock_fault" and summary["iterations"] == 3
+    assert summary["clock_fault"] == {
+        "source": "measurement",
+        "kind": "non_finite",
+        "stamp": "inf",
+        "reference": "nan",
+        "tolerance": 0.005,
+    }
+    assert load_run(out).outcome == "clock_fault"
+
+
+def test_clock_tolerance_is_validated() -> None:
+    clock, robot, sim, src, task = _setup()
+    for bad in (-0.001, float("nan"), 0.5):
+        with pytest.raises(ConfigurationError, match="clock_tolerance"):
+            _loop(sim, src, robot, task, clock, clock_tolerance=bad)
+    assert _loop(sim, src, robot, task, clock, clock_tolerance=0.0).run().outcome == "converged"
+
+
+# -- any exception keeps the partial log (issue 17, item 6) ---------------------------------------
+
+
+class _Custom(BaseException):
+    pass
+
+
+@pytest.mark.parametrize("exc", [SystemExit(3), GeneratorExit(), _Custom("abort")])
+@pytest.mark.parametrize("raise_errors", [True, False])
+def test_a_base_exception_keeps_the_partial_log_and_propagates(
+    exc: BaseException, raise_errors: bool
+) -> None:
+    clock, robot, sim, src, task = _setup()
+
+    def fail(i: int) -> None:
+        if i == 5:
+            raise exc
+
+    spy = Spy(sim, on_read=fail, clock=clock)
+    loop = _loop(spy, src, robot, task, clock)
+    with pytest.raises(type(exc)) as info:
+        loop.run(raise_errors=raise_errors)
+    assert info.value is exc and spy.stops == 1 and len(spy.sent) == 5
+    res = loop.last_result
+    assert res is not None and res.outcome == "interrupted" and res.error is exc
+    assert f"{type(exc).__name__} in robot.read_joints at iteration 5" in res.reason
+    assert len(res.log) == 5 and res.summary["iterations"] == 5
+    assert "robot.stop() was called" in " ".join(exc.__notes__)
+
+
+def test_system_exit_from_stop_propagates_after_the_result_is_kept() -> None:
+    clock, robot, sim, src, task = _setup()
+
+    class Refusing(Spy):
+        def stop(self) -> None:
+            super().stop()
+            raise SystemExit("driver shut down")
+
+    spy = Refusing(sim)
+    loop = _loop(spy, src, robot, task, clock, max_iterations=4)
+    with pytest.raises(SystemExit):
+        loop.run()
+    res = loop.last_result
+    assert res is not None and res.outcome == "interrupted" and len(res.log) == 4
+    assert "robot.stop() raised SystemExit" in res.reason and spy.stops == 1
 
 
 # -- the example ---------------------------------------------------------------------------------

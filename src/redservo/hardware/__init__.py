@@ -4,6 +4,8 @@
   and camera (docs/real-robot.md);
 * :class:`ServoLoop`: the loop (fixed period, watchdog, guard, clean stops), writing the
   simulator's log format;
+* :class:`ClockFault`: a time stamp that broke the loop's clock contract (every stamp on
+  the loop's monotonic clock: :mod:`redservo.hardware.clock`);
 * :class:`ActuatorModel`, :class:`SimulatedRobot`, :class:`IdealFeatureSource`,
   :class:`VirtualClock`: a realistic simulated arm (lag, delay, saturation, encoder)
   behind the same interfaces, to rehearse a run (``examples/real_robot.py``).
@@ -12,6 +14,7 @@
 from __future__ import annotations
 
 from redservo.hardware.actuators import ACTUATOR_KEYS, ActuatorModel
+from redservo.hardware.clock import ClockFault
 from redservo.hardware.guard import GuardReport, guard_command
 from redservo.hardware.loop import ServoLoop
 from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
@@ -22,6 +25,7 @@ __all__ = [
     "ACTUATOR_KEYS",
     "SERVO_OUTCOMES",
     "ActuatorModel",
+    "ClockFault",
     "FeatureMeasurement",
     "FeatureSource",
     "GuardReport",

@@ -1,6 +1,6 @@
 """A fixed-period servo loop that runs any control law on a real (or simulated) robot.
 
-Each iteration, at times ``t0 + k T`` of a monotonic clock:
+Each iteration, at times ``t0 + k T`` of the loop's monotonic ``clock``:
 
 1. ``t, q = robot.read_joints()``;
 2. ``m = source.measure(now)``: a *fresh* measurement (newer than the last one and at most
@@ -11,11 +11,22 @@ Each iteration, at times ``t0 + k T`` of a monotonic clock:
    ``qdot_max``, ``qddot_max`` and the safe position range;
 4. ``robot.send_velocity(q̇)``, then sleep until the next tick.
 
+**Clock contract** (:mod:`redservo.hardware.clock`): the stamps ``t`` of the joint readings
+and ``t_measured`` of the measurements are on the loop's ``clock`` (monotonic seconds). A
+stamp that is not finite, ahead of the clock by more than ``clock_tolerance``, or earlier
+than the stream's newest one ends the run with ``clock_fault`` (``result.clock_fault``
+says which source and which fault). Freshness is judged on the stamp *and* on the arrival,
+so a frozen source stops the arm at the first tick more than ``watchdog_timeout`` after its
+last fresh reading, whatever it stamps. Before the first fresh joint reading and the first
+fresh measurement the loop commands zero.
+
 Guarantees (docs/real-robot.md): ``robot.stop()`` is called once at the end of *every* run,
 whatever ended it; a command above ``limits.qdot_max`` or holding a NaN is never sent; with
-no fresh measurement for more than ``watchdog_timeout`` seconds, or joint readings whose
-time stamp ``t`` did not change for that long, the run stops (``stale_measurement``); an exception raised by the robot, the source, the task or the law
-stops the robot and is re-raised with a note naming the stage and the iteration; Ctrl-C
+no fresh measurement, or no fresh joint reading, for more than ``watchdog_timeout`` seconds
+the run stops (``stale_measurement``) without sending another command; an exception raised
+by the robot, the source, the task or the law stops the robot and is re-raised with a note
+naming the stage and the iteration (``SystemExit`` and other ``BaseException`` too, always
+re-raised); the partial log is kept in :attr:`ServoLoop.last_result` in every case; Ctrl-C
 stops the robot and returns ``interrupted``; a late iteration is counted as an overrun and
 the next one starts at once (missed ticks are not caught up in a burst).
 
@@ -29,45 +40,31 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Literal, cast
+from functools import partial
+from typing import Any, Literal
 
 import numpy as np
 
-from redservo._validation import FloatArray, as_vector
+from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
+from redservo.hardware.clock import StampWatch
 from redservo.hardware.guard import guard_command
-from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
-from redservo.hardware.recorder import LoopRecorder, ServoOutcome, ServoResult
+from redservo.hardware.inputs import EndRun, RunState, measure, read_joints
+from redservo.hardware.protocols import FeatureSource, RobotInterface
+from redservo.hardware.recorder import (
+    LoopRecorder,
+    RunEnd,
+    ServoOutcome,
+    ServoResult,
+    servo_result,
+)
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
 from redservo.robots.base import Robot
-from redservo.simulation import summarize
-from redservo.task import TaskState, VisualTask
+from redservo.task import VisualTask
 
 __all__ = ["ServoLoop"]
-
-
-@dataclass
-class _Run:
-    """Mutable state of one run (internal)."""
-
-    t0: float
-    next_tick: float
-    prev: FloatArray
-    recorder: LoopRecorder
-    k: int = 0
-    stage: str = "start"
-    last: FeatureMeasurement | None = None
-    joint_t: float | None = None
-    joint_seen: float = 0.0
-    state: TaskState | None = None
-    diag: Diagnostics | None = None
-    overruns: int = 0
-    missing: int = 0
-    guarded: int = 0
-    cycle: list[float] = field(default_factory=list)
 
 
 def _accepts_qdot_prev(law: Callable[..., LawResult]) -> bool:
@@ -105,8 +102,12 @@ class ServoLoop:
             enforced by the guard as well as by the law.
         period: Control period T (s), > 0; also the law's ``dt``.
         lam: Gain λ (1/s), passed to the law as is.
-        watchdog_timeout: Stop when no fresh measurement arrived for this long (s), >= T, or
-            when the time stamp of the joint readings did not change for this long.
+        watchdog_timeout: Stop when no fresh measurement, or no fresh joint reading, arrived
+            for this long (s), >= T (:mod:`redservo.hardware.clock`).
+        clock_tolerance: How far (s) a time stamp may be ahead of the loop's clock before it
+            is a ``clock_fault``, >= 0 and < ``watchdog_timeout``. The default, 5 ms, covers
+            the error of converting a device's stamps to the loop's clock; a stamp on
+            another clock (``time.time()``) is off by far more.
         max_iterations: Stop after this many iterations (None: no limit).
         duration: Stop after this many seconds (None: no limit).
         tolerance: Convergence threshold on ``‖e1‖`` (task units).
@@ -114,11 +115,12 @@ class ServoLoop:
         on_missing: Without a fresh measurement, ``"hold"`` re-sends the last command and
             ``"zero"`` asks for zero velocity (both through the guard, so the change obeys
             ``qddot_max``).
-        clock: Monotonic clock (s); inject a :class:`~redservo.hardware.VirtualClock` in tests.
+        clock: Monotonic clock (s), the clock of every time stamp; inject a
+            :class:`~redservo.hardware.VirtualClock` in tests.
         sleep: Sleep function (s); the virtual clock's ``sleep`` in tests.
 
     Raises:
-        ConfigurationError: a period, gain, timeout or limit is not positive, or
+        ConfigurationError: a period, gain, timeout, tolerance or limit is out of range, or
             ``on_missing`` is not ``"hold"`` or ``"zero"``.
         ShapeError: ``limits`` and ``model_robot`` have different numbers of joints.
     """
@@ -135,6 +137,7 @@ class ServoLoop:
         period: float,
         lam: Any,
         watchdog_timeout: float = 0.5,
+        clock_tolerance: float = 0.005,
         max_iterations: int | None = None,
         duration: float | None = None,
         tolerance: float = 1e-3,
@@ -154,6 +157,12 @@ class ServoLoop:
                 f"watchdog_timeout ({watchdog_timeout!r} s) must be at least the period "
                 f"({period!r} s)"
             )
+        if not (math.isfinite(clock_tolerance) and 0.0 <= clock_tolerance < watchdog_timeout):
+            raise ConfigurationError(
+                f"clock_tolerance must be >= 0 s and below watchdog_timeout "
+                f"({watchdog_timeout!r} s), got {clock_tolerance!r}",
+                argument="clock_tolerance",
+            )
         if max_iterations is not None and max_iterations < 1:
             raise ConfigurationError(f"max_iterations must be >= 1, got {max_iterations!r}")
         if on_missing not in ("hold", "zero"):
@@ -169,6 +178,7 @@ class ServoLoop:
         self.period = float(period)
         self.lam = lam
         self.watchdog_timeout = float(watchdog_timeout)
+        self.clock_tolerance = float(clock_tolerance)
         self.max_iterations = max_iterations
         self.duration = duration
         self.tolerance = float(tolerance)
@@ -193,51 +203,76 @@ class ServoLoop:
             raise_errors: Re-raise an exception from the robot, source, task or law (after
                 stopping the robot, with a note naming the stage and the iteration). When
                 False, return the result with outcome ``error`` and the exception in
-                ``result.error``. The result is in :attr:`last_result` in both cases.
+                ``result.error``. A ``BaseException`` other than ``KeyboardInterrupt``
+                (``SystemExit``, ``GeneratorExit``, ...) is always re-raised (outcome
+                ``interrupted``). The result, partial log included, is in
+                :attr:`last_result` in every case.
 
         Returns:
             :class:`ServoResult`. Its ``summary`` has the simulator's fields plus
             ``reason``, ``overruns``, ``max_cycle_time`` (s), ``held`` (iterations without a
-            fresh measurement), ``missing`` (``measure`` returned None) and ``guarded``
-            (iterations whose command the guard changed).
+            fresh measurement), ``missing`` (``measure`` returned None), ``guarded``
+            (iterations whose command the guard changed), ``acceleration_exceeded``
+            (iterations whose command changed by more than ``qddot_max·T``: the guard's
+            position clip) and ``clock_fault`` (the offending stamp, or None).
         """
         self._stop_request.clear()
+        run = self._new_run()
+        end = RunEnd()
+        try:
+            end.outcome, end.reason = self._loop(run)
+        except EndRun as stop:
+            end.outcome, end.reason, end.clock_fault = stop.outcome, stop.reason, stop.fault
+        except KeyboardInterrupt:
+            end.outcome, end.reason = "interrupted", f"KeyboardInterrupt at iteration {run.k}"
+        except BaseException as exc:  # SystemExit included: logged here, re-raised below
+            end.outcome = "error" if isinstance(exc, Exception) else "interrupted"
+            end.error = exc
+            end.reason = (
+                f"{type(exc).__name__} in {run.stage} at iteration {run.k} "
+                f"(t = {self.clock() - run.t0:.3f} s): {exc}"
+            )
+        finally:
+            self._stop_robot(end)
+            self.last_result = servo_result(
+                run.recorder,
+                end,
+                names=(self.model_robot.joint_names, self.task.names),
+                limits=self.limits,
+                period=self.period,
+                cycle=run.cycle,
+                counters=run.counters,
+            )
+        if end.error is not None:
+            end.error.add_note(
+                f"redservo ServoLoop: {end.reason.split(': ')[0]}; robot.stop() was called"
+                + (f" and raised {end.stop_error!r}" if end.stop_error is not None else "")
+            )
+            if raise_errors or not isinstance(end.error, Exception):
+                raise end.error
+        return self.last_result
+
+    def _new_run(self) -> RunState:
         t0 = self.clock()
         n = self.model_robot.n
-        run = _Run(t0, t0, np.zeros(n), LoopRecorder(n, self.task.k, self.task.m))
-        outcome: ServoOutcome = "error"
-        reason, error, stop_error = "", None, None
-        try:
-            try:
-                outcome, reason = self._loop(run)
-            except KeyboardInterrupt:
-                outcome, reason = "interrupted", f"KeyboardInterrupt at iteration {run.k}"
-            except Exception as exc:
-                outcome, error = "error", exc
-                reason = (
-                    f"{type(exc).__name__} in {run.stage} at iteration {run.k} "
-                    f"(t = {self.clock() - t0:.3f} s): {exc}"
-                )
-        finally:
-            try:
-                self.robot.stop()
-            except Exception as exc:
-                stop_error = exc
-        if stop_error is not None and error is None:
-            outcome, error = "error", stop_error
-            reason = f"robot.stop() raised {type(stop_error).__name__}: {stop_error} ({reason})"
-        result = self._result(run, outcome, reason, error)
-        self.last_result = result
-        if error is not None:
-            error.add_note(
-                f"redservo ServoLoop: {reason.split(': ')[0]}; robot.stop() was called"
-                + (f" and raised {stop_error!r}" if stop_error is not None else "")
-            )
-            if raise_errors:
-                raise error
-        return result
+        watch = partial(
+            StampWatch, tolerance=self.clock_tolerance, timeout=self.watchdog_timeout, t0=t0
+        )
+        recorder = LoopRecorder(n, self.task.k, self.task.m)
+        return RunState(t0, t0, np.zeros(n), recorder, watch("joints"), watch("measurement"))
 
-    def _loop(self, run: _Run) -> tuple[ServoOutcome, str]:
+    def _stop_robot(self, end: RunEnd) -> None:
+        """Call ``robot.stop()`` once; what it raises ends the run as an error of its own."""
+        try:
+            self.robot.stop()
+        except BaseException as exc:
+            end.stop_error = exc
+            if end.error is None:
+                end.error = exc
+                end.outcome = "error" if isinstance(exc, Exception) else "interrupted"
+                end.reason = f"robot.stop() raised {type(exc).__name__}: {exc} ({end.reason})"
+
+    def _loop(self, run: RunState) -> tuple[ServoOutcome, str]:
         while True:
             if self._stop_request.is_set():
                 return "stopped", f"request_stop() at iteration {run.k}"
@@ -246,63 +281,29 @@ class ServoLoop:
             start = self.clock()
             if self.duration is not None and start - run.t0 >= self.duration - 1e-9:
                 return "max_iterations", f"duration {self.duration} s reached at iteration {run.k}"
-            done = self._iteration(run)
-            end = self.clock()
-            run.cycle.append(end - start)
+            try:
+                done = self._iteration(run)
+            finally:
+                run.cycle.append(self.clock() - start)
             if done is not None:
                 return done
+            end = start + run.cycle[-1]
             run.k += 1
             run.next_tick += self.period
             if end > run.next_tick:
-                run.overruns += 1
+                run.counters["overruns"] += 1
                 run.next_tick = end  # start at once; the schedule restarts from here
             else:
                 run.stage = "sleep"
                 self.sleep(run.next_tick - end)
 
-    def _fresh(self, run: _Run, meas: FeatureMeasurement | None, now: float) -> bool:
-        """Validate ``meas`` and keep it if it is new and young enough."""
-        if meas is None:
-            run.missing += 1
-            return False
-        if run.last is not None and meas.t_measured <= run.last.t_measured:
-            return False  # the same image again
-        if now - meas.t_measured > self.watchdog_timeout:
-            return False
-        as_vector(meas.s, "s from source.measure()", self.task.k)
-        if len(meas.inv_depth) != len(self.task.terms):
-            raise ShapeError(
-                f"source.measure() gave {len(meas.inv_depth)} inverse-depth entries; the task "
-                f"has {len(self.task.terms)} terms"
-            )
-        run.last = meas
-        return True
-
-    def _iteration(self, run: _Run) -> tuple[ServoOutcome, str] | None:
+    def _iteration(self, run: RunState) -> tuple[ServoOutcome, str] | None:
         """One iteration; return (outcome, reason) to end the run, None to continue."""
-        run.stage = "robot.read_joints"
-        t_read, q_read = self.robot.read_joints()
-        q = as_vector(q_read, "q from robot.read_joints()", self.model_robot.n)
-        now = self.clock()
-        if run.joint_t is None or t_read != run.joint_t:
-            run.joint_t, run.joint_seen = t_read, now
-        elif now - run.joint_seen > self.watchdog_timeout:
-            return "stale_measurement", (
-                f"the joint readings kept the time stamp {t_read!r} for "
-                f"{now - run.joint_seen:.3f} s (watchdog_timeout {self.watchdog_timeout} s) "
-                f"at iteration {run.k}"
-            )
-        run.stage = "source.measure"
-        fresh = self._fresh(run, self.source.measure(now), now)
-        age = now - (run.last.t_measured if run.last is not None else run.t0)
-        if age > self.watchdog_timeout:
-            return "stale_measurement", (
-                f"no fresh measurement for {age:.3f} s (watchdog_timeout "
-                f"{self.watchdog_timeout} s) at iteration {run.k}"
-            )
+        q, now = read_joints(run, self.robot, self.clock, self.model_robot.n)
+        fresh = measure(run, self.source, self.clock, self.task, now)
         run.stage = "model_robot.jacobian"
         J = self.model_robot.jacobian(q, check_limits=False)
-        if fresh:
+        if fresh and run.joints.ever_fresh:
             assert run.last is not None
             run.stage = "task"
             run.state = self.task.evaluate_measured(
@@ -311,21 +312,25 @@ class ServoLoop:
             run.stage = "law"
             res = self.law(**self._law_kwargs(run, q))
             qdot, run.diag = res.qdot, res.diagnostics
-        elif run.state is None:  # nothing measured yet: keep still
+        elif run.state is None:  # nothing measured, or no fresh joint reading, yet: keep still
             run.stage = "robot.send_velocity"
             self.robot.send_velocity(np.zeros_like(q))
             return None
         else:
             qdot = run.prev if self.on_missing == "hold" else np.zeros_like(q)
+        return self._send(run, qdot, q, J, now, fresh)
+
+    def _send(
+        self, run: RunState, qdot: FloatArray, q: FloatArray, J: FloatArray, now: float, fresh: bool
+    ) -> tuple[ServoOutcome, str] | None:
+        """Guard, log and send the command (or end the run: non-finite, converged)."""
         run.stage = "guard"
         cmd, report = guard_command(
-            np.asarray(qdot, dtype=float),
-            q=q,
-            qdot_prev=run.prev,
-            limits=self.limits,
+            np.asarray(qdot, dtype=float), q=q, qdot_prev=run.prev, limits=self.limits,
             period=self.period,
-        )
-        run.guarded += int(report.changed)
+        )  # fmt: skip
+        run.counters["guarded"] += int(report.changed)
+        run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
         assert run.state is not None and run.diag is not None
         run.recorder.append(
             t=now - run.t0,
@@ -347,7 +352,7 @@ class ServoLoop:
         run.prev = cmd
         return None
 
-    def _law_kwargs(self, run: _Run, q: FloatArray) -> dict[str, Any]:
+    def _law_kwargs(self, run: RunState, q: FloatArray) -> dict[str, Any]:
         assert run.state is not None
         kw: dict[str, Any] = {
             "J1": run.state.J1,
@@ -360,22 +365,3 @@ class ServoLoop:
         if self.passes_qdot_prev:
             kw["qdot_prev"] = run.prev
         return kw
-
-    def _result(
-        self, run: _Run, outcome: ServoOutcome, reason: str, error: BaseException | None
-    ) -> ServoResult:
-        log = run.recorder.to_log(self.model_robot.joint_names, self.task.names)
-        measured = np.array(run.recorder.measured, dtype=bool)
-        cycle = np.array(run.cycle, dtype=float)
-        summary = summarize(log, cast(Any, outcome), self.limits, None, dt=self.period).to_dict()
-        summary.update(
-            reason=reason,
-            loop_iterations=int(cycle.shape[0]),
-            period=self.period,
-            overruns=run.overruns,
-            max_cycle_time=float(cycle.max()) if cycle.size else 0.0,
-            held=int(np.count_nonzero(~measured)),
-            missing=run.missing,
-            guarded=run.guarded,
-        )
-        return ServoResult(outcome, reason, log, summary, measured, cycle, run.overruns, error)

@@ -4,7 +4,7 @@ Two small :class:`typing.Protocol` classes: implement them for your arm and your
 vision pipeline and :class:`~redservo.hardware.ServoLoop` runs any control law on
 them (docs/real-robot.md). Nothing here imports a robot SDK or ROS.
 
-Units: seconds (on the loop's monotonic clock), metres and radians per joint,
+Units: seconds (every time stamp on the loop's monotonic clock), metres and radians per joint,
 normalized image coordinates for the features (``x = X/Z``).
 """
 
@@ -26,9 +26,12 @@ class FeatureMeasurement(NamedTuple):
     """Inverse-depth parameters per task term (1/m), as the controller will use them
     (``1/Ẑ`` for a point; see :mod:`redservo.features.base`)."""
     t_measured: float
-    """When the image was taken (s), on the loop's clock. The loop uses it to reject
-    stale measurements (``now - t_measured > watchdog_timeout``) and to tell a new
-    image from a repeated one (``t_measured`` must increase)."""
+    """When the image was taken (s), on the loop's clock (monotonic seconds: convert the
+    camera's stamps). The loop uses it to reject stale measurements (``now - t_measured >
+    watchdog_timeout``) and to tell a new image from a repeated one (same ``t_measured``).
+    A stamp that is not finite, ahead of the loop's clock by more than ``clock_tolerance``
+    or earlier than an earlier one is a clock fault: the loop stops the robot
+    (:mod:`redservo.hardware.clock`)."""
 
 
 @runtime_checkable
@@ -41,9 +44,12 @@ class RobotInterface(Protocol):
     """
 
     def read_joints(self) -> tuple[float, FloatArray]:
-        """Return ``(t, q)``: the time stamp of the reading (s, any clock) and the (n,) joint
-        positions (m or rad). The loop only checks that ``t`` changes: a stamp that stays the
-        same for ``watchdog_timeout`` means the readings are stale, and the run stops."""
+        """Return ``(t, q)``: the time stamp of the reading (s, on the loop's monotonic clock)
+        and the (n,) joint positions (m or rad). ``t`` must increase with each new reading
+        (the same ``t`` again means "no new reading"); with no new reading at most
+        ``watchdog_timeout`` old for longer than ``watchdog_timeout``, the run stops
+        (``stale_measurement``). A stamp that is not finite, goes backwards or is ahead of
+        the loop's clock is a clock fault (:mod:`redservo.hardware.clock`)."""
         ...
 
     def send_velocity(self, qdot: FloatArray) -> None:

@@ -12,25 +12,40 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.hardware.clock import ClockFault
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics
-from redservo.simulation import LogBuffer, SimulationLog
+from redservo.simulation import LogBuffer, SimulationLog, summarize
 from redservo.task import TaskState
 
-__all__ = ["SERVO_OUTCOMES", "LoopRecorder", "ServoOutcome", "ServoResult"]
+__all__ = [
+    "SERVO_OUTCOMES",
+    "LoopRecorder",
+    "RunEnd",
+    "ServoOutcome",
+    "ServoResult",
+    "servo_result",
+]
 
 ServoOutcome = Literal[
-    "converged", "stopped", "stale_measurement", "error", "interrupted", "max_iterations"
+    "converged",
+    "stopped",
+    "stale_measurement",
+    "clock_fault",
+    "error",
+    "interrupted",
+    "max_iterations",
 ]
 SERVO_OUTCOMES: tuple[ServoOutcome, ...] = (
     "converged",
     "stopped",
     "stale_measurement",
+    "clock_fault",
     "error",
     "interrupted",
     "max_iterations",
@@ -43,8 +58,11 @@ class ServoResult:
 
     outcome: ServoOutcome
     """``converged`` (``‖e1‖ < tolerance``), ``stopped``
-    (:meth:`~redservo.hardware.ServoLoop.request_stop`), ``stale_measurement`` (watchdog), ``error`` (an exception, or a non-finite command),
-    ``interrupted`` (Ctrl-C) or ``max_iterations`` (``max_iterations`` or ``duration``)."""
+    (:meth:`~redservo.hardware.ServoLoop.request_stop`), ``stale_measurement`` (watchdog),
+    ``clock_fault`` (a time stamp broke the clock contract: :mod:`redservo.hardware.clock`),
+    ``error`` (an exception, or a non-finite command), ``interrupted`` (Ctrl-C, or a
+    ``BaseException`` such as ``SystemExit``, which is re-raised) or ``max_iterations``
+    (``max_iterations`` or ``duration``)."""
     reason: str
     """One sentence saying what ended the run (with the iteration)."""
     log: SimulationLog
@@ -59,7 +77,9 @@ class ServoResult:
     overruns: int = 0
     """Iterations that ended after their next tick."""
     error: BaseException | None = field(default=None, repr=False)
-    """The exception that ended the run (outcome ``error``), if any."""
+    """The exception that ended the run (outcome ``error`` or ``interrupted``), if any."""
+    clock_fault: ClockFault | None = None
+    """The offending time stamp (outcome ``clock_fault``): which source, which fault."""
 
     @property
     def iterations(self) -> int:
@@ -116,3 +136,63 @@ class LoopRecorder:
     def to_log(self, joint_names: tuple[str, ...], feature_names: tuple[str, ...]) -> SimulationLog:
         """Return the rows as a :class:`SimulationLog`."""
         return self.buffer.to_log(joint_names, feature_names)
+
+
+@dataclass
+class RunEnd:
+    """How a servo run ended (filled in by the loop, turned into a :class:`ServoResult`)."""
+
+    outcome: ServoOutcome = "error"
+    reason: str = ""
+    error: BaseException | None = None
+    clock_fault: ClockFault | None = None
+    stop_error: BaseException | None = None
+    """What ``robot.stop()`` raised, if anything."""
+
+
+def servo_result(
+    recorder: LoopRecorder,
+    end: RunEnd,
+    *,
+    names: tuple[tuple[str, ...], tuple[str, ...]],
+    limits: JointLimits,
+    period: float,
+    cycle: list[float],
+    counters: dict[str, int],
+) -> ServoResult:
+    """Build the result of a run: its log, the simulator's summary plus the loop's fields.
+
+    Args:
+        recorder: The run's rows.
+        end: How it ended.
+        names: (joint names, feature names) of the log.
+        limits: The limits the run was given (for the summary's margins and rates).
+        period: Control period T (s).
+        cycle: Compute time of each iteration (s).
+        counters: The loop's counters (``overruns``, ``missing``, ``guarded``,
+            ``acceleration_exceeded``), copied into the summary.
+    """
+    log = recorder.to_log(*names)
+    measured = np.array(recorder.measured, dtype=bool)
+    times = np.array(cycle, dtype=float)
+    summary = summarize(log, cast(Any, end.outcome), limits, None, dt=period).to_dict()
+    summary.update(
+        reason=end.reason,
+        loop_iterations=int(times.shape[0]),
+        period=period,
+        max_cycle_time=float(times.max()) if times.size else 0.0,
+        held=int(np.count_nonzero(~measured)),
+        clock_fault=end.clock_fault.to_dict() if end.clock_fault is not None else None,
+        **counters,
+    )
+    return ServoResult(
+        end.outcome,
+        end.reason,
+        log,
+        summary,
+        measured,
+        times,
+        counters.get("overruns", 0),
+        end.error,
+        end.clock_fault,
+    )
