@@ -72,7 +72,8 @@ class RunSummary(Mapping[str, Any]):
     max_joint_speed: list[float]
     """Per joint, the largest |q̇| commanded (rad/s or m/s)."""
     peak_velocity_ratio: float | None
-    """Largest |q̇_i| / q̇_max,i over the run (None without velocity limits)."""
+    """Largest |q̇_i| / q̇_max,i over the run: 0 for a run without a step, None only when the
+    limits have no velocity limit."""
     velocity_violations: int
     """Steps where some |q̇_i| exceeded its velocity limit."""
     acceleration_violations: int
@@ -110,8 +111,8 @@ def _rates(log: SimulationLog, limits: JointLimits, dt: float) -> tuple[float | 
     qd = log.qdot
     ratio: float | None = None
     v_viol = a_viol = 0
-    if limits.qdot_max is not None and len(log):
-        ratio = float(np.max(np.abs(qd) / limits.qdot_max))
+    if limits.qdot_max is not None:  # never None when there are velocity limits
+        ratio = float(np.max(np.abs(qd) / limits.qdot_max)) if len(log) else 0.0
         v_viol = int(np.count_nonzero(np.any(np.abs(qd) > limits.qdot_max, axis=1)))
     if limits.qddot_max is not None and len(log):
         dq = np.diff(np.vstack([np.zeros((1, qd.shape[1])), qd]), axis=0)
