@@ -22,7 +22,13 @@ from redservo.errors import (
     UnknownNameError,
 )
 from redservo.robots import DHLink, DHRobot, Panda, URDFRobot, shipped_urdf
-from redservo.robots.panda import PANDA_Q_MAX, PANDA_Q_MIN, WRIST_CAMERA_OFFSET
+from redservo.robots.panda import (
+    PANDA_Q_MAX,
+    PANDA_Q_MIN,
+    PANDA_QDDOT_MAX,
+    PANDA_QDOT_MAX,
+    WRIST_CAMERA_OFFSET,
+)
 from redservo.spatial import inverse, make_transform
 from tests.test_robots import assert_jacobian_close, fd_body_jacobian, random_q
 
@@ -79,6 +85,7 @@ TINY_URDF = """<?xml version="1.0"?>
     <parent link="carriage"/><child link="table"/>
     <origin xyz="0 0 0.1" rpy="0 0 0.3"/>
     <axis xyz="0 0 1"/>
+    <limit effort="10" velocity="2.0"/>
   </joint>
   <joint name="mount" type="fixed">
     <parent link="table"/><child link="bracket"/>
@@ -152,20 +159,21 @@ def test_ur5e_urdf_equals_standard_dh() -> None:
         np.testing.assert_allclose(robot.jacobian(q), dh.jacobian(q), rtol=0, atol=1e-10)
 
 
-def test_velocity_limits_are_read_from_the_urdf(tiny: Path) -> None:
+def test_rate_limits_are_read_from_the_urdf(tiny: Path) -> None:
     panda = panda_urdf()
-    assert panda.qdot_max is not None
-    assert np.array_equal(panda.qdot_max, (2.175,) * 4 + (2.61,) * 3)
-    assert panda.qddot_max is None  # URDF has no acceleration limit
+    assert np.array_equal(panda.qdot_max, PANDA_QDOT_MAX)  # type: ignore[arg-type]
+    # The shipped files carry the datasheet accelerations (<redservo:limit acceleration>).
+    assert np.array_equal(panda.qddot_max, PANDA_QDDOT_MAX)  # type: ignore[arg-type]
     assert np.array_equal(panda.limits().qdot_max, panda.qdot_max)  # type: ignore[arg-type]
-    ur5e = ur5e_urdf(qddot_max=5.0)
+    assert np.array_equal(panda.limits().qddot_max, Panda().qddot_max)  # type: ignore[arg-type]
+    ur5e = ur5e_urdf()
     assert np.array_equal(ur5e.qdot_max, np.full(6, np.pi))  # type: ignore[arg-type]
     assert np.array_equal(ur5e.qddot_max, np.full(6, 5.0))  # type: ignore[arg-type]
-    # A sub-chain keeps the velocities of its own joints ...
+    assert np.array_equal(ur5e_urdf(qddot_max=3.0).qddot_max, np.full(6, 3.0))  # type: ignore[arg-type]
+    # A sub-chain keeps the velocities of its own joints; a file without accelerations has none.
     sub = URDFRobot(tiny, camera_link="cam", joints=["slide", "tilt"])
     assert np.array_equal(sub.qdot_max, [0.25, 1.5])  # type: ignore[arg-type]
-    # ... and a servoed joint without <limit velocity> leaves qdot_max unknown.
-    assert URDFRobot(tiny, camera_link="cam").qdot_max is None
+    assert sub.qddot_max is None
 
 
 # -- Jacobians against finite differences --------------------------------------------------------
