@@ -40,6 +40,7 @@ Pinocchio work data: give each thread its own copy (``copy.copy`` makes new data
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -274,8 +275,10 @@ class URDFRobot(Robot):
                 f"Pinocchio cannot build a model from {tree.source}: {failure}{parser}",
                 argument="path",
             ) from None
-        if printed[0]:  # not ours to drop: pass it on unchanged
-            os.write(2, printed[0].encode())
+        if said:  # e.g. a malformed <visual>, which the kinematics does not use
+            warnings.warn(
+                f"URDF {tree.source} loaded, but its parser said: {said}", UserWarning, stacklevel=3
+            )
         q_ref = pin.neutral(full)
         to_lock = []
         for jid in range(1, full.njoints):
