@@ -604,6 +604,7 @@ def test_a_tracker_replaying_an_older_image_is_a_clock_fault() -> None:
     assert res.outcome == "clock_fault" and res.clock_fault is not None
     assert res.clock_fault.kind == "backwards" and res.clock_fault.source == "measurement"
     assert len(spy.sent) == 10 and res.iterations == 11
+    _no_command_after(spy, T0 + 9 * T)
 
 
 def test_staleness_is_judged_on_arrival_too() -> None:
@@ -635,6 +636,8 @@ def test_a_broken_joint_stamp_is_a_clock_fault(stamp: Any, kind: str) -> None:
     assert res.clock_fault is not None
     assert (res.clock_fault.source, res.clock_fault.kind) == ("joints", kind)
     assert "read_joints" in res.reason
+    if stamp(0, T0, Q_MID)[0] is None:
+        assert "is None, not a finite number" in res.reason
 
 
 def test_joint_stamps_alternating_0_1_on_frozen_joints_are_a_clock_fault() -> None:
@@ -650,6 +653,7 @@ def test_joint_stamps_alternating_0_1_on_frozen_joints_are_a_clock_fault() -> No
     assert (res.clock_fault.source, res.clock_fault.kind) == ("joints", "backwards")
     # Stamps 49 s old were never fresh: the arm was only ever told to keep still.
     assert all(not c.any() for c in spy.sent) and len(res.log) == 0
+    _no_command_after(spy, T0 + T)
 
 
 def test_joint_stamps_going_back_near_now_stop_the_arm_at_once() -> None:
@@ -685,6 +689,7 @@ def test_a_clock_fault_run_saves_and_loads(tmp_path: Path) -> None:
         "stamp": "inf",
         "reference": "nan",
         "tolerance": 0.005,
+        "given": "",
     }
     assert load_run(out).outcome == "clock_fault"
 

@@ -54,12 +54,14 @@ class ClockFault(NamedTuple):
     stamp (``backwards``), NaN (``non_finite``)."""
     tolerance: float
     """The loop's ``clock_tolerance`` (s)."""
+    given: str = ""
+    """``repr`` of the stamp as given, when it was not a number (``stamp`` is then NaN)."""
 
     def message(self) -> str:
         """One sentence: which stamp, what is wrong with it, and the likely cause."""
         what = _STAMP_NAME[self.source]
         if self.kind == "non_finite":
-            return f"{what} is {self.stamp!r}, not a finite number of seconds"
+            return f"{what} is {self.given or repr(self.stamp)}, not a finite number of seconds"
         if self.kind == "future":
             return (
                 f"{what} = {self.stamp!r} s is {self.stamp - self.reference:.6g} s ahead of the "
@@ -112,11 +114,11 @@ class StampWatch:
             repeated stamp, or a new one already too old).
         """
         try:
-            t = float(stamp)  # type: ignore[arg-type]
+            t, given = float(stamp), ""  # type: ignore[arg-type]
         except (TypeError, ValueError):
-            t = math.nan
+            t, given = math.nan, repr(stamp)[:80]
         if not math.isfinite(t):
-            return ClockFault(self.source, "non_finite", t, math.nan, self.tolerance)
+            return ClockFault(self.source, "non_finite", t, math.nan, self.tolerance, given)
         if t > arrival + self.tolerance:
             return ClockFault(self.source, "future", t, arrival, self.tolerance)
         if self.newest is not None and t < self.newest:
