@@ -286,14 +286,16 @@ def test_same_seed_same_rows_whatever_the_workers() -> None:
 
 
 def test_resume_reuses_finished_rows(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from redservo.campaign import task as campaign_task
+
     calls: list[tuple[int, str]] = []
-    real = cmp._run_task
+    real = campaign_task._run_task
 
     def counting(task: Any) -> dict[str, Any]:
         calls.append((task.sample, task.method))
         return real(task)
 
-    monkeypatch.setattr(cmp, "_run_task", counting)
+    monkeypatch.setattr(campaign_task, "_run_task", counting)
     d, out = quick(), tmp_path / "c"
     first = run_campaign(d, samples=2, seed=1, workers=1, out=out, progress=False)
     assert len(calls) == 4 and first.computed == 4
@@ -576,6 +578,121 @@ def test_limit_axis_is_zero_based_like_the_summary(tmp_path: Path) -> None:
     }
     row = _summary_columns(summary, ("x", "y"))
     assert row["limit_axis"] == 0 and row["limit_joint"] == "x"
+
+
+# --------------------------------------------------------------------------- completeness
+
+QUICK_METHODS = ("classical", "iterative-smooth")
+
+
+def _dropping_sample(monkeypatch: pytest.MonkeyPatch, lost: int) -> None:
+    """Make the engine lose the job of sample ``lost`` silently (as the Dask engine once
+    did: it pulled one job too many out of the queue and dropped it)."""
+    from redservo.campaign import client
+
+    real = client.execute
+
+    def dropping(jobs: Any, engine: Any, on_result: Any) -> None:
+        real((j for j in jobs if all(i != lost for i, _ in j.samples)), engine, on_result)
+
+    monkeypatch.setattr(client, "execute", dropping)
+
+
+def test_a_lost_job_is_named_and_the_campaign_resumes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The client counts the rows of every (sample, method) at the end: an engine that loses
+    a job cannot end a campaign as if it were complete. The error names the sample, the rows
+    computed are stored, campaign.md states the N actually completed, and a rerun computes
+    only the missing runs."""
+    import json
+
+    from redservo.campaign import CampaignIncompleteError
+
+    d, out = quick(), tmp_path / "c"
+    _dropping_sample(monkeypatch, 1)
+    with pytest.raises(CampaignIncompleteError) as info:
+        run_campaign(d, samples=3, seed=1, workers=1, out=out, progress=False)
+    err = info.value
+    assert err.missing == tuple((1, m) for m in QUICK_METHODS)
+    text = str(err)
+    assert "2 of 6 runs missing: sample 1 (every method)" in text, text
+    assert "resumable" in text and str(out / "samples.csv") in text, text
+    assert sorted(_csv_keys(out / "samples.csv")) == [(i, m) for i in (0, 2) for m in QUICK_METHODS]
+    md = (out / "campaign.md").read_text()
+    assert "N = 3 samples per method" not in md
+    assert "N completed per method: classical 2, iterative-smooth 2 (of the 3 samples" in md
+    meta = json.loads((out / "campaign.json").read_text())
+    assert meta["complete"] is False and meta["completed"] == dict.fromkeys(QUICK_METHODS, 2)
+    assert err.result is not None and err.result.stats["classical"].runs == 2
+    assert err.result.markdown == md and not err.result.complete
+    # Without an output directory nothing is stored, and the error says so.
+    with pytest.raises(CampaignIncompleteError, match="nothing was stored"):
+        run_campaign(d, samples=3, seed=1, workers=1, progress=False)
+    monkeypatch.undo()
+    full = run_campaign(d, samples=3, seed=1, workers=1, out=out, progress=False)
+    assert full.computed == 2 and full.complete
+    assert "N = 3 samples per method" in full.markdown
+    assert _strip(full.rows) == _strip(run_campaign(d, samples=3, seed=1, workers=1).rows)
+
+
+def test_an_incomplete_campaign_exits_2_with_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from redservo.cli import main
+
+    path, out = tmp_path / "c.toml", tmp_path / "out"
+    path.write_text(CAMPAIGN.format(samples=3))
+    _dropping_sample(monkeypatch, 2)
+    argv = ["campaign", str(path), "--out", str(out), "--workers", "1", "-q"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("redservo: error: campaign"), err
+    assert "sample 2 (every method)" in err[0] and "rerun the same command" in err[0]
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert len(_csv_keys(out / "samples.csv")) == 3 * len(QUICK_METHODS)
+
+
+def test_missing_runs_in_words() -> None:
+    from redservo.campaign.complete import describe_missing, missing_runs
+
+    present = {(0, "a"), (0, "b"), (1, "b"), (3, "a"), (3, "b")}
+    missing = missing_runs(present, 5, ("a", "b"))
+    assert missing == [(1, "a"), (2, "a"), (2, "b"), (4, "a"), (4, "b")]
+    assert describe_missing(missing, ("a", "b")) == "samples 2, 4 (every method); sample 1 (a)"
+    many = missing_runs(set(), 40, ("a",))
+    assert describe_missing(many, ("a",)) == (
+        "samples 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11 and 28 more (every method)"
+    )
+
+
+def test_a_dead_local_worker_stops_the_campaign_with_the_rows_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A local worker process that dies (here: exits during sample 1) breaks the pool: the
+    campaign stops with CampaignIncompleteError, not an internal error, and resumes."""
+    import os
+
+    from redservo.campaign import CampaignIncompleteError
+    from redservo.campaign import task as campaign_task
+
+    real = campaign_task._run_task
+
+    def dying(task: Any) -> dict[str, Any]:
+        if task.sample == 1:
+            os._exit(3)  # as if killed (forked workers inherit this patch)
+        return real(task)
+
+    monkeypatch.setattr(campaign_task, "_run_task", dying)
+    d, out = quick(), tmp_path / "c"
+    with pytest.raises(CampaignIncompleteError, match="a local worker process died") as info:
+        run_campaign(d, samples=3, seed=1, workers=2, out=out, progress=False)
+    assert {(1, m) for m in QUICK_METHODS} <= set(info.value.missing)
+    monkeypatch.undo()
+    stored = len(_csv_keys(out / "samples.csv"))
+    full = run_campaign(d, samples=3, seed=1, workers=1, out=out, progress=False)
+    assert full.complete and full.computed == 6 - stored
 
 
 # --------------------------------------------------------------------------- processes

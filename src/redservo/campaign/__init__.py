@@ -91,7 +91,10 @@ stored row and computes only the missing (sample, method) pairs, so adding sampl
 extends a campaign; a different fingerprint is refused with a
 :class:`~redservo.errors.ConfigurationError`. A run that raised an exception is stored with
 outcome ``error`` (and the message in ``error``), counted as a failure, and recomputed on the
-next rerun. The storage is locked, written in atomic batches, cleaned of torn and duplicated
+next rerun. Completeness is checked, not assumed: a (sample, method) still without a row at
+the end (lost workers) raises :class:`CampaignIncompleteError`, which names them; the report
+then states the N each method actually completed (docs/campaigns.md, "Completeness"). The
+storage is locked, written in atomic batches, cleaned of torn and duplicated
 rows on resume, repairable, and mirrored to ``samples.parquet``: docs/campaigns.md, "Storage"
 (:mod:`redservo.campaign.storage`).
 
@@ -118,18 +121,15 @@ Decisions (for docs/decisions.md):
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from datetime import UTC, datetime
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
 
 import numpy as np
 
+from redservo.campaign.client import CampaignResult, run
+from redservo.campaign.complete import CampaignIncompleteError
 from redservo.campaign.definition import (
     FORMAT_VERSION,
     CampaignDefinition,
@@ -140,26 +140,18 @@ from redservo.campaign.definition import (
     parse_campaign,
     shipped_campaigns,
 )
-from redservo.campaign.engine import Engine, JobResult, execute, fallback_lines, make_jobs
+from redservo.campaign.engine import Engine
 from redservo.campaign.sampling import Sample, draw_sample, sample_start
 from redservo.campaign.sampling import _start_problem as _start_problem
-from redservo.campaign.stats import (
-    MethodStats,
-    _figures,
-    _heading,
-    flag_table,
-    method_stats,
-    stats_table,
-    wilson_interval,
-)
-from redservo.campaign.storage import _error_columns, _Store, _summary_columns
+from redservo.campaign.stats import MethodStats, method_stats, stats_table, wilson_interval
+from redservo.campaign.storage import _Store
 from redservo.errors import ConfigurationError, UnknownNameError
-from redservo.scenario import Scenario
 from redservo.schema.campaign import MAX_SAMPLES
 
 __all__ = [
     "FORMAT_VERSION",
     "CampaignDefinition",
+    "CampaignIncompleteError",
     "CampaignResult",
     "ErrorSpec",
     "MethodStats",
@@ -178,99 +170,6 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class CampaignResult:
-    """The rows and per-method statistics of a campaign.
-
-    Attributes:
-        definition: The campaign definition.
-        seed: The seed.
-        samples: Number of samples N.
-        methods: Methods, in table order.
-        rows: One dict per (sample, method), sorted by sample then method (``samples.csv``
-            columns).
-        stats: :class:`MethodStats` per method.
-        computed: Rows computed by this call (the others were reused from ``out``).
-        out: Output directory, or None.
-        figures: Paths of the written figures.
-        markdown: Heading, the statistics table and notes (``campaign.md``).
-    """
-
-    definition: CampaignDefinition
-    seed: int
-    samples: int
-    methods: tuple[str, ...]
-    rows: tuple[dict[str, Any], ...]
-    stats: dict[str, MethodStats]
-    computed: int
-    out: Path | None
-    figures: tuple[Path, ...]
-    markdown: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (``campaign.json``); NaN becomes None."""
-
-        def clean(v: Any) -> Any:
-            return None if isinstance(v, float) and math.isnan(v) else v
-
-        d = self.definition
-        return {
-            "campaign": d.name,
-            "source": d.source,
-            "scenario": d.scenario.source,
-            "seed": self.seed,
-            "samples": self.samples,
-            "methods": list(self.methods),
-            "fingerprint": d.fingerprint(self.seed),
-            "success": (
-                "converged, every joint at least min_margin from its limits all along, no "
-                "velocity or acceleration limit exceeded, and the position shield never acted"
-            ),
-            "stats": {
-                m: {k: clean(v) for k, v in s._asdict().items()} for m, s in self.stats.items()
-            },
-        }
-
-
-class _Task(NamedTuple):
-    sample: int
-    method: str
-    data: dict[str, Any]
-    source: str
-    law_options: dict[str, Any] | None
-    params: dict[str, Any]
-    exp: Any = None
-    """The sample's built experiment, shared by its methods (None: built here)."""
-    fast: bool = False
-    """Try the compiled loop first (:mod:`redservo.campaign.fastloop`)."""
-
-
-def _run_task(task: _Task) -> dict[str, Any]:
-    """Run one (sample, method) and return its row; an exception becomes an ``error`` row.
-
-    With ``task.fast`` the row's ``_path`` says whether the compiled loop ran it
-    (``"compiled loop"``) or why not (the job removes it).
-    """
-    from redservo.experiment import build
-
-    row: dict[str, Any] = {"sample": task.sample, "method": task.method, **task.params}
-    try:
-        exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
-        summary = None
-        if task.fast:
-            from redservo.campaign.fastloop import fast_run
-
-            summary, row["_path"] = fast_run(exp, task.method, task.law_options)
-        if summary is None:
-            summary = exp.run(method=task.method, law_options=task.law_options).summary
-        # The fields as a plain mapping (RunSummary["flags"] would build the whole dict form).
-        fields = {name: getattr(summary, name) for name in summary}
-        row.update(_summary_columns(fields, exp.robot.joint_names))
-    except Exception as exc:  # recorded, counted as a failure, retried on the next rerun
-        row.update(_error_columns(exc))
-    return row
-
-
 def run_campaign(
     campaign: str | Path | CampaignDefinition,
     *,
@@ -284,6 +183,7 @@ def run_campaign(
     repair: bool = False,
     scheduler: str | None = None,
     fast: bool = True,
+    worker_timeout: float | None = None,
 ) -> CampaignResult:
     """Run a Monte Carlo campaign: every method on the same ``samples`` random variations.
 
@@ -306,6 +206,9 @@ def run_campaign(
             (:mod:`redservo.campaign.fastloop`; identical rows, needs ``redservo[fast]``);
             the others, and every run with ``fast=False``, on the object path. One line on
             stderr names the methods that fell back and why.
+        worker_timeout: With ``scheduler``: how long to wait while the scheduler has no
+            worker before the campaign stops (s; default
+            :data:`~redservo.campaign.engine.NO_WORKER_TIMEOUT_S`). Said on stderr.
 
     Returns:
         :class:`CampaignResult`.
@@ -315,7 +218,11 @@ def run_campaign(
         UnknownNameError: unknown method.
         ConfigurationError: bad ``samples``/``seed``/``workers``/``scheduler``; ``out``
             holds another campaign, is in use by another process (without ``wait``) or is
-            damaged (without ``repair``); no Dask scheduler at ``scheduler``.
+            damaged (without ``repair``); no Dask scheduler at ``scheduler``; bad
+            ``worker_timeout``.
+        CampaignIncompleteError: a (sample, method) has no row at the end (workers lost):
+            it names them; the rows computed are stored and a rerun computes only the
+            missing ones (docs/campaigns.md, "Completeness").
     """
     from redservo.redundancy import METHODS
 
@@ -341,104 +248,17 @@ def run_campaign(
             f"{scheduler!r}",
             argument="scheduler",
         )
+    if worker_timeout is not None and not 0 < float(worker_timeout) < math.inf:
+        raise ConfigurationError(
+            f"worker_timeout must be a positive number of seconds, got {worker_timeout!r}",
+            argument="worker_timeout",
+        )
     out_dir = Path(out) if out is not None else None
     store = _Store(out_dir, defn, seed, wait=wait, repair=repair) if out_dir is not None else None
     try:
-        engine = Engine(n_workers, scheduler, bool(fast))
-        return _run(defn, names, n, seed, engine, out_dir, store, progress)
+        timeout = None if worker_timeout is None else float(worker_timeout)
+        engine = Engine(n_workers, scheduler, bool(fast), timeout)
+        return run(defn, names, n, seed, engine, out_dir, store, progress)
     finally:
         if store is not None:
             store.close()
-
-
-def _run(
-    defn: CampaignDefinition,
-    names: tuple[str, ...],
-    n: int,
-    seed: int,
-    engine: Engine,
-    out_dir: Path | None,
-    store: _Store | None,
-    progress: bool,
-) -> CampaignResult:
-    """The body of :func:`run_campaign`, with the output directory locked."""
-    done: dict[tuple[int, str], dict[str, Any]] = {
-        key: row
-        for key, row in (store.rows.items() if store else ())
-        if key[0] < n and key[1] in names and row["outcome"] != "error"
-    }
-    todo = [(i, m) for i in range(n) for m in names if (i, m) not in done]
-    bar = _bar(len(todo), defn.name, progress)
-    errors: list[str] = []
-
-    stored = dict(store.rows) if store is not None else {}
-
-    def on_rows(batch: list[dict[str, Any]]) -> None:
-        if store is not None:
-            store.append(batch)
-            batch = [store.normalize(row) for row in batch]
-        for row in batch:
-            done[(row["sample"], row["method"])] = stored[(row["sample"], row["method"])] = row
-            if row["outcome"] == "error":
-                errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
-        bar(len(batch))
-
-    paths: dict[tuple[str, str], int] = {}
-
-    def on_result(res: JobResult) -> None:
-        for key, count in res.paths.items():
-            paths[key] = paths.get(key, 0) + count
-        on_rows(res.rows)
-
-    n_todo = len({i for i, _ in todo})
-    jobs = make_jobs(defn, seed, todo, fast=engine.fast, per_job=engine.per_job(n_todo))
-    try:
-        execute(jobs, engine._replace(workers=min(engine.workers, max(1, n_todo))), on_result)
-    finally:
-        bar(None)
-    for line in fallback_lines(paths):
-        print(f"redservo campaign: {line}", file=sys.stderr)
-    for msg in errors:
-        print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
-    order = {m: k for k, m in enumerate(names)}
-    rows = tuple(sorted(done.values(), key=lambda r: (r["sample"], order[r["method"]])))
-    stats = {m: method_stats(m, [r for r in rows if r["method"] == m]) for m in names}
-    markdown = (
-        _heading(defn, n, seed, rows)
-        + stats_table(stats.values())
-        + "\n\nRuns in which each diagnostic flag occurred (docs/safety.md):\n\n"
-        + flag_table(stats.values())
-    )
-    figures: tuple[Path, ...] = ()
-    result = CampaignResult(defn, seed, n, names, rows, stats, len(todo), out_dir, (), markdown)
-    if out_dir is not None:
-        tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
-        figures = _figures(list(stats.values()), rows, out_dir, tracking=tracking, name=defn.name)
-        result = CampaignResult(
-            defn, seed, n, names, rows, stats, len(todo), out_dir, figures, markdown
-        )
-        meta = {**result.to_dict(), "written": datetime.now(UTC).isoformat()}
-        (out_dir / "campaign.json").write_text(json.dumps(meta, indent=2) + "\n")
-        (out_dir / "campaign.md").write_text(markdown)
-        if store is not None and store.write_parquet(stored.values(), meta["fingerprint"]) is None:
-            store.notify("samples.parquet not written: pip install 'redservo[parquet]'")
-    return result
-
-
-def _bar(total: int, desc: str, enabled: bool) -> Callable[[int | None], None]:
-    """Return ``update(k)`` for a tqdm bar on stderr; ``update(None)`` closes it."""
-    if not enabled or total == 0:
-        return lambda _k: None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is an optional extra
-        return lambda _k: None
-    bar = tqdm(total=total, desc=desc, unit="run", file=sys.stderr, disable=None, leave=False)
-
-    def update(k: int | None) -> None:
-        if k is None:
-            bar.close()
-        else:
-            bar.update(k)
-
-    return update

@@ -1,11 +1,9 @@
 """Where a campaign's runs execute: this process, a local process pool, or a Dask cluster.
 
-The unit of work is a :class:`Job`: a few samples and, for each, the methods still to run.
-A job draws its samples itself (a sample depends only on ``(definition, seed, index)``),
-builds each sample's experiment once, runs its methods (on the compiled loop of
-:mod:`redservo.campaign.fastloop` when it applies) and returns the rows. Only the process
-that called :func:`redservo.campaign.run_campaign` stores rows, so the storage guarantees
-of :mod:`redservo.campaign.storage` hold whatever the engine (docs/campaigns.md, "Storage").
+The unit of work is a :class:`~redservo.campaign.task.Job` (:mod:`redservo.campaign.task`):
+a few samples and, for each, the methods still to run. Only the process that called
+:func:`redservo.campaign.run_campaign` stores rows, so the storage guarantees of
+:mod:`redservo.campaign.storage` hold whatever the engine (docs/campaigns.md, "Storage").
 
 Engines (docs/scaling.md):
 
@@ -14,27 +12,50 @@ Engines (docs/scaling.md):
   when this process dies (:func:`redservo.campaign.lock.worker_init`);
 * a Dask cluster (``scheduler="tcp://HOST:PORT"``, optional extra ``redservo[dask]``): the
   jobs are submitted to an existing scheduler through a :class:`distributed.Client`, a
-  bounded number at a time, and their rows stored as they complete.
+  bounded number at a time (two per worker thread), and their rows stored as they complete.
+
+Every engine hands every job's rows to ``on_result`` or raises; the client checks it anyway
+(:mod:`redservo.campaign.complete`). A job whose Dask workers died is run again: the
+scheduler does it itself up to ``distributed.scheduler.allowed-failures`` times, then this
+client submits it again up to :data:`MAX_RESUBMITS` times before it stops with
+:class:`~redservo.campaign.complete.CampaignIncompleteError`. When the scheduler has no
+worker, the client says so on stderr and waits up to :data:`NO_WORKER_TIMEOUT_S` for one,
+then stops with the same error (the stored rows are kept; rerunning resumes). A local worker
+process that dies (killed, out of memory) stops the campaign with that error too.
 
 The rows do not depend on the engine, the number of workers or the order jobs finish.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
-from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Sequence
+import sys
+import time
+from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import replace
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, NamedTuple
 
-from redservo.campaign.definition import CampaignDefinition
+from redservo.campaign.complete import CampaignIncompleteError
 from redservo.campaign.lock import worker_init
+from redservo.campaign.task import (
+    FAST_PATH,
+    Job,
+    JobResult,
+    fallback_lines,
+    job_samples,
+    make_jobs,
+    merge,
+    run_job,
+)
 from redservo.errors import ConfigurationError
 
 __all__ = [
     "FAST_PATH",
+    "MAX_RESUBMITS",
+    "NO_WORKER_TIMEOUT_S",
     "Engine",
     "Job",
     "JobResult",
@@ -46,12 +67,16 @@ __all__ = [
     "run_job",
 ]
 
-FAST_PATH = "compiled loop"
-"""The ``path`` note of a run on the compiled loop (any other note is a fallback reason)."""
 CONNECT_TIMEOUT_S = 20.0
 """How long :func:`connect` tries to reach the scheduler (s)."""
-_DEFS: dict[str, CampaignDefinition] = {}
-"""Definitions unpickled in this worker, by fingerprint (their ``nominal`` computed once)."""
+NO_WORKER_TIMEOUT_S = 60.0
+"""How long a Dask campaign waits while the scheduler has no worker before it stops (s)."""
+MAX_RESUBMITS = 2
+"""How many times a job that ended in ``KilledWorker`` is submitted again before the campaign
+stops (each submission is itself retried by the scheduler on up to
+``distributed.scheduler.allowed-failures`` workers)."""
+_POLL_S = 1.0
+"""How often the Dask client looks at the workers while no job completes (s)."""
 
 
 class Engine(NamedTuple):
@@ -63,6 +88,9 @@ class Engine(NamedTuple):
     """Dask scheduler address, or None for the local engine."""
     fast: bool = True
     """Use the compiled loop where it applies."""
+    worker_timeout: float | None = None
+    """Dask: how long to wait while no worker is connected (s); None:
+    :data:`NO_WORKER_TIMEOUT_S`."""
 
     def per_job(self, n_samples: int) -> int:
         """Samples per job: one per job with up to 8 local workers (one more per 8 workers,
@@ -73,108 +101,31 @@ class Engine(NamedTuple):
         return max(1, min(16, math.ceil(n_samples / 64)))
 
 
-class Job(NamedTuple):
-    """Samples to run, with the methods still missing for each (picklable)."""
-
-    definition: CampaignDefinition
-    key: str
-    """The definition's fingerprint (the workers' cache key)."""
-    seed: int
-    samples: tuple[tuple[int, tuple[str, ...]], ...]
-    fast: bool
-    """Use the compiled loop where it applies."""
-
-
-class JobResult(NamedTuple):
-    """The rows of a job, and how many runs took each path."""
-
-    rows: list[dict[str, Any]]
-    paths: dict[tuple[str, str], int]
-    """``(method, FAST_PATH or the reason it fell back)`` -> number of runs."""
-
-
-def make_jobs(
-    defn: CampaignDefinition,
-    seed: int,
-    todo: Sequence[tuple[int, str]],
-    *,
-    fast: bool,
-    per_job: int = 1,
-) -> Iterator[Job]:
-    """Group the missing ``(sample, method)`` pairs by sample, ``per_job`` samples a job."""
-    by_sample: dict[int, list[str]] = {}
-    for i, m in todo:
-        by_sample.setdefault(i, []).append(m)
-    portable = replace(defn)  # without the cached (unpicklable) nominal evaluation
-    key = defn.fingerprint(seed)
-    items = [(i, tuple(ms)) for i, ms in by_sample.items()]
-    for k in range(0, len(items), per_job):
-        yield Job(portable, key, seed, tuple(items[k : k + per_job]), fast)
-
-
-def _definition(job: Job) -> CampaignDefinition:
-    defn = _DEFS.get(job.key)
-    if defn is None:
-        if len(_DEFS) > 8:
-            _DEFS.clear()
-        defn = _DEFS[job.key] = job.definition
-    return defn
-
-
-def run_job(job: Job) -> JobResult:
-    """Run a job's samples and methods; a run that raises becomes an ``error`` row.
-
-    The runs go through ``redservo.campaign._run_task`` (looked up at call time).
-
-    Raises:
-        ScenarioError: a sample has no valid start (the whole campaign stops, as before).
-    """
-    import redservo.campaign as campaign
-    from redservo.campaign.sampling import draw_sample
-    from redservo.campaign.storage import _sample_columns
-    from redservo.experiment import build
-
-    defn = _definition(job)
-    joint_names = defn.nominal.joint_names
-    rows: list[dict[str, Any]] = []
-    paths: Counter[tuple[str, str]] = Counter()
-    for i, methods in job.samples:
-        s = draw_sample(defn, job.seed, i)
-        params = _sample_columns(s, joint_names)
-        try:
-            exp = build(s.scenario)
-        except Exception:  # each run builds again and records the error in its row
-            exp = None
-        for m in methods:
-            opts = defn.method_options.get(m)
-            task = campaign._Task(
-                i,
-                m,
-                s.scenario.data,
-                s.scenario.source,
-                dict(opts) if opts is not None else None,
-                params,
-                exp,
-                job.fast,
-            )
-            row = campaign._run_task(task)
-            path = row.pop("_path", None)
-            if path is not None:
-                paths[(m, str(path))] += 1
-            rows.append(row)
-    return JobResult(rows, dict(paths))
-
-
 OnResult = Callable[[JobResult], None]
 
 
-def merge(results: Sequence[JobResult]) -> JobResult:
-    """One result of several jobs that finished together (stored in one atomic write)."""
-    rows = [row for r in results for row in r.rows]
-    paths: Counter[tuple[str, str]] = Counter()
-    for r in results:
-        paths.update(r.paths)
-    return JobResult(rows, dict(paths))
+def _say(message: str) -> None:
+    print(f"redservo campaign: {message}", file=sys.stderr, flush=True)
+
+
+def _store_then_raise(futures: Iterable[Future[JobResult]], on_result: OnResult) -> None:
+    """Store the rows of the jobs that succeeded, then raise the first failure (if any)."""
+    results: list[JobResult] = []
+    error: BaseException | None = None
+    for fut in futures:
+        exc = fut.exception()
+        if exc is None:
+            results.append(fut.result())
+        elif error is None:
+            error = exc
+    if results:
+        on_result(merge(results))
+    if isinstance(error, BrokenProcessPool):
+        raise CampaignIncompleteError(
+            "a local worker process died (killed, or out of memory)"
+        ) from error
+    if error is not None:
+        raise error
 
 
 def _local(jobs: Iterable[Job], workers: int, on_result: OnResult) -> None:
@@ -192,10 +143,10 @@ def _local(jobs: Iterable[Job], workers: int, on_result: OnResult) -> None:
                 # A bounded queue: rows are stored while later jobs are still queued.
                 while len(pending) >= 2 * workers:
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    on_result(merge([fut.result() for fut in done]))
+                    _store_then_raise(done, on_result)
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                on_result(merge([fut.result() for fut in done]))
+                _store_then_raise(done, on_result)
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -238,46 +189,128 @@ def connect(scheduler: str, *, timeout: float | None = None) -> Any:
         ) from None
 
 
-def _dask(jobs: Iterable[Job], scheduler: str, on_result: OnResult) -> None:
+class _Workers:
+    """The scheduler's worker threads as the client sees them, and the bounded wait while
+    there are none."""
+
+    def __init__(self, client: Any, address: str, timeout: float) -> None:
+        self.client, self.address, self.timeout = client, address, timeout
+        self.gone_since: float | None = None
+        """When the client first saw no worker (monotonic s), or None while there are some."""
+
+    def threads(self) -> int:
+        """Worker threads now (0 while waiting for a worker).
+
+        Raises:
+            CampaignIncompleteError: no worker for longer than the timeout.
+        """
+        try:
+            threads = sum(self.client.nthreads().values())
+            trouble = f"no Dask worker is connected to {self.address}"
+        except (OSError, TimeoutError) as exc:
+            threads = 0
+            trouble = f"the Dask scheduler at {self.address} does not answer ({exc})"
+        now = time.monotonic()
+        if threads > 0:
+            if self.gone_since is not None:
+                _say("a Dask worker is connected again: the campaign goes on")
+            self.gone_since = None
+        elif self.gone_since is None:
+            self.gone_since = now
+            _say(
+                f"{trouble}; waiting up to {self.timeout:g} s for one (start workers with "
+                f"`dask worker {self.address}`; the rows so far are stored)"
+            )
+        elif now - self.gone_since > self.timeout:
+            raise CampaignIncompleteError(f"{trouble} for {self.timeout:g} s")
+        return threads
+
+
+def _completed(distributed: Any, pending: dict[Any, tuple[Job, int]]) -> list[Any]:
+    """The pending futures that finished, failed or were cancelled, after waiting up to
+    :data:`_POLL_S` for one (a future whose result was lost with its worker is pending)."""
+    try:
+        distributed.wait(list(pending), timeout=_POLL_S, return_when="FIRST_COMPLETED")
+    except (TimeoutError, distributed.client.FuturesCancelledError):
+        pass  # nothing yet, or cancelled futures: both sorted out by their status below
+    return [f for f in pending if f.status in ("finished", "error", "cancelled")]
+
+
+def _killed(exc: BaseException | None) -> str:
+    """Why a job is lost: cancelled (``exc`` None), or the scheduler's ``KilledWorker``."""
+    if exc is None:
+        return "the job was cancelled"
+    tried = getattr(exc, "allowed_failures", None)
+    if isinstance(tried, int):
+        return f"KilledWorker: {tried + 1} workers died running it"
+    return "KilledWorker"
+
+
+def _dask(jobs: Iterable[Job], scheduler: str, on_result: OnResult, timeout: float) -> None:
     distributed = _distributed()
     it = iter(jobs)
     with connect(scheduler) as client:
-        threads = max(1, sum(client.nthreads().values()))
-        # A bounded queue (two jobs per worker thread), refilled as jobs complete; the jobs
-        # that completed together are stored together.
-        first = [client.submit(run_job, job, pure=False) for job, _ in zip(it, range(2 * threads))]
-        if not first:
-            return
-        queue = distributed.as_completed(first, loop=client.loop)
-        for batch in queue.batches():
-            results: list[JobResult] = [fut.result() for fut in batch]
-            for fut in batch:
+        workers = _Workers(client, scheduler, timeout)
+        pending: dict[Any, tuple[Job, int]] = {}  # future -> (job, resubmissions so far)
+
+        def submit(job: Job, tries: int) -> None:
+            pending[client.submit(run_job, job, pure=False)] = (job, tries)
+
+        while True:
+            threads = workers.threads()
+            # A bounded queue (two jobs per worker thread), refilled as jobs complete.
+            for job in itertools.islice(it, max(0, 2 * threads - len(pending))):
+                submit(job, 0)
+            if not pending:
+                if threads > 0:
+                    return  # nothing pending, and the refill found no job left
+                time.sleep(_POLL_S)  # waiting for a worker (said on stderr)
+                continue
+            results: list[JobResult] = []
+            error: BaseException | None = None
+            for fut in _completed(distributed, pending):
+                job, tries = pending.pop(fut)
+                if fut.status == "finished":
+                    try:
+                        results.append(fut.result(timeout=max(10.0, _POLL_S)))
+                    except TimeoutError:  # its worker died since: Dask computes it again
+                        pending[fut] = (job, tries)
+                        continue
+                    fut.release()
+                    continue
+                exc = fut.exception() if fut.status == "error" else None
                 fut.release()
-            on_result(merge(results))
-            for _ in batch:
-                job = next(it, None)
-                if job is not None:
-                    queue.add(client.submit(run_job, job, pure=False))
+                if exc is not None and not isinstance(exc, distributed.KilledWorker):
+                    error = error or exc  # e.g. a sample without a valid start
+                    continue
+                why = _killed(exc)
+                if tries < MAX_RESUBMITS:
+                    _say(
+                        f"the Dask workers that ran {job_samples(job)} died ({why}); "
+                        f"submitting the job again ({tries + 1} of {MAX_RESUBMITS})"
+                    )
+                    submit(job, tries + 1)
+                else:
+                    error = error or CampaignIncompleteError(
+                        f"every Dask worker that ran {job_samples(job)} died ({why}), "
+                        f"{MAX_RESUBMITS + 1} submissions in all"
+                    )
+            if results:  # the jobs that completed together are stored together
+                on_result(merge(results))
+            if error is not None:
+                raise error
 
 
 def execute(jobs: Iterable[Job], engine: Engine, on_result: OnResult) -> None:
     """Run ``jobs`` on ``engine`` (module docstring), calling ``on_result`` in this process
-    with each finished job."""
+    with each finished job's rows.
+
+    Raises:
+        CampaignIncompleteError: the engine lost workers it could not replace (the rows
+            handed to ``on_result`` so far are those of the jobs that finished).
+    """
     if engine.scheduler is not None:
-        _dask(jobs, engine.scheduler, on_result)
+        timeout = NO_WORKER_TIMEOUT_S if engine.worker_timeout is None else engine.worker_timeout
+        _dask(jobs, engine.scheduler, on_result, timeout)
     else:
         _local(jobs, engine.workers, on_result)
-
-
-def fallback_lines(paths: dict[tuple[str, str], int]) -> list[str]:
-    """One line per reason some runs left the compiled loop: the methods and the count."""
-    by_reason: dict[str, dict[str, int]] = {}
-    for (method, path), count in paths.items():
-        if path != FAST_PATH:
-            by_reason.setdefault(path, {})
-            by_reason[path][method] = by_reason[path].get(method, 0) + count
-    return [
-        f"{sum(ms.values())} run(s) of {', '.join(ms)} on the object path, not the compiled "
-        f"loop: {reason}"
-        for reason, ms in sorted(by_reason.items())
-    ]

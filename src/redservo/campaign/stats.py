@@ -172,7 +172,31 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
     return head + "\n".join(lines)
 
 
-def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping[str, Any]]) -> str:
+def _sample_count(n: int, rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> str:
+    """The sample count of the heading: ``N = n samples per method`` when every method has its
+    ``n`` rows; otherwise the N each method actually completed, never the N requested
+    (docs/campaigns.md, "Completeness")."""
+    counts = {m: 0 for m in methods}
+    for r in rows:
+        counts[r["method"]] = counts.get(r["method"], 0) + 1
+    if all(c == n for c in counts.values()):
+        return f"N = {n} samples per method"
+    done = ", ".join(f"{m} {c}" for m, c in counts.items())
+    return (
+        f"INCOMPLETE campaign: N completed per method: {done} (of the {n} samples requested; "
+        "rerun the campaign to compute the missing runs)"
+    )
+
+
+def _heading(
+    defn: CampaignDefinition,
+    n: int,
+    seed: int,
+    rows: Sequence[Mapping[str, Any]],
+    methods: Sequence[str] = (),
+) -> str:
+    """The text above the statistics table: the set-up, N (per method when they differ from
+    the ``n`` requested) and the definition of success."""
     st, tg = defn.start, defn.target
     data = defn.scenario.data
     rho = float(data["robot"].get("rho", 0.1))
@@ -204,7 +228,7 @@ def _heading(defn: CampaignDefinition, n: int, seed: int, rows: Sequence[Mapping
         f"## Campaign {defn.name}\n\n"
         f"{defn.description}\n\n"
         f"Base scenario `{defn.scenario.name}` (λ = {float(ctl.get('lam', 0.5)):g} 1/s, "
-        f"dt = {float(ctl.get('dt', 0.04)):g} s); N = {n} samples per method, seed {seed}. "
+        f"dt = {float(ctl.get('dt', 0.04)):g} s); {_sample_count(n, rows, methods)}, seed {seed}. "
         f"Start: each joint in the outer band (margin in [{st.min_margin:g}, "
         f"{(1 + st.band_beyond) * rho:g}] of its range, thresholds at {rho:g}) with "
         f"probability {st.p_band:g}, at least {st.min_in_band} per start; target moved by "
