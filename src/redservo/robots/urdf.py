@@ -26,9 +26,10 @@ error naming the file and the joint, never a robot without velocity limits.
 Accelerations come from redservo's ``<redservo:limit acceleration>`` element (the shipped
 files carry the datasheet values) unless the caller gives ``qddot_max``; a file with none
 gives ``qddot_max = None``. Efforts are ignored. Origins, axes and position limits are
-checked (:mod:`redservo.robots.urdf_values`), and whatever urdfdom prints while Pinocchio
-reads a file it rejects is folded into our one error message
-(:mod:`redservo.robots.urdf_stderr`).
+checked (:mod:`redservo.robots.urdf_values`). What urdfdom prints while Pinocchio reads
+the file is captured (:mod:`redservo.robots.urdf_stderr`): folded into our one error
+message when Pinocchio rejects the file, one ``UserWarning`` when it still builds the
+model (e.g. a malformed ``<visual>``, which the kinematics does not use).
 
 Performance: the reduced Pinocchio model (only the servoed joints) is built once;
 one ``kinematics(q)`` call is one ``computeJointJacobians`` (a forward pass over

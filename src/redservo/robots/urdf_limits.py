@@ -44,7 +44,9 @@ def _unit(j: URDFJoint, accel: bool) -> str:
     return base + "²" if accel else base
 
 
-def _named(given: Mapping[str, float], argument: str, servo: Sequence[URDFJoint]) -> dict:
+def _named(
+    given: Mapping[str, float], argument: str, servo: Sequence[URDFJoint]
+) -> dict[str, float]:
     """Check a ``{joint name: value}`` override: servoed names, finite numbers > 0."""
     names = [j.name for j in servo]
     out: dict[str, float] = {}
