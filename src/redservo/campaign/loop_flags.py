@@ -52,6 +52,7 @@ ACCELERATION_LIMITED = _BIT[Flag.ACCELERATION_LIMITED]
 ACCELERATION_EXCEEDED = _BIT[Flag.ACCELERATION_EXCEEDED]
 SHIELD_ACTED = _BIT[Flag.SHIELD_ACTED]
 NON_FINITE_REPLACED = _BIT[Flag.NON_FINITE_REPLACED]
+POSITION_LIMIT_UNAVOIDABLE = _BIT[Flag.POSITION_LIMIT_UNAVOIDABLE]
 
 _GPM = LAW_IDS["gpm"]
 _GPM_AUTO = LAW_IDS["gpm-auto"]
@@ -140,10 +141,15 @@ def law_flags(
 
 
 @kernel
-def safety_flags(bad: float, s: float, over_v: bool, dropped: bool, acted: bool, exc: bool) -> int:
-    """Bit mask of :func:`redservo.redundancy.safety.safety_events` from the numbers of
-    :func:`redservo.kernels.safety.apply_safety`."""
+def safety_flags(
+    bad: float, s: float, over_v: bool, dropped: bool, acted: bool, exc: bool, past: float
+) -> int:
+    """Bit mask of the events of :func:`redservo.redundancy.safety.apply_safety` from the
+    numbers of :func:`redservo.kernels.safety.apply_safety` (``past > 0``: a joint passes
+    its hard limit and no command could avoid it)."""
     bits = 0
+    if past > 0.0:
+        bits |= POSITION_LIMIT_UNAVOIDABLE
     if bad != 0:
         bits |= NON_FINITE_REPLACED
     if s < 1.0:

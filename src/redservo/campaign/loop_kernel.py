@@ -180,7 +180,7 @@ def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, so
     zn = np.zeros(n)
     x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
         J1, e1, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
-        vopt[0], iopt[2] != 0, fopt[0],
+        vopt[0], iopt[2] != 0, fopt[0], iopt[0] != 0,
     )  # fmt: skip
     if not inside:
         pJ[:, :] = J1
@@ -190,10 +190,10 @@ def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, so
     if np.any(conflicts):
         bits |= BOUNDS_CONFLICT
     fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
-    qd, bad, s, over_v, dropped, _, acted, _, exc = apply_safety(
+    qd, bad, s, over_v, dropped, _, acted, _, exc, past, _ = apply_safety(
         fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
     )
-    return qd, bits | safety_flags(bad, s, over_v, dropped, acted, exc), False
+    return qd, bits | safety_flags(bad, s, over_v, dropped, acted, exc, past), False
 
 
 @kernel
@@ -212,7 +212,9 @@ def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: An
     if law_id == _SNS and iout[I_SNS_BAD] >= 0:
         return qd, 0, axf, ABORT_INFEASIBLE
     bits = law_flags(law_id, e1.shape[0], n, iout, fout, axes, axf, vec, fopt, has_cap)
-    bits |= safety_flags(sout[0], sout[1], sout[2] != 0, sout[3] != 0, sout[5] != 0, sout[7] != 0)
+    bits |= safety_flags(
+        sout[0], sout[1], sout[2] != 0, sout[3] != 0, sout[5] != 0, sout[7] != 0, sout[9]
+    )
     return qd, bits, axf, 0
 
 

@@ -136,8 +136,12 @@ def qp_prepare(
     v_opt: Any,
     has_v_opt: bool,
     rcond: float,
+    shield: bool = True,
 ) -> Any:
     """The ``qp`` law up to the solver: bounds ∩ safety box and the unconstrained optimum.
+
+    ``shield``: whether the law's position shield is on (where the rate and position boxes
+    miss, it decides which wins: :func:`~redservo.kernels.safety.command_box`).
 
     Returns:
         ``(q̇*, inside, lo, hi, conflicts, ẋ, rank, σ_max)``: the exact cascade solution
@@ -147,7 +151,7 @@ def qp_prepare(
     """
     m, n = J1.shape
     lo_q, hi_q, conflicts = qp_velocity_bounds(q, lp, dt, k_p, margin, v_opt, has_v_opt)
-    clo, chi = command_box(q, lp, has_v, has_a, dt, prev, has_prev)
+    clo, chi = command_box(q, lp, has_v, has_a, dt, prev, has_prev, shield)
     lo, hi = intersect_boxes(lo_q, hi_q, clo, chi)
     xdot = np.empty(m)
     for i in range(m):
@@ -287,10 +291,12 @@ def qp_setup(
     has_v_opt: bool,
     rcond: float,
     eps: float,
+    shield: bool = True,
 ) -> Any:
     """:func:`qp_prepare` then :func:`bls_reduce` in one call (the law's fast path).
 
     ``eps`` is relative: the regularization is ``eps σ_max(J1)²`` (``eps`` if J1 = 0).
+    ``shield`` as in :func:`qp_prepare`.
 
     Returns:
         ``(q̇*, inside, lo, hi, conflicts, ẋ, rank, ε, x, free, P, c, lof, hif)``: the
@@ -299,7 +305,7 @@ def qp_setup(
     """
     qdot, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
         J1, e, q, lp, has_v, has_a, dt, prev, has_prev, sec, has_sec, lam, k_p, margin,
-        v_opt, has_v_opt, rcond,
+        v_opt, has_v_opt, rcond, shield,
     )  # fmt: skip
     eps_abs = eps * smax * smax if smax > 0.0 else eps
     z = sec if has_sec else np.zeros(q.shape[0])

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.pack import AMAX, SAFE_MAX, SAFE_MIN, VMAX
+from redservo.kernels.pack import AMAX, Q_MAX, Q_MIN, SAFE_MAX, SAFE_MIN, VMAX
 
 __all__ = [
     "apply_safety",
@@ -24,6 +24,7 @@ __all__ = [
     "position_box",
     "rate_box",
     "scale_into_box",
+    "unavoidable_crossing",
 ]
 
 TOL = 1e-12
@@ -88,10 +89,19 @@ def position_box(q: Any, lp: Any, has_v: bool, has_a: bool, dt: float) -> Any:
 
 @kernel
 def command_box(
-    q: Any, lp: Any, has_v: bool, has_a: bool, dt: float, prev: Any, has_prev: bool
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    shield: bool = True,
 ) -> Any:
-    """``P ∩ R``; where they miss, the position wins and the acceleration is broken as little
-    as possible (the box is the edge of P nearest to R)."""
+    """``P ∩ R``. Where they miss, with ``shield`` the position wins and the acceleration is
+    broken as little as possible (the box is the edge of P nearest to R); without it the
+    rate box wins, as it does in :func:`apply_safety` (the box is the edge of R nearest to
+    P: the joint crosses by as little as the rate limits allow)."""
     rlo, rhi, _ = rate_box(lp, has_v, has_a, dt, prev, has_prev)
     plo, phi = position_box(q, lp, has_v, has_a, dt)
     n = q.shape[0]
@@ -100,8 +110,11 @@ def command_box(
     for i in range(n):
         lo[i] = max(rlo[i], plo[i])
         hi[i] = min(rhi[i], phi[i])
-        if lo[i] > hi[i]:  # the position wins; the acceleration is broken as little as possible
-            edge = plo[i] if rhi[i] < plo[i] else phi[i]
+        if lo[i] > hi[i]:
+            if shield:  # the position wins; the acceleration is broken as little as possible
+                edge = plo[i] if rhi[i] < plo[i] else phi[i]
+            else:  # the rate limits win; the position is given up as little as possible
+                edge = rlo[i] if rlo[i] > phi[i] else rhi[i]
             lo[i] = edge
             hi[i] = edge
     return lo, hi
@@ -153,7 +166,7 @@ def _max_scale(base: Any, step: Any, lo: Any, hi: Any) -> float:
             s = min(s, (hi[i] - base[i]) / step[i])
         elif step[i] < 0.0:
             s = min(s, (lo[i] - base[i]) / step[i])
-    return max(s, 0.0)
+    return s if s > 0.0 else 0.0  # never -0.0 (a scale printed as "-0")
 
 
 @kernel
@@ -214,6 +227,53 @@ def exact_position_fix(q: Any, qdot: Any, dt: float, lp: Any) -> Any:
 
 
 @kernel
+def unavoidable_crossing(
+    q: Any,
+    qdot: Any,
+    dt: float,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+) -> Any:
+    """``(distance, joint)``: the largest distance past a hard limit of ``q + dt q̇`` (as
+    float64 computes it) over the joints that no command could have kept inside, and that
+    joint (``0.0, -1`` if none).
+
+    A joint counts when ``q + dt q̇`` lies outside ``[min(q̄_min, q), max(q̄_max, q)]`` (a
+    joint already beyond its limit by the validation tolerance may stay) *and* so does
+    ``q + dt v`` for the velocity ``v`` nearest the limit's inside within the limits that
+    outrank the position: the velocity box with the shield on; the rate box (velocity and
+    acceleration, as :func:`rate_box` forms it) with the shield off.
+    """
+    if shield:
+        rlo = np.empty(q.shape[0])
+        rhi = np.empty(q.shape[0])
+        for i in range(q.shape[0]):
+            rlo[i] = -lp[VMAX, i] if has_v else -np.inf
+            rhi[i] = lp[VMAX, i] if has_v else np.inf
+    else:
+        rlo, rhi, _ = rate_box(lp, has_v, has_a, dt, prev, has_prev)
+    worst = 0.0
+    joint = -1
+    for i in range(q.shape[0]):
+        top = max(lp[Q_MAX, i], q[i])
+        bottom = min(lp[Q_MIN, i], q[i])
+        nxt = q[i] + dt * qdot[i]
+        past = 0.0
+        if nxt > top and q[i] + dt * rlo[i] > top:
+            past = nxt - top
+        elif nxt < bottom and q[i] + dt * rhi[i] < bottom:
+            past = bottom - nxt
+        if past > worst:
+            worst = past
+            joint = i
+    return worst, joint
+
+
+@kernel
 def apply_safety(
     qdot: Any,
     q: Any,
@@ -231,11 +291,13 @@ def apply_safety(
 
     Returns:
         ``(q̇, non_finite, s, over_v, dropped, change, shield_acted, accel_excess,
-        accel_exceeded)``: the safe command, the number of non-finite entries replaced
-        (then q̇ = 0), the rate scale s, whether the raw command exceeded the velocity
-        limit, whether the acceleration limit was released on some joint, the largest
-        change made by the shield and whether it counts, the largest acceleration excess
-        (rad/s²) and whether it is reported.
+        accel_exceeded, past_limit, past_joint)``: the safe command, the number of
+        non-finite entries replaced (then q̇ = 0), the rate scale s, whether the raw command
+        exceeded the velocity limit, whether the acceleration limit was released on some
+        joint, the largest change made by the shield and whether it counts, the largest
+        acceleration excess (rad/s²) and whether it is reported, and
+        :func:`unavoidable_crossing` of the safe command (distance > 0: the position limit
+        was given up on ``past_joint``).
     """
     n = q.shape[0]
     bad = 0
@@ -292,4 +354,5 @@ def apply_safety(
             worst = worst / dt
             exceeded = worst > TOL * (1.0 + amax) and not dropped
         out = fixed
-    return out, bad, s, over_v, dropped, change, acted, worst, exceeded
+    past, joint = unavoidable_crossing(q, out, dt, lp, has_v, has_a, prev, has_prev, shield)
+    return out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint

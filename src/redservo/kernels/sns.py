@@ -209,8 +209,12 @@ def sns(
     has_a_opt: bool,
     margin: float,
     rcond: float,
+    shield: bool = True,
 ) -> Any:
     """The ``sns`` law: its bounds ∩ the safety box, Algorithm 1, the exact position fix.
+
+    ``shield``: whether the law's position shield is on (where the rate and position boxes
+    miss, it decides which wins: :func:`~redservo.kernels.safety.command_box`).
 
     Returns:
         ``(q̇, s, saturated, iterations, free_null_dim, restored, clipped, rank_J,
@@ -236,7 +240,7 @@ def sns(
             lo_s,
             hi_s,
         )
-    clo, chi = command_box(q, lp, has_v, has_a, dt, prev, has_prev)
+    clo, chi = command_box(q, lp, has_v, has_a, dt, prev, has_prev, shield)
     lo, hi = intersect_boxes(lo_s, hi_s, clo, chi)
     xdot = np.empty(e.shape[0])
     for i in range(e.shape[0]):

@@ -21,10 +21,10 @@ scaling; then per law (index: meaning):
   f4 ρ, f5 ρ1, f6 λ_tune, f7 P filter
 
 Step outputs: the law's ``(q̇, iout, fout, axes, axf, vec)`` (:mod:`redservo.kernels.laws`)
-with ``q̇`` after the safety layer, and ``sout`` (9,): the numbers of
+with ``q̇`` after the safety layer, and ``sout`` (10,): the numbers of
 :func:`redservo.kernels.safety.apply_safety` (non-finite count, scale, over-velocity,
-dropped, shield change, shield acted, acceleration excess, exceeded) and, last, the law's
-raw ``|q̇|∞``.
+dropped, shield change, shield acted, acceleration excess, exceeded), the law's raw
+``|q̇|∞`` and the distance past a hard limit no command could avoid (0: none).
 """
 
 from __future__ import annotations
@@ -153,6 +153,7 @@ def _raw_law(
             iopt[3] != 0,
             fopt[2],
             rc,
+            iopt[0] != 0,
         )
         n = q.shape[0]
         qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
@@ -225,7 +226,7 @@ def law_step(
     first = iopt[1] != 0
     if first:
         task = classical(J1, e, lam, sec, False, fopt[0], fopt[1])[0]
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded = apply_safety(
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, _ = apply_safety(
         qdot, q, lp, has_v, has_a, dt, prev, has_prev, iopt[0] != 0, task, first
     )
     sout = np.empty(NS)
@@ -241,5 +242,5 @@ def law_step(
     for i in range(qdot.shape[0]):
         big = max(big, abs(qdot[i]))
     sout[8] = big
-    sout[9] = 0.0
+    sout[9] = past
     return out, iout, fout, axes, axf, vec, sout

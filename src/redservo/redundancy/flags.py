@@ -53,6 +53,12 @@ class Flag(enum.Enum):
     """The position shield changed the command [largest change |Δq̇|, rad/s or m/s]."""
     NON_FINITE_REPLACED = "non-finite-replaced"
     """The law produced NaN or inf; the safe fallback command was sent [number of entries]."""
+    POSITION_LIMIT_UNAVOIDABLE = "position-limit-unavoidable"
+    """The command takes a joint past its hard limit (``q + dt q̇`` outside
+    ``[q̄_min, q̄_max]``) because no command within the limits that outrank the position
+    could keep it inside: the rate limits with the shield off (a previous command too fast
+    to stop within ``q̈_max dt``), the velocity limit with it on. The message names the joint
+    [largest distance past the hard limit, rad or m]."""
 
     @property
     def label(self) -> str:

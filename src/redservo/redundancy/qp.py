@@ -351,6 +351,7 @@ class BoundedLeastSquares(Law):
             has_v,
             self.rcond,
             self.eps,
+            self.shield,
         )
         qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
         events = _rank_and_conflict_events(int(rank), m, conflicts)

@@ -27,7 +27,14 @@ A law's raw command ``q̇_des`` goes through two stages before it leaves
    its velocity limit.
 
 Priorities when the boxes conflict: the velocity limit, then the position shield, then
-the acceleration limit (its excess is reported as ``ACCELERATION_EXCEEDED``).
+the acceleration limit (its excess is reported as ``ACCELERATION_EXCEEDED``). With the
+shield off nothing outranks the rate limits. Either way, a command that takes a joint past
+its *hard* limit (``q + dt q̇`` outside ``[q̄_min, q̄_max]``) although no command within the
+limits that outrank the position could have kept it inside (a previous command too fast to
+stop within ``q̈_max dt``, with the shield off) is reported as
+``POSITION_LIMIT_UNAVOIDABLE``, naming the joint, with the distance past the limit. A
+crossing some command could have avoided is the law's own choice (the shield being off)
+and is not flagged; ``sns`` and ``qp`` never make it.
 
 Everything here works on plain float64 arrays (n,); units rad/s (m/s), rad/s² (m/s²), s. The
 numbers are computed by the kernels of :mod:`redservo.kernels.safety`; this module wraps them
@@ -52,6 +59,7 @@ __all__ = [
     "command_box",
     "exact_position_fix",
     "intersect_boxes",
+    "past_limit_event",
     "position_box",
     "rate_box",
     "safety_events",
@@ -105,17 +113,27 @@ def position_box(q: FloatArray, limits: JointLimits, dt: float) -> tuple[FloatAr
 
 
 def command_box(
-    q: FloatArray, limits: JointLimits, dt: float, qdot_prev: FloatArray | None
+    q: FloatArray,
+    limits: JointLimits,
+    dt: float,
+    qdot_prev: FloatArray | None,
+    *,
+    shield: bool = True,
 ) -> tuple[FloatArray, FloatArray]:
     """Return ``P ∩ R`` with the module's priorities (velocity, position, acceleration).
 
     This is the feasible set ``sns`` and ``qp`` optimize over, so that they satisfy the
-    shield without it.
+    shield without it. Where P and R miss, the edge of P nearest to R (``shield``: the
+    position wins), or without the shield the edge of R nearest to P: the rate stage,
+    which always runs, would move the command there anyway, so the law plans with the
+    velocity the joint will get (the smallest crossing; ``POSITION_LIMIT_UNAVOIDABLE``).
     """
     lp = limits_pack(limits)
     qa = np.ascontiguousarray(q, dtype=np.float64)
     prev, has_prev = _prev(qdot_prev, limits.n)
-    lo, hi = _K.command_box(qa, lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev)
+    lo, hi = _K.command_box(
+        qa, lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev, bool(shield)
+    )
     return lo, hi
 
 
@@ -198,9 +216,10 @@ def apply_safety(
     n = limits.n
     prev, has_prev = _prev(qdot_prev, n)
     c = np.ascontiguousarray
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded = _K.apply_safety(
+    qa = c(q, dtype=np.float64)
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = _K.apply_safety(
         c(qdot, dtype=np.float64),
-        c(q, dtype=np.float64),
+        qa,
         lp.rows,
         lp.has_v,
         lp.has_a,
@@ -211,8 +230,27 @@ def apply_safety(
         _zeros(n) if task is None else c(task, dtype=np.float64),
         task is not None,
     )
-    return SafetyOutcome(
-        out, safety_events(bad, s, over_v, dropped, change, acted, worst, exceeded)
+    events = safety_events(bad, s, over_v, dropped, change, acted, worst, exceeded)
+    if past > 0.0:
+        events = (*events, past_limit_event(qa, out, dt, limits, float(past), int(joint)))
+    return SafetyOutcome(out, events)
+
+
+def past_limit_event(
+    q: FloatArray, qdot: FloatArray, dt: float, limits: JointLimits, past: float, joint: int
+) -> Event:
+    """The ``POSITION_LIMIT_UNAVOIDABLE`` event: joint ``joint`` ends ``past`` (rad or m)
+    beyond its hard limit (the kernel's :func:`~redservo.kernels.safety.unavoidable_crossing`)."""
+    nxt = float(q[joint] + dt * qdot[joint])
+    upper = nxt > limits.q_max[joint]
+    side = "upper" if upper else "lower"
+    bound = float(limits.q_max[joint] if upper else limits.q_min[joint])
+    return Event(
+        Flag.POSITION_LIMIT_UNAVOIDABLE,
+        past,
+        f"joint {joint} passes its {side} limit {bound:.6g} by {past:.6g} (q + dt q̇ = "
+        f"{nxt:.9g}): no command within the rate limits stops it in time (previous command "
+        "too fast for q̈_max dt, or the velocity limit)",
     )
 
 

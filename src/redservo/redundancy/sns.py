@@ -62,8 +62,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError, InfeasibleError
+from redservo._validation import FloatArray, _to_float
+from redservo.errors import ConfigurationError, InfeasibleError, ShapeError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
@@ -96,12 +96,16 @@ def validate_positive_option(
     """
     if value is None:
         return None
-    arr = np.asarray(value, dtype=float)
+    message = (
+        f"{name} must be None, a finite number > 0 ({unit}) or a 1-D array of them, one per "
+        f"joint; got {value!r}"
+    )
+    try:
+        arr = _to_float(value, name)  # numbers only: "2.0" is refused, not parsed
+    except ShapeError:
+        raise ConfigurationError(message, argument=name) from None
     if arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)) or not np.all(arr > 0.0):
-        raise ConfigurationError(
-            f"{name} must be None, a finite number > 0 ({unit}) or a 1-D array of them, one per "
-            f"joint; got {value!r}"
-        )
+        raise ConfigurationError(message, argument=name)
     return arr
 
 
@@ -307,6 +311,7 @@ class SaturationInNullSpace(Law):
             has_a,
             self.margin,
             self.rcond,
+            self.shield,
         )
         (
             qdot,
