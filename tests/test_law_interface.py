@@ -296,3 +296,79 @@ def test_linalg_edge_cases() -> None:
     tiny = np.diag([1.0, 1e-12])  # below the default relative cut-off: rank 1
     assert task_svd(tiny).rank == 1
     np.testing.assert_allclose(pinv(tiny), np.diag([1.0, 0.0]))
+
+
+# -- issue 17 item 6: names in every input error ----------------------------------------------------
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", ["J1", "e1", "q", "de1_dt", "secondary", "qdot_prev"])
+@pytest.mark.parametrize("kind", ["strings", "booleans", "objects"])
+def test_non_numeric_inputs_are_refused_by_name(method: str, name: str, kind: str) -> None:
+    """``q = ["0.1", "0.2", ...]`` was parsed by numpy and accepted; every array input now
+    takes numbers only and the error names the argument."""
+    good = good_inputs()
+    value = np.asarray(good.get(name, np.zeros(N)))
+    with_none = value.astype(object)
+    with_none.flat[-1] = None
+    bad: Any = {
+        "strings": value.astype(str).tolist(),
+        "booleans": (value > 0).tolist(),
+        "objects": with_none.tolist(),
+    }[kind]
+    with pytest.raises(ShapeError) as info:
+        call(method, **{name: bad})
+    assert info.value.argument == name and str(info.value).startswith(name)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_integers_and_mixed_lists_are_numbers(method: str) -> None:
+    kw = good_inputs()
+    q = [0, 0, 0, 0, 0, 1]  # ints, one at the limit
+    a = paper_law(method)(**{**kw, "q": np.array(q, dtype=float)}).qdot
+    np.testing.assert_array_equal(paper_law(method)(**{**kw, "q": q}).qdot, a)
+    mixed = [np.float32(0.5), 0, np.int64(0), 0.0, -0.5, 1]
+    paper_law(method)(**{**kw, "q": mixed})
+
+
+@pytest.mark.parametrize("name", ["J1", "e1", "de1_dt", "secondary", "qdot_prev"])
+def test_an_overflowing_input_is_named(name: str) -> None:
+    """Entries near 1e308 whose own sum overflows: the error names the argument (it named
+    none: "inputs are too large (their sum overflows)")."""
+    value = np.full(np.shape(good_inputs().get(name, np.zeros(N))), 1e308)
+    with np.errstate(over="ignore"), pytest.raises(ShapeError) as info:
+        call("classical", **{name: value})
+    assert info.value.argument == name and str(info.value).startswith(name)
+    assert "overflow" in str(info.value)
+
+
+def test_inputs_whose_sums_only_overflow_together_are_valid() -> None:
+    """Each array finite with a finite sum: nothing to report (the sum over all of them is
+    only the hot path's shortcut)."""
+    J1 = np.zeros((2, N))
+    J1[0, 0] = 1.5e308
+    with np.errstate(over="ignore"):
+        res = call("classical", J1=J1, e1=np.array([1.5e308, 0.0]), de1_dt=None)
+    assert np.isfinite(res.qdot).all()
+
+
+@pytest.mark.parametrize("scale", [1.5e7, 3e7, 1e9, 1e12, 1e14])
+@pytest.mark.parametrize("upper", [False, True])
+def test_a_q_just_past_a_large_limit_names_the_joint(scale: float, upper: bool) -> None:
+    """|q| ~ 1.5e7: ``q_min - 1e-9`` rounds to one float step below ``q_min``, so the check
+    that found the joint disagreed with the laws' test and the error had ``joint=None``."""
+    lo = np.array([-1.0, scale, -1.0])
+    lim = JointLimits(lo, lo + np.array([2.0, 1.0, 2.0]))
+    q = np.zeros(3)
+    limit = lim.q_max[1] if upper else lim.q_min[1]
+    q[1] = limit
+    while abs(q[1] - limit) <= 1e-9:  # the first float beyond the tolerance
+        q[1] = np.nextafter(q[1], np.inf if upper else -np.inf)
+    kw = {"J1": np.eye(2, 3), "e1": np.zeros(2), "limits": lim, "lam": 0.5, "dt": 0.01}
+    with pytest.raises(JointLimitError) as info:
+        make_law("classical")(**kw, q=q)
+    exc = info.value
+    assert (exc.argument, exc.joint, exc.value) == ("q", 1, q[1])
+    q[1] = np.nextafter(q[1], -np.inf if upper else np.inf)  # within the tolerance: valid
+    make_law("classical")(**kw, q=q)
+    lim.check(q)

@@ -101,3 +101,34 @@ def test_bad_limits_and_bad_q() -> None:
         LIM.check([0.0, 1.0])
     with pytest.raises(ShapeError, match="finite"):
         LIM.check([0.0, np.nan, 0.0])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "argument", "error"),
+    [
+        ({"q_min": ["-1", "0"]}, "q_min", ShapeError),
+        ({"q_max": ["1", "1"]}, "q_max", ShapeError),
+        ({"qdot_max": "2.0"}, "qdot_max", ConfigurationError),
+        ({"qddot_max": ["1", "2"]}, "qddot_max", ConfigurationError),
+        ({"margin_abs": "0.01"}, "margin_abs", ConfigurationError),
+        ({"qdot_max": [True, True]}, "qdot_max", ConfigurationError),
+    ],
+)
+def test_limits_take_numbers_only(kwargs: dict[str, object], argument: str, error: type) -> None:
+    """Strings were parsed by numpy and accepted (issue 17 item 6)."""
+    args: dict[str, object] = {"q_min": [-1.0, 0.0], "q_max": [1.0, 1.0], **kwargs}
+    with pytest.raises(error) as info:
+        JointLimits(**args)  # type: ignore[arg-type]
+    assert info.value.argument == argument and argument in str(info.value)
+    with pytest.raises(ShapeError) as shape:
+        LIM.check(["0", "1", "2"])
+    assert shape.value.argument == "q"
+
+
+def test_margin_abs_may_be_zero_on_some_joints() -> None:
+    lim = JointLimits([-1.0, -1.0], [1.0, 1.0], margin_abs=[0.0, 0.1])
+    np.testing.assert_array_equal(lim.safe_max, [1.0, 0.9])
+    with pytest.raises(
+        ConfigurationError, match=r"margin_abs\[0\] = -0\.1 must be a finite number >= 0"
+    ):
+        JointLimits([-1.0, -1.0], [1.0, 1.0], margin_abs=[-0.1, 0.1])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -12,15 +13,53 @@ from redservo.errors import ShapeError
 FloatArray = NDArray[np.float64]
 
 
+_NUMERIC_KINDS = "fiu"
+"""numpy dtype kinds accepted as numbers: floats, signed and unsigned integers."""
+
+_KIND_NAMES = {
+    "U": "strings",
+    "S": "bytes",
+    "b": "booleans",
+    "c": "complex numbers",
+    "M": "dates",
+    "m": "time differences",
+    "O": "Python objects that are not all numbers",
+    "V": "raw records",
+}
+
+
+def _is_number(x: object) -> bool:
+    """A real number that is not a boolean (``numbers.Real``: int, float, numpy scalars)."""
+    return isinstance(x, numbers.Real) and not isinstance(x, bool | np.bool_)
+
+
 def _to_float(value: ArrayLike, name: str) -> FloatArray:
+    """``value`` as a float64 array; only numbers (floats or integers) are accepted.
+
+    Strings (``["0.1", "0.2"]``, which numpy would parse), booleans, complex numbers and
+    other objects raise :class:`ShapeError` naming ``name``, so that a mistyped input is
+    reported instead of converted.
+    """
     if type(value) is np.ndarray and value.dtype == np.float64:
         return value  # hot path: already a float array
     try:
-        return np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        kind = raw.dtype.kind
+        if kind == "O" and all(_is_number(x) for x in raw.flat):
+            raw = np.asarray(value, dtype=float)  # e.g. Python ints too large for int64
+            kind = "f"
     except (TypeError, ValueError):
         raise ShapeError(
-            f"{name} must be numeric and rectangular (a list or array of numbers), got {value!r}"
+            f"{name} must be numeric and rectangular (a list or array of numbers), got {value!r}",
+            argument=name,
         ) from None
+    if kind not in _NUMERIC_KINDS:
+        what = _KIND_NAMES.get(kind, f"values of type {raw.dtype}")
+        raise ShapeError(
+            f"{name} must hold numbers (floats or integers), got {what}: {value!r}",
+            argument=name,
+        )
+    return np.asarray(raw, dtype=np.float64)
 
 
 def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArray:
@@ -34,11 +73,38 @@ def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArra
     arr = _to_float(value, name)
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"({size},)" if size is not None else "a 1-D array"
-        raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
+        raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}", argument=name)
     # One summed check (a sum of finite floats overflows only near 1e308); precise on failure.
     if not math.isfinite(float(arr.sum())) and not np.isfinite(arr).all():
-        raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}")
+        raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}", argument=name)
     return arr
+
+
+def require_finite(**arrays: FloatArray | None) -> None:
+    """Raise ShapeError naming the first array holding NaN or inf, or whose sum overflows.
+
+    One summed check on the hot path: a sum of finite numbers can only be non-finite by
+    overflow (|values| ~ 1e308). Then each array is looked at alone: one with entries so
+    large that its own sum overflows is reported by name; finite arrays whose sums only
+    overflow together are valid inputs.
+    """
+    total = 0.0
+    for arr in arrays.values():
+        if arr is not None:
+            total += float(arr.sum())
+    if math.isfinite(total):
+        return
+    for name, arr in arrays.items():
+        if arr is not None and not np.isfinite(arr).all():
+            raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}", argument=name)
+    with np.errstate(over="ignore"):
+        big = [n for n, a in arrays.items() if a is not None and not math.isfinite(a.sum())]
+    if big:
+        raise ShapeError(
+            f"{' and '.join(big)} too large: the sum of the entries of {big[0]} overflows "
+            "float64 (|values| near 1e308); rescale the task",
+            argument=big[0],
+        )
 
 
 def as_matrix(
@@ -53,9 +119,9 @@ def as_matrix(
     ):
         r = "m" if rows is None else str(rows)
         c = "n" if cols is None else str(cols)
-        raise ShapeError(f"{name} must have shape ({r}, {c}), got shape {arr.shape}")
+        raise ShapeError(f"{name} must have shape ({r}, {c}), got shape {arr.shape}", argument=name)
     if not np.all(np.isfinite(arr)):
-        raise ShapeError(f"{name} must be finite (no NaN or inf)")
+        raise ShapeError(f"{name} must be finite (no NaN or inf)", argument=name)
     return arr
 
 
@@ -72,10 +138,10 @@ def as_transform(value: ArrayLike, name: str) -> FloatArray:
         else _to_float(value, name)
     )
     if T.shape != (4, 4):
-        raise ShapeError(f"{name} must have shape (4, 4), got shape {T.shape}")
+        raise ShapeError(f"{name} must have shape (4, 4), got shape {T.shape}", argument=name)
     (a, b, c, x), (d, e, f, y), (g, h, i, z), (p, q, r, w) = T.tolist()
     if not math.isfinite(a + b + c + d + e + f + g + h + i + x + y + z + p + q + r + w):
-        raise ShapeError(f"{name} must be finite (no NaN or inf)")
+        raise ShapeError(f"{name} must be finite (no NaN or inf)", argument=name)
     ok = abs(p) <= 1e-9 and abs(q) <= 1e-9 and abs(r) <= 1e-9 and abs(w - 1.0) <= 1e-9
     if ok:
         # Rows of R orthonormal, and a positive determinant (a reflection has det -1).
@@ -90,6 +156,7 @@ def as_transform(value: ArrayLike, name: str) -> FloatArray:
         )
     if not ok:
         raise ShapeError(
-            f"{name} must be a homogeneous transform [[R, t], [0, 0, 0, 1]] with R a rotation"
+            f"{name} must be a homogeneous transform [[R, t], [0, 0, 0, 1]] with R a rotation",
+            argument=name,
         )
     return T

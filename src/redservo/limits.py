@@ -13,19 +13,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_vector
-from redservo.errors import ConfigurationError, JointLimitError
+from redservo._validation import FloatArray, _to_float, as_vector
+from redservo.errors import ConfigurationError, JointLimitError, ShapeError
 
 __all__ = ["JointLimits"]
 
 
-def _rate_limit(value: ArrayLike | None, name: str, n: int, unit: str) -> FloatArray | None:
-    """Return a per-joint positive limit as an (n,) array (a scalar is broadcast), or None."""
+def _rate_limit(
+    value: ArrayLike | None, name: str, n: int, unit: str, *, allow_zero: bool = False
+) -> FloatArray | None:
+    """Return a per-joint positive limit as an (n,) array (a scalar is broadcast), or None
+    (``allow_zero``: zeros are accepted too)."""
     if value is None:
         return None
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+        arr = _to_float(value, name)  # numbers only: "2.0" is refused, not parsed
+    except ShapeError:
         raise ConfigurationError(
             f"{name} must be None, a number > 0 ({unit}) or one per joint, got {value!r}",
             argument=name,
@@ -37,11 +40,13 @@ def _rate_limit(value: ArrayLike | None, name: str, n: int, unit: str) -> FloatA
             f"{name} must be a scalar or have {n} entries (one per joint), got shape {arr.shape}",
             argument=name,
         )
-    bad = np.flatnonzero(~(np.isfinite(arr) & (arr > 0.0)))
+    bad = np.flatnonzero(~(np.isfinite(arr) & ((arr >= 0.0) if allow_zero else (arr > 0.0))))
     if bad.size:
         i = int(bad[0])
         raise ConfigurationError(
-            f"{name}[{i}] = {arr[i]!r} must be a finite number > 0 ({unit})", argument=name
+            f"{name}[{i}] = {float(arr[i])!r} must be a finite number {'>=' if allow_zero else '>'} 0 "
+            f"({unit})",
+            argument=name,
         )
     arr = arr.copy()
     arr.setflags(write=False)
@@ -144,11 +149,7 @@ class JointLimits:
             raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}", argument="rho")
         n = lo.shape[0]
         if margin_abs is not None:
-            mabs = (
-                _rate_limit(margin_abs, "margin_abs", n, "m or rad")
-                if np.any(np.asarray(margin_abs, dtype=float) != 0.0)
-                else np.zeros(n)
-            )
+            mabs = _rate_limit(margin_abs, "margin_abs", n, "m or rad", allow_zero=True)
             assert mabs is not None
             over = np.flatnonzero(mabs >= rho_f * rng)
             if over.size:
@@ -246,7 +247,10 @@ class JointLimits:
             JointLimitError: some ``q_i`` is outside ``[q̄_min,i - tol, q̄_max,i + tol]``.
         """
         qa = as_vector(q, name, self.n)
-        out = np.flatnonzero((qa < self.q_min - tol) | (qa > self.q_max + tol))
+        # The excess itself is compared with tol (as the laws' validation does): q_min - tol
+        # would round to q_min, or one float step below it, for |q| ~ 1e7 and beyond.
+        with np.errstate(over="ignore"):
+            out = np.flatnonzero((qa - self.q_min < -tol) | (self.q_max - qa < -tol))
         if out.size:
             i = int(out[0])
             lo, hi, v = float(self.q_min[i]), float(self.q_max[i]), float(qa[i])

@@ -32,7 +32,7 @@ from typing import Any, ClassVar, Literal, NamedTuple, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, _to_float
+from redservo._validation import FloatArray, _to_float, require_finite
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError, UnknownNameError
 from redservo.limits import JointLimits
 from redservo.redundancy.flags import Event, Flag
@@ -163,24 +163,6 @@ def _vec(value: ArrayLike, name: str, size: int) -> FloatArray:
     return arr
 
 
-def _require_finite(**arrays: FloatArray | None) -> None:
-    """Raise ShapeError naming the first array holding NaN or inf.
-
-    One summed check on the hot path: a sum of finite numbers can only be
-    non-finite by overflow (|values| ~ 1e308), which is then reported too.
-    """
-    total = 0.0
-    for arr in arrays.values():
-        if arr is not None:
-            total += float(arr.sum())
-    if math.isfinite(total):
-        return
-    for name, arr in arrays.items():
-        if arr is not None and not np.isfinite(arr).all():
-            raise ShapeError(f"{name} must be finite (no NaN or inf), got {arr}", argument=name)
-    raise ShapeError("inputs are too large (their sum overflows); rescale the task")
-
-
 def _scalar(value: object, name: str, meaning: str) -> float:
     """Return a finite positive float, or raise ConfigurationError naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
@@ -242,10 +224,10 @@ def validate_inputs(
     ff = None if de1_dt is None else _vec(de1_dt, "de1_dt", m)
     sec = None if secondary is None else _vec(secondary, "secondary", n)
     prev = None if qdot_prev is None else _vec(qdot_prev, "qdot_prev", n)
-    _require_finite(J1=J, e1=e, q=qa, de1_dt=ff, secondary=sec, qdot_prev=prev)
+    require_finite(J1=J, e1=e, q=qa, de1_dt=ff, secondary=sec, qdot_prev=prev)
     if float(np.minimum(qa - limits.q_min, limits.q_max - qa).min()) < -1e-9:
-        limits.check(qa)  # raises JointLimitError with the details
-        raise JointLimitError("q is outside the joint limits")  # pragma: no cover
+        limits.check(qa)  # the same test: raises JointLimitError naming the joint
+        raise JointLimitError("q is outside the joint limits", argument="q")  # pragma: no cover
     if isinstance(lam, AdaptiveGain):
         lam_f = gain_value(lam, e)
     else:
