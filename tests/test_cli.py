@@ -322,3 +322,31 @@ def test_campaign_set_overrides_the_base_scenario(tmp_path: Path) -> None:
     assert main(args) == 0
     row = (out / "samples.csv").read_text().splitlines()[1]
     assert ",max_iterations,False,5," in row
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [
+        (["run", "afma6-gaze-demo", "--method", ""], "--method"),
+        (["run", "afma6-gaze-demo", "--method", "  "], "--method"),
+        (["compare", "afma6-gaze-demo", "--methods", ""], "--methods"),
+        (["compare", "afma6-gaze-demo", "--methods", "classical,,gpm"], "--methods"),
+        (["compare", "afma6-gaze-demo", "--methods", "classical,"], "--methods"),
+        (["campaign", "afma6-gaze-demo", "--methods", ""], "--methods"),
+        (["campaign", "afma6-gaze-demo", "--methods", "gpm, ,wln"], "--methods"),
+        (["bench", "--methods", ""], "--methods"),
+        (["replay", "no-such-dir", "--sample", "0", "--method", ""], "--method"),
+    ],
+)
+def test_an_empty_method_name_is_an_error_naming_the_option_and_the_methods(
+    argv: list[str], option: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--method ''` used to run the scenario's own method (and `--methods a,,b` dropped the
+    empty entry): now one line, exit code 2, naming the option and the methods allowed."""
+    from redservo import METHODS
+
+    assert main([*argv, "--out", str(tmp_path / "o"), "-q"] if argv[0] != "bench" else argv) == 2
+    line = _one_error_line(capsys)
+    assert f"argument {option}:" in line and "method name" in line
+    assert all(m in line for m in METHODS)
+    assert not (tmp_path / "o").exists()  # nothing ran

@@ -10,6 +10,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from redservo.cli_common import method_list
+
 __all__ = ["add_bench_arguments", "main_bench"]
 
 
@@ -27,7 +29,7 @@ def add_bench_arguments(b: argparse.ArgumentParser, int_in: Callable[..., Any]) 
         default=10,
         help="interleaved rounds; medians are taken over them (default 10)",
     )
-    b.add_argument("--methods", help="comma-separated methods (default: all)")
+    b.add_argument("--methods", type=method_list, help="comma-separated methods (default: all)")
     b.add_argument(
         "--cases",
         help="comma-separated main cases (default: afma6-4points, afma6-gaze, afma6-moments, "
@@ -80,7 +82,7 @@ def main_bench(args: argparse.Namespace) -> int:
     from redservo.errors import ConfigurationError
     from redservo.redundancy import law_class
 
-    methods = _split(args.methods)
+    methods: list[str] | None = args.methods
     for m in methods or ():
         law_class(m)  # unknown names fail before anything runs
     if args.scaling.strip().lower() in ("", "none"):

@@ -1,4 +1,5 @@
-"""The ``redservo`` commands that work on saved results, and the options they share.
+"""The ``redservo`` commands that work on saved results (their options shared with the other
+commands are in :mod:`redservo.cli_common`).
 
     redservo plot PATH [--format png,pdf,svg]
     redservo replay CAMPAIGN_DIR --sample K --method M [--out DIR] [--format ...] [--no-plot]
@@ -7,7 +8,7 @@
 
 ``PATH`` is a run directory (``redservo run``/``replay``), a comparison or reproduction
 directory (``--method`` picks a run, default the first), or for ``plot`` also a campaign
-directory. Registered by :func:`register` into the parser of :mod:`redservo.cli`; every
+directory. Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`); every
 command imports what it needs when it runs (the command line starts fast).
 """
 
@@ -16,38 +17,15 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["add_figure_options", "figures", "print_list", "register", "reproduce_lines"]
+from redservo.cli_common import add_figure_options, figures, method_name, summary_line, warn
+
+__all__ = ["print_list", "register", "reproduce_lines"]
 
 _PATH_HELP = "a run directory, or a comparison/reproduction directory (then --method picks the run)"
-
-
-def add_figure_options(p: argparse.ArgumentParser, default: str = "png") -> None:
-    """``--format`` and ``--no-plot`` (shared by every command that writes figures)."""
-    p.add_argument(
-        "--format",
-        default=default,
-        metavar="FMT[,FMT]",
-        help=f"figure formats among png (300 dpi), pdf, svg (default {default})",
-    )
-    p.add_argument("--no-plot", action="store_true", help="write no figures")
-
-
-@contextlib.contextmanager
-def figures(args: argparse.Namespace) -> Iterator[bool]:
-    """Within the block, figures are written in ``--format`` (none with ``--no-plot``);
-    yields whether figures are wanted."""
-    from redservo.plots import figure_formats, parse_formats
-
-    if getattr(args, "no_plot", False):
-        with figure_formats(()):
-            yield False
-        return
-    with figure_formats(parse_formats(getattr(args, "format", "png") or "png")):
-        yield True
 
 
 def _matplotlib() -> bool:
@@ -126,7 +104,6 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from redservo.cli import _summary_line, _warn
     from redservo.replay import replay_sample
 
     r = replay_sample(args.path, args.sample, args.method, out=args.out)
@@ -135,8 +112,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             from redservo import plots
 
             plots.run_figures(r.result, r.experiment, r.out)
-    print(_summary_line(f"sample {args.sample} [{args.method}]", r.result.summary))
-    _warn(r.result.summary)
+    print(summary_line(f"sample {args.sample} [{args.method}]", r.result.summary))
+    warn(r.result.summary)
     if r.matches is False:
         row = r.row or {}
         print(
@@ -196,10 +173,12 @@ def register(sub: Any, common: argparse.ArgumentParser, int_in: Callable[..., An
     rp = sub.add_parser("replay", parents=[common], help="re-run one sample of a campaign")
     rp.add_argument("path", help="the campaign's output directory")
     rp.add_argument("--sample", type=int_in(0, 10**9), required=True, help="sample index (0-based)")
-    rp.add_argument("--method", required=True, help="the method to run (redservo list)")
+    rp.add_argument(
+        "--method", type=method_name, required=True, help="the method to run (redservo list)"
+    )
     rp.add_argument("--out", help="run directory (default CAMPAIGN_DIR/replay/sample-K-METHOD)")
     add_figure_options(rp)
-    rp.set_defaults(func=_cmd_replay)
+    rp.set_defaults(func=_cmd_replay, compiles=True)
 
     v = sub.add_parser("view", parents=[common], help="3-D view of a saved run in the browser")
     v.add_argument("path", help=_PATH_HELP)

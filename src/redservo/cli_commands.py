@@ -1,0 +1,186 @@
+"""The ``redservo`` commands that run something: run, compare, list, reproduce, campaign, bench
+and warmup (the parser is :mod:`redservo.cli_parser`; the commands on saved results are in
+:mod:`redservo.cli_tools`). Each command imports what it needs when it runs, so that the
+command line starts fast; each returns the exit code.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from redservo.cli_common import (
+    UsageError,
+    draw_figures,
+    figures,
+    progress,
+    require,
+    summary_line,
+    warn,
+)
+
+__all__ = [
+    "cmd_bench",
+    "cmd_campaign",
+    "cmd_compare",
+    "cmd_list",
+    "cmd_reproduce",
+    "cmd_run",
+    "cmd_warmup",
+]
+
+
+def _plots() -> Any:
+    from redservo import plots
+
+    return plots
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``redservo run``: one scenario, its run directory, figures and summary line."""
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sc = load_scenario(args.scenario)
+    sets = list(args.set or [])
+    if args.method is not None:
+        sets.append(f'control.method="{args.method}"')
+    if sets:
+        sc = apply_overrides(sc, sets)
+    exp = build(sc)
+    update, close = progress(exp.options.max_iterations, sc.name, not args.quiet)
+    try:
+        result = exp.run(progress=update)
+    finally:
+        close()
+    out = Path(args.out or Path("runs") / f"{sc.name}-{sc.method}")
+    result.save(out, extra={"scenario": sc.name, "source": sc.source, "method": sc.method})
+    figs = draw_figures(args, lambda: _plots().run_figures(result, exp, out))
+    print(summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
+    warn(result.summary)
+    if args.video:
+        from redservo.vision.runvideo import run_video
+
+        print(f"wrote {run_video(exp, result, args.video)} (camera view, features, error)")
+    print(
+        f"wrote {out}/: scenario.toml, summary.json, log.npz, log.csv, diagnostics.json"
+        + (f" and {figs} figure(s)" if figs else "")
+    )
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """``redservo compare``: several methods on one scenario, a table and figures."""
+    from redservo.experiment import build
+    from redservo.redundancy import law_class
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sc = load_scenario(args.scenario)
+    if args.set:
+        sc = apply_overrides(sc, list(args.set))
+    methods: list[str] = args.methods
+    if not methods:  # pragma: no cover - the parser's method_list never gives an empty list
+        raise UsageError("redservo compare: --methods: give at least one method name")
+    for m in methods:
+        law_class(m)  # unknown names fail before anything runs
+    exp = build(sc)
+    out = Path(args.out or Path("runs") / f"{sc.name}-compare")
+    results = {}
+    for m in methods:
+        update, close = progress(exp.options.max_iterations, m, not args.quiet)
+        try:
+            results[m] = exp.run(method=m, progress=update)
+        finally:
+            close()
+        results[m].save(out / m, extra={"scenario": sc.name, "method": m})
+        print(summary_line(m, results[m].summary, exp.robot.joint_names))
+        warn(results[m].summary, f"{m}: ")
+    from redservo.report import summary_table
+
+    rows = {m: r.summary.to_dict() for m, r in results.items()}
+    (out / "compare.json").write_text(json.dumps({"scenario": sc.name, "methods": rows}, indent=2))
+    (out / "compare.md").write_text(f"# {sc.name}\n\n" + summary_table(rows) + "\n")
+    figs = draw_figures(args, lambda: _plots().compare_figures(results, exp, out))
+    print(
+        f"wrote {out}/compare.md, compare.json, one run directory per method"
+        + (f" and {figs} figure(s)" if figs else "")
+    )
+    return 0
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    """``redservo list``: what is shipped (``-q``: names only)."""
+    from redservo.cli_tools import print_list
+
+    print_list(args.quiet)
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    """``redservo reproduce``: every experiment of both papers, report.md and report.json."""
+    from redservo.reproduction import reproduce
+    from redservo.reproduction.report import console_summary
+
+    require("matplotlib", "the reproduction's figures")
+    with figures(args):
+        report = reproduce(
+            Path(args.out),
+            only=args.only,
+            fast=args.fast,
+            progress=not args.quiet,
+            robustness=args.robustness,
+            seed=args.seed,
+            workers=args.workers,
+            pixel_noise=False if args.no_pixel_noise else None,
+            sensor=args.sensor,
+        )
+    print("\n".join(console_summary(report, Path(args.out))))
+    return 0
+
+
+def cmd_campaign(args: argparse.Namespace) -> int:
+    """``redservo campaign``: a Monte Carlo comparison stored under ``--out``."""
+    from dataclasses import replace
+
+    from redservo.campaign import load_campaign, run_campaign
+    from redservo.scenario import apply_overrides
+
+    default_out = Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"
+    defn = load_campaign(args.scenario)
+    if args.set:  # on the base scenario, after the campaign's own overrides
+        defn = replace(defn, scenario=apply_overrides(defn.scenario, list(args.set)))
+    with figures(args):
+        result = run_campaign(
+            defn,
+            methods=args.methods,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            out=Path(args.out or default_out),
+            progress=not args.quiet,
+            wait=args.wait,
+            repair=args.repair,
+            scheduler=args.scheduler,
+        )
+    print(result.markdown)
+    print(
+        f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json and figures"
+    )
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """``redservo bench``: time the control step of every method."""
+    from redservo.bench_cli import main_bench
+
+    return main_bench(args)
+
+
+def cmd_warmup(args: argparse.Namespace) -> int:
+    """``redservo warmup``: compile every kernel ahead of use, with progress on stderr."""
+    from redservo.warmup import warmup
+
+    warmup(quiet=args.quiet)
+    return 0
