@@ -32,7 +32,8 @@ chromium:
 		echo "chromium not installed: the viewer's browser test will be skipped"; \
 	fi
 
-## make demo: create the environment, install, reproduce the papers and write figures to $(OUT)/
+## make demo: create the environment, install, compile the kernels (redservo warmup, with
+## progress), reproduce the papers and write figures to $(OUT)/
 demo: $(STAMP)
 	$(BIN)/python examples/demo.py --out $(OUT)
 

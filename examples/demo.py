@@ -1,6 +1,7 @@
 """`make demo`: reproduce both papers, run a small Monte Carlo comparison, and animate a run.
 
-Writes, under ``--out`` (default ``out/``):
+It first compiles the numba kernels with progress (``redservo warmup``: tens of seconds on a
+fresh install, a few seconds once cached), then writes, under ``--out`` (default ``out/``):
 
 * ``report.md``, ``report.json`` and every figure of the reproduction of
   Chaumette & Marchand 2001 and Mansard & Chaumette 2005 (``redservo reproduce``; SVG for
@@ -27,6 +28,7 @@ from redservo.cli import main
 def _steps(out: Path) -> list[list[str]]:
     run = out / "panda-4points"
     return [
+        ["warmup"],
         ["reproduce", "--out", str(out)],
         [
             "campaign",

@@ -1,0 +1,297 @@
+"""Compiling the numba kernels ahead of use (``redservo warmup``), and saying so when it happens.
+
+The kernels (:mod:`redservo.kernels`, the campaign loop) are compiled by numba on their
+first call and cached on disk (docs/speed.md), so the first command after an install or an
+upgrade pays a compilation of tens of seconds. Two things make that visible:
+
+* :func:`announce_compilation` (called by the ``redservo`` commands that run control steps)
+  prints one line on stderr the first time this process, or a worker forked from it,
+  actually compiles a kernel: numba reports a compilation only on a cache miss (its
+  ``numba:compile`` event), so nothing is printed when the cache is warm;
+* :func:`warmup` runs every group of :data:`GROUPS` once (every law, every shipped
+  scenario for a few iterations, the compiled steps, the compiled campaign loop), with a
+  progress line per group on stderr: what it compiled and how long it took, then the total.
+  A second run only loads the cache and says that it was warm.
+
+Without numba (not installed, or ``REDSERVO_NO_NUMBA=1``) nothing is compiled: the notice is
+never printed and :func:`warmup` runs the groups on the plain-Python path as a check.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from typing import IO, Any, NamedTuple
+
+import numpy as np
+
+__all__ = [
+    "COLD_SECONDS",
+    "GROUPS",
+    "NOTICE",
+    "CompileCounter",
+    "Group",
+    "WarmupReport",
+    "announce_compilation",
+    "warmup",
+]
+
+COLD_SECONDS = "40-90"
+"""Wall seconds of a first ``redservo run`` on an empty cache on a 2-core machine (the
+figure of the notice; docs/speed.md gives the measurement)."""
+
+NOTICE = (
+    f"redservo: compiling the numba kernels once (about {COLD_SECONDS} s on 2 cores, then "
+    "cached on disk; `redservo warmup` does it ahead of use)"
+)
+"""The line :func:`announce_compilation` prints on the first compilation."""
+
+
+class _Flag:
+    """A flag set once, shared with the processes forked after it is made (campaign and
+    robustness workers), so that a process tree prints the notice once; per process when
+    shared memory is unavailable."""
+
+    def __init__(self) -> None:
+        self._local = False
+        self._shared: Any = None
+        try:
+            import multiprocessing
+
+            self._shared = multiprocessing.Value("b", 0)
+        except (ImportError, OSError):  # pragma: no cover - no shared memory here
+            pass
+
+    def test_and_set(self) -> bool:
+        """Set the flag; True when it was not set before (the caller is the first)."""
+        if self._shared is None:
+            first, self._local = not self._local, True
+            return first
+        with self._shared.get_lock():
+            first = not self._shared.value
+            self._shared.value = 1
+        return bool(first)
+
+
+class CompileCounter:
+    """A numba event listener counting compilations (cache misses), optionally printing
+    :data:`NOTICE` to ``stream`` (default: ``sys.stderr`` at the time) on the first."""
+
+    def __init__(self, *, notice: bool = False, stream: IO[str] | None = None) -> None:
+        self.count = 0
+        self._notice = _Flag() if notice else None
+        self._stream = stream
+
+    def on_start(self, event: Any) -> None:
+        self.count += 1
+        if self._notice is not None and self._notice.test_and_set():
+            stream = self._stream or sys.stderr
+            print(NOTICE, file=stream, flush=True)
+
+    def on_end(self, event: Any) -> None:
+        pass
+
+    def install(self) -> bool:
+        """Listen to numba's compilations; False (nothing done) when the kernels are not
+        compiled (numba missing or disabled)."""
+        from redservo.kernels import compiled
+
+        if not compiled():
+            return False
+        from numba.core import event
+
+        counter = self
+
+        class Listener(event.Listener):
+            def on_start(self, ev: Any) -> None:
+                counter.on_start(ev)
+
+            def on_end(self, ev: Any) -> None:
+                counter.on_end(ev)
+
+        self._listener = Listener()
+        event.register("numba:compile", self._listener)
+        return True
+
+    def uninstall(self) -> None:
+        """Stop listening (after :meth:`install` returned True)."""
+        from numba.core import event
+
+        event.unregister("numba:compile", self._listener)
+
+
+_ANNOUNCER: list[CompileCounter] = []
+
+
+def announce_compilation() -> None:
+    """Print :data:`NOTICE` once on stderr when a kernel is first compiled in this process
+    (or a worker it forks); nothing when the cache is warm or numba is off. Idempotent."""
+    if _ANNOUNCER:
+        return
+    counter = CompileCounter(notice=True)
+    counter.install()
+    _ANNOUNCER.append(counter)
+
+
+# --------------------------------------------------------------------------- the groups
+
+
+class Group(NamedTuple):
+    """A group of kernels compiled together by running what uses them."""
+
+    name: str
+    what: str
+    run: Callable[[Callable[[str], None]], None]
+    """Runs the group; its argument prints a note (e.g. a part skipped and why)."""
+
+
+def _laws(note: Callable[[str], None]) -> None:
+    from redservo import METHODS, JointLimits, make_law
+
+    rng = np.random.default_rng(0)
+    lim = JointLimits(-np.ones(7), np.ones(7), qdot_max=1.0, qddot_max=5.0)
+    J1, e1, q = rng.normal(size=(6, 7)), rng.normal(size=6), rng.uniform(-0.5, 0.5, 7)
+    for method in METHODS:
+        law = make_law(method)
+        first = law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04)
+        law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04, qdot_prev=first.qdot)
+
+
+def _scenarios(note: Callable[[str], None]) -> None:
+    from redservo.experiment import build
+    from redservo.scenario import load_scenario, shipped_scenarios
+
+    for name in shipped_scenarios():
+        try:
+            exp = build(load_scenario(name))
+        except ImportError as exc:  # an optional extra (e.g. Pinocchio for a URDF robot)
+            note(f"{name} skipped: {' '.join(str(exc).split())}")
+            continue
+        exp.run(max_iterations=3)
+
+
+def _steps(note: Callable[[str], None]) -> None:
+    import importlib.util
+
+    from redservo.bench_cases import bench_cases
+    from redservo.binding import compiled_qp_step, compiled_step
+    from redservo.redundancy import make_law
+
+    cases = {c.name: c for c in bench_cases(scaling=())}
+    for name in ("afma6-4points", "afma6-moments", "panda-6d-free"):
+        c = cases[name]
+        law = make_law("classical")
+        step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+        step(c.q, step(c.q).copy())
+    if importlib.util.find_spec("daqp") is None:
+        note("qp step skipped: needs daqp (pip install 'redservo[qp]')")
+        return
+    c = cases["afma6-4points"]
+    qp = compiled_qp_step(
+        c.robot, c.scene, c.task, make_law("qp"), limits=c.limits, lam=0.5, dt=0.04
+    )
+    qp(c.q, qp(c.q))
+
+
+def _campaign_loop(note: Callable[[str], None]) -> None:
+    from redservo.campaign.definition import load_campaign, shipped_campaigns
+    from redservo.campaign.fastloop import campaign_law, fast_reason, fast_summary
+    from redservo.campaign.sampling import draw_sample
+    from redservo.experiment import build
+
+    for name in shipped_campaigns():
+        defn = load_campaign(name)
+        try:
+            exp = build(draw_sample(defn, 0, 0).scenario)
+        except ImportError as exc:
+            note(f"{name} skipped: {' '.join(str(exc).split())}")
+            continue
+        for method in defn.methods:
+            law = campaign_law(exp, method, defn.method_options.get(method))
+            if fast_reason(exp, law) is None:
+                fast_summary(exp, law)
+
+
+GROUPS: tuple[Group, ...] = (
+    Group("laws", "every method through the public API", _laws),
+    Group("scenarios", "every shipped scenario, 3 iterations", _scenarios),
+    Group("compiled steps", "Afma6 points and moments, Panda points, qp", _steps),
+    Group("campaign loop", "every shipped campaign, one sample per method", _campaign_loop),
+)
+"""What :func:`warmup` runs, in order."""
+
+
+class WarmupReport(NamedTuple):
+    """What :func:`warmup` did."""
+
+    seconds: dict[str, float]
+    """Wall seconds per group."""
+    compiled: dict[str, int]
+    """Kernel compilations (numba cache misses) per group; zeros without numba."""
+    numba: bool
+    """The kernels are compiled by numba (False: plain Python, nothing to compile)."""
+
+    @property
+    def total(self) -> float:
+        """Wall seconds of the whole warm-up."""
+        return sum(self.seconds.values())
+
+
+def warmup(
+    *, quiet: bool = False, groups: tuple[Group, ...] = GROUPS, stream: IO[str] | None = None
+) -> WarmupReport:
+    """Compile every kernel of ``groups`` into the on-disk cache (module docstring); one
+    progress line per group on ``stream`` (default stderr; none with ``quiet``)."""
+    out = stream or sys.stderr
+
+    def say(text: str) -> None:
+        if not quiet:
+            print(text, file=out, flush=True)
+
+    counter = CompileCounter()
+    numba = counter.install()
+    if not numba:
+        say("warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
+            "compile; running the groups on the plain-Python path as a check")  # fmt: skip
+    seconds: dict[str, float] = {}
+    compiled: dict[str, int] = {}
+    try:
+        for i, group in enumerate(groups):
+            say(f"warmup [{i + 1}/{len(groups)}] {group.name}: {group.what} ...")
+            before, t0 = counter.count, time.perf_counter()
+            group.run(_prefixed(say, f"  {group.name}: "))
+            seconds[group.name] = time.perf_counter() - t0
+            compiled[group.name] = counter.count - before
+            done = f"  {group.name}: {seconds[group.name]:.1f} s"
+            say(done + (f", {compiled[group.name]} kernel compilation(s)" if numba else ""))
+    finally:
+        if numba:
+            counter.uninstall()
+    report = WarmupReport(seconds, compiled, numba)
+    say(_verdict(report))
+    return report
+
+
+def _prefixed(say: Callable[[str], None], prefix: str) -> Callable[[str], None]:
+    """``say`` with ``prefix`` before each line (a group's notes)."""
+
+    def note(text: str) -> None:
+        say(prefix + text)
+
+    return note
+
+
+def _verdict(report: WarmupReport) -> str:
+    total = sum(report.compiled.values())
+    if not report.numba:
+        return f"warmup: done in {report.total:.1f} s (plain Python: nothing compiled)"
+    if total == 0:
+        return (
+            f"warmup: done in {report.total:.1f} s: the kernel cache was already warm "
+            "(nothing compiled)"
+        )
+    return (
+        f"warmup: done in {report.total:.1f} s: {total} kernel compilation(s), now cached on "
+        "disk; later runs load them"
+    )
