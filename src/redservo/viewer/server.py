@@ -8,6 +8,13 @@ camera's path, and the target objects (orange). The side panel has the run's sum
 time slider, a play button, the camera image with the current (blue) and desired
 (orange) features, and every joint's normalized position.
 
+Once a page has drawn the scene (the robot included), it carries a hidden element
+``<span id="redservo-drawn" data-drawn="true">`` (:data:`DRAWN_ID`): the server asks each new
+page for a small render of its scene (viser's ``get_render``, which the page answers only after
+it has applied the scene messages sent before and drawn a frame with them) and adds the
+element when a render shows the robot's links. Scripts and tests wait for it, not for a fixed
+time.
+
 Why viser: docs/decisions.md ("3-D viewer").
 """
 
@@ -28,12 +35,14 @@ from redservo.viewer.playback import Frame, limit_color
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.viewer.playback import Playback
 
-__all__ = ["LINK_COLOR", "TARGET_COLOR", "ViewerSession", "serve"]
+__all__ = ["DRAWN_ID", "LINK_COLOR", "TARGET_COLOR", "ViewerSession", "serve"]
 
 LINK_COLOR = (142, 68, 173)
 """RGB of the robot's links (a purple no other element of the page uses)."""
 TARGET_COLOR = (230, 159, 0)
 """RGB of the target objects."""
+DRAWN_ID = "redservo-drawn"
+"""``id`` of the hidden element a page gets once it has drawn the scene (module docstring)."""
 
 
 def _viser() -> Any:
@@ -207,6 +216,45 @@ def _build_scene(s: ViewerSession) -> None:
     server.initial_camera.up = (0.0, 0.0, 1.0)
 
 
+def _shows_links(img: Any) -> bool:
+    """True when a rendered RGB(A) image has pixels of the links' hue (LINK_COLOR's purple)."""
+    rgb = np.asarray(img)[..., :3].astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return int(((r - g > 25) & (b - g > 25)).sum()) >= 20
+
+
+def _confirm_drawn(s: ViewerSession, client: Any) -> None:
+    """Wait until ``client``'s page has drawn the robot, then mark the page (DRAWN_ID).
+
+    Each request is answered with a frame drawn after the scene messages sent before it; viser
+    sends scene messages and requests on separate queues, so a frame without the robot's
+    links, or a failed capture, is asked for again (every 0.2 s, at most 300 times: the initial
+    view always shows the robot, but a user may have turned away from it).
+    """
+    for _ in range(300):
+        if s.stopped.is_set():
+            return
+        try:
+            img = client.get_render(height=180, width=240)
+        except Exception:  # a failed capture is asked again; a closed page is not
+            if client.client_id not in s.server.get_clients():
+                return
+            img = None
+        if img is not None and _shows_links(img):
+            if not s.stopped.is_set():
+                client.gui.add_html(f'<span id="{DRAWN_ID}" data-drawn="true" hidden></span>')
+            return
+        s.stopped.wait(0.2)
+
+
+def _mark_drawn_pages(s: ViewerSession) -> None:
+    @s.server.on_client_connect
+    def _(client: Any) -> None:
+        threading.Thread(
+            target=_confirm_drawn, args=(s, client), daemon=True, name="redservo-viewer-drawn"
+        ).start()
+
+
 def _build_gui(s: ViewerSession) -> None:
     from redservo.viewer.image import camera_image
 
@@ -276,6 +324,7 @@ def serve(
         _build_scene(session)
         _build_gui(session)
         session.show(0)
+        _mark_drawn_pages(session)
     except BaseException:
         session.stop()
         raise
