@@ -75,6 +75,20 @@ def _command(only: str | None, fast: bool, robustness: int, seed: int) -> str:
     return " ".join(parts)
 
 
+def _check(robustness: int, workers: int | None, sensor: str) -> None:
+    """The options of :func:`reproduce` that no type checks."""
+    if robustness < 0:
+        raise ConfigurationError(
+            f"robustness must be >= 0 set-ups, got {robustness}", argument="robustness"
+        )
+    if workers is not None and workers < 1:
+        raise ConfigurationError(f"workers must be >= 1, got {workers}", argument="workers")
+    if sensor not in ("ideal", "image"):
+        raise ConfigurationError(
+            f"sensor must be 'ideal' or 'image', got {sensor!r}", argument="sensor"
+        )
+
+
 def reproduce(
     out: Path,
     *,
@@ -116,16 +130,7 @@ def reproduce(
     from redservo.reproduction.report import ExperimentResult, markdown, to_json
     from redservo.reproduction.robustness import run_robustness
 
-    if robustness < 0:
-        raise ConfigurationError(
-            f"robustness must be >= 0 set-ups, got {robustness}", argument="robustness"
-        )
-    if workers is not None and workers < 1:
-        raise ConfigurationError(f"workers must be >= 1, got {workers}", argument="workers")
-    if sensor not in ("ideal", "image"):
-        raise ConfigurationError(
-            f"sensor must be 'ideal' or 'image', got {sensor!r}", argument="sensor"
-        )
+    _check(robustness, workers, sensor)
     specs = _select(only)
     sink = log or ((lambda msg: print(msg, file=sys.stderr)) if progress else None)
     out.mkdir(parents=True, exist_ok=True)
