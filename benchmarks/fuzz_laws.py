@@ -1,7 +1,7 @@
 """Fuzz every control law with random and degenerate inputs (issue 8 item 9).
 
     .venv/bin/python benchmarks/fuzz_laws.py [--calls 1000000] [--workers 2] [--seed 0]
-                                             [--json fuzz.json] [--replay CASE]
+                                             [--shield-off] [--json fuzz.json] [--replay CASE]
 
 Every method of :data:`redservo.METHODS`, with its defaults (shield on, robust on), is
 called on the same random case; cases are drawn until ``--calls`` law calls are made.
@@ -44,6 +44,20 @@ a filter and have none. ``amp>bound`` counts the calls above their own bound. ``
 in the JSON is the max of issue 8's formula alone (huge whenever ``J_law`` or ``F`` acts
 with a zero task error).
 
+``--shield-off`` runs every law with ``shield=False`` on cases that always carry velocity
+and acceleration limits and a previous command, with ``dt`` up to 10 s (issue 17 item 5: a
+previous command too fast to stop within ``q̈_max dt``). ``cross`` and ``outward`` then mean:
+
+* ``cross``: a joint taken past its hard limit without ``position-limit-unavoidable`` where no
+  command within the rate limits could keep it inside (any law), or at all (``sns``, ``qp``);
+  or the flag's value differs from the largest such distance (a false or wrong flag);
+* ``outward``: ``sns`` or ``qp`` leave the safe limits (or move further out of the margin
+  band) although a command within the rate limits would not (their promise without the
+  shield); other laws have none without the shield.
+
+``unavoid`` counts the calls with the flag, ``chosen`` the crossings a law made although some
+command could have avoided them (the unshielded laws' own choice; never ``sns`` or ``qp``).
+
 Cases are seeded by ``(seed, case index)``: results do not depend on ``--workers``;
 ``--replay CASE`` prints that case's inputs with full digits and every law's outcome.
 """
@@ -64,7 +78,8 @@ from redservo import METHODS, AdaptiveGain, Flag, JointLimits, make_law
 from redservo.redundancy.safety import command_box, rate_box
 
 TARGETS = ("nonfinite", "vel", "cross", "outward", "exc")
-INFO = ("nanfix", "acc", "amp_over")
+INFO = ("nanfix", "acc", "amp_over", "unavoid", "chosen")
+UNAVOIDABLE = Flag.POSITION_LIMIT_UNAVOIDABLE
 CHUNK = 200
 A_TASK, B_LEVEL = 1e3, 1e2
 J_LAW = {"gpm": "lam_alpha", "iterative-smooth-e2": "lam_alpha", "directional": "kappa"}
@@ -155,15 +170,20 @@ def _joint_position(rng: np.random.Generator, lim: JointLimits, i: int, crowded:
     return float(lim.center[i] + rng.uniform(-0.5, 0.5) * lim.range[i])
 
 
-def make_case(seed: int, index: int) -> dict[str, Any]:
-    """The law inputs of case ``index`` (deterministic in ``(seed, index)``)."""
-    rng = np.random.default_rng([seed, index])
+def make_case(seed: int, index: int, shield: bool = True) -> dict[str, Any]:
+    """The law inputs of case ``index`` (deterministic in ``(seed, index)``; ``shield=False``:
+    the shield-off cases of the module docstring, another stream)."""
+    rng = np.random.default_rng([seed, index] if shield else [seed, index, 1])
     m, n = int(rng.integers(1, 9)), int(rng.integers(2, 10))
     crowded = rng.random() < 0.2
     if crowded:  # more joints in the band than the redundancy
         m = int(rng.integers(max(1, n - 2), n + 1))
     J, _ = _jacobian(rng, m, n)
     lim = _limits(rng, n)
+    if not shield:  # rate limits always; small accelerations make stopping often impossible
+        lim = lim.replace(
+            qdot_max=10.0 ** rng.uniform(-3, 1.5, n), qddot_max=10.0 ** rng.uniform(-3, 2, n)
+        )
     q = np.array([_joint_position(rng, lim, i, crowded) for i in range(n)])
     e1 = rng.normal(size=m) * 10.0 ** rng.uniform(-12, 12)
     if rng.random() < 0.05:
@@ -175,20 +195,21 @@ def make_case(seed: int, index: int) -> dict[str, Any]:
             zero, zero * float(rng.uniform(0.01, 1.0)), float(10.0 ** rng.uniform(-3, 3))
         )
     prev = None
-    if rng.random() < 0.6:
+    if not shield or rng.random() < 0.6:
         v = lim.qdot_max
         prev = rng.uniform(-1, 1, n) * (10.0 ** rng.uniform(-3, 1) if v is None else v)
         if v is not None and rng.random() < 0.2:
             prev = v * rng.choice([-1.0, 1.0], n)
+    top = 1.0 if not shield else math.log10(0.2)
     return {
         "J1": J,
         "e1": e1,
         "q": q,
         "limits": lim,
         "lam": lam,
-        "dt": float(rng.choice([1e-4, 0.2]))
+        "dt": float(rng.choice([1e-4, 10.0**top]))
         if rng.random() < 0.1
-        else float(10.0 ** rng.uniform(-4, math.log10(0.2))),
+        else float(10.0 ** rng.uniform(-4, top)),
         "de1_dt": rng.normal(size=m) * 10.0 ** rng.uniform(-12, 12) if rng.random() < 0.5 else None,
         "secondary": rng.normal(size=n) * 10.0 ** rng.uniform(-6, 12)
         if rng.random() < 0.5
@@ -238,7 +259,36 @@ def amp_bound(name: str, n: int, iterations: int) -> float:
     return math.inf
 
 
-def check_call(name: str, kw: dict[str, Any], ctx: dict[str, float], res: Any) -> dict[str, Any]:
+def check_unshielded(name: str, kw: dict[str, Any], res: Any) -> dict[str, bool]:
+    """``cross``, ``outward``, ``unavoid`` and ``chosen`` of a shield-off call (docstring)."""
+    lim, q, dt, qdot = kw["limits"], kw["q"], kw["dt"], res.qdot
+    rlo, rhi, _ = rate_box(lim, dt, kw["qdot_prev"])
+    nxt = q + dt * qdot
+
+    def stays(lo_lim: np.ndarray, hi_lim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        top, bottom = np.maximum(hi_lim, q), np.minimum(lo_lim, q)
+        ok = (q + dt * rlo <= top) & (q + dt * rhi >= bottom)
+        return ok, np.maximum(np.maximum(nxt - top, bottom - nxt), 0.0)
+
+    hard_ok, past = stays(lim.q_min, lim.q_max)
+    safe_ok, out_safe = stays(lim.safe_min, lim.safe_max)
+    forced = float(np.where(hard_ok, 0.0, past).max())
+    value = res.diagnostics.value(UNAVOIDABLE)
+    baseline = name in ("sns", "qp")
+    wrong = (value is None) if forced > 0.0 else (value is not None)
+    wrong = wrong or (value is not None and value != forced)
+    chosen = bool(np.any(hard_ok & (past > 0.0)))
+    return {
+        "cross": wrong or (baseline and chosen),
+        "outward": baseline and bool(np.any(safe_ok & (out_safe > 0.0))),
+        "unavoid": value is not None,
+        "chosen": chosen,
+    }
+
+
+def check_call(
+    name: str, kw: dict[str, Any], ctx: dict[str, float], res: Any, shield: bool = True
+) -> dict[str, Any]:
     """The per-call outcome: which targets it violates, and its amplification."""
     qdot, d = res.qdot, res.diagnostics
     lim, q, dt, prev = kw["limits"], kw["q"], kw["dt"], kw["qdot_prev"]
@@ -253,6 +303,8 @@ def check_call(name: str, kw: dict[str, Any], ctx: dict[str, float], res: Any) -
     inside = (q >= smin) & (q <= smax)
     out["cross"] = bool(np.any(inside & ((nxt < smin) | (nxt > smax))))
     out["outward"] = bool(np.any(((q > smax) & (nxt > q)) | ((q < smin) & (nxt < q))))
+    if not shield:
+        out.update(check_unshielded(name, kw, res))
     out["nanfix"] = d.has(Flag.NON_FINITE_REPLACED)
     a = lim.qddot_max
     if a is not None and prev is not None and not d.has(Flag.ACCELERATION_EXCEEDED):
@@ -290,13 +342,13 @@ def _empty() -> dict[str, Any]:
     }
 
 
-def run_chunk(job: tuple[int, int, int]) -> dict[str, dict[str, Any]]:
+def run_chunk(job: tuple[int, int, int, bool]) -> dict[str, dict[str, Any]]:
     """Run cases ``[start, stop)`` through every law; return the per-law tallies."""
-    seed, start, stop = job
-    laws = {name: make_law(name) for name in METHODS}
+    seed, start, stop, shield = job
+    laws = {name: make_law(name, shield=shield) for name in METHODS}
     stats = {name: _empty() for name in METHODS}
     for index in range(start, stop):
-        kw = make_case(seed, index)
+        kw = make_case(seed, index, shield)
         ctx = _context(kw)
         for name, law in laws.items():
             st = stats[name]
@@ -307,7 +359,7 @@ def run_chunk(job: tuple[int, int, int]) -> dict[str, dict[str, Any]]:
                 st["exc"] += 1
                 st["examples"].setdefault("exc", (index, f"{type(exc).__name__}: {exc}"))
                 continue
-            out = check_call(name, kw, ctx, res)
+            out = check_call(name, kw, ctx, res, shield)
             for key in (*TARGETS, *INFO):
                 if out[key]:
                     st[key] += 1
@@ -342,9 +394,9 @@ def table(total: dict[str, dict[str, Any]]) -> str:
     """The final markdown table, one row per law."""
     head = (
         "| method | calls | NaN/inf | vel | cross | outward | exc | nanfix | acc | "
-        "max amp (case) | bound | amp>bound |"
+        "max amp (case) | bound | amp>bound | unavoid | chosen |"
     )
-    lines = [head, "|" + "---|" * 12]
+    lines = [head, "|" + "---|" * 14]
     for name in METHODS:
         st = total[name]
         bound = amp_bound(name, 9, 9) if name.startswith("iterative") else amp_bound(name, 9, 0)
@@ -354,15 +406,16 @@ def table(total: dict[str, dict[str, Any]]) -> str:
         lines.append(
             f"| {name} | {st['calls']} | "
             + " | ".join(str(st[k]) for k in (*TARGETS, "nanfix", "acc"))
-            + f" | {st['amp']:.3g} ({st['amp_case']}) | {btxt} | {st['amp_over']} |"
+            + f" | {st['amp']:.3g} ({st['amp_case']}) | {btxt} | {st['amp_over']} | "
+            + f"{st['unavoid']} | {st['chosen']} |"
         )
     return "\n".join(lines)
 
 
-def replay(seed: int, index: int) -> None:
+def replay(seed: int, index: int, shield: bool = True) -> None:
     """Print case ``index`` with full digits and every law's outcome."""
     np.set_printoptions(precision=17, floatmode="unique", linewidth=120)
-    kw = make_case(seed, index)
+    kw = make_case(seed, index, shield)
     lim = kw["limits"]
     print(f"case {index} (seed {seed})")
     for key, value in kw.items():
@@ -377,11 +430,11 @@ def replay(seed: int, index: int) -> None:
     ctx = _context(kw)
     for name in METHODS:
         try:
-            res = make_law(name)(**kw)
+            res = make_law(name, shield=shield)(**kw)
         except Exception as exc:
             print(f"{name}: raised {type(exc).__name__}: {exc}")
             continue
-        out = check_call(name, kw, ctx, res)
+        out = check_call(name, kw, ctx, res, shield)
         bad = [k for k in (*TARGETS, *INFO) if out[k]]
         print(f"{name}: qdot={res.qdot!r} flags={sorted(f.value for f in res.diagnostics.flags)}")
         print(f"    amp={out.get('amp', math.nan):.3g} findings={bad}")
@@ -394,12 +447,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the results as JSON ('-': stdout)")
     parser.add_argument("--replay", type=int, default=None, help="print one case and exit")
+    parser.add_argument(
+        "--shield-off", action="store_true", help="the laws without their shield, rates always on"
+    )
     args = parser.parse_args(argv)
+    shield = not args.shield_off
     if args.replay is not None:
-        replay(args.seed, args.replay)
+        replay(args.seed, args.replay, shield)
         return 0
     cases = -(-args.calls // len(METHODS))
-    jobs = [(args.seed, s, min(s + CHUNK, cases)) for s in range(0, cases, CHUNK)]
+    jobs = [(args.seed, s, min(s + CHUNK, cases), shield) for s in range(0, cases, CHUNK)]
+    mode = "shield on" if shield else "shield off, rate limits and a previous command always"
+    print(f"fuzzing {len(METHODS)} laws on {cases} cases ({mode}), {args.workers} workers")
     total: dict[str, dict[str, Any]] = {}
     t0 = time.perf_counter()
     done, next_report = 0, 0.0
@@ -420,7 +479,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"\n{cases} cases x {len(METHODS)} laws = {cases * len(METHODS)} calls in {elapsed:.0f} s"
     )
-    print(f"seed {args.seed}, {args.workers} workers\n")
+    print(f"seed {args.seed}, {args.workers} workers, {mode}\n")
     print(table(total))
     failing = {n: {k: st[k] for k in TARGETS if st[k]} for n, st in total.items()}
     failing = {n: f for n, f in failing.items() if f}
@@ -428,7 +487,8 @@ def main(argv: list[str] | None = None) -> int:
         for key, (index, msg) in sorted(st["examples"].items()):
             print(f"first {key} of {name}: case {index} {msg}".rstrip())
     if args.json:
-        doc = {"seed": args.seed, "cases": cases, "seconds": elapsed, "laws": total}
+        doc = {"seed": args.seed, "shield": shield, "cases": cases, "seconds": elapsed}
+        doc["laws"] = total
         text = json.dumps(doc, indent=2, default=float)
         if args.json == "-":
             print(text)

@@ -100,8 +100,10 @@ def command_box(
 ) -> Any:
     """``P ∩ R``. Where they miss, with ``shield`` the position wins and the acceleration is
     broken as little as possible (the box is the edge of P nearest to R); without it the
-    rate box wins, as it does in :func:`apply_safety` (the box is the edge of R nearest to
-    P: the joint crosses by as little as the rate limits allow)."""
+    rate box wins, as it does in :func:`apply_safety`: that edge brought into R (the edge
+    of R nearest to P, so the joint crosses by as little as the rate limits allow; when P
+    itself is empty, a joint in its margin band too close to its other limit to brake, the
+    shield's choice if R holds it)."""
     rlo, rhi, _ = rate_box(lp, has_v, has_a, dt, prev, has_prev)
     plo, phi = position_box(q, lp, has_v, has_a, dt)
     n = q.shape[0]
@@ -110,11 +112,10 @@ def command_box(
     for i in range(n):
         lo[i] = max(rlo[i], plo[i])
         hi[i] = min(rhi[i], phi[i])
-        if lo[i] > hi[i]:
-            if shield:  # the position wins; the acceleration is broken as little as possible
-                edge = plo[i] if rhi[i] < plo[i] else phi[i]
-            else:  # the rate limits win; the position is given up as little as possible
-                edge = rlo[i] if rlo[i] > phi[i] else rhi[i]
+        if lo[i] > hi[i]:  # the position wins; the acceleration is broken as little as possible
+            edge = plo[i] if rhi[i] < plo[i] else phi[i]
+            if not shield:  # the rate limits win; the position is given up as little as possible
+                edge = _clip(edge, rlo[i], rhi[i])
             lo[i] = edge
             hi[i] = edge
     return lo, hi

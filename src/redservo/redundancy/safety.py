@@ -124,9 +124,10 @@ def command_box(
 
     This is the feasible set ``sns`` and ``qp`` optimize over, so that they satisfy the
     shield without it. Where P and R miss, the edge of P nearest to R (``shield``: the
-    position wins), or without the shield the edge of R nearest to P: the rate stage,
-    which always runs, would move the command there anyway, so the law plans with the
-    velocity the joint will get (the smallest crossing; ``POSITION_LIMIT_UNAVOIDABLE``).
+    position wins), or without the shield that edge brought into R (the edge of R nearest
+    to P): the rate stage, which always runs, would move the command there anyway, so the
+    law plans with the velocity the joint will get (the smallest crossing;
+    ``POSITION_LIMIT_UNAVOIDABLE``).
     """
     lp = limits_pack(limits)
     qa = np.ascontiguousarray(q, dtype=np.float64)
