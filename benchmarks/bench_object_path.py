@@ -1,0 +1,143 @@
+"""Benchmark: the public object path of one control step, 4-point Afma6 (issue 18).
+
+    .venv/bin/python benchmarks/bench_object_path.py [--rounds R] [--batch B] [--json out.json]
+
+What the README shows for a real robot, on the ``afma6-4points`` case of
+:mod:`redservo.bench_cases` (a 0.2 m square at 0.6 m, the start rotated 80° about the
+optical axis; m = 6, n = 6):
+
+* ``kinematics``: ``robot.kinematics(q)`` (``bMc`` and ``J``);
+* ``task.evaluate``: ``task.evaluate(scene, bMc, J, 0.0)`` (``s``, ``e1``, ``J1``);
+* ``evaluate_measured``: ``task.evaluate_measured(s, inv_depth, J)`` (a sensor's entry);
+* ``law classical`` / ``law iterative-smooth``: ``law(J1=..., e1=..., q=..., limits=...,
+  lam=0.5, dt=0.04)``;
+* ``path classical`` / ``path iterative-smooth``: the three calls in a row (the sum);
+* ``compiled classical``: the whole step through :func:`redservo.binding.compiled_step`,
+  for the ratio ``path / compiled``.
+
+Each item is timed in batches of ``--batch`` calls; the rounds interleave the items, so a
+change of machine load touches all of them alike; the figures are medians (µs per call)
+with the inter-quartile range. The first line gives the load average: on a shared
+machine, run it more than once. Targets (issue 18): ``task.evaluate`` ≤ 10 µs, the
+classical law call ≤ 15 µs, the path ≤ 30 µs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from redservo import make_law
+from redservo.bench_cases import bench_cases
+
+TARGETS_US = {"task.evaluate": 10.0, "law classical": 15.0, "path classical": 30.0}
+"""Issue 18's targets (µs, medians) for the items that have one."""
+
+
+def items() -> list[tuple[str, Callable[[], Any]]]:
+    """The named callables, built once on the ``afma6-4points`` case."""
+    from redservo.binding import compiled_step
+
+    case = next(c for c in bench_cases(scaling=()) if c.name == "afma6-4points")
+    robot, scene, task, q, limits = case.robot, case.scene, case.task, case.q, case.limits
+    lam, dt = case.lam, case.dt
+    bMc, J = robot.kinematics(q)
+    st = task.evaluate(scene, bMc, J, 0.0)
+    J1, e1 = st.J1, st.e1
+    s, inv_depth = st.s, st.inv_depth
+    laws = {m: make_law(m) for m in ("classical", "iterative-smooth")}
+    step = compiled_step(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
+
+    def law_call(law: Any) -> Callable[[], Any]:
+        return lambda: law(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
+
+    def path(law: Any) -> Callable[[], Any]:
+        def run() -> Any:
+            bMc, J = robot.kinematics(q)
+            st = task.evaluate(scene, bMc, J, 0.0)
+            return law(J1=st.J1, e1=st.e1, q=q, limits=limits, lam=lam, dt=dt)
+
+        return run
+
+    return [
+        ("kinematics", lambda: robot.kinematics(q)),
+        ("task.evaluate", lambda: task.evaluate(scene, bMc, J, 0.0)),
+        ("evaluate_measured", lambda: task.evaluate_measured(s, inv_depth, J)),
+        ("law classical", law_call(laws["classical"])),
+        ("law iterative-smooth", law_call(laws["iterative-smooth"])),
+        ("path classical", path(laws["classical"])),
+        ("path iterative-smooth", path(laws["iterative-smooth"])),
+        ("compiled classical", lambda: step(q)),
+    ]
+
+
+def measure(rounds: int, batch: int) -> dict[str, dict[str, float]]:
+    """Median and quartiles (µs per call) of every item over interleaved rounds."""
+    named = items()
+    for _, fn in named:  # warm-up: compile or load every kernel first
+        for _ in range(50):
+            fn()
+    clock = time.perf_counter_ns
+    times = np.empty((rounds, len(named)))
+    for r in range(rounds):
+        for i, (_, fn) in enumerate(named):
+            t0 = clock()
+            for _ in range(batch):
+                fn()
+            times[r, i] = (clock() - t0) / batch / 1e3
+    out = {}
+    for i, (name, _) in enumerate(named):
+        q25, med, q75 = np.percentile(times[:, i], [25, 50, 75])
+        out[name] = {"median_us": float(med), "q25_us": float(q25), "q75_us": float(q75)}
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=15, help="interleaved rounds (default 15)")
+    parser.add_argument("--batch", type=int, default=2000, help="calls per timing (default 2000)")
+    parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
+    args = parser.parse_args()
+    load = os.getloadavg()
+    print(
+        f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}; warming up and timing "
+        f"{args.rounds} rounds x {args.batch} calls per item...",
+        file=sys.stderr,
+    )
+    res = measure(args.rounds, args.batch)
+    compiled = res["compiled classical"]["median_us"]
+    print("| item (afma6-4points) | median µs | IQR µs | target |")
+    print("|---|---:|---:|---|")
+    for name, r in res.items():
+        target = TARGETS_US.get(name)
+        mark = (
+            ""
+            if target is None
+            else f"≤ {target:g} ({'met' if r['median_us'] <= target else 'missed'})"
+        )
+        print(f"| {name} | {r['median_us']:.1f} | {r['q25_us']:.1f}–{r['q75_us']:.1f} | {mark} |")
+    for m in ("classical", "iterative-smooth"):
+        ratio = res[f"path {m}"]["median_us"] / compiled
+        print(f"\npath {m} / compiled classical step: {ratio:.1f}x")
+    if args.json is not None:
+        data = {
+            "case": "afma6-4points",
+            "load_avg": list(load),
+            "rounds": args.rounds,
+            "batch": args.batch,
+            "items": res,
+        }
+        args.json.write_text(json.dumps(data, indent=2))
+        print(f"wrote {args.json}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
