@@ -275,6 +275,45 @@ def unavoidable_crossing(
 
 
 @kernel
+def _shield_stage(
+    out: Any,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    dropped: bool,
+) -> Any:
+    """The shield on the rate stage's command: ``(q̇, change, acted, accel_excess,
+    accel_exceeded)`` (:func:`apply_safety`)."""
+    n = q.shape[0]
+    plo, phi = command_box(q, lp, has_v, has_a, dt, prev, has_prev)
+    clamped = np.empty(n)
+    for i in range(n):
+        clamped[i] = _clip(out[i], plo[i], phi[i])
+    fixed, _ = exact_position_fix(q, clamped, dt, lp)
+    change = 0.0
+    big = 0.0
+    for i in range(n):
+        change = max(change, abs(fixed[i] - out[i]))
+        big = max(big, abs(out[i]))
+    acted = change > TOL * (1.0 + big)
+    worst = np.nan
+    exceeded = False
+    if has_prev and has_a:
+        worst = -np.inf
+        amax = 0.0
+        for i in range(n):
+            worst = max(worst, abs(fixed[i] - prev[i]) - lp[AMAX, i] * dt)
+            amax = max(amax, lp[AMAX, i])
+        worst = worst / dt
+        exceeded = worst > TOL * (1.0 + amax) and not dropped
+    return fixed, change, acted, worst, exceeded
+
+
+@kernel
 def apply_safety(
     qdot: Any,
     q: Any,
@@ -336,24 +375,8 @@ def apply_safety(
     worst = np.nan
     exceeded = False
     if shield:
-        plo, phi = command_box(q, lp, has_v, has_a, dt, prev, has_prev)
-        clamped = np.empty(n)
-        for i in range(n):
-            clamped[i] = _clip(out[i], plo[i], phi[i])
-        fixed, _ = exact_position_fix(q, clamped, dt, lp)
-        big = 0.0
-        for i in range(n):
-            change = max(change, abs(fixed[i] - out[i]))
-            big = max(big, abs(out[i]))
-        acted = change > TOL * (1.0 + big)
-        if has_prev and has_a:
-            worst = -np.inf
-            amax = 0.0
-            for i in range(n):
-                worst = max(worst, abs(fixed[i] - prev[i]) - lp[AMAX, i] * dt)
-                amax = max(amax, lp[AMAX, i])
-            worst = worst / dt
-            exceeded = worst > TOL * (1.0 + amax) and not dropped
-        out = fixed
+        out, change, acted, worst, exceeded = _shield_stage(
+            out, q, lp, has_v, has_a, dt, prev, has_prev, dropped
+        )
     past, joint = unavoidable_crossing(q, out, dt, lp, has_v, has_a, prev, has_prev, shield)
     return out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint

@@ -333,26 +333,9 @@ class BoundedLeastSquares(Law):
         v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.qp_setup(
-            k.J1,
-            k.e,
-            k.q,
-            k.lp,
-            k.has_v,
-            k.has_a,
-            x.dt,
-            prev,
-            has_prev,
-            k.sec,
-            k.has_sec,
-            x.lam,
-            self.k_p,
-            self.margin,
-            v,
-            has_v,
-            self.rcond,
-            self.eps,
-            self.shield,
-        )
+            k.J1, k.e, k.q, k.lp, k.has_v, k.has_a, x.dt, prev, has_prev, k.sec, k.has_sec,
+            x.lam, self.k_p, self.margin, v, has_v, self.rcond, self.eps, self.shield,
+        )  # fmt: skip
         qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
         events = _rank_and_conflict_events(int(rank), m, conflicts)
         info: list[str] = []
