@@ -1,4 +1,4 @@
-"""A robot read from a URDF file, with kinematics by Pinocchio (extra ``redservo[urdf]``).
+"""A robot read from a URDF file, loaded by Pinocchio (extra ``redservo[urdf]``), run compiled.
 
 :class:`URDFRobot` turns the chain of a URDF file from ``base_link`` down to
 ``camera_link`` into a :class:`~redservo.robots.Robot`: ``fkine_ee(q)`` is the
@@ -31,11 +31,17 @@ the file is captured (:mod:`redservo.robots.urdf_stderr`): folded into our one e
 message when Pinocchio rejects the file, one ``UserWarning`` when it still builds the
 model (e.g. a malformed ``<visual>``, which the kinematics does not use).
 
-Performance: the reduced Pinocchio model (only the servoed joints) is built once;
-one ``kinematics(q)`` call is one ``computeJointJacobians`` (a forward pass over
-the chain), one ``updateFramePlacement`` and one ``getFrameJacobian``, and the last result is cached so that
-``fkine`` and ``jacobian`` at the same ``q`` cost one evaluation. A robot holds
-Pinocchio work data: give each thread its own copy (``copy.copy`` makes new data).
+Kinematics: the chain from ``base_link`` to ``camera_link`` is compiled once, at load,
+into the fixed transforms and joint axes of a :class:`~redservo.robots.chain.ChainRobot`
+(:mod:`redservo.robots.urdf_chain`: fixed and locked joints folded into the transforms),
+so ``fkine``, ``jacobian`` and ``kinematics`` run the compiled chain kernels
+(:mod:`redservo.kernels.chain`) and :func:`redservo.binding.compiled_step` binds a URDF
+robot like a DH chain. Pinocchio stays the loader (it must accept the file) and the
+oracle: :meth:`URDFRobot.pinocchio_kinematics` gives its ``(bMc, J)``, which the chain
+agrees with to about 1e-15 (tests/test_chain.py checks ≤ 1e-12); :meth:`URDFRobot.link_poses`
+(the viewer) also uses it. The reduced Pinocchio model (only the servoed joints) is built
+once. A robot holds Pinocchio work data for those two methods: give each thread its own
+copy (``copy.copy`` makes new data).
 """
 
 from __future__ import annotations
@@ -51,8 +57,8 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, UnknownNameError
-from redservo.robots.base import JointType, Robot
-from redservo.robots.dh import check_q_named
+from redservo.robots.chain import ChainRobot
+from redservo.robots.urdf_chain import compile_chain
 from redservo.robots.urdf_limits import RateLimit, rate_limits
 from redservo.robots.urdf_parse import (
     CONTINUOUS_LIMIT,
@@ -179,8 +185,8 @@ def _position_limits(j: URDFJoint) -> tuple[float, float]:
     return j.lower, j.upper
 
 
-class URDFRobot(Robot):
-    """A serial chain of a URDF file, from ``base_link`` down to the camera, by Pinocchio.
+class URDFRobot(ChainRobot):
+    """A serial chain of a URDF file, from ``base_link`` down to the camera, run compiled.
 
     Example::
 
@@ -237,14 +243,19 @@ class URDFRobot(Robot):
         pin = _pinocchio()
         tree = read_urdf(path)
         base = tree.root if base_link is None else base_link
-        servo = _servo_joints(tree, chain(tree, base, camera_link), joints)
+        path_joints = chain(tree, base, camera_link)
+        servo = _servo_joints(tree, path_joints, joints)
         locked = locked_values(tree, servo, locked_q)
         limits = np.array([_position_limits(j) for j in servo])
         qdot, qddot = rate_limits(tree.source, servo, qdot_max, qddot_max)
+        origins, axes, types, end = compile_chain(tree.source, path_joints, servo, locked)
         super().__init__(
+            origins,
+            axes,
+            types,
+            end,
             name=name or tree.name or Path(path).stem,
             joint_names=[j.name for j in servo],
-            joint_types=[_joint_type(j) for j in servo],
             q_min=limits[:, 0],
             q_max=limits[:, 1],
             eMc=eMc,
@@ -298,7 +309,7 @@ class URDFRobot(Robot):
         body = pin.FrameType.BODY
         self._data = model.createData()
         self._viewer_data = model.createData()
-        self._cache: tuple[bytes, tuple[FloatArray, FloatArray]] | None = None
+        self._chain_cache = None
         self._local = pin.ReferenceFrame.LOCAL
         self._camera_frame = model.getFrameId(self.camera_link, body)
         self._link_frames = {link: model.getFrameId(link, body) for link in self.link_names}
@@ -316,7 +327,7 @@ class URDFRobot(Robot):
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("_data", "_viewer_data", "_cache", "_local"):
+        for key in ("_data", "_viewer_data", "_chain_cache", "_local"):
             state.pop(key, None)
         return state
 
@@ -324,20 +335,22 @@ class URDFRobot(Robot):
         self.__dict__.update(state)
         self._setup()
 
-    # -- kinematics -----------------------------------------------------------------------------
+    # -- the oracle -----------------------------------------------------------------------------
 
-    def check_q(self, q: ArrayLike, *, check_limits: bool = True) -> FloatArray:
-        """Return ``q`` as an (n,) array; a limit violation names the joint."""
-        return check_q_named(self, q, check_limits)
+    def pinocchio_kinematics(
+        self, q: ArrayLike, *, check_limits: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """Return ``(bMc, J)`` computed by Pinocchio: the reference of :meth:`kinematics`.
 
-    def _evaluate(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Return ``(bMe, eJe)`` for a validated q (cached on the exact bytes of q)."""
-        key = q.tobytes()
-        cache = self._cache
-        if cache is not None and cache[0] == key:
-            return cache[1]
-        pin, model, data, frame = _PIN, self._model, self._data, self._camera_frame
-        qp = q if self._q_order is None else q[self._q_order]
+        The same quantities as :meth:`kinematics` (camera pose, 4x4 in m; ``J = cVe eJe``,
+        6 x n) from the reduced Pinocchio model: one ``computeJointJacobians``, one
+        ``updateFramePlacement`` and one ``getFrameJacobian`` (``LOCAL`` frame). The compiled
+        chain agrees with it to rounding (tests/test_chain.py); it is several times slower
+        (docs/speed.md).
+        """
+        qa = self.check_q(q, check_limits=check_limits)
+        pin, model, data, frame = _pinocchio(), self._model, self._data, self._camera_frame
+        qp = qa if self._q_order is None else qa[self._q_order]
         pin.computeJointJacobians(model, data, qp)  # also the joint placements data.oMi
         bMe = pin.updateFramePlacement(model, data, frame).homogeneous
         J = pin.getFrameJacobian(model, data, frame, self._local)
@@ -345,24 +358,7 @@ class URDFRobot(Robot):
             bMe = self._bMo @ bMe
         if self._idx is not None:
             J = J[:, self._idx]
-        out = (bMe, J)
-        self._cache = (key, out)
-        return out
-
-    def fkine_ee(self, q: FloatArray) -> FloatArray:
-        """Return ``bMe`` (4x4): the ``camera_link`` pose in the ``base_link`` frame (m)."""
-        return self._evaluate(q)[0].copy()
-
-    def jacobe(self, q: FloatArray) -> FloatArray:
-        """Return ``eJe`` (6, n): the ``camera_link`` twist ``(v, ω)`` in its own frame."""
-        return self._evaluate(q)[1].copy()
-
-    def kinematics(
-        self, q: ArrayLike, *, check_limits: bool = True
-    ) -> tuple[FloatArray, FloatArray]:
-        """Return ``(fkine(q), jacobian(q))`` in one Pinocchio pass (the control hot path)."""
-        bMe, eJe = self._evaluate(self.check_q(q, check_limits=check_limits))
-        return bMe @ self._eMc, self._cVe @ eJe
+        return bMe @ self._eMc, self._cVe @ J
 
     # -- viewer ---------------------------------------------------------------------------------
 
@@ -383,7 +379,3 @@ class URDFRobot(Robot):
         )
         bMo = np.eye(4) if self._bMo is None else self._bMo
         return {link: bMo @ data.oMf[fid].homogeneous for link, fid in self._link_frames.items()}
-
-
-def _joint_type(j: URDFJoint) -> JointType:
-    return "prismatic" if j.kind == "prismatic" else "revolute"
