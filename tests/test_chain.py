@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from redservo import make_law
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import chain as kchain
 from redservo.robots import DHLink, DHRobot
@@ -282,3 +283,41 @@ def test_generated_urdf_is_a_real_test(tmp_path: Path) -> None:
     q = np.zeros(5)
     assert not np.allclose(moved.fkine_ee(q), robot.fkine_ee(q))
 
+
+# -- the binding: compiled_step on a URDF robot ---------------------------------------------------
+
+
+def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
+    """compiled_step binds a URDF robot (the chain kernels) and equals robot.kinematics +
+    task.evaluate + law(...) on the panda-urdf-4points task, step by step in a closed loop."""
+    pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
+    from redservo import METHODS
+    from redservo.binding import compiled_step
+    from redservo.experiment import build
+    from redservo.scenario import load_scenario
+
+    exp = build(load_scenario("panda-urdf-4points"))
+    robot, scene, task, limits = exp.robot, exp.scene, exp.task, exp.limits
+    assert isinstance(robot, URDFRobot)
+    lam, dt = float(exp.options.lam), exp.options.dt  # type: ignore[arg-type]
+    for method in METHODS:
+        if method == "qp":
+            continue
+        law = make_law(method)
+        run = compiled_step(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
+        q, q_ref, prev, prev_ref = exp.q0.copy(), exp.q0.copy(), None, None
+        for k in range(30):
+            bMc, J = robot.kinematics(q_ref)
+            state = task.evaluate(scene, bMc, J, k * dt)
+            ref = law(
+                J1=state.J1, e1=state.e1, q=q_ref, limits=limits, lam=lam, dt=dt, qdot_prev=prev_ref
+            ).qdot
+            if k == 0:
+                e1, J1 = run.task(q)
+                np.testing.assert_allclose(e1, state.e1, rtol=0, atol=1e-12)
+                np.testing.assert_allclose(J1, state.J1, rtol=0, atol=1e-10)
+            qdot = run(q, prev).copy()
+            np.testing.assert_allclose(qdot, ref, rtol=1e-9, atol=1e-12, err_msg=method)
+            q, prev = q + dt * qdot, qdot
+            q_ref, prev_ref = q_ref + dt * ref, ref
+        assert not np.array_equal(q, exp.q0)  # the loop moved the arm

@@ -1,7 +1,8 @@
 """The public objects bound to one compiled control step (pure Python glue, no numba here).
 
-:func:`compiled_step` takes the objects a user builds — a robot (the Afma6 or a DH chain
-such as the Panda), a static scene, a visual task of image points or of moment features,
+:func:`compiled_step` takes the objects a user builds — a robot (the Afma6, a DH chain
+such as the Panda, or a chain of fixed transforms and axes: a
+:class:`~redservo.robots.chain.ChainRobot`, e.g. any URDF robot), a static scene, a visual task of image points or of moment features,
 a law — and returns a :class:`CompiledStep`: the arguments of one kernel of
 :mod:`redservo.kernels.step` packed once, so that each call runs kinematics, features,
 ``J1``, the law and its safety layer in compiled code. ``step(q, qdot_prev)`` gives the
@@ -27,6 +28,7 @@ from redservo.redundancy.base import Law
 from redservo.redundancy.kio import law_options
 from redservo.robots import Robot
 from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
+from redservo.robots.chain import ChainRobot
 from redservo.robots.dh import DHRobot
 from redservo.scene import PointSet, Scene, Static
 from redservo.spatial import inverse
@@ -35,6 +37,7 @@ from redservo.task import VisualTask
 __all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
 _K = lazy("tasks")
+_KC = lazy("chain_tasks")
 _KQ = lazy("qp")
 _DAQP: list[Any] = []
 
@@ -104,8 +107,11 @@ def _robot_args(robot: Robot) -> tuple[str, tuple[Any, ...]]:
             eMc,
             cVe,
         )
+    if isinstance(robot, ChainRobot):  # URDF robots included
+        return "chain", (robot.chain.frames, robot.chain.joints, eMc, cVe)
     raise ConfigurationError(
-        f"no compiled kinematics for {type(robot).__name__}; compiled robots: Afma6 and DH chains",
+        f"no compiled kinematics for {type(robot).__name__}; compiled robots: Afma6, DH chains "
+        "and ChainRobot (URDF robots)",
         argument="robot",
     )
 
@@ -122,6 +128,15 @@ def _target(scene: Scene, task: VisualTask) -> tuple[FloatArray, list[Any]]:
     return np.ascontiguousarray(bMo), [t.feature for t in task.terms]
 
 
+def _points_kernels(kind: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
+    """The step and task kernels of an image-point task on a robot of this ``kind``."""
+    if kind == "afma6":
+        return _K.afma6_step, _K.afma6_points
+    if kind == "dh":
+        return _K.dh_step, _K.dh_points
+    return _KC.chain_step, _KC.chain_points
+
+
 def compiled_step(
     robot: Robot,
     scene: Scene,
@@ -134,7 +149,8 @@ def compiled_step(
 ) -> CompiledStep:
     """Pack the arguments of the compiled step of this set-up (module docstring).
 
-    Supported: the Afma6 or a DH robot; a static :class:`~redservo.scene.PointSet`; a task
+    Supported: the Afma6, a DH robot or a :class:`~redservo.robots.chain.ChainRobot` (a
+    URDF robot; image points only); a static :class:`~redservo.scene.PointSet`; a task
     of point features (current depth) or of one :class:`~redservo.features.MomentFeatures`;
     every law except ``qp`` (:data:`redservo.kernels.step.LAW_IDS`).
 
@@ -157,8 +173,7 @@ def compiled_step(
         pts = np.ascontiguousarray(np.array([f.point_o for f in feats]))
         C = np.eye(task.k) if task.C is None else np.ascontiguousarray(task.C)
         visual: tuple[Any, ...] = (bMo, pts, s_star, C)
-        fn = _K.afma6_step if kind == "afma6" else _K.dh_step
-        task_fn = _K.afma6_points if kind == "afma6" else _K.dh_points
+        fn, task_fn = _points_kernels(kind)
     elif len(feats) == 1 and isinstance(feats[0], MomentFeatures) and task.C is None:
         f = feats[0]
         kinds = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
