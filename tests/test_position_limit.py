@@ -279,3 +279,23 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
             assert bits == _flag_bits(res.diagnostics.events), (method, shield)
             seen += res.diagnostics.has(UNAVOIDABLE)
     assert seen == (len(LAW_IDS) if dt > 1.0 - 1e-12 else 0)
+
+
+def test_the_campaign_loop_gives_sns_the_same_box_when_the_shield_box_is_empty() -> None:
+    """The case of ``test_an_empty_position_box_does_not_send_the_joint_across`` through the
+    loop kernel: the same command and flags as the law object."""
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.campaign.loop_kernel import _law
+    from redservo.packs import limits_pack
+
+    lim = JointLimits([0.0, -1.0], [1.0, 1.0], 0.1, margin=0.05, qdot_max=2.0, qddot_max=100.0)
+    q, dt, prev = np.array([0.97, 0.0]), 0.3, np.zeros(2)
+    J1, e1 = np.array([[1.0, 0.1]]), np.array([-1.0])
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    sim = (1.0, dt, 1e-3, True, np.ones(2), False)
+    law = make_law("sns", shield=False)
+    qd, bits, _, _ = _law(J1, e1, q, prev, np.zeros(2), False, _law_args(law, 2), limits, sim)
+    res = law(J1=J1, e1=e1, q=q, limits=lim, lam=1.0, dt=dt, qdot_prev=prev)
+    assert np.array_equal(qd, res.qdot) and bits == _flag_bits(res.diagnostics.events)
+    assert qd[0] == (0.95 - 0.97) / dt
