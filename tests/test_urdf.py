@@ -413,3 +413,54 @@ def test_import_redservo_does_not_import_pinocchio() -> None:
         "assert 'pinocchio' not in sys.modules, 'pinocchio imported'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# -- issue 18: the kinematics run the compiled chain; Pinocchio is the loader and the oracle ------
+
+
+class _NoPinocchio:
+    def __getattr__(self, name: str) -> object:
+        raise AssertionError(f"pinocchio.{name} was called")
+
+
+def test_kinematics_run_the_compiled_chain_not_pinocchio(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = panda_urdf(eMc=EXTRA_EMC)
+    q = Panda.ready_configuration()
+    ref_bMc, ref_J = robot.pinocchio_kinematics(q)
+    monkeypatch.setattr(urdf_module, "_PIN", _NoPinocchio())
+    bMc, J = robot.kinematics(q)
+    for got, want in (
+        (bMc, ref_bMc),
+        (robot.fkine(q), ref_bMc),
+        (J, ref_J),
+        (robot.jacobian(q), ref_J),
+    ):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(robot.fkine_ee(q) @ EXTRA_EMC, ref_bMc, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(robot.cVe @ robot.jacobe(q), ref_J, rtol=0, atol=1e-12)
+    with pytest.raises(AssertionError, match="pinocchio"):
+        robot.pinocchio_kinematics(q)  # the oracle is Pinocchio itself
+
+
+def test_a_mimic_joint_on_the_chain_is_refused_or_locked(tmp_path: Path, tiny: Path) -> None:
+    """A <mimic> joint cannot be servoed; left out of joints= it is locked (at locked_q), like
+    the reduced Pinocchio model, and does not follow the joint it mimics."""
+    text = TINY_URDF.replace(
+        '<axis xyz="0 0.6 0.8"/>',
+        '<axis xyz="0 0.6 0.8"/><mimic joint="turntable" multiplier="0.5" offset="0.1"/>',
+    )
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigurationError, match=r"'tilt'.*mimics"):
+        URDFRobot(path, camera_link="cam")
+    robot = URDFRobot(
+        path, camera_link="cam", joints=["slide", "turntable"], locked_q={"tilt": 0.3}
+    )
+    plain = URDFRobot(
+        tiny,
+        camera_link="cam",
+        joints=["slide", "turntable"],
+        locked_q={"tilt": 0.3},
+    )
+    for q in ([0.1, 0.2], [-0.2, 2.5]):
+        np.testing.assert_allclose(robot.fkine(q), plain.fkine(q), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(robot.fkine(q), robot.pinocchio_kinematics(q)[0], atol=1e-12)
