@@ -89,10 +89,11 @@ def incomplete_message(
     """One line: what is missing, why (when an engine said so), and how to resume."""
     why = f" ({reason})" if reason else ""
     if out is not None:
+        present = total - len(missing)
+        stored = f"the {present} rows present are stored" if present else "no row is stored yet"
         resume = (
-            f"the {total - len(missing)} rows present are stored in {out / 'samples.csv'}; "
-            "the campaign is resumable: rerun the same command (same --out and --seed) to "
-            "compute only the missing runs"
+            f"{stored} in {out / 'samples.csv'}; the campaign is resumable: rerun the same "
+            "command (same --out and --seed) to compute only the missing runs"
         )
     else:
         resume = (

@@ -202,14 +202,18 @@ class _Workers:
         """Worker threads now (0 while waiting for a worker).
 
         Raises:
-            CampaignIncompleteError: no worker for longer than the timeout.
+            CampaignIncompleteError: no worker for longer than the timeout, or the client
+                lost the scheduler (it has already tried to reconnect for its own
+                ``distributed.comm.timeouts.connect``).
         """
         try:
+            if self.client.status in ("closing", "closed"):
+                raise OSError("the client closed its connection")
             threads = sum(self.client.nthreads().values())
-            trouble = f"no Dask worker is connected to {self.address}"
-        except (OSError, TimeoutError) as exc:
-            threads = 0
-            trouble = f"the Dask scheduler at {self.address} does not answer ({exc})"
+        except (OSError, TimeoutError, RuntimeError) as exc:
+            raise CampaignIncompleteError(
+                f"lost the connection to the Dask scheduler at {self.address} ({exc})"
+            ) from exc
         now = time.monotonic()
         if threads > 0:
             if self.gone_since is not None:
@@ -218,11 +222,14 @@ class _Workers:
         elif self.gone_since is None:
             self.gone_since = now
             _say(
-                f"{trouble}; waiting up to {self.timeout:g} s for one (start workers with "
-                f"`dask worker {self.address}`; the rows so far are stored)"
+                f"no Dask worker is connected to {self.address}; waiting up to "
+                f"{self.timeout:g} s for one (start workers with `dask worker {self.address}`;"
+                " the rows so far are stored)"
             )
         elif now - self.gone_since > self.timeout:
-            raise CampaignIncompleteError(f"{trouble} for {self.timeout:g} s")
+            raise CampaignIncompleteError(
+                f"no Dask worker is connected to {self.address} for {self.timeout:g} s"
+            )
         return threads
 
 
@@ -239,7 +246,7 @@ def _completed(distributed: Any, pending: dict[Any, tuple[Job, int]]) -> list[An
 def _killed(exc: BaseException | None) -> str:
     """Why a job is lost: cancelled (``exc`` None), or the scheduler's ``KilledWorker``."""
     if exc is None:
-        return "the job was cancelled"
+        return "cancelled"
     tried = getattr(exc, "allowed_failures", None)
     if isinstance(tried, int):
         return f"KilledWorker: {tried + 1} workers died running it"
@@ -249,7 +256,7 @@ def _killed(exc: BaseException | None) -> str:
 def _dask(jobs: Iterable[Job], scheduler: str, on_result: OnResult, timeout: float) -> None:
     distributed = _distributed()
     it = iter(jobs)
-    with connect(scheduler) as client:
+    with connect(scheduler) as client, client.as_current():  # the client distributed.wait uses
         workers = _Workers(client, scheduler, timeout)
         pending: dict[Any, tuple[Job, int]] = {}  # future -> (job, resubmissions so far)
 
@@ -286,14 +293,14 @@ def _dask(jobs: Iterable[Job], scheduler: str, on_result: OnResult, timeout: flo
                 why = _killed(exc)
                 if tries < MAX_RESUBMITS:
                     _say(
-                        f"the Dask workers that ran {job_samples(job)} died ({why}); "
-                        f"submitting the job again ({tries + 1} of {MAX_RESUBMITS})"
+                        f"the job of {job_samples(job)} was lost ({why}); submitting it "
+                        f"again ({tries + 1} of {MAX_RESUBMITS})"
                     )
                     submit(job, tries + 1)
                 else:
                     error = error or CampaignIncompleteError(
-                        f"every Dask worker that ran {job_samples(job)} died ({why}), "
-                        f"{MAX_RESUBMITS + 1} submissions in all"
+                        f"the job of {job_samples(job)} was lost {MAX_RESUBMITS + 1} times, "
+                        f"the last time: {why}"
                     )
             if results:  # the jobs that completed together are stored together
                 on_result(merge(results))
