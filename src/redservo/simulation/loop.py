@@ -5,14 +5,16 @@ The loop, at every iteration k (time ``t = k dt``):
 1. the **sensor** measures the features at the true camera pose ``bMc = fkine(q)``
    (:class:`~redservo.sensors.IdealSensor` by default; an image sensor renders and
    detects);
-2. the task builds ``e1`` and ``J1`` from the measurement with the controller's model
-   (depth estimate, hand-eye calibration);
-3. the **objectives** (occlusion avoidance, joint-limit force, user functions) add their
-   joint commands into the law's ``secondary``;
-4. the law, a pure function of ``(J1, e1, q, limits, λ, dt, ..., q̇_prev)``, returns
-   the command, within the velocity/acceleration limits and (shield on) the position
-   limits;
-5. the robot moves: ``q ← q + q̇ dt`` (ideal), or through an **actuator** model (lag,
+2. the :class:`~redservo.Controller` (built by :func:`simulation_controller` from the
+   options) turns the measurement into the command: the task builds ``e1`` and ``J1`` with
+   the controller's model (depth estimate, hand-eye calibration), the **objectives**
+   (occlusion avoidance, joint-limit force, user functions) add their joint commands into
+   the law's ``secondary`` (they and the ``known`` feed-forward see the scene through a
+   :class:`~redservo.control.SceneContext`), and the law, a pure function of
+   ``(J1, e1, q, limits, λ, dt, ..., q̇_prev)``, returns the command within the
+   velocity/acceleration limits and (shield on) the position limits, then saturated
+   (``options.qdot_max``);
+3. the robot moves: ``q ← q + q̇ dt`` (ideal), or through an **actuator** model (lag,
    delay, saturation, encoder noise); the law then sees the encoder reading.
 
 The real joint limits are hard: when a step would cross one (by more than
@@ -40,25 +42,25 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.control import Controller, Measurement, SceneContext
+from redservo.control.objectives import (
+    CallableObjective,
+    Objective,
+    OcclusionAvoidance,
+    visible_points,
+)
 from redservo.errors import GeometryError
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
 from redservo.sensors import IdealSensor, Sensor, SensorReading
-from redservo.simulation.objectives import (
-    CallableObjective,
-    Objective,
-    ObjectiveContext,
-    OcclusionAvoidance,
-    visible_points,
-)
 from redservo.simulation.options import SimulationOptions
 from redservo.simulation.runlog import LogBuffer, SimulationLog
 from redservo.simulation.summary import Outcome, RunSummary, summarize
 from redservo.task import TaskState, VisualTask
 
-__all__ = ["LIMIT_TOLERANCE", "Actuator", "SimulationResult", "simulate"]
+__all__ = ["LIMIT_TOLERANCE", "Actuator", "SimulationResult", "simulate", "simulation_controller"]
 
 LIMIT_TOLERANCE = 1e-9
 """A step ending within this distance (m or rad) beyond a real limit is floating-point
@@ -107,13 +109,6 @@ class SimulationResult:
         return out
 
 
-def _saturate(qdot: FloatArray, qdot_max: FloatArray | None) -> FloatArray:
-    if qdot_max is None:
-        return qdot
-    ratio = float(np.max(np.abs(qdot) / qdot_max))
-    return qdot / ratio if ratio > 1.0 else qdot
-
-
 def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
     if np.any(P[:, 2] <= 1e-9):
         return False
@@ -121,18 +116,55 @@ def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
     return bool(np.all(cam.in_image(xy, margin_px=margin_px)))
 
 
-def _objectives(
-    opt: SimulationOptions,
-    secondary: Callable[[TaskState, FloatArray, float], FloatArray | None] | None,
-    objectives: Sequence[Objective],
-) -> list[Objective]:
-    out: list[Objective] = []
+def simulation_controller(
+    robot: Robot,
+    task: VisualTask,
+    law: Law,
+    options: SimulationOptions,
+    *,
+    limits: JointLimits | None = None,
+    secondary: Callable[[TaskState, FloatArray, float], FloatArray | None] | None = None,
+    objectives: Sequence[Objective] = (),
+) -> Controller:
+    """The :class:`~redservo.Controller` :func:`simulate` drives, built from its options.
+
+    Its model robot is ``robot`` with ``options.eMc_model`` as the hand-eye calibration
+    (a copy; ``robot`` itself when there is no calibration error); its objectives are, in
+    this order, ``secondary`` (a user function ``f(state, q, t)``), the occlusion avoidance
+    of ``options.occlusion`` and ``objectives``; its gain, period, feed-forward, depth
+    factor and output saturation are the options'.
+
+    Args:
+        robot: The true robot.
+        task: The visual task.
+        law: The control law.
+        options: The simulation's options.
+        limits: Joint limits given to the law (default: the robot's, with ``options.rho``).
+        secondary: Optional ``f(state, q, t) -> (n,)`` extra joint command.
+        objectives: Further objectives (:mod:`redservo.control.objectives`).
+    """
+    model = robot
+    if options.eMc_model is not None:
+        model = copy.copy(robot)
+        model.eMc = options.eMc_model
+    objs: list[Objective] = []
     if secondary is not None:
-        out.append(CallableObjective(secondary))
-    if opt.occlusion is not None:
-        out.append(OcclusionAvoidance(opt.occlusion))
-    out.extend(objectives)
-    return out
+        objs.append(CallableObjective(secondary))
+    if options.occlusion is not None:
+        objs.append(OcclusionAvoidance(options.occlusion))
+    objs.extend(objectives)
+    return Controller(
+        model,
+        task,
+        law,
+        limits if limits is not None else robot.limits(options.rho),
+        lam=options.lam,
+        dt=options.dt,
+        objectives=objs,
+        feedforward=options.feedforward,
+        depth_scale=options.depth_scale,
+        qdot_saturation=options.qdot_max,
+    )
 
 
 def _lost_outcome(reading: SensorReading) -> Outcome:
@@ -180,83 +212,26 @@ def simulate(
         JointLimitError: ``q0`` is outside the limits.
     """
     opt = options or SimulationOptions()
-    cam = camera or Camera()
     lim = limits or robot.limits(opt.rho)
     q = lim.check(q0, "q0").copy()
-    n = robot.n
-    model = robot
-    if opt.eMc_model is not None:
-        model = copy.copy(robot)
-        model.eMc = opt.eMc_model
-    qdot_sat = None
-    if opt.qdot_max is not None:
-        qdot_sat = np.broadcast_to(np.asarray(opt.qdot_max, dtype=float), (n,)).copy()
-    sens = sensor or IdealSensor()
-    objs = _objectives(opt, secondary, objectives)
-    law.reset()
-    sens.reset()
+    ctrl = simulation_controller(
+        robot, task, law, opt, limits=lim, secondary=secondary, objectives=objectives
+    )
+    run = _Run(robot, scene, ctrl, opt, camera or Camera(), sensor or IdealSensor(), actuator)
+    ctrl.reset()
+    run.sensor.reset()
     if actuator is not None:
         actuator.reset(q)
-    rng = np.random.default_rng(opt.seed)
-    buf = LogBuffer(opt.max_iterations, n, task.k, task.m)
+    buf = LogBuffer(opt.max_iterations, robot.n, task.k, task.m)
     outcome: Outcome = "max_iterations"
     limit_hit: dict[str, int] | None = None
-    prev_e1: FloatArray | None = None
-    prev_J1qdot: FloatArray | None = None
-    qdot_prev = np.zeros(n)  # the robot starts at rest
-    targets = sorted({term.target for term in task.terms})
+    qdot_prev = np.zeros(robot.n)  # the robot starts at rest
     for it in range(opt.max_iterations):
-        t = it * opt.dt
-        q_meas = q if actuator is None else np.clip(actuator.encoder(q), lim.q_min, lim.q_max)
-        bMc, J_true = robot.kinematics(q, check_limits=False)
-        J = (
-            J_true
-            if model is robot and actuator is None
-            else model.jacobian(q_meas, check_limits=False)
-        )
-        reading = sens.read(task, scene, bMc, t)
-        if reading.s is None:
-            outcome = _lost_outcome(reading)
+        end, qdot = run.iteration(it, q, qdot_prev, buf)
+        if end is not None:
+            outcome = end
             break
-        s = reading.s
-        if opt.noise_std > 0:
-            s = s + rng.normal(0.0, opt.noise_std, task.k)
-        try:
-            state = task.evaluate_measured(s, reading.inv_depth, J, depth_scale=opt.depth_scale)
-            if opt.check_image and not all(
-                _in_image(cam, visible_points(scene, name, bMc, t), opt.image_margin_px)
-                for name in targets
-            ):
-                raise GeometryError("an object left the image")
-        except GeometryError:
-            outcome = "target_lost"
-            break
-        sec, stop = _secondary(objs, ObjectiveContext(scene, bMc, J, q_meas, lim, state, t))
-        if stop is not None:
-            outcome = stop
-            break
-        de1_dt = None
-        if opt.feedforward == "known":
-            de1_dt = _known_feedforward(task, scene, bMc, t, opt.dt)
-        elif opt.feedforward == "estimated" and prev_e1 is not None and prev_J1qdot is not None:
-            de1_dt = (state.e1 - prev_e1) / opt.dt - prev_J1qdot
-        res = law(
-            J1=state.J1,
-            e1=state.e1,
-            q=q_meas,
-            limits=lim,
-            lam=opt.lam,
-            dt=opt.dt,
-            de1_dt=de1_dt,
-            secondary=sec,
-            qdot_prev=qdot_prev,
-        )
-        qdot = _saturate(res.qdot, qdot_sat)
-        buf.append(t, q, qdot, J_true @ qdot, state, lim, res.diagnostics)
-        err = float(np.linalg.norm(state.e1))
-        if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
-            outcome = "converged"
-            break
+        assert qdot is not None
         if actuator is None:
             q_next = q + qdot * opt.dt
         else:
@@ -268,7 +243,7 @@ def simulate(
             outcome = "joint_limit"
             limit_hit = {"axis": int(crossed[0]), "iteration": it}
             break
-        prev_e1, prev_J1qdot, qdot_prev = state.e1, state.J1 @ qdot, qdot
+        qdot_prev = qdot
         # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
         q = np.clip(q_next, lim.q_min, lim.q_max)
         if progress is not None:
@@ -278,27 +253,63 @@ def simulate(
     return SimulationResult(outcome, summary, log)
 
 
-def _secondary(
-    objectives: Sequence[Objective], ctx: ObjectiveContext
-) -> tuple[FloatArray | None, Outcome | None]:
-    """Sum the objectives' commands; the first that ends the run wins."""
-    total: FloatArray | None = None
-    for obj in objectives:
-        cmd, stop = obj(ctx)
-        if stop is not None:
-            return None, cast(Outcome, stop)
-        if cmd is not None:
-            total = cmd if total is None else total + cmd
-    return total, None
+class _Run:
+    """The parts of one simulated run and its iteration (sense, control, log)."""
 
+    def __init__(
+        self,
+        robot: Robot,
+        scene: Scene,
+        ctrl: Controller,
+        opt: SimulationOptions,
+        camera: Camera,
+        sensor: Sensor,
+        actuator: Actuator | None,
+    ) -> None:
+        self.robot, self.scene, self.ctrl, self.opt = robot, scene, ctrl, opt
+        self.camera, self.sensor, self.actuator = camera, sensor, actuator
+        self.rng = np.random.default_rng(opt.seed)
+        self.targets = sorted({term.target for term in ctrl.task.terms})
+        # The true Jacobian serves the controller when its model is the true robot.
+        self.true_model = ctrl.robot is robot and actuator is None
 
-def _known_feedforward(
-    task: VisualTask, scene: Scene, bMc: FloatArray, t: float, dt: float
-) -> FloatArray:
-    """``∂e1/∂t`` from the target's known motion: central difference with the camera frozen."""
-    h = 0.5 * dt
-    s_p, _ = task.measure(scene, bMc, t + h)
-    s_m, _ = task.measure(scene, bMc, max(t - h, 0.0))
-    ds = task.error(s_p) - task.error(s_m)
-    ds /= h + min(h, t)
-    return ds if task.C is None else task.C @ ds
+    def iteration(
+        self, it: int, q: FloatArray, qdot_prev: FloatArray, buf: LogBuffer
+    ) -> tuple[Outcome | None, FloatArray | None]:
+        """Sense, control and log iteration ``it``: ``(outcome, None)`` ends the run, else
+        ``(None, command)``."""
+        opt, ctrl, lim = self.opt, self.ctrl, self.ctrl.limits
+        t = it * opt.dt
+        act = self.actuator
+        q_meas = q if act is None else np.clip(act.encoder(q), lim.q_min, lim.q_max)
+        bMc, J_true = self.robot.kinematics(q, check_limits=False)
+        J = J_true if self.true_model else ctrl.robot.jacobian(q_meas, check_limits=False)
+        reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
+        if reading.s is None:
+            return _lost_outcome(reading), None
+        s = reading.s
+        if opt.noise_std > 0:
+            s = s + self.rng.normal(0.0, opt.noise_std, ctrl.task.k)
+        try:
+            state = ctrl.evaluate(Measurement(s, tuple(reading.inv_depth)), J)
+            if opt.check_image and not all(
+                _in_image(
+                    self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px
+                )
+                for name in self.targets
+            ):
+                raise GeometryError("an object left the image")
+        except GeometryError:
+            return "target_lost", None
+        step = ctrl.command(
+            q_meas, state, t, qdot_prev=qdot_prev, J=J, context=SceneContext(self.scene, bMc)
+        )
+        if step.stop is not None:
+            return cast(Outcome, step.stop), None
+        assert step.diagnostics is not None
+        qdot = step.qdot
+        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics)
+        err = float(np.linalg.norm(state.e1))
+        if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
+            return "converged", None
+        return None, qdot

@@ -4,44 +4,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from redservo._validation import FloatArray, as_transform
+from redservo.control.feedforward import FEEDFORWARD_MODES, Feedforward
+from redservo.control.objectives import Occlusion
 from redservo.errors import ConfigurationError
 from redservo.redundancy.gain import AdaptiveGain
 
 __all__ = ["Feedforward", "Occlusion", "SimulationOptions"]
-
-Feedforward = Literal["none", "known", "estimated"]
-
-
-@dataclass(frozen=True, kw_only=True)
-class Occlusion:
-    """An occluding sphere that may hide a point-set target (MC05 experiment 2).
-
-    The occluder's image is approximated by the disc of centre ``X0/Z0`` and
-    radius ``r / sqrt(Z0² - r²)`` (normalized units). The target is *occluded*
-    when one of its points falls inside that disc while the occluder is nearer
-    the camera. With ``avoid=True`` the MC05 occlusion force (eq. 31), computed
-    from the occluder's image point closest to the nearest target point, is
-    passed to the law as its ``secondary`` command, scaled by ``gain``
-    (:class:`~redservo.simulation.objectives.OcclusionAvoidance`).
-
-    Attributes:
-        occluder: Scene name of the occluding :class:`~redservo.scene.Sphere`.
-        target: Scene name of the observed :class:`~redservo.scene.PointSet`.
-        beta: ``β`` of the cost ``V = exp(-β d²)`` (MC05 eq. 30), 1/(normalized units)².
-        gain: Scale of the artificial force (joint velocity per unit force).
-        avoid: Feed the force to the law as ``secondary``.
-    """
-
-    occluder: str
-    target: str
-    beta: float = 50.0
-    gain: float = 1.0
-    avoid: bool = True
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -68,7 +40,7 @@ class SimulationOptions:
             motion) or ``"estimated"`` (``(e1_k - e1_{k-1})/dt - J1 q̇_{k-1}``).
         image_margin_px: A feature point closer than this to the image border counts as lost.
         check_image: Stop with ``target_lost`` when an object leaves the image.
-        occlusion: Occlusion set-up, or None.
+        occlusion: Occlusion set-up (:class:`~redservo.control.Occlusion`), or None.
         stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
             tracking tasks: the run then lasts ``max_iterations`` and its outcome is
             ``converged`` when the final error is below the tolerance.
@@ -122,7 +94,7 @@ class SimulationOptions:
             raise ConfigurationError(
                 f"qdot_max must be positive, got {self.qdot_max!r}", argument="qdot_max"
             )
-        if self.feedforward not in ("none", "known", "estimated"):
+        if self.feedforward not in FEEDFORWARD_MODES:
             raise ConfigurationError(
                 f"feedforward must be 'none', 'known' or 'estimated', got {self.feedforward!r}",
                 argument="feedforward",

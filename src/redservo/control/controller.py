@@ -1,0 +1,299 @@
+"""The controller: one object from a measurement to the safe joint command.
+
+Every closed loop of redservo drives a :class:`Controller`: the simulator
+(:func:`redservo.simulation.simulate`) and the servo loop of a real arm
+(:class:`redservo.hardware.ServoLoop`) only supply time, measurements and actuation. One
+:meth:`Controller.step` at time ``t`` with joint positions ``q`` and measured features:
+
+1. **task**: ``e1 = C (s − s*)`` and ``J1 = C L(s, 1/Ẑ) J(q)`` with the controller's model
+   (its robot's ``eMc`` is the hand-eye calibration, ``depth_scale`` the depth estimate's
+   error) (:meth:`Controller.evaluate`);
+2. **objectives** (:mod:`redservo.control.objectives`) add their joint commands into the
+   law's ``secondary``; the first that ends the run wins: the step then carries its outcome
+   in :attr:`ControlStep.stop` and no command is computed;
+3. **feed-forward** ``∂e1/∂t`` (:mod:`redservo.control.feedforward`): ``"none"``,
+   ``"estimated"`` from the controller's own previous step, or ``"known"`` from the scene's
+   motion (the simulator's :class:`SceneContext`);
+4. **law**: the command within the velocity/acceleration limits and (shield on) the
+   position limits; any callable taking the law's keywords works (``de1_dt``, ``secondary``
+   and ``qdot_prev`` are passed when it accepts them);
+5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
+   (direction kept) so that no joint exceeds it, as a drive's saturation would.
+
+Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joint.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from redservo._validation import FloatArray, as_matrix, as_vector
+from redservo.control.checks import check_controller, saturation
+from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
+from redservo.control.objectives import Objective, ObjectiveContext
+from redservo.control.steps import ControlStep, Features, SceneContext
+from redservo.errors import ConfigurationError, ShapeError
+from redservo.limits import JointLimits
+from redservo.redundancy.base import LawResult
+from redservo.redundancy.gain import AdaptiveGain
+from redservo.robots.base import Robot
+from redservo.task import TaskState, VisualTask
+
+__all__ = ["Controller"]
+
+
+class Controller:
+    """The control core every loop drives (see the module docstring).
+
+    Args:
+        robot: The controller's kinematic model: ``J(q) = cVe eJe(q)`` for ``J1`` (its
+            ``eMc`` is the hand-eye calibration the controller believes in).
+        task: The visual task (``s*``, ``C``, depth option).
+        law: A control law (:func:`redservo.make_law`) or any callable taking the keywords
+            ``J1, e1, q, limits, lam, dt`` (and, when it accepts them, ``de1_dt``,
+            ``secondary``, ``qdot_prev``) and returning ``.qdot`` and ``.diagnostics``.
+        limits: Joint limits given to the law (default: ``robot.limits()``).
+        lam: Gain λ > 0 (1/s), or an :class:`~redservo.AdaptiveGain` λ(‖e1‖∞).
+        dt: Control period (s) > 0, the law's ``dt``.
+        objectives: Secondary objectives (:mod:`redservo.control.objectives`), summed in this
+            order into the law's ``secondary`` (rad/s or m/s).
+        feedforward: ``"none"``, ``"estimated"`` (from the previous step) or ``"known"`` (from
+            the scene's motion: each step needs a :class:`SceneContext`).
+        depth_scale: The depth the controller uses is ``Ẑ = depth_scale · Z`` (> 0).
+        qdot_saturation: Output saturation after the law (rad/s or m/s, a number or (n,)):
+            the command is scaled down uniformly so that no joint exceeds it. None: none.
+
+    Raises:
+        ConfigurationError: an option is out of range, or the law cannot take what the
+            options need (``secondary`` for objectives, ``de1_dt`` for a feed-forward);
+            the error's ``argument`` names the option.
+        ShapeError: ``limits`` or ``qdot_saturation`` do not match the robot's joints.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        task: VisualTask,
+        law: Callable[..., LawResult],
+        limits: JointLimits | None = None,
+        *,
+        lam: float | AdaptiveGain,
+        dt: float,
+        objectives: Sequence[Objective] = (),
+        feedforward: Feedforward = "none",
+        depth_scale: float = 1.0,
+        qdot_saturation: float | ArrayLike | None = None,
+    ) -> None:
+        objs = tuple(objectives)
+        self.accepts = check_controller(
+            robot, task, law, limits, lam=lam, dt=dt, objectives=objs,
+            feedforward=feedforward, depth_scale=depth_scale,
+        )  # fmt: skip
+        """The law's keywords (among ``J1 … dt, de1_dt, secondary, qdot_prev``)."""
+        self.robot = robot
+        self.task = task
+        self.law = law
+        self.limits: JointLimits = limits if limits is not None else robot.limits()
+        self.lam = lam
+        self.dt = float(dt)
+        self.objectives: tuple[Objective, ...] = objs
+        self.feedforward: Feedforward = feedforward
+        self.depth_scale = float(depth_scale)
+        self.qdot_saturation = saturation(qdot_saturation, robot.n)
+        self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
+        self.stage = "task"
+        """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
+        ``"feed-forward"``, ``"law"`` or ``"saturation"`` (a loop names it in its errors)."""
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self.robot.n
+
+    def __repr__(self) -> str:
+        name = getattr(self.law, "name", None) or type(self.law).__name__
+        return (
+            f"Controller({type(self.robot).__name__}, law={name!r}, lam={self.lam!r}, "
+            f"dt={self.dt!r}, objectives={len(self.objectives)}, "
+            f"feedforward={self.feedforward!r})"
+        )
+
+    def reset(self) -> None:
+        """Reset the law, every objective with a ``reset()`` and the feed-forward estimate
+        (start of a run: two identical runs then give identical commands)."""
+        for part in (self.law, *self.objectives):
+            reset = getattr(part, "reset", None)
+            if callable(reset):
+                reset()
+        if self._estimator is not None:
+            self._estimator.reset()
+
+    # -- one step ------------------------------------------------------------------------------
+
+    def step(
+        self,
+        q: ArrayLike,
+        measurement: Features,
+        t: float,
+        *,
+        qdot_prev: ArrayLike | None,
+        J: ArrayLike | None = None,
+        context: SceneContext | None = None,
+    ) -> ControlStep:
+        """Turn a measurement into the safe command: :meth:`evaluate` then :meth:`command`.
+
+        Args:
+            q: (n,) measured joint positions (m or rad), within ``limits``.
+            measurement: The features ``s`` (k,) and their inverse-depth parameters per term.
+            t: Time of the measurement (s) since the start of the run.
+            qdot_prev: (n,) the command applied since the previous step (rad/s or m/s): the
+                law's acceleration limits and the estimated feed-forward use it; None (e.g.
+                a first call with unknown motion) leaves both out. Zeros for a robot at rest.
+            J: (6, n) the model Jacobian at ``q`` when the caller has it (else computed).
+            context: The scene and true camera pose (simulator only), for the objectives
+                and the ``"known"`` feed-forward.
+
+        Returns:
+            :class:`ControlStep`.
+
+        Raises:
+            GeometryError: a feature cannot be evaluated (the task's own check).
+            ShapeError: ``q``, ``J`` or the measurement do not fit the robot and task.
+            ConfigurationError: ``"known"`` feed-forward without a context, or an objective
+                that needs the scene without one.
+        """
+        qa = as_vector(q, "q", self.robot.n)
+        Ja = self.jacobian(qa, J)
+        state = self.evaluate(measurement, Ja)
+        return self.command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+
+    def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
+        """The model Jacobian (6, n) at ``q``: ``J`` checked when given, else computed."""
+        if J is None:
+            return self.robot.jacobian(q, check_limits=False)
+        Ja = as_matrix(J, "J")
+        if Ja.shape != (6, self.robot.n):
+            raise ShapeError(f"J must have shape (6, {self.robot.n}), got {Ja.shape}", argument="J")
+        return Ja
+
+    def evaluate(self, measurement: Features, J: FloatArray) -> TaskState:
+        """The task state (``e1``, ``J1``, ...) from a measurement and the model Jacobian
+        ``J`` (6, n), with the controller's ``depth_scale``.
+
+        Raises:
+            ShapeError: ``s`` is not (k,) or ``inv_depth`` has not one entry per task term.
+            GeometryError: a feature cannot be evaluated.
+        """
+        self.stage = "task"
+        s = np.asarray(measurement.s, dtype=float)
+        if s.shape != (self.task.k,):
+            raise ShapeError(
+                f"measurement.s must have shape ({self.task.k},), got {s.shape}",
+                argument="measurement.s",
+            )
+        if len(measurement.inv_depth) != len(self.task.terms):
+            raise ShapeError(
+                f"measurement.inv_depth has {len(measurement.inv_depth)} entries; the task "
+                f"has {len(self.task.terms)} terms",
+                argument="measurement.inv_depth",
+            )
+        return self.task.evaluate_measured(
+            s, measurement.inv_depth, J, depth_scale=self.depth_scale
+        )
+
+    def command(
+        self,
+        q: FloatArray,
+        state: TaskState,
+        t: float,
+        *,
+        qdot_prev: ArrayLike | None,
+        J: FloatArray | None = None,
+        context: SceneContext | None = None,
+    ) -> ControlStep:
+        """Objectives, feed-forward, law and saturation on an evaluated task ``state``
+        (arguments as in :meth:`step`)."""
+        prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
+        secondary: FloatArray | None = None
+        if self.objectives:
+            self.stage = "objectives"
+            Ja = self.jacobian(q) if J is None else J
+            ctx = ObjectiveContext(
+                None if context is None else context.scene,
+                None if context is None else context.bMc,
+                Ja, q, self.limits, state, t, self.robot,
+            )  # fmt: skip
+            secondary, stop = self.secondary(ctx)
+            if stop is not None:
+                return ControlStep(np.zeros(self.robot.n), state, None, None, None, stop, False)
+        self.stage = "feed-forward"
+        de1_dt = self._feedforward(state, t, prev, context)
+        self.stage = "law"
+        res = self.law(**self._law_kwargs(state, q, de1_dt, secondary, prev))
+        self.stage = "saturation"
+        qdot, saturated = self._saturate(res.qdot)
+        if self._estimator is not None:
+            self._estimator.record(state, t)
+        return ControlStep(qdot, state, res.diagnostics, secondary, de1_dt, None, saturated)
+
+    def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
+        """Sum the objectives' commands (n,), in order; the first that ends the run wins
+        (``(None, outcome)``)."""
+        total: FloatArray | None = None
+        for obj in self.objectives:
+            cmd, stop = obj(ctx)
+            if stop is not None:
+                return None, stop
+            if cmd is not None:
+                total = cmd if total is None else total + cmd
+        return total, None
+
+    def _feedforward(
+        self,
+        state: TaskState,
+        t: float,
+        qdot_prev: FloatArray | None,
+        context: SceneContext | None,
+    ) -> FloatArray | None:
+        if self._estimator is not None:
+            return self._estimator.estimate(state, t, qdot_prev)
+        if self.feedforward == "known":
+            if context is None:
+                raise ConfigurationError(
+                    "feedforward='known' needs the scene's motion: pass context="
+                    "SceneContext(scene, bMc) to each step, or use 'estimated'",
+                    argument="feedforward",
+                )
+            return known_feedforward(self.task, context.scene, context.bMc, t, self.dt)
+        return None
+
+    def _law_kwargs(
+        self,
+        state: TaskState,
+        q: FloatArray,
+        de1_dt: FloatArray | None,
+        secondary: FloatArray | None,
+        qdot_prev: FloatArray | None,
+    ) -> dict[str, Any]:
+        kw: dict[str, Any] = {
+            "J1": state.J1,
+            "e1": state.e1,
+            "q": q,
+            "limits": self.limits,
+            "lam": self.lam,
+            "dt": self.dt,
+        }
+        for name, value in (("de1_dt", de1_dt), ("secondary", secondary), ("qdot_prev", qdot_prev)):
+            if name in self.accepts:
+                kw[name] = value
+        return kw
+
+    def _saturate(self, qdot: FloatArray) -> tuple[FloatArray, bool]:
+        if self.qdot_saturation is None:
+            return qdot, False
+        ratio = float(np.max(np.abs(qdot) / self.qdot_saturation))
+        return (qdot / ratio, True) if ratio > 1.0 else (qdot, False)

@@ -1,0 +1,65 @@
+"""What a :class:`~redservo.control.Controller` takes and returns at each step.
+
+Units: seconds, metres, radians; features in normalized image units; commands in rad/s or
+m/s per joint.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol
+
+from redservo._validation import FloatArray
+from redservo.redundancy.base import Diagnostics
+from redservo.scene import Scene
+from redservo.task import TaskState
+
+__all__ = ["ControlStep", "Features", "Measurement", "SceneContext"]
+
+
+class Features(Protocol):
+    """A measurement of the task's features: anything with ``s`` and ``inv_depth`` (a
+    :class:`Measurement`, the servo loop's ``FeatureMeasurement``, a sensor's reading)."""
+
+    @property
+    def s(self) -> FloatArray: ...
+
+    @property
+    def inv_depth(self) -> Sequence[FloatArray]: ...
+
+
+class Measurement(NamedTuple):
+    """Measured features: ``s`` (k,) stacked in the task's term order (normalized image
+    units) and the inverse-depth parameters per term (1/m for a point) the controller uses."""
+
+    s: FloatArray
+    inv_depth: tuple[FloatArray, ...]
+
+
+class SceneContext(NamedTuple):
+    """What only a simulator knows: the scene and the true camera pose (4x4, base frame).
+
+    Given to :meth:`~redservo.control.Controller.step`, it reaches the objectives
+    (``ctx.scene``, ``ctx.bMc``) and the ``"known"`` feed-forward."""
+
+    scene: Scene
+    bMc: FloatArray
+
+
+class ControlStep(NamedTuple):
+    """What one :meth:`~redservo.control.Controller.step` decided."""
+
+    qdot: FloatArray
+    """(n,) the command to send (rad/s or m/s); zeros when ``stop`` is set."""
+    state: TaskState
+    """The task at this step (``e1``, ``J1``, ``s``, ``L``, ...)."""
+    diagnostics: Diagnostics | None
+    """The law's diagnostics; None when an objective stopped the run (no law call)."""
+    secondary: FloatArray | None
+    """(n,) the sum of the objectives' commands given to the law (rad/s or m/s), or None."""
+    de1_dt: FloatArray | None
+    """(m,) the feed-forward given to the law (task units/s), or None."""
+    stop: str | None
+    """The outcome an objective ended the run with (e.g. ``"occluded"``), or None."""
+    saturated: bool
+    """The output saturation scaled the law's command down."""
