@@ -6,6 +6,7 @@ every default lives) and builds through the registries: the robot by name
 spec (:mod:`redservo.schema.scene`, which calls :func:`redservo.features.make_feature`),
 the law by name (:func:`redservo.make_law`). The geometry is checked here: ``q0`` within
 the limits, every observed object in front of the camera and in the image at the start.
+:meth:`Experiment.controller` gives the scenario's :class:`~redservo.Controller`.
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
+from redservo.experiment_start import check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
@@ -28,7 +31,7 @@ from redservo.scene import Scene
 from redservo.schema.scenario import ScenarioSpec
 from redservo.sensors import Sensor
 from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, simulate
-from redservo.simulation.loop import Actuator
+from redservo.simulation.loop import Actuator, simulation_controller
 from redservo.spatial import inverse
 from redservo.task import TaskTerm, VisualTask
 
@@ -62,17 +65,9 @@ class Experiment:
         """Simulate; ``method``/``law_options`` replace the scenario's law (the scenario's
         ``control.shield``, ``robust`` and ``scaling`` still apply unless ``law_options``
         sets them), and keyword ``option_overrides`` replace fields of
-        :class:`SimulationOptions`."""
-        law = self.law
-        if method is not None or law_options is not None:
-            ctl = self.scenario.spec.control
-            name = method or ctl.method
-            if law_options is not None:
-                opts = dict(law_options)
-            else:
-                opts = dict(ctl.options) if name == ctl.method else {}
-            safety = {"shield": ctl.shield, "robust": ctl.robust, "scaling": ctl.scaling}
-            law = make_law(name, **{**safety, **opts})
+        :class:`SimulationOptions`. The simulator drives the :meth:`controller` of the same
+        arguments."""
+        law = self._law(method, law_options)
         options = replace(self.options, **option_overrides) if option_overrides else self.options
         result = simulate(
             self.robot,
@@ -89,6 +84,34 @@ class Experiment:
         )
         result.provenance = self._provenance(method, law_options, options)
         return result
+
+    def controller(
+        self,
+        *,
+        method: str | None = None,
+        law_options: Mapping[str, Any] | None = None,
+        **option_overrides: Any,
+    ) -> Controller:
+        """The :class:`~redservo.Controller` a run of this scenario drives, arguments as in
+        :meth:`run`: the model robot (with the scenario's hand-eye error), task, law, limits,
+        gain, period, occlusion objective, feed-forward, depth factor and saturation. Drive
+        it from :class:`~redservo.hardware.ServoLoop` or a loop of your own."""
+        options = replace(self.options, **option_overrides) if option_overrides else self.options
+        law = self._law(method, law_options)
+        return simulation_controller(self.robot, self.task, law, options, limits=self.limits)
+
+    def _law(self, method: str | None, law_options: Mapping[str, Any] | None) -> Law:
+        """The scenario's law, or ``method`` with ``law_options`` and the scenario's safety."""
+        if method is None and law_options is None:
+            return self.law
+        ctl = self.scenario.spec.control
+        name = method or ctl.method
+        if law_options is not None:
+            opts = dict(law_options)
+        else:
+            opts = dict(ctl.options) if name == ctl.method else {}
+        safety = {"shield": ctl.shield, "robust": ctl.robust, "scaling": ctl.scaling}
+        return make_law(name, **{**safety, **opts})
 
     def _provenance(
         self, method: str | None, law_options: Mapping[str, Any] | None, options: Any
@@ -302,51 +325,6 @@ def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
         raise _key(sc, "actuators", exc, type(a).model_fields, "actuators") from None
 
 
-def _check_start(sc: Scenario, spec: ScenarioSpec, exp: Experiment) -> None:
-    """Every observed object is valid, in front of the camera and in the image at the start."""
-    bMc = exp.robot.fkine(exp.q0)
-    index = {o.name: i for i, o in enumerate(spec.objects)}
-    for term in exp.task.terms:
-        i = index[term.target]
-        cMo = exp.scene.cMo(term.target, bMc, 0.0)
-        try:
-            term.feature.measure(cMo)
-        except RedservoError as exc:
-            raise sc.error(
-                f"objects[{i}]", f"the task is not valid at the start configuration: {exc}"
-            ) from None
-        if not spec.simulation.check_image:
-            continue
-        P = spec.objects[i].reference_points() @ cMo[:3, :3].T + cMo[:3, 3]
-        margin = spec.simulation.image_margin_px
-        if np.any(P[:, 2] <= 1e-9):
-            raise sc.error(f"objects[{i}]", f"{term.target!r} is behind the camera at the start")
-        uv = exp.camera.normalized_to_pixel(P[:, :2] / P[:, 2:3])
-        inside = exp.camera.in_image(P[:, :2] / P[:, 2:3], margin_px=margin)
-        if not np.all(inside):
-            j = int(np.flatnonzero(~np.asarray(inside))[0])
-            cam = exp.camera
-            raise sc.error(
-                f"objects[{i}]",
-                f"{term.target!r} is outside the image at the start: point {j} at "
-                f"(u, v) = ({uv[j][0]:.1f}, {uv[j][1]:.1f}) px, image {cam.width}x{cam.height} "
-                f"px, margin {margin:g} px",
-            )
-    if exp.sensor is not None:  # the image sensor must see the features at the start
-        exp.sensor.reset()
-        try:
-            reading = exp.sensor.read(exp.task, exp.scene, bMc, 0.0)
-        except RedservoError as exc:
-            raise sc.error("sensor", str(exc)) from None
-        exp.sensor.reset()
-        if reading.s is None or reading.lost:
-            raise sc.error(
-                "sensor",
-                f"the image sensor does not see the features at the start (lost: "
-                f"{list(reading.lost)}): {reading.reason}",
-            )
-
-
 def build_robot(sc: Scenario) -> Robot:
     """Only the scenario's robot, with the file's limit overrides (no scene, task or law).
 
@@ -382,7 +360,7 @@ def build(sc: Scenario) -> Experiment:
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = _sensor(sc, spec, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
-    _check_start(sc, spec, exp)
+    check_start(sc, spec, exp)
     return exp
 
 
