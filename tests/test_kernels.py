@@ -237,13 +237,15 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
         assert np.allclose(e1, state.e1, atol=1e-12) and np.allclose(J1, state.J1, atol=1e-10)
 
 
+@pytest.mark.parametrize("shield", [True, False])
 @pytest.mark.parametrize("case", ["afma6-4points", "panda-6d-free", "panda-6d-bounds"])
-def test_compiled_qp_step_gives_the_public_command(case: str) -> None:
+def test_compiled_qp_step_gives_the_public_command(case: str, shield: bool) -> None:
+    """Also with the shield off: the compiled step passes the law's ``shield`` on."""
     pytest.importorskip("daqp", reason="the compiled qp step calls daqp")
     c = next(x for x in bench_cases(scaling=()) if x.name == case)
     bMc, J = c.robot.kinematics(c.q)
     state = c.task.evaluate(c.scene, bMc, J, 0.0)
-    law = make_law("qp", v_max=1.5)
+    law = make_law("qp", v_max=1.5, shield=shield)
     prev = np.linspace(-0.05, 0.05, c.robot.n)
     ref = law(J1=state.J1, e1=state.e1, q=c.q, limits=c.limits, lam=c.lam, dt=c.dt, qdot_prev=prev)
     run = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)

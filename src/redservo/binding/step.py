@@ -233,6 +233,7 @@ class CompiledQPStep:
         out = kq.qp_setup(
             J1, e1, q, lp.rows, lp.has_v, lp.has_a, self.dt, prev, has_prev, z, False,
             self.lam, o["k_p"], o["margin"], v, o["v_max"] is not None, self.law.rcond, o["eps"],
+            self.law.shield,
         )  # fmt: skip
         qdot, inside, lo, hi, _, xdot, _, _, xfix, free, P, c, lof, hif = out
         xf = z[:0]
