@@ -321,3 +321,21 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
             q, prev = q + dt * qdot, qdot
             q_ref, prev_ref = q_ref + dt * ref, ref
         assert not np.array_equal(q, exp.q0)  # the loop moved the arm
+
+
+def test_compiled_qp_step_on_the_urdf_panda_gives_the_public_command() -> None:
+    pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
+    pytest.importorskip("daqp", reason="the compiled qp step calls daqp")
+    from redservo.binding import compiled_qp_step
+    from redservo.experiment import build
+    from redservo.scenario import load_scenario
+
+    exp = build(load_scenario("panda-urdf-4points"))
+    robot, scene, task, limits = exp.robot, exp.scene, exp.task, exp.limits
+    lam, dt = float(exp.options.lam), exp.options.dt  # type: ignore[arg-type]
+    law = make_law("qp", v_max=1.5)
+    run = compiled_qp_step(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
+    prev = np.linspace(-0.05, 0.05, robot.n)
+    state = task.evaluate(scene, *robot.kinematics(exp.q0), 0.0)
+    ref = law(J1=state.J1, e1=state.e1, q=exp.q0, limits=limits, lam=lam, dt=dt, qdot_prev=prev)
+    np.testing.assert_allclose(run(exp.q0, prev), ref.qdot, rtol=1e-9, atol=1e-12)
