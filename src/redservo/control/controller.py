@@ -125,7 +125,8 @@ class Controller:
     def reset(self) -> None:
         """Reset the law, every objective with a ``reset()`` and the feed-forward estimate
         (start of a run: two identical runs then give identical commands)."""
-        for part in (self.law, *self.objectives):
+        parts: tuple[object, ...] = (self.law, *self.objectives)
+        for part in parts:
             reset = getattr(part, "reset", None)
             if callable(reset):
                 reset()
