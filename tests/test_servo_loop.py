@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from redservo import ConfigurationError, JointLimits, make_law
+from redservo.control import JointLimitForce, Occlusion, OcclusionAvoidance
 from redservo.experiment import build
 from redservo.features import PointFeature
 from redservo.hardware import (
@@ -31,7 +32,7 @@ from redservo.hardware import (
 )
 from redservo.robots import Afma6
 from redservo.scenario import load_scenario
-from redservo.scene import PointSet, Scene, Static
+from redservo.scene import ConstantVelocity, PointSet, Scene, Sphere, Static
 from redservo.spatial import make_transform
 from redservo.task import TaskTerm, VisualTask
 
@@ -763,3 +764,162 @@ def test_real_robot_example_runs(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert "converged" in proc.stdout
     assert (tmp_path / "summary.json").is_file()
+
+
+# -- the Controller in the servo loop: objectives and feed-forward (issue 18, item 1) -----------
+
+
+def _servo_like_simulate(exp: Any, law: Any, **kw: Any) -> Any:
+    """The servo loop on an ideal simulated robot, set up as ``exp``'s simulation."""
+    clock = VirtualClock()
+    dt = exp.options.dt
+    sim = SimulatedRobot(exp.robot, ActuatorModel.ideal(), exp.q0, clock, period=dt)
+    loop = ServoLoop(
+        sim,
+        IdealFeatureSource(exp.task, exp.scene, sim),
+        exp.robot,
+        exp.task,
+        law,
+        exp.limits,
+        period=dt,
+        lam=exp.options.lam,
+        max_iterations=exp.options.max_iterations,
+        clock=clock,
+        sleep=clock.sleep,
+        **kw,
+    )
+    return loop.run()
+
+
+def test_an_objective_reaches_the_law_and_matches_the_simulator_bit_for_bit() -> None:
+    from redservo.redundancy.costs import joint_limit_force
+    from redservo.simulation import simulate
+
+    exp = build(load_scenario("cm01-gaze"))
+    inner = exp.law
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def law(**kw: Any) -> Any:
+        seen.append((kw["q"].copy(), kw["secondary"]))
+        return inner(**kw)
+
+    force = JointLimitForce(kappa=0.3)
+    sim_res = simulate(
+        exp.robot, exp.scene, exp.task, inner, exp.q0, options=exp.options, limits=exp.limits,
+        objectives=[force],
+    )  # fmt: skip
+    res = _servo_like_simulate(exp, law, objectives=[force])
+    assert res.outcome == sim_res.outcome == "converged" and len(res.log) == len(sim_res.log)
+    for name in ("q", "qdot", "s", "e1", "camera_twist", "constrained", "gamma"):
+        assert np.array_equal(getattr(res.log, name), getattr(sim_res.log, name)), name
+    # The objective's command is what the law received, at every step.
+    assert len(seen) == len(res.log)
+    for q, secondary in seen:
+        assert np.array_equal(secondary, joint_limit_force(q, exp.limits, kappa=0.3))
+    # ... and it changed the commands: without it the run differs.
+    plain = simulate(
+        exp.robot, exp.scene, exp.task, inner, exp.q0, options=exp.options, limits=exp.limits
+    )
+    n = min(len(plain.log), len(res.log))
+    assert not np.array_equal(plain.log.qdot[:n], res.log.qdot[:n])
+
+
+def test_estimated_feedforward_reduces_the_tracking_error_of_a_moving_target() -> None:
+    robot = Afma6()
+    errs = {}
+    for ff in ("none", "estimated"):
+        clock = VirtualClock(50.0)
+        sim = SimulatedRobot(robot, ActuatorModel.ideal(), Q_MID, clock, period=T)
+        wMo = robot.fkine(Q_MID) @ make_transform(t=(0.0, 0.0, 1.0))
+        traj = ConstantVelocity(wMo, v=np.array([0.0, 0.05, 0.0]))
+        scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=traj)])
+        task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
+        src = IdealFeatureSource(task, scene, sim)
+        res = _loop(
+            sim, src, robot, task, clock, law=make_law("iterative-smooth"), feedforward=ff,
+            max_iterations=150, stop_at_convergence=False,
+        ).run()  # fmt: skip
+        assert res.outcome == "max_iterations" and len(res.log) == 150
+        errs[ff] = float(np.mean(res.log.error_norm[50:]))
+    assert errs["estimated"] < 0.5 * errs["none"], errs
+
+
+def test_an_objective_that_ends_the_run_stops_the_arm() -> None:
+    calls: list[float] = []
+
+    def stop_at_five(ctx: Any) -> tuple[None, str | None]:
+        calls.append(ctx.t)
+        assert ctx.scene is None and ctx.bMc is None  # no scene on a real arm
+        return None, ("occluded" if len(calls) == 5 else None)
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    res = _loop(spy, src, robot, task, clock, objectives=[stop_at_five]).run()
+    assert res.outcome == "objective_stop" and "occluded" in res.reason
+    assert "iteration 4" in res.reason and len(spy.sent) == 4 and spy.stops == 1
+    assert len(res.log) == 4  # the stopped iteration sends nothing and logs nothing
+    np.testing.assert_allclose(calls, np.arange(5) * T, atol=1e-9)  # measurement times
+
+
+def test_an_objective_exception_names_its_stage() -> None:
+    def broken(ctx: Any) -> Any:
+        raise RuntimeError("cost diverged")
+
+    clock, robot, sim, src, task = _setup()
+    spy = Spy(sim)
+    with pytest.raises(RuntimeError, match="cost diverged") as info:
+        _loop(spy, src, robot, task, clock, objectives=[broken]).run()
+    assert "in objectives at iteration 0" in " ".join(info.value.__notes__)
+    assert spy.stops == 1 and not spy.sent
+
+
+def test_occlusion_needs_a_scene_and_known_feedforward_is_refused() -> None:
+    clock, robot, sim, src, task = _setup()
+    occ = Occlusion(occluder="ball", target="target")
+    with pytest.raises(ConfigurationError, match="needs the scene") as info:
+        _loop(sim, src, robot, task, clock, objectives=[JointLimitForce(), OcclusionAvoidance(occ)])
+    assert info.value.argument == "objectives[1]"
+    with pytest.raises(ConfigurationError, match="only the simulator") as info:
+        _loop(sim, src, robot, task, clock, feedforward="known")
+    assert info.value.argument == "feedforward"
+
+    def plain(*, J1: Any, e1: Any, q: Any, limits: Any, lam: Any, dt: Any) -> Any:
+        return make_law("classical")(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
+
+    with pytest.raises(ConfigurationError, match="secondary") as info:
+        _loop(sim, src, robot, task, clock, law=plain, objectives=[JointLimitForce()])
+    assert info.value.argument == "objectives"
+    with pytest.raises(ConfigurationError, match="de1_dt") as info:
+        _loop(sim, src, robot, task, clock, law=plain, feedforward="estimated")
+    assert info.value.argument == "feedforward"
+
+
+def test_occlusion_with_its_own_scene_runs_in_the_servo_loop() -> None:
+    """Given the scene, the occlusion objective uses the model robot's fkine(q) as the camera
+    pose: a sphere parked on the line of sight ends the run at once."""
+    clock = VirtualClock(50.0)
+    robot = Afma6()
+    sim = SimulatedRobot(robot, ActuatorModel.ideal(), Q_MID, clock, period=T)
+    bMc = robot.fkine(Q_MID)
+    pts = np.array([[0.03, 0.0, 0.0], [-0.03, 0.02, 0.0], [0.0, -0.03, 0.0]])
+    scene = Scene(
+        [
+            PointSet("target", pts, trajectory=Static(bMc @ make_transform(t=(0, 0, 1.0)))),
+            Sphere("ball", 0.05, trajectory=Static(bMc @ make_transform(t=(0, 0, 0.5)))),
+        ]
+    )
+    task = VisualTask([TaskTerm(PointFeature(p), "target") for p in pts], np.zeros(6))
+    src = IdealFeatureSource(task, scene, sim)
+    occ = OcclusionAvoidance(Occlusion(occluder="ball", target="target"), scene=scene)
+    res = _loop(sim, src, robot, task, clock, objectives=[occ]).run()
+    assert res.outcome == "objective_stop" and "occluded" in res.reason
+
+
+def test_each_run_resets_the_controller() -> None:
+    clock, robot, sim, src, task = _setup()
+    loop = _loop(sim, src, robot, task, clock, feedforward="estimated", max_iterations=5)
+    first = loop.run()
+    clock2, _, sim2, src2, _ = _setup()
+    loop.robot, loop.source, loop.clock, loop.sleep = sim2, src2, clock2, clock2.sleep
+    second = loop.run()  # the same loop again, from the same start: the same commands
+    assert np.array_equal(first.log.qdot, second.log.qdot)

@@ -4,9 +4,13 @@ Each iteration, at times ``t0 + k T`` of the loop's monotonic ``clock``:
 
 1. ``t, q = robot.read_joints()``;
 2. ``m = source.measure(now)``: a *fresh* measurement (newer than the last one and at most
-   ``watchdog_timeout`` old) gives ``e1 = C (s - s*)`` and ``J1 = C L(s, 1/Ẑ) J(q)`` with
-   the controller's model robot, and the law computes ``q̇``; otherwise the loop holds the
-   last command (``on_missing="hold"``) or asks for zero (``"zero"``);
+   ``watchdog_timeout`` old) goes to the loop's :class:`~redservo.Controller`
+   (:attr:`ServoLoop.controller`, the same object the simulator drives): ``e1 = C (s - s*)``
+   and ``J1 = C L(s, 1/Ẑ) J(q)`` with the controller's model robot, the ``objectives``
+   summed into the law's ``secondary``, the ``"estimated"`` feed-forward from the previous
+   measurement, and the law computes ``q̇``; otherwise the loop holds the last command
+   (``on_missing="hold"``) or asks for zero (``"zero"``). An objective that ends the run
+   (e.g. ``occluded``) stops the arm with the outcome ``objective_stop``;
 3. the guard (:func:`~redservo.hardware.guard_command`) makes the command finite and within
    ``qdot_max``, ``qddot_max`` and the safe position range;
 4. ``robot.send_velocity(q̇)``, then sleep until the next tick.
@@ -35,17 +39,17 @@ Units: seconds, metres, radians; ``λ`` in 1/s.
 
 from __future__ import annotations
 
-import inspect
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any, Literal
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.control import Controller, ControlStep, Objective
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
 from redservo.hardware.guard import guard_command
@@ -65,16 +69,6 @@ from redservo.robots.base import Robot
 from redservo.task import VisualTask
 
 __all__ = ["ServoLoop"]
-
-
-def _accepts_qdot_prev(law: Callable[..., LawResult]) -> bool:
-    try:
-        params = inspect.signature(law).parameters
-    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
-        return False
-    return "qdot_prev" in params or any(
-        p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()
-    )
 
 
 def _law_replaced_non_finite(d: Diagnostics | None) -> bool:
@@ -97,11 +91,21 @@ class ServoLoop:
             the hand-eye calibration).
         task: The visual task (``s*``, ``C``, depth option).
         law: A control law (:func:`redservo.make_law`) or any callable with its keywords;
-            ``qdot_prev`` (the last command sent) is passed when the callable accepts it.
+            ``qdot_prev`` (the last command sent), ``secondary`` and ``de1_dt`` are passed
+            when the callable accepts them.
         limits: Joint limits; ``qdot_max``, ``qddot_max`` and the margin, when set, are
             enforced by the guard as well as by the law.
         period: Control period T (s), > 0; also the law's ``dt``.
-        lam: Gain λ (1/s), passed to the law as is.
+        lam: Gain λ (1/s) > 0, or an :class:`~redservo.AdaptiveGain`, passed to the law.
+        objectives: Secondary objectives (:mod:`redservo.control.objectives`), summed into
+            the law's ``secondary``. They get no scene and no true camera pose (``ctx.scene``
+            and ``ctx.bMc`` are None): an objective that needs them is refused here unless
+            given its own (``OcclusionAvoidance(occlusion, scene=...)``).
+        feedforward: ``"none"`` or ``"estimated"``: ``∂e1/∂t`` of a moving target from the
+            loop's own successive measurements, ``(e1_k − e1_{k−1})/h − J1_{k−1} q̇``, with
+            ``h`` the time between the two measurements' stamps and ``q̇`` the command sent
+            since (:mod:`redservo.control.feedforward`). ``"known"`` needs the scene's
+            motion, which only the simulator has.
         watchdog_timeout: Stop when no fresh measurement, or no fresh joint reading, arrived
             for this long (s), >= T (:mod:`redservo.hardware.clock`).
         clock_tolerance: How far (s) a time stamp may be ahead of the loop's clock before it
@@ -120,8 +124,10 @@ class ServoLoop:
         sleep: Sleep function (s); the virtual clock's ``sleep`` in tests.
 
     Raises:
-        ConfigurationError: a period, gain, timeout, tolerance or limit is out of range, or
-            ``on_missing`` is not ``"hold"`` or ``"zero"``.
+        ConfigurationError: a period, gain, timeout, tolerance or limit is out of range,
+            ``on_missing`` is not ``"hold"`` or ``"zero"``, ``feedforward`` is not ``"none"``
+            or ``"estimated"``, an objective needs the scene, or the law cannot take what the
+            objectives or the feed-forward need (the error's ``argument`` names which).
         ShapeError: ``limits`` and ``model_robot`` have different numbers of joints.
     """
 
@@ -136,6 +142,8 @@ class ServoLoop:
         *,
         period: float,
         lam: Any,
+        objectives: Sequence[Objective] = (),
+        feedforward: Literal["none", "estimated"] = "none",
         watchdog_timeout: float = 0.5,
         clock_tolerance: float = 0.005,
         max_iterations: int | None = None,
@@ -169,6 +177,12 @@ class ServoLoop:
             raise ConfigurationError(f"on_missing must be 'hold' or 'zero', got {on_missing!r}")
         if limits.n != model_robot.n:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
+        _check_servo_control(objectives, feedforward)
+        self.controller = Controller(
+            model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
+            feedforward=feedforward,
+        )  # fmt: skip
+        """The control core (task, objectives, feed-forward, law) the loop drives."""
         self.robot = robot_iface
         self.source = source
         self.model_robot = model_robot
@@ -186,7 +200,7 @@ class ServoLoop:
         self.on_missing = on_missing
         self.clock = clock
         self.sleep = sleep
-        self.passes_qdot_prev = _accepts_qdot_prev(law)
+        self.passes_qdot_prev = "qdot_prev" in self.controller.accepts
         self.last_result: ServoResult | None = None
         self._stop_request = threading.Event()
 
@@ -253,6 +267,7 @@ class ServoLoop:
         return self.last_result
 
     def _new_run(self) -> RunState:
+        self.controller.reset()
         t0 = self.clock()
         n = self.model_robot.n
         watch = partial(
@@ -304,14 +319,13 @@ class ServoLoop:
         run.stage = "model_robot.jacobian"
         J = self.model_robot.jacobian(q, check_limits=False)
         if fresh and run.joints.ever_fresh:
-            assert run.last is not None
-            run.stage = "task"
-            run.state = self.task.evaluate_measured(
-                np.asarray(run.last.s, dtype=float), run.last.inv_depth, J
-            )
-            run.stage = "law"
-            res = self.law(**self._law_kwargs(run, q))
-            qdot, run.diag = res.qdot, res.diagnostics
+            step = self._control(run, q, J)
+            if step.stop is not None:
+                return (
+                    "objective_stop",
+                    f"an objective ended the run ({step.stop}) at iteration {run.k}",
+                )
+            qdot, run.diag = step.qdot, step.diagnostics
         elif run.state is None:  # nothing measured, or no fresh joint reading, yet: keep still
             run.stage = "robot.send_velocity"
             self.robot.send_velocity(np.zeros_like(q))
@@ -352,16 +366,32 @@ class ServoLoop:
         run.prev = cmd
         return None
 
-    def _law_kwargs(self, run: RunState, q: FloatArray) -> dict[str, Any]:
-        assert run.state is not None
-        kw: dict[str, Any] = {
-            "J1": run.state.J1,
-            "e1": run.state.e1,
-            "q": q,
-            "limits": self.limits,
-            "lam": self.lam,
-            "dt": self.period,
-        }
-        if self.passes_qdot_prev:
-            kw["qdot_prev"] = run.prev
-        return kw
+    def _control(self, run: RunState, q: FloatArray, J: FloatArray) -> ControlStep:
+        """The controller's step on the fresh measurement ``run.last``, at its stamp's time."""
+        assert run.last is not None
+        ctrl = self.controller
+        try:
+            run.state = ctrl.evaluate(run.last, J)
+            return ctrl.command(
+                q, run.state, float(run.last.t_measured) - run.t0, qdot_prev=run.prev, J=J
+            )
+        finally:
+            run.stage = ctrl.stage  # named in the note of an exception
+
+
+def _check_servo_control(objectives: Sequence[Objective], feedforward: str) -> None:
+    """The servo loop has no scene: no ``"known"`` feed-forward, no objective needing it."""
+    if feedforward not in ("none", "estimated"):
+        raise ConfigurationError(
+            f"feedforward must be 'none' or 'estimated' in the servo loop, got {feedforward!r}"
+            + (" ('known' needs the scene's motion, which only the simulator has)"
+               if feedforward == "known" else ""),
+            argument="feedforward",
+        )  # fmt: skip
+    for i, obj in enumerate(objectives):
+        if getattr(obj, "needs_scene", False):
+            raise ConfigurationError(
+                f"objectives[{i}] ({type(obj).__name__}) needs the scene, which the servo loop "
+                "does not have: give it one (e.g. OcclusionAvoidance(occlusion, scene=...))",
+                argument=f"objectives[{i}]",
+            )

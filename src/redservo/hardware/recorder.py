@@ -37,6 +37,7 @@ ServoOutcome = Literal[
     "stopped",
     "stale_measurement",
     "clock_fault",
+    "objective_stop",
     "error",
     "interrupted",
     "max_iterations",
@@ -46,6 +47,7 @@ SERVO_OUTCOMES: tuple[ServoOutcome, ...] = (
     "stopped",
     "stale_measurement",
     "clock_fault",
+    "objective_stop",
     "error",
     "interrupted",
     "max_iterations",
@@ -60,7 +62,8 @@ class ServoResult:
     """``converged`` (``‖e1‖ < tolerance``), ``stopped``
     (:meth:`~redservo.hardware.ServoLoop.request_stop`), ``stale_measurement`` (watchdog),
     ``clock_fault`` (a time stamp broke the clock contract: :mod:`redservo.hardware.clock`),
-    ``error`` (an exception, or a non-finite command), ``interrupted`` (Ctrl-C, or a
+    ``objective_stop`` (an objective ended the run, e.g. ``occluded``: the reason says which
+    outcome), ``error`` (an exception, or a non-finite command), ``interrupted`` (Ctrl-C, or a
     ``BaseException`` such as ``SystemExit``, which is re-raised) or ``max_iterations``
     (``max_iterations`` or ``duration``)."""
     reason: str
