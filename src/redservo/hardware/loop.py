@@ -28,11 +28,11 @@ Guarantees (docs/real-robot.md): ``robot.stop()`` is called once at the end of *
 whatever ended it; a command above ``limits.qdot_max`` or holding a NaN is never sent; with
 no fresh measurement, or no fresh joint reading, for more than ``watchdog_timeout`` seconds
 the run stops (``stale_measurement``) without sending another command; an exception raised
-by the robot, the source, the task or the law stops the robot and is re-raised with a note
-naming the stage and the iteration (``SystemExit`` and other ``BaseException`` too, always
-re-raised); the partial log is kept in :attr:`ServoLoop.last_result` in every case; Ctrl-C
-stops the robot and returns ``interrupted``; a late iteration is counted as an overrun and
-the next one starts at once (missed ticks are not caught up in a burst).
+by the robot, the source, the task, an objective or the law stops the robot and is re-raised
+with a note naming the stage and the iteration (``SystemExit`` and other ``BaseException``
+too, always re-raised); the partial log is kept in :attr:`ServoLoop.last_result` in every
+case; Ctrl-C stops the robot and returns ``interrupted``; a late iteration is counted as an
+overrun and the next one starts at once (missed ticks are not caught up in a burst).
 
 Units: seconds, metres, radians; ``λ`` in 1/s.
 """
