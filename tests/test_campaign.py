@@ -708,12 +708,24 @@ translation = [0.05, 0.05, 0.05]
 """
 
 
-def _campaign_cmd(path: Path, out: Path, *extra: str) -> list[str]:
-    """``redservo campaign`` in a fresh interpreter (without the figures, to keep it quick)."""
+def _campaign_cmd(path: Path, out: Path, *extra: str, hold_from: int | None = None) -> list[str]:
+    """``redservo campaign`` in a fresh interpreter (without the figures, to keep it quick).
+
+    With ``hold_from``, the runs of samples >= hold_from never end (until the process is
+    killed), so that a test can kill the campaign mid-run at a moment it chooses rather than
+    at a time that races the workers' start (the pool's workers are forked: they inherit it).
+    """
     import sys
 
+    hold = (
+        "import threading; from redservo.campaign import task; _real = task._run_task; "
+        "_never = threading.Event(); "
+        f"task._run_task = lambda t: _never.wait() if t.sample >= {hold_from} else _real(t); "
+        if hold_from is not None
+        else ""
+    )
     code = (
-        "import sys; sys.modules['matplotlib'] = None; from redservo.cli import main; "
+        f"import sys; sys.modules['matplotlib'] = None; {hold}from redservo.cli import main; "
         "sys.exit(main(sys.argv[1:]))"
     )
     args = ["campaign", str(path), "--out", str(out), "-q", *extra]
@@ -733,50 +745,65 @@ def _processes_mentioning(token: str) -> list[int]:
     return pids
 
 
+def _wait_for(what: str, ready: Any, proc: Any, bound: float = 180.0) -> None:
+    """Poll ``ready()`` (bounded, generously: the machine may be loaded); fail if ``proc``
+    ended first."""
+    import time
+
+    deadline = time.monotonic() + bound
+    while not ready():
+        assert proc.poll() is None, f"the campaign ended (rc {proc.returncode}) before {what}"
+        assert time.monotonic() < deadline, f"{what}: not within {bound:g} s"
+        time.sleep(0.05)
+
+
 @pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="needs /proc (Linux)")
 def test_killed_campaigns_leave_no_orphans_and_one_row_per_pair(tmp_path: Path) -> None:
-    """SIGKILL the parent at random moments: its workers exit, and resuming leaves exactly one
-    row per (sample, method)."""
-    import random
+    """SIGKILL the parent mid-run, with its two workers alive and busy: they exit, and
+    resuming leaves exactly one row per (sample, method).
+
+    The kills are placed, not timed: the workers hold the runs of a chosen sample onward, and
+    the parent is killed once both workers are seen alive and the rows before that sample
+    are stored (earlier, a random kill time raced the workers' start under load)."""
     import signal
     import subprocess
     import time
 
-    seed = 20261123
-    rng = random.Random(seed)
     path, out = tmp_path / "c.toml", tmp_path / "out-killed"
     path.write_text(CAMPAIGN.format(samples=12))
-    token = str(out)
-    with_workers = 0
-    for round_ in range(2):
-        proc = subprocess.Popen(_campaign_cmd(path, out, "--workers", "2"), stderr=subprocess.PIPE)
-        start = time.monotonic()
-        if round_ > 0:  # once the pool is up: the parent and its two workers
-            while len(_processes_mentioning(token)) < 3 and proc.poll() is None:
-                assert time.monotonic() - start < 60.0
-                time.sleep(0.05)
-        time.sleep(rng.uniform(0.0, 0.3) if round_ > 0 else rng.uniform(0.3, 1.5))
-        with_workers += len(_processes_mentioning(token)) >= 3
-        delay = time.monotonic() - start
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-        deadline = time.monotonic() + 5.0
+    csv, token = out / "samples.csv", str(out)
+    pairs = {(i, m) for i in range(12) for m in ("classical", "iterative-smooth")}
+    for hold_from in (3, 8):  # two kills, each with rows of earlier samples already stored
+        cmd = _campaign_cmd(path, out, "--workers", "2", hold_from=hold_from)
+        proc = subprocess.Popen(cmd, stderr=subprocess.DEVNULL)
+        try:
+            _wait_for(
+                "the parent and its two workers",
+                lambda: len(_processes_mentioning(token)) >= 3,
+                proc,
+            )
+            before = {(i, m) for i, m in pairs if i < hold_from}
+            _wait_for(
+                f"the rows of samples 0-{hold_from - 1}",
+                lambda: csv.exists() and before <= set(_csv_keys(csv)),  # noqa: B023
+                proc,
+            )
+            assert len(_processes_mentioning(token)) >= 3, "the workers exited before the kill"
+        finally:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+        deadline = time.monotonic() + 60.0  # generous: the workers die with their parent
         while _processes_mentioning(token) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert _processes_mentioning(token) == [], f"orphans (seed {seed}, round {round_})"
-        csv = out / "samples.csv"
-        if csv.exists():
-            keys = _csv_keys(csv)
-            assert len(keys) == len(set(keys)), f"duplicates after a kill at {delay:.2f} s"
-    assert with_workers >= 1, "the workers were never alive when the parent was killed"
+            time.sleep(0.05)
+        assert _processes_mentioning(token) == [], f"orphans after the kill at {hold_from}"
+        keys = _csv_keys(csv)
+        assert len(keys) == len(set(keys)), f"duplicates after the kill at {hold_from}"
+        assert not {k for k in keys if k[0] >= hold_from}, "a held run was stored"
     done = subprocess.run(
         _campaign_cmd(path, out, "--workers", "2"), capture_output=True, text=True
     )
     assert done.returncode == 0, done.stderr
-    keys = _csv_keys(out / "samples.csv")
-    assert sorted(keys) == sorted(
-        {(i, m) for i in range(12) for m in ("classical", "iterative-smooth")}
-    )
+    assert sorted(_csv_keys(csv)) == sorted(pairs)
 
 
 def test_two_concurrent_writers(tmp_path: Path) -> None:
