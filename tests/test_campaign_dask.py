@@ -165,6 +165,13 @@ def test_killed_worker_jobs_are_submitted_again_then_stop_loudly(
     ]
 
 
+def test_scaling_doc_states_the_engine_bounds() -> None:
+    """docs/scaling.md states the no-worker timeout and the resubmission bound of the code."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "scaling.md").read_text()
+    assert f"waits up to **{engine.NO_WORKER_TIMEOUT_S:g} s**" in text
+    assert f"`MAX_RESUBMITS = {engine.MAX_RESUBMITS}`" in text
+
+
 def _free_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
