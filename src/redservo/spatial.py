@@ -82,13 +82,19 @@ def make_transform(
     return T
 
 
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
 def inverse(T: FloatArray) -> FloatArray:
     """Return the inverse of a homogeneous transform (using ``R^T``, not a general inverse)."""
     Rt = T[:3, :3].T
-    out = np.empty((4, 4))
-    out[:3, :3] = Rt
+    if T.dtype == np.float64:
+        out = T.T.copy()  # R^T in place already: one copy instead of a block assignment
+    else:
+        out = np.empty((4, 4))
+        out[:3, :3] = Rt
     out[:3, 3] = -(Rt @ T[:3, 3])
-    out[3] = (0.0, 0.0, 0.0, 1.0)
+    out[3] = _LAST_ROW
     return out
 
 
