@@ -129,6 +129,34 @@ def test_scene_cmo_composes_base_camera_and_object_poses() -> None:
     assert scene.names == ("ball",)
 
 
+@pytest.mark.parametrize("base_at_origin", [True, False])
+def test_scene_cmo_is_bit_identical_to_the_product_of_the_three_poses(base_at_origin) -> None:
+    """cMo is inv(bMc) @ bMw @ wMo to the bit; with the base at the world origin the product
+    with bMw = I is skipped (it only changes the sign of zeros, which a product ignores)."""
+    rng = np.random.default_rng(5)
+    wMb = np.eye(4) if base_at_origin else _random_pose(rng)
+    wMo = make_transform(t=(0.0, 0.0, 0.5), rotvec=(0.0, 0.0, np.pi / 2))  # exact zeros
+    scene = Scene([PointSet("t", np.zeros((1, 3)), trajectory=Static(wMo))], wMb=wMb)
+    for i in range(200):
+        bMc = make_transform(t=rng.normal(size=3) * (i % 2), rotvec=rng.normal(size=3) * (i % 3))
+        want = inverse(bMc) @ inverse(wMb) @ wMo
+        got = scene.cMo("t", bMc, 0.1 * i)
+        assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
+    got[:] = 0.0  # a fresh array: the object's pose is untouched
+    assert np.array_equal(scene.object("t").trajectory.wMo, wMo)
+
+
+def test_scene_cmo_checks_its_inputs() -> None:
+    scene = Scene([Sphere("ball", 0.1)])
+    with pytest.raises(ShapeError, match="bMc"):
+        scene.cMo("ball", np.eye(3))
+    with pytest.raises(UnknownNameError, match="'box'"):
+        scene.cMo("box", np.eye(4))
+    with pytest.raises(ConfigurationError, match="time t must be finite"):
+        scene.cMo("ball", np.eye(4), float("inf"))
+    assert scene.cMo("ball", np.eye(4), 2).shape == (4, 4)  # an integer time is a time
+
+
 def test_scene_unknown_name_lists_known_names() -> None:
     scene = Scene([Sphere("ball", 0.1), PointSet("dots", np.zeros((4, 3)))])
     with pytest.raises(UnknownNameError, match=r"'box'.*'ball', 'dots'"):

@@ -33,6 +33,7 @@ Decisions:
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -322,6 +323,9 @@ class Scene:
             self._objects[obj.name] = obj
         self.wMb: FloatArray = as_transform(np.eye(4) if wMb is None else wMb, "wMb")
         self._bMw = inverse(self.wMb)
+        # With the base at the world origin, ``cMb @ bMw`` is ``cMb`` (to the sign of a zero,
+        # which never reaches the product with ``wMo``): that product is skipped.
+        self._base_at_origin = bool(np.array_equal(self._bMw, np.eye(4)))
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -344,8 +348,20 @@ class Scene:
 
     def cMo(self, name: str, bMc: ArrayLike, t: float = 0.0) -> FloatArray:
         """Pose (4x4) of object ``name`` in the camera frame, for the camera pose ``bMc`` (4x4)."""
+        cMw = inverse(as_transform(bMc, "bMc"))
+        if not self._base_at_origin:
+            cMw = cMw @ self._bMw
+        traj = self.object(name).trajectory
+        if type(traj) is Static:
+            if type(t) is not float or not math.isfinite(t):
+                _time(t)  # what Static.pose checks (an int is fine, NaN and inf raise)
+            return cMw @ traj.wMo  # read, not copied: the product is the fresh array
+        return cMw @ traj.pose(t)
+
+    def _cMw(self, bMc: ArrayLike) -> FloatArray:
+        """``cMw = inv(bMc) @ bMw`` for a camera pose ``bMc`` given by the caller (validated)."""
         cMb = inverse(as_transform(bMc, "bMc"))
-        return cMb @ self._bMw @ self.wMo(name, t)
+        return cMb if self._base_at_origin else cMb @ self._bMw
 
     def object_twist(self, name: str, bMc: ArrayLike, t: float = 0.0) -> FloatArray:
         """Twist (6,) of object ``name`` in the camera frame, about the camera origin.
@@ -358,5 +374,5 @@ class Scene:
         p = self.wMo(name, t)[:3, 3]
         # Spatial twist about the world origin, then moved to the camera frame.
         v_s = twist_w[:3] - np.cross(twist_w[3:], p)
-        cMw = inverse(as_transform(bMc, "bMc")) @ self._bMw
+        cMw = self._cMw(bMc)
         return np.asarray(twist_transform(cMw) @ np.concatenate([v_s, twist_w[3:]]), dtype=float)
