@@ -17,6 +17,7 @@ task substitute or average them (see :mod:`redservo.task`).
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -68,6 +69,24 @@ class Feature(abc.ABC):
     @abc.abstractmethod
     def interaction(self, s: FloatArray, inv_depth: FloatArray) -> FloatArray:
         """Return the interaction matrix ``L_s`` (k, 6) at value ``s`` with the given depth."""
+
+    def _measure_trusted(self, cMo: FloatArray) -> Measurement:
+        """:meth:`measure` for a ``cMo`` the library built itself from validated transforms
+        (a 4x4 float64 array, the task's hot path): the shipped features skip checking it
+        again. The default calls :meth:`measure`."""
+        return self.measure(cMo)
+
+    def _trusted_measure(self) -> Callable[[FloatArray], Measurement]:
+        """The function the task calls with its own ``cMo``: :meth:`_measure_trusted` when it
+        was written next to this class's :meth:`measure` (so a subclass that overrides only
+        :meth:`measure` keeps its override), :meth:`measure` otherwise."""
+        cls = type(self)
+        for klass in cls.__mro__:
+            if "_measure_trusted" in vars(klass):
+                if vars(klass).get("measure") is cls.measure:
+                    return self._measure_trusted
+                break
+        return self.measure
 
     def value(self, cMo: FloatArray) -> FloatArray:
         """Return only ``s`` (k,)."""

@@ -204,8 +204,10 @@ class LineFeature(Feature):
         self.direction = u / nu
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = as_transform(cMo, "cMo")
-        R, t = T[:3, :3], T[:3, 3]
+        return self._measure_trusted(as_transform(cMo, "cMo"))
+
+    def _measure_trusted(self, cMo: FloatArray) -> Measurement:
+        R, t = cMo[:3, :3], cMo[:3, 3]
         proj = project_line(R @ self.point + t, R @ self.direction)
         return Measurement(np.array([proj.rho, proj.theta]), proj.plane)
 
@@ -247,8 +249,10 @@ class CylinderFeature(Feature):
         self.point = as_vector(point, "point", 3)
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = as_transform(cMo, "cMo")
-        R, t = T[:3, :3], T[:3, 3]
+        return self._measure_trusted(as_transform(cMo, "cMo"))
+
+    def _measure_trusted(self, cMo: FloatArray) -> Measurement:
+        R, t = cMo[:3, :3], cMo[:3, 3]
         proj = cylinder_lines(self.radius, R @ self.axis, R @ self.point + t)
         return Measurement(proj.s, proj.plane)
 

@@ -68,7 +68,10 @@ class PointFeature(Feature):
         self._points = np.ascontiguousarray(self.point_o.reshape(1, 3))
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = np.ascontiguousarray(as_transform(cMo, "cMo"))
+        return self._measure_trusted(np.ascontiguousarray(as_transform(cMo, "cMo")))
+
+    def _measure_trusted(self, cMo: FloatArray) -> Measurement:
+        T = np.ascontiguousarray(cMo)
         s, inv_z, bad = _K.points_measure(T, self._points)
         if bad >= 0:
             raise _behind(float(T[2, :3] @ self.point_o + T[2, 3]))

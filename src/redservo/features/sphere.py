@@ -224,7 +224,10 @@ class SphereFeature(Feature):
         self.angular = (False,) * len(self.names)
 
     def measure(self, cMo: FloatArray) -> Measurement:
-        T = as_transform(cMo, "cMo")
+        return self._measure_trusted(as_transform(cMo, "cMo"))
+
+    def _measure_trusted(self, cMo: FloatArray) -> Measurement:
+        T = cMo
         img = sphere_ellipse(self.radius, T[:3, :3] @ self.center + T[:3, 3])
         if self.variant == "moments":
             s = np.array([img.xc, img.yc, img.n20, img.n11, img.n02])
