@@ -30,9 +30,14 @@ from typing import Literal, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_matrix, as_vector
+from redservo import _task_plan as plan
+from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.features.base import Feature
+from redservo.kernels import lazy
+from redservo.scene import Scene
+
+_K = lazy("features")
 
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
@@ -134,6 +139,14 @@ class VisualTask:
             for i, term in enumerate(self.terms)
             if any(term.feature.angular)
         )
+        # How evaluate() runs, fixed once: the points of one target in one kernel call.
+        self._plan = plan.make_plan(
+            [t.feature for t in self.terms],
+            [t.target for t in self.terms],
+            self.sizes,
+            self.inv_depth_star,
+        )
+        self._group = plan.single_group(self._plan)
         self.C: FloatArray | None
         if C is not None:
             self.C = as_matrix(C, "C", cols=k)
@@ -231,13 +244,18 @@ class VisualTask:
         Raises:
             GeometryError: a feature is invalid at this pose (e.g. its object is behind the camera).
         """
-        s_parts, d_parts = [], []
-        for term in self.terms:
-            meas = term.feature.measure(scene.cMo(term.target, bMc, t))
-            s_parts.append(meas.s)
-            d_parts.append(meas.inv_depth)
-        s = s_parts[0] if len(s_parts) == 1 else np.concatenate(s_parts)
-        return np.array(s, dtype=float), tuple(d_parts)
+        s, inv_depth, _ = plan.measure(self._plan, self._poses(scene, bMc, t))
+        return s, inv_depth
+
+    def _poses(self, scene: _PoseSource, bMc: FloatArray, t: float) -> list[FloatArray]:
+        """``cMo`` (4x4) of each target: a :class:`~redservo.scene.Scene`'s own are built from
+        validated transforms; those of another pose source are checked."""
+        if type(scene).cMo is Scene.cMo:
+            return [scene.cMo(name, bMc, t) for name in self._plan.targets]
+        return [
+            np.ascontiguousarray(as_transform(scene.cMo(name, bMc, t), "cMo"))
+            for name in self._plan.targets
+        ]
 
     def evaluate(
         self,
@@ -263,11 +281,23 @@ class VisualTask:
 
         Raises:
             GeometryError: a feature is invalid at this pose.
+            ShapeError: ``bMc``, ``J`` or ``noise`` has the wrong shape or is not finite.
+            ConfigurationError: ``t`` is not finite, ``depth_scale`` not positive and finite.
         """
-        s, inv_depth = self.measure(scene, bMc, t)
+        group = self._group
+        if group is not None and noise is None and type(scene).cMo is Scene.cMo:
+            # The hot path: one target, all points (docs/speed.md, "Public object path").
+            cMo = scene.cMo(group.target_name, bMc, t)
+            s, iz, bad = _K.points_measure(cMo, group.points)
+            if bad >= 0:
+                plan.raise_behind(group, bad, cMo)
+            return self._points_state(s, iz, tuple(map(iz.__getitem__, group.rows)), J, depth_scale)
+        s, inv_depth, parts = plan.measure(self._plan, self._poses(scene, bMc, t))
         if noise is not None:
-            s = s + noise
-        return self.evaluate_measured(s, inv_depth, J, depth_scale=depth_scale)
+            s = s + as_vector(noise, "noise", self.k)
+        if group is not None:
+            return self._points_state(s, parts[0], inv_depth, J, depth_scale)
+        return self._state(s, inv_depth, parts, J, depth_scale)
 
     def evaluate_measured(
         self,
@@ -284,27 +314,63 @@ class VisualTask:
             inv_depth: Inverse-depth parameters per term, as the sensor estimated them.
             J: (6, n) robot Jacobian the controller uses.
             depth_scale: Extra depth-estimate factor ``Ẑ = depth_scale · Z``.
+
+        Raises:
+            ShapeError: ``s``, ``inv_depth`` or ``J`` has the wrong shape or is not finite.
+            ConfigurationError: ``depth_scale`` is not positive and finite.
         """
-        L = self.interaction(s, inv_depth, depth_scale=depth_scale)
+        sv = as_vector(s, "s", self.k)
+        parts = plan.parts_of(self._plan, inv_depth)
+        if self._group is not None:
+            return self._points_state(sv, parts[0], tuple(inv_depth), J, depth_scale)
+        return self._state(sv, tuple(inv_depth), parts, J, depth_scale)
+
+    def _points_state(
+        self,
+        s: FloatArray,
+        iz: FloatArray,
+        inv_depth: tuple[FloatArray, ...],
+        J: FloatArray,
+        depth_scale: float,
+    ) -> TaskState:
+        """:meth:`_state` of a task of points of one target (``iz`` their inverse depths)."""
+        if not (type(J) is np.ndarray and J.ndim == 2 and J.shape[0] == 6):
+            J = as_matrix(J, "J", 6)
+        if self.depth != "current" or depth_scale != 1.0:
+            iz = plan.depth_option(iz, self._group.star, self.depth, depth_scale)  # type: ignore[union-attr]
+        L = _K.points_interaction(s, iz)
+        e = s - self.s_star
+        C = self.C
+        if C is None:
+            return TaskState(s, e, e, L, L @ J, inv_depth)
+        return TaskState(s, e, C @ e, L, (C @ L) @ J, inv_depth)
+
+    def _state(
+        self,
+        s: FloatArray,
+        inv_depth: tuple[FloatArray, ...],
+        parts: Sequence[FloatArray],
+        J: FloatArray,
+        depth_scale: float,
+    ) -> TaskState:
+        """The task's state at the value ``s`` with the inverse depths ``parts`` per segment."""
+        if not (type(J) is np.ndarray and J.ndim == 2 and J.shape[0] == 6):
+            J = as_matrix(J, "J", 6)
+        L = plan.interaction(self._plan, s, parts, self.depth, depth_scale)
         e = self.error(s)
         if self.C is None:
-            e1, CL = e, L
-        else:
-            e1, CL = self.C @ e, self.C @ L
-        return TaskState(s, e, e1, L, CL @ J, tuple(inv_depth))
+            return TaskState(s, e, e, L, L @ J, inv_depth)
+        return TaskState(s, e, self.C @ e, L, (self.C @ L) @ J, inv_depth)
 
     def interaction(
         self, s: FloatArray, inv_depth: Sequence[FloatArray], *, depth_scale: float = 1.0
     ) -> FloatArray:
-        """Return the stacked ``L`` (k, 6) at value ``s`` with the task's depth option."""
-        parts, i = [], 0
-        for j, (term, size) in enumerate(zip(self.terms, self.sizes, strict=True)):
-            d = inv_depth[j]
-            if self.depth != "current" and self.inv_depth_star is not None:
-                d_star = self.inv_depth_star[j]
-                d = d_star if self.depth == "desired" else 0.5 * (d + d_star)
-            if depth_scale != 1.0:
-                d = d / depth_scale
-            parts.append(term.feature.interaction(s[i : i + size], d))
-            i += size
-        return parts[0] if len(parts) == 1 else np.vstack(parts)
+        """Return the stacked ``L`` (k, 6) at value ``s`` with the task's depth option.
+
+        Raises:
+            ShapeError: ``s`` or ``inv_depth`` has the wrong shape or is not finite.
+            ConfigurationError: ``depth_scale`` is not positive and finite.
+        """
+        sv = as_vector(s, "s", self.k)
+        parts = plan.parts_of(self._plan, inv_depth)
+        return plan.interaction(self._plan, sv, parts, self.depth, depth_scale)
