@@ -23,12 +23,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "redservo"
 
-KNOWN_CYCLES: tuple[str, ...] = (
-    # campaign/__init__ re-exports campaign.engine and campaign.fastloop, which import names
-    # back from it: the campaign helper is splitting that package this session (issue 18,
-    # "Four lazy import cycles"). Remove this entry when it is gone (the test says so).
-    "redservo.campaign",
-)
+KNOWN_CYCLES: tuple[str, ...] = ()
 """Packages whose internal cycles are known and being removed elsewhere: a cycle is tolerated
 when all its modules are in one of them. Keep this short: it is meant to be empty."""
 

@@ -346,7 +346,7 @@ def fast_run(
     reason = fast_reason(exp, law)
     if reason is not None:
         return None, reason
-    from redservo.campaign.task import FAST_PATH
+    from redservo.campaign.rows import FAST_PATH
 
     try:
         summary = fast_summary(exp, law)

@@ -13,6 +13,10 @@ from typing import Any
 
 from redservo.campaign.sampling import Sample
 
+FAST_PATH = "compiled loop"
+"""The ``_path`` note of a run on the compiled loop (any other note is the reason it fell back
+to the object path); the job takes the note out of the row and counts it."""
+
 
 def _columns(joint_names: Sequence[str]) -> list[tuple[str, str]]:
     """``(column, type)`` of ``samples.csv``; types: int, float, str, bool, int? (optional)."""

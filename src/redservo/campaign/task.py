@@ -16,7 +16,7 @@ from dataclasses import replace
 from typing import Any, NamedTuple
 
 from redservo.campaign.definition import CampaignDefinition
-from redservo.campaign.rows import _error_columns, _sample_columns, _summary_columns
+from redservo.campaign.rows import FAST_PATH, _error_columns, _sample_columns, _summary_columns
 from redservo.scenario import Scenario
 
 __all__ = [
@@ -30,8 +30,6 @@ __all__ = [
     "run_job",
 ]
 
-FAST_PATH = "compiled loop"
-"""The ``path`` note of a run on the compiled loop (any other note is a fallback reason)."""
 _DEFS: dict[str, CampaignDefinition] = {}
 """Definitions unpickled in this worker, by fingerprint (their ``nominal`` computed once)."""
 
