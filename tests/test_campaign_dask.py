@@ -106,6 +106,9 @@ def test_unreachable_scheduler_and_missing_extra(monkeypatch: pytest.MonkeyPatch
     with pytest.raises(ConfigurationError, match="cannot reach the Dask scheduler"):
         run_campaign(d, samples=1, methods=["classical"], scheduler=f"tcp://127.0.0.1:{port}")
     assert time.monotonic() - start < 30.0
+    for bad in (0, -1.0, float("inf"), float("nan"), "60", True):
+        with pytest.raises(ConfigurationError, match="worker_timeout must be a positive"):
+            run_campaign(d, samples=1, scheduler=f"tcp://127.0.0.1:{port}", worker_timeout=bad)
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if it were not installed
     with pytest.raises(ConfigurationError, match=r"redservo\[dask\]"):
         run_campaign(d, samples=1, methods=["classical"], scheduler="tcp://127.0.0.1:1")

@@ -239,6 +239,24 @@ def run_campaign(
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ConfigurationError(f"seed must be a non-negative integer, got {seed!r}")
     seed = int(seed)
+    engine = _engine(workers, scheduler, fast, worker_timeout)
+    out_dir = Path(out) if out is not None else None
+    store = _Store(out_dir, defn, seed, wait=wait, repair=repair) if out_dir is not None else None
+    try:
+        return run(defn, names, n, seed, engine, out_dir, store, progress)
+    finally:
+        if store is not None:
+            store.close()
+
+
+def _engine(
+    workers: int | None, scheduler: str | None, fast: bool, worker_timeout: float | None
+) -> Engine:
+    """The engine of :func:`run_campaign`'s arguments.
+
+    Raises:
+        ConfigurationError: bad ``workers``, ``scheduler`` or ``worker_timeout``.
+    """
     n_workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if not 1 <= n_workers <= 1024:
         raise ConfigurationError(f"workers must be in [1, 1024], got {workers}")
@@ -248,17 +266,13 @@ def run_campaign(
             f"{scheduler!r}",
             argument="scheduler",
         )
-    if worker_timeout is not None and not 0 < float(worker_timeout) < math.inf:
-        raise ConfigurationError(
-            f"worker_timeout must be a positive number of seconds, got {worker_timeout!r}",
-            argument="worker_timeout",
-        )
-    out_dir = Path(out) if out is not None else None
-    store = _Store(out_dir, defn, seed, wait=wait, repair=repair) if out_dir is not None else None
-    try:
-        timeout = None if worker_timeout is None else float(worker_timeout)
-        engine = Engine(n_workers, scheduler, bool(fast), timeout)
-        return run(defn, names, n, seed, engine, out_dir, store, progress)
-    finally:
-        if store is not None:
-            store.close()
+    timeout = worker_timeout
+    if timeout is not None:
+        ok = isinstance(timeout, int | float | np.floating) and not isinstance(timeout, bool)
+        if not ok or not 0 < float(timeout) < math.inf:
+            raise ConfigurationError(
+                f"worker_timeout must be a positive number of seconds, got {timeout!r}",
+                argument="worker_timeout",
+            )
+        timeout = float(timeout)
+    return Engine(n_workers, scheduler, bool(fast), timeout)
