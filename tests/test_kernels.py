@@ -24,6 +24,7 @@ numba = pytest.importorskip("numba", reason="the compiled path needs numba (reds
 
 from redservo.kernels import (  # noqa: E402
     directional,
+    events,
     features,
     iterative,
     kinematics,
@@ -168,6 +169,45 @@ def test_law_kernels_compiled_and_plain_agree(seed: int) -> None:
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False)
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, sec, True)
     both(qp.bls_reduce, J1, e, -v, v, sec, 1e-6)
+
+
+@SETTINGS
+@given(seed=seeds)
+def test_event_kernels_compiled_and_plain_agree(seed: int) -> None:
+    """The flag rules (kernels/events.py) on the outputs of every law kernel, and the step's
+    mask: the same masks, values and sources compiled and as plain Python."""
+    p = problem(seed)
+    J1, e, q, lp, sec, hs = p["J1"], p["e"], p["q"], p["lp"].rows, p["sec"], p["has_sec"]
+    m, n = J1.shape
+    rb = 1e-3 if seed % 2 else 0.0
+    out = laws.classical(J1, e, 0.7, sec, hs, 1e-8, rb)
+    both(events.classical_events, m, n, out[1], rb)
+    both(events.gpm_events, m, n, out[1], rb)
+    cap = 0.5 if seed % 3 else np.inf
+    out = laws.gpm_auto(J1, e, q, lp, 0.7, 0.04, sec, hs, cap, False, 1e-8, rb, True)
+    both(events.gpm_auto_events, m, n, out[1], out[4], rb, cap)
+    it = iterative.iterative(J1, e, q, lp, 0.7, 0.04, sec, hs, True, 2.0, -1, 1e-8, rb, 1e-8, 1e-2)
+    both(events.iterative_events, m, n, it[1], it[2], it[5], rb, 1e-2)
+    both(events.unmet_levels, it[1], it[5])
+    out = directional.wln(J1, e, q, lp, 0.7, sec, hs, False, sec, False, 1e-8, rb, 1e-9)
+    both(events.wln_events, m, n, out[1], rb)
+    both(events.directional_events, m, n, out[1], rb)
+    both(events.sns_events, m, m - seed % 2, 1.0 - 0.1 * (seed % 3), bool(seed % 5))
+    args = (0.1, 0.7, 0, 0.1, 0.3, 0.7, 1e-8, rb, 1e-2)
+    out = projection.large_projection(J1, e, e, q, lp, 0.7, sec, hs, *args)
+    both(events.large_projection_events, m, n, out[1], out[3], rb, 1e-2)
+    both(events.qp_events, m, m - 1, q > 0.0, bool(seed % 2), 1e-3 * (seed % 3))
+    raw = sec * 30.0
+    has_v, has_a = p["lp"].has_v, p["lp"].has_a
+    safe = safety.apply_safety(raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False)
+    both(events.safety_events, *safe[1:10])
+    law = make_law("iterative-smooth", robust=bool(seed % 2))
+    o = law_options(law, n)
+    res = step.law_step(
+        o.law_id, o.fopt, o.iopt, o.vopt, J1, e, e, False, q, lp, has_v, has_a, 0.7, 0.04,
+        sec, hs, p["prev"], True, sec, False,
+    )  # fmt: skip
+    both(step.step_events, o.law_id, o.fopt, m, *res[1:])
 
 
 @SETTINGS

@@ -372,3 +372,56 @@ def test_a_q_just_past_a_large_limit_names_the_joint(scale: float, upper: bool) 
     q[1] = np.nextafter(q[1], -np.inf if upper else np.inf)  # within the tolerance: valid
     make_law("classical")(**kw, q=q)
     lim.check(q)
+
+
+# -- flags: one rule (kernels/events.py), one message table (redundancy/messages.py) -----------
+
+
+def test_the_kernels_number_every_flag_and_the_table_words_every_source() -> None:
+    from redservo.kernels import flagbits
+    from redservo.redundancy.flags import FLAGS
+    from redservo.redundancy.messages import MESSAGES
+
+    assert [getattr(flagbits, f.name) for f in FLAGS] == list(range(flagbits.N_FLAGS))
+    assert set(MESSAGES) == set(FLAGS)
+    for flag, table in MESSAGES.items():
+        bits = list(table)
+        assert bits and all(b > 0 and b & (b - 1) == 0 for b in bits), flag  # one bit each
+        assert len(set(bits)) == len(bits), flag
+
+
+def test_a_flag_raised_for_two_reasons_is_one_event_with_both_messages() -> None:
+    """ACCELERATION_EXCEEDED released on a joint and exceeded on another: one event, the
+    first reason's value (NaN), both messages."""
+    from redservo.kernels import flagbits as fb
+    from redservo.redundancy.flags import FLAGS, Flag
+    from redservo.redundancy.messages import events
+
+    vals, src = np.zeros(fb.N_FLAGS), np.zeros(fb.N_FLAGS, dtype=np.int64)
+    j = FLAGS.index(Flag.ACCELERATION_EXCEEDED)
+    vals[j], src[j] = np.nan, fb.ACC_RELEASED | fb.ACC_KEPT_POSITION
+    (event,) = events(1 << j, vals, src, worst=0.25)
+    assert event.flag is Flag.ACCELERATION_EXCEEDED and np.isnan(event.value)
+    assert "released on some joints" in event.message and "exceeded by 0.25" in event.message
+
+
+def test_gpm_auto_damped_twice_reports_both_filters() -> None:
+    """The task inverse and eq. 9 both filtered (a fuzz case): one DAMPED event whose value
+    is the task filter's bound and whose message names both."""
+    from redservo.redundancy.flags import Flag
+
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        n = 6
+        J1 = rng.normal(size=(3, n))
+        J1[2] = J1[1] + 1e-6 * rng.normal(size=n)
+        lim = JointLimits(-np.ones(n), np.ones(n), 0.2)
+        q = rng.uniform(-0.99, 0.99, n)
+        res = make_law("gpm-auto")(J1=J1, e1=rng.normal(size=3), q=q, limits=lim, lam=1, dt=0.1)
+        d = res.diagnostics
+        damped = [e for e in d.events if e.flag is Flag.DAMPED]
+        assert len(damped) <= 1
+        if damped and "eq. 9 filtered" in damped[0].message and "J1 ill" in damped[0].message:
+            assert damped[0].value == 1e3 and "; " in damped[0].message
+            return
+    pytest.skip("no case with both filters met")  # pragma: no cover

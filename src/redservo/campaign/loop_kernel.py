@@ -22,7 +22,8 @@ The small products that the object path leaves to numpy (``@`` on 4x4, (m, k) an
 (k, 6) matrices, ``J q̇``, ``e1·e1``) are ``np.dot`` calls here: numba hands them to the
 same BLAS routines, so every logged number is bit-for-bit the one of the object path
 (tested on campaigns, tests/test_campaign_fast.py). The typed diagnostics of a step are
-reduced to a bit mask of the flags raised (:mod:`redservo.campaign.loop_flags`).
+reduced to a bit mask of the flags raised (:func:`redservo.kernels.step.step_events`, the
+flag rules the law objects use).
 
 Outcome codes: :data:`MAX_ITERATIONS`, :data:`CONVERGED`, :data:`JOINT_LIMIT`,
 :data:`TARGET_LOST` (and :data:`NEED_SOLVE`). A run the object path would end with an exception (non-finite
@@ -38,19 +39,13 @@ from typing import Any
 
 import numpy as np
 
-from redservo.campaign.loop_flags import (
-    BOUNDS_CONFLICT,
-    I_SNS_BAD,
-    RANK_LOSS,
-    law_flags,
-    safety_flags,
-)
 from redservo.kernels._jit import COMPILED, kernel
+from redservo.kernels.events import qp_events, safety_events
 from redservo.kernels.features import point_interaction, points_measure
 from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.safety import apply_safety
-from redservo.kernels.step import LAW_IDS, law_step
+from redservo.kernels.step import I_SNS_BAD, LAW_IDS, law_step, step_events
 from redservo.simulation.loop import LIMIT_TOLERANCE
 
 __all__ = [
@@ -186,21 +181,20 @@ def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, so
         pJ[:, :] = J1
         pe[:] = e1
         return x, 0, True
-    bits = RANK_LOSS if rank < m else 0
-    if np.any(conflicts):
-        bits |= BOUNDS_CONFLICT
+    bits = qp_events(m, rank, conflicts, False, -1.0)[0]
     fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
-    qd, bad, s, over_v, dropped, _, acted, _, exc, past, _ = apply_safety(
+    qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(
         fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
     )
-    return qd, bits | safety_flags(bad, s, over_v, dropped, acted, exc, past), False
+    safe = safety_events(bad, s, over_v, dropped, change, acted, worst, exc, past)
+    return qd, bits | safe[0], False
 
 
 @kernel
 def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: Any,
          limits: Any, sim: Any) -> Any:  # fmt: skip
     """Step 4 for a law of ``law_step``: ``(q̇, bits, abs_grad, abort)``."""
-    law_id, fopt, iopt, vopt, has_cap = law
+    law_id, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     lam, dt = sim[0], sim[1]
     n = q.shape[0]
@@ -211,10 +205,7 @@ def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: An
     )  # fmt: skip
     if law_id == _SNS and iout[I_SNS_BAD] >= 0:
         return qd, 0, axf, ABORT_INFEASIBLE
-    bits = law_flags(law_id, e1.shape[0], n, iout, fout, axes, axf, vec, fopt, has_cap)
-    bits |= safety_flags(
-        sout[0], sout[1], sout[2] != 0, sout[3] != 0, sout[5] != 0, sout[7] != 0, sout[9]
-    )
+    bits = step_events(law_id, fopt, e1.shape[0], iout, fout, axes, axf, vec, sout)
     return qd, bits, axf, 0
 
 
@@ -321,7 +312,7 @@ def _stamp_with_sources(*dispatchers: Any) -> None:
     files = [
         *sorted((src / "kernels").glob("*.py")),
         *sorted((src / "redundancy").glob("*.py")),  # constants compiled in
-        *sorted(Path(__file__).resolve().parent.glob("loop_*.py")),
+        Path(__file__).resolve(),
         src / "simulation" / "loop.py",
     ]
     digest = hashlib.sha256(b"".join(p.read_bytes() for p in files)).hexdigest()
@@ -333,6 +324,4 @@ def _stamp_with_sources(*dispatchers: Any) -> None:
             pass
 
 
-_stamp_with_sources(
-    law_flags, safety_flags, _inverse, _in_image, _measure, _task, _qp, _law, closed_loop
-)
+_stamp_with_sources(_inverse, _in_image, _measure, _task, _qp, _law, closed_loop)

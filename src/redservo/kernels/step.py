@@ -35,13 +35,24 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.directional import directional, wln
+from redservo.kernels.events import (
+    classical_events,
+    directional_events,
+    gpm_auto_events,
+    gpm_events,
+    iterative_events,
+    large_projection_events,
+    safety_events,
+    sns_events,
+    wln_events,
+)
 from redservo.kernels.iterative import iterative
 from redservo.kernels.laws import classical, gpm, gpm_auto, new_outputs
 from redservo.kernels.projection import large_projection
 from redservo.kernels.safety import apply_safety
 from redservo.kernels.sns import sns
 
-__all__ = ["LAW_IDS", "law_step"]
+__all__ = ["I_SNS_BAD", "LAW_IDS", "law_step", "step_events"]
 
 LAW_IDS: dict[str, int] = {
     "classical": 0,
@@ -58,6 +69,8 @@ LAW_IDS: dict[str, int] = {
 }
 """Methods with a fully compiled step, and their ids."""
 NS = 10
+I_SNS_RESTORED, I_SNS_BAD, F_SNS_SCALE = 5, 6, 2
+"""Where :func:`law_step` packs ``sns``'s restored flag, infeasible joint and task scale."""
 
 
 @kernel
@@ -164,9 +177,9 @@ def _raw_law(
         iout[2] = out[4]
         iout[3] = out[3]
         iout[4] = 1 if out[1] < 1.0 else 0
-        iout[5] = 1 if out[5] else 0
-        iout[6] = out[9]
-        fout[2] = out[1]
+        iout[I_SNS_RESTORED] = 1 if out[5] else 0
+        iout[I_SNS_BAD] = out[9]
+        fout[F_SNS_SCALE] = out[1]
         fout[3] = out[6]
         return qdot, iout, fout, axes, axf, vec
     return large_projection(
@@ -244,3 +257,44 @@ def law_step(
     sout[8] = big
     sout[9] = past
     return out, iout, fout, axes, axf, vec, sout
+
+
+@kernel
+def step_events(
+    law_id: int,
+    fopt: Any,
+    m: int,
+    iout: Any,
+    fout: Any,
+    axes: Any,
+    axf: Any,
+    vec: Any,
+    sout: Any,
+) -> int:
+    """The event mask (bit ``j`` = flag ``j`` of :mod:`redservo.kernels.flagbits`) of one
+    :func:`law_step`: its law's events (the kernel of :mod:`redservo.kernels.events` the law
+    object calls) and the safety layer's."""
+    n = axes.shape[0]
+    rb = fopt[1]
+    if law_id == 0:
+        mask = classical_events(m, n, iout, rb)[0]
+    elif law_id == 1:
+        mask = gpm_events(m, n, iout, rb)[0]
+    elif law_id == 2:
+        mask = gpm_auto_events(m, n, iout, axf, rb, fopt[2])[0]
+    elif law_id >= 3 and law_id <= 6:
+        mask = iterative_events(m, n, iout, fout, vec, rb, fopt[4])[0]
+    elif law_id == 7:
+        mask = directional_events(m, n, iout, rb)[0]
+    elif law_id == 8:
+        mask = wln_events(m, n, iout, rb)[0]
+    elif law_id == 9:
+        restored = iout[I_SNS_RESTORED] != 0
+        mask = sns_events(m, iout[0], fout[F_SNS_SCALE], restored)[0]
+    else:
+        mask = large_projection_events(m, n, iout, axes, rb, fopt[7])[0]
+    safe = safety_events(
+        int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
+        sout[7] != 0, sout[9],
+    )  # fmt: skip
+    return mask | safe[0]

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Flag
-from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
-from redservo.redundancy.linalg import rank_events
+from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.messages import events
 
 _K = lazy("laws")
+_KE = lazy("events")
 
 __all__ = ["Classical"]
 
@@ -34,14 +34,13 @@ class Classical(Law):
         )
         m, n = x.J1.shape
         rank = int(iout[I_RANK])
-        events = rank_events(
-            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-        )
+        thr = self.filter_threshold
+        mask, vals, src = _KE.classical_events(m, n, iout, thr)
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
             projector_rank=int(iout[I_PROJ]),
-            events=tuple(e for e in events if e.flag is not Flag.NO_REDUNDANCY),
+            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
         )
         return LawResult(qdot, diag)

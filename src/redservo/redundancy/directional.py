@@ -98,11 +98,12 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs, optional
-from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
+from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
+from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.messages import events
 
 _K = lazy("directional")
+_KE = lazy("events")
 _I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
 """Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
 
@@ -272,26 +273,10 @@ class Directional(Law):
             self.filter_threshold,
         )
         r = int(iout[I_RANK])
-        events = [
-            e
-            for e in rank_events(
-                m, n, r, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-            )
-            if e.flag is Flag.DAMPED
-        ]
+        thr = self.filter_threshold
+        mask, vals, src = _KE.directional_events(m, n, iout, thr)
         info: list[str] = []
-        if r < m:
-            events.append(
-                Event(
-                    Flag.RANK_LOSS,
-                    m - r,
-                    f"J1 rank {r} < m = {m}: {m - r} task direction(s) uncontrolled; "
-                    "sub-threshold singular directions treated as free",
-                )
-            )
-        if not iout[_I_ANY_Z]:
-            events.append(Event(Flag.NO_SECONDARY, 0.0, "no secondary command (z = 0)"))
-        else:
+        if iout[_I_ANY_Z]:
             info.append(
                 f"task directions: {int(iout[_I_FREED])} free, {int(iout[_I_CLIPPED])} clipped, "
                 f"{int(iout[_I_BLOCKED])} blocked (of {r}); {n - r} null-space direction(s)"
@@ -301,7 +286,7 @@ class Directional(Law):
             task_rank=r,
             rank_deficient=r < m,
             projector_rank=int(iout[I_PROJ]),
-            events=tuple(events),
+            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
             info=tuple(info),
         )
         return LawResult(qdot, diag)

@@ -12,7 +12,9 @@ from __future__ import annotations
 import enum
 from typing import NamedTuple
 
-__all__ = ["Event", "Flag"]
+from redservo.kernels import flagbits as _bits
+
+__all__ = ["FLAGS", "Event", "Flag"]
 
 
 class Flag(enum.Enum):
@@ -66,8 +68,17 @@ class Flag(enum.Enum):
         return self.value
 
 
-FLAGS: tuple[Flag, ...] = tuple(Flag)
-"""Every flag, in a stable order (log columns follow it)."""
+def _kernel_order() -> tuple[Flag, ...]:
+    """The flags in the kernels' numbering (:mod:`redservo.kernels.flagbits`), checked."""
+    order = tuple(sorted(Flag, key=lambda f: int(getattr(_bits, f.name))))
+    if [getattr(_bits, f.name) for f in order] != list(range(_bits.N_FLAGS)):
+        raise RuntimeError("redservo.kernels.flagbits does not number every Flag once")
+    return order
+
+
+FLAGS: tuple[Flag, ...] = _kernel_order()
+"""Every flag, in the kernels' order: flag ``FLAGS[j]`` is bit ``1 << j`` of a kernel's event
+mask (:mod:`redservo.kernels.events`); log columns follow it."""
 
 
 class Event(NamedTuple):

@@ -54,23 +54,25 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, rank_events
+from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD
+from redservo.redundancy.messages import events
 
 __all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
 
 _DEN_TOL = 1e-10
 """``|(J1^⊥ e2)_k|`` at or below ``_DEN_TOL * max|e2|`` counts as zero in eq. 9."""
-_I_K, _I_ALPHA_CODE, _I_DAMPED = 5, 7, 8
+_I_K = 5
 _F_ALPHA_RAW, _F_DEN = 3, 4
-_ALPHA_UNDEFINED, _ALPHA_NEGATIVE, _ALPHA_CAPPED = 1, 2, 3
 """Outputs of :func:`redservo.kernels.laws.gpm_auto` (layout documented there)."""
 ALPHA_FILTER = 1e-2
 """Robust eq. 9: ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` (``g = J1^⊥ e2``), so the
@@ -78,6 +80,7 @@ secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|
 
 
 _K = lazy("laws")
+_KE = lazy("events")
 _KL = lazy("linalg")
 
 
@@ -124,6 +127,8 @@ class GradientProjection(Law):
         m, n = x.J1.shape
         rank = int(iout[I_RANK])
         band = tuple(int(i) for i in np.flatnonzero(axes))
+        thr = self.filter_threshold
+        mask, vals, src = _KE.gpm_events(m, n, iout, thr)
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
@@ -131,11 +136,7 @@ class GradientProjection(Law):
             projector_rank=int(iout[I_PROJ]),
             critical=(band,) if band else (),
             alpha=self.alpha,
-            events=tuple(
-                rank_events(
-                    m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-                )
-            ),
+            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
         )
         return LawResult(qdot, diag)
 
@@ -202,21 +203,10 @@ class GradientProjectionAuto(Law):
         )
         m, n = x.J1.shape
         rank = int(iout[I_RANK])
-        events = rank_events(
-            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-        )
+        thr = self.filter_threshold
+        cap = np.inf if self.alpha_max is None else self.alpha_max
+        mask, vals, src = _KE.gpm_auto_events(m, n, iout, cand, thr, cap)
         axis = int(iout[_I_K])
-        if axis >= 0:
-            others = [int(i) for i in np.flatnonzero(cand) if i != axis]
-            if others:
-                events.append(
-                    Event(
-                        Flag.AXES_NOT_HANDLED,
-                        len(others),
-                        f"critical axes {others} not handled (gpm-auto stops one axis)",
-                    )
-                )
-            events.extend(self._alpha_events(axis, iout, fout))
         alpha = float(fout[F_ALPHA])
         diag = Diagnostics(
             method=self.name,
@@ -225,49 +215,23 @@ class GradientProjectionAuto(Law):
             projector_rank=int(iout[I_PROJ]),
             critical=((axis,),) if alpha > 0.0 else (),
             alpha=alpha,
-            events=tuple(events),
+            events=events(mask, vals, src, **self._context(m, iout, fout, cand)) if mask else (),
         )
         return LawResult(qdot, diag)
 
-    def _alpha_events(self, k: int, iout: FloatArray, fout: FloatArray) -> list[Event]:
-        """Events of eq. 9 corrected, ``α = -w_k / g_k``, with its degenerate cases (module
-        docstring), from the kernel's codes.
-
-        With ``robust`` on, ``1/g_k`` is filtered below ``ALPHA_FILTER ‖g‖`` so that
-        ``‖α g‖ <= |w_k| / ALPHA_FILTER`` (a nearly-zero ``g_k`` no longer gives a huge α).
-        """
-        code = int(iout[_I_ALPHA_CODE])
-        if code == _ALPHA_UNDEFINED:
-            return [
-                Event(
-                    Flag.GAIN_ADJUSTED,
-                    0.0,
-                    f"axis {k} critical but (J1^⊥ e2)_k ≈ 0: α undefined, set to 0",
-                )
-            ]
-        events: list[Event] = []
-        if iout[_I_DAMPED]:
-            events.append(
-                Event(
-                    Flag.DAMPED,
-                    1.0 / ALPHA_FILTER,
-                    f"axis {k}: |(J1^⊥ e2)_k| = {float(fout[_F_DEN]):.3g} small, eq. 9 filtered "
-                    f"(amplification bounded by {1.0 / ALPHA_FILTER:.3g})",
-                )
-            )
-        alpha = float(fout[_F_ALPHA_RAW])
-        if code == _ALPHA_NEGATIVE:
-            events.append(
-                Event(
-                    Flag.GAIN_ADJUSTED, 0.0, f"axis {k}: eq. 9 gives α = {alpha:.3g} < 0, set to 0"
-                )
-            )
-        elif code == _ALPHA_CAPPED and self.alpha_max is not None:
-            events.append(
-                Event(
-                    Flag.GAIN_ADJUSTED,
-                    self.alpha_max,
-                    f"α = {alpha:.3g} capped to alpha_max = {self.alpha_max:.3g}",
-                )
-            )
-        return events
+    def _context(
+        self, m: int, iout: NDArray[np.int64], fout: FloatArray, cand: FloatArray
+    ) -> dict[str, Any]:
+        """The numbers the messages of eq. 9 corrected name, ``α = -w_k / g_k`` and its
+        degenerate cases (module docstring): the axis k, the other candidates, ``|g_k|``, the
+        raw α and the filter's bound. With ``robust`` on, ``1/g_k`` is filtered below
+        ``ALPHA_FILTER ‖g‖`` so that ``‖α g‖ <= |w_k| / ALPHA_FILTER``."""
+        axis = int(iout[_I_K])
+        return {
+            **task_context(m, iout, fout, self.filter_threshold),
+            "axis": axis,
+            "others": [int(i) for i in np.flatnonzero(cand) if i != axis],
+            "den": float(fout[_F_DEN]),
+            "alpha_raw": float(fout[_F_ALPHA_RAW]),
+            "inv_alpha_filter": 1.0 / ALPHA_FILTER,
+        }

@@ -96,9 +96,10 @@ Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
@@ -106,10 +107,7 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import (
-    F_COND,
-    I_FILTERED,
     I_ITER,
     I_OVER,
     I_PROJ,
@@ -117,8 +115,10 @@ from redservo.redundancy.kio import (
     kernel_inputs,
     levels,
     optional,
+    task_context,
 )
-from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
+from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.messages import events
 
 __all__ = [
     "Iterative",
@@ -129,14 +129,12 @@ __all__ = [
     "iterate_null_space",
 ]
 
-ILL_CONDITIONED = 1e-3
-"""Constraint rows with a singular value below this amplify the null-space motion by
-more than 1000x; the law reports it (``Flag.ILL_CONDITIONED``)."""
 CONSTRAINT_FILTER = 1e-2
 """Absolute filter threshold of the robust constraint inverse (``robust=True``): each
 level's null-space motion is at most 100x its right-hand side."""
 
 _K = lazy("iterative")
+_KE = lazy("events")
 _I_NCON, _I_NA, _F_MIN_SIGMA = 5, 6, 3
 """Outputs of :func:`redservo.kernels.iterative.iterative` (layout documented there)."""
 
@@ -274,13 +272,8 @@ class _IterativeLaw(Law):
         count = int(iout[I_ITER])
         n_a = int(iout[_I_NA])
         nb = max(count - 1, 0) * n_a
-        unmet = tuple(lv for lv in range(1, count + 1) if vec[n_a + nb + lv - 1])
-        events = rank_events(
-            m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-        )
-        events.extend(
-            _constraint_events(unmet, float(fout[_F_MIN_SIGMA]), int(iout[_I_NCON]), n_a, robust)
-        )
+        thr = self.filter_threshold
+        mask, vals, src = _KE.iterative_events(m, n, iout, fout, vec, thr, robust)
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
@@ -293,56 +286,29 @@ class _IterativeLaw(Law):
             a=vec[:n_a],
             b=vec[n_a : n_a + nb],
             gamma=gamma,
-            events=tuple(events),
+            events=events(mask, vals, src, **_context(m, iout, fout, vec, thr, robust))
+            if mask
+            else (),
         )
         return LawResult(qdot, diag)
 
 
-def _constraint_events(
-    unmet: tuple[int, ...], min_sigma: float, n_constrained: int, n_a: int, robust: float
-) -> list[Event]:
-    """Typed events of the iterative scheme's constraint levels."""
-    events: list[Event] = []
-    if n_constrained > n_a:
-        events.append(
-            Event(
-                Flag.OVERCONSTRAINED,
-                n_constrained - n_a,
-                f"{n_constrained} constrained axes > n_a = {n_a}: least-squares, not all met",
-            )
-        )
-    if unmet:
-        events.append(
-            Event(
-                Flag.LEAST_SQUARES,
-                len(unmet),
-                f"constraints met only in the least-squares sense at levels {unmet}",
-            )
-        )
-    if min_sigma < ILL_CONDITIONED:
-        events.append(
-            Event(
-                Flag.ILL_CONDITIONED,
-                1.0 / min_sigma,
-                f"ill-conditioned constraints: smallest singular value {min_sigma:.2g}, "
-                f"null-space motion amplified up to {1.0 / min_sigma:.3g}x"
-                + (
-                    " (filtered: robust inverse)"
-                    if robust
-                    else " (raise constraint_rcond to cap it)"
-                ),
-            )
-        )
-    if robust and min_sigma < robust:
-        events.append(
-            Event(
-                Flag.DAMPED,
-                1.0 / robust,
-                f"constraint rows filtered below σ = {robust:g} (amplification bounded by "
-                f"{1.0 / robust:.3g} per level)",
-            )
-        )
-    return events
+def _context(
+    m: int, iout: NDArray[np.int64], fout: FloatArray, vec: FloatArray, thr: float, con: float
+) -> dict[str, Any]:
+    """The numbers the iterative messages name: the task inverse's, the levels met only in
+    the least-squares sense (from 1), the constraint counts, σ_min and the filter ``con``."""
+    unmet = _KE.unmet_levels(iout, vec)
+    n_a = int(iout[_I_NA])
+    return {
+        **task_context(m, iout, fout, thr),
+        "unmet": tuple(int(lv) + 1 for lv in np.flatnonzero(unmet)),
+        "n_con": int(iout[_I_NCON]),
+        "n_a": n_a,
+        "min_sigma": float(fout[_F_MIN_SIGMA]),
+        "con_filter": con,
+        "inv_con_filter": 1.0 / con if con else np.inf,
+    }
 
 
 @register

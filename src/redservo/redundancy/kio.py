@@ -8,7 +8,7 @@ integer and float outputs (layout in :mod:`redservo.kernels.laws`) back into a
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +28,7 @@ __all__ = [
     "law_options",
     "levels",
     "optional",
+    "task_context",
 ]
 
 I_RANK, I_FILTERED, I_PROJ, I_ITER, I_OVER = 0, 1, 2, 3, 4
@@ -74,6 +75,20 @@ def kernel_inputs(x: LawInputs) -> KernelInputs:
         sec,
         has_sec,
     )
+
+
+def task_context(
+    m: int, iout: NDArray[np.int64], fout: FloatArray, robust: float
+) -> dict[str, Any]:
+    """The numbers the task-inverse messages name (:mod:`redservo.redundancy.messages`): the
+    rank, ``m``, ``σ_max/σ_r``, the filtered count and the amplification bound ``1/ε``."""
+    return {
+        "rank": int(iout[I_RANK]),
+        "m": m,
+        "cond": float(fout[F_COND]),
+        "filtered": int(iout[I_FILTERED]),
+        "inv_robust": 1.0 / robust if robust else np.inf,
+    }
 
 
 def levels(axes: NDArray[np.int64], count: int | None = None) -> tuple[tuple[int, ...], ...]:

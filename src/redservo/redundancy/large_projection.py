@@ -70,11 +70,12 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.kio import F_ALPHA, F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, rank_events, task_svd
+from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
+from redservo.redundancy.messages import events
 
 _K = lazy("projection")
+_KE = lazy("events")
 _I_DEGENERATE = 5
 _MODES = {"switched": 0, "norm": 1, "classical": 2}
 
@@ -307,27 +308,17 @@ class LargeProjection(Law):
             P_FILTER if self.robust else 0.0,
         )
         rank = int(iout[I_RANK])
-        events = [
-            e
-            for e in rank_events(
-                m, n, rank, int(iout[I_FILTERED]), float(fout[F_COND]), self.filter_threshold
-            )
-            if e.flag is not Flag.NO_REDUNDANCY
-        ]
+        thr, pf = self.filter_threshold, P_FILTER if self.robust else 0.0
+        mask, vals, src = _KE.large_projection_events(m, n, iout, axes, thr, pf)
         info: list[str] = []
         if iout[_I_DEGENERATE]:
             info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
         activated = tuple(int(i) for i in np.flatnonzero(axes))
-        filtered = int(np.count_nonzero(axes == 2))
-        if filtered:
-            events.append(
-                Event(
-                    Flag.DAMPED,
-                    1.0 / P_FILTER,
-                    f"joint-limit term: |P_ii| < {P_FILTER:g} on {filtered} axis(es), 1/|P_ii| "
-                    f"filtered (b_i bounded by {1.0 / P_FILTER:.3g} |q̇1_i|)",
-                )
-            )
+        ctx = {}
+        if mask:
+            n_pf = int(np.count_nonzero(axes == 2))
+            ctx = {**task_context(m, iout, fout, thr), "pf": pf, "n_pf": n_pf}
+            ctx["inv_pf"] = 1.0 / pf if pf else np.inf
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
@@ -335,7 +326,7 @@ class LargeProjection(Law):
             projector_rank=int(iout[I_PROJ]),
             critical=(activated,) if activated else (),
             alpha=float(fout[F_ALPHA]),
-            events=tuple(events),
+            events=events(mask, vals, src, **ctx),
             info=tuple(info),
         )
         return LawResult(qdot, diag)

@@ -26,7 +26,6 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.redundancy.flags import Event, Flag
 
 __all__ = [
     "DEFAULT_RCOND",
@@ -34,8 +33,6 @@ __all__ = [
     "TaskSVD",
     "filtered_reciprocal",
     "pinv",
-    "rank_events",
-    "svd_events",
     "task_svd",
 ]
 
@@ -97,40 +94,3 @@ def pinv(A: FloatArray, rcond: float = DEFAULT_RCOND) -> FloatArray:
     if A.size == 0:
         return np.zeros((A.shape[1], A.shape[0]))
     return task_svd(A, rcond).pinv
-
-
-def svd_events(m: int, n: int, svd: TaskSVD, robust: float = 0.0) -> list[Event]:
-    """Typed events for a task SVD: rank loss, no redundancy, filtered (damped) directions."""
-    cond = float(svd.sigma[0] / svd.sigma[svd.rank - 1]) if svd.filtered else 0.0
-    return rank_events(m, n, svd.rank, svd.filtered, cond, robust)
-
-
-def rank_events(
-    m: int, n: int, rank: int, filtered: int, cond: float, robust: float = 0.0
-) -> list[Event]:
-    """:func:`svd_events` from the numbers a kernel returns (``cond = σ_max/σ_r``)."""
-    events: list[Event] = []
-    if rank < m:
-        events.append(
-            Event(
-                Flag.RANK_LOSS,
-                m - rank,
-                f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
-            )
-        )
-    if rank >= n:
-        events.append(
-            Event(
-                Flag.NO_REDUNDANCY, n, "no redundancy (rank J1 = n): reduces to the classical law"
-            )
-        )
-    if filtered:
-        events.append(
-            Event(
-                Flag.DAMPED,
-                1.0 / robust,
-                f"J1 ill-conditioned (σ_max/σ_min = {cond:.3g}): {filtered} direction(s) "
-                f"filtered, amplification bounded by {1.0 / robust:.3g}",
-            )
-        )
-    return events

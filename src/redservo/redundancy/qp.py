@@ -73,20 +73,21 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
+from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.messages import events
 from redservo.redundancy.sns import validate_positive_option
 
 _K = lazy("qp")
+_KE = lazy("events")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
 _PREFERRED_QP_SOLVERS = ("daqp", "proxsuite", "quadprog")
-_OVERCONSTRAINED_RTOL = 1e-3
 
 
 def _qpsolvers() -> Any | None:
@@ -337,10 +338,9 @@ class BoundedLeastSquares(Law):
             x.lam, self.k_p, self.margin, v, has_v, self.rcond, self.eps, self.shield,
         )  # fmt: skip
         qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
-        events = _rank_and_conflict_events(int(rank), m, conflicts)
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
-        overconstrained = False
+        used, resid = "", -1.0
         if inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
@@ -348,29 +348,23 @@ class BoundedLeastSquares(Law):
             qp = (xfix, free, P, c, lof, hif)
             fixed, used, active, resid = self._solve(k, x, xdot, lo, hi, float(eps_abs), qp)
             info.append(f"solver: {used}")
-            if "fallback" in used or "failed" in used:
-                events.append(Event(Flag.SOLVER_FALLBACK, 1.0, f"solver: {used}"))
             at = tuple(int(i) for i in np.flatnonzero(active))
             critical = (at,) if at else ()
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
-                overconstrained = resid > _OVERCONSTRAINED_RTOL
-                if overconstrained:
-                    events.append(
-                        Event(
-                            Flag.TASK_SCALED,
-                            resid,
-                            f"bounds prevent the task: relative task residual {resid:.3g}",
-                        )
-                    )
+        fallback = "fallback" in used or "failed" in used
+        mask, vals, src = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
+        ctx = {"rank": int(rank), "m": m, "solver": used}
+        if mask:
+            ctx["conflicts"] = np.flatnonzero(conflicts).tolist()
         diag = Diagnostics(
             method=self.name,
             task_rank=int(rank),
             rank_deficient=int(rank) < m,
             projector_rank=n - int(rank) if x.secondary is not None else 0,
             critical=critical,
-            overconstrained=overconstrained,
-            events=tuple(events),
+            overconstrained=bool(src[TASK_SCALED]),  # the bounds prevent the task
+            events=events(mask, vals, src, **ctx),
             info=tuple(info),
         )
         return LawResult(fixed, diag)
@@ -410,29 +404,6 @@ class BoundedLeastSquares(Law):
         )  # fmt: skip
         fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
         return fixed, used, active, float(resid)
-
-
-def _rank_and_conflict_events(rank: int, m: int, conflicts: NDArray[np.bool_]) -> list[Event]:
-    events: list[Event] = []
-    if rank < m:
-        events.append(
-            Event(
-                Flag.RANK_LOSS,
-                m - rank,
-                f"J1 rank-deficient (rank {rank} < m = {m}): truncated pseudo-inverse",
-            )
-        )
-    if conflicts.any():
-        joints = np.flatnonzero(conflicts).tolist()
-        events.append(
-            Event(
-                Flag.BOUNDS_CONFLICT,
-                len(joints),
-                f"joints {joints}: push-back toward the allowed band exceeds v_max; "
-                f"velocity fixed at ±v_max",
-            )
-        )
-    return events
 
 
 _DAQP: list[Any] = []

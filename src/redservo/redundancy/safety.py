@@ -51,7 +51,8 @@ from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.flags import Event, Flag
+from redservo.redundancy.flags import Event
+from redservo.redundancy.messages import events
 
 __all__ = [
     "SafetyOutcome",
@@ -59,10 +60,8 @@ __all__ = [
     "command_box",
     "exact_position_fix",
     "intersect_boxes",
-    "past_limit_event",
     "position_box",
     "rate_box",
-    "safety_events",
     "scale_into_box",
 ]
 
@@ -70,6 +69,7 @@ _TOL = 1e-12
 """Relative slack below which a command counts as inside a box (roundoff)."""
 
 _K = lazy("safety")
+_KE = lazy("events")
 
 
 def _prev(qdot_prev: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
@@ -231,70 +231,24 @@ def apply_safety(
         _zeros(n) if task is None else c(task, dtype=np.float64),
         task is not None,
     )
-    events = safety_events(bad, s, over_v, dropped, change, acted, worst, exceeded)
-    if past > 0.0:
-        events = (*events, past_limit_event(qa, out, dt, limits, float(past), int(joint)))
-    return SafetyOutcome(out, events)
-
-
-def past_limit_event(
-    q: FloatArray, qdot: FloatArray, dt: float, limits: JointLimits, past: float, joint: int
-) -> Event:
-    """The ``POSITION_LIMIT_UNAVOIDABLE`` event: joint ``joint`` ends ``past`` (rad or m)
-    beyond its hard limit (the kernel's :func:`~redservo.kernels.safety.unavoidable_crossing`)."""
-    nxt = float(q[joint] + dt * qdot[joint])
-    upper = nxt > limits.q_max[joint]
-    side = "upper" if upper else "lower"
-    bound = float(limits.q_max[joint] if upper else limits.q_min[joint])
-    return Event(
-        Flag.POSITION_LIMIT_UNAVOIDABLE,
-        past,
-        f"joint {joint} passes its {side} limit {bound:.6g} by {past:.6g} (q + dt q̇ = "
-        f"{nxt:.9g}): no command within the rate limits stops it in time (previous command "
-        "too fast for q̈_max dt, or the velocity limit)",
+    mask, vals, src = _KE.safety_events(
+        bad, s, over_v, dropped, change, acted, worst, exceeded, past
+    )
+    if not mask:
+        return SafetyOutcome(out, ())
+    return SafetyOutcome(
+        out, events(mask, vals, src, **_context(qa, out, dt, limits, worst, joint))
     )
 
 
-def safety_events(
-    bad: int,
-    s: float,
-    over_v: bool,
-    dropped: bool,
-    change: float,
-    acted: bool,
-    worst: float,
-    exceeded: bool,
-) -> tuple[Event, ...]:
-    """The typed events of :func:`apply_safety` from the numbers its kernel returns."""
-    if not (bad or s < 1.0 or dropped or acted or exceeded):
-        return ()
-    events: list[Event] = []
-    if bad:
-        events.append(
-            Event(Flag.NON_FINITE_REPLACED, bad, f"{bad} non-finite entries: command replaced")
-        )
-    if s < 1.0:
-        flag = Flag.VELOCITY_SCALED if over_v else Flag.ACCELERATION_LIMITED
-        events.append(Event(flag, s, f"command scaled by {s:.3g} into the rate limits"))
-    if dropped:
-        events.append(
-            Event(
-                Flag.ACCELERATION_EXCEEDED,
-                np.nan,
-                "acceleration limit released on some joints (it conflicted with the velocity "
-                "or position limits, which win)",
-            )
-        )
-    if acted:
-        events.append(
-            Event(Flag.SHIELD_ACTED, change, f"position shield changed q̇ by {change:.3g}")
-        )
-    if exceeded:
-        events.append(
-            Event(
-                Flag.ACCELERATION_EXCEEDED,
-                worst,
-                f"acceleration limit exceeded by {worst:.3g} to keep the position limit",
-            )
-        )
-    return tuple(events)
+def _context(
+    q: FloatArray, qdot: FloatArray, dt: float, limits: JointLimits, worst: float, joint: int
+) -> dict[str, object]:
+    """The numbers the safety messages name: the acceleration excess, and the joint
+    ``joint`` that passes its hard limit (the kernel's
+    :func:`~redservo.kernels.safety.unavoidable_crossing`), its side and ``q + dt q̇``."""
+    nxt = float(q[joint] + dt * qdot[joint])
+    upper = nxt > limits.q_max[joint]
+    bound = float(limits.q_max[joint] if upper else limits.q_min[joint])
+    side = "upper" if upper else "lower"
+    return {"worst": worst, "joint": joint, "nxt": nxt, "side": side, "bound": bound}

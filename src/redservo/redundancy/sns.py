@@ -68,11 +68,12 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.messages import events
 
 _K = lazy("sns")
+_KE = lazy("events")
 
 __all__ = [
     "SNSSolution",
@@ -315,29 +316,8 @@ class SaturationInNullSpace(Law):
         task_rank = int(rank)
         sat = tuple(int(i) for i in np.flatnonzero(saturated))
         scale = float(scale)
-        events: list[Event] = []
+        mask, vals, src = _KE.sns_events(m, task_rank, scale, bool(restored))
         info: list[str] = []
-        if task_rank < m:
-            events.append(
-                Event(
-                    Flag.RANK_LOSS,
-                    m - task_rank,
-                    f"J1 rank-deficient (rank {task_rank} < m = {m}): truncated pseudo-inverse",
-                )
-            )
-        if scale < 1.0:
-            events.append(
-                Event(
-                    Flag.TASK_SCALED,
-                    scale,
-                    f"task scaled by s = {scale:.6g}"
-                    + (
-                        " (saturations exhausted the redundancy: best s* restored)"
-                        if restored
-                        else ""
-                    ),
-                )
-            )
         if noted:
             info.append(f"final clip to the velocity bounds moved q̇ by {float(clipped):.3g}")
         diag = Diagnostics(
@@ -349,7 +329,7 @@ class SaturationInNullSpace(Law):
             iterations=int(iterations),
             overconstrained=scale < 1.0,
             scale=scale,
-            events=tuple(events),
+            events=events(mask, vals, src, rank=task_rank, m=m),
             info=tuple(info),
         )
         return LawResult(qdot, diag)

@@ -61,11 +61,12 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.flags import Event, Flag
-from redservo.redundancy.kio import F_COND, I_FILTERED, I_PROJ, I_RANK, kernel_inputs, optional
-from redservo.redundancy.linalg import DEFAULT_RCOND, rank_events
+from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
+from redservo.redundancy.linalg import DEFAULT_RCOND
+from redservo.redundancy.messages import events
 
 _K = lazy("directional")
+_KE = lazy("events")
 _I_WRANK, _I_WFILTERED, _F_WCOND = 5, 6, 3
 """Outputs of :func:`redservo.kernels.directional.wln` (layout documented there)."""
 
@@ -196,38 +197,18 @@ class WeightedLeastNorm(Law):
             _REPORT_GRAD,
         )
         self._remember(abs_grad)
-        rank, wrank = int(iout[I_RANK]), int(iout[_I_WRANK])
-        filtered, wfiltered = int(iout[I_FILTERED]), int(iout[_I_WFILTERED])
+        rank = int(iout[I_RANK])
         thr = self.filter_threshold
-        events = [
-            e
-            for e in rank_events(m, n, rank, filtered, float(fout[F_COND]), thr)
-            if e.flag is not Flag.NO_REDUNDANCY
-        ]
-        if wfiltered and not filtered:
-            events.extend(
-                e
-                for e in rank_events(m, n, wrank, wfiltered, float(fout[_F_WCOND]), thr)
-                if e.flag is Flag.DAMPED
-            )
-        if wrank < rank:
-            events.append(
-                Event(
-                    Flag.LEAST_SQUARES,
-                    rank - wrank,
-                    f"weighted task rank {wrank} < rank J1 = {rank} (joints blocked at a "
-                    f"limit: {np.flatnonzero(blocked).tolist()}): task tracked in the "
-                    "least-squares sense",
-                )
-            )
-        if rank >= n:
-            events.append(
-                Event(
-                    Flag.NO_REDUNDANCY,
-                    n,
-                    "no redundancy (rank J1 = n): W has no effect on a full-rank square J1",
-                )
-            )
+        mask, vals, src = _KE.wln_events(m, n, iout, thr)
+        ctx = {}
+        if mask:
+            ctx = {
+                **task_context(m, iout, fout, thr),
+                "wrank": int(iout[_I_WRANK]),
+                "wfiltered": int(iout[_I_WFILTERED]),
+                "wcond": float(fout[_F_WCOND]),
+                "blocked": np.flatnonzero(blocked).tolist(),
+            }
         axes = tuple(int(i) for i in np.flatnonzero(penalized))
         diag = Diagnostics(
             method=self.name,
@@ -235,7 +216,7 @@ class WeightedLeastNorm(Law):
             rank_deficient=rank < m,
             projector_rank=int(iout[I_PROJ]) if k.has_sec else 0,
             critical=(axes,) if axes else (),
-            events=tuple(events),
+            events=events(mask, vals, src, **ctx),
         )
         return LawResult(qdot, diag)
 
