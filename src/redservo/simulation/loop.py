@@ -200,7 +200,7 @@ def simulate(
         limits: Joint limits given to the law (default: the robot's, with ``options.rho``:
             position, velocity and acceleration limits).
         secondary: Optional ``f(state, q, t) -> (n,)`` extra joint command passed to the law.
-        objectives: Further secondary objectives (:mod:`redservo.simulation.objectives`).
+        objectives: Further secondary objectives (:mod:`redservo.control.objectives`).
         sensor: Where the features come from (default :class:`~redservo.sensors.IdealSensor`).
         actuator: Joint actuator model (default: ideal, ``q + q̇ dt``).
         progress: Optional callback called with the iteration index.
