@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
 
 from redservo import METHODS
-from redservo.campaign import fastloop, load_campaign, run_campaign
+from redservo.campaign import draw_sample, fastloop, load_campaign, run_campaign
 from redservo.campaign.engine import FAST_PATH
 from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
 from redservo.experiment import build
@@ -70,6 +70,21 @@ def test_panda_rows_with_a_combination_matrix_and_lost_targets() -> None:
     slow = run_campaign(d, samples=2, methods=methods, workers=1, progress=False, fast=False)
     assert _same_rows(fast.rows, slow.rows)
     assert {"target_lost", "max_iterations"} <= {r["outcome"] for r in fast.rows}
+
+
+def test_urdf_panda_rows_are_those_of_the_object_path(capsys: pytest.CaptureFixture[str]) -> None:
+    """The Panda from its URDF (a chain of fixed transforms and joint axes, kind 2 of the
+    loop), every method of the shipped campaign: no fallback, the same rows bit for bit."""
+    pytest.importorskip("pinocchio", reason="URDF robots are loaded by Pinocchio")
+    d = load_campaign("panda-urdf-near-limits")
+    fast = run_campaign(d, samples=2, workers=1, progress=False)
+    assert "object path" not in capsys.readouterr().err
+    slow = run_campaign(d, samples=2, workers=1, progress=False, fast=False)
+    assert len(fast.rows) == 2 * len(d.methods)
+    assert _same_rows(fast.rows, slow.rows)
+    exp = build(draw_sample(d, 0, 0).scenario)
+    assert type(exp.robot).__name__ == "URDFRobot"
+    assert fastloop.experiment_reason(exp) is None
 
 
 @pytest.mark.parametrize(

@@ -13,8 +13,9 @@ not covered:
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, a feed-forward term, an adaptive gain;
-* a robot other than the Afma6 or a DH chain (URDF robots), features other than image
-  points, a depth option other than ``"current"``, a moving target.
+* a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
+  (URDF robots), features other than image points, a depth option other than
+  ``"current"``, a moving target.
 
 A covered run whose law would raise (non-finite ``J1``, inconsistent ``sns`` bounds) is
 also handed back to the object path, which records the exception as the object path does.
@@ -74,10 +75,11 @@ def _compiled() -> bool:
 
 def _robot_reason(exp: Experiment) -> str | None:
     from redservo.robots.afma6 import Afma6
+    from redservo.robots.chain import ChainRobot
     from redservo.robots.dh import DHRobot
 
     kin = type(exp.robot).kinematics
-    if kin is not Afma6.kinematics and kin is not DHRobot.kinematics:
+    if kin not in (Afma6.kinematics, DHRobot.kinematics, ChainRobot.kinematics):
         return f"robot {type(exp.robot).__name__}: no compiled kinematics in the loop"
     return None
 
@@ -137,15 +139,21 @@ def fast_reason(exp: Experiment, law: Law) -> str | None:
 
 def _robot_args(exp: Experiment) -> tuple[Any, ...]:
     from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
+    from redservo.robots.chain import ChainRobot
 
     r = exp.robot
     c = np.ascontiguousarray
     eMc, cVe = c(r.eMc, dtype=np.float64), c(r.cVe, dtype=np.float64)
+    # the arrays of the kinds not taken: placeholders of the same numba types
+    no_dh = (np.zeros((8, r.n)), np.eye(4), np.eye(4), False)
+    no_chain = (np.zeros((1, 3, 4)), np.zeros((0, 4)))
     if isinstance(r, Afma6):
-        return (0, eMc, cVe, COUPLING, OFFSET, np.zeros((8, r.n)), np.eye(4), np.eye(4), False)
+        return (0, eMc, cVe, COUPLING, OFFSET, *no_dh, *no_chain)
+    if isinstance(r, ChainRobot):
+        return (2, eMc, cVe, 0.0, 0.0, *no_dh, c(r.chain.frames), c(r.chain.joints))
     par, base, flange = r._par, r._base, r._flange  # type: ignore[attr-defined]
     standard = r._convention == "standard"  # type: ignore[attr-defined]
-    return (1, eMc, cVe, 0.0, 0.0, c(par), c(base), c(flange), bool(standard))
+    return (1, eMc, cVe, 0.0, 0.0, c(par), c(base), c(flange), bool(standard), *no_chain)
 
 
 def _scene_args(exp: Experiment) -> tuple[tuple[Any, ...], tuple[Any, ...]]:

@@ -6,7 +6,8 @@ point features with the current depth, no actuator model, no objective, no noise
 constant gain and a law with a compiled step. It performs, at every iteration, the very
 operations of the object path, in the same order and with the same kernels:
 
-1. ``bMc, J = kinematics(q)`` (the Afma6 or a DH chain);
+1. ``bMc, J = kinematics(q)`` (the Afma6, a DH chain or a chain of fixed transforms and
+   joint axes: a URDF robot);
 2. ``cMo = (inverse(bMc) @ bMw) @ wMo`` per target, each feature measured by
    :func:`~redservo.kernels.features.points_measure` (a point behind the camera ends the run
    with ``target_lost``), ``L`` by :func:`~redservo.kernels.features.point_interaction`;
@@ -40,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
+from redservo.kernels.chain import chain_kinematics
 from redservo.kernels.events import qp_events, safety_events
 from redservo.kernels.features import point_interaction, points_measure
 from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
@@ -130,13 +132,15 @@ def _measure(cMw: Any, wMo: Any, term_obj: Any, term_pt: Any, depth_scale: float
 @kernel
 def _task(q: Any, robot: Any, scene: Any, task: Any) -> Any:
     """Steps 1-3 of the module docstring: ``(J, e1, J1, lost)``."""
-    kind, eMc, cVe, coupling, offset, par, base, flange, standard = robot
+    kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames, joints = robot
     bMw, wMo, vis_pts, vis_cnt, cam, check = scene
     term_obj, term_pt, s_star, C, has_C, depth_scale = task
     if kind == 0:
         bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    else:
+    elif kind == 1:
         bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
+    else:
+        bMc, J = chain_kinematics(q, frames, joints, eMc, cVe)
     cMw = np.dot(_inverse(bMc), bMw)
     s, L, cMo, lost = _measure(cMw, wMo, term_obj, term_pt, depth_scale)
     if lost:
@@ -227,8 +231,9 @@ def closed_loop(
     Args (tuples of arrays and numbers, packed by :mod:`redservo.campaign.fastloop`):
         q, prev: (n,) joints and previous command; updated in place (the state of a run
             resumed after a ``qp`` solve).
-        robot: ``(kind, eMc, cVe, coupling, offset, par, base, flange, standard)``,
-            kind 0 the Afma6, 1 a DH chain.
+        robot: ``(kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames,
+            joints)``, kind 0 the Afma6, 1 a DH chain, 2 a chain of fixed transforms and axes
+            (a URDF robot: :mod:`redservo.kernels.chain`).
         scene: ``(bMw, wMo (O, 4, 4), vis_pts (O, P, 3), vis_cnt (O,), cam (7,), check)``
             for the O targets; ``cam`` = (px, py, u0, v0, width, height, margin).
         task: ``(term_obj (K,), term_pt (K, 3), s_star (k,), C (m, k), has_C, depth_scale)``.
