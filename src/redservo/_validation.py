@@ -13,6 +13,8 @@ from redservo.errors import ShapeError
 FloatArray = NDArray[np.float64]
 
 
+_FLOAT64 = np.dtype(np.float64)
+
 _NUMERIC_KINDS = "fiu"
 """numpy dtype kinds accepted as numbers: floats, signed and unsigned integers."""
 
@@ -132,6 +134,25 @@ def as_transform(value: ArrayLike, name: str) -> FloatArray:
     (to 1e-6 per entry) and ``det R > 0`` (not a reflection). Written on Python floats:
     it runs on the control hot path, where ``np.allclose`` would dominate the step.
     """
+    if type(value) is np.ndarray and value.shape == (4, 4) and value.dtype == _FLOAT64:
+        # Fast path (the same checks on one flat list, no call per test): a valid transform
+        # is returned here, anything else gets the checks below and their messages.
+        a, b, c, x, d, e, f, y, g, h, i, z, p, q, r, w = value.ravel().tolist()
+        if (
+            math.isfinite(a + b + c + d + e + f + g + h + i + x + y + z + p + q + r + w)
+            and -1e-9 <= p <= 1e-9
+            and -1e-9 <= q <= 1e-9
+            and -1e-9 <= r <= 1e-9
+            and -1e-9 <= w - 1.0 <= 1e-9
+            and -1e-6 <= a * a + b * b + c * c - 1.0 <= 1e-6
+            and -1e-6 <= d * d + e * e + f * f - 1.0 <= 1e-6
+            and -1e-6 <= g * g + h * h + i * i - 1.0 <= 1e-6
+            and -1e-6 <= a * d + b * e + c * f <= 1e-6
+            and -1e-6 <= a * g + b * h + c * i <= 1e-6
+            and -1e-6 <= d * g + e * h + f * i <= 1e-6
+            and a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0.0
+        ):
+            return value
     T = (
         value
         if isinstance(value, np.ndarray) and value.dtype == np.float64
