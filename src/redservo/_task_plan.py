@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from operator import itemgetter
 from typing import NamedTuple, NoReturn, cast
 
 import numpy as np
@@ -61,8 +62,8 @@ class PointGroup(NamedTuple):
     star: FloatArray | None
     """(N,) their inverse depths at the desired pose (1/m), when known."""
     features: tuple[Feature, ...]
-    rows: tuple[slice, ...]
-    """``slice(i, i + 1)`` for each point: its entry of the inverse depths."""
+    split: Callable[[FloatArray], tuple[FloatArray, ...]]
+    """The inverse depths (N,) to the per-term tuple of (1,) arrays (views)."""
 
 
 class Single(NamedTuple):
@@ -83,6 +84,10 @@ class Plan(NamedTuple):
     targets: tuple[str, ...]
     segments: tuple[PointGroup | Single, ...]
     n_terms: int
+
+
+def _alone(iz: FloatArray) -> tuple[FloatArray, ...]:
+    return (iz,)
 
 
 def make_plan(
@@ -113,9 +118,9 @@ def make_plan(
             )
             star = None if stars is None else np.concatenate(stars[j:j1])
             feats = tuple(features[j:j1])
-            rows = tuple(slice(i, i + 1) for i in range(j1 - j))
+            split = _alone if j1 == j + 1 else itemgetter(*(slice(i, i + 1) for i in range(j1 - j)))
             segs.append(
-                PointGroup(ti, names[ti], offsets[j], offsets[j1], j, j1, pts, star, feats, rows)
+                PointGroup(ti, names[ti], offsets[j], offsets[j1], j, j1, pts, star, feats, split)
             )
             j = j1
         else:
@@ -179,7 +184,7 @@ def measure(
                 raise_behind(seg, bad, cMo)
             s_parts.append(s)
             parts.append(iz)
-            inv.extend(map(iz.__getitem__, seg.rows))
+            inv.extend(seg.split(iz))
         else:
             meas = seg.measure(cMo)  # type: ignore[union-attr]
             s_parts.append(meas.s)

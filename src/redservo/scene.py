@@ -351,7 +351,8 @@ class Scene:
         cMw = inverse(as_transform(bMc, "bMc"))
         if not self._base_at_origin:
             cMw = cMw @ self._bMw
-        traj = self.object(name).trajectory
+        obj = self._objects.get(name)
+        traj = (self.object(name) if obj is None else obj).trajectory
         if type(traj) is Static:
             if type(t) is not float or not math.isfinite(t):
                 _time(t)  # what Static.pose checks (an int is fine, NaN and inf raise)

@@ -23,7 +23,7 @@ vectors of ``L*``. This is ``C = W H^+|_{s*}`` for the particular choice
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal, NamedTuple, Protocol
 
@@ -38,6 +38,7 @@ from redservo.kernels import lazy
 from redservo.scene import Scene
 
 _K = lazy("features")
+_SCENE_CMO = Scene.cMo
 
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
@@ -83,6 +84,10 @@ class TaskState(NamedTuple):
     """(m, n) task Jacobian ``C L J(q)``."""
     inv_depth: tuple[FloatArray, ...]
     """True inverse-depth parameters per term."""
+
+
+_new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__  # type: ignore[assignment]
+"""``TaskState`` from its six fields without the Python-level ``__new__`` (the hot path)."""
 
 
 class VisualTask:
@@ -250,7 +255,7 @@ class VisualTask:
     def _poses(self, scene: _PoseSource, bMc: FloatArray, t: float) -> list[FloatArray]:
         """``cMo`` (4x4) of each target: a :class:`~redservo.scene.Scene`'s own are built from
         validated transforms; those of another pose source are checked."""
-        if type(scene).cMo is Scene.cMo:
+        if type(scene).cMo is _SCENE_CMO:
             return [scene.cMo(name, bMc, t) for name in self._plan.targets]
         return [
             np.ascontiguousarray(as_transform(scene.cMo(name, bMc, t), "cMo"))
@@ -285,13 +290,22 @@ class VisualTask:
             ConfigurationError: ``t`` is not finite, ``depth_scale`` not positive and finite.
         """
         group = self._group
-        if group is not None and noise is None and type(scene).cMo is Scene.cMo:
-            # The hot path: one target, all points (docs/speed.md, "Public object path").
+        if group is not None and noise is None and type(scene).cMo is _SCENE_CMO:
+            # The hot path: the points of one target (docs/speed.md, "Public object path").
             cMo = scene.cMo(group.target_name, bMc, t)
             s, iz, bad = _K.points_measure(cMo, group.points)
             if bad >= 0:
                 plan.raise_behind(group, bad, cMo)
-            return self._points_state(s, iz, tuple(map(iz.__getitem__, group.rows)), J, depth_scale)
+            if depth_scale != 1.0 or self.depth != "current":
+                return self._points_state(s, iz, group.split(iz), J, depth_scale)
+            if type(J) is not np.ndarray or J.ndim != 2 or J.shape[0] != 6:
+                J = as_matrix(J, "J", 6)
+            L = _K.points_interaction(s, iz)
+            e = s - self.s_star
+            C = self.C
+            if C is None:
+                return _new_state(TaskState, (s, e, e, L, L @ J, group.split(iz)))
+            return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, group.split(iz)))
         s, inv_depth, parts = plan.measure(self._plan, self._poses(scene, bMc, t))
         if noise is not None:
             s = s + as_vector(noise, "noise", self.k)
@@ -342,8 +356,8 @@ class VisualTask:
         e = s - self.s_star
         C = self.C
         if C is None:
-            return TaskState(s, e, e, L, L @ J, inv_depth)
-        return TaskState(s, e, C @ e, L, (C @ L) @ J, inv_depth)
+            return _new_state(TaskState, (s, e, e, L, L @ J, inv_depth))
+        return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, inv_depth))
 
     def _state(
         self,
