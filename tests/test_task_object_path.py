@@ -8,7 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from redservo import ConfigurationError, GeometryError, ShapeError, UnknownNameError
+from redservo import (
+    ConfigurationError,
+    GeometryError,
+    JointLimitError,
+    ShapeError,
+    UnknownNameError,
+)
+from redservo.bench_cases import dh_chain
 from redservo.features import LineFeature, PointFeature, SphereFeature
 from redservo.features.base import Measurement
 from redservo.robots import Afma6
@@ -213,3 +220,19 @@ def test_a_subclass_keeps_its_own_measure_and_a_custom_pose_source_is_checked() 
 
     far = Shifted([PointSet("t", PTS, trajectory=scene.object("t").trajectory)])
     assert not np.array_equal(plain.evaluate(far, bMc, J).s, plain.evaluate(scene, bMc, J).s)
+
+
+@pytest.mark.parametrize("robot", [Afma6(), dh_chain(7)], ids=["afma6", "dh7"])
+def test_kinematics_limit_check_inside_at_within_tolerance_and_past(robot) -> None:
+    """The float-by-float hot path of the joint check accepts what the numpy check did."""
+    lo, hi = robot.q_min, robot.q_max
+    for q in (robot.limits().center, lo.copy(), hi.copy(), hi + 5e-10, lo - 5e-10):
+        bMc, J = robot.kinematics(q)
+        assert bMc.shape == (4, 4) and J.shape == (6, robot.n)
+    past = robot.limits().center
+    past[2] = hi[2] + 1e-6
+    with pytest.raises(JointLimitError, match=repr(robot.joint_names[2])):
+        robot.kinematics(past)
+    past[2] = np.nan
+    with pytest.raises(ShapeError, match="q"):
+        robot.kinematics(past)

@@ -128,7 +128,14 @@ def check_q_named(robot: Robot, q: ArrayLike, check_limits: bool) -> FloatArray:
         ) from exc
     if check_limits:
         lo, hi = robot.q_min, robot.q_max
-        if float(np.minimum(qa - lo, hi - qa).min()) >= -_LIMIT_TOL:  # hot path: all inside
+        # Hot path: every joint inside its limits, compared on Python floats (a few numpy
+        # calls would cost microseconds per control period); the rest is checked below.
+        for v, a, b in zip(qa.tolist(), lo.tolist(), hi.tolist(), strict=True):
+            if not a <= v <= b:
+                break
+        else:
+            return qa
+        if float(np.minimum(qa - lo, hi - qa).min()) >= -_LIMIT_TOL:  # within the tolerance
             return qa
         out = np.flatnonzero((qa < lo - _LIMIT_TOL) | (qa > hi + _LIMIT_TOL))
         if out.size:
