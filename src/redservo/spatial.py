@@ -87,9 +87,10 @@ _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 def inverse(T: FloatArray) -> FloatArray:
     """Return the inverse of a homogeneous transform (using ``R^T``, not a general inverse)."""
-    Rt = T[:3, :3].T
+    TT = T.T
+    Rt = TT[:3, :3]  # the view T[:3, :3].T (same strides: the same BLAS call below)
     if T.dtype == np.float64:
-        out = T.T.copy()  # R^T in place already: one copy instead of a block assignment
+        out = TT.copy()  # R^T in place already: one copy instead of a block assignment
     else:
         out = np.empty((4, 4))
         out[:3, :3] = Rt
