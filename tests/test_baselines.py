@@ -632,7 +632,7 @@ def test_large_projection_with_vanishing_p_ii_stays_finite() -> None:
 def test_large_projection_bad_options() -> None:
     for kwargs, word in (
         ({"e0": 0.5, "e1": 0.5}, "e0 < e1"),
-        ({"e0": -0.1}, "e0 < e1"),
+        ({"e0": -0.1}, r"^e0 .* must be a finite number in \[0, inf\)"),
         ({"rho": 0.5}, "rho"),
         ({"rho1": 1.0}, "rho1"),
         ({"lambda_tune": -1.0}, "lambda_tune"),

@@ -425,3 +425,71 @@ def test_gpm_auto_damped_twice_reports_both_filters() -> None:
             assert damped[0].value == 1e3 and "; " in damped[0].message
             return
     pytest.skip("no case with both filters met")  # pragma: no cover
+
+
+# -- options: declared once (Law.OPTIONS) --------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_options_declared_once_give_signature_repr_and_validation(method: str) -> None:
+    import inspect
+
+    from redservo.redundancy import law_class
+    from redservo.redundancy.options import check_option
+
+    cls = law_class(method)
+    params = inspect.signature(cls.__init__).parameters
+    declared = {o.name: o for o in cls.OPTIONS}
+    assert [p for p in params if p != "self"] == list(declared)
+    law = make_law(method)
+    for name, option in declared.items():
+        assert params[name].default is option.default
+        assert f"{name}=" in repr(law)
+        value = getattr(law, name)
+        assert value is None if option.default is None else value == option.default
+        assert (option.doc and check_option(option, option.default) is not None) or option.none
+    for name, option in declared.items():
+        bad = "x" if option.kind not in ("choice", "str") else 3
+        with pytest.raises(ConfigurationError, match=f"^{name} ") as info:
+            make_law(method, **{name: bad})
+        assert info.value.argument == name and option.allowed() in str(info.value)
+
+
+@pytest.mark.parametrize("method", [m for m in METHODS if m != "qp"])
+def test_each_declared_option_is_packed_into_its_own_slot(method: str) -> None:
+    """Changing one option changes its slot of the compiled step's pack and no other option's
+    slot, and no two options or extras of a law share a slot."""
+    from redservo.redundancy import law_class
+    from redservo.redundancy.kio import law_options
+
+    cls = law_class(method)
+    base = make_law(method)
+    slots = [o.slot for o in cls.OPTIONS if o.slot is not None]
+    slots += [s for s, _ in base.packed_extras()]
+    assert len(slots) == len(set(slots)), method
+    ref = law_options(base, 4)
+    extras = {s for s, _ in base.packed_extras()}  # may follow an option (has v_max, ...)
+    other = {"float": None, "int": 2, "bool": False, "per-joint": 0.25}
+    for option in cls.OPTIONS:
+        if option.slot is None:
+            continue
+        if option.kind == "choice":
+            value: Any = option.choices[-1]
+        elif option.kind == "float":
+            lo = 0.0 if option.low is None else option.low
+            hi = lo + 1.0 if option.high is None else option.high
+            value = lo + 0.37 * (hi - lo)
+        else:
+            value = other[option.kind]
+        kw = {option.name: value}
+        if method == "large-projection" and option.name == "e0":
+            kw["e1"] = 1.0
+        got = law_options(make_law(method, **kw), 4)
+        changed = {
+            (k, j)
+            for k, a, b in zip("fiv", ref[1:], got[1:], strict=True)
+            for j in range(a.shape[0])
+            if not np.array_equal(a[j], b[j])
+        }
+        allowed = {option.slot, *extras, *(o.slot for o in cls.OPTIONS if o.name in kw)}
+        assert option.slot in changed and changed <= allowed, (option.name, changed)

@@ -9,16 +9,8 @@ array ``iopt`` (layout below); ``vopt`` (2, n) holds per-joint options (``sns``'
 ``v_max`` and ``a_max``, inf when absent). ``qp`` is not here: its solver is a Python
 library (the law calls the kernels of :mod:`redservo.kernels.qp` around it).
 
-Option layout, common to every law: ``fopt[0]`` rcond, ``fopt[1]`` the robust filter
-threshold ε (0 when ``robust`` is off), ``iopt[0]`` shield, ``iopt[1]`` secondary-first
-scaling; then per law (index: meaning):
-
-* gpm: f2 α · gpm-auto: f2 α_max (inf: none), i2 current rule, i3 robust
-* iterative family: i2 smooth, f2 α of the e2 term (0: none), i3 max levels (-1: none),
-  f3 constraint cut-off, f4 constraint filter
-* directional: f2 κ, i2 joint-limit force, f3 margin μ · wln: i2 history mode
-* sns: f2 margin, i2 has v_max, i3 has a_max · large-projection: f2 e0, f3 e1, i2 mode,
-  f4 ρ, f5 ρ1, f6 λ_tune, f7 P filter
+Option layout: the named slots of :mod:`redservo.kernels.lawopts` (each law's options declare
+theirs, ``Law.OPTIONS``).
 
 Step outputs: the law's ``(q̇, iout, fout, axes, axf, vec)`` (:mod:`redservo.kernels.laws`)
 with ``q̇`` after the safety layer, and ``sout`` (10,): the numbers of
@@ -47,6 +39,35 @@ from redservo.kernels.events import (
     wln_events,
 )
 from redservo.kernels.iterative import iterative
+from redservo.kernels.lawopts import (
+    F_CON_FILTER,
+    F_CON_RCOND,
+    F_DIR_MARGIN,
+    F_E0,
+    F_E1,
+    F_GAIN,
+    F_KAPPA,
+    F_LAMBDA_TUNE,
+    F_P_FILTER,
+    F_RCOND,
+    F_RHO,
+    F_RHO1,
+    F_ROBUST,
+    F_SNS_MARGIN,
+    I_AUTO_ROBUST,
+    I_CURRENT,
+    I_FIRST,
+    I_HAS_A,
+    I_HAS_V,
+    I_HISTORY,
+    I_JOINT_FORCE,
+    I_LEVELS,
+    I_PROJECTOR,
+    I_SHIELD,
+    I_SMOOTH,
+    V_AMAX,
+    V_VMAX,
+)
 from redservo.kernels.laws import classical, gpm, gpm_auto, new_outputs
 from redservo.kernels.projection import large_projection
 from redservo.kernels.safety import apply_safety
@@ -97,110 +118,67 @@ def _raw_law(
     hist: Any,
     has_hist: bool,
 ) -> Any:
-    rc = fopt[0]
-    rb = fopt[1]
+    """The raw command of law ``law_id``, its options read from their slots
+    (:mod:`redservo.kernels.lawopts`)."""
+    rc = fopt[F_RCOND]
+    rb = fopt[F_ROBUST]
     if law_id == 0:
         return classical(J1, e, lam, sec, has_sec, rc, rb)
     if law_id == 1:
-        return gpm(J1, e, q, lp, lam, sec, has_sec, fopt[2], rc, rb)
+        return gpm(J1, e, q, lp, lam, sec, has_sec, fopt[F_GAIN], rc, rb)
     if law_id == 2:
-        return gpm_auto(
-            J1, e, q, lp, lam, dt, sec, has_sec, fopt[2], iopt[2] != 0, rc, rb, iopt[3] != 0
-        )
+        current, robust = iopt[I_CURRENT] != 0, iopt[I_AUTO_ROBUST] != 0
+        amax = fopt[F_GAIN]
+        return gpm_auto(J1, e, q, lp, lam, dt, sec, has_sec, amax, current, rc, rb, robust)
     if law_id >= 3 and law_id <= 6:
+        smooth, levels = iopt[I_SMOOTH] != 0, iopt[I_LEVELS]
+        con_rcond, con_filter = fopt[F_CON_RCOND], fopt[F_CON_FILTER]
         return iterative(
-            J1,
-            e,
-            q,
-            lp,
-            lam,
-            dt,
-            sec,
-            has_sec,
-            iopt[2] != 0,
-            fopt[2],
-            iopt[3],
-            rc,
-            rb,
-            fopt[3],
-            fopt[4],
-        )
+            J1, e, q, lp, lam, dt, sec, has_sec, smooth, fopt[F_GAIN], levels, rc, rb,
+            con_rcond, con_filter,
+        )  # fmt: skip
     if law_id == 7:
+        kappa, force, mu = fopt[F_KAPPA], iopt[I_JOINT_FORCE] != 0, fopt[F_DIR_MARGIN]
         return directional(
-            J1,
-            e1,
-            e,
-            ff,
-            has_ff,
-            q,
-            lp,
-            lam,
-            dt,
-            sec,
-            has_sec,
-            fopt[2],
-            iopt[2] != 0,
-            fopt[3],
-            rc,
-            rb,
+            J1, e1, e, ff, has_ff, q, lp, lam, dt, sec, has_sec, kappa, force, mu, rc, rb
         )
     if law_id == 8:
-        return wln(J1, e, q, lp, lam, sec, has_sec, iopt[2] != 0, hist, has_hist, rc, rb, 1e-9)
+        history = iopt[I_HISTORY] != 0
+        return wln(J1, e, q, lp, lam, sec, has_sec, history, hist, has_hist, rc, rb, 1e-9)
     if law_id == 9:
-        out = sns(
-            J1,
-            e,
-            q,
-            lp,
-            has_v,
-            has_a,
-            lam,
-            dt,
-            prev,
-            has_prev,
-            sec,
-            has_sec,
-            vopt[0],
-            iopt[2] != 0,
-            vopt[1],
-            iopt[3] != 0,
-            fopt[2],
-            rc,
-            iopt[0] != 0,
-        )
-        n = q.shape[0]
-        qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
-        for i in range(n):
-            qdot[i] = out[0][i]
-            axes[i] = 1 if out[2][i] else 0
-        iout[0] = out[7]
-        iout[2] = out[4]
-        iout[3] = out[3]
-        iout[4] = 1 if out[1] < 1.0 else 0
-        iout[I_SNS_RESTORED] = 1 if out[5] else 0
-        iout[I_SNS_BAD] = out[9]
-        fout[F_SNS_SCALE] = out[1]
-        fout[3] = out[6]
-        return qdot, iout, fout, axes, axf, vec
+        return _sns(fopt, iopt, vopt, J1, e, q, lp, has_v, has_a, lam, dt, sec, has_sec, prev,
+                    has_prev, rc)  # fmt: skip
     return large_projection(
-        J1,
-        e1,
-        e,
-        q,
-        lp,
-        lam,
-        sec,
-        has_sec,
-        fopt[2],
-        fopt[3],
-        iopt[2],
-        fopt[4],
-        fopt[5],
-        fopt[6],
-        rc,
-        rb,
-        fopt[7],
-    )
+        J1, e1, e, q, lp, lam, sec, has_sec, fopt[F_E0], fopt[F_E1], iopt[I_PROJECTOR],
+        fopt[F_RHO], fopt[F_RHO1], fopt[F_LAMBDA_TUNE], rc, rb, fopt[F_P_FILTER],
+    )  # fmt: skip
+
+
+@kernel
+def _sns(fopt: Any, iopt: Any, vopt: Any, J1: Any, e: Any, q: Any, lp: Any, has_v: bool,
+         has_a: bool, lam: float, dt: float, sec: Any, has_sec: bool, prev: Any,
+         has_prev: bool, rc: float) -> Any:  # fmt: skip
+    """``sns`` with its outputs repacked in the common layout of :mod:`redservo.kernels.laws`
+    (rank, free null-space dimension, iterations, scale < 1, restored, infeasible joint)."""
+    out = sns(
+        J1, e, q, lp, has_v, has_a, lam, dt, prev, has_prev, sec, has_sec, vopt[V_VMAX],
+        iopt[I_HAS_V] != 0, vopt[V_AMAX], iopt[I_HAS_A] != 0, fopt[F_SNS_MARGIN], rc,
+        iopt[I_SHIELD] != 0,
+    )  # fmt: skip
+    n = q.shape[0]
+    qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
+    for i in range(n):
+        qdot[i] = out[0][i]
+        axes[i] = 1 if out[2][i] else 0
+    iout[0] = out[7]
+    iout[2] = out[4]
+    iout[3] = out[3]
+    iout[4] = 1 if out[1] < 1.0 else 0
+    iout[I_SNS_RESTORED] = 1 if out[5] else 0
+    iout[I_SNS_BAD] = out[9]
+    fout[F_SNS_SCALE] = out[1]
+    fout[3] = out[6]
+    return qdot, iout, fout, axes, axf, vec
 
 
 @kernel
@@ -236,11 +214,11 @@ def law_step(
         sec, has_sec, prev, has_prev, hist, has_hist,
     )  # fmt: skip
     task = qdot
-    first = iopt[1] != 0
+    first = iopt[I_FIRST] != 0
     if first:
-        task = classical(J1, e, lam, sec, False, fopt[0], fopt[1])[0]
+        task = classical(J1, e, lam, sec, False, fopt[F_RCOND], fopt[F_ROBUST])[0]
     out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, _ = apply_safety(
-        qdot, q, lp, has_v, has_a, dt, prev, has_prev, iopt[0] != 0, task, first
+        qdot, q, lp, has_v, has_a, dt, prev, has_prev, iopt[I_SHIELD] != 0, task, first
     )
     sout = np.empty(NS)
     sout[0] = bad
@@ -275,15 +253,15 @@ def step_events(
     :func:`law_step`: its law's events (the kernel of :mod:`redservo.kernels.events` the law
     object calls) and the safety layer's."""
     n = axes.shape[0]
-    rb = fopt[1]
+    rb = fopt[F_ROBUST]
     if law_id == 0:
         mask = classical_events(m, n, iout, rb)[0]
     elif law_id == 1:
         mask = gpm_events(m, n, iout, rb)[0]
     elif law_id == 2:
-        mask = gpm_auto_events(m, n, iout, axf, rb, fopt[2])[0]
+        mask = gpm_auto_events(m, n, iout, axf, rb, fopt[F_GAIN])[0]
     elif law_id >= 3 and law_id <= 6:
-        mask = iterative_events(m, n, iout, fout, vec, rb, fopt[4])[0]
+        mask = iterative_events(m, n, iout, fout, vec, rb, fopt[F_CON_FILTER])[0]
     elif law_id == 7:
         mask = directional_events(m, n, iout, rb)[0]
     elif law_id == 8:
@@ -292,7 +270,7 @@ def step_events(
         restored = iout[I_SNS_RESTORED] != 0
         mask = sns_events(m, iout[0], fout[F_SNS_SCALE], restored)[0]
     else:
-        mask = large_projection_events(m, n, iout, axes, rb, fopt[7])[0]
+        mask = large_projection_events(m, n, iout, axes, rb, fopt[F_P_FILTER])[0]
     safe = safety_events(
         int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
         sout[7] != 0, sout[9],

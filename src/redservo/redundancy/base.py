@@ -34,13 +34,16 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, _to_float, require_finite
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError, UnknownNameError
+from redservo.kernels.lawopts import F_ROBUST, I_FIRST, I_SHIELD
 from redservo.limits import JointLimits
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain, gain_value
-from redservo.redundancy.linalg import DEFAULT_RCOND, ROBUST_FILTER, TaskSVD, task_svd
+from redservo.redundancy.linalg import ROBUST_FILTER, TaskSVD, task_svd
+from redservo.redundancy.options import RCOND, Option, check_option, constructor
 from redservo.redundancy.safety import apply_safety
 
 __all__ = [
+    "RCOND",
     "SAFETY_OPTIONS",
     "Diagnostics",
     "Law",
@@ -267,15 +270,48 @@ class Law(abc.ABC):
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     stateful: ClassVar[bool] = False
+    OPTIONS: ClassVar[tuple[Option, ...]] = (RCOND,)
+    """The law's options, declared once (:mod:`redservo.redundancy.options`): the
+    constructor, its validation, ``repr`` and the compiled step's packing follow them."""
     shield: bool = True
     robust: bool = True
     scaling: Scaling = "uniform"
+    rcond: float
 
-    def __init__(self, *, rcond: float = DEFAULT_RCOND) -> None:
-        r = _scalar(rcond, "rcond", "relative singular-value cut-off")
-        if not r < 1.0:
-            raise ConfigurationError(f"rcond must lie in (0, 1), got {rcond!r}", argument="rcond")
-        self.rcond = r
+    def __init__(self, **options: Any) -> None:
+        declared = {o.name: o for o in type(self).OPTIONS}
+        unknown = sorted(set(options) - set(declared))
+        if unknown:
+            raise ConfigurationError(
+                f"method {self.name!r} has no option(s) {unknown}; its options are: "
+                f"{', '.join(declared)}",
+                argument=unknown[0],
+            )
+        for key, option in declared.items():
+            value = options.get(key, option.default)
+            setattr(self, key, check_option(option, value))
+        self._setup()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Give a law without its own ``__init__`` a keyword-only constructor whose signature
+        lists ``OPTIONS`` with their defaults (what :func:`make_law` and the docs read)."""
+        super().__init_subclass__(**kwargs)
+        if "__init__" not in cls.__dict__:  # a law with its own constructor keeps it
+            cls.__init__ = constructor(cls, Law.__init__)  # type: ignore[method-assign]
+
+    def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
+        """What the compiled step takes besides the declared options, ``(slot, value)``
+        (:mod:`redservo.kernels.lawopts`): the robust filter threshold, the shield,
+        secondary-first scaling; laws add their own."""
+        first = int(self.scaling == "secondary-first")
+        return (
+            (("f", F_ROBUST), self.filter_threshold),
+            (("i", I_SHIELD), int(self.shield)),
+            (("i", I_FIRST), first),
+        )
+
+    def _setup(self) -> None:  # noqa: B027 - optional hook
+        """Checks across options and state, after the options are set (default: none)."""
 
     def set_safety(
         self,
@@ -383,9 +419,9 @@ class Law(abc.ABC):
         """Forget any state kept between calls (no-op for stateless laws)."""
 
     def __repr__(self) -> str:
-        opts = ", ".join(
-            f"{k}={v!r}" for k, v in sorted(vars(self).items()) if not k.startswith("_")
-        )
+        names = [o.name for o in type(self).OPTIONS]
+        names += sorted(k for k in vars(self) if k not in names and not k.startswith("_"))
+        opts = ", ".join(f"{k}={getattr(self, k)!r}" for k in names)
         return f"make_law({self.name!r}{', ' if opts else ''}{opts})"
 
 

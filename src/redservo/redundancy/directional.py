@@ -97,10 +97,11 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.kernels.lawopts import F_DIR_MARGIN, F_KAPPA, I_JOINT_FORCE
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
-from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 _K = lazy("directional")
 _KE = lazy("events")
@@ -228,27 +229,39 @@ class Directional(Law):
     name = "directional"
     description = "MC05 directional redundancy: secondary motion allowed where it helps the task"
 
-    def __init__(
-        self,
-        *,
-        kappa: float = 1.0,
-        use_joint_limits: bool = True,
-        margin: float = 1.0,
-        rcond: float = DEFAULT_RCOND,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        k = float(kappa)
-        if not (np.isfinite(k) and k > 0.0):
-            raise ConfigurationError(
-                f"kappa (joint-limit force gain κ) must be a finite positive number, got {kappa!r}"
-            )
-        if not isinstance(use_joint_limits, bool | np.bool_):
-            raise ConfigurationError(
-                f"use_joint_limits must be True or False, got {use_joint_limits!r}"
-            )
-        self.kappa = k
-        self.use_joint_limits = bool(use_joint_limits)
-        self.margin = _check_margin(margin)
+    OPTIONS = (
+        Option(
+            "kappa",
+            1.0,
+            doc="joint-limit force gain κ",
+            ref="MC05 eqs. 27-29",
+            low=0.0,
+            low_open=True,
+            slot=("f", F_KAPPA),
+        ),
+        Option(
+            "use_joint_limits",
+            True,
+            kind="bool",
+            doc="add the joint-limit force -κ e2 (False: only secondary is projected)",
+            ref="MC05 eq. 27",
+            slot=("i", I_JOINT_FORCE),
+        ),
+        Option(
+            "margin",
+            1.0,
+            doc="μ shrinking the admissible interval [0, -2 a_i] (1: the paper's)",
+            ref="MC05 eqs. 10-23",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+            slot=("f", F_DIR_MARGIN),
+        ),
+        RCOND,
+    )
+    kappa: float
+    use_joint_limits: bool
+    margin: float
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape

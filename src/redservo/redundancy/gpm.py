@@ -60,12 +60,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.kernels.lawopts import F_GAIN, I_AUTO_ROBUST, I_CURRENT
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
-from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD
+from redservo.redundancy.linalg import TaskSVD
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 __all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
 
@@ -103,12 +104,18 @@ class GradientProjection(Law):
     name = "gpm"
     description = "gradient projection, q̇ = -λ(J1⁺e1 + α J1^⊥ e2) (CM01 eqs. 1-6)"
 
-    def __init__(self, *, alpha: float = 2.0, rcond: float = DEFAULT_RCOND) -> None:
-        super().__init__(rcond=rcond)
-        a = float(alpha)
-        if not (np.isfinite(a) and a >= 0.0):
-            raise ConfigurationError(f"alpha must be a finite number >= 0, got {alpha!r}")
-        self.alpha = a
+    OPTIONS = (
+        Option(
+            "alpha",
+            2.0,
+            doc="gain α of the joint-limit gradient, relative to λ",
+            ref="CM01 eq. 6, §V-A2 (the smallest value that succeeded)",
+            low=0.0,
+            slot=("f", F_GAIN),
+        ),
+        RCOND,
+    )
+    alpha: float
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
@@ -161,28 +168,35 @@ class GradientProjectionAuto(Law):
     name = "gpm-auto"
     description = "gradient projection with α chosen to stop the most critical axis (CM01 eq. 9)"
 
-    def __init__(
-        self,
-        *,
-        alpha_max: float | None = None,
-        critical_rule: str = "predicted",
-        rcond: float = DEFAULT_RCOND,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        if critical_rule not in ("predicted", "current"):
-            raise ConfigurationError(
-                f"critical_rule must be 'predicted' or 'current', got {critical_rule!r}",
-                argument="critical_rule",
-            )
-        self.critical_rule = critical_rule
-        if alpha_max is not None:
-            amax = float(alpha_max)
-            if not (amax > 0.0):  # also rejects NaN; inf is allowed (= no cap)
-                raise ConfigurationError(
-                    f"alpha_max must be None or a number > 0, got {alpha_max!r}"
-                )
-            alpha_max = amax
-        self.alpha_max = alpha_max
+    OPTIONS = (
+        Option(
+            "alpha_max",
+            None,
+            doc="upper bound on α (None or inf: none, CM01 Fig. 10(c)'s transient)",
+            ref="CM01 eq. 9",
+            low=0.0,
+            low_open=True,
+            finite=False,
+            none=True,
+            slot=("f", F_GAIN),
+        ),
+        Option(
+            "critical_rule",
+            "predicted",
+            kind="choice",
+            doc="candidates: predicted q̂ or current q in the band",
+            ref="CM01 eq. 8, §II-C",
+            choices=("predicted", "current"),
+            slot=("i", I_CURRENT),
+        ),
+        RCOND,
+    )
+    alpha_max: float | None
+    critical_rule: str
+
+    def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
+        """Also the robust eq. 9 (:mod:`redservo.kernels.lawopts`)."""
+        return (*super().packed_extras(), (("i", I_AUTO_ROBUST), int(self.robust)))
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)

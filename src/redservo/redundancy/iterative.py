@@ -102,11 +102,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
+from redservo.kernels.lawopts import F_CON_FILTER, F_CON_RCOND, F_GAIN, I_LEVELS, I_SMOOTH
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import (
     I_ITER,
     I_OVER,
@@ -119,6 +119,7 @@ from redservo.redundancy.kio import (
 )
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 __all__ = [
     "Iterative",
@@ -212,30 +213,35 @@ def iterate_null_space(
     )
 
 
-def _check_levels(max_levels: int | None) -> int | None:
-    if max_levels is None:
-        return None
-    if isinstance(max_levels, bool) or not isinstance(max_levels, int | np.integer):
-        raise ConfigurationError(f"max_levels must be None or an int >= 1, got {max_levels!r}")
-    if max_levels < 1:
-        raise ConfigurationError(f"max_levels must be None or an int >= 1, got {max_levels!r}")
-    return int(max_levels)
-
-
-def _check_constraint_rcond(value: float | None) -> float | None:
-    if value is None:
-        return None
-    v = float(value)
-    if not (np.isfinite(v) and 0.0 <= v < 1.0):
-        raise ConfigurationError(f"constraint_rcond must be None or in [0, 1), got {value!r}")
-    return v
-
-
-def _check_alpha(alpha: float) -> float:
-    a = float(alpha)
-    if not (np.isfinite(a) and a >= 0.0):
-        raise ConfigurationError(f"alpha must be a finite number >= 0, got {alpha!r}")
-    return a
+_CON_RCOND = Option(
+    "constraint_rcond",
+    None,
+    doc="absolute cut-off of the constraint rows (None: rcond, exact; e.g. 1e-2 caps the "
+    "null-space amplification near ill-conditioned constraints)",
+    ref="CM01 eqs. 10-21 (module docstring)",
+    low=0.0,
+    high=1.0,
+    high_open=True,
+    none=True,
+)
+_MAX_LEVELS = Option(
+    "max_levels",
+    None,
+    kind="int",
+    doc="maximum number of levels (None: until no new axis becomes critical)",
+    ref="CM01 eqs. 13-15",
+    low=1,
+    none=True,
+    slot=("i", I_LEVELS),
+)
+_ALPHA = Option(
+    "alpha",
+    2.0,
+    doc="gain α of the joint-limit gradient e2, as gpm",
+    ref="CM01 eqs. 19-21",
+    low=0.0,
+    slot=("f", F_GAIN),
+)
 
 
 class _IterativeLaw(Law):
@@ -246,6 +252,20 @@ class _IterativeLaw(Law):
     max_levels: int | None = None
     alpha: float = 0.0
     constraint_rcond: float | None = None
+
+    def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
+        """Also: smooth γ weights, the levels of a variant without ``max_levels``, the
+        constraint rows' cut-off (``rcond`` when None) and robust filter."""
+        cr = self.rcond if self.constraint_rcond is None else self.constraint_rcond
+        extras: tuple[tuple[tuple[str, int], float], ...] = (
+            (("i", I_SMOOTH), int(self.smooth)),
+            (("f", F_CON_RCOND), cr),
+            (("f", F_CON_FILTER), CONSTRAINT_FILTER if self.robust else 0.0),
+        )
+        if not any(o.name == "max_levels" for o in self.OPTIONS):
+            levels = -1 if self.max_levels is None else self.max_levels
+            extras = (*extras, (("i", I_LEVELS), levels))
+        return (*super().packed_extras(), *extras)
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
@@ -328,12 +348,7 @@ class IterativeBasic(_IterativeLaw):
     name = "iterative-basic"
     description = "stop critical axes in Ker J1, one level (CM01 eqs. 10-12)"
     max_levels = 1
-
-    def __init__(
-        self, *, rcond: float = DEFAULT_RCOND, constraint_rcond: float | None = None
-    ) -> None:
-        super().__init__(rcond=rcond)
-        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
+    OPTIONS = (RCOND, _CON_RCOND)
 
 
 @register
@@ -352,16 +367,7 @@ class Iterative(_IterativeLaw):
     name = "iterative"
     description = "stop critical axes in Ker J1, iterated (CM01 eqs. 13-15)"
 
-    def __init__(
-        self,
-        *,
-        max_levels: int | None = None,
-        rcond: float = DEFAULT_RCOND,
-        constraint_rcond: float | None = None,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        self.max_levels = _check_levels(max_levels)
-        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
+    OPTIONS = (_MAX_LEVELS, RCOND, _CON_RCOND)
 
 
 @register
@@ -402,15 +408,4 @@ class IterativeSmoothE2(_IterativeLaw):
     smooth = True
     with_e2 = True
 
-    def __init__(
-        self,
-        *,
-        alpha: float = 2.0,
-        max_levels: int | None = None,
-        rcond: float = DEFAULT_RCOND,
-        constraint_rcond: float | None = None,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        self.alpha = _check_alpha(alpha)
-        self.max_levels = _check_levels(max_levels)
-        self.constraint_rcond = _check_constraint_rcond(constraint_rcond)
+    OPTIONS = (_ALPHA, _MAX_LEVELS, RCOND, _CON_RCOND)

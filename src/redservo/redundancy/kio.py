@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels.lawopts import NF, NI
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Law, LawInputs
 
@@ -107,7 +108,8 @@ class LawOptions(NamedTuple):
 
 
 def law_options(law: Law, n: int) -> LawOptions:
-    """Pack ``law``'s options for the compiled step (layout in :mod:`redservo.kernels.step`).
+    """Pack ``law``'s options for the compiled step: each declared option into its slot
+    (``Law.OPTIONS``, :mod:`redservo.kernels.lawopts`), then ``law.packed_extras()``.
 
     Raises:
         ConfigurationError: the law has no compiled step (``qp``, user-defined laws).
@@ -120,41 +122,15 @@ def law_options(law: Law, n: int) -> LawOptions:
             f"method {name!r} has no compiled step; compiled methods: {', '.join(LAW_IDS)}",
             argument="method",
         )
-    f = np.zeros(8)
-    i = np.zeros(4, dtype=np.int64)
+    f = np.zeros(NF)
+    i = np.zeros(NI, dtype=np.int64)
     v = np.full((2, n), np.inf)
-    f[0] = law.rcond
-    f[1] = law.filter_threshold
-    i[0] = int(law.shield)
-    i[1] = int(law.scaling == "secondary-first")
-    o = vars(law)
-    if name == "gpm":
-        f[2] = o["alpha"]
-    elif name == "gpm-auto":
-        f[2] = np.inf if o["alpha_max"] is None else o["alpha_max"]
-        i[2] = int(o.get("critical_rule", "predicted") == "current")
-        i[3] = int(law.robust)
-    elif name.startswith("iterative"):
-        smooth, with_e2 = type(law).smooth, type(law).with_e2  # type: ignore[attr-defined]
-        i[2] = int(smooth)
-        f[2] = law.alpha if with_e2 else 0.0  # type: ignore[attr-defined]
-        levels = law.max_levels  # type: ignore[attr-defined]
-        i[3] = -1 if levels is None else levels
-        cr = law.constraint_rcond  # type: ignore[attr-defined]
-        f[3] = law.rcond if cr is None else cr
-        f[4] = 1e-2 if law.robust else 0.0
-    elif name == "directional":
-        f[2], i[2], f[3] = o["kappa"], int(o["use_joint_limits"]), o["margin"]
-    elif name == "wln":
-        i[2] = int(o["mode"] == "history")
-    elif name == "sns":
-        f[2] = o["margin"]
-        for row, key in ((0, "v_max"), (1, "a_max")):
-            if o[key] is not None:
-                v[row] = np.broadcast_to(o[key], (n,))
-                i[2 + row] = 1
-    elif name == "large-projection":
-        f[2], f[3], f[4], f[5], f[6] = o["e0"], o["e1"], o["rho"], o["rho1"], o["lambda_tune"]
-        i[2] = {"switched": 0, "norm": 1, "classical": 2}[o["projector"]]
-        f[7] = 1e-2 if law.robust else 0.0
+    packed = [(o.slot, o.pack(getattr(law, o.name))) for o in law.OPTIONS if o.slot is not None]
+    for (kind, index), value in (*packed, *law.packed_extras()):
+        if kind == "f":
+            f[index] = value
+        elif kind == "i":
+            i[index] = value
+        elif value is not None:
+            v[index] = np.broadcast_to(value, (n,))
     return LawOptions(LAW_IDS[name], f, i, np.ascontiguousarray(v))

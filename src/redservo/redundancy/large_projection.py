@@ -67,12 +67,22 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
+from redservo.kernels.lawopts import (
+    F_E0,
+    F_E1,
+    F_LAMBDA_TUNE,
+    F_P_FILTER,
+    F_RHO,
+    F_RHO1,
+    I_PROJECTOR,
+)
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 _K = lazy("projection")
 _KE = lazy("events")
@@ -247,43 +257,85 @@ class LargeProjection(Law):
     name = "large-projection"
     description = "large projection operator P_λ and joint-limit law (Marey & Chaumette 2010)"
 
-    def __init__(
-        self,
-        *,
-        e0: float = 0.1,
-        e1: float = 0.7,
-        rho: float = 0.1,
-        rho1: float = 0.3,
-        lambda_tune: float = 0.7,
-        projector: str = "switched",
-        rcond: float = DEFAULT_RCOND,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        lo, hi = float(e0), float(e1)
-        if not (np.isfinite(lo) and np.isfinite(hi) and 0.0 <= lo < hi):
+    OPTIONS = (
+        Option(
+            "e0",
+            0.1,
+            doc="lower switching threshold on ‖e1‖ (ViSP's value; retune for your features)",
+            unit="task-error units",
+            ref="ICRA'10 eq. 24",
+            low=0.0,
+            slot=("f", F_E0),
+        ),
+        Option(
+            "e1",
+            0.7,
+            doc="upper switching threshold on ‖e1‖, > e0",
+            unit="task-error units",
+            ref="ICRA'10 eq. 24",
+            low=0.0,
+            low_open=True,
+            slot=("f", F_E1),
+        ),
+        Option(
+            "rho",
+            0.1,
+            doc="activation band l0, fraction of each joint range",
+            ref="IROS'10 (ViSP's default)",
+            low=0.0,
+            high=0.5,
+            low_open=True,
+            high_open=True,
+            slot=("f", F_RHO),
+        ),
+        Option(
+            "rho1",
+            0.3,
+            doc="l1 position inside the band, fraction of rho Δq",
+            ref="IROS'10 (ViSP's default)",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+            high_open=True,
+            slot=("f", F_RHO1),
+        ),
+        Option(
+            "lambda_tune",
+            0.7,
+            doc="extra reversal gain λ_i",
+            ref="IROS'10 (ViSP's default)",
+            low=0.0,
+            slot=("f", F_LAMBDA_TUNE),
+        ),
+        Option(
+            "projector",
+            "switched",
+            kind="choice",
+            doc="P_λ (switched), P_‖e‖ (norm) or I - J1⁺J1 (classical)",
+            ref="ICRA'10 eq. 24, IROS'10",
+            choices=_PROJECTORS,
+            slot=("i", I_PROJECTOR),
+        ),
+        RCOND,
+    )
+    e0: float
+    e1: float
+    rho: float
+    rho1: float
+    lambda_tune: float
+    projector: str
+
+    def _setup(self) -> None:
+        if not self.e0 < self.e1:
             raise ConfigurationError(
                 f"the switching thresholds must satisfy 0 <= e0 < e1 (task-error units), got "
-                f"e0={e0!r}, e1={e1!r}"
+                f"e0={self.e0!r}, e1={self.e1!r}",
+                argument="e0",
             )
-        r = float(rho)
-        if not (0.0 < r < 0.5):
-            raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}")
-        r1 = float(rho1)
-        if not (0.0 < r1 < 1.0):
-            raise ConfigurationError(f"rho1 must lie in (0, 1), got {rho1!r}")
-        lt = float(lambda_tune)
-        if not (np.isfinite(lt) and lt >= 0.0):
-            raise ConfigurationError(
-                f"lambda_tune must be a finite number >= 0, got {lambda_tune!r}"
-            )
-        if projector not in _PROJECTORS:
-            raise ConfigurationError(
-                f"projector must be one of {', '.join(repr(p) for p in _PROJECTORS)}, "
-                f"got {projector!r}"
-            )
-        self.e0, self.e1 = lo, hi
-        self.rho, self.rho1, self.lambda_tune = r, r1, lt
-        self.projector = projector
+
+    def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
+        """Also the robust 1/|P_ii| filter (0: off)."""
+        return (*super().packed_extras(), (("f", F_P_FILTER), P_FILTER if self.robust else 0.0))
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape

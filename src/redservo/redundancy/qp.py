@@ -68,7 +68,7 @@ import importlib
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
@@ -76,11 +76,11 @@ from redservo.kernels import lazy
 from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
-from redservo.redundancy.sns import validate_positive_option
+from redservo.redundancy.options import Option
 
 _K = lazy("qp")
 _KE = lazy("events")
@@ -273,30 +273,57 @@ class BoundedLeastSquares(Law):
     name = "qp"
     description = "bounded least squares min‖J1q̇ + λe1‖² s.t. joint-velocity bounds (KLW 2011)"
 
-    def __init__(
-        self,
-        *,
-        eps: float = 1e-6,
-        k_p: float = 1.0,
-        margin: float = 0.0,
-        v_max: float | ArrayLike | None = None,
-        solver: str = "auto",
-        rcond: float = DEFAULT_RCOND,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        eps_f = float(eps)
-        if not (np.isfinite(eps_f) and eps_f > 0.0):
-            raise ConfigurationError(f"eps must be a finite number > 0 (relative), got {eps!r}")
-        kp = float(k_p)
-        if not (0.0 < kp <= 1.0):
-            raise ConfigurationError(f"k_p must lie in (0, 1], got {k_p!r}")
-        mg = float(margin)
-        if not (0.0 <= mg < 0.5):
-            raise ConfigurationError(
-                f"margin must lie in [0, 0.5) (a fraction of each joint's range), got {margin!r}"
-            )
-        if not isinstance(solver, str):
-            raise ConfigurationError(f"solver must be a string, got {solver!r}")
+    OPTIONS = (
+        Option(
+            "eps",
+            1e-6,
+            doc="relative regularization, ε = eps σ_max(J1)²",
+            ref="KLW 2011",
+            low=0.0,
+            low_open=True,
+        ),
+        Option(
+            "k_p",
+            1.0,
+            doc="gain on the position bounds",
+            ref="KLW 2011",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+        ),
+        Option(
+            "margin",
+            0.0,
+            doc="keep-out band at each limit, a fraction of the joint range",
+            low=0.0,
+            high=0.5,
+            high_open=True,
+        ),
+        Option(
+            "v_max",
+            None,
+            kind="per-joint",
+            doc="joint velocity limits, or None",
+            unit="rad/s or m/s",
+            none=True,
+        ),
+        Option(
+            "solver",
+            "auto",
+            kind="str",
+            doc="'auto' (daqp/proxsuite/quadprog if installed, else scipy), 'scipy' or a "
+            "qpsolvers backend",
+        ),
+        RCOND,
+    )
+    eps: float
+    k_p: float
+    margin: float
+    v_max: FloatArray | None
+    solver: str
+
+    def _setup(self) -> None:
+        solver = self.solver
         if solver not in ("auto", "scipy"):
             qps = _qpsolvers()
             available = list(qps.available_solvers) if qps is not None else []
@@ -308,13 +335,9 @@ class BoundedLeastSquares(Law):
                 )
                 raise ConfigurationError(
                     f"solver must be 'auto', 'scipy' or an installed qpsolvers backend; got "
-                    f"{solver!r} ({hint})"
+                    f"{solver!r} ({hint})",
+                    argument="solver",
                 )
-        self.eps = eps_f
-        self.k_p = kp
-        self.margin = mg
-        self.v_max = validate_positive_option(v_max, "v_max", "rad/s or m/s")
-        self.solver = solver
         self._backend: str | None = None
 
     def _resolve_backend(self) -> str:

@@ -65,12 +65,14 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray, _to_float
 from redservo.errors import ConfigurationError, InfeasibleError, ShapeError
 from redservo.kernels import lazy
+from redservo.kernels.lawopts import F_SNS_MARGIN, I_HAS_A, I_HAS_V, V_AMAX, V_VMAX
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 _K = lazy("sns")
 _KE = lazy("events")
@@ -269,23 +271,49 @@ class SaturationInNullSpace(Law):
     name = "sns"
     description = "saturation in the null space, task scaled when infeasible (Flacco et al. 2012)"
 
-    def __init__(
-        self,
-        *,
-        v_max: float | ArrayLike | None = None,
-        a_max: float | ArrayLike | None = None,
-        margin: float = 1.0,
-        rcond: float = DEFAULT_RCOND,
-    ) -> None:
-        super().__init__(rcond=rcond)
-        self.v_max = validate_positive_option(v_max, "v_max", "rad/s or m/s")
-        self.a_max = validate_positive_option(a_max, "a_max", "rad/s² or m/s²")
-        mg = float(margin)
-        if not (0.0 < mg <= 1.0):
-            raise ConfigurationError(
-                f"margin must lie in (0, 1] (a factor on the velocity bounds), got {margin!r}"
-            )
-        self.margin = mg
+    OPTIONS = (
+        Option(
+            "v_max",
+            None,
+            kind="per-joint",
+            doc="joint velocity limits (None: only the position limits bound the velocity)",
+            unit="rad/s or m/s",
+            ref="Flacco et al. 2012; docs/formulas.md §10.4",
+            none=True,
+            slot=("v", V_VMAX),
+        ),
+        Option(
+            "a_max",
+            None,
+            kind="per-joint",
+            doc="joint acceleration limits for the braking bound √(2 a_max d), or None",
+            unit="rad/s² or m/s²",
+            ref="Flacco et al. 2012; docs/formulas.md §10.4",
+            none=True,
+            slot=("v", V_AMAX),
+        ),
+        Option(
+            "margin",
+            1.0,
+            doc="factor applied to the velocity bounds",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+            slot=("f", F_SNS_MARGIN),
+        ),
+        RCOND,
+    )
+    v_max: FloatArray | None
+    a_max: FloatArray | None
+    margin: float
+
+    def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
+        """Also whether ``v_max`` and ``a_max`` are given."""
+        has = (
+            (("i", I_HAS_V), int(self.v_max is not None)),
+            (("i", I_HAS_A), int(self.a_max is not None)),
+        )
+        return (*super().packed_extras(), *has)
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape

@@ -56,14 +56,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
+from redservo.kernels.lawopts import I_HISTORY
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
-from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
 
 _K = lazy("directional")
 _KE = lazy("events")
@@ -161,13 +161,19 @@ class WeightedLeastNorm(Law):
         )
         return super().__new__(target)
 
-    def __init__(self, *, mode: str = "pinv", rcond: float = DEFAULT_RCOND) -> None:
-        super().__init__(rcond=rcond)
-        if mode not in _MODES:
-            raise ConfigurationError(
-                f"mode must be one of {', '.join(repr(m) for m in _MODES)}, got {mode!r}"
-            )
-        self.mode = mode
+    OPTIONS = (
+        Option(
+            "mode",
+            "pinv",
+            kind="choice",
+            doc="direction rule: the unweighted command (stateless) or the paper's history",
+            ref="Chan & Dubey 1995; docs/formulas.md §10.1",
+            choices=_MODES,
+            slot=("i", I_HISTORY),
+        ),
+        RCOND,
+    )
+    mode: str
 
     def _history(self) -> tuple[FloatArray | None, bool]:
         """The previous ``|∂H/∂q|`` for the paper's rule, and whether this mode uses it."""
@@ -226,9 +232,10 @@ class _WeightedLeastNormHistory(WeightedLeastNorm):
 
     stateful = True
 
-    def __init__(self, *, mode: str = "history", rcond: float = DEFAULT_RCOND) -> None:
-        super().__init__(mode=mode, rcond=rcond)
-        self._prev_abs_grad: FloatArray | None = None
+    _prev_abs_grad: FloatArray | None = None
+
+    def _setup(self) -> None:
+        self._prev_abs_grad = None
 
     def reset(self) -> None:
         """Forget the previous ``|∂H/∂q|`` (call between runs)."""

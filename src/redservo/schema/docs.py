@@ -165,7 +165,28 @@ def scenario_reference() -> str:
         ("`[actuators]`", s.ActuatorsSpec),
     ):
         parts.append(_section(title, model))
+        if model is s.ControlSpec:
+            parts.append(_law_options())
     return "\n".join(parts)
+
+
+def _law_options() -> str:
+    """Each method's ``control.options``, from the laws' one declaration (``Law.OPTIONS``)."""
+    from redservo.redundancy import METHODS, law_class
+    from redservo.redundancy.options import describe
+
+    lines = [
+        "### `[control.options]` per method\n\nDeclared once by each law (`Law.OPTIONS`, "
+        "which also checks them).\n",
+        "| method | option | allowed | default | unit | source | meaning |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for method in METHODS:
+        for d in describe(law_class(method).OPTIONS):
+            cells = [f"`{method}`", f"`{d['name']}`", d["allowed"], repr(d["default"])]
+            cells += [d["unit"], d["ref"], d["doc"]]
+            lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def campaign_reference() -> str:
