@@ -86,7 +86,7 @@ class TaskState(NamedTuple):
     """True inverse-depth parameters per term."""
 
 
-_new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__  # type: ignore[assignment]
+_new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState`` from its six fields without the Python-level ``__new__`` (the hot path)."""
 
 
