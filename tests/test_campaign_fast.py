@@ -5,6 +5,7 @@ The first test in a fresh checkout compiles the loop (about a minute, then cache
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import replace
 from typing import Any
 
@@ -85,6 +86,76 @@ def test_urdf_panda_rows_are_those_of_the_object_path(capsys: pytest.CaptureFixt
     exp = build(draw_sample(d, 0, 0).scenario)
     assert type(exp.robot).__name__ == "URDFRobot"
     assert fastloop.experiment_reason(exp) is None
+
+
+_TURNING = (
+    'objects[0].motion={kind="waypoints", times=[0.0, 2.0, 5.0], '
+    "translations=[[0.0, 0.0, 0.0], [0.02, -0.03, 0.01], [0.05, 0.0, -0.02]], "
+    "rotvecs=[[0.0, 0.0, 0.0], [0.05, -0.1, 0.2], [0.1, 0.05, -0.3]]}"
+)
+"""A motion for panda-near-limits' square: moving and turning (the Rodrigues branch)."""
+
+
+@pytest.mark.parametrize(
+    ("name", "sets"),
+    [
+        ("cm01-humanoid-tracking", ()),
+        ("panda-near-limits", (_TURNING, 'simulation.feedforward="known"')),
+        ("panda-near-limits", (_TURNING, "simulation.max_iterations=120")),
+    ],
+)
+def test_moving_targets_and_known_feedforward_rows(
+    name: str, sets: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Targets on waypoints (translated, and turned), with and without the known
+    feed-forward (with a combination matrix C on the Panda), every method: no fallback and
+    the rows of the object path bit for bit."""
+    d = _variant(name, *sets)
+    fast = run_campaign(d, samples=2, workers=1, progress=False)
+    assert "object path" not in capsys.readouterr().err
+    slow = run_campaign(d, samples=2, workers=1, progress=False, fast=False)
+    assert len(fast.rows) == 2 * len(d.methods)
+    assert _same_rows(fast.rows, slow.rows)
+    exp = build(draw_sample(d, 0, 0).scenario)
+    assert type(exp.scene.object(exp.task.terms[0].target).trajectory).__name__ == "Waypoints"
+
+
+@pytest.mark.parametrize("sets", [(), ("simulation.depth_scale=1.3", "control.shield=false")])
+def test_moment_rows_are_those_of_the_object_path(
+    sets: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The six moment features of mc05-joint-limits (and with a depth error, the shield
+    off), every method: no fallback, the same rows bit for bit."""
+    d = _variant("mc05-joint-limits", *sets)
+    fast = run_campaign(d, samples=2, workers=1, progress=False)
+    assert "object path" not in capsys.readouterr().err
+    slow = run_campaign(d, samples=2, workers=1, progress=False, fast=False)
+    assert len(fast.rows) == 2 * len(d.methods)
+    assert _same_rows(fast.rows, slow.rows)
+    assert len({r["outcome"] for r in fast.rows}) >= 2
+
+
+def test_waypoint_poses_are_those_of_the_scene() -> None:
+    """The loop's waypoint pose and Rodrigues formula equal Waypoints.pose and
+    rotvec_to_matrix bit for bit (tiny and large angles, before, on and after the
+    waypoints)."""
+    import numpy as np
+
+    from redservo.kernels import loop_task
+    from redservo.scene import Waypoints
+    from redservo.spatial import make_transform, rotvec_to_matrix
+
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        r = rng.normal(size=3) * 10.0 ** rng.uniform(-10, 0.5)
+        assert np.array_equal(loop_task._rotvec_matrix(r), rotvec_to_matrix(r))
+    k = 6
+    times = np.cumsum(rng.uniform(0.1, 2.0, k))
+    poses = [make_transform(rotvec=rng.normal(size=3), t=rng.normal(size=3)) for _ in range(k)]
+    w = Waypoints(times, np.stack(poses))
+    for t in [*rng.uniform(times[0] - 1.0, times[-1] + 1.0, 2000), *times]:
+        got = loop_task._waypoint_pose(w.times, w.poses, w._rotvecs, k, float(t))
+        assert np.array_equal(got, w.pose(float(t))), t
 
 
 @pytest.mark.parametrize(
@@ -239,7 +310,9 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
                     J1, e1, q, prev, lam, dt = _random_step(rng, lim)
                     sim = (lam, dt, 1e-3, True, np.ones(lim.n), False)
                     z = np.zeros(lim.n)
-                    qd, bits, _, abort = _law(J1, e1, q, prev, z, False, args, limits, sim)
+                    qd, bits, _, abort = _law(
+                        J1, e1, e1, False, q, prev, z, False, args, limits, sim
+                    )
                     try:
                         res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev)
                     except InfeasibleError:
@@ -250,3 +323,23 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
                     assert bits == _flag_bits(res.diagnostics.events), (method, opts, robust)
                     raised.add(bits)
     assert len(raised) >= 8  # many combinations of flags were met
+
+
+def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> None:
+    """Every shipped campaign, every method, two samples: every run on the compiled loop (no
+    fallback line, every row's path note the compiled loop's)."""
+    from redservo.campaign.definition import shipped_campaigns
+
+    for name in shipped_campaigns():
+        d = load_campaign(name)
+        if "urdf" in d.scenario.name and importlib.util.find_spec("pinocchio") is None:
+            continue  # URDF robots are loaded by Pinocchio (checked where it is installed)
+        for i in range(2):
+            exp = build(draw_sample(d, 0, i).scenario)
+            for method in d.methods:
+                law = campaign_law(exp, method, d.method_options.get(method))
+                assert fastloop.fast_reason(exp, law) is None, (name, method)
+                summary, path = fast_run(exp, method, d.method_options.get(method))
+                assert path == FAST_PATH and summary is not None, (name, i, method, path)
+        run_campaign(d, samples=1, workers=1, progress=False)
+        assert "object path" not in capsys.readouterr().err, name

@@ -12,10 +12,12 @@ not covered:
 * a method without a compiled step (``qp``, a user-registered law) or with
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
-  calibration error, a feed-forward term, an adaptive gain;
+  calibration error, the estimated feed-forward (the known one is covered), an adaptive
+  gain;
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
-  (URDF robots), features other than image points, a depth option other than
-  ``"current"``, a moving target.
+  (URDF robots), features other than image points and moments, a depth option other
+  than ``"current"``, a target that is not a point set, static or on waypoints
+  (:mod:`redservo.campaign.looppack`).
 
 A covered run whose law would raise (non-finite ``J1``, inconsistent ``sns`` bounds) is
 also handed back to the object path, which records the exception as the object path does.
@@ -26,10 +28,17 @@ from __future__ import annotations
 import threading
 import weakref
 from collections.abc import Iterable, Mapping
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from redservo.campaign.looppack import (
+    robot_args,
+    robot_reason,
+    scene_args,
+    scene_reason,
+    task_args,
+)
 from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment
 from redservo.redundancy import Law, make_law
@@ -73,32 +82,6 @@ def _compiled() -> bool:
     return compiled()
 
 
-def _robot_reason(exp: Experiment) -> str | None:
-    from redservo.robots.afma6 import Afma6
-    from redservo.robots.chain import ChainRobot
-    from redservo.robots.dh import DHRobot
-
-    kin = type(exp.robot).kinematics
-    if kin not in (Afma6.kinematics, DHRobot.kinematics, ChainRobot.kinematics):
-        return f"robot {type(exp.robot).__name__}: no compiled kinematics in the loop"
-    return None
-
-
-def _scene_reason(exp: Experiment) -> str | None:
-    from redservo.features import PointFeature
-    from redservo.scene import PointSet, Static
-
-    if exp.task.depth != "current":
-        return f"depth = {exp.task.depth!r} (the compiled loop uses the current depth)"
-    for term in exp.task.terms:
-        if type(term.feature) is not PointFeature:
-            return f"feature {type(term.feature).__name__}: only image points are compiled"
-        obj = exp.scene.object(term.target)
-        if not isinstance(obj, PointSet) or not isinstance(obj.trajectory, Static):
-            return f"object {term.target!r}: only static point sets are compiled"
-    return None
-
-
 def law_reason(law: Law) -> str | None:
     """Why the compiled loop cannot run ``law`` (None: it can)."""
     from redservo.kernels.step import LAW_IDS
@@ -123,63 +106,18 @@ def experiment_reason(exp: Experiment) -> str | None:
         (opt.occlusion is not None, "occlusion objective"),
         (opt.noise_std > 0, "feature noise"),
         (opt.eMc_model is not None, "hand-eye calibration error"),
-        (opt.feedforward != "none", "feed-forward"),
+        (opt.feedforward == "estimated", "feed-forward 'estimated'"),
         (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
     )
     for failed, reason in checks:
         if failed:
             return reason
-    return _robot_reason(exp) or _scene_reason(exp)
+    return robot_reason(exp) or scene_reason(exp)
 
 
 def fast_reason(exp: Experiment, law: Law) -> str | None:
     """Why the compiled loop cannot run ``law`` on ``exp`` (None: it can); module docstring."""
     return law_reason(law) or experiment_reason(exp)
-
-
-def _robot_args(exp: Experiment) -> tuple[Any, ...]:
-    from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
-    from redservo.robots.chain import ChainRobot
-
-    r = exp.robot
-    c = np.ascontiguousarray
-    eMc, cVe = c(r.eMc, dtype=np.float64), c(r.cVe, dtype=np.float64)
-    # the arrays of the kinds not taken: placeholders of the same numba types
-    no_dh = (np.zeros((8, r.n)), np.eye(4), np.eye(4), False)
-    no_chain = (np.zeros((1, 3, 4)), np.zeros((0, 4)))
-    if isinstance(r, Afma6):
-        return (0, eMc, cVe, COUPLING, OFFSET, *no_dh, *no_chain)
-    if isinstance(r, ChainRobot):
-        return (2, eMc, cVe, 0.0, 0.0, *no_dh, c(r.chain.frames), c(r.chain.joints))
-    par, base, flange = r._par, r._base, r._flange  # type: ignore[attr-defined]
-    standard = r._convention == "standard"  # type: ignore[attr-defined]
-    return (1, eMc, cVe, 0.0, 0.0, c(par), c(base), c(flange), bool(standard), *no_chain)
-
-
-def _scene_args(exp: Experiment) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-    from redservo.features import PointFeature
-    from redservo.scene import PointSet
-    from redservo.spatial import inverse
-
-    task, scene, cam, opt = exp.task, exp.scene, exp.camera, exp.options
-    targets = sorted({term.target for term in task.terms})
-    index = {name: i for i, name in enumerate(targets)}
-    wMo = np.array([scene.wMo(name, 0.0) for name in targets])
-    pts = [np.asarray(cast(PointSet, scene.object(name)).points, np.float64) for name in targets]
-    vis = np.zeros((len(pts), max(p.shape[0] for p in pts), 3))
-    for i, p in enumerate(pts):
-        vis[i, : p.shape[0]] = p
-    cnt = np.array([p.shape[0] for p in pts], dtype=np.int64)
-    camera = np.array(
-        [cam.px, cam.py, cam.u0, cam.v0, cam.width, cam.height, opt.image_margin_px], dtype=float
-    )
-    scene_args = (inverse(scene.wMb), wMo, vis, cnt, camera, bool(opt.check_image))
-    term_obj = np.array([index[t.target] for t in task.terms], dtype=np.int64)
-    term_pt = np.array([cast(PointFeature, t.feature).point_o for t in task.terms], np.float64)
-    C = np.eye(task.k) if task.C is None else np.ascontiguousarray(task.C, dtype=np.float64)
-    s_star = np.ascontiguousarray(task.s_star, dtype=np.float64)
-    task_args = (term_obj, term_pt, s_star, C, task.C is not None, float(opt.depth_scale))
-    return scene_args, task_args
 
 
 def _buffers(N: int, n: int) -> tuple[Any, ...]:
@@ -259,9 +197,9 @@ def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, in
     from redservo.campaign.loop_kernel import NEED_SOLVE, closed_loop
 
     m, n = exp.task.m, exp.robot.n
-    pJ, pe, px = np.zeros((m, n)), np.zeros(m), np.zeros(n)
-    pend = np.zeros(3, dtype=np.int64)
-    solve = (pJ, pe, px, pend)
+    pJ, pe, px, pf = np.zeros((m, n)), np.zeros(m), np.zeros(n), np.zeros(m)
+    pend = np.zeros(4, dtype=np.int64)
+    solve = (pJ, pe, px, pend, pf)
     q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
     prev = np.zeros(n)  # the robot starts at rest
     robot, scene, task, law_args, limits, sim, logs = args
@@ -273,7 +211,7 @@ def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, in
             return int(rows), int(code), int(axis), int(abort)
         res = law(
             J1=pJ.copy(), e1=pe.copy(), q=q.copy(), limits=exp.limits, lam=sim[0], dt=sim[1],
-            qdot_prev=prev.copy(),
+            qdot_prev=prev.copy(), de1_dt=pf.copy() if pend[3] else None,
         )  # fmt: skip
         px[:] = res.qdot
         pend[0] = 1
@@ -300,10 +238,10 @@ def _pack(exp: Experiment) -> _Packed:
     if opt.qdot_max is not None:
         qsat = np.broadcast_to(np.asarray(opt.qdot_max, dtype=np.float64), (n,)).copy()
     sim = (float(opt.constant_lam), float(opt.dt), float(opt.tolerance),
-           bool(opt.stop_at_convergence), qsat, opt.qdot_max is not None)  # fmt: skip
-    scene_args, task_args = _scene_args(exp)
+           bool(opt.stop_at_convergence), qsat, opt.qdot_max is not None,
+           opt.feedforward == "known")  # fmt: skip
     limits = (lp.rows, lp.has_v, lp.has_a, q_min, q_max)
-    return _Packed(_robot_args(exp), scene_args, task_args, limits, sim)
+    return _Packed(robot_args(exp), scene_args(exp), task_args(exp), limits, sim)
 
 
 def _packed(exp: Experiment) -> _Packed | str:

@@ -1,17 +1,19 @@
 """The closed loop of one campaign run as one compiled kernel (docs/scaling.md).
 
 :func:`closed_loop` runs :func:`redservo.simulation.simulate` for the set-ups it covers
-(:mod:`redservo.campaign.fastloop` checks them): an ideal sensor, static point targets,
-point features with the current depth, no actuator model, no objective, no noise, a
-constant gain and a law with a compiled step. It performs, at every iteration, the very
+(:mod:`redservo.campaign.fastloop` checks them): an ideal sensor, point targets static or
+on waypoints, image-point and moment features with the current depth, no actuator model,
+no objective, no noise, a constant gain, no feed-forward or the known one, and a law with
+a compiled step. It performs, at every iteration ``it`` (time ``t = it dt``), the very
 operations of the object path, in the same order and with the same kernels:
 
 1. ``bMc, J = kinematics(q)`` (the Afma6, a DH chain or a chain of fixed transforms and
    joint axes: a URDF robot);
-2. ``cMo = (inverse(bMc) @ bMw) @ wMo`` per target, each feature measured by
-   :func:`~redservo.kernels.features.points_measure` (a point behind the camera ends the run
-   with ``target_lost``), ``L`` by :func:`~redservo.kernels.features.point_interaction`;
-3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points;
+2. ``cMo = (inverse(bMc) @ bMw) @ wMo(t)`` per target, the features measured and ``L``
+   built by the kernels of the feature objects (:mod:`redservo.kernels.loop_task`; a
+   feature that cannot be measured ends the run with ``target_lost``);
+3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points; the
+   known feed-forward ``∂e1/∂t`` (:func:`~redservo.kernels.loop_task.known_feedforward`);
 4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` the
    kernels of its solver-free steps, while a step whose bounds are active (a QP to solve)
    returns :data:`NEED_SOLVE`: Python calls the law itself and calls the loop again from
@@ -43,8 +45,8 @@ import numpy as np
 from redservo.kernels._jit import COMPILED, kernel
 from redservo.kernels.chain import chain_kinematics
 from redservo.kernels.events import qp_events, safety_events
-from redservo.kernels.features import point_interaction, points_measure
 from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
+from redservo.kernels.loop_task import known_feedforward, loop_task
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.safety import apply_safety
 from redservo.kernels.step import I_SNS_BAD, LAW_IDS, law_step, step_events
@@ -53,6 +55,7 @@ from redservo.simulation.loop import LIMIT_TOLERANCE
 __all__ = [
     "ABORT_INFEASIBLE",
     "ABORT_NON_FINITE",
+    "ABORT_RAISES",
     "CONVERGED",
     "JOINT_LIMIT",
     "MAX_ITERATIONS",
@@ -63,8 +66,9 @@ __all__ = [
 ]
 
 MAX_ITERATIONS, CONVERGED, JOINT_LIMIT, TARGET_LOST, NEED_SOLVE = 0, 1, 2, 3, 4
-ABORT_NON_FINITE, ABORT_INFEASIBLE = 1, 2
-"""Why a run left the kernel early: the law would raise (ShapeError, InfeasibleError)."""
+ABORT_NON_FINITE, ABORT_INFEASIBLE, ABORT_RAISES = 1, 2, 3
+"""Why a run left the kernel early: the law would raise (ShapeError, InfeasibleError), or
+the object path would (a feature invalid where the feed-forward measures it)."""
 
 QP = -1
 """The law id of ``qp`` here (:data:`redservo.kernels.step.LAW_IDS` has no ``qp``)."""
@@ -73,117 +77,48 @@ _SNS = LAW_IDS["sns"]
 
 
 @kernel
-def _inverse(T: Any) -> Any:
-    """:func:`redservo.spatial.inverse` with the same arithmetic (``-(R^T @ t)`` by BLAS)."""
-    R = np.ascontiguousarray(T[:3, :3])
-    t = np.ascontiguousarray(T[:3, 3])
-    out = np.empty((4, 4))
-    out[:3, :3] = R.T
-    out[:3, 3] = -np.dot(R.T, t)
-    out[3, 0] = 0.0
-    out[3, 1] = 0.0
-    out[3, 2] = 0.0
-    out[3, 3] = 1.0
-    return out
-
-
-@kernel
-def _in_image(cMo: Any, pts: Any, cam: Any) -> bool:
-    """``visible_points`` then ``_in_image`` of the simulator; ``cam`` = (px, py, u0, v0,
-    width, height, margin) in pixels."""
-    R = np.ascontiguousarray(cMo[:3, :3])
-    P = np.dot(pts, R.T)
-    for i in range(P.shape[0]):
-        for j in range(3):
-            P[i, j] = P[i, j] + cMo[j, 3]
-    for i in range(P.shape[0]):
-        if P[i, 2] <= 1e-9:
-            return False
-    margin = cam[6]
-    for i in range(P.shape[0]):
-        u = P[i, 0] / P[i, 2] * cam[0] + cam[2]
-        v = P[i, 1] / P[i, 2] * cam[1] + cam[3]
-        if not (u >= margin and u <= cam[4] - margin and v >= margin and v <= cam[5] - margin):
-            return False
-    return True
-
-
-@kernel
-def _measure(cMw: Any, wMo: Any, term_obj: Any, term_pt: Any, depth_scale: float) -> Any:
-    """``(s, L, cMo, lost)`` of the point features: the ideal sensor and ``L`` (current depth)."""
-    K = term_obj.shape[0]
-    n_obj = wMo.shape[0]
-    cMo = np.empty((n_obj, 4, 4))
-    for o in range(n_obj):
-        cMo[o] = np.dot(cMw, np.ascontiguousarray(wMo[o]))
-    s = np.empty(2 * K)
-    L = np.empty((2 * K, 6))
-    for j in range(K):
-        sj, iz, bad = points_measure(cMo[term_obj[j]], np.ascontiguousarray(term_pt[j : j + 1]))
-        if bad >= 0:
-            return s, L, cMo, True
-        s[2 * j] = sj[0]
-        s[2 * j + 1] = sj[1]
-        d = iz[0] if depth_scale == 1.0 else iz[0] / depth_scale
-        L[2 * j : 2 * j + 2] = point_interaction(sj[0], sj[1], d)
-    return s, L, cMo, False
-
-
-@kernel
-def _task(q: Any, robot: Any, scene: Any, task: Any) -> Any:
-    """Steps 1-3 of the module docstring: ``(J, e1, J1, lost)``."""
+def _kinematics(q: Any, robot: Any) -> Any:
+    """Step 1 of the module docstring: ``(bMc, J)``."""
     kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames, joints = robot
-    bMw, wMo, vis_pts, vis_cnt, cam, check = scene
-    term_obj, term_pt, s_star, C, has_C, depth_scale = task
     if kind == 0:
-        bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    elif kind == 1:
-        bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    else:
-        bMc, J = chain_kinematics(q, frames, joints, eMc, cVe)
-    cMw = np.dot(_inverse(bMc), bMw)
-    s, L, cMo, lost = _measure(cMw, wMo, term_obj, term_pt, depth_scale)
-    if lost:
-        return J, s, L, True
-    e = s - s_star
-    if has_C:
-        e1 = np.dot(C, e)
-        J1 = np.dot(np.dot(C, L), J)
-    else:
-        e1 = e
-        J1 = np.dot(L, J)
-    if check:
-        for o in range(wMo.shape[0]):
-            if not _in_image(cMo[o], np.ascontiguousarray(vis_pts[o, : vis_cnt[o]]), cam):
-                return J, e1, J1, True
-    return J, e1, J1, False
+        return afma6_kinematics(q, eMc, cVe, coupling, offset)
+    if kind == 1:
+        return dh_kinematics(q, par, base, flange, standard, eMc, cVe)
+    return chain_kinematics(q, frames, joints, eMc, cVe)
 
 
 @kernel
-def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, solve: Any) -> Any:
+def _qp(J1: Any, e1: Any, ff: Any, has_ff: bool, q: Any, prev: Any, law: Any, limits: Any,
+        sim: Any, solve: Any) -> Any:  # fmt: skip
     """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
 
     Where the unconstrained optimum lies within the bounds (no solver), the kernels of the
     law's fast path: :func:`~redservo.kernels.qp.qp_prepare`, ``qp_finish``, the safety
-    layer. Elsewhere ``J1`` and ``e1`` go into ``solve`` and the loop returns to Python,
-    which calls the law itself and hands its command and flags back (``pend``).
+    layer, on the effective error ``e1 + ff / λ``. Elsewhere ``J1``, ``e1`` and ``ff`` go
+    into ``solve`` and the loop returns to Python, which calls the law itself and hands its
+    command and flags back (``pend``).
     """
     _, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     lam, dt = sim[0], sim[1]
-    pJ, pe, px, pend = solve
+    pJ, pe, px, pend, pf = solve
     if pend[0] != 0:  # resumed at this iteration: the law's command, computed in Python
         pend[0] = 0
         return px.copy(), pend[1], False
     m, n = J1.shape
+    e = np.empty(m)
+    for i in range(m):
+        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # LawInputs.e_eff
     zn = np.zeros(n)
     x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
-        J1, e1, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
+        J1, e, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
         vopt[0], iopt[2] != 0, fopt[0], iopt[0] != 0,
     )  # fmt: skip
     if not inside:
         pJ[:, :] = J1
         pe[:] = e1
+        pf[:] = ff
+        pend[3] = 1 if has_ff else 0
         return x, 0, True
     bits = qp_events(m, rank, conflicts, False, -1.0)[0]
     fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
@@ -195,22 +130,78 @@ def _qp(J1: Any, e1: Any, q: Any, prev: Any, law: Any, limits: Any, sim: Any, so
 
 
 @kernel
-def _law(J1: Any, e1: Any, q: Any, prev: Any, hist: Any, has_hist: bool, law: Any,
-         limits: Any, sim: Any) -> Any:  # fmt: skip
-    """Step 4 for a law of ``law_step``: ``(q̇, bits, abs_grad, abort)``."""
+def _law(J1: Any, e1: Any, ff: Any, has_ff: bool, q: Any, prev: Any, hist: Any,
+         has_hist: bool, law: Any, limits: Any, sim: Any) -> Any:  # fmt: skip
+    """Step 4 for a law of ``law_step`` (feed-forward ``ff`` when ``has_ff``):
+    ``(q̇, bits, abs_grad, abort)``."""
     law_id, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     lam, dt = sim[0], sim[1]
     n = q.shape[0]
     zn = np.zeros(n)
     qd, iout, fout, axes, axf, vec, sout = law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
+        law_id, fopt, iopt, vopt, J1, e1, ff, has_ff, q, lp, has_v, has_a, lam, dt,
         zn, False, prev, True, hist, has_hist,
     )  # fmt: skip
     if law_id == _SNS and iout[I_SNS_BAD] >= 0:
         return qd, 0, axf, ABORT_INFEASIBLE
     bits = step_events(law_id, fopt, e1.shape[0], iout, fout, axes, axf, vec, sout)
     return qd, bits, axf, 0
+
+
+@kernel
+def _sense(it: int, q: Any, robot: Any, scene: Any, task: Any, sim: Any) -> Any:
+    """Steps 1-3 and the feed-forward: ``(J, e1, J1, ff, has_ff, outcome, abort)``,
+    ``outcome`` -1 while the run goes on."""
+    dt = sim[1]
+    t = it * dt
+    bMc, J = _kinematics(q, robot)
+    e1, J1, cMw, lost = loop_task(bMc, J, scene, task, t)
+    if lost:
+        return J, e1, J1, e1, False, TARGET_LOST, 0
+    if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
+        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
+    if not np.isfinite(np.sum(J1) + np.sum(e1)):
+        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
+    if not sim[6]:
+        return J, e1, J1, e1, False, -1, 0
+    ff, ok = known_feedforward(cMw, scene, task, t, dt)
+    if not (ok and np.all(np.isfinite(ff))):
+        return J, e1, J1, ff, True, MAX_ITERATIONS, ABORT_RAISES
+    return J, e1, J1, ff, True, -1, 0
+
+
+@kernel
+def _advance(it: int, q: Any, prev: Any, qd: Any, bits: int, J: Any, e1: Any, limits: Any,
+             sim: Any, logs: Any) -> Any:  # fmt: skip
+    """Step 5: saturate, log row ``it``, test convergence and the hard limits, move ``q``;
+    ``(rows, outcome, limit_axis)``, ``outcome`` -1 while the run goes on."""
+    _, _, _, q_min, q_max = limits
+    dt, tol, stop, qsat, has_qsat = sim[1], sim[2], sim[3], sim[4], sim[5]
+    Q, QD, TW, EN, FL = logs
+    n = q.shape[0]
+    max_it = Q.shape[0]
+    if has_qsat:
+        ratio = np.max(np.abs(qd) / qsat)
+        if ratio > 1.0:
+            qd = qd / ratio
+    Q[it] = q
+    QD[it] = qd
+    TW[it] = np.dot(J, qd)
+    err = np.sqrt(np.dot(e1, e1))
+    EN[it] = err
+    FL[it] = bits
+    if err < tol and (stop or it == max_it - 1):
+        return it + 1, CONVERGED, -1
+    q_next = q + qd * dt
+    for i in range(n):
+        if q_next[i] < q_min[i] - LIMIT_TOLERANCE or q_next[i] > q_max[i] + LIMIT_TOLERANCE:
+            return it + 1, JOINT_LIMIT, i
+    prev[:] = qd
+    for i in range(n):  # np.clip: min(max(x, lo), hi)
+        v = q_next[i] if q_next[i] > q_min[i] else q_min[i]
+        q[i] = v if v < q_max[i] else q_max[i]
+    return it + 1, -1, -1
 
 
 @kernel
@@ -226,7 +217,7 @@ def closed_loop(
     logs: Any,
     solve: Any,
 ) -> Any:
-    """Run the closed loop from ``q`` (module docstring), from iteration ``solve[6][2]``.
+    """Run the closed loop from ``q`` (module docstring), from iteration ``solve[3][2]``.
 
     Args (tuples of arrays and numbers, packed by :mod:`redservo.campaign.fastloop`):
         q, prev: (n,) joints and previous command; updated in place (the state of a run
@@ -234,71 +225,47 @@ def closed_loop(
         robot: ``(kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames,
             joints)``, kind 0 the Afma6, 1 a DH chain, 2 a chain of fixed transforms and axes
             (a URDF robot: :mod:`redservo.kernels.chain`).
-        scene: ``(bMw, wMo (O, 4, 4), vis_pts (O, P, 3), vis_cnt (O,), cam (7,), check)``
-            for the O targets; ``cam`` = (px, py, u0, v0, width, height, margin).
-        task: ``(term_obj (K,), term_pt (K, 3), s_star (k,), C (m, k), has_C, depth_scale)``.
+        scene, task: the packs of :mod:`redservo.kernels.loop_task` (targets, static or on
+            waypoints; image points and moment features).
         law: ``(law_id, fopt, iopt, vopt, has_cap)``: :func:`redservo.redundancy.kio.law_options`,
             or :data:`QP` with ``fopt = (rcond, 0, k_p, margin)``, ``iopt = (shield, 0,
             has v_max)``, ``vopt[0] = v_max``.
         limits: ``(lp, has_v, has_a, q_min, q_max)``.
-        sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat)``.
+        sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat, known_ff)``.
         logs: ``(Q, QD, TW, EN, FL)``, (N, n), (N, n), (N, 6), (N,), (N,) int64; N is the
             iteration cap.
-        solve: ``(J1, e1, q̇, pend)``: a ``qp`` step for Python and the command it got;
-            ``pend`` = (command given, its flag bits, first iteration).
+        solve: ``(J1, e1, q̇, pend, ff)``: a ``qp`` step for Python and the command it got;
+            ``pend`` = (command given, its flag bits, first iteration, has ff).
 
     Returns:
         ``(rows, outcome, limit_axis, abort)``; outcome :data:`NEED_SOLVE` asks for a solve.
     """
-    _, _, _, q_min, q_max = limits
-    dt, tol, stop, qsat, has_qsat = sim[1], sim[2], sim[3], sim[4], sim[5]
-    Q, QD, TW, EN, FL = logs
     law_id, iopt = law[0], law[2]
     n = q.shape[0]
-    max_it = Q.shape[0]
+    max_it = logs[0].shape[0]
     hist = np.zeros(n)
     has_hist = False
     history = law_id == _WLN and iopt[2] != 0
     for it in range(solve[3][2], max_it):
-        J, e1, J1, lost = _task(q, robot, scene, task)
-        if lost:
-            return it, TARGET_LOST, -1, 0
-        if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
-            return it, MAX_ITERATIONS, -1, ABORT_NON_FINITE
-        if not np.isfinite(np.sum(J1) + np.sum(e1)):
-            return it, MAX_ITERATIONS, -1, ABORT_NON_FINITE
+        J, e1, J1, ff, has_ff, outcome, abort = _sense(it, q, robot, scene, task, sim)
+        if outcome >= 0:
+            return it, outcome, -1, abort
         if law_id == QP:
-            qd, bits, need = _qp(J1, e1, q, prev, law, limits, sim, solve)
+            qd, bits, need = _qp(J1, e1, ff, has_ff, q, prev, law, limits, sim, solve)
             if need:
                 solve[3][2] = it
                 return it, NEED_SOLVE, -1, 0
         else:
-            qd, bits, axf, abort = _law(J1, e1, q, prev, hist, has_hist, law, limits, sim)
+            args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim)
+            qd, bits, axf, abort = _law(*args)
             if abort:
                 return it, MAX_ITERATIONS, -1, abort
             if history:
                 hist = axf
                 has_hist = True
-        if has_qsat:
-            ratio = np.max(np.abs(qd) / qsat)
-            if ratio > 1.0:
-                qd = qd / ratio
-        Q[it] = q
-        QD[it] = qd
-        TW[it] = np.dot(J, qd)
-        err = np.sqrt(np.dot(e1, e1))
-        EN[it] = err
-        FL[it] = bits
-        if err < tol and (stop or it == max_it - 1):
-            return it + 1, CONVERGED, -1, 0
-        q_next = q + qd * dt
-        for i in range(n):
-            if q_next[i] < q_min[i] - LIMIT_TOLERANCE or q_next[i] > q_max[i] + LIMIT_TOLERANCE:
-                return it + 1, JOINT_LIMIT, i, 0
-        prev[:] = qd
-        for i in range(n):  # np.clip: min(max(x, lo), hi)
-            v = q_next[i] if q_next[i] > q_min[i] else q_min[i]
-            q[i] = v if v < q_max[i] else q_max[i]
+        rows, outcome, axis = _advance(it, q, prev, qd, bits, J, e1, limits, sim, logs)
+        if outcome >= 0:
+            return rows, outcome, axis, 0
     return max_it, MAX_ITERATIONS, -1, 0
 
 
@@ -329,4 +296,4 @@ def _stamp_with_sources(*dispatchers: Any) -> None:
             pass
 
 
-_stamp_with_sources(_inverse, _in_image, _measure, _task, _qp, _law, closed_loop)
+_stamp_with_sources(_kinematics, _qp, _law, _sense, _advance, closed_loop)
