@@ -236,3 +236,17 @@ def test_kinematics_limit_check_inside_at_within_tolerance_and_past(robot) -> No
     past[2] = np.nan
     with pytest.raises(ShapeError, match="q"):
         robot.kinematics(past)
+
+
+def test_a_task_pickles_with_its_plan() -> None:
+    """Campaign workers receive tasks by pickle: the plan (groups, itemgetters, the trusted
+    measure of each single feature) travels with it."""
+    import pickle
+
+    robot, scene, task, q = _setup(mixed=True)
+    bMc, J = robot.kinematics(q, check_limits=False)
+    copy = pickle.loads(pickle.dumps(task))
+    for got, want in zip(
+        copy.evaluate(scene, bMc, J)[:5], task.evaluate(scene, bMc, J)[:5], strict=True
+    ):
+        assert _same(got, want)
