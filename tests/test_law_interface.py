@@ -444,6 +444,7 @@ def test_options_declared_once_give_signature_repr_and_validation(method: str) -
     law = make_law(method)
     for name, option in declared.items():
         assert params[name].default is option.default
+        assert f"    {name}: {option.doc}" in (cls.__doc__ or "")  # generated Options section
         assert f"{name}=" in repr(law)
         value = getattr(law, name)
         assert value is None if option.default is None else value == option.default

@@ -19,9 +19,6 @@ class Classical(Law):
 
     ``secondary``, if given, is projected with ``J1^⊥`` and added, as in the
     classical redundancy formalism (MC05 eq. 7).
-
-    Options:
-        rcond: relative singular-value cut-off of the pseudo-inverse.
     """
 
     name = "classical"

@@ -215,15 +215,6 @@ class Directional(Law):
     command may use the task directions in which it helps the main task, so it
     acts even when ``J1`` is square and full rank (MC05 experiment 1), and the
     predicted error is never larger than with the classical law (eq. 9).
-
-    Options:
-        kappa: Joint-limit force gain κ > 0 (default 1.0), see
-            :func:`~redservo.redundancy.costs.joint_limit_force`.
-        use_joint_limits: Add the joint-limit force ``-κ e2`` (default True); when
-            False only ``secondary`` is projected.
-        margin: μ in (0, 1] shrinking the admissible interval ``[0, -2 a_i]``
-            (default 1, the paper's).
-        rcond: Relative singular-value cut-off of the pseudo-inverse.
     """
 
     name = "directional"

@@ -93,13 +93,7 @@ def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
 
 @register
 class GradientProjection(Law):
-    """Gradient projection with a fixed gain: ``q̇ = -λ (J1⁺e1 + α J1^⊥ e2)`` (CM01 eqs. 1-6).
-
-    Options:
-        alpha: Gain α >= 0 of the joint-limit gradient (dimensionless, relative to
-            λ). Default 2.0, the smallest value that succeeded in CM01 §V-A2.
-        rcond: Relative singular-value cut-off of the pseudo-inverse.
-    """
+    """Gradient projection with a fixed gain: ``q̇ = -λ (J1⁺e1 + α J1^⊥ e2)`` (CM01 eqs. 1-6)."""
 
     name = "gpm"
     description = "gradient projection, q̇ = -λ(J1⁺e1 + α J1^⊥ e2) (CM01 eqs. 1-6)"
@@ -155,14 +149,6 @@ class GradientProjectionAuto(Law):
     ``α = -w_k / (J1^⊥ e2)_k`` (eq. 9 corrected) with ``w = J1⁺e1 - J1^⊥ secondary/λ``
     and k the critical axis whose prediction ``q̂ = q - λ dt w`` (eq. 8) is closest
     to its limit; see the module docstring for the degenerate cases.
-
-    Options:
-        alpha_max: Upper bound on α, or ``None`` (default) for no bound, which
-            reproduces the large-gain transient of CM01 Fig. 10(c).
-        critical_rule: ``"predicted"`` (default): an axis is a candidate when ``q̂_k``
-            is in its band; ``"current"``: when ``q_k`` is (CM01 §II-C as printed).
-            Both require the axis to move toward its limit (module docstring).
-        rcond: Relative singular-value cut-off of the pseudo-inverse.
     """
 
     name = "gpm-auto"

@@ -337,12 +337,6 @@ class IterativeBasic(_IterativeLaw):
 
     ``a0 = F⁺ s`` with ``F = E_K``, ``s = -(J1⁺e1)_K`` over the axes K critical
     at the eq. 8 prediction; ``q̇ = -λ (J1⁺e1 + E a0)``.
-
-    Options:
-        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
-        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
-            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
-            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative-basic"
@@ -353,16 +347,7 @@ class IterativeBasic(_IterativeLaw):
 
 @register
 class Iterative(_IterativeLaw):
-    """Stop the critical axes level after level in what remains of ``Ker J1`` (CM01 eqs. 13-15).
-
-    Options:
-        max_levels: Maximum number of levels (int >= 1), or None (default) to
-            iterate until no new axis becomes critical.
-        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
-        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
-            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
-            amplification near ill-conditioned constraints (module docstring).
-    """
+    """Stop the critical axes level after level in what remains of ``Ker J1`` (CM01 eqs. 13-15)."""
 
     name = "iterative"
     description = "stop critical axes in Ker J1, iterated (CM01 eqs. 13-15)"
@@ -372,15 +357,7 @@ class Iterative(_IterativeLaw):
 
 @register
 class IterativeSmooth(Iterative):
-    """The iterative scheme with right-hand sides weighted by γ_k (CM01 eqs. 16-18, eq. 17 corrected).
-
-    Options:
-        max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
-        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
-        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
-            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
-            amplification near ill-conditioned constraints (module docstring).
-    """
+    """The iterative scheme with right-hand sides weighted by γ_k (CM01 eqs. 16-18, eq. 17 corrected)."""
 
     name = "iterative-smooth"
     description = "iterative scheme, smooth γ-weighted slow-down (CM01 eqs. 16-18)"
@@ -393,14 +370,6 @@ class IterativeSmoothE2(_IterativeLaw):
 
     Eqs. 19-21 corrected (docs/formulas.md §7.6); the level-1 system is
     that of eq. 16, unchanged.
-
-    Options:
-        alpha: Gain α >= 0 of the joint-limit gradient (default 2.0, as ``gpm``).
-        max_levels: Maximum number of levels (int >= 1), or None (default) for no limit.
-        rcond: Relative singular-value cut-off of ``J1⁺`` (absolute for the constraint rows).
-        constraint_rcond: Absolute cut-off in [0, 1) for the constraint rows, or None
-            (default: ``rcond``, exact). Raise it (e.g. 1e-2) to cap the null-space
-            amplification near ill-conditioned constraints (module docstring).
     """
 
     name = "iterative-smooth-e2"

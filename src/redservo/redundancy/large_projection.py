@@ -242,16 +242,6 @@ class LargeProjection(Law):
     ``q̇ = -λ J1⁺ e_eff + P secondary + q̇2`` with ``P = P_λ`` (ICRA'10 eq. 24) and
     ``q̇2`` the IROS'10 joint-limit term (corrected ViSP variant, see the module
     docstring). ``diagnostics.alpha`` holds λ(‖e1‖).
-
-    Options:
-        e0: Lower switching threshold on ``‖e1‖`` (task units), >= 0; default 0.1
-            (ViSP's value, retune for your features).
-        e1: Upper switching threshold on ``‖e1‖`` (task units), > e0; default 0.7.
-        rho: Activation band l0 as a fraction of each joint range, in (0, 0.5); default 0.1.
-        rho1: l1 position inside the band, fraction of ``rho Δq``, in (0, 1); default 0.3.
-        lambda_tune: Extra reversal gain λ_i >= 0 (default 0.7).
-        projector: ``"switched"`` (default), ``"norm"`` or ``"classical"``.
-        rcond: Relative singular-value cut-off of the pseudo-inverse.
     """
 
     name = "large-projection"

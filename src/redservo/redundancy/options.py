@@ -24,7 +24,7 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels.lawopts import F_RCOND
 from redservo.redundancy.linalg import DEFAULT_RCOND
 
-__all__ = ["RCOND", "Option", "check_option", "constructor", "describe"]
+__all__ = ["RCOND", "Option", "check_option", "constructor", "describe", "options_doc"]
 
 Kind = Literal["float", "int", "bool", "choice", "str", "per-joint"]
 
@@ -204,3 +204,14 @@ def constructor(cls: type, init: Callable[..., None]) -> Callable[..., None]:
     __init__.__qualname__ = f"{cls.__qualname__}.__init__"
     __init__.__doc__ = f"Create the law; its options: {', '.join(o.name for o in options)}."
     return __init__
+
+
+def options_doc(options: tuple[Option, ...]) -> str:
+    """The ``Options:`` section of a law's docstring, from its declarations (indented for a
+    class docstring)."""
+    lines = ["Options (declared in ``OPTIONS``, :mod:`redservo.redundancy.options`):"]
+    for o in options:
+        unit = f" ({o.unit})" if o.unit else ""
+        ref = f"; {o.ref}" if o.ref else ""
+        lines.append(f"    {o.name}: {o.doc}{unit}; {o.allowed()}; default {o.default!r}{ref}.")
+    return "\n    ".join(["", *lines])

@@ -257,17 +257,6 @@ class BoundedLeastSquares(Law):
     """``min ‖J1 q̇ + λ e_eff‖² + ε‖q̇‖²`` s.t. velocity bounds from the joint limits (KLW 2011).
 
     See the module docstring for the bounds, the fast path and the solvers.
-
-    Options:
-        eps: Relative regularization, ``ε = eps σ_max(J1)²`` (default 1e-6), > 0.
-        k_p: Gain in (0, 1] on the position bounds (default 1.0).
-        margin: Keep-out band at each limit as a fraction of the joint range,
-            in [0, 0.5) (default 0.0).
-        v_max: Joint velocity limits (rad/s or m/s), scalar or one per joint, or None.
-        solver: ``"auto"`` (default: qpsolvers with daqp/proxsuite/quadprog if
-            installed, else scipy), ``"scipy"`` (scipy ``lsq_linear``), or a
-            qpsolvers backend name.
-        rcond: Relative singular-value cut-off of the pseudo-inverse (fast path).
     """
 
     name = "qp"

@@ -258,14 +258,6 @@ class SaturationInNullSpace(Law):
     exceed ``v_max``) are saturated one at a time; the task ``ẋ = -λ e1 - ∂e1/∂t``
     is redistributed on the others and, if that is not enough, scaled by
     ``s ∈ [0, 1]`` keeping its direction (see the module docstring).
-
-    Options:
-        v_max: Joint velocity limits (rad/s or m/s), scalar or one per joint, or
-            None (only the position limits bound the velocity).
-        a_max: Joint acceleration limits (rad/s² or m/s²) for the braking bound
-            ``√(2 a_max d)``, scalar or one per joint, or None.
-        margin: Factor in (0, 1] applied to the velocity bounds (default 1.0).
-        rcond: Relative singular-value cut-off of the pseudo-inverses.
     """
 
     name = "sns"

@@ -141,13 +141,6 @@ class WeightedLeastNorm(Law):
 
     Computed as ``D (J1 D)⁺ ẋ`` with ``D = W^{-1/2}`` (see the module docstring
     for the clamp at a limit, the direction rule and the secondary term).
-
-    Options:
-        mode: ``"pinv"`` (default, stateless): a joint moves toward a limit when
-            the unweighted command ``J1⁺ẋ + J1^⊥ secondary`` drives it away from
-            mid-range. ``"history"``: the paper's rule ``Δ|∂H/∂q_i| >= 0``; the
-            instance is then stateful and remembers the previous ``|∂H/∂q|``.
-        rcond: Relative singular-value cut-off of the pseudo-inverses.
     """
 
     name = "wln"
