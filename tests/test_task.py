@@ -162,3 +162,34 @@ def test_moment_orientation_error_has_period_pi() -> None:
     s = task.s_star.copy()
     s[3] += np.pi - 0.01  # α + π - 0.01 is the same orientation as α - 0.01
     assert task.error(s)[3] == pytest.approx(-0.01)
+
+
+def test_a_subclass_overriding_measure_error_or_interaction_is_honoured() -> None:
+    """The hot path of a points task must not bypass a subclass's own methods (a constant
+    interaction matrix, CM01 eq. 27 as printed, is such a subclass)."""
+    robot = Afma6()
+    lim = robot.limits()
+    q = 0.5 * (lim.q_min + lim.q_max)
+    scene, task = _four_points_task(robot, q)
+    L_const = np.arange(48, dtype=float).reshape(8, 6) / 48.0
+
+    class ConstantL(VisualTask):
+        def interaction(self, s, inv_depth, *, depth_scale=1.0):
+            return L_const.copy()
+
+    class Shifted(VisualTask):
+        def error(self, s):
+            return super().error(s) + 1.0
+
+    terms, s_star = task.terms, task.s_star
+    const = ConstantL(terms, s_star, inv_depth_star=task.inv_depth_star, C=np.eye(8))
+    shifted = Shifted(terms, s_star, inv_depth_star=task.inv_depth_star, C=np.eye(8))
+    bMc, J = robot.fkine(q), robot.jacobian(q)
+    for state in (
+        const.evaluate(scene, bMc, J),
+        const.evaluate_measured(*task.measure(scene, bMc, 0.0), J),
+    ):
+        np.testing.assert_array_equal(state.L, L_const)
+        np.testing.assert_array_equal(state.J1, L_const @ J)
+    plain = task.evaluate(scene, bMc, J)
+    np.testing.assert_array_equal(shifted.evaluate(scene, bMc, J).e, plain.e + 1.0)

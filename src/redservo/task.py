@@ -39,7 +39,6 @@ from redservo.scene import Scene
 
 _K = lazy("features")
 _SCENE_CMO = Scene.cMo
-
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
 DepthMode = Literal["current", "desired", "mean"]
@@ -151,7 +150,10 @@ class VisualTask:
             self.sizes,
             self.inv_depth_star,
         )
-        self._group = plan.single_group(self._plan)
+        # A subclass redefining measure/error/interaction takes the plain path through them.
+        own = ("measure", "error", "interaction")
+        self._custom = any(getattr(type(self), m) is not getattr(VisualTask, m) for m in own)
+        self._group = None if self._custom else plan.single_group(self._plan)
         self.C: FloatArray | None
         if C is not None:
             self.C = as_matrix(C, "C", cols=k)
@@ -306,7 +308,11 @@ class VisualTask:
             if C is None:
                 return _new_state(TaskState, (s, e, e, L, L @ J, group.split(iz)))
             return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, group.split(iz)))
-        s, inv_depth, parts = plan.measure(self._plan, self._poses(scene, bMc, t))
+        if self._custom:
+            s, inv = self.measure(scene, bMc, t)
+            inv_depth, parts = tuple(inv), ()
+        else:
+            s, inv_depth, parts = plan.measure(self._plan, self._poses(scene, bMc, t))
         if noise is not None:
             s = s + as_vector(noise, "noise", self.k)
         if group is not None:
@@ -334,7 +340,7 @@ class VisualTask:
             ConfigurationError: ``depth_scale`` is not positive and finite.
         """
         sv = as_vector(s, "s", self.k)
-        parts = plan.parts_of(self._plan, inv_depth)
+        parts = () if self._custom else plan.parts_of(self._plan, inv_depth)
         if self._group is not None:
             return self._points_state(sv, parts[0], tuple(inv_depth), J, depth_scale)
         return self._state(sv, tuple(inv_depth), parts, J, depth_scale)
@@ -370,7 +376,11 @@ class VisualTask:
         """The task's state at the value ``s`` with the inverse depths ``parts`` per segment."""
         if not (type(J) is np.ndarray and J.ndim == 2 and J.shape[0] == 6):
             J = as_matrix(J, "J", 6)
-        L = plan.interaction(self._plan, s, parts, self.depth, depth_scale)
+        L = (
+            self.interaction(s, inv_depth, depth_scale=depth_scale)
+            if self._custom
+            else plan.interaction(self._plan, s, parts, self.depth, depth_scale)
+        )
         e = self.error(s)
         if self.C is None:
             return TaskState(s, e, e, L, L @ J, inv_depth)
