@@ -350,3 +350,25 @@ def test_an_empty_method_name_is_an_error_naming_the_option_and_the_methods(
     assert f"argument {option}:" in line and "method name" in line
     assert all(m in line for m in METHODS)
     assert not (tmp_path / "o").exists()  # nothing ran
+
+
+def test_a_closed_pipe_ends_quietly() -> None:
+    """`redservo list | head -1`: the reader has gone; no error line, no traceback."""
+    import os
+    import subprocess
+    import sys
+
+    r, w = os.pipe()
+    os.close(r)  # no reader at all, before the command writes anything
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "redservo.cli", "list"],
+            stdout=w,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        os.close(w)
+    assert proc.returncode == 141, proc.stderr
+    assert proc.stderr == ""

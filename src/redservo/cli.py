@@ -28,6 +28,7 @@ count and first iteration. Joints and iterations are numbered from 0 everywhere.
 
 from __future__ import annotations
 
+import os
 import sys
 import traceback
 from collections.abc import Sequence
@@ -77,10 +78,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             from redservo.warmup import announce_compilation
 
             announce_compilation()
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # a closed pipe is seen here, not in Python's flush at exit
+        return code
     except KeyboardInterrupt:  # pragma: no cover - interactive
         print("redservo: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader went away (`redservo list | head -1`): stop quietly, as a Unix tool
+        # killed by SIGPIPE does, and keep Python's final flush from complaining.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except Exception as exc:
         code, line = _describe(exc)
         if args.debug:
