@@ -168,17 +168,9 @@ def test_the_kernel_layer_imports_nothing_above_it() -> None:
     assert not bad, "kernels/ imports above itself: " + ", ".join(bad)
 
 
-KNOWN_LAYER_BREAKS: tuple[str, ...] = (
-    # hardware/recorder.py still imports simulation (the run log and summary records): the
-    # hardware helper is moving the shared records into their own package this session
-    # (issue 18, Targets: "hardware/ does not import simulation/"). Remove when it is gone.
-    "redservo.hardware.recorder",
-)
-"""Modules of hardware/ still allowed to import simulation/ (meant to be empty)."""
-
-
 def test_the_servo_loop_does_not_import_the_simulator() -> None:
-    """hardware/ (the real arm's loop) and simulation/ share records, not code paths."""
+    """hardware/ (the real arm's loop) and simulation/ share records (redservo.records),
+    not code paths."""
     graph = import_graph()
     found = {
         name: [
@@ -187,10 +179,8 @@ def test_the_servo_loop_does_not_import_the_simulator() -> None:
         for name, edges in graph.items()
         if name == "redservo.hardware" or name.startswith("redservo.hardware.")
     }
-    bad = {k: v for k, v in found.items() if v and k not in KNOWN_LAYER_BREAKS}
+    bad = {k: v for k, v in found.items() if v}
     assert not bad, f"hardware/ imports simulation/: {bad}"
-    gone = [k for k in KNOWN_LAYER_BREAKS if not found.get(k)]
-    assert not gone, f"{gone} no longer import simulation/: remove them from KNOWN_LAYER_BREAKS"
 
 
 def test_the_graph_sees_lazy_and_package_imports() -> None:

@@ -7,8 +7,7 @@ import json
 import numpy as np
 
 from redservo.limits import JointLimits
-from redservo.simulation.runlog import LogBuffer
-from redservo.simulation.summary import summarize
+from redservo.records import LogBuffer, summarize
 
 
 def _limits(qdot_max: float | None) -> JointLimits:

@@ -104,7 +104,7 @@ class Run:
                 "Run.log is a pandas DataFrame: pip install pandas (Run.arrays holds the "
                 "same data as numpy arrays)"
             ) from None
-        from redservo.simulation.runlog import FLAG_COLUMNS
+        from redservo.records.runlog import FLAG_COLUMNS
 
         cols: dict[str, FloatArray] = {}
         for name, arr in self.arrays.items():

@@ -41,11 +41,10 @@ from redservo.campaign.looppack import (
 )
 from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment
+from redservo.records import Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.flags import FLAGS, Event
 from redservo.redundancy.gain import AdaptiveGain
-from redservo.simulation.runlog import SimulationLog
-from redservo.simulation.summary import Outcome, RunSummary, summarize
 
 __all__ = [
     "campaign_law",

@@ -1,5 +1,5 @@
 """The record of a servo run: its rows, collected into a
-:class:`~redservo.simulation.SimulationLog`, and the :class:`ServoResult` the loop returns.
+:class:`~redservo.records.SimulationLog`, and the :class:`ServoResult` the loop returns.
 
 The loop on a robot writes exactly the simulator's log (same arrays, same ``.npz`` and
 ``.csv`` files), so every plot and report made for simulations works on a real run.
@@ -19,8 +19,8 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.hardware.clock import ClockFault
 from redservo.limits import JointLimits
+from redservo.records import LogBuffer, SimulationLog, summarize
 from redservo.redundancy.base import Diagnostics
-from redservo.simulation import LogBuffer, SimulationLog, summarize
 from redservo.task import TaskState
 
 __all__ = [

@@ -1,12 +1,24 @@
 """Closed-loop simulation: options, the loop, its log, its typed summary, objectives.
 
 See :mod:`redservo.simulation.loop` for the loop and its outcomes,
-:mod:`redservo.simulation.summary` for what counts as a success, and
+:mod:`redservo.records.summary` for what counts as a success (the log and summary records
+shared with the servo loop live in :mod:`redservo.records`), and
 :mod:`redservo.simulation.objectives` for the composable secondary objectives.
 """
 
 from __future__ import annotations
 
+from redservo.records import (
+    FLAG_COLUMNS,
+    OUTCOMES,
+    FlagCount,
+    LogBuffer,
+    Outcome,
+    RunSummary,
+    SimulationLog,
+    flag_warnings,
+    summarize,
+)
 from redservo.simulation.loop import LIMIT_TOLERANCE, SimulationResult, simulate
 from redservo.simulation.objectives import (
     CallableObjective,
@@ -16,15 +28,6 @@ from redservo.simulation.objectives import (
     OcclusionAvoidance,
 )
 from redservo.simulation.options import Occlusion, SimulationOptions
-from redservo.simulation.runlog import FLAG_COLUMNS, LogBuffer, SimulationLog
-from redservo.simulation.summary import (
-    OUTCOMES,
-    FlagCount,
-    Outcome,
-    RunSummary,
-    flag_warnings,
-    summarize,
-)
 
 __all__ = [
     "FLAG_COLUMNS",

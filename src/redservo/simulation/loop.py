@@ -51,13 +51,12 @@ from redservo.control.objectives import (
 )
 from redservo.errors import GeometryError
 from redservo.limits import JointLimits
+from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
 from redservo.sensors import IdealSensor, Sensor, SensorReading
 from redservo.simulation.options import SimulationOptions
-from redservo.simulation.runlog import LogBuffer, SimulationLog
-from redservo.simulation.summary import Outcome, RunSummary, summarize
 from redservo.task import TaskState, VisualTask
 
 __all__ = ["LIMIT_TOLERANCE", "Actuator", "SimulationResult", "simulate", "simulation_controller"]

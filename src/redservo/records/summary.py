@@ -15,8 +15,8 @@ from typing import Any, Literal
 import numpy as np
 
 from redservo.limits import JointLimits
+from redservo.records.runlog import SimulationLog
 from redservo.redundancy.flags import FLAGS, Flag
-from redservo.simulation.runlog import SimulationLog
 
 __all__ = [
     "OUTCOMES",

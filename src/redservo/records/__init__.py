@@ -1,0 +1,38 @@
+"""The typed records of a run, shared by every loop: the per-step log and the run summary.
+
+The simulator (:mod:`redservo.simulation`), the servo loop of a real arm
+(:mod:`redservo.hardware`) and the campaigns write the same records, so reports, plots,
+the viewer and replays read every run the same way. They depend on the laws' diagnostics
+and the task's state, never on a loop: ``hardware/`` uses them without importing the
+simulator (tests/test_layers.py).
+
+* :class:`SimulationLog` / :class:`LogBuffer` (:mod:`redservo.records.runlog`): one row per
+  control step (time in s, joints in rad or m, commands in rad/s or m/s, features, errors,
+  diagnostics and flags);
+* :class:`RunSummary` and :func:`summarize` (:mod:`redservo.records.summary`): the outcome,
+  what counts as a success, the rate and margin statistics and the flag counts.
+"""
+
+from __future__ import annotations
+
+from redservo.records.runlog import FLAG_COLUMNS, LogBuffer, SimulationLog
+from redservo.records.summary import (
+    OUTCOMES,
+    FlagCount,
+    Outcome,
+    RunSummary,
+    flag_warnings,
+    summarize,
+)
+
+__all__ = [
+    "FLAG_COLUMNS",
+    "OUTCOMES",
+    "FlagCount",
+    "LogBuffer",
+    "Outcome",
+    "RunSummary",
+    "SimulationLog",
+    "flag_warnings",
+    "summarize",
+]
