@@ -308,9 +308,9 @@ class VisualTask:
             if C is None:
                 return _new_state(TaskState, (s, e, e, L, L @ J, group.split(iz)))
             return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, group.split(iz)))
+        parts: Sequence[FloatArray] = ()
         if self._custom:
-            s, inv = self.measure(scene, bMc, t)
-            inv_depth, parts = tuple(inv), ()
+            s, inv_depth = self.measure(scene, bMc, t)
         else:
             s, inv_depth, parts = plan.measure(self._plan, self._poses(scene, bMc, t))
         if noise is not None:
@@ -340,7 +340,7 @@ class VisualTask:
             ConfigurationError: ``depth_scale`` is not positive and finite.
         """
         sv = as_vector(s, "s", self.k)
-        parts = () if self._custom else plan.parts_of(self._plan, inv_depth)
+        parts: Sequence[FloatArray] = () if self._custom else plan.parts_of(self._plan, inv_depth)
         if self._group is not None:
             return self._points_state(sv, parts[0], tuple(inv_depth), J, depth_scale)
         return self._state(sv, tuple(inv_depth), parts, J, depth_scale)
