@@ -343,3 +343,37 @@ def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> N
                 assert path == FAST_PATH and summary is not None, (name, i, method, path)
         run_campaign(d, samples=1, workers=1, progress=False)
         assert "object path" not in capsys.readouterr().err, name
+
+
+def test_known_feedforward_kernel_is_the_controllers() -> None:
+    """The loop's known feed-forward equals redservo.control.feedforward.known_feedforward
+    bit for bit along the humanoid's target motion (t = 0 clipped, on and between the
+    waypoints, after the last), and says "not ok" where the object path raises (the target
+    behind the camera), which hands the run to the object path."""
+    import numpy as np
+
+    from redservo.campaign.looppack import scene_args, task_args
+    from redservo.control.feedforward import known_feedforward
+    from redservo.errors import GeometryError
+    from redservo.kernels import loop_task
+    from redservo.spatial import inverse, make_transform
+
+    exp = build(load_scenario("cm01-humanoid-tracking"))
+    scene, task, dt = scene_args(exp), task_args(exp), exp.options.dt
+    bMc = exp.robot.fkine(exp.q0)
+    cMw = loop_task.inverse(bMc) @ scene[0]
+    compared = 0
+    for t in (0.0, 0.02, 0.04, 1.0, 2.0, 3.3, 5.0, 12.98, 13.0, 16.0, 20.0):
+        ff, ok = loop_task.known_feedforward(cMw, scene, task, t, dt)
+        try:
+            ref = known_feedforward(exp.task, exp.scene, bMc, t, dt)
+        except GeometryError:  # late in the motion the point is behind the resting camera
+            assert not ok, t
+            continue
+        assert ok and np.array_equal(ff, ref), t
+        compared += 1
+    assert compared >= 5
+    away = bMc @ make_transform(rotvec=[np.pi, 0.0, 0.0])
+    with pytest.raises(GeometryError):
+        known_feedforward(exp.task, exp.scene, away, 1.0, dt)
+    assert not loop_task.known_feedforward(inverse(away) @ scene[0], scene, task, 1.0, dt)[1]
