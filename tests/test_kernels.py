@@ -201,6 +201,13 @@ def test_event_kernels_compiled_and_plain_agree(seed: int) -> None:
     has_v, has_a = p["lp"].has_v, p["lp"].has_a
     safe = safety.apply_safety(raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False)
     both(events.safety_events, *safe[1:10])
+    both(
+        events.safety_with_events, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False
+    )
+    zero = it[2].copy()
+    zero[3] = 0.0  # a constraint level with σ_min = 0: flagged with an infinite amplification
+    both(events.iterative_events, m, n, it[1], zero, it[5], rb, 1e-2)
+    assert events.iterative_events(m, n, it[1], zero, it[5], rb, 1e-2)[1][2] == np.inf
     law = make_law("iterative-smooth", robust=bool(seed % 2))
     o = law_options(law, n)
     res = step.law_step(

@@ -271,8 +271,9 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
         for shield in (False, True):
             law = make_law(method, shield=shield)
             args = _law_args(law, lim.n)
-            qd, bits, _, abort = _law(kw["J1"], kw["e1"], kw["q"], kw["qdot_prev"], z, False,
-                                      args, limits, sim)  # fmt: skip
+            ff = np.zeros(kw["e1"].shape[0])  # no feed-forward
+            qd, bits, _, abort = _law(kw["J1"], kw["e1"], ff, False, kw["q"], kw["qdot_prev"], z,
+                                      False, args, limits, sim)  # fmt: skip
             res = law(**kw)
             assert abort == 0
             assert np.array_equal(qd, res.qdot), (method, shield)
@@ -295,7 +296,10 @@ def test_the_campaign_loop_gives_sns_the_same_box_when_the_shield_box_is_empty()
     limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
     sim = (1.0, dt, 1e-3, True, np.ones(2), False)
     law = make_law("sns", shield=False)
-    qd, bits, _, _ = _law(J1, e1, q, prev, np.zeros(2), False, _law_args(law, 2), limits, sim)
+    args = _law_args(law, 2)
+    qd, bits, _, _ = _law(
+        J1, e1, np.zeros(1), False, q, prev, np.zeros(2), False, args, limits, sim
+    )
     res = law(J1=J1, e1=e1, q=q, limits=lim, lam=1.0, dt=dt, qdot_prev=prev)
     assert np.array_equal(qd, res.qdot) and bits == _flag_bits(res.diagnostics.events)
     assert qd[0] == (0.95 - 0.97) / dt

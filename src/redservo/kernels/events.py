@@ -77,6 +77,7 @@ from redservo.kernels.laws import (
     I_K,
     I_RANK,
 )
+from redservo.kernels.safety import apply_safety
 
 __all__ = [
     "ILL_CONDITIONED_BELOW",
@@ -89,6 +90,7 @@ __all__ = [
     "large_projection_events",
     "qp_events",
     "safety_events",
+    "safety_with_events",
     "sns_events",
     "wln_events",
 ]
@@ -212,7 +214,8 @@ def iterative_events(
     min_sigma = fout[_F_MIN_SIGMA]
     if min_sigma < ILL_CONDITIONED_BELOW:
         why = ILL_ROBUST if con_filter != 0.0 else ILL_EXACT
-        _raise(vals, src, ILL_CONDITIONED, 1.0 / min_sigma, why)
+        amp = 1.0 / min_sigma if min_sigma > 0.0 else np.inf
+        _raise(vals, src, ILL_CONDITIONED, amp, why)
     if con_filter != 0.0 and min_sigma < con_filter:
         _raise(vals, src, DAMPED, 1.0 / con_filter, DAMPED_CONSTRAINTS)
     return _done(vals, src)
@@ -317,3 +320,26 @@ def safety_events(
     if past > 0.0:
         _raise(vals, src, POSITION_LIMIT_UNAVOIDABLE, past, ONLY)
     return _done(vals, src)
+
+
+@kernel
+def safety_with_events(
+    qdot: Any,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+    task: Any,
+    has_task: bool,
+) -> Any:
+    """:func:`redservo.kernels.safety.apply_safety` and its :func:`safety_events` in one call:
+    ``(q̇, past_joint, accel_excess, mask, vals, src)``."""
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = apply_safety(
+        qdot, q, lp, has_v, has_a, dt, prev, has_prev, shield, task, has_task
+    )
+    mask, vals, src = safety_events(bad, s, over_v, dropped, change, acted, worst, exceeded, past)
+    return out, joint, worst, mask, vals, src

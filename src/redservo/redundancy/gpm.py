@@ -230,7 +230,7 @@ class GradientProjectionAuto(Law):
         return {
             **task_context(m, iout, fout, self.filter_threshold),
             "axis": axis,
-            "others": [int(i) for i in np.flatnonzero(cand) if i != axis],
+            "others": lambda: [int(i) for i in np.flatnonzero(cand) if i != axis],
             "den": float(fout[_F_DEN]),
             "alpha_raw": float(fout[_F_ALPHA_RAW]),
             "inv_alpha_filter": 1.0 / ALPHA_FILTER,

@@ -318,11 +318,10 @@ def _context(
 ) -> dict[str, Any]:
     """The numbers the iterative messages name: the task inverse's, the levels met only in
     the least-squares sense (from 1), the constraint counts, σ_min and the filter ``con``."""
-    unmet = _KE.unmet_levels(iout, vec)
     n_a = int(iout[_I_NA])
     return {
         **task_context(m, iout, fout, thr),
-        "unmet": tuple(int(lv) + 1 for lv in np.flatnonzero(unmet)),
+        "unmet": lambda: tuple(int(lv) + 1 for lv in np.flatnonzero(_KE.unmet_levels(iout, vec))),
         "n_con": int(iout[_I_NCON]),
         "n_a": n_a,
         "min_sigma": float(fout[_F_MIN_SIGMA]),

@@ -10,6 +10,7 @@ joins the reasons' messages with ``"; "``.
 
 from __future__ import annotations
 
+import string
 from typing import Any
 
 import numpy as np
@@ -99,23 +100,37 @@ MESSAGES: dict[Flag, dict[int, str]] = {
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 
 
+_FIELDS: dict[str, tuple[str, ...]] = {
+    t: tuple({f for _, f, _, _ in string.Formatter().parse(t) if f and f != "v"})
+    for table in MESSAGES.values()
+    for t in table.values()
+}
+"""The names each template uses besides ``v``."""
+
+
 def events(mask: int, vals: np.ndarray, src: np.ndarray, **ctx: Any) -> tuple[Event, ...]:
     """The :class:`Event` of each flag of a kernel's ``(mask, vals, src)``, in flag order.
 
     ``ctx`` holds the numbers the templates of the raised flags name (a law passes what its
-    messages need; ``v`` is the flag's value).
+    messages need, a costly one as a function called only if a message names it; ``v`` is
+    the flag's value).
     """
-    if not mask:
-        return ()
     out = []
-    for j, flag in enumerate(FLAGS):
-        if mask >> j & 1:
-            value = float(vals[j])
-            why = int(src[j])
-            text = "; ".join(
-                template.format(v=value, **ctx)
-                for bit, template in MESSAGES[flag].items()
-                if why & bit
-            )
-            out.append(Event(flag, value, text))
+    while mask:
+        j = (mask & -mask).bit_length() - 1
+        mask &= mask - 1
+        flag = FLAGS[j]
+        value = float(vals[j])
+        why = int(src[j])
+        texts = []
+        for bit, template in MESSAGES[flag].items():
+            if why & bit:
+                names = {}
+                for name in _FIELDS[template]:
+                    item = ctx[name]
+                    if callable(item):
+                        item = ctx[name] = item()
+                    names[name] = item
+                texts.append(template.format(v=value, **names))
+        out.append(Event(flag, value, "; ".join(texts)))
     return tuple(out)

@@ -367,8 +367,7 @@ class BoundedLeastSquares(Law):
         fallback = "fallback" in used or "failed" in used
         mask, vals, src = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
         ctx = {"rank": int(rank), "m": m, "solver": used}
-        if mask:
-            ctx["conflicts"] = np.flatnonzero(conflicts).tolist()
+        ctx["conflicts"] = lambda: np.flatnonzero(conflicts).tolist()
         diag = Diagnostics(
             method=self.name,
             task_rank=int(rank),

@@ -218,7 +218,7 @@ def apply_safety(
     prev, has_prev = _prev(qdot_prev, n)
     c = np.ascontiguousarray
     qa = c(q, dtype=np.float64)
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = _K.apply_safety(
+    out, joint, worst, mask, vals, src = _KE.safety_with_events(
         c(qdot, dtype=np.float64),
         qa,
         lp.rows,
@@ -230,9 +230,6 @@ def apply_safety(
         bool(shield),
         _zeros(n) if task is None else c(task, dtype=np.float64),
         task is not None,
-    )
-    mask, vals, src = _KE.safety_events(
-        bad, s, over_v, dropped, change, acted, worst, exceeded, past
     )
     if not mask:
         return SafetyOutcome(out, ())
@@ -247,8 +244,17 @@ def _context(
     """The numbers the safety messages name: the acceleration excess, and the joint
     ``joint`` that passes its hard limit (the kernel's
     :func:`~redservo.kernels.safety.unavoidable_crossing`), its side and ``q + dt q̇``."""
-    nxt = float(q[joint] + dt * qdot[joint])
-    upper = nxt > limits.q_max[joint]
-    bound = float(limits.q_max[joint] if upper else limits.q_min[joint])
-    side = "upper" if upper else "lower"
-    return {"worst": worst, "joint": joint, "nxt": nxt, "side": side, "bound": bound}
+
+    def nxt() -> float:
+        return float(q[joint] + dt * qdot[joint])
+
+    def upper() -> bool:
+        return nxt() > limits.q_max[joint]
+
+    return {
+        "worst": worst,
+        "joint": joint,
+        "nxt": nxt,
+        "side": lambda: "upper" if upper() else "lower",
+        "bound": lambda: float(limits.q_max[joint] if upper() else limits.q_min[joint]),
+    }

@@ -206,7 +206,7 @@ class WeightedLeastNorm(Law):
                 "wrank": int(iout[_I_WRANK]),
                 "wfiltered": int(iout[_I_WFILTERED]),
                 "wcond": float(fout[_F_WCOND]),
-                "blocked": np.flatnonzero(blocked).tolist(),
+                "blocked": lambda: np.flatnonzero(blocked).tolist(),
             }
         axes = tuple(int(i) for i in np.flatnonzero(penalized))
         diag = Diagnostics(
