@@ -494,3 +494,44 @@ def test_each_declared_option_is_packed_into_its_own_slot(method: str) -> None:
         }
         allowed = {option.slot, *extras, *(o.slot for o in cls.OPTIONS if o.name in kw)}
         assert option.slot in changed and changed <= allowed, (option.name, changed)
+
+
+def _outcome(fn: Any) -> Any:
+    try:
+        x = fn()
+    except redservo.RedservoError as exc:
+        return (type(exc).__name__, str(exc))
+    return tuple(
+        v.tobytes() if isinstance(v, np.ndarray) else v for v in x if not isinstance(v, JointLimits)
+    )
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_kernel_check_of_the_inputs_agrees_with_the_full_checks(seed: int) -> None:
+    """validate_inputs takes contiguous float64 arrays through one kernel; lists take the full
+    checks: both accept the same inputs with the same values and refuse with the same error
+    (NaN, inf, entries near 1e308, ``q`` at a limit's tolerance of 1e-9 and past it)."""
+    from redservo.redundancy.inputs import validate_inputs
+
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(1, 7)), int(rng.integers(2, 8))
+    lim = JointLimits(-np.ones(n), np.ones(n), rho=0.1)
+    kw: dict[str, Any] = {
+        "J1": rng.normal(size=(m, n)),
+        "e1": rng.normal(size=m),
+        "q": rng.uniform(-0.9, 0.9, n),
+        "de1_dt": rng.normal(size=m) if seed % 2 else None,
+        "secondary": rng.normal(size=n) if seed % 3 else None,
+        "qdot_prev": rng.normal(size=n) if seed % 4 else None,
+    }
+    name = ("J1", "e1", "q", "de1_dt", "secondary", "qdot_prev")[seed % 6]
+    if kw[name] is not None:
+        bad = kw[name].reshape(-1)
+        bad[int(rng.integers(bad.size))] = (np.nan, np.inf, -1.7e308, 1e301, 0.5)[seed % 5]
+    if seed % 7 == 0:
+        kw["q"][0] = (1.0 + 1e-9, 1.0 + 2e-9, -1.0 - 1e-9, -1.0 - 1.1e-9)[seed % 4]
+    args = {"limits": lim, "lam": 0.5, "dt": 0.04}
+    fast = _outcome(lambda: validate_inputs(**kw, **args))
+    lists = {k: None if v is None else v.tolist() for k, v in kw.items()}
+    full = _outcome(lambda: validate_inputs(**lists, **args))
+    assert fast == full

@@ -15,8 +15,14 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, _to_float, require_finite
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError
+from redservo.kernels import lazy
 from redservo.limits import JointLimits
+from redservo.packs import limits_pack
 from redservo.redundancy.gain import AdaptiveGain, gain_value
+
+_K = lazy("inputs")
+_F64 = np.dtype(np.float64)
+_EMPTY = np.empty(0)
 
 __all__ = ["LawInputs", "validate_inputs"]
 
@@ -55,6 +61,8 @@ def _vec(value: ArrayLike, name: str, size: int) -> FloatArray:
 
 def _scalar(value: object, name: str, meaning: str) -> float:
     """Return a finite positive float, or raise ConfigurationError naming ``name``."""
+    if type(value) is float and 0.0 < value < math.inf:
+        return value
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise ConfigurationError(
             f"{name} ({meaning}) must be a finite positive number, got {value!r}", argument=name
@@ -75,6 +83,46 @@ def _real_matrix(J1: ArrayLike) -> FloatArray:
     return _to_float(J1, "J1")
 
 
+_LAM = "λ, 1/s"
+_DT = "control period, s"
+
+
+def _array(a: object, shape: tuple[int, ...]) -> bool:
+    """``a`` is a C-contiguous float64 array of shape ``shape``."""
+    return (
+        type(a) is np.ndarray and a.dtype == _F64 and a.shape == shape and a.flags.c_contiguous  # type: ignore[attr-defined]
+    )
+
+
+def _fast(
+    J1: object,
+    e1: object,
+    q: object,
+    limits: object,
+    de1_dt: object,
+    secondary: object,
+    qdot_prev: object,
+) -> bool:
+    """True when the inputs are valid by the kernel's conservative test (module of
+    :func:`validate_inputs`); False sends them through the full checks."""
+    if type(J1) is not np.ndarray or J1.ndim != 2 or type(limits) is not JointLimits:
+        return False
+    m, n = J1.shape
+    if m == 0 or limits.n != n or not _array(J1, (m, n)):
+        return False
+    if not (_array(e1, (m,)) and _array(q, (n,))):
+        return False
+    opt = []
+    for value, size in ((de1_dt, m), (secondary, n), (qdot_prev, n)):
+        if value is None:
+            opt.append(_EMPTY)
+        elif _array(value, (size,)):
+            opt.append(value)
+        else:
+            return False
+    return bool(_K.inputs_ok(J1, e1, q, limits_pack(limits).rows, *opt))
+
+
 def validate_inputs(
     *,
     J1: ArrayLike,
@@ -90,8 +138,23 @@ def validate_inputs(
     """Check shapes, finiteness, gains and that ``q`` lies within ``limits``.
 
     An :class:`~redservo.redundancy.gain.AdaptiveGain` is evaluated at ``‖e1‖∞`` here, so
-    that the laws always see a number.
+    that the laws always see a number. Contiguous float64 arrays of the right shapes are
+    checked by one kernel (:func:`redservo.kernels.inputs.inputs_ok`); anything it does not
+    pass goes through the full checks below, which name the faulty argument.
     """
+    fast = _fast(J1, e1, q, limits, de1_dt, secondary, qdot_prev)
+    if fast:
+        return LawInputs(
+            J1,  # type: ignore[arg-type]  # _fast checked the arrays
+            e1,  # type: ignore[arg-type]
+            q,  # type: ignore[arg-type]
+            limits,
+            gain_value(lam, e1) if isinstance(lam, AdaptiveGain) else _scalar(lam, "lam", _LAM),
+            _scalar(dt, "dt", _DT),
+            de1_dt,  # type: ignore[arg-type]
+            secondary,  # type: ignore[arg-type]
+            qdot_prev,  # type: ignore[arg-type]
+        )
     J = _real_matrix(J1)
     if J.ndim != 2 or J.shape[0] == 0:
         raise ShapeError(
@@ -121,6 +184,6 @@ def validate_inputs(
     if isinstance(lam, AdaptiveGain):
         lam_f = gain_value(lam, e)
     else:
-        lam_f = _scalar(lam, "lam", "λ, 1/s")
-    dt_f = _scalar(dt, "dt", "control period, s")
+        lam_f = _scalar(lam, "lam", _LAM)
+    dt_f = _scalar(dt, "dt", _DT)
     return LawInputs(J, e, qa, limits, lam_f, dt_f, ff, sec, prev)
