@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import abc
 import inspect
-from dataclasses import dataclass, field
+import operator
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Literal, NamedTuple, TypeVar
 
 import numpy as np
@@ -292,9 +293,8 @@ class Law(abc.ABC):
         if not safe.events:  # the diagnostics are unchanged
             return result if safe.qdot is result.qdot else LawResult(safe.qdot, result.diagnostics)
         d = result.diagnostics
-        return LawResult(
-            safe.qdot, Diagnostics(**{**_asdict(d), "events": (*d.events, *safe.events)})
-        )
+        merged = Diagnostics(*_BEFORE_EVENTS(d), (*d.events, *safe.events), d.info)
+        return LawResult(safe.qdot, merged)
 
     @property
     def filter_threshold(self) -> float:
@@ -323,8 +323,10 @@ class Law(abc.ABC):
         return f"make_law({self.name!r}{', ' if opts else ''}{opts})"
 
 
-def _asdict(d: Diagnostics) -> dict[str, Any]:
-    return {name: getattr(d, name) for name in Diagnostics.__slots__}
+_BEFORE_EVENTS = operator.attrgetter(*[f.name for f in fields(Diagnostics)][:-2])
+"""The fields of :class:`Diagnostics` before ``events`` and ``info`` (its last two), in order."""
+if [f.name for f in fields(Diagnostics)][-2:] != ["events", "info"]:  # pragma: no cover
+    raise RuntimeError("Diagnostics must end with its events and info fields")
 
 
 # -- registry ------------------------------------------------------------------------------------

@@ -108,6 +108,17 @@ _FIELDS: dict[str, tuple[str, ...]] = {
 """The names each template uses besides ``v``."""
 
 
+_PLANS: dict[tuple[int, int], tuple[Flag, tuple[tuple[str, tuple[str, ...]], ...]]] = {}
+"""Per (flag bit, source bits): the flag and the templates to fill with their names."""
+
+
+def _plan(j: int, why: int) -> tuple[Flag, tuple[tuple[str, tuple[str, ...]], ...]]:
+    flag = FLAGS[j]
+    plan = (flag, tuple((t, _FIELDS[t]) for bit, t in MESSAGES[flag].items() if why & bit))
+    _PLANS[(j, why)] = plan
+    return plan
+
+
 def events(mask: int, vals: np.ndarray, src: np.ndarray, **ctx: Any) -> tuple[Event, ...]:
     """The :class:`Event` of each flag of a kernel's ``(mask, vals, src)``, in flag order.
 
@@ -119,18 +130,20 @@ def events(mask: int, vals: np.ndarray, src: np.ndarray, **ctx: Any) -> tuple[Ev
     while mask:
         j = (mask & -mask).bit_length() - 1
         mask &= mask - 1
-        flag = FLAGS[j]
         value = float(vals[j])
         why = int(src[j])
+        flag, templates = _PLANS.get((j, why)) or _plan(j, why)
         texts = []
-        for bit, template in MESSAGES[flag].items():
-            if why & bit:
-                names = {}
-                for name in _FIELDS[template]:
-                    item = ctx[name]
-                    if callable(item):
-                        item = ctx[name] = item()
-                    names[name] = item
-                texts.append(template.format(v=value, **names))
-        out.append(Event(flag, value, "; ".join(texts)))
+        for template, fields in templates:
+            if not fields:
+                texts.append(template.format(v=value))
+                continue
+            names = {}
+            for name in fields:
+                item = ctx[name]
+                if callable(item):
+                    item = ctx[name] = item()
+                names[name] = item
+            texts.append(template.format(v=value, **names))
+        out.append(Event(flag, value, texts[0] if len(texts) == 1 else "; ".join(texts)))
     return tuple(out)
