@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.kio import kernel_inputs
 from redservo.redundancy.messages import events
 
-_K = lazy("laws")
-_KE = lazy("events")
+_K = lazy("calls")
 
 __all__ = ["Classical"]
 
@@ -26,18 +27,21 @@ class Classical(Law):
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
-        qdot, iout, fout, _, _, _ = _K.classical(
-            k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, self.filter_threshold
-        )
-        m, n = x.J1.shape
-        rank = int(iout[I_RANK])
         thr = self.filter_threshold
-        mask, vals, src = _KE.classical_events(m, n, iout, thr)
+        qdot, rank, proj, filtered, cond, mask, vals, src = _K.classical_call(
+            k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, thr
+        )
+        m = x.J1.shape[0]
+        found = ()
+        if mask:  # the names of kio.task_context
+            inv = 1.0 / thr if thr else math.inf
+            ctx = {"rank": rank, "m": m, "cond": cond, "filtered": filtered, "inv_robust": inv}
+            found = events(mask, vals, src, **ctx)
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
-            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
+            projector_rank=proj,
+            events=found,
         )
         return LawResult(qdot, diag)

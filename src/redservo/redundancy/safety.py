@@ -49,6 +49,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
+from redservo.kernels.flagbits import POSITION_LIMIT_UNAVOIDABLE
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.flags import Event
@@ -233,9 +234,14 @@ def apply_safety(
     )
     if not mask:
         return SafetyOutcome(out, ())
+    if not mask & _UNAVOIDABLE:  # the other messages name at most the excess
+        return SafetyOutcome(out, events(mask, vals, src, worst=worst))
     return SafetyOutcome(
         out, events(mask, vals, src, **_context(qa, out, dt, limits, worst, joint))
     )
+
+
+_UNAVOIDABLE = 1 << POSITION_LIMIT_UNAVOIDABLE
 
 
 def _context(
