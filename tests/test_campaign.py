@@ -837,3 +837,101 @@ def test_documented_campaign_example_parses() -> None:
     d = parse_campaign(tomllib.loads(block.group(1)), "docs/campaigns.md")
     assert d.methods == ("classical", "gpm") and d.start.joints == ("x", "z", "B")
     assert d.target.translation[2] == (-0.1, 0.3) and d.errors.depth_scale == (0.7, 1.3)
+
+
+# --------------------------------------------------------------------------- memory
+
+
+def _fake_engine(monkeypatch: pytest.MonkeyPatch, per_result: int = 250) -> None:
+    """Replace the engine by one that makes a complete row per (sample, method) at once,
+    without simulating (so only the client's own memory is measured)."""
+    from redservo.campaign import client
+    from redservo.campaign.engine import JobResult
+    from redservo.campaign.rows import _columns
+
+    defaults = {"float": 0.5, "int": 1, "int?": None, "str": "", "bool": True}
+
+    def fake(jobs: Any, engine: Any, on_result: Any) -> None:
+        template: dict[str, Any] | None = None
+        batch: list[dict[str, Any]] = []
+        for job in jobs:
+            if template is None:
+                cols = _columns(job.definition.nominal.joint_names)
+                template = {c: defaults[k] for c, k in cols}
+                template.update(outcome="converged", flags="shield-acted")
+            for i, methods in job.samples:
+                for m in methods:
+                    batch.append({**template, "sample": i, "method": m, "iterations": 10 + i % 7})
+            if len(batch) >= per_result:
+                on_result(JobResult(batch, {}))
+                batch = []
+        if batch:
+            on_result(JobResult(batch, {}))
+
+    monkeypatch.setattr(client, "execute", fake)
+
+
+def _looks_like_row(obj: Any) -> bool:
+    return isinstance(obj, dict) and "outcome" in obj and "max_cam_rotation" in obj
+
+
+def test_the_client_keeps_no_row_dicts_and_its_memory_per_run_is_small(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """docs/scaling.md, "Memory": rows go to samples.csv as they finish and are read back
+    lazily; the client keeps a few numpy columns and an index (under 1 kB per run; a row
+    dict alone is over 2 kB, and the client kept two copies of each before). Measured with tracemalloc on a fake engine (not time)."""
+    import gc
+    import tracemalloc
+
+    _fake_engine(monkeypatch)
+    d = quick(methods=["classical"])
+    assert d.nominal is not None  # evaluated (and cached) outside the measurement
+    peaks, results = {}, {}
+    for n in (1500, 6000):  # both above the rows per row group of samples.parquet
+        gc.collect()
+        tracemalloc.start()
+        res = run_campaign(d, samples=n, seed=0, workers=1, out=tmp_path / f"n{n}", progress=False)
+        peaks[n] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        results[n] = res
+        assert res.complete and len(res.rows) == n and res.stats["classical"].successes == n
+    gc.collect()
+    kept = sum(_looks_like_row(o) for o in gc.get_objects())
+    assert kept == 0, f"{kept} row dicts kept in memory after the campaigns"
+    per_run = (peaks[6000] - peaks[1500]) / 4500
+    assert per_run < 1500, f"the client's peak grows by {per_run:.0f} B per run"
+    # The rows still read back, in order, identical to the file's.
+    rows = results[6000].rows
+    assert [r["sample"] for r in rows[:3]] == [0, 1, 2] and rows[-1]["sample"] == 5999
+    assert rows[7]["iterations"] == 10 + 7 % 7 and rows[7]["flags"] == "shield-acted"
+    assert sum(1 for _ in rows) == 6000
+
+
+def test_rows_without_an_output_directory_live_in_a_temporary_file(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Without ``out`` the rows go to a temporary file that is removed with the result."""
+    import gc
+
+    _fake_engine(monkeypatch)
+    res = run_campaign(quick(methods=["classical"]), samples=40, seed=0, workers=1, progress=False)
+    path = res.rows.path  # type: ignore[attr-defined]
+    assert path.exists() and len(res.rows) == 40 and res.rows[39]["sample"] == 39
+    del res
+    gc.collect()
+    assert not path.exists()
+
+
+def test_rows_of_a_rewritten_file_are_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A result's rows point into samples.csv: if the file was rewritten since, reading a
+    row says so instead of returning another (sample, method)'s row."""
+    _fake_engine(monkeypatch)
+    res = run_campaign(quick(), samples=4, seed=0, workers=1, out=tmp_path, progress=False)
+    csv = tmp_path / "samples.csv"
+    lines = csv.read_text().splitlines(keepends=True)
+    csv.write_text(lines[0] + "".join(reversed(lines[1:])))
+    with pytest.raises(ConfigurationError, match="changed since the campaign ended"):
+        list(res.rows)

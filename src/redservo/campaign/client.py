@@ -13,28 +13,31 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from redservo.campaign.complete import CampaignIncompleteError, incomplete_message, missing_runs
 from redservo.campaign.definition import CampaignDefinition
 from redservo.campaign.engine import Engine, JobResult, execute, fallback_lines, make_jobs
-from redservo.campaign.stats import (
-    MethodStats,
-    _figures,
-    _heading,
-    flag_table,
-    method_stats,
-    stats_table,
+from redservo.campaign.rowfile import (
+    RowFile,
+    RowView,
+    format_line,
+    parse_line,
+    remove_with,
+    temporary_file,
 )
+from redservo.campaign.rows import _columns
+from redservo.campaign.stats import MethodStats, _figures, _heading, flag_table, stats_table
 from redservo.campaign.storage import _Store
+from redservo.campaign.table import RunTable
 
 __all__ = ["CampaignResult"]
-
-Rows = dict[tuple[int, str], dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,10 @@ class CampaignResult:
             :class:`~redservo.campaign.complete.CampaignIncompleteError`).
         methods: Methods, in table order.
         rows: One dict per (sample, method), sorted by sample then method (``samples.csv``
-            columns).
+            columns): a sequence (:class:`~redservo.campaign.rowfile.RowView`) that reads
+            each row back from ``samples.csv`` (without ``out``: a temporary file, removed
+            with the result) when asked, so a campaign of any N holds no row in memory
+            (docs/scaling.md, "Memory"); slices are tuples.
         stats: :class:`MethodStats` per method.
         computed: Rows computed by this call (the others were reused from ``out``).
         out: Output directory, or None.
@@ -61,7 +67,7 @@ class CampaignResult:
     seed: int
     samples: int
     methods: tuple[str, ...]
-    rows: tuple[dict[str, Any], ...]
+    rows: Sequence[dict[str, Any]]
     stats: dict[str, MethodStats]
     computed: int
     out: Path | None
@@ -112,31 +118,83 @@ def run(
 ) -> CampaignResult:
     """The body of :func:`redservo.campaign.run_campaign`, with the output directory locked.
 
+    No row is kept as a dict (docs/scaling.md, "Memory"): each finished row goes to the
+    store's ``samples.csv`` (or, without an output directory, a temporary file) and its
+    values to a :class:`~redservo.campaign.table.RunTable`; ``CampaignResult.rows`` reads
+    the rows back from the file.
+
     Raises:
         CampaignIncompleteError: a (sample, method) has no row at the end (module docstring).
     """
-    done: Rows = {
-        key: row
-        for key, row in (store.rows.items() if store else ())
-        if key[0] < n and key[1] in names and row["outcome"] != "error"
-    }
-    todo = [(i, m) for i in range(n) for m in names if (i, m) not in done]
+    table = RunTable(names, n)
+    folder: Path | None = None
+    append: Callable[[Sequence[Mapping[str, Any]]], Any]
+    if store is not None:
+        assert store.file is not None
+        rowfile, index, append = store.file, store.index, store.append
+        for row in store.stored_rows():  # one pass over the file, no row kept
+            if table.wants(row["sample"], row["method"]) and row["outcome"] != "error":
+                table.add(row)
+    else:  # no output directory: the rows go to a temporary file, removed with the result
+        rowfile, folder = temporary_file(_columns(defn.nominal.joint_names))
+        index = {}
+
+        def spill(batch: Sequence[Mapping[str, Any]]) -> None:
+            for row, offset in zip(batch, rowfile.append(batch)):
+                index[(int(row["sample"]), str(row["method"]))] = offset
+
+        append = spill
+
+    try:
+        todo = [(i, m) for i in range(n) for m in names if (i, m) not in table]
+        computed, stopped = _execute(defn, seed, engine, todo, append, table, progress)
+        missing = missing_runs(table, n, names)
+        view = _view(rowfile, index, table)
+    finally:
+        if store is None:
+            rowfile.close()
+    if folder is not None:
+        remove_with(view, folder)
+    result = _report(defn, names, n, seed, table, view, computed, out_dir)
+    if out_dir is not None and store is not None:
+        result = _write(result, out_dir, store, table)
+    if missing:
+        reason = str(stopped) if stopped is not None else None
+        message = incomplete_message(defn.name, missing, n * len(names), names, out_dir, reason)
+        raise CampaignIncompleteError(message, missing=missing, result=result) from stopped
+    return result
+
+
+def _execute(
+    defn: CampaignDefinition,
+    seed: int,
+    engine: Engine,
+    todo: list[tuple[int, str]],
+    append: Callable[[Sequence[Mapping[str, Any]]], Any],
+    table: RunTable,
+    progress: bool,
+) -> tuple[int, CampaignIncompleteError | None]:
+    """Run ``todo`` on ``engine``, handing each finished batch of rows to ``append`` (the
+    file) and their values, as they read back from it, to ``table``. Returns the number of
+    rows computed and the error that stopped the engine (lost workers); says on stderr which
+    runs fell back and which failed."""
     bar = _bar(len(todo), defn.name, progress)
     errors: list[str] = []
-    stored = dict(store.rows) if store is not None else {}
     paths: dict[tuple[str, str], int] = {}
     computed = 0
+    columns = _columns(defn.nominal.joint_names)
 
     def on_result(res: JobResult) -> None:
         nonlocal computed
         for key, count in res.paths.items():
             paths[key] = paths.get(key, 0) + count
         batch = res.rows
-        if store is not None:
-            store.append(batch)
-            batch = [store.normalize(row) for row in batch]
-        for row in batch:
-            done[(row["sample"], row["method"])] = stored[(row["sample"], row["method"])] = row
+        append(batch)
+        for raw in batch:
+            row = parse_line(columns, format_line(columns, raw).encode())
+            assert row is not None
+            if table.wants(row["sample"], row["method"]):
+                table.add(row)
             if row["outcome"] == "error":
                 errors.append(f"sample {row['sample']} {row['method']}: {row['error']}")
         computed += len(batch)
@@ -155,15 +213,18 @@ def run(
         print(f"redservo campaign: {line}", file=sys.stderr)
     for msg in errors:
         print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
-    missing = missing_runs(done, n, names)
-    result = _report(defn, names, n, seed, done, computed, out_dir)
-    if out_dir is not None and store is not None:
-        result = _write(result, out_dir, store, stored.values())
-    if missing:
-        reason = str(stopped) if stopped is not None else None
-        message = incomplete_message(defn.name, missing, n * len(names), names, out_dir, reason)
-        raise CampaignIncompleteError(message, missing=missing, result=result) from stopped
-    return result
+    return computed, stopped
+
+
+def _view(rowfile: RowFile, index: dict[tuple[int, str], int], table: RunTable) -> RowView:
+    """The rows of ``table`` (sorted by sample, then method order) read back from the file."""
+    samples, methods = table.pairs()
+    offsets = np.fromiter(
+        (index[(int(i), table.methods[k])] for i, k in zip(samples, methods)),
+        dtype=np.int64,
+        count=samples.size,
+    )
+    return RowView(rowfile.path, rowfile.columns, offsets, samples, methods, table.methods)
 
 
 def _report(
@@ -171,21 +232,15 @@ def _report(
     names: tuple[str, ...],
     n: int,
     seed: int,
-    done: Rows,
+    table: RunTable,
+    rows: RowView,
     computed: int,
     out_dir: Path | None,
 ) -> CampaignResult:
     """The result of the rows present, its statistics and ``campaign.md``'s text."""
-    order = {m: k for k, m in enumerate(names)}
-    rows = tuple(
-        sorted(
-            (r for (i, m), r in done.items() if i < n and m in order),
-            key=lambda r: (r["sample"], order[r["method"]]),
-        )
-    )
-    stats = {m: method_stats(m, [r for r in rows if r["method"] == m]) for m in names}
+    stats = {m: table.stats(m) for m in names}
     markdown = (
-        _heading(defn, n, seed, rows, names)
+        _heading(defn, n, seed, table.counts(), table.redraws())
         + stats_table(stats.values())
         + "\n\nRuns in which each diagnostic flag occurred (docs/safety.md):\n\n"
         + flag_table(stats.values())
@@ -193,20 +248,25 @@ def _report(
     return CampaignResult(defn, seed, n, names, rows, stats, computed, out_dir, (), markdown)
 
 
-def _write(result: CampaignResult, out_dir: Path, store: _Store, stored: Any) -> CampaignResult:
+def _write(result: CampaignResult, out_dir: Path, store: _Store, table: RunTable) -> CampaignResult:
     """Write the figures (complete campaigns only), ``campaign.json``, ``campaign.md`` and
     ``samples.parquet``; return the result with its figures."""
     defn = result.definition
     if result.complete:
         tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
         figures = _figures(
-            list(result.stats.values()), result.rows, out_dir, tracking=tracking, name=defn.name
+            list(result.stats.values()),
+            (),
+            out_dir,
+            tracking=tracking,
+            name=defn.name,
+            box=table.box(tracking),
         )
         result = replace(result, figures=figures)
     meta = {**result.to_dict(), "written": datetime.now(UTC).isoformat()}
     (out_dir / "campaign.json").write_text(json.dumps(meta, indent=2) + "\n")
     (out_dir / "campaign.md").write_text(result.markdown)
-    if store.write_parquet(stored, meta["fingerprint"]) is None:
+    if store.write_parquet(meta["fingerprint"]) is None:
         store.notify("samples.parquet not written: pip install 'redservo[parquet]'")
     return result
 

@@ -10,7 +10,7 @@ only the missing runs.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +48,7 @@ class CampaignIncompleteError(RedservoError, RuntimeError):
 
 
 def missing_runs(
-    present: Collection[tuple[int, str]], n: int, methods: Sequence[str]
+    present: Container[tuple[int, str]], n: int, methods: Sequence[str]
 ) -> list[tuple[int, str]]:
     """The ``(sample, method)`` pairs of samples ``0..n-1`` and ``methods`` not in ``present``."""
     return [(i, m) for i in range(n) for m in methods if (i, m) not in present]

@@ -80,22 +80,60 @@ class MethodStats(NamedTuple):
     """For each diagnostic flag, the number of runs in which it occurred."""
 
 
-def _pct(values: Sequence[float], q: float) -> float:
-    a = np.asarray([v for v in values if not math.isnan(v)], dtype=float)
+def _pct(values: Sequence[float] | np.ndarray, q: float) -> float:
+    a = np.asarray(values, dtype=float)
+    a = a[~np.isnan(a)]
     return float(np.percentile(a, q)) if a.size else float("nan")
 
 
 def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
     """Summarize the rows of one method (rows as in ``samples.csv``)."""
-    n = len(rows)
-    ok = [r for r in rows if r["success"]]
-    k = len(ok)
-    lo, hi = wilson_interval(k, n)
     outcomes = [r["outcome"] for r in rows]
+    names = (
+        "iterations",
+        "max_joint_speed",
+        "max_cam_translation",
+        "max_cam_rotation",
+        "discontinuity",
+        "min_margin",
+    )
+    cols = {c: np.array([float(r[c]) for r in rows], dtype=float) for c in names}
+    cols["peak_velocity_ratio"] = np.array(
+        [
+            float(r["peak_velocity_ratio"]) if r.get("peak_velocity_ratio") is not None else np.nan
+            for r in rows
+        ],
+        dtype=float,
+    )
+    return column_stats(
+        method,
+        np.array([bool(r["success"]) for r in rows], dtype=bool),
+        {o: outcomes.count(o) for o in set(outcomes)},
+        cols,
+        shield_runs=sum(int(r.get("shield_activations") or 0) > 0 for r in rows),
+        velocity_runs=sum(int(r.get("velocity_violations") or 0) > 0 for r in rows),
+        flag_runs=_flag_runs(rows),
+    )
 
-    def col(name: str, rs: Sequence[Mapping[str, Any]] = rows) -> list[float]:
-        return [float(r[name]) for r in rs]
 
+def column_stats(
+    method: str,
+    success: np.ndarray,
+    outcomes: Mapping[str, int],
+    cols: Mapping[str, np.ndarray],
+    *,
+    shield_runs: int,
+    velocity_runs: int,
+    flag_runs: tuple[tuple[str, int], ...],
+) -> MethodStats:
+    """:class:`MethodStats` of one method from its columns (one entry per run): ``success``,
+    the number of runs of each outcome, the float columns of ``samples.csv`` named in
+    :class:`MethodStats` (NaN: no value) and the counts of runs with the shield, a velocity
+    violation and each flag (:class:`redservo.campaign.table.RunTable`)."""
+    n = int(success.size)
+    k = int(success.sum())
+    lo, hi = wilson_interval(k, n)
+    named = ("converged", "joint_limit", "target_lost", "max_iterations")
     return MethodStats(
         method=method,
         runs=n,
@@ -103,33 +141,24 @@ def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
         success_rate=k / n if n else float("nan"),
         ci_low=lo,
         ci_high=hi,
-        limit_hits=outcomes.count("joint_limit"),
-        target_lost=outcomes.count("target_lost"),
-        max_iterations=outcomes.count("max_iterations"),
-        other_failures=sum(
-            o not in ("converged", "joint_limit", "target_lost", "max_iterations") for o in outcomes
-        ),
-        iterations_median=_pct(col("iterations", ok), 50),
-        iterations_p90=_pct(col("iterations", ok), 90),
-        joint_speed_median=_pct(col("max_joint_speed"), 50),
-        joint_speed_p95=_pct(col("max_joint_speed"), 95),
-        cam_translation_median=_pct(col("max_cam_translation"), 50),
-        cam_translation_p95=_pct(col("max_cam_translation"), 95),
-        cam_rotation_median=_pct(col("max_cam_rotation"), 50),
-        cam_rotation_p95=_pct(col("max_cam_rotation"), 95),
-        discontinuity_median=_pct(col("discontinuity"), 50),
-        min_margin_median=_pct(col("min_margin"), 50),
-        shield_runs=sum(int(r.get("shield_activations") or 0) > 0 for r in rows),
-        velocity_violation_runs=sum(int(r.get("velocity_violations") or 0) > 0 for r in rows),
-        peak_velocity_ratio_p95=_pct(
-            [
-                float(r["peak_velocity_ratio"])
-                for r in rows
-                if r.get("peak_velocity_ratio") is not None
-            ],
-            95,
-        ),
-        flag_runs=_flag_runs(rows),
+        limit_hits=outcomes.get("joint_limit", 0),
+        target_lost=outcomes.get("target_lost", 0),
+        max_iterations=outcomes.get("max_iterations", 0),
+        other_failures=sum(c for o, c in outcomes.items() if o not in named),
+        iterations_median=_pct(cols["iterations"][success], 50),
+        iterations_p90=_pct(cols["iterations"][success], 90),
+        joint_speed_median=_pct(cols["max_joint_speed"], 50),
+        joint_speed_p95=_pct(cols["max_joint_speed"], 95),
+        cam_translation_median=_pct(cols["max_cam_translation"], 50),
+        cam_translation_p95=_pct(cols["max_cam_translation"], 95),
+        cam_rotation_median=_pct(cols["max_cam_rotation"], 50),
+        cam_rotation_p95=_pct(cols["max_cam_rotation"], 95),
+        discontinuity_median=_pct(cols["discontinuity"], 50),
+        min_margin_median=_pct(cols["min_margin"], 50),
+        shield_runs=shield_runs,
+        velocity_violation_runs=velocity_runs,
+        peak_velocity_ratio_p95=_pct(cols["peak_velocity_ratio"], 95),
+        flag_runs=flag_runs,
     )
 
 
@@ -172,13 +201,10 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
     return head + "\n".join(lines)
 
 
-def _sample_count(n: int, rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> str:
+def _sample_count(n: int, counts: Mapping[str, int]) -> str:
     """The sample count of the heading: ``N = n samples per method`` when every method has its
     ``n`` rows; otherwise the N each method actually completed, never the N requested
     (docs/campaigns.md, "Completeness")."""
-    counts = {m: 0 for m in methods}
-    for r in rows:
-        counts[r["method"]] = counts.get(r["method"], 0) + 1
     if all(c == n for c in counts.values()):
         return f"N = {n} samples per method"
     done = ", ".join(f"{m} {c}" for m, c in counts.items())
@@ -189,22 +215,16 @@ def _sample_count(n: int, rows: Sequence[Mapping[str, Any]], methods: Sequence[s
 
 
 def _heading(
-    defn: CampaignDefinition,
-    n: int,
-    seed: int,
-    rows: Sequence[Mapping[str, Any]],
-    methods: Sequence[str] = (),
+    defn: CampaignDefinition, n: int, seed: int, counts: Mapping[str, int], redraws: int
 ) -> str:
     """The text above the statistics table: the set-up, N (per method when they differ from
-    the ``n`` requested) and the definition of success."""
+    the ``n`` requested: ``counts``, rows per method) and the definition of success;
+    ``redraws``: the invalid starts re-drawn."""
     st, tg = defn.start, defn.target
     data = defn.scenario.data
     rho = float(data["robot"].get("rho", 0.1))
     ctl, sim = data["control"], data.get("simulation", {})
     cap = int(sim.get("max_iterations", 1000))
-    redraws = (
-        sum(int(r["attempts"]) for r in rows if r["method"] == rows[0]["method"]) if rows else 0
-    )
 
     def rng3(r: Sequence[Range]) -> str:
         return ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in r)
@@ -228,7 +248,7 @@ def _heading(
         f"## Campaign {defn.name}\n\n"
         f"{defn.description}\n\n"
         f"Base scenario `{defn.scenario.name}` (λ = {float(ctl.get('lam', 0.5)):g} 1/s, "
-        f"dt = {float(ctl.get('dt', 0.04)):g} s); {_sample_count(n, rows, methods)}, seed {seed}. "
+        f"dt = {float(ctl.get('dt', 0.04)):g} s); {_sample_count(n, counts)}, seed {seed}. "
         f"Start: each joint in the outer band (margin in [{st.min_margin:g}, "
         f"{(1 + st.band_beyond) * rho:g}] of its range, thresholds at {rho:g}) with "
         f"probability {st.p_band:g}, at least {st.min_in_band} per start; target moved by "
@@ -259,8 +279,12 @@ def _figures(
     tracking: bool = False,
     name: str = "",
     formats: Sequence[str] | None = None,
+    box: Sequence[Sequence[float]] | None = None,
 ) -> tuple[Path, ...]:
     """Write ``success_rate`` and ``iterations`` (tracking: ``final_error``) figures.
+
+    ``box``: the values of the second figure per method when already known
+    (:meth:`redservo.campaign.table.RunTable.box`; ``rows`` is then not read).
 
     Titles give the campaign ``name`` and N (runs per method); each method has its colour
     of :func:`redservo.plots.method_style`; files as :func:`redservo.plots.savefig`
@@ -299,26 +323,37 @@ def _figures(
         return ()
     fig = Figure(figsize=size, layout="constrained")
     ax = fig.add_subplot()
+    data = list(box) if box is not None else _box_data(rows, names, tracking)
     if tracking:  # every run lasts the same: show how well the runs that lasted tracked
-        full = ("converged", "max_iterations")
-        data = [
-            [r["final_error"] for r in rows if r["method"] == m and r["outcome"] in full]
-            for m in names
-        ]
         ax.set_yscale("log")
         ax.set_ylabel("final ‖e1‖ (feature units)")
         what, stem = "final error of the runs that lasted", "final_error"
     else:
-        data = [[r["iterations"] for r in rows if r["method"] == m and r["success"]] for m in names]
         ax.set_ylabel("iterations to converge (-)")
         what, stem = "iterations to converge (successes only)", "iterations"
-    box = ax.boxplot([d if d else [np.nan] for d in data], positions=x, patch_artist=True)
-    for patch, color in zip(box["boxes"], colors):
+    boxes = ax.boxplot([d if d else [np.nan] for d in data], positions=x, patch_artist=True)
+    for patch, color in zip(boxes["boxes"], colors):
         patch.set(facecolor=color, alpha=0.6)
     ax.set_xticks(x, [f"{m}\n(n={len(d)})" for m, d in zip(names, data)], rotation=45, ha="right")
     ax.set_xlabel("method (n = runs shown)")
     ax.set_title(f"{head}{what}, {n_text}", fontsize=10)
     return first[0], savefig(fig, out / stem, formats)[0]
+
+
+def _box_data(
+    rows: Iterable[Mapping[str, Any]], names: Sequence[str], tracking: bool
+) -> list[list[float]]:
+    """The second figure's values per method: iterations of the successes, or (tracking)
+    the final error of the runs that lasted (``converged`` or ``max_iterations``)."""
+    data: dict[str, list[float]] = {m: [] for m in names}
+    for r in rows:
+        if r["method"] not in data:
+            continue
+        if tracking and r["outcome"] in ("converged", "max_iterations"):
+            data[r["method"]].append(r["final_error"])
+        elif not tracking and r["success"]:
+            data[r["method"]].append(r["iterations"])
+    return list(data.values())
 
 
 def flag_table(stats: Iterable[MethodStats]) -> str:

@@ -23,12 +23,13 @@ import io
 import json
 import os
 import sys
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from redservo.campaign.definition import FORMAT_VERSION, CampaignDefinition
 from redservo.campaign.lock import DirectoryLock
+from redservo.campaign.rowfile import RowFile, format_line, parse_line
 from redservo.campaign.rows import (
     _columns,
     _error_columns,
@@ -39,11 +40,15 @@ from redservo.campaign.rows import (
 )
 from redservo.errors import ConfigurationError, RedservoError
 
-__all__ = ["_Store", "_error_columns", "_sample_columns", "_summary_columns"]
+__all__ = ["_Store", "_columns", "_error_columns", "_parse", "_sample_columns", "_summary_columns"]
 
 
 _PARAMS = ("attempts", "q0_", "n_near", "near_joints", "target_", "noise_", "depth_", "hand_eye_")
 """Columns (or prefixes) that depend only on (definition, seed, sample): checked by repair."""
+PARQUET_BATCH = 1024
+"""Rows per row group of ``samples.parquet`` (written one group at a time)."""
+
+Key = tuple[int, str]
 
 
 def _stderr(message: str) -> None:
@@ -98,11 +103,16 @@ class _Store:
         self.csv = out / "samples.csv"
         self.meta_path = out / "definition.json"
         self.notify = notify
-        self._fd: int | None = None
+        self.file: RowFile | None = None
+        self.errors: set[Key] = set()
+        """The (sample, method) pairs whose row in the index is an ``error`` row."""
         self.lock = DirectoryLock(out, wait=wait, notify=notify)
         try:
-            self.rows = self._open(defn, seed, repair)
-            self._fd = os.open(self.csv, os.O_WRONLY | os.O_APPEND)
+            self.index: dict[Key, int] = self._open(defn, seed, repair)
+            """Byte offset of the row of each (sample, method) in ``samples.csv``, in the
+            order the pairs first appear in the file; no row is kept in memory."""
+            self.errors &= self.index.keys()
+            self.file = RowFile(self.csv, self.columns)
         except BaseException:
             self.lock.release()
             raise
@@ -147,9 +157,7 @@ class _Store:
             argument="out",
         )
 
-    def _open(
-        self, defn: CampaignDefinition, seed: int, repair: bool
-    ) -> dict[tuple[int, str], dict[str, Any]]:
+    def _open(self, defn: CampaignDefinition, seed: int, repair: bool) -> dict[Key, int]:
         self.out.mkdir(parents=True, exist_ok=True)
         meta_problem = self._meta_problem(defn.fingerprint(seed), seed, defn.source)
         if not self.csv.exists():  # no rows to lose: a damaged definition.json is replaced
@@ -158,22 +166,22 @@ class _Store:
             _write_atomic(self.meta_path, self._json(self._meta(defn, seed)))
             _write_atomic(self.csv, (",".join(self.names) + "\n").encode())
             return {}
-        header_problem, rows, dropped = self._read()
+        header_problem, index, dropped = self._read()
         problems = [p for p in (meta_problem, header_problem) if p]
         if problems and not repair:
             raise self._damaged("; ".join(problems))
         if meta_problem is not None:
-            before = len(rows)
-            rows = self._verified(rows, defn, seed)
-            dropped["not of this campaign"] = before - len(rows)
+            before = len(index)
+            index = self._verified(index, defn, seed)
+            dropped["not of this campaign"] = before - len(index)
         if problems or any(dropped.values()):
-            self._rewrite(rows.values())
+            index = self._rewrite(index)
             what = ", ".join(f"{v} {k}" for k, v in dropped.items() if v) or "no row"
             done = "repaired " + " and ".join(problems) + "; " if problems else ""
-            self.notify(f"{self.csv}: {done}removed {what}; kept {len(rows)} row(s)")
+            self.notify(f"{self.csv}: {done}removed {what}; kept {len(index)} row(s)")
         if meta_problem is not None:
             _write_atomic(self.meta_path, self._json(self._meta(defn, seed)))
-        return rows
+        return index
 
     def _damaged(self, problem: str) -> ConfigurationError:
         return ConfigurationError(
@@ -207,46 +215,75 @@ class _Store:
             argument="out",
         )
 
-    def _read(self) -> tuple[str | None, dict[tuple[int, str], dict[str, Any]], dict[str, int]]:
-        """Header problem, the intact rows by (sample, method), and counts of what was dropped."""
-        text = self.csv.read_bytes().decode("utf-8", errors="replace")
-        body, _, tail = text.rpartition("\n")
-        dropped = {"torn": int(bool(tail)), "unreadable": 0, "duplicate": 0}
-        records = list(csv.reader(io.StringIO(body)))
-        problem = self._header_problem(records[0] if records else [])
-        rows: dict[tuple[int, str], dict[str, Any]] = {}
-        for fields in records[1:]:
-            row = self._parse_row(fields)
+    def _lines(self) -> Iterator[tuple[int, bytes]]:
+        """``(byte offset, line)`` of every line after the header, the last one possibly
+        without its newline (torn)."""
+        with open(self.csv, "rb") as fh:
+            offset = len(fh.readline())
+            for line in fh:
+                yield offset, line
+                offset += len(line)
+
+    def _read(self) -> tuple[str | None, dict[Key, int], dict[str, int]]:
+        """Header problem, the byte offset of each intact row by (sample, method), and
+        counts of what was dropped. Streams the file: no row is kept (only the index and
+        which rows are ``error`` rows, :attr:`errors`)."""
+        with open(self.csv, "rb") as fh:
+            first = fh.readline()
+        whole = first.endswith(b"\n")
+        header = next(csv.reader(io.StringIO(first.decode("utf-8", errors="replace"))), [])
+        problem = self._header_problem(header if whole else [])
+        dropped = {"torn": int(not whole and bool(first)), "unreadable": 0, "duplicate": 0}
+        index: dict[Key, int] = {}
+        for offset, line in self._lines() if whole else ():
+            if not line.endswith(b"\n"):
+                dropped["torn"] = 1
+                break
+            row = parse_line(self.columns, line)
             if row is None:
                 dropped["unreadable"] += 1
                 continue
-            key = (row["sample"], row["method"])
-            if key in rows:
+            key = (row["sample"], sys.intern(row["method"]))
+            error = row["outcome"] == "error"
+            if key in index:
                 dropped["duplicate"] += 1
-                if rows[key]["outcome"] != "error" or row["outcome"] == "error":
+                if key not in self.errors or error:
                     continue  # keep the first finished row
-            rows[key] = row
-        return problem, rows, dropped
+            index[key] = offset
+            if error:
+                self.errors.add(key)
+            else:
+                self.errors.discard(key)
+        return problem, index, dropped
 
-    def _parse_row(self, fields: list[str]) -> dict[str, Any] | None:
-        if len(fields) != len(self.columns) or any("\ufffd" in f for f in fields):
-            return None
-        try:
-            row = {c: _parse(v, k) for (c, k), v in zip(self.columns, fields)}
-        except ValueError:
-            return None
-        return row if row["sample"] >= 0 and row["method"] else None
+    def row_at(self, offset: int) -> dict[str, Any]:
+        """The row whose line starts at byte ``offset`` of ``samples.csv``."""
+        with open(self.csv, "rb") as fh:
+            fh.seek(offset)
+            row = parse_line(self.columns, fh.readline())
+        assert row is not None, f"no row at byte {offset} of {self.csv}"
+        return row
+
+    def stored_rows(self) -> Iterator[dict[str, Any]]:
+        """The rows of the index (one per (sample, method)), read in file order."""
+        wanted = set(self.index.values())
+        for offset, line in self._lines():
+            if offset in wanted:
+                row = parse_line(self.columns, line)
+                assert row is not None
+                yield row
 
     def _verified(
-        self, rows: dict[tuple[int, str], dict[str, Any]], defn: CampaignDefinition, seed: int
-    ) -> dict[tuple[int, str], dict[str, Any]]:
+        self, index: dict[Key, int], defn: CampaignDefinition, seed: int
+    ) -> dict[Key, int]:
         """The rows whose sample parameters are those this definition and seed draw."""
         from redservo.campaign.sampling import draw_sample
 
         kinds = {c: k for c, k in self.columns if c.startswith(_PARAMS)}
         expected: dict[int, dict[str, str] | None] = {}
         out = {}
-        for key, row in rows.items():
+        for key, offset in index.items():
+            row = self.row_at(offset)
             i = row["sample"]
             if i not in expected:
                 try:
@@ -256,41 +293,61 @@ class _Store:
                     expected[i] = None
             want = expected[i]
             if want is not None and all(_format(row[c], k) == want[c] for c, k in kinds.items()):
-                out[key] = row
+                out[key] = offset
         return out
 
     # -- writing -------------------------------------------------------------------------
 
     def _line(self, row: Mapping[str, Any]) -> str:
-        buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerow(
-            [_format(row.get(c), k) for c, k in self.columns]
-        )
-        return buf.getvalue()
+        return format_line(self.columns, row)
 
-    def _rewrite(self, rows: Iterable[Mapping[str, Any]]) -> None:
-        text = ",".join(self.names) + "\n" + "".join(self._line(r) for r in rows)
-        _write_atomic(self.csv, text.encode())
+    def _rewrite(self, index: dict[Key, int]) -> dict[Key, int]:
+        """Rewrite ``samples.csv`` atomically with the rows of ``index`` (in its order), one
+        row at a time; return their new offsets."""
+        tmp = self.csv.with_name(self.csv.name + ".tmp")
+        new: dict[Key, int] = {}
+        with open(tmp, "wb") as fh:
+            fh.write((",".join(self.names) + "\n").encode())
+            for key, offset in index.items():
+                new[key] = fh.tell()
+                fh.write(self._line(self.row_at(offset)).encode())
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, self.csv)
+        if hasattr(os, "O_DIRECTORY"):
+            fd = os.open(self.csv.parent, os.O_RDONLY | os.O_DIRECTORY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        return new
 
     def normalize(self, row: Mapping[str, Any]) -> dict[str, Any]:
         """The row as it reads back from the file (so fresh and reused rows are identical)."""
-        fields = next(csv.reader(io.StringIO(self._line(row))))
-        parsed = self._parse_row(fields)
+        parsed = parse_line(self.columns, self._line(row).encode())
         assert parsed is not None
         return parsed
 
-    def append(self, rows: Sequence[Mapping[str, Any]] | Mapping[str, Any]) -> None:
-        """Append one row or a batch of rows: one ``write(2)``, then ``fsync``."""
+    def append(self, rows: Sequence[Mapping[str, Any]] | Mapping[str, Any]) -> list[int]:
+        """Append one row or a batch of rows: one ``write(2)``, then ``fsync``; the index
+        points at them (a new row replaces an older one of its (sample, method)). Returns
+        their byte offsets."""
         batch = [rows] if isinstance(rows, Mapping) else list(rows)
-        if self._fd is None:
+        if self.file is None:
             raise ConfigurationError(f"the store of {self.out} is closed")
-        data = "".join(self._line(r) for r in batch).encode()
-        while data:
-            data = data[os.write(self._fd, data) :]
-        os.fsync(self._fd)
+        offsets = self.file.append(batch)
+        for row, offset in zip(batch, offsets):
+            key = (int(row["sample"]), sys.intern(str(row["method"])))
+            self.index[key] = offset
+            if row.get("outcome") == "error":
+                self.errors.add(key)
+            else:
+                self.errors.discard(key)
+        return offsets
 
-    def write_parquet(self, rows: Iterable[Mapping[str, Any]], fingerprint: str) -> Path | None:
-        """Write ``samples.parquet`` (typed schema); None when pyarrow is not installed."""
+    def write_parquet(self, fingerprint: str, batch: int = PARQUET_BATCH) -> Path | None:
+        """Write ``samples.parquet`` (typed schema) from the rows of the index, in its order,
+        ``batch`` rows at a time (one row group each); None when pyarrow is not installed."""
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq
@@ -301,19 +358,32 @@ class _Store:
             [pa.field(c, types.get(k, pa.string()), nullable=k == "int?") for c, k in self.columns],
             metadata={"fingerprint": fingerprint, "format": str(FORMAT_VERSION)},
         )
-        data = [
-            {c: (None if k == "int?" and r.get(c) is None else r.get(c)) for c, k in self.columns}
-            for r in rows
-        ]
         path = self.out / "samples.parquet"
         tmp = path.with_name(path.name + ".tmp")
-        pq.write_table(pa.Table.from_pylist(data, schema=schema), tmp)
+        chunks: list[dict[str, Any]] = []
+        with pq.ParquetWriter(tmp, schema) as writer:
+            for row in self._rows_in_index_order():
+                chunks.append(row)
+                if len(chunks) == batch:
+                    writer.write_table(pa.Table.from_pylist(chunks, schema=schema))
+                    chunks = []
+            if chunks or not self.index:
+                writer.write_table(pa.Table.from_pylist(chunks, schema=schema))
         os.replace(tmp, path)
         return path
 
+    def _rows_in_index_order(self) -> Iterator[dict[str, Any]]:
+        """The rows of the index in its order, read with one open file."""
+        with open(self.csv, "rb") as fh:
+            for offset in self.index.values():
+                fh.seek(offset)
+                row = parse_line(self.columns, fh.readline())
+                assert row is not None
+                yield row
+
     def close(self) -> None:
         """Close the file and release the directory lock (idempotent)."""
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
+        if self.file is not None:
+            self.file.close()
+            self.file = None
         self.lock.release()
