@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="figures need matplotlib (redservo[plot])")
 
-from redservo import plots
+from redservo import figstyle, plots
 from redservo.errors import ConfigurationError
 from redservo.experiment import build
 from redservo.redundancy import METHODS
@@ -21,11 +21,12 @@ from tests.test_scenario import GOOD
 
 @pytest.fixture
 def checked(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
-    """Every figure saved through redservo.plots.savefig, checked before it is written:
+    """Every figure saved through redservo.figstyle.savefig (what plots.save and every
+    figure module call), checked before it is written:
     laid out as savefig lays it out, its tight bounding box stays inside the figure, every
     labelled axis has a unit in parentheses and a title."""
     seen: list[Any] = []
-    original = plots.savefig
+    original = figstyle.savefig
 
     def savefig(fig: Any, stem: Any, formats: Any = None) -> list[Path]:
         if fig.get_layout_engine() is None:
@@ -39,7 +40,7 @@ def checked(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
         seen.append((Path(stem).stem, titles))
         return original(fig, stem, formats)
 
-    monkeypatch.setattr(plots, "savefig", savefig)
+    monkeypatch.setattr(figstyle, "savefig", savefig)
     return seen
 
 

@@ -187,7 +187,7 @@ def add_figure_options(p: argparse.ArgumentParser, default: str = "png") -> None
 def figures(args: argparse.Namespace) -> Iterator[bool]:
     """Within the block, figures are written in ``--format`` (none with ``--no-plot``);
     yields whether figures are wanted."""
-    from redservo.plots import figure_formats, parse_formats
+    from redservo.figstyle import figure_formats, parse_formats
 
     if getattr(args, "no_plot", False):
         with figure_formats(()):

@@ -12,7 +12,7 @@ reproduction from its files, without simulating again.
   saved runs (each run directory holds its scenario).
 
 Figures are written next to the data in the active formats
-(:func:`redservo.plots.figure_formats`, the ``--format`` option).
+(:func:`redservo.figstyle.figure_formats`, the ``--format`` option).
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ SATURATION_LEVELS: tuple[float | None, ...] = (None, 0.1, 0.05, 0.03, 0.02)
 def _velocity_grid(
     runs: Runs, labels: Sequence[str], path: Path, title: str, *, with_alpha: bool = False
 ) -> Path:
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
 
     plt = _plt()
     names = runs.base.robot.joint_names
@@ -76,7 +76,7 @@ def _axes_figure(runs: Runs, labels: Sequence[str], path: Path, title: str) -> P
     The real limits (±1, solid) and the thresholds (±(1 - 2ρ), dashed) are drawn; a
     cross marks the iteration at which a run hit a joint limit.
     """
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
 
     plt = _plt()
     thr = threshold(runs.base.limits.rho)
@@ -105,7 +105,7 @@ def _axes_figure(runs: Runs, labels: Sequence[str], path: Path, title: str) -> P
 
 
 def _fig08(runs: Runs, path: Path) -> Path:
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
 
     plt = _plt()
     exp = runs.experiments["iterative-smooth"]
@@ -145,7 +145,7 @@ def _fig08(runs: Runs, path: Path) -> Path:
 
 def _fig13(runs: Runs, path: Path) -> Path:
     """The command and the odometry velocities of iterative-smooth and iterative, imperfect robot."""
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
 
     plt = _plt()
     names = runs.base.robot.joint_names
@@ -174,7 +174,7 @@ def _fig13(runs: Runs, path: Path) -> Path:
 
 def _saturation_sweep(runs: Runs, path: Path) -> Path:
     """Iterations to converge vs the controller's velocity saturation (extra runs)."""
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4))

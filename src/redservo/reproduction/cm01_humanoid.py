@@ -128,7 +128,7 @@ def fig16_humanoid_model(path: Path, q: ArrayLike | None = None) -> Path:
     the hip centre to the floor for scale, and the camera's optical axis; the title says the
     geometry is ours.
     """
-    from redservo.plots import _plt, save
+    from redservo.figstyle import _plt, save
     from redservo.robots.humanoid import HIP_HEIGHT, Humanoid9
 
     plt = _plt()

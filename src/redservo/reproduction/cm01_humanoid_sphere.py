@@ -209,7 +209,7 @@ def _current_rate(runs: Runs) -> Verdict:
 
 
 def _plt() -> Any:
-    from redservo.plots import _plt as plt
+    from redservo.figstyle import _plt as plt
 
     return plt()
 
@@ -228,7 +228,7 @@ def _ellipse_pixels(s: FloatArray, camera: Any, n: int = 120) -> FloatArray:
 
 
 def _fig17(runs: Runs, out: Path) -> Path:
-    from redservo.plots import save
+    from redservo.figstyle import save
 
     plt = _plt()
     main = "iterative-smooth"
@@ -278,7 +278,7 @@ def _fig17(runs: Runs, out: Path) -> Path:
 
 
 def _all_runs(runs: Runs, out: Path) -> Path:
-    from redservo.plots import save
+    from redservo.figstyle import save
 
     plt = _plt()
     names = runs.base.robot.joint_names

@@ -218,14 +218,14 @@ def _classical(runs: Runs) -> Verdict:
 
 
 def _plt() -> Any:
-    from redservo.plots import _plt as plt
+    from redservo.figstyle import _plt as plt
 
     return plt()
 
 
 def figures(runs: Runs, out: Path) -> list[Path]:
     """Draw CM01 Fig. 18 and the tracking error into ``out``."""
-    from redservo.plots import save
+    from redservo.figstyle import save
 
     plt = _plt()
     laws = ("iterative", "iterative-smooth")

@@ -161,7 +161,7 @@ def in_band(exp: Experiment, result: SimulationResult) -> NDArray[np.bool_]:
 
 def pyplot() -> Any:
     """The lazily imported ``matplotlib.pyplot``."""
-    from redservo.plots import _plt
+    from redservo.figstyle import _plt
 
     return _plt()
 

@@ -127,7 +127,7 @@ def _limits(pb: Playback, ks: list[int]) -> NDArray[np.float64]:
 
 
 def _frames(pb: Playback, ks: list[int], dpi: int) -> list[NDArray[np.uint8]]:
-    from redservo.plots import _plt
+    from redservo.figstyle import _plt
     from redservo.viewer.image import camera_image
 
     plt = _plt()
