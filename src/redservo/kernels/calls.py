@@ -12,10 +12,17 @@ from __future__ import annotations
 from typing import Any
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.events import classical_events
-from redservo.kernels.laws import F_COND, I_FILTERED, I_PROJ, I_RANK, classical
+from redservo.kernels.directional import directional
+from redservo.kernels.events import (
+    classical_events,
+    directional_events,
+    gpm_events,
+    iterative_events,
+)
+from redservo.kernels.iterative import iterative
+from redservo.kernels.laws import F_COND, I_FILTERED, I_PROJ, I_RANK, classical, gpm
 
-__all__ = ["classical_call"]
+__all__ = ["classical_call", "directional_call", "gpm_call", "iterative_call"]
 
 
 @kernel
@@ -29,3 +36,101 @@ def classical_call(
     qdot, iout, fout, _, _, _ = classical(J1, e, lam, sec, has_sec, rcond, robust)
     mask, vals, src = classical_events(m, n, iout, robust)
     return qdot, iout[I_RANK], iout[I_PROJ], iout[I_FILTERED], fout[F_COND], mask, vals, src
+
+
+@kernel
+def gpm_call(
+    J1: Any,
+    e: Any,
+    q: Any,
+    lp: Any,
+    lam: float,
+    sec: Any,
+    has_sec: bool,
+    alpha: float,
+    rcond: float,
+    robust: float,
+) -> Any:
+    """:func:`~redservo.kernels.laws.gpm` (arguments alike) and its
+    :func:`~redservo.kernels.events.gpm_events`: ``(q̇, rank, projector rank, filtered
+    count, σ_max/σ_r, axes in the band, mask, vals, src)``."""
+    m, n = J1.shape
+    out = gpm(J1, e, q, lp, lam, sec, has_sec, alpha, rcond, robust)
+    qdot, iout, fout, axes = out[0], out[1], out[2], out[3]
+    mask, vals, src = gpm_events(m, n, iout, robust)
+    rank, proj, filtered = iout[I_RANK], iout[I_PROJ], iout[I_FILTERED]
+    return qdot, rank, proj, filtered, fout[F_COND], axes, mask, vals, src
+
+
+@kernel
+def directional_call(
+    J1: Any,
+    e1: Any,
+    e: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    lp: Any,
+    lam: float,
+    dt: float,
+    sec: Any,
+    has_sec: bool,
+    kappa: float,
+    use_jl: bool,
+    mu: float,
+    rcond: float,
+    robust: float,
+) -> Any:
+    """:func:`~redservo.kernels.directional.directional` (arguments alike) and its
+    :func:`~redservo.kernels.events.directional_events`: ``(q̇, iout, fout, mask, vals,
+    src)``."""
+    m, n = J1.shape
+    out = directional(
+        J1, e1, e, ff, has_ff, q, lp, lam, dt, sec, has_sec, kappa, use_jl, mu, rcond, robust
+    )
+    qdot, iout, fout = out[0], out[1], out[2]
+    mask, vals, src = directional_events(m, n, iout, robust)
+    return qdot, iout, fout, mask, vals, src
+
+
+@kernel
+def iterative_call(
+    J1: Any,
+    e: Any,
+    q: Any,
+    lp: Any,
+    lam: float,
+    dt: float,
+    sec: Any,
+    has_sec: bool,
+    smooth: bool,
+    alpha: float,
+    max_levels: int,
+    rcond: float,
+    robust: float,
+    tol: float,
+    constraint_robust: float,
+) -> Any:
+    """:func:`~redservo.kernels.iterative.iterative` (arguments alike) and its
+    :func:`~redservo.kernels.events.iterative_events`: ``(q̇, iout, fout, axes, γ, vec,
+    mask, vals, src)``."""
+    m, n = J1.shape
+    qdot, iout, fout, axes, gamma, vec = iterative(
+        J1,
+        e,
+        q,
+        lp,
+        lam,
+        dt,
+        sec,
+        has_sec,
+        smooth,
+        alpha,
+        max_levels,
+        rcond,
+        robust,
+        tol,
+        constraint_robust,
+    )
+    mask, vals, src = iterative_events(m, n, iout, fout, vec, robust, constraint_robust)
+    return qdot, iout, fout, axes, gamma, vec, mask, vals, src

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.kio import kernel_inputs
+from redservo.redundancy.kio import kernel_inputs, task_names
 from redservo.redundancy.messages import events
 
 _K = lazy("calls")
@@ -33,10 +31,8 @@ class Classical(Law):
         )
         m = x.J1.shape[0]
         found = ()
-        if mask:  # the names of kio.task_context
-            inv = 1.0 / thr if thr else math.inf
-            ctx = {"rank": rank, "m": m, "cond": cond, "filtered": filtered, "inv_robust": inv}
-            found = events(mask, vals, src, **ctx)
+        if mask:
+            found = events(mask, vals, src, **task_names(m, rank, cond, filtered, thr))
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,

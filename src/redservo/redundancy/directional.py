@@ -104,7 +104,7 @@ from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
 _K = lazy("directional")
-_KE = lazy("events")
+_KC = lazy("calls")
 _I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
 """Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
 
@@ -258,7 +258,7 @@ class Directional(Law):
         m, n = x.J1.shape
         k = kernel_inputs(x)
         ff, has_ff = optional(x.de1_dt, m)
-        qdot, iout, fout, _, _, _ = _K.directional(
+        qdot, iout, fout, mask, vals, src = _KC.directional_call(
             k.J1,
             np.ascontiguousarray(x.e1),
             k.e,
@@ -278,7 +278,6 @@ class Directional(Law):
         )
         r = int(iout[I_RANK])
         thr = self.filter_threshold
-        mask, vals, src = _KE.directional_events(m, n, iout, thr)
         info: list[str] = []
         if iout[_I_ANY_Z]:
             info.append(

@@ -63,7 +63,14 @@ from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.kernels.lawopts import F_GAIN, I_AUTO_ROBUST, I_CURRENT
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.kio import (
+    F_ALPHA,
+    I_PROJ,
+    I_RANK,
+    kernel_inputs,
+    task_context,
+    task_names,
+)
 from redservo.redundancy.linalg import TaskSVD
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
@@ -83,6 +90,7 @@ secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|
 _K = lazy("laws")
 _KE = lazy("events")
 _KL = lazy("linalg")
+_KC = lazy("calls")
 
 
 def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
@@ -113,7 +121,8 @@ class GradientProjection(Law):
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
-        qdot, iout, fout, axes, _, _ = _K.gpm(
+        thr = self.filter_threshold
+        qdot, rank, proj, filtered, cond, axes, mask, vals, src = _KC.gpm_call(
             k.J1,
             k.e,
             k.q,
@@ -123,21 +132,21 @@ class GradientProjection(Law):
             k.has_sec,
             self.alpha,
             self.rcond,
-            self.filter_threshold,
+            thr,
         )
-        m, n = x.J1.shape
-        rank = int(iout[I_RANK])
+        m = x.J1.shape[0]
         band = tuple(int(i) for i in np.flatnonzero(axes))
-        thr = self.filter_threshold
-        mask, vals, src = _KE.gpm_events(m, n, iout, thr)
+        found = ()
+        if mask:
+            found = events(mask, vals, src, **task_names(m, rank, cond, filtered, thr))
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
+            projector_rank=proj,
             critical=(band,) if band else (),
             alpha=self.alpha,
-            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
+            events=found,
         )
         return LawResult(qdot, diag)
 

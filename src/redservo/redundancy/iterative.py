@@ -136,6 +136,7 @@ level's null-space motion is at most 100x its right-hand side."""
 
 _K = lazy("iterative")
 _KE = lazy("events")
+_KC = lazy("calls")
 _I_NCON, _I_NA, _F_MIN_SIGMA = 5, 6, 3
 """Outputs of :func:`redservo.kernels.iterative.iterative` (layout documented there)."""
 
@@ -270,7 +271,7 @@ class _IterativeLaw(Law):
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
         robust = CONSTRAINT_FILTER if self.robust else 0.0
-        qdot, iout, fout, axes, gamma, vec = _K.iterative(
+        qdot, iout, fout, axes, gamma, vec, mask, vals, src = _KC.iterative_call(
             k.J1,
             k.e,
             k.q,
@@ -287,13 +288,12 @@ class _IterativeLaw(Law):
             self.rcond if self.constraint_rcond is None else self.constraint_rcond,
             robust,
         )
-        m, n = x.J1.shape
+        m = x.J1.shape[0]
         rank = int(iout[I_RANK])
         count = int(iout[I_ITER])
         n_a = int(iout[_I_NA])
         nb = max(count - 1, 0) * n_a
         thr = self.filter_threshold
-        mask, vals, src = _KE.iterative_events(m, n, iout, fout, vec, thr, robust)
         diag = Diagnostics(
             method=self.name,
             task_rank=rank,

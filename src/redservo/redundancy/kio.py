@@ -92,6 +92,13 @@ def task_context(
     }
 
 
+def task_names(m: int, rank: int, cond: float, filtered: int, robust: float) -> dict[str, Any]:
+    """:func:`task_context` from the numbers a fused kernel (:mod:`redservo.kernels.calls`)
+    returns instead of ``iout`` and ``fout``."""
+    inv = 1.0 / robust if robust else np.inf
+    return {"rank": rank, "m": m, "cond": cond, "filtered": filtered, "inv_robust": inv}
+
+
 def levels(axes: NDArray[np.int64], count: int | None = None) -> tuple[tuple[int, ...], ...]:
     """``((axes at level 1), (level 2), ...)`` from a kernel's per-axis level marks."""
     top = int(axes.max()) if count is None and axes.size else (count or 0)
