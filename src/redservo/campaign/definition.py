@@ -27,8 +27,9 @@ from redservo.scenario import (
     read_toml,
     shipped_descriptions,
 )
-from redservo.schema.base import unknown_name, validate
+from redservo.schema.base import unknown_name
 from redservo.schema.campaign import CampaignSpec
+from redservo.schema.explain import validate
 
 FORMAT_VERSION = 3
 """Version of the sampling algorithm and the row format, part of the fingerprint."""

@@ -22,7 +22,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
-from redservo.schema.base import _metadata, _unwrap
+from redservo.schema.explain import _metadata, _unwrap
 
 __all__ = ["BEGIN", "END", "campaign_reference", "main", "scenario_reference", "table"]
 
