@@ -3,11 +3,18 @@
 See :mod:`redservo.simulation.loop` for the loop and its outcomes,
 :mod:`redservo.records.summary` for what counts as a success (the log and summary records
 shared with the servo loop live in :mod:`redservo.records`), and
-:mod:`redservo.simulation.objectives` for the composable secondary objectives.
+:mod:`redservo.control.objectives` for the composable secondary objectives (re-exported here).
 """
 
 from __future__ import annotations
 
+from redservo.control.objectives import (
+    CallableObjective,
+    JointLimitForce,
+    Objective,
+    ObjectiveContext,
+    OcclusionAvoidance,
+)
 from redservo.records import (
     FLAG_COLUMNS,
     OUTCOMES,
@@ -20,13 +27,6 @@ from redservo.records import (
     summarize,
 )
 from redservo.simulation.loop import LIMIT_TOLERANCE, SimulationResult, simulate
-from redservo.simulation.objectives import (
-    CallableObjective,
-    JointLimitForce,
-    Objective,
-    ObjectiveContext,
-    OcclusionAvoidance,
-)
 from redservo.simulation.options import Occlusion, SimulationOptions
 
 __all__ = [
