@@ -293,7 +293,8 @@ class Law(abc.ABC):
         if not safe.events:  # the diagnostics are unchanged
             return result if safe.qdot is result.qdot else LawResult(safe.qdot, result.diagnostics)
         d = result.diagnostics
-        merged = Diagnostics(*_BEFORE_EVENTS(d), (*d.events, *safe.events), d.info)
+        events = (*d.events, *safe.events)
+        merged = Diagnostics(*_BEFORE_EVENTS(d), events, d.info)  # type: ignore[call-arg]
         return LawResult(safe.qdot, merged)
 
     @property

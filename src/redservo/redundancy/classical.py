@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.flags import Event
 from redservo.redundancy.kio import kernel_inputs, task_names
 from redservo.redundancy.messages import events
 
@@ -30,7 +31,7 @@ class Classical(Law):
             k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, thr
         )
         m = x.J1.shape[0]
-        found = ()
+        found: tuple[Event, ...] = ()
         if mask:
             found = events(mask, vals, src, **task_names(m, rank, cond, filtered, thr))
         diag = Diagnostics(

@@ -63,6 +63,7 @@ from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.kernels.lawopts import F_GAIN, I_AUTO_ROBUST, I_CURRENT
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.flags import Event
 from redservo.redundancy.kio import (
     F_ALPHA,
     I_PROJ,
@@ -136,7 +137,7 @@ class GradientProjection(Law):
         )
         m = x.J1.shape[0]
         band = tuple(int(i) for i in np.flatnonzero(axes))
-        found = ()
+        found: tuple[Event, ...] = ()
         if mask:
             found = events(mask, vals, src, **task_names(m, rank, cond, filtered, thr))
         diag = Diagnostics(

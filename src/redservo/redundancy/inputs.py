@@ -8,7 +8,7 @@ finiteness, real values, gains, and that ``q`` lies within the limits; units as 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -89,9 +89,9 @@ _DT = "control period, s"
 
 def _array(a: object, shape: tuple[int, ...]) -> bool:
     """``a`` is a C-contiguous float64 array of shape ``shape``."""
-    return (
-        type(a) is np.ndarray and a.dtype == _F64 and a.shape == shape and a.flags.c_contiguous  # type: ignore[attr-defined]
-    )
+    if type(a) is not np.ndarray:
+        return False
+    return a.dtype == _F64 and a.shape == shape and bool(a.flags.c_contiguous)
 
 
 def _fast(
@@ -112,7 +112,7 @@ def _fast(
         return False
     if not (_array(e1, (m,)) and _array(q, (n,))):
         return False
-    opt = []
+    opt: list[object] = []
     for value, size in ((de1_dt, m), (secondary, n), (qdot_prev, n)):
         if value is None:
             opt.append(_EMPTY)
@@ -142,18 +142,18 @@ def validate_inputs(
     checked by one kernel (:func:`redservo.kernels.inputs.inputs_ok`); anything it does not
     pass goes through the full checks below, which name the faulty argument.
     """
-    fast = _fast(J1, e1, q, limits, de1_dt, secondary, qdot_prev)
-    if fast:
+    if _fast(J1, e1, q, limits, de1_dt, secondary, qdot_prev):  # the arrays are checked
+        e = cast(FloatArray, e1)
         return LawInputs(
-            J1,  # type: ignore[arg-type]  # _fast checked the arrays
-            e1,  # type: ignore[arg-type]
-            q,  # type: ignore[arg-type]
+            cast(FloatArray, J1),
+            e,
+            cast(FloatArray, q),
             limits,
-            gain_value(lam, e1) if isinstance(lam, AdaptiveGain) else _scalar(lam, "lam", _LAM),
+            gain_value(lam, e) if isinstance(lam, AdaptiveGain) else _scalar(lam, "lam", _LAM),
             _scalar(dt, "dt", _DT),
-            de1_dt,  # type: ignore[arg-type]
-            secondary,  # type: ignore[arg-type]
-            qdot_prev,  # type: ignore[arg-type]
+            cast("FloatArray | None", de1_dt),
+            cast("FloatArray | None", secondary),
+            cast("FloatArray | None", qdot_prev),
         )
     J = _real_matrix(J1)
     if J.ndim != 2 or J.shape[0] == 0:
