@@ -96,7 +96,9 @@ the end (lost workers) raises :class:`CampaignIncompleteError`, which names them
 then states the N each method actually completed (docs/campaigns.md, "Completeness"). The
 storage is locked, written in atomic batches, cleaned of torn and duplicated
 rows on resume, repairable, and mirrored to ``samples.parquet``: docs/campaigns.md, "Storage"
-(:mod:`redservo.campaign.storage`).
+(:mod:`redservo.campaign.storage`). This process keeps no row in memory: rows are read back
+from the file when asked (``CampaignResult.rows``), the statistics keep numpy columns
+(:mod:`redservo.campaign.table`), so memory stays flat in N (docs/scaling.md, "Memory").
 
 Statistics (per method, over the first ``samples`` samples). Success = outcome ``converged``
 (the simulator stops a run at the first limit crossing or lost target, so a converged run
