@@ -535,3 +535,45 @@ def test_the_kernel_check_of_the_inputs_agrees_with_the_full_checks(seed: int) -
     lists = {k: None if v is None else v.tolist() for k, v in kw.items()}
     full = _outcome(lambda: validate_inputs(**lists, **args))
     assert fast == full
+
+
+class _TwoStageClassical(redservo.redundancy.base.law_class("classical")):  # type: ignore[misc]
+    """The classical law through compute() then the safety stage (its own compute)."""
+
+    def compute(self, x: Any) -> Any:
+        return super().compute(x)
+
+
+@pytest.mark.parametrize("shield", [True, False])
+@pytest.mark.parametrize("seed", range(30))
+def test_classical_in_one_kernel_call_equals_law_then_safety(seed: int, shield: bool) -> None:
+    """The fused classical call (law, flag rules and safety stage in one kernel) returns the
+    command bit for bit and the same diagnostics as compute() followed by apply_safety."""
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(1, 9)), int(rng.integers(2, 9))
+    lim = JointLimits(
+        -np.ones(n),
+        np.ones(n),
+        rho=0.1,
+        qdot_max=rng.uniform(0.01, 1.0, n),
+        qddot_max=rng.uniform(0.01, 5.0, n) if seed % 2 else None,
+        margin=0.01 if seed % 3 else 0.0,
+    )
+    J1 = rng.normal(size=(m, n))
+    if seed % 4 == 0:
+        J1[-1] = J1[0]  # rank loss
+    kw: dict[str, Any] = {
+        "J1": J1,
+        "e1": rng.normal(size=m) * 10.0 ** rng.uniform(-3, 3),
+        "q": rng.uniform(-1.0, 1.0, n) * (1.0 if seed % 5 else 0.999),
+        "limits": lim,
+        "lam": float(rng.uniform(0.1, 5.0)),
+        "dt": float(10.0 ** rng.uniform(-3, 0.5)),
+        "secondary": rng.normal(size=n) if seed % 2 else None,
+        "qdot_prev": rng.uniform(-1, 1, n) * lim.qdot_max if seed % 3 else None,
+    }
+    fused = make_law("classical", shield=shield)(**kw)
+    split = _TwoStageClassical().set_safety(shield=shield)(**kw)
+    assert fused.qdot.tobytes() == split.qdot.tobytes()
+    assert fused.diagnostics == split.diagnostics
+    assert fused.diagnostics.notes == split.diagnostics.notes

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from redservo.kernels._jit import kernel
 from redservo.kernels.directional import directional
 from redservo.kernels.events import (
@@ -18,11 +20,18 @@ from redservo.kernels.events import (
     directional_events,
     gpm_events,
     iterative_events,
+    safety_with_events,
 )
 from redservo.kernels.iterative import iterative
 from redservo.kernels.laws import F_COND, I_FILTERED, I_PROJ, I_RANK, classical, gpm
 
-__all__ = ["classical_call", "directional_call", "gpm_call", "iterative_call"]
+__all__ = [
+    "classical_call",
+    "classical_safe_call",
+    "directional_call",
+    "gpm_call",
+    "iterative_call",
+]
 
 
 @kernel
@@ -134,3 +143,33 @@ def iterative_call(
     )
     mask, vals, src = iterative_events(m, n, iout, fout, vec, robust, constraint_robust)
     return qdot, iout, fout, axes, gamma, vec, mask, vals, src
+
+
+@kernel
+def classical_safe_call(
+    J1: Any,
+    e: Any,
+    lam: float,
+    sec: Any,
+    has_sec: bool,
+    rcond: float,
+    robust: float,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+) -> Any:
+    """:func:`classical_call` then the safety stage with uniform scaling
+    (:func:`~redservo.kernels.events.safety_with_events`, arguments alike): the law's
+    ``(rank, projector rank, filtered count, σ_max/σ_r, mask, vals, src)``, then the safe
+    ``(q̇, past_joint, accel_excess, mask, vals, src)``."""
+    raw, rank, proj, filtered, cond, mask, vals, src = classical_call(
+        J1, e, lam, sec, has_sec, rcond, robust
+    )
+    none = np.zeros(q.shape[0])  # no task command: uniform scaling
+    safe = safety_with_events(raw, q, lp, has_v, has_a, dt, prev, has_prev, shield, none, False)
+    return (rank, proj, filtered, cond, mask, vals, src, *safe)

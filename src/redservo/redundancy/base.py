@@ -285,6 +285,10 @@ class Law(abc.ABC):
             secondary=secondary,
             qdot_prev=qdot_prev,
         )
+        if self.scaling == "uniform":
+            done = self._compute_safe(x)
+            if done is not None:
+                return done
         result = self.compute(x)
         task = self.task_command(x) if self.scaling == "secondary-first" else None
         safe = apply_safety(
@@ -309,6 +313,12 @@ class Law(abc.ABC):
     def task_command(self, x: LawInputs) -> FloatArray:
         """The primary-task part of the command, ``-λ J1⁺ e_eff`` (for secondary-first scaling)."""
         return np.asarray(-x.lam * (self.svd(x.J1).pinv @ x.e_eff))
+
+    def _compute_safe(self, x: LawInputs) -> LawResult | None:
+        """The safe command of :meth:`compute` followed by the safety stage with uniform
+        scaling in one compiled call, bit for bit what :meth:`__call__` would return, or
+        None (the default) to take that path. A law overrides it only when it can."""
+        return None
 
     @abc.abstractmethod
     def compute(self, x: LawInputs) -> LawResult:

@@ -46,6 +46,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
@@ -62,7 +63,9 @@ __all__ = [
     "exact_position_fix",
     "intersect_boxes",
     "position_box",
+    "prev_command",
     "rate_box",
+    "safety_events",
     "scale_into_box",
 ]
 
@@ -73,7 +76,7 @@ _K = lazy("safety")
 _KE = lazy("events")
 
 
-def _prev(qdot_prev: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
+def prev_command(qdot_prev: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
     """The previous command as the kernels take it: an array and a flag."""
     if qdot_prev is None:
         return _zeros(n), False
@@ -100,7 +103,7 @@ def rate_box(
     meet the velocity box (a previous command above the velocity limit).
     """
     lp = limits_pack(limits)
-    prev, has_prev = _prev(qdot_prev, limits.n)
+    prev, has_prev = prev_command(qdot_prev, limits.n)
     lo, hi, dropped = _K.rate_box(lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev)
     return lo, hi, bool(dropped)
 
@@ -132,7 +135,7 @@ def command_box(
     """
     lp = limits_pack(limits)
     qa = np.ascontiguousarray(q, dtype=np.float64)
-    prev, has_prev = _prev(qdot_prev, limits.n)
+    prev, has_prev = prev_command(qdot_prev, limits.n)
     lo, hi = _K.command_box(
         qa, lp.rows, lp.has_v, lp.has_a, float(dt), prev, has_prev, bool(shield)
     )
@@ -216,7 +219,7 @@ def apply_safety(
     """
     lp = limits_pack(limits)
     n = limits.n
-    prev, has_prev = _prev(qdot_prev, n)
+    prev, has_prev = prev_command(qdot_prev, n)
     c = np.ascontiguousarray
     qa = c(q, dtype=np.float64)
     out, joint, worst, mask, vals, src = _KE.safety_with_events(
@@ -234,11 +237,25 @@ def apply_safety(
     )
     if not mask:
         return SafetyOutcome(out, ())
+    return SafetyOutcome(out, safety_events(mask, vals, src, qa, out, dt, limits, worst, joint))
+
+
+def safety_events(
+    mask: int,
+    vals: FloatArray,
+    src: NDArray[np.int64],
+    q: FloatArray,
+    qdot: FloatArray,
+    dt: float,
+    limits: JointLimits,
+    worst: float,
+    joint: int,
+) -> tuple[Event, ...]:
+    """The events of the safety kernel's ``(mask, vals, src)`` (its command ``qdot``, the
+    acceleration excess ``worst`` and the joint ``joint`` past its hard limit)."""
     if not mask & _UNAVOIDABLE:  # the other messages name at most the excess
-        return SafetyOutcome(out, events(mask, vals, src, worst=worst))
-    return SafetyOutcome(
-        out, events(mask, vals, src, **_context(qa, out, dt, limits, worst, joint))
-    )
+        return events(mask, vals, src, worst=worst)
+    return events(mask, vals, src, **_context(q, qdot, dt, limits, worst, joint))
 
 
 _UNAVOIDABLE = 1 << POSITION_LIMIT_UNAVOIDABLE
