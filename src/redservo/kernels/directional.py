@@ -16,7 +16,15 @@ from redservo.kernels.laws import I_PROJ, new_outputs, svd_outputs
 from redservo.kernels.linalg import matvec, null_project, task_svd
 from redservo.kernels.pack import Q_MAX, Q_MIN, RANGE
 
-__all__ = ["directional", "inverse_weight", "projection", "wln", "wln_gradient"]
+__all__ = [
+    "directional",
+    "inverse_weight",
+    "projection",
+    "weighted_null_add",
+    "wln",
+    "wln_gradient",
+    "wln_weights",
+]
 
 I_FREED, I_CLIPPED, I_BLOCKED, I_ANY_Z = 5, 6, 7, 8
 I_WRANK, I_WFILTERED = 5, 6
@@ -175,6 +183,69 @@ def inverse_weight(grad: float, toward: bool) -> float:
 
 
 @kernel
+def wln_weights(
+    q: Any,
+    lp: Any,
+    qdot0: Any,
+    history: bool,
+    prev_abs: Any,
+    has_prev: bool,
+    report_grad: float,
+    axes: Any,
+    axf: Any,
+) -> Any:
+    """The WLN scaling ``d_i = sqrt(1/w_i)`` of each joint (Chan & Dubey 1995).
+
+    A joint is penalized when it moves toward its limit: by the sign of ``∂H/∂q_i`` times the
+    unweighted command ``qdot0``, or with ``history`` by ``|∂H/∂q_i|`` not decreasing since
+    the previous call (``prev_abs``). Writes ``axf`` (``|∂H/∂q|``) and ``axes`` (1 on the
+    penalized joints whose gradient exceeds ``report_grad``).
+    """
+    n = q.shape[0]
+    grad = wln_gradient(q, lp)
+    d = np.empty(n)
+    for i in range(n):
+        toward = np.sign(grad[i]) * qdot0[i] > 0.0
+        cur = abs(grad[i])
+        if history and has_prev and (np.isfinite(cur) or np.isfinite(prev_abs[i])):
+            toward = cur - prev_abs[i] >= 0.0
+        d[i] = np.sqrt(inverse_weight(grad[i], toward))
+        axf[i] = cur
+        if toward and cur > report_grad:
+            axes[i] = 1
+    return d
+
+
+@kernel
+def weighted_null_add(d: Any, wV: Any, wrank: int, sec: Any, qdot: Any) -> int:
+    """Add ``D E_w (D E_w)ᵀ sec`` to ``qdot`` (``E_w`` the null-space basis of ``J1 D`` in
+    ``wV`` past ``wrank``) and return the rank of ``D E_w``."""
+    n = d.shape[0]
+    k = n - wrank
+    DE = np.empty((n, k))
+    for i in range(n):
+        for j in range(k):
+            DE[i, j] = d[i] * wV[i, wrank + j]
+    proj = np.zeros(n)
+    for j in range(k):
+        c = 0.0
+        for i in range(n):
+            c += DE[i, j] * sec[i]
+        for i in range(n):
+            proj[i] += DE[i, j] * c
+    for i in range(n):
+        qdot[i] = qdot[i] + proj[i]
+    rank = 0
+    if k > 0:
+        _, s_de, _, _, _, _ = task_svd(DE, 0.0, 0.0)
+        tol = s_de[0] * max(n, k) * 2.220446049250313e-16
+        for i in range(s_de.shape[0]):
+            if s_de[i] > tol:
+                rank += 1
+    return rank
+
+
+@kernel
 def wln(
     J1: Any,
     e: Any,
@@ -209,17 +280,7 @@ def wln(
         ns = null_project(V, rank, sec)
         for i in range(n):
             qdot0[i] = qdot0[i] + ns[i]
-    grad = wln_gradient(q, lp)
-    d = np.empty(n)
-    for i in range(n):
-        toward = np.sign(grad[i]) * qdot0[i] > 0.0
-        cur = abs(grad[i])
-        if history and has_prev and (np.isfinite(cur) or np.isfinite(prev_abs[i])):
-            toward = cur - prev_abs[i] >= 0.0
-        d[i] = np.sqrt(inverse_weight(grad[i], toward))
-        axf[i] = cur
-        if toward and cur > report_grad:
-            axes[i] = 1
+    d = wln_weights(q, lp, qdot0, history, prev_abs, has_prev, report_grad, axes, axf)
     JD = np.empty((m, n))
     for i in range(m):
         for j in range(n):
@@ -229,26 +290,7 @@ def wln(
     for i in range(n):
         qdot[i] = d[i] * px[i]
     if has_sec:
-        k = n - wrank
-        DE = np.empty((n, k))
-        for i in range(n):
-            for j in range(k):
-                DE[i, j] = d[i] * wV[i, wrank + j]
-        proj = np.zeros(n)
-        for j in range(k):
-            c = 0.0
-            for i in range(n):
-                c += DE[i, j] * sec[i]
-            for i in range(n):
-                proj[i] += DE[i, j] * c
-        for i in range(n):
-            qdot[i] = qdot[i] + proj[i]
-        if k > 0:
-            _, s_de, _, _, _, _ = task_svd(DE, 0.0, 0.0)
-            tol = s_de[0] * max(n, k) * 2.220446049250313e-16
-            for i in range(s_de.shape[0]):
-                if s_de[i] > tol:
-                    iout[I_PROJ] += 1
+        iout[I_PROJ] += weighted_null_add(d, wV, wrank, sec, qdot)
     smax = wsig[0] if wsig.shape[0] > 0 else 0.0
     for j in range(n):
         col = 0.0
