@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -23,7 +23,14 @@ import numpy as np
 
 from redservo.campaign.complete import CampaignIncompleteError, incomplete_message, missing_runs
 from redservo.campaign.definition import CampaignDefinition
-from redservo.campaign.engine import Engine, JobResult, execute, fallback_lines, make_jobs
+from redservo.campaign.engine import (
+    Engine,
+    Job,
+    JobResult,
+    execute,
+    fallback_lines,
+    make_jobs,
+)
 from redservo.campaign.rowfile import (
     RowFile,
     RowView,
@@ -38,6 +45,9 @@ from redservo.campaign.storage import _Store
 from redservo.campaign.table import RunTable
 
 __all__ = ["CampaignResult"]
+
+_BLOCK = 256
+"""Jobs made at a time (each of ``Engine.per_job`` samples)."""
 
 
 @dataclass(frozen=True)
@@ -146,8 +156,7 @@ def run(
         append = spill
 
     try:
-        todo = [(i, m) for i in range(n) for m in names if (i, m) not in table]
-        computed, stopped = _execute(defn, seed, engine, todo, append, table, progress)
+        computed, stopped = _execute(defn, seed, engine, append, table, progress)
         missing = missing_runs(table, n, names)
         view = _view(rowfile, index, table)
     finally:
@@ -169,16 +178,16 @@ def _execute(
     defn: CampaignDefinition,
     seed: int,
     engine: Engine,
-    todo: list[tuple[int, str]],
     append: Callable[[Sequence[Mapping[str, Any]]], Any],
     table: RunTable,
     progress: bool,
 ) -> tuple[int, CampaignIncompleteError | None]:
-    """Run ``todo`` on ``engine``, handing each finished batch of rows to ``append`` (the
+    """Run the pairs ``table`` has no row for on ``engine``, handing each finished batch of rows to ``append`` (the
     file) and their values, as they read back from it, to ``table``. Returns the number of
     rows computed and the error that stopped the engine (lost workers); says on stderr which
     runs fell back and which failed."""
-    bar = _bar(len(todo), defn.name, progress)
+    missing = ~table.present
+    bar = _bar(int(missing.sum()), defn.name, progress)
     errors: list[str] = []
     paths: dict[tuple[str, str], int] = {}
     computed = 0
@@ -200,8 +209,8 @@ def _execute(
         computed += len(batch)
         bar(len(batch))
 
-    n_todo = len({i for i, _ in todo})
-    jobs = make_jobs(defn, seed, todo, fast=engine.fast, per_job=engine.per_job(n_todo))
+    n_todo = int(missing.any(axis=0).sum())
+    jobs = _jobs(defn, seed, table, engine.fast, engine.per_job(n_todo))
     stopped: CampaignIncompleteError | None = None
     try:
         execute(jobs, engine._replace(workers=min(engine.workers, max(1, n_todo))), on_result)
@@ -214,6 +223,23 @@ def _execute(
     for msg in errors:
         print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
     return computed, stopped
+
+
+def _jobs(
+    defn: CampaignDefinition, seed: int, table: RunTable, fast: bool, per_job: int
+) -> Iterator[Job]:
+    """The jobs of the pairs ``table`` has no row for, made a block of samples at a time (so
+    the list of pairs to run is never held whole: docs/scaling.md, "Memory")."""
+    block = per_job * _BLOCK
+    for start in range(0, table.n, block):
+        todo = [
+            (i, m)
+            for i in range(start, min(start + block, table.n))
+            for m in table.methods
+            if (i, m) not in table
+        ]
+        if todo:
+            yield from make_jobs(defn, seed, todo, fast=fast, per_job=per_job)
 
 
 def _view(rowfile: RowFile, index: dict[tuple[int, str], int], table: RunTable) -> RowView:
