@@ -479,7 +479,7 @@ def test_qp_pushes_back_from_inside_the_margin_band() -> None:
 
 
 def test_qp_falls_back_to_scipy_without_qpsolvers(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(qp_module, "_qpsolvers", lambda: None)
+    monkeypatch.setattr(qp_module, "qpsolvers_module", lambda: None)
     law = paper_law("qp")
     limits = JointLimits(-np.ones(3), np.ones(3))
     res = law(J1=np.eye(2, 3), e1=[50.0, -50.0], q=np.zeros(3), limits=limits, lam=1.0, dt=0.1)

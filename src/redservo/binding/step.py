@@ -25,6 +25,7 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Law
+from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.kio import law_options
 from redservo.robots import Robot
 from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
@@ -39,16 +40,14 @@ __all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"
 _K = lazy("tasks")
 _KC = lazy("chain_tasks")
 _KQ = lazy("qp")
-_DAQP: list[Any] = []
 
 
 def _daqp() -> Any:
-    """The daqp module, imported once."""
-    if not _DAQP:
-        import daqp
-
-        _DAQP.append(daqp)
-    return _DAQP[0]
+    """The daqp module (looked up once per process by the ``qp`` law's solvers)."""
+    daqp = daqp_once()
+    if daqp is None:
+        raise ImportError("the compiled qp step needs daqp: pip install 'redservo[qp]'")
+    return daqp
 
 
 @dataclass(frozen=True)

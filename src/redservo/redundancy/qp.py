@@ -44,7 +44,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   region (reported in ``notes``). Options that are invalid raise
   :class:`~redservo.errors.ConfigurationError`; a control step never raises.
 * Variables whose bounds coincide are eliminated before solving.
-* **Solvers**: ``solver="auto"`` uses :mod:`qpsolvers` (optional extra
+* **Solvers** (:mod:`redservo.redundancy.bls`): ``solver="auto"`` uses :mod:`qpsolvers` (optional extra
   ``redservo[qp]``, imported lazily) with the first available of ``daqp``,
   ``proxsuite``, ``quadprog``, else :func:`scipy.optimize.lsq_linear` (method
   ``bvls``) on ``[J1; √ε I] q̇ ≈ [ẋ; √ε secondary]``; ``"scipy"`` forces that
@@ -64,7 +64,6 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-import importlib
 from typing import Any
 
 import numpy as np
@@ -77,6 +76,12 @@ from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.bls import (
+    PREFERRED_QP_SOLVERS,
+    daqp_once,
+    qpsolvers_module,
+    solve_bounded_least_squares,
+)
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
@@ -86,24 +91,6 @@ _K = lazy("qp")
 _KE = lazy("events")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
-
-_PREFERRED_QP_SOLVERS = ("daqp", "proxsuite", "quadprog")
-
-
-def _qpsolvers() -> Any | None:
-    """Return the :mod:`qpsolvers` module, or None when the optional extra is not installed."""
-    try:
-        return importlib.import_module("qpsolvers")
-    except ImportError:
-        return None
-
-
-def _daqp() -> Any | None:
-    """The :mod:`daqp` module, or None when it is not installed."""
-    try:
-        return importlib.import_module("daqp")
-    except ImportError:
-        return None
 
 
 def qp_velocity_bounds(
@@ -150,106 +137,6 @@ def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
             f"one value per joint"
         )
     return v
-
-
-def _scipy_solve(
-    J: FloatArray, r: FloatArray, z: FloatArray, eps: float, lo: FloatArray, hi: FloatArray
-) -> FloatArray:
-    n = J.shape[1]
-    se = np.sqrt(eps)
-    A = np.vstack([J, se * np.eye(n)])
-    b = np.concatenate([r, se * z])
-    from scipy.optimize import lsq_linear  # heavy import, only when this fallback runs
-
-    res = lsq_linear(A, b, bounds=(lo, hi), method="bvls")
-    return np.asarray(res.x, dtype=float)
-
-
-def _qp_solve(
-    qpsolvers: Any,
-    solver: str,
-    P: FloatArray,
-    c: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
-) -> FloatArray | None:
-    """``min ½ y^T P y + c^T y`` s.t. ``lo <= y <= hi`` with a QP backend (None: failed)."""
-    n = P.shape[0]
-    if solver == "daqp":  # the call qpsolvers makes, without its per-call overhead (~20 µs)
-        daqp = _daqp()
-        if daqp is not None:
-            x, _, exitflag, _ = daqp.solve(
-                P, c, np.zeros((0, n)), hi, lo, np.zeros(n, dtype=np.intc)
-            )
-            return np.asarray(x, dtype=float) if exitflag > 0 else None
-    x = qpsolvers.solve_qp(P, c, lb=lo, ub=hi, solver=solver)
-    if x is None:
-        return None
-    return np.asarray(x, dtype=float)
-
-
-def solve_bounded_least_squares(
-    J: FloatArray,
-    r: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    *,
-    eps: float,
-    z: FloatArray | None = None,
-    solver: str = "scipy",
-) -> tuple[FloatArray, str]:
-    """Solve ``min ‖J x - r‖² + eps ‖x - z‖²`` s.t. ``lo <= x <= hi``; never raises.
-
-    Variables with ``lo == hi`` (to 1e-12 relative) are fixed and eliminated.
-
-    Args:
-        J: (m, n) matrix.
-        r: (m,) target.
-        lo: (n,) lower bounds, ``lo <= hi``.
-        hi: (n,) upper bounds.
-        eps: Absolute regularization weight > 0.
-        z: (n,) regularization target, default 0.
-        solver: ``"scipy"`` or a :mod:`qpsolvers` backend name.
-
-    Returns:
-        ``(x, used)``: the (n,) solution, clipped to the bounds, and a note naming
-        the solver actually used (and any fallback).
-    """
-    n = J.shape[1]
-    c_ = np.ascontiguousarray
-    zz = np.zeros(n) if z is None else c_(z, dtype=np.float64)
-    Jc, rc, loc, hic = c_(J, float), c_(r, float), c_(lo, float), c_(hi, float)
-    x, free, Jf, rf, zf, lof, hif, P, c = _K.bls_reduce(Jc, rc, loc, hic, zz, float(eps))
-    if free.size == 0:
-        return np.clip(x, lo, hi), "none (all velocities fixed by their bounds)"
-    args = (Jf, rf, zf, eps, lof, hif)
-    used = "scipy lsq_linear (bvls)"
-    xf: FloatArray | None = None
-    if solver != "scipy":
-        qps = _qpsolvers()
-        try:
-            xf = _qp_solve(qps, solver, P, c, lof, hif) if qps is not None else None
-        except Exception as exc:  # a solver failure must not stop the control loop
-            used = f"{solver} failed ({type(exc).__name__}); fallback scipy lsq_linear (bvls)"
-            xf = None
-        else:
-            direct = solver == "daqp" and _daqp() is not None
-            name = "daqp" if direct else f"qpsolvers/{solver}"
-            used = name if xf is not None else f"{solver} failed; fallback scipy"
-    if xf is None or not np.all(np.isfinite(xf)):
-        try:
-            xf = _scipy_solve(*args)
-        except (ValueError, np.linalg.LinAlgError) as exc:
-            used = f"{used}; scipy failed ({type(exc).__name__}): unconstrained solution clipped"
-            xf = np.linalg.lstsq(
-                np.vstack([Jf, np.sqrt(eps) * np.eye(free.size)]),
-                np.concatenate([rf, np.sqrt(eps) * zf]),
-                rcond=None,
-            )[0]
-    out, polished = _K.bls_expand(Jc, rc, zz, loc, hic, x, free, c_(xf, float), DEFAULT_RCOND)
-    if polished:
-        used = f"{used} + active-set polish"
-    return out, used
 
 
 @register
@@ -314,7 +201,7 @@ class BoundedLeastSquares(Law):
     def _setup(self) -> None:
         solver = self.solver
         if solver not in ("auto", "scipy"):
-            qps = _qpsolvers()
+            qps = qpsolvers_module()
             available = list(qps.available_solvers) if qps is not None else []
             if solver not in available:
                 hint = (
@@ -335,9 +222,9 @@ class BoundedLeastSquares(Law):
             if self.solver != "auto":
                 self._backend = self.solver
             else:
-                qps = _qpsolvers()
+                qps = qpsolvers_module()
                 available = set(qps.available_solvers) if qps is not None else set()
-                self._backend = next((s for s in _PREFERRED_QP_SOLVERS if s in available), "scipy")
+                self._backend = next((s for s in PREFERRED_QP_SOLVERS if s in available), "scipy")
         return self._backend
 
     def compute(self, x: LawInputs) -> LawResult:
@@ -397,7 +284,7 @@ class BoundedLeastSquares(Law):
         xfix, free, P, c, lof, hif = qp
         xf = None
         if free.size and self._resolve_backend() == "daqp":
-            daqp = _daqp_module()
+            daqp = daqp_once()
             if daqp is not None:
                 nf = free.size
                 sense = np.zeros(nf, dtype=np.intc)
@@ -415,13 +302,3 @@ class BoundedLeastSquares(Law):
         )  # fmt: skip
         fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
         return fixed, used, active, float(resid)
-
-
-_DAQP: list[Any] = []
-
-
-def _daqp_module() -> Any | None:
-    """:func:`_daqp`, looked up once per process."""
-    if not _DAQP:
-        _DAQP.append(_daqp())
-    return _DAQP[0]
