@@ -17,16 +17,12 @@ inter-quartile range. Target (issue 18): the classical law call on 8x6 ≤ 15 µ
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
-import sys
-import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+from bench_object_path import measure, timing_args
 
 from redservo import make_law
 from redservo.bench_cases import bench_cases
@@ -56,40 +52,9 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
     return [*out, ("compiled step classical 6x6", lambda: step(q))]
 
 
-def measure(rounds: int, batch: int) -> dict[str, dict[str, float]]:
-    """Median and quartiles (µs per call) of every item over interleaved rounds."""
-    named = items()
-    for _, fn in named:  # warm-up: compile or load every kernel first
-        for _ in range(50):
-            fn()
-    clock = time.perf_counter_ns
-    times = np.empty((rounds, len(named)))
-    for r in range(rounds):
-        for i, (_, fn) in enumerate(named):
-            t0 = clock()
-            for _ in range(batch):
-                fn()
-            times[r, i] = (clock() - t0) / batch / 1e3
-    out = {}
-    for i, (name, _) in enumerate(named):
-        q25, med, q75 = np.percentile(times[:, i], [25, 50, 75])
-        out[name] = {"median_us": float(med), "q25_us": float(q25), "q75_us": float(q75)}
-    return out
-
-
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=15, help="interleaved rounds (default 15)")
-    parser.add_argument("--batch", type=int, default=2000, help="calls per timing (default 2000)")
-    parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
-    args = parser.parse_args()
-    load = os.getloadavg()
-    print(
-        f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}; warming up and timing "
-        f"{args.rounds} rounds x {args.batch} calls per item...",
-        file=sys.stderr,
-    )
-    res = measure(args.rounds, args.batch)
+    args, load = timing_args(__doc__.split("\n\n")[0])
+    res = measure(items(), args.rounds, args.batch)
     print("| law call (afma6-4points) | median µs | IQR µs |")
     print("|---|---:|---:|")
     for name, r in res.items():

@@ -79,9 +79,10 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
     ]
 
 
-def measure(rounds: int, batch: int) -> dict[str, dict[str, float]]:
-    """Median and quartiles (µs per call) of every item over interleaved rounds."""
-    named = items()
+def measure(
+    named: list[tuple[str, Callable[[], Any]]], rounds: int, batch: int
+) -> dict[str, dict[str, float]]:
+    """Median and quartiles (µs per call) of every ``(name, fn)`` over interleaved rounds."""
     for _, fn in named:  # warm-up: compile or load every kernel first
         for _ in range(50):
             fn()
@@ -100,8 +101,10 @@ def measure(rounds: int, batch: int) -> dict[str, dict[str, float]]:
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def timing_args(description: str) -> tuple[argparse.Namespace, tuple[float, float, float]]:
+    """The options of a timing benchmark (--rounds, --batch, --json) and the load average,
+    said on stderr before the timing starts."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--rounds", type=int, default=15, help="interleaved rounds (default 15)")
     parser.add_argument("--batch", type=int, default=2000, help="calls per timing (default 2000)")
     parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
@@ -112,7 +115,12 @@ def main() -> None:
         f"{args.rounds} rounds x {args.batch} calls per item...",
         file=sys.stderr,
     )
-    res = measure(args.rounds, args.batch)
+    return args, load
+
+
+def main() -> None:
+    args, load = timing_args(__doc__.split("\n\n")[0])
+    res = measure(items(), args.rounds, args.batch)
     compiled = res["compiled classical"]["median_us"]
     print("| item (afma6-4points) | median µs | IQR µs | target |")
     print("|---|---:|---:|---|")
