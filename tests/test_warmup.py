@@ -173,3 +173,20 @@ def test_commands_that_run_control_steps_ask_for_the_notice(
     argv = ["run", "afma6-gaze-demo", "--set", "simulation.max_iterations=3", "--no-plot", "-q"]
     assert main([*argv, "--out", str(tmp_path / "r")]) == 0
     assert calls == [1]
+
+
+def test_the_scenario_group_warms_every_sphere_variant(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reproduction runs CM01 eq. 27 with the sphere variants no shipped scenario uses;
+    after `redservo warmup`, `redservo reproduce` must not compile (it did, mid-run)."""
+    from redservo.features.sphere import SPHERE_VARIANTS, SphereFeature
+
+    seen: list[str] = []
+    original = SphereFeature.interaction
+
+    def interaction(self: SphereFeature, s, inv_depth):  # type: ignore[no-untyped-def]
+        seen.append(self.variant)
+        return original(self, s, inv_depth)
+
+    monkeypatch.setattr(SphereFeature, "interaction", interaction)
+    wu._feature_variants()
+    assert sorted(set(seen)) == sorted(SPHERE_VARIANTS)

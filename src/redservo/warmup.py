@@ -22,7 +22,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from typing import IO, Any, NamedTuple
+from typing import IO, Any, NamedTuple, cast
 
 import numpy as np
 
@@ -169,6 +169,20 @@ def _scenarios(note: Callable[[str], None]) -> None:
             note(f"{name} skipped: {' '.join(str(exc).split())}")
             continue
         exp.run(max_iterations=3)
+    _feature_variants()
+
+
+def _feature_variants() -> None:
+    """Every sphere variant's measure and interaction (a shipped scenario uses one; the
+    reproduction's CM01 eq. 27 runs use the others)."""
+    from redservo.features.sphere import SPHERE_VARIANTS, SphereFeature, SphereVariant
+    from redservo.spatial import make_transform
+
+    cMo = make_transform(t=(0.02, -0.01, 0.6))
+    for variant in SPHERE_VARIANTS:
+        feature = SphereFeature(0.05, variant=cast(SphereVariant, variant))
+        s, inv_depth = feature.measure(cMo)
+        feature.interaction(s, inv_depth)
 
 
 def _steps(note: Callable[[str], None]) -> None:
