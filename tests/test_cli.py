@@ -372,3 +372,18 @@ def test_a_closed_pipe_ends_quietly() -> None:
         os.close(w)
     assert proc.returncode == 141, proc.stderr
     assert proc.stderr == ""
+
+
+def test_campaign_says_which_files_it_wrote(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With --no-plot no figure is written, and the last line must not claim any."""
+    common = ["campaign", "afma6-gaze-demo", "--samples", "2", "--methods", "gpm", "--seed", "0"]
+    assert main([*common, "--no-plot", "--out", str(tmp_path / "a"), "-q"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.endswith("campaign.md, campaign.json"), last
+    assert not list((tmp_path / "a").glob("*.png"))
+    assert main([*common, "--out", str(tmp_path / "b"), "-q"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    n = len(list((tmp_path / "b").glob("*.png")))
+    assert n > 0 and last.endswith(f"campaign.json and {n} figure(s)"), last

@@ -165,9 +165,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
         )
     print(result.markdown)
-    print(
-        f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json and figures"
-    )
+    drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
+    print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0
 
 
