@@ -80,6 +80,17 @@ class MethodStats(NamedTuple):
     """For each diagnostic flag, the number of runs in which it occurred."""
 
 
+STAT_COLUMNS = (
+    "iterations",
+    "max_joint_speed",
+    "max_cam_translation",
+    "max_cam_rotation",
+    "discontinuity",
+    "min_margin",
+)
+"""The always-present float columns of a row that the statistics summarize."""
+
+
 def _pct(values: Sequence[float] | np.ndarray, q: float) -> float:
     a = np.asarray(values, dtype=float)
     a = a[~np.isnan(a)]
@@ -89,15 +100,7 @@ def _pct(values: Sequence[float] | np.ndarray, q: float) -> float:
 def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
     """Summarize the rows of one method (rows as in ``samples.csv``)."""
     outcomes = [r["outcome"] for r in rows]
-    names = (
-        "iterations",
-        "max_joint_speed",
-        "max_cam_translation",
-        "max_cam_rotation",
-        "discontinuity",
-        "min_margin",
-    )
-    cols = {c: np.array([float(r[c]) for r in rows], dtype=float) for c in names}
+    cols = {c: np.array([float(r[c]) for r in rows], dtype=float) for c in STAT_COLUMNS}
     cols["peak_velocity_ratio"] = np.array(
         [
             float(r["peak_velocity_ratio"]) if r.get("peak_velocity_ratio") is not None else np.nan

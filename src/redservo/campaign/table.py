@@ -15,18 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from redservo.campaign.stats import MethodStats, column_stats
+from redservo.campaign.stats import STAT_COLUMNS, MethodStats, column_stats
 
-FLOATS = (
-    "iterations",
-    "max_joint_speed",
-    "max_cam_translation",
-    "max_cam_rotation",
-    "discontinuity",
-    "min_margin",
-    "peak_velocity_ratio",
-    "final_error",
-)
+FLOATS = (*STAT_COLUMNS, "peak_velocity_ratio", "final_error")
 """The float columns kept (``peak_velocity_ratio``: NaN when the row has none)."""
 
 
