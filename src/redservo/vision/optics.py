@@ -1,8 +1,9 @@
 """Pixels of a real camera: intrinsics, radial distortion and the pixel-centre convention.
 
-:class:`~redservo.camera.Camera` maps normalized coordinates to pixels with no
-distortion. :class:`Optics` adds a radial (Brown) distortion of the
-*normalized* coordinates, the convention of OpenCV's ``k1, k2``::
+:class:`~redservo.camera.Camera` maps normalized coordinates to pixels with its own
+distortion (OpenCV's full ``k1, k2, p1, p2, k3`` model; a camera loaded from a calibration
+file has it), which :class:`Optics` then uses. Without it, :class:`Optics` can add a radial
+(Brown) distortion of the *normalized* coordinates, the convention of OpenCV's ``k1, k2``::
 
     x_d = x (1 + k1 r² + k2 r⁴),   y_d = y (1 + k1 r² + k2 r⁴),   r² = x² + y²
     u = u0 + px x_d,               v = v0 + py y_d
@@ -76,11 +77,16 @@ class Optics:
                     f"distortion {name} must be finite with |{name}| <= 1, got {value!r}"
                 )
             object.__setattr__(self, name, value)
+        if self.camera.distorted and (self.k1 or self.k2):
+            raise ConfigurationError(
+                "the distortion is given twice: the camera has k1, k2, p1, p2, k3 and Optics "
+                "k1, k2; give it in one place (the camera's is OpenCV's full model)"
+            )
 
     @property
     def distorted(self) -> bool:
-        """True when ``k1`` or ``k2`` is non-zero."""
-        return self.k1 != 0.0 or self.k2 != 0.0
+        """True when ``k1`` or ``k2`` (or the camera's distortion) is non-zero."""
+        return self.k1 != 0.0 or self.k2 != 0.0 or self.camera.distorted
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -94,6 +100,8 @@ class Optics:
         p = np.asarray(xy, dtype=float)
         if not self.distorted:
             return p.copy()
+        if self.camera.distorted:
+            return self.camera.distort(p)
         r2 = p[..., 0] ** 2 + p[..., 1] ** 2
         return np.asarray(p * (1.0 + r2 * (self.k1 + self.k2 * r2))[..., None], dtype=float)
 
@@ -102,6 +110,8 @@ class Optics:
         pd = np.asarray(xy_d, dtype=float)
         if not self.distorted:
             return pd.copy()
+        if self.camera.distorted:
+            return self.camera.undistort(pd)
         p = pd.copy()
         for _ in range(_UNDISTORT_ITERATIONS):
             r2 = p[..., 0] ** 2 + p[..., 1] ** 2

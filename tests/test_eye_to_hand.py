@@ -1,0 +1,97 @@
+"""Eye-to-hand: a fixed camera, a target carried by the robot (redservo.robots.eye_to_hand)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from redservo.features import (
+    CylinderFeature,
+    LineFeature,
+    MomentFeatures,
+    PointFeature,
+    SphereFeature,
+)
+from redservo.robots import make_robot
+from redservo.robots.eye_to_hand import EyeToHandRobot
+from redservo.spatial import inverse, make_transform
+
+Q0 = np.array([0.1, -0.6, 0.2, -2.2, 0.1, 1.7, 0.6])
+SQUARE = np.array([[-0.05, -0.04, 0.0], [0.05, -0.05, 0.0], [0.06, 0.05, 0.0], [-0.05, 0.04, 0.0]])
+
+
+def _setup() -> tuple[EyeToHandRobot, np.ndarray]:
+    """A Panda carrying a target 0.1 m in front of its flange; the camera 0.5 m away from it."""
+    panda = make_robot("panda")
+    eMo = make_transform(rotvec=[0.1, -0.2, 0.05], t=[0.01, 0.02, 0.1])
+    cMo = make_transform(rotvec=[0.2, 0.1, -0.3], t=[0.03, -0.02, 0.5])
+    bMc = panda.fkine_ee(Q0) @ eMo @ inverse(cMo)
+    return EyeToHandRobot(panda, bMc), eMo
+
+
+def _features() -> list[object]:
+    moments = MomentFeatures(SQUARE, desired_area=0.01, desired_depth=0.5)
+    return [
+        PointFeature([0.02, -0.01, 0.0]),
+        LineFeature([0.0, 0.01, 0.0], [1.0, 0.3, 0.1]),
+        SphereFeature(0.03, [0.0, 0.0, 0.02]),
+        CylinderFeature(0.02, [0.2, 1.0, 0.1], [0.0, 0.0, 0.05]),
+        moments,
+    ]
+
+
+@pytest.mark.parametrize("feature", _features(), ids=lambda f: type(f).__name__)
+def test_task_jacobian_by_finite_differences(feature: object) -> None:
+    """``ds/dq = L_s · (−cVe(q) eJe(q))`` against finite differences of the real geometry
+    ``cMo(q) = inv(bMc) · bMe(q) · eMo`` (which does not use the wrapper)."""
+    robot, eMo = _setup()
+    panda, bMc = robot.carrier, robot.bMc
+
+    def s_of(q: np.ndarray) -> np.ndarray:
+        return feature.measure(inverse(bMc) @ panda.fkine_ee(q) @ eMo).s  # type: ignore[attr-defined]
+
+    meas = feature.measure(inverse(bMc) @ panda.fkine_ee(Q0) @ eMo)  # type: ignore[attr-defined]
+    L = feature.interaction(meas.s, meas.inv_depth)  # type: ignore[attr-defined]
+    J = robot.jacobian(Q0)
+    h = 1e-6
+    fd = np.column_stack(
+        [(s_of(Q0 + h * np.eye(7)[j]) - s_of(Q0 - h * np.eye(7)[j])) / (2 * h) for j in range(7)]
+    )
+    if isinstance(feature, LineFeature | CylinderFeature):  # θ components: wrap the difference
+        fd = np.column_stack(
+            [
+                np.angle(np.exp(1j * (s_of(Q0 + h * e) - s_of(Q0 - h * e)))) / (2 * h)
+                for e in np.eye(7)
+            ]
+        )
+    np.testing.assert_allclose(L @ J, fd, atol=2e-6 * max(1.0, np.abs(fd).max()))
+
+
+def test_pose_and_kinematics_agree() -> None:
+    robot, eMo = _setup()
+    eMc, J = robot.kinematics(Q0)
+    np.testing.assert_allclose(eMc, robot.fkine(Q0))
+    np.testing.assert_allclose(J, robot.jacobian(Q0))
+    # cMo seen through the wrapper's "camera pose" is the real relative pose.
+    cMo_real = inverse(robot.bMc) @ robot.carrier.fkine_ee(Q0) @ eMo
+    np.testing.assert_allclose(inverse(eMc) @ eMo, cMo_real, atol=1e-12)
+
+
+def test_sign_differs_from_eye_in_hand() -> None:
+    """A camera on the effector and a target carried by it see opposite motions."""
+    robot, _ = _setup()
+    panda = robot.carrier
+    from redservo.spatial import twist_transform
+
+    cVe = twist_transform(inverse(robot.bMc) @ panda.fkine_ee(Q0))
+    np.testing.assert_allclose(robot.jacobian(Q0), -cVe @ panda.jacobe(Q0))
+
+
+def test_no_compiled_kinematics() -> None:
+    """The compiled step refuses it by type (never silently with eye-in-hand kinematics)."""
+    from redservo.binding.step import _robot_args
+    from redservo.errors import ConfigurationError
+
+    robot, _ = _setup()
+    with pytest.raises(ConfigurationError, match="EyeToHandRobot"):
+        _robot_args(robot)
