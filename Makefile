@@ -4,10 +4,11 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-all
 TSTAMP := $(VENV)/.installed-test
+DSTAMP := $(VENV)/.installed-docs
 OUT    ?= out
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: demo test lint typecheck pytest bench clean chromium
+.PHONY: demo test lint typecheck pytest bench clean chromium docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -15,10 +16,12 @@ $(BIN)/python:
 
 # demo: only what the commands need (redservo[all]); test: the test tools as well.
 $(STAMP): $(BIN)/python pyproject.toml
+	@echo "== installing redservo[all] into $(VENV) (a minute or two on a fresh machine)"
 	$(BIN)/python -m pip install --quiet -e '.[all]'
 	touch $(STAMP)
 
 $(TSTAMP): $(BIN)/python pyproject.toml
+	@echo "== installing redservo[test] into $(VENV) (a minute or two on a fresh machine)"
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP) $(TSTAMP)
 
@@ -41,17 +44,31 @@ demo: $(STAMP)
 test: lint typecheck pytest
 
 lint: $(TSTAMP)
+	@echo "== lint: ruff check and ruff format --check (a few seconds)"
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/ruff format --check src tests benchmarks examples
 
 typecheck: $(TSTAMP)
+	@echo "== type-check: mypy on src/redservo (about a minute the first time, cached after)"
 	$(BIN)/mypy
 
 pytest: $(TSTAMP) chromium
+	@echo "== tests: pytest (a dot per test; the first tests compile the numba kernels)"
 	$(BIN)/python -m pytest -q
+
+## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
+## into site/, strictly: a broken link or reference fails the build
+$(DSTAMP): $(BIN)/python pyproject.toml
+	@echo "== installing redservo[docs] (MkDocs Material, mkdocstrings) into $(VENV)"
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $(DSTAMP)
+
+docs: $(DSTAMP)
+	@echo "== docs: mkdocs build --strict into site/"
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --site-dir site
 
 bench: $(STAMP)
 	$(BIN)/redservo bench
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) $(OUT) site .pytest_cache .mypy_cache .ruff_cache
