@@ -53,6 +53,7 @@ __all__ = [
     "SceneObject",
     "Sphere",
     "Static",
+    "Tag",
     "Trajectory",
     "Waypoints",
 ]
@@ -252,6 +253,42 @@ class PointSet(SceneObject):
         if pts.shape[0] == 0:
             raise ShapeError("points must hold at least one point, got shape (0, 3)")
         object.__setattr__(self, "points", pts)
+
+
+@dataclass(frozen=True, eq=False)
+class Tag(PointSet):
+    """A square fiducial tag (AprilTag or ArUco) of side ``size`` (m): its ``points`` are its
+    four outer corners, so point features on a tag are its corners.
+
+    Frame (ViSP's ``vpDetectorAprilTag`` tag frame): origin at the tag centre, the tag in the
+    plane ``z = 0``, ``z`` out of its printed face; corner ``k`` is ``size/2`` times
+    ``(-1, -1), (1, -1), (1, 1), (-1, 1)`` (AprilTag 3's corner order). ``size`` is the
+    side of the black border; the renderer adds a one-cell white margin. Details in
+    docs/vision.md (Tags); detection in :func:`redservo.vision.detect_tags`.
+
+    Attributes:
+        size: Side of the tag's black square (m), > 0.
+        tag_id: Its id in the family (0-based).
+        family: Family name (:data:`redservo.tag_families.TAG_FAMILIES`).
+    """
+
+    points: FloatArray = field(init=False)
+    size: float = 0.05
+    tag_id: int = 0
+    family: str = "36h11"
+
+    def __post_init__(self) -> None:
+        from redservo.tag_families import check_tag
+
+        size = float(self.size)
+        if not (np.isfinite(size) and size > 0.0):
+            raise GeometryError(f"tag size must be positive and finite (m), got {self.size!r}")
+        object.__setattr__(self, "family", check_tag(self.family, self.tag_id))
+        object.__setattr__(self, "size", size)
+        h = 0.5 * size
+        corners = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
+        object.__setattr__(self, "points", corners)
+        super().__post_init__()
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,6 +15,7 @@ when a function needs it.
 * :mod:`~redservo.vision.sources` — :func:`frames`, :func:`track_dots` (video, folder, webcam)
 * :mod:`~redservo.vision.video` — :func:`write_video` (GIF / MP4 with overlays)
 * :mod:`~redservo.vision.optics` — :class:`Optics` (intrinsics + radial distortion)
+* :mod:`~redservo.vision.tags` — :func:`detect_tags`, :class:`TagDetection`, :func:`iter_tags` (AprilTag, ArUco)
 
 See docs/vision.md.
 """
@@ -32,12 +33,15 @@ __all__ = [
     "Optics",
     "RenderOptions",
     "Renderer",
+    "TagDetection",
     "detect_dots",
     "detect_ellipse",
+    "detect_tags",
     "dot_moment_features",
     "estimate_inv_depth",
     "find_lines",
     "frames",
+    "iter_tags",
     "orient_like",
     "refine_line",
     "region_moments",
@@ -64,6 +68,9 @@ _WHERE = {
     "frames": "sources",
     "track_dots": "sources",
     "write_video": "video",
+    "TagDetection": "tags",
+    "detect_tags": "tags",
+    "iter_tags": "tags",
 }
 
 

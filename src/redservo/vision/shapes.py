@@ -37,7 +37,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
 from redservo.features.sphere import sphere_ellipse
-from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere
+from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere, Tag
 from redservo.vision.optics import Optics
 
 __all__ = ["Layer", "Levels", "scene_layers"]
@@ -233,6 +233,11 @@ def scene_layers(
     for name in scene.names:
         obj = scene.object(name)
         cMo = scene.cMo(name, bMc, t)
+        if isinstance(obj, Tag):
+            from redservo.vision.tag_render import tag_layers
+
+            layers.extend(tag_layers(obj, cMo, optics))
+            continue
         if isinstance(obj, PointSet):
             layers.extend(_point_layers(obj, cMo, optics, levels))
             continue
