@@ -95,3 +95,82 @@ def test_no_compiled_kinematics() -> None:
     robot, _ = _setup()
     with pytest.raises(ConfigurationError, match="EyeToHandRobot"):
         _robot_args(robot)
+
+
+# -- scenarios ---------------------------------------------------------------------------------
+
+
+def _data() -> dict:
+    import copy
+
+    from redservo.scenario import load_scenario
+
+    return copy.deepcopy(load_scenario("panda-eye-to-hand").data)
+
+
+def test_every_law_converges_on_the_shipped_scenario() -> None:
+    """Every law sees only J1: each drives the carried target to its desired image."""
+    from redservo.experiment import build
+    from redservo.redundancy import METHODS
+    from redservo.scenario import load_scenario
+
+    exp = build(load_scenario("panda-eye-to-hand"))
+    assert isinstance(exp.robot, EyeToHandRobot)
+    for method in METHODS:
+        res = exp.run(method=method, max_iterations=60)
+        e = np.linalg.norm(res.log.e1, axis=1)
+        assert res.outcome in ("max_iterations", "converged"), method
+        assert np.all(np.isfinite(res.log.qdot)), method
+        assert e[-1] < 0.6 * e[0], method
+    assert exp.run().outcome == "converged"
+
+
+@pytest.mark.parametrize(
+    ("edit", "key"),
+    [
+        (lambda d: d["camera"].pop("pose"), "camera.pose"),
+        (lambda d: d["camera"].__setitem__("mount", "hand"), "camera.pose"),
+        (lambda d: d["camera"].__setitem__("mount", "ceiling"), "camera.mount"),
+        (
+            lambda d: (
+                d["robot"].update(start_pose={"translation": [0, 0, 0.5]}, q0=None)
+                or d["robot"].pop("q0")
+            ),
+            "robot.start_pose",
+        ),
+        (
+            lambda d: d.setdefault("simulation", {}).update(
+                eMc_error={"translation": [0, 0, 0.01]}
+            ),
+            "simulation.eMc_error",
+        ),
+        (
+            lambda d: (
+                d["objects"][0].update(pose={"translation": [0, 0, 1]})
+                or d["objects"][0].pop("pose_in_effector")
+            ),
+            "objects[0].pose_in_effector",
+        ),
+    ],
+)
+def test_bad_eye_to_hand_keys(edit: object, key: str) -> None:
+    from redservo.errors import ScenarioError
+    from redservo.experiment import build
+    from redservo.scenario import parse_scenario
+
+    data = _data()
+    edit(data)  # type: ignore[operator]
+    with pytest.raises(ScenarioError) as info:
+        build(parse_scenario(data, "e2h.toml"))
+    assert f"key '{key}'" in str(info.value)
+
+
+def test_pose_in_effector_needs_a_world_camera() -> None:
+    from redservo.errors import ScenarioError
+    from redservo.experiment import build
+    from redservo.scenario import parse_scenario
+
+    data = _data()
+    data["camera"] = {}
+    with pytest.raises(ScenarioError, match=r"objects\[0\]\.pose_in_effector"):
+        build(parse_scenario(data, "e2h.toml"))

@@ -21,6 +21,7 @@ from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
+from redservo.experiment_camera import mounted_robot, scenario_camera
 from redservo.experiment_start import check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
@@ -125,7 +126,7 @@ class Experiment:
             law_options = ctl.options if name == ctl.method else {}
         sc, opts = self.scenario, dict(law_options)
         return Provenance(
-            sc.data, sc.source, name, opts, options, self.limits, self.q0.copy(), build
+            sc.data, sc.source, name, opts, options, self.limits, self.q0.copy(), build, self.robot
         )
 
 
@@ -212,6 +213,8 @@ def _scene(sc: Scenario, spec: ScenarioSpec, robot: Robot, q0: FloatArray) -> Sc
     for i, o in enumerate(spec.objects):
         if o.pose_in_camera is not None:
             wMo0 = bMc0 @ o.pose_in_camera.matrix()
+        elif o.pose_in_effector is not None:  # eye-to-hand: the world is the effector's frame
+            wMo0 = o.pose_in_effector.matrix()
         else:
             wMo0 = o.pose.matrix() if o.pose is not None else np.eye(4)
         try:
@@ -345,6 +348,7 @@ def build(sc: Scenario) -> Experiment:
     spec = sc.spec
     robot = _robot(sc, spec)
     limits = _limits(sc, spec, robot)
+    robot = mounted_robot(sc, robot)  # camera.mount = "world": the eye-to-hand wrapper
     q0 = _start(sc, spec, robot, limits)
     scene = _scene(sc, spec, robot, q0)
     task = _task(sc, spec, scene)
@@ -352,10 +356,7 @@ def build(sc: Scenario) -> Experiment:
     law = make_law(
         ctl.method, shield=ctl.shield, robust=ctl.robust, scaling=ctl.scaling, **ctl.options
     )
-    try:
-        camera = Camera(**spec.camera.model_dump())
-    except RedservoError as exc:
-        raise sc.error("camera", str(exc)) from None
+    camera = scenario_camera(sc)
     options = _options(sc, spec, robot)
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = _sensor(sc, spec, camera)

@@ -233,6 +233,9 @@ def parse_scenario(
 
     table = copy.deepcopy(dict(data))
     _resolve_urdf(table, source, base_dir, key_prefix)
+    from redservo.camera_io import resolve_camera_file
+
+    resolve_camera_file(table, source, base_dir, key_prefix)
     scenario = Scenario(table, source)
     scenario._spec = validate(ScenarioSpec, table, source, key_prefix)
     return scenario

@@ -142,12 +142,19 @@ class ObjectSpec(Table):
     )
     pose: Pose | None = Field(None, description="start pose in the world (= robot base) frame")
     pose_in_camera: Pose | None = Field(None, description="start pose in the start camera frame")
+    pose_in_effector: Pose | None = Field(
+        None, description="camera.mount = world: the object's pose eMo on the end effector"
+    )
     motion: AnyMotion | None = Field(None, description="motion (default static)")
 
     @model_validator(mode="after")
     def _one_pose(self) -> ObjectSpec:
         if self.pose is not None and self.pose_in_camera is not None:
             fail("give either pose or pose_in_camera, not both", "pose_in_camera")
+        if self.pose_in_effector is not None and "pose" in self.model_fields_set:
+            fail("give either pose or pose_in_effector, not both", "pose_in_effector")
+        if self.pose_in_effector is not None and self.pose_in_camera is not None:
+            fail("give either pose_in_camera or pose_in_effector, not both", "pose_in_effector")
         return self
 
     def scene_object(self, trajectory: Trajectory) -> SceneObject:  # pragma: no cover - abstract
@@ -175,6 +182,39 @@ class PointsObject(ObjectSpec):
 
     def reference_points(self) -> FloatArray:
         return np.array(self.points, dtype=float)
+
+
+class TagObject(ObjectSpec):
+    """A square fiducial tag (AprilTag or ArUco): its four corners are its points, in ViSP's
+    tag frame (z out of the printed face; :class:`~redservo.scene.Tag`)."""
+
+    kind: Literal["tag"]
+    family: str = Field("36h11", description="tag family: 36h11, 25h9, 16h5, aruco_4x4_50...")
+    id: int = Field(0, ge=0, le=100_000, description="tag id in its family (0-based)")
+    size: float = num(0.05, gt=0.0, le=BIG, description="side of the black square (m)")
+
+    @model_validator(mode="after")
+    def _known(self) -> TagObject:
+        from redservo.errors import RedservoError
+        from redservo.tag_families import check_tag
+
+        try:
+            check_tag(self.family, self.id)
+        except RedservoError as exc:
+            fail(str(exc), "id" if "id" in str(exc).split(" ")[1:2] else "family")
+        return self
+
+    def scene_object(self, trajectory: Trajectory) -> SceneObject:
+        """The runtime :class:`~redservo.scene.Tag`."""
+        from redservo.scene import Tag
+
+        return Tag(
+            self.name, size=self.size, tag_id=self.id, family=self.family, trajectory=trajectory
+        )
+
+    def reference_points(self) -> FloatArray:
+        h = 0.5 * self.size
+        return np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
 
 
 _Radius = num(0.05, gt=0.0, le=BIG, description="radius (m)")
@@ -256,6 +296,7 @@ OBJECT_KINDS: dict[str, type[ObjectSpec]] = {
     "sphere": SphereObject,
     "cylinder": CylinderObject,
     "line": LineObject,
+    "tag": TagObject,
 }
 """Object kinds of ``[[objects]]``, by ``kind``: a new kind is one entry here."""
 if TYPE_CHECKING:
