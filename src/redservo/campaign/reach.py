@@ -1,0 +1,100 @@
+"""Is a campaign sample's goal reachable? Inverse kinematics of the desired camera pose.
+
+A sample is *reachable* when some joint configuration puts the camera at the task's desired
+pose (``bMc* = wMb⁻¹ wMref(0) cdMref⁻¹``, the scenario's ``task.desired_pose`` relative to
+the first feature's object) with every joint at least ``margin`` (a fraction of its range,
+default the scenario's success margin ``min_margin``) inside its limits. The search is a
+damped least-squares inverse kinematics projected on those bounds, from several seeds: the
+sample's start, the scenario's nominal start, the middle of the range and
+:data:`RANDOM_SEEDS` configurations drawn uniformly inside the bounds (a generator seeded
+with 0: the answer depends only on the sample). It uses the robot's own kinematics
+(``Robot.kinematics``: the camera pose and its Jacobian in the camera frame).
+
+A reachable goal is not a promise that a method can get there (the path matters); an
+unreachable one is a goal no method can reach within the success margin, so that the
+campaign tables report the success rate among the reachable samples too.
+Units: metres, radians.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.spatial import inverse, matrix_to_rotvec
+
+__all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "solve_ik"]
+
+RANDOM_SEEDS = 8
+"""Random seeds tried after the deterministic ones."""
+POS_TOL = 1e-4
+"""Position tolerance of the inverse kinematics (m)."""
+ROT_TOL = 1e-3
+"""Orientation tolerance (rad)."""
+
+
+def desired_camera_pose(exp: Any) -> FloatArray | None:
+    """``bMc*`` (4, 4) of an :class:`~redservo.experiment.Experiment`, or None when its task
+    gives desired feature values rather than a desired pose."""
+    spec = exp.scenario.spec
+    pose = spec.task.desired_pose
+    if pose is None:
+        return None
+    ref = spec.features[0].object
+    wMref = exp.scene.wMo(ref, 0.0)
+    return np.asarray(inverse(exp.scene.wMb) @ wMref @ inverse(pose.matrix()))
+
+
+def _pose_error(bMc: FloatArray, target: FloatArray) -> FloatArray:
+    """(6,) camera-frame twist ``(t, θu)`` from ``bMc`` to ``target`` (m, rad)."""
+    cMt = inverse(bMc) @ target
+    return np.concatenate([cMt[:3, 3], matrix_to_rotvec(cMt[:3, :3])])
+
+
+def solve_ik(
+    robot: Any,
+    target: FloatArray,
+    seed: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    iterations: int = 300,
+    damping: float = 1e-3,
+) -> FloatArray | None:
+    """Projected damped least squares from ``seed``: ``q ← clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err)``;
+    returns ``q`` within ``[lo, hi]`` reaching ``target`` within :data:`POS_TOL` and
+    :data:`ROT_TOL`, or None."""
+    q = np.clip(np.asarray(seed, dtype=float), lo, hi)
+    for _ in range(iterations):
+        bMc, J = robot.kinematics(q, check_limits=False)
+        err = _pose_error(bMc, target)
+        if np.linalg.norm(err[:3]) < POS_TOL and np.linalg.norm(err[3:]) < ROT_TOL:
+            return q
+        step = J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(6), err)
+        size = float(np.max(np.abs(step)))
+        if size > 0.5:  # at most 0.5 rad (or m) per joint and iteration
+            step *= 0.5 / size
+        q = np.clip(q + step, lo, hi)
+    return None
+
+
+def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> bool | None:
+    """Whether the sample's desired camera pose is reachable with every joint at least
+    ``margin`` of its range inside its limits (module docstring); None when the task has no
+    desired pose. ``nominal``: the scenario's nominal start, one more seed."""
+    target = desired_camera_pose(exp)
+    if target is None:
+        return None
+    lim = exp.limits
+    m = exp.options.min_margin if margin is None else margin
+    rng = lim.q_max - lim.q_min
+    lo, hi = lim.q_min + m * rng, lim.q_max - m * rng
+    gen = np.random.default_rng(0)
+    seeds = [np.asarray(exp.q0, dtype=float)]
+    if nominal is not None:
+        seeds.append(np.asarray(nominal, dtype=float))
+    seeds.append(0.5 * (lo + hi))
+    seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
+    return any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds)

@@ -1,0 +1,319 @@
+"""Predictive (model predictive) visual servoing under joint limits and visibility.
+
+Allibert, Courtial & Chaumette, "Predictive control for constrained image-based visual
+servoing", IEEE T-RO 26(5), 2010 (docs/predictive.md). At each period::
+
+    min_U  Σ_{k=1..N} ‖e_k(U)‖² / N + ρ ‖U‖²
+    s.t.   |u_j| <= q̇_max,   |u_0 - q̇_prev| <= q̈_max dt,   |u_j - u_{j-1}| <= q̈_max dt
+           q_min + margin Δq <= q_k <= q_max - margin Δq          (k = 1…N)
+           image points inside the image less ``image_margin_px``   (k = 1…N, global model)
+
+with ``U`` the joint velocities of ``control_horizon`` blocks over ``horizon`` periods
+(:mod:`redservo.redundancy.predictive_model`); the first block ``u_0`` is the command.
+
+Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
+
+* **Model**: ``model="global"`` predicts with the model robot's kinematics and the projection
+  of the target's points when the law is bound to a task of image points (the
+  :class:`~redservo.Controller` calls :meth:`Predictive.observe` before each step);
+  otherwise (a bare law call, moments, lines...) the local model with the constant ``J1`` is
+  used and ``info`` says so. ``model="local"`` forces the local model.
+* **Solver**: sequential QP, ``sqp_iterations`` (default 1: the real-time iteration, whose
+  linearisation point is the previous solution shifted by one period, the warm start) on
+  ``daqp`` called directly (the dense active-set solver the ``qp`` law already uses through
+  its lookup), with ``primal_start`` at the shifted solution.
+* **Cost**: the reference is ``e = 0`` at every predicted period (Allibert 2010 track
+  ``s*``); ``ρ = effort · dt² σ_max(J1)²`` (relative, like ``qp``'s ε); with a known
+  feed-forward ``∂e1/∂t`` the predicted errors drift by ``k dt ∂e1/∂t``.
+* **Relaxed bounds**: a joint (or image point) already inside its band may stay where it is
+  but not go deeper: its bound is relaxed to the current value.
+* **Fallback**: if daqp reports an infeasible horizon (flag ``horizon-infeasible``), hits its
+  iteration limit or the solve exceeds ``time_budget`` (flag ``solver-iterations``), or gives
+  a non-finite result, the command is the ``qp`` law's (with the same margin), and
+  ``solver-fallback`` is raised; the next solve starts from ``qdot_prev``. ``time_budget =
+  None`` (default) disables the clock, so that simulations and campaigns do not depend on
+  the machine; a real servo loop sets it below its period.
+* **Safety**: the command goes through the same safety stage as every law (shield, rate
+  limits): the constraints above make it a no-op in the usual case.
+
+State kept between calls (``stateful``): the last solution ``U`` (the warm start) and the
+task observation of the current step; :meth:`reset` clears both.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.camera import Camera
+from redservo.kernels import flagbits as fb
+from redservo.redundancy.base import (
+    RCOND,
+    Diagnostics,
+    Law,
+    LawInputs,
+    LawResult,
+    Scaling,
+    register,
+)
+from redservo.redundancy.bls import daqp_once
+from redservo.redundancy.flags import FLAGS, Flag
+from redservo.redundancy.messages import events
+from redservo.redundancy.options import Option
+from redservo.redundancy.predictive_model import (
+    QP,
+    PointModel,
+    Prediction,
+    build_qp,
+    horizon,
+    local_prediction,
+    point_prediction,
+)
+
+__all__ = ["Predictive"]
+
+_BIT = {f: j for j, f in enumerate(FLAGS)}
+
+
+@register
+class Predictive(Law):
+    """Model predictive control over a horizon (Allibert, Courtial & Chaumette 2010).
+
+    See the module docstring for the formulation, the models and the fallback.
+    """
+
+    name = "predictive"
+    description = "model predictive control over N periods, joint limits + visibility (ACC 2010)"
+    stateful = True
+
+    OPTIONS = (
+        Option("horizon", 10, kind="int", doc="prediction horizon N (periods)", low=1, high=200),
+        Option(
+            "control_horizon",
+            3,
+            kind="int",
+            doc="velocity blocks Nc (the last held to the end of the horizon)",
+            low=1,
+            high=50,
+        ),
+        Option(
+            "model",
+            "global",
+            kind="choice",
+            choices=("global", "local"),
+            doc="'global' (kinematics + projection) or 'local' (constant J1)",
+        ),
+        Option("effort", 1e-3, doc="relative weight ρ of ‖U‖²", low=0.0, low_open=True),
+        Option(
+            "margin",
+            0.011,
+            doc="keep-out band at each joint limit, a fraction of the range (at least the "
+            "limits' own margin)",
+            low=0.0,
+            high=0.5,
+            high_open=True,
+        ),
+        Option(
+            "image_margin_px",
+            10.0,
+            doc="the image points stay this far inside the image (default camera)",
+            unit="px",
+            low=0.0,
+        ),
+        Option("sqp_iterations", 1, kind="int", doc="SQP iterations per period", low=1, high=20),
+        Option("max_qp_iterations", 1000, kind="int", doc="daqp's iteration limit", low=1),
+        Option(
+            "time_budget",
+            None,
+            doc="wall-clock limit of one solve, or None (deterministic)",
+            unit="s",
+            low=0.0,
+            low_open=True,
+            none=True,
+        ),
+        RCOND,
+    )
+    horizon: int
+    control_horizon: int
+    model: str
+    effort: float
+    margin: float
+    image_margin_px: float
+    sqp_iterations: int
+    max_qp_iterations: int
+    time_budget: float | None
+
+    def _setup(self) -> None:
+        from redservo.redundancy.base import make_law
+
+        self._hz = horizon(self.horizon, self.control_horizon)
+        self._fallback = make_law("qp", margin=self.margin)
+        self._camera = Camera()
+        self._U: FloatArray | None = None
+        self._obs: tuple[PointModel, FloatArray] | None = None
+        self.last_start: FloatArray | None = None
+        """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
+        self.last_plan: FloatArray | None = None
+        """The last solution ``U`` (Nc, n), None after a fallback."""
+
+    def set_safety(
+        self,
+        *,
+        shield: bool | None = None,
+        robust: bool | None = None,
+        scaling: Scaling | None = None,
+    ) -> Law:
+        """:meth:`Law.set_safety`, on the fallback law too."""
+        super().set_safety(shield=shield, robust=robust, scaling=scaling)
+        self._fallback.set_safety(shield=shield, robust=robust, scaling=scaling)
+        return self
+
+    def reset(self) -> None:
+        """Forget the warm start and the observation."""
+        self._U = None
+        self._obs = None
+        self.last_start = self.last_plan = None
+
+    def bind_camera(self, camera: Camera) -> None:
+        """Use ``camera``'s image for the visibility constraints (default :class:`Camera`)."""
+        self._camera = camera
+
+    def observe(self, robot: Any, task: Any, state: Any) -> None:
+        """The :class:`~redservo.Controller`'s hook before each call: the model robot, the
+        task and its evaluated state (``s``, ``inv_depth``). For a task of image points of
+        one target it sets the global model's points for the next call (only)."""
+        from redservo.features.point import PointFeature
+
+        self._obs = None
+        terms = task.terms
+        if self.model != "global" or not all(type(t.feature) is PointFeature for t in terms):
+            return
+        if len({t.target for t in terms}) != 1:
+            return
+        xy = np.asarray(state.s, dtype=float).reshape(-1, 2)
+        iz = np.array([float(np.asarray(d).reshape(-1)[0]) for d in state.inv_depth])
+        if xy.shape[0] != iz.shape[0] or not np.all(iz > 0) or not np.all(np.isfinite(xy)):
+            return
+        self._obs = (
+            PointModel(robot, np.empty((0, 3)), task.C, np.asarray(task.s_star, dtype=float)),
+            np.c_[xy / iz[:, None], 1.0 / iz],
+        )
+
+    # -- one step ------------------------------------------------------------------------------
+
+    def compute(self, x: LawInputs) -> LawResult:
+        n = x.q.shape[0]
+        obs, self._obs = self._obs, None
+        hz = self._hz
+        start = self._start(x, n)
+        self.last_start = start
+        model = None
+        if obs is not None:
+            pm, Pc = obs
+            bMc = pm.robot.kinematics(x.q, check_limits=False)[0]
+            model = pm._replace(P_b=Pc @ bMc[:3, :3].T + bMc[:3, 3])
+        t0 = time.perf_counter()
+        U, why, value, iters = start, 0, 0.0, 0
+        for _ in range(self.sqp_iterations):
+            qp = self._qp(x, U, model)
+            if qp is None:
+                why, value = fb.HORIZON_INFEASIBLE, float("nan")
+                break
+            U, why, value, iters = self._solve(qp, U)
+            if why:
+                break
+        elapsed = time.perf_counter() - t0
+        if not why and self.time_budget is not None and elapsed > self.time_budget:
+            why, value = fb.SOLVER_ITERATIONS, elapsed
+        if why:
+            return self._fall_back(x, why, value, elapsed)
+        self._U = U
+        self.last_plan = U.copy()
+        what = "global" if model is not None else "local"
+        info = (f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",)
+        d = Diagnostics(method=self.name, task_rank=int(np.linalg.matrix_rank(x.J1)), info=info)
+        return LawResult(np.ascontiguousarray(U[0]), d)
+
+    def _start(self, x: LawInputs, n: int) -> FloatArray:
+        """The warm start ``Ū``: the previous solution shifted by one period (its last block
+        repeated), else ``q̇_prev`` (or 0) in every block."""
+        Nc = self._hz.Nc
+        if self._U is not None and self._U.shape == (Nc, n):
+            return np.vstack([self._U[1:], self._U[-1:]])
+        prev = np.zeros(n) if x.qdot_prev is None else x.qdot_prev
+        return np.tile(prev, (Nc, 1))
+
+    def _qp(self, x: LawInputs, U: FloatArray, model: PointModel | None) -> QP | None:
+        hz, lim = self._hz, x.limits
+        pred: Prediction | None
+        if model is not None:
+            pred = point_prediction(model, x.q, U, hz, x.dt)
+            if pred is None:
+                return None
+        else:
+            pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
+        rng = lim.q_max - lim.q_min
+        band = np.maximum(self.margin * rng, lim.margin_abs)
+        cam, mpx = self._camera, self.image_margin_px
+        s_lo = s_hi = None
+        if pred.s is not None:
+            p = pred.s.shape[1] // 2
+            s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)
+            s_hi = np.tile(
+                [(cam.width - mpx - cam.u0) / cam.px, (cam.height - mpx - cam.v0) / cam.py], p
+            )
+        sigma = float(np.linalg.norm(x.J1, 2)) if x.J1.size else 1.0
+        rho = self.effort * (x.dt * max(sigma, 1e-9)) ** 2
+        ff = None if x.de1_dt is None else x.de1_dt
+        return build_qp(
+            pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
+            v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
+            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff,
+        )  # fmt: skip
+
+    def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:
+        """``(U, why, value, iterations)``: daqp on ``qp``; ``why`` = 0 or the flag bit."""
+        daqp = daqp_once()
+        if daqp is None:  # pragma: no cover - daqp is a dependency of the qp extra
+            return start, fb.HORIZON_INFEASIBLE, float("nan"), 0
+        bu = np.concatenate([qp.hi, qp.bhi])
+        bl = np.concatenate([qp.lo, qp.blo])
+        sense = np.zeros(bu.size, dtype=np.intc)
+        y, _, flag, info = daqp.solve(
+            qp.H, qp.f, qp.A, bu, bl, sense,
+            iter_limit=self.max_qp_iterations,
+        )  # fmt: skip
+        iters = int(info.get("iterations", 0))
+        if flag == -4:
+            return start, fb.SOLVER_ITERATIONS, float(iters), iters
+        if flag <= 0 or not np.all(np.isfinite(y)):
+            return start, fb.HORIZON_INFEASIBLE, float(flag), iters
+        U = np.clip(y, qp.lo, qp.hi).reshape(start.shape)
+        return U, 0, 0.0, iters
+
+    def _fall_back(self, x: LawInputs, why: int, value: float, elapsed: float) -> LawResult:
+        """The ``qp`` law's command, with the flag that caused it and ``solver-fallback``."""
+        self._U = None
+        self.last_plan = None
+        res = self._fallback.compute(x)
+        vals = np.zeros(fb.N_FLAGS)
+        src = np.zeros(fb.N_FLAGS, dtype=np.int64)
+        vals[why] = value
+        src[why] = fb.BY_TIME_BUDGET if (why == fb.SOLVER_ITERATIONS and value == elapsed) else 1
+        vals[fb.SOLVER_FALLBACK], src[fb.SOLVER_FALLBACK] = 1.0, fb.ONLY
+        mask = (1 << why) | (1 << fb.SOLVER_FALLBACK)
+        ev = events(
+            mask, vals, src, horizon=self._hz.N, fallback="qp",
+            solver="predictive solve failed, qp law's command used",
+        )  # fmt: skip
+        d = res.diagnostics
+        merged = Diagnostics(
+            method=self.name, task_rank=d.task_rank, rank_deficient=d.rank_deficient,
+            critical=d.critical, overconstrained=d.overconstrained,
+            events=(*ev, *(e for e in d.events if e.flag is not Flag.SOLVER_FALLBACK)),
+            info=d.info,
+        )  # fmt: skip
+        return LawResult(res.qdot, merged)

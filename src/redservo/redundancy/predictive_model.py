@@ -1,0 +1,216 @@
+"""The prediction model and the horizon QP of the ``predictive`` law (docs/predictive.md).
+
+The decision variables are the joint velocities of ``Nc`` blocks (move blocking):
+``U = (u_0, …, u_{Nc-1})`` (rad/s or m/s, stacked row-wise), the velocity of period
+``i = 0…N-1`` is ``u_{b(i)}`` with ``b(i) = min(i, Nc-1)`` (the last block is held to the end
+of the prediction horizon ``N``; Allibert, Courtial & Chaumette 2010 call ``Nc`` the control
+horizon, cf. their §III). Then the predicted joints are, for ``k = 1…N``::
+
+    q_k = q_0 + dt Σ_j M[k-1, j] u_j,     M[k-1, j] = #{i < k : b(i) = j}
+
+and the predicted task error is linearised around the previous (shifted) solution ``Ū``::
+
+    e_k(U) ≈ ē_k + dt G_k Σ_j M[k-1, j] (u_j - ū_j)
+
+* **global model** (Allibert 2010's nonlinear model, cf. §III-B): the camera's own kinematics
+  ``bMc(q̄_k)``, ``J(q̄_k)`` and the projection of the target's points, fixed in the base frame
+  where the last measurement put them (``P_b = bMc(q_0) (x/ζ, y/ζ, 1/ζ)``, ``ζ = 1/Z``):
+  ``s_k = π(cMb(q̄_k) P_b)``, ``ē_k = C (s_k - s*)``, ``G_k = C L(s_k, ζ_k) J(q̄_k)``.
+* **local model** (cf. §III-C): ``L`` constant, ``ē_k = e_0 + dt J1 Σ M ū``, ``G_k = J1``.
+
+Units: seconds, metres, radians, normalized image coordinates.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.robots.base import Robot
+
+__all__ = ["Horizon", "PointModel", "Prediction", "horizon", "point_prediction"]
+
+BIG = 1e9
+"""Stand-in for an absent bound (daqp takes finite bounds)."""
+
+
+class Horizon(NamedTuple):
+    """The move-blocking structure: ``N`` periods, ``Nc`` blocks, the (N, Nc) matrix ``M``."""
+
+    N: int
+    Nc: int
+    M: FloatArray
+    ends: tuple[int, ...]
+    """The periods ``k`` (1…N) at which a block ends: the predicted joints are extremal there."""
+
+
+def horizon(N: int, Nc: int) -> Horizon:
+    """The :class:`Horizon` of ``N`` periods and ``min(Nc, N)`` blocks."""
+    Nc = min(Nc, N)
+    M = np.zeros((N, Nc))
+    for k in range(1, N + 1):
+        for i in range(k):
+            M[k - 1, min(i, Nc - 1)] += 1.0
+    ends = tuple(sorted({*range(1, Nc), N}))
+    return Horizon(N, Nc, M, ends)
+
+
+class PointModel(NamedTuple):
+    """What the global model needs: the model robot, the target's points in the base frame
+    (p, 3) (m), ``C`` (m, 2p) or None, ``s*`` (2p,)."""
+
+    robot: Robot
+    P_b: FloatArray
+    C: FloatArray | None
+    s_star: FloatArray
+
+
+class Prediction(NamedTuple):
+    """The predictions along the horizon at the linearisation point ``Ū``.
+
+    ``e`` (N, m) the task errors ``ē_k``; ``G`` (N, m, n) their Jacobians ``∂e_k/∂q_k``;
+    ``s`` (N, 2p) and ``S`` (N, 2p, n) the image points and their Jacobians (None for the
+    local model: no visibility constraint).
+    """
+
+    e: FloatArray
+    G: FloatArray
+    s: FloatArray | None
+    S: FloatArray | None
+
+
+def _points_interaction(xy: FloatArray, iz: FloatArray) -> FloatArray:
+    """Stacked (2p, 6) interaction matrices of normalized points (CM01 eq. 26)."""
+    x, y = xy[:, 0], xy[:, 1]
+    L = np.empty((xy.shape[0], 2, 6))
+    L[:, 0] = np.stack([-iz, 0 * iz, x * iz, x * y, -(1 + x * x), y], axis=1)
+    L[:, 1] = np.stack([0 * iz, -iz, y * iz, 1 + y * y, -x * y, -x], axis=1)
+    return L.reshape(-1, 6)
+
+
+def point_prediction(
+    model: PointModel, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float
+) -> Prediction | None:
+    """The global model's predictions at ``U`` (Nc, n) from ``q0`` (None: a point would be
+    at or behind the camera plane along the horizon, or the kinematics not finite)."""
+    N, n = hz.N, q0.shape[0]
+    k2 = model.s_star.shape[0]
+    m = k2 if model.C is None else model.C.shape[0]
+    e, G = np.empty((N, m)), np.empty((N, m, n))
+    s, S = np.empty((N, k2)), np.empty((N, k2, n))
+    Ph = np.c_[model.P_b, np.ones(len(model.P_b))]
+    for k in range(1, N + 1):
+        qk = q0 + dt * (hz.M[k - 1] @ U)
+        bMc, J = model.robot.kinematics(qk, check_limits=False)
+        R, t = bMc[:3, :3], bMc[:3, 3]
+        Pc = (Ph[:, :3] - t) @ R  # cMb P_b = R^T (P_b - t)
+        if not np.all(Pc[:, 2] > 1e-6) or not np.all(np.isfinite(J)):
+            return None
+        iz = 1.0 / Pc[:, 2]
+        xy = Pc[:, :2] * iz[:, None]
+        sk = xy.reshape(-1)
+        Sk = _points_interaction(xy, iz) @ J
+        s[k - 1], S[k - 1] = sk, Sk
+        if model.C is None:
+            e[k - 1], G[k - 1] = sk - model.s_star, Sk
+        else:
+            e[k - 1], G[k - 1] = model.C @ (sk - model.s_star), model.C @ Sk
+    return Prediction(e, G, s, S)
+
+
+def local_prediction(
+    J1: FloatArray, e0: FloatArray, U: FloatArray, hz: Horizon, dt: float
+) -> Prediction:
+    """The local model's predictions at ``U``: ``ē_k = e_0 + dt J1 Σ_j M[k-1, j] ū_j``."""
+    steps = hz.M @ U  # (N, n)
+    e = e0[None, :] + dt * steps @ J1.T
+    G = np.broadcast_to(J1, (hz.N, *J1.shape))
+    return Prediction(e, np.asarray(G), None, None)
+
+
+class QP(NamedTuple):
+    """``min ½ xᵀHx + fᵀx`` s.t. ``lo <= x <= hi`` (simple) and ``blo <= A x <= bhi``."""
+
+    H: FloatArray
+    f: FloatArray
+    lo: FloatArray
+    hi: FloatArray
+    A: FloatArray
+    blo: FloatArray
+    bhi: FloatArray
+
+
+def _block(hz: Horizon, k: int, G: FloatArray, dt: float) -> FloatArray:
+    """``∂(·)_k/∂U``: ``dt [M[k-1,0] G, …, M[k-1,Nc-1] G]`` for a (r, n) Jacobian ``G``."""
+    return dt * np.concatenate([hz.M[k - 1, j] * G for j in range(hz.Nc)], axis=1)
+
+
+def build_qp(
+    pred: Prediction,
+    Ubar: FloatArray,
+    hz: Horizon,
+    dt: float,
+    *,
+    q0: FloatArray,
+    q_lo: FloatArray,
+    q_hi: FloatArray,
+    v_max: FloatArray | None,
+    a_max: FloatArray | None,
+    qdot_prev: FloatArray | None,
+    s_lo: FloatArray | None,
+    s_hi: FloatArray | None,
+    effort: float,
+    ff: FloatArray | None,
+) -> QP:
+    """The QP of one SQP iteration (docs/predictive.md, "Formulation").
+
+    Cost ``Σ_k ‖e_k(U)‖² / N + ρ ‖U‖²`` (``ρ = effort``, absolute, (task units · s)²);
+    simple bounds from the velocity limits and, on ``u_0``, the acceleration limit from
+    ``qdot_prev``; rows: joint positions at the block ends within ``[q_lo, q_hi]``,
+    acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period.
+    ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``.
+    """
+    N, Nc = hz.N, hz.Nc
+    n = q0.shape[0]
+    nv = Nc * n
+    ub = Ubar.reshape(-1)
+    H = effort * np.eye(nv)
+    f = np.zeros(nv)
+    for k in range(1, N + 1):
+        Ak = _block(hz, k, pred.G[k - 1], dt)
+        rk = pred.e[k - 1] - Ak @ ub
+        if ff is not None:
+            rk = rk + k * dt * ff
+        H += Ak.T @ Ak / N
+        f += Ak.T @ rk / N
+    v = np.full(n, BIG) if v_max is None else v_max
+    lo, hi = np.tile(-v, Nc), np.tile(v, Nc)
+    if a_max is not None and qdot_prev is not None:
+        lo[:n] = np.maximum(lo[:n], qdot_prev - a_max * dt)
+        hi[:n] = np.minimum(hi[:n], qdot_prev + a_max * dt)
+        lo[:n] = np.minimum(lo[:n], hi[:n])
+    rows, blo, bhi = [], [], []
+    for k in hz.ends:  # positions: q_0 + dt M[k-1] U, extremal at the block ends
+        rows.append(_block(hz, k, np.eye(n), dt))
+        blo.append(np.minimum(q_lo, q0) - q0)
+        bhi.append(np.maximum(q_hi, q0) - q0)
+    if a_max is not None:
+        for j in range(1, Nc):
+            D = np.zeros((n, nv))
+            D[:, j * n : (j + 1) * n] = np.eye(n)
+            D[:, (j - 1) * n : j * n] = -np.eye(n)
+            rows.append(D)
+            blo.append(-a_max * dt)
+            bhi.append(a_max * dt)
+    if pred.s is not None and pred.S is not None and s_lo is not None and s_hi is not None:
+        s0 = pred.s[0]  # relax only what the first prediction already violates
+        lo_s, hi_s = np.minimum(s_lo, s0), np.maximum(s_hi, s0)
+        for k in range(1, N + 1):
+            Bk = _block(hz, k, pred.S[k - 1], dt)
+            rows.append(Bk)
+            base = pred.s[k - 1] - Bk @ ub
+            blo.append(lo_s - base)
+            bhi.append(hi_s - base)
+    return QP(H, f, lo, hi, np.vstack(rows), np.concatenate(blo), np.concatenate(bhi))
