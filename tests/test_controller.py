@@ -62,11 +62,13 @@ def test_step_is_the_law_called_by_hand_bit_for_bit(method: str) -> None:
     meas, J, _ = _measure(robot, scene, task, Q)
     prev = np.full(6, 0.01)
     state = task.evaluate_measured(meas.s, meas.inv_depth, J)
-    by_hand = make_law(method)(
-        J1=state.J1, e1=state.e1, q=Q, limits=limits, lam=0.7, dt=DT, qdot_prev=prev
-    )
+    law = make_law(method)
+    if hasattr(law, "observe"):  # predictive: the controller hands it its model first
+        law.observe(robot, task, state)
+    by_hand = law(J1=state.J1, e1=state.e1, q=Q, limits=limits, lam=0.7, dt=DT, qdot_prev=prev)
     ctrl = Controller(robot, task, make_law(method), limits, lam=0.7, dt=DT)
     for J_given in (J, None):  # given, or computed by the controller's robot
+        ctrl.reset()  # a stateful law (predictive's warm start) starts afresh
         step = ctrl.step(Q, meas, 0.0, qdot_prev=prev, J=J_given)
         assert np.array_equal(step.qdot, by_hand.qdot)
         assert np.array_equal(step.state.J1, state.J1) and np.array_equal(step.state.e1, state.e1)

@@ -105,6 +105,7 @@ class Controller:
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
+        self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self.stage = "task"
         """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
         ``"feed-forward"``, ``"law"`` or ``"saturation"`` (a loop names it in its errors)."""
@@ -234,6 +235,8 @@ class Controller:
         self.stage = "feed-forward"
         de1_dt = self._feedforward(state, t, prev, context)
         self.stage = "law"
+        if self._observe is not None:
+            self._observe(self.robot, self.task, state)
         res = self.law(**self._law_kwargs(state, q, de1_dt, secondary, prev))
         self.stage = "saturation"
         qdot, saturated = self._saturate(res.qdot)

@@ -33,8 +33,10 @@ __all__ = ["N_FLAGS"]
     SHIELD_ACTED,
     NON_FINITE_REPLACED,
     POSITION_LIMIT_UNAVOIDABLE,
-) = range(18)
-N_FLAGS = 18
+    HORIZON_INFEASIBLE,
+    SOLVER_ITERATIONS,
+) = range(20)
+N_FLAGS = 20
 
 # -- sources (bits of src[flag]) -----------------------------------------------------------------
 ONLY = 1
@@ -57,3 +59,5 @@ SCALED_SNS, SCALED_SNS_RESTORED, SCALED_QP = 1, 2, 4
 ACC_RELEASED, ACC_KEPT_POSITION = 1, 2
 """ACCELERATION_EXCEEDED: released against the velocity/position limits; exceeded to keep
 the position limit."""
+BY_ITERATIONS, BY_TIME_BUDGET = 1, 2
+"""SOLVER_ITERATIONS (``predictive``): the solver's iteration limit; the solve's time budget."""

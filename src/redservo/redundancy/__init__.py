@@ -39,6 +39,7 @@ _MODULES = (
     "sns",
     "qp",
     "large_projection",
+    "predictive",
 )
 for _mod in _MODULES:
     importlib.import_module(f"redservo.redundancy.{_mod}")
@@ -56,6 +57,7 @@ _ORDER = (
     "sns",
     "qp",
     "large-projection",
+    "predictive",
 )
 _registered = registered_methods()
 METHODS: tuple[str, ...] = tuple(

@@ -61,6 +61,12 @@ class Flag(enum.Enum):
     could keep it inside: the rate limits with the shield off (a previous command too fast
     to stop within ``q̈_max dt``), the velocity limit with it on. The message names the joint
     [largest distance past the hard limit, rad or m]."""
+    HORIZON_INFEASIBLE = "horizon-infeasible"
+    """``predictive``: no command sequence over the horizon meets every constraint (joint
+    limits with the margin, visibility); the fallback law's command was used [solver exit code]."""
+    SOLVER_ITERATIONS = "solver-iterations"
+    """``predictive``: the QP solver hit its iteration limit (or the solve its time budget);
+    the fallback law's command was used [iterations, or the solve time in s]."""
 
     @property
     def label(self) -> str:

@@ -96,6 +96,15 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         "{nxt:.9g}): no command within the rate limits stops it in time (previous command "
         "too fast for q̈_max dt, or the velocity limit)",
     },
+    Flag.HORIZON_INFEASIBLE: {
+        fb.ONLY: "no command sequence over the {horizon}-period horizon meets the constraints "
+        "(daqp exit {v:g}): {fallback} command used",
+    },
+    Flag.SOLVER_ITERATIONS: {
+        fb.BY_ITERATIONS: "QP solver stopped at its iteration limit ({v:g} iterations): "
+        "{fallback} command used",
+        fb.BY_TIME_BUDGET: "solve took {v:.3g} s, over the time budget: {fallback} command used",
+    },
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 

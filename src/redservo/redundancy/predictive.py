@@ -234,7 +234,10 @@ class Predictive(Law):
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
         info = (f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",)
-        d = Diagnostics(method=self.name, task_rank=int(np.linalg.matrix_rank(x.J1)), info=info)
+        rank = int(np.linalg.matrix_rank(x.J1, tol=self.rcond * float(np.max(np.abs(x.J1)))))
+        d = Diagnostics(
+            method=self.name, task_rank=rank, rank_deficient=rank < x.J1.shape[0], info=info
+        )
         return LawResult(np.ascontiguousarray(U[0]), d)
 
     def _start(self, x: LawInputs, n: int) -> FloatArray:
