@@ -200,8 +200,13 @@ def detect_ellipse(
     if method not in ("moments", "contour"):
         raise ConfigurationError(f"ellipse method must be 'moments' or 'contour', got {method!r}")
     mask, _ = binarize(image, threshold, polarity)
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    cnt = _pick(list(contours), near_uv, min_area_px)
+    # Every component's outer boundary, nested ones too (RETR_CCOMP puts the outer
+    # boundaries at the top level and the holes below): a bright sphere inside a dark
+    # region of a bright scene is a blob, which RETR_EXTERNAL would skip.
+    contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    tree = [] if hierarchy is None else hierarchy[0]
+    outer = [c for c, h in zip(contours, tree) if h[3] < 0]
+    cnt = _pick(outer, near_uv, min_area_px)
     if cnt is None:
         return None, f"no blob of at least {min_area_px:g} px² for the ellipse"
     x, y, w, h = cv2.boundingRect(cnt)

@@ -21,7 +21,8 @@ in pixels and in normalized coordinates (through the camera intrinsics and the
 distortion), which dots were found, and why not. The dot order is the one of
 ``initial_uv`` if given, else that of the first frame with exactly ``n_dots``
 blobs, sorted top to bottom then left to right (by ``v``, ties by ``u``, in
-rows 10 px high).
+rows 10 px high). The tracker is :class:`~redservo.vision.tracking.ImageDotTracker`
+(per-dot gray levels, re-acquisition after a loss, the reason of each loss).
 """
 
 from __future__ import annotations
@@ -38,9 +39,10 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
-from redservo.vision.dots import DotTracker, Polarity, detect_dots
+from redservo.vision.dots import Polarity, detect_dots
 from redservo.vision.imagefile import check_frame_size, read_gray
 from redservo.vision.optics import Optics, require_cv2
+from redservo.vision.tracking import ImageDotTracker
 
 __all__ = ["IMAGE_SUFFIXES", "DotFrame", "frames", "iter_dots", "track_dots"]
 
@@ -156,6 +158,9 @@ class DotFrame(NamedTuple):
     """Blobs found in the frame."""
     reason: str
     """What went wrong (wrong number of blobs, lost dots), empty when all is well."""
+    reasons: tuple[str, ...] = ()
+    """Per dot, why it was lost in this frame (:data:`redservo.vision.tracking.LOSS_REASONS`;
+    ``""`` when found); empty before the tracker started."""
 
 
 def _initial_order(uv: FloatArray) -> FloatArray:
@@ -215,7 +220,7 @@ def iter_dots(
     init = None if initial_uv is None else np.asarray(initial_uv, dtype=float).reshape(-1, 2)
     if n_dots is None and init is not None:
         n_dots = init.shape[0]
-    tracker: DotTracker | None = None
+    tracker: ImageDotTracker | None = None
     for i, img in enumerate(frames(source, max_frames=max_frames)):
         det = detect_dots(
             img,
@@ -232,19 +237,23 @@ def iter_dots(
                 reason = f"waiting for a frame with exactly {want} dots (found {m})"
                 yield DotFrame(i, nan, nan.copy(), np.zeros(len(nan), bool), m, reason)
                 continue
-            tracker = DotTracker(want, max_jump_px, max_lost_frames)
-            tracker.start(init if init is not None else _initial_order(det.uv))
-        track = tracker.update(det.uv)
+            tracker = ImageDotTracker(
+                want, polarity, max_jump_px, max_lost_frames, min_size_px, max_size_px
+            )
+            track = tracker.start(img, init if init is not None else _initial_order(det.uv))
+        else:
+            track = tracker.update(img)
         notes = []
         if m != tracker.n_dots:
             notes.append(f"found {m} blob(s), expected {tracker.n_dots}")
         missing = np.flatnonzero(~track.detected)
         if missing.size:
-            notes.append(f"dot(s) {', '.join(str(int(j)) for j in missing)} lost")
+            why = ", ".join(f"{int(j)} ({track.reasons[j]})" for j in missing)
+            notes.append(f"dot(s) {why} lost")
         if track.gone:
             notes.append(
                 f"feature_lost: dot(s) {', '.join(map(str, track.gone))} lost for more than "
                 f"{max_lost_frames} frame(s)"
             )
         xy = optics.to_normalized(track.uv)
-        yield DotFrame(i, track.uv, xy, track.detected, m, "; ".join(notes))
+        yield DotFrame(i, track.uv, xy, track.detected, m, "; ".join(notes), track.reasons)

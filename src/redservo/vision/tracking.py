@@ -1,0 +1,358 @@
+"""Dot tracking in the images: per-dot gray levels and sizes, re-acquisition, typed losses.
+
+:class:`ImageDotTracker` follows the method of ViSP's ``vpDot2`` (its published
+description, not its code): each dot is searched in a window around its
+prediction with its *own* gray-level range, and its area must stay close to the
+last one. Per frame, for each dot:
+
+1. **Prediction**: constant velocity from its last two positions. A lost dot
+   (not found in the last frame) is predicted from the *geometry* of the dots
+   found in this frame when there are any: the similarity (scale, rotation,
+   translation; a translation with one dot) that maps their positions at the last
+   frame where all dots were found onto their positions now, applied to the lost
+   dot's position then. Else it coasts at its last velocity.
+2. **Search window**: a square of half-size ``max_jump_px + size + pad_px + 3``
+   around the prediction, which grows by ``window_growth`` x that for each frame
+   the dot has been lost (capped at the image); a prediction outside the image is
+   ``"out_of_image"``.
+3. **Gray-level range**: with ``L`` the dot's plateau and ``b`` its background at
+   the last frame it was found, the window is thresholded at
+   ``b + f (L - b)`` for ``f = 0.5, 0.65, 0.8, 0.9`` in turn, then at the window's
+   Otsu level, until a blob passes the tests: the higher levels separate a dot
+   from a background brighter than the midway level (ViSP's narrow gray-level
+   range around the dot's mean). Dark dots use the mirrored range.
+4. **Tests**, in order, on the components nearest the prediction (within the
+   gate: ``max_jump_px + size`` for a tracked dot, the window for a lost one,
+   ``max(2 size, geometry_tol x target size)`` around the geometric prediction
+   for a lost dot with one): the component touches the image border
+   (``"at_border"``); it is larger than ``max_size_px`` or its area above
+   ``area / size_precision²`` or it reaches the window's edge
+   (``"merged_with_background"``); it is smaller than ``min_size_px`` or its area
+   below ``size_precision² x area`` (half that at the higher levels, where a dot
+   is thinner) (``"too_small"``); its shape (``"bad_shape"``, :mod:`redservo.vision.blobs`);
+   its centroid and contrast (``"centroid_outside_blob"``, ``"low_contrast"``); it
+   is the blob of a dot already found this frame (``"merged_with_dot"``). No
+   component at all in the window: ``"out_of_window"``. The reason recorded for a
+   lost dot is that of the component nearest its prediction at the first level.
+5. **Adaptation**: a found dot's plateau, background and (at the first level)
+   area become its references for the next frame.
+
+Tracked dots are handled first, in index order, then lost ones (so that their
+geometric prediction uses this frame's positions). The dot order never changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError, ShapeError
+from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
+from redservo.vision.dots import DotTrack, Polarity
+from redservo.vision.optics import require_cv2
+
+__all__ = ["LOSS_REASONS", "ImageDotTracker"]
+
+LOSS_REASONS = (
+    "out_of_image",
+    "out_of_window",
+    "at_border",
+    "merged_with_background",
+    "too_small",
+    "bad_shape",
+    "centroid_outside_blob",
+    "low_contrast",
+    "merged_with_dot",
+    "not_started",
+)
+"""Every reason a dot can be lost for in a frame (module docstring)."""
+
+_LEVELS = (0.5, 0.65, 0.8, 0.9)
+
+
+@dataclass
+class _Dot:
+    uv: FloatArray
+    vel: FloatArray = field(default_factory=lambda: np.zeros(2))
+    level: float = np.nan
+    background: float = np.nan
+    area: float = np.nan
+    size: float = np.nan
+    lost: int = 0
+
+
+@dataclass
+class ImageDotTracker:
+    """Tracks N dots in the images themselves, in a fixed order (module docstring).
+
+    Attributes:
+        n_dots: Number of dots N.
+        polarity: ``"bright"`` or ``"dark"`` dots.
+        max_jump_px: Largest distance (pixels) between a dot's prediction and its blob.
+        max_lost_frames: A dot lost for more consecutive frames is reported gone (it is
+            still searched for).
+        min_size_px: Smallest bounding-box size (pixels) of a dot.
+        max_size_px: Largest bounding-box size (pixels) of a dot.
+        pad_px: Margin (pixels) of the centroid's support (>= 3 x the blur σ).
+        size_precision: A dot's area must stay within ``[p² a, a / p²]`` of its last
+            area ``a`` (ViSP's size precision).
+        window_growth: The search window's half-size grows by this fraction of its
+            base per frame lost.
+        geometry_tol: Gate around a lost dot's geometric prediction, as a fraction of
+            the target's size (RMS distance of the dots from their mean).
+        shape: Limits of the shape tests; None = no test.
+    """
+
+    n_dots: int
+    polarity: Polarity = "bright"
+    max_jump_px: float = 25.0
+    max_lost_frames: int = 3
+    min_size_px: float = 2.0
+    max_size_px: float = 30.0
+    pad_px: float = 2.5
+    size_precision: float = 0.6
+    window_growth: float = 1.0
+    geometry_tol: float = 0.25
+    shape: ShapeLimits | None = field(default_factory=ShapeLimits)
+
+    def __post_init__(self) -> None:
+        if self.n_dots < 1:
+            raise ConfigurationError(f"n_dots must be >= 1, got {self.n_dots}")
+        if self.polarity not in ("bright", "dark"):
+            raise ConfigurationError(f"polarity must be 'bright' or 'dark', got {self.polarity!r}")
+        for name in ("max_jump_px", "pad_px", "window_growth", "geometry_tol"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0.0):
+                raise ConfigurationError(f"{name} must be positive, got {getattr(self, name)!r}")
+        if not 0.0 < self.size_precision < 1.0:
+            raise ConfigurationError(
+                f"size_precision must be in (0, 1), got {self.size_precision!r}"
+            )
+        if not 0.0 < self.min_size_px <= self.max_size_px < np.inf:
+            raise ConfigurationError(
+                "the dot sizes must be finite with 0 < min_size_px <= max_size_px, got "
+                f"{self.min_size_px!r} and {self.max_size_px!r}"
+            )
+        if self.max_lost_frames < 0:
+            raise ConfigurationError(f"max_lost_frames must be >= 0, got {self.max_lost_frames}")
+        self._dots: list[_Dot] = []
+        self._ref: FloatArray | None = None
+
+    @property
+    def started(self) -> bool:
+        """True once :meth:`start` was called."""
+        return bool(self._dots)
+
+    def start(self, image: NDArray[np.uint8], uv: ArrayLike) -> DotTrack:
+        """Find each dot near its initial position (N, 2) in pixels (NaN = unknown).
+
+        Each dot is the blob nearest its position in a window of half-size
+        ``max_size_px + pad_px + 3`` around it thresholded at the window's Otsu level
+        ``t``, else at ``t + 0.4 (p - t)`` or ``t + 0.6 (p - t)`` (``p`` the window's
+        brightest level after a 3 x 3 mean, darkest for dark dots: a dot on a
+        brighter background); its
+        gray levels and area become its references. Returns the state, as :meth:`update`.
+        """
+        img = _check_image(image)
+        p = np.asarray(uv, dtype=float)
+        if p.shape != (self.n_dots, 2):
+            raise ShapeError(
+                f"initial dot positions must have shape ({self.n_dots}, 2), got {p.shape}"
+            )
+        self._dots = [_Dot(p[i].copy()) for i in range(self.n_dots)]
+        self._ref = None
+        half = self.max_size_px + self.pad_px + 3.0
+        reasons: list[str] = []
+        for d in self._dots:
+            if not np.isfinite(d.uv).all():
+                d.lost = 1
+                reasons.append("not_started")
+                continue
+            blob, why, _ = self._search(img, d, d.uv, half, 0.5 * self.max_size_px + 2, [])
+            reasons.append(why)
+            if blob is None:
+                d.lost = 1
+            else:
+                self._accept(d, blob, adapt_area=True)
+        return self._state(reasons)
+
+    def update(self, image: NDArray[np.uint8]) -> DotTrack:
+        """Track every dot into ``image`` (H, W) uint8; return the new state."""
+        if not self._dots:
+            raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
+        img = _check_image(image)
+        reasons = [""] * self.n_dots
+        taken: list[tuple[FloatArray, float]] = []
+        tracked = [i for i, d in enumerate(self._dots) if d.lost == 0]
+        for i in tracked:
+            d = self._dots[i]
+            pred = d.uv + d.vel
+            base = self.max_jump_px + d.size + self.pad_px + 3.0
+            blob, why, first = self._search(img, d, pred, base, self.max_jump_px + d.size, taken)
+            reasons[i] = self._finish(d, pred, blob, why, first, taken)
+        found = [i for i in tracked if self._dots[i].lost == 0]
+        geo = self._geometry(found)
+        for i, d in enumerate(self._dots):
+            if i in tracked:
+                continue
+            pred = d.uv + d.vel
+            size = d.size if np.isfinite(d.size) else self.max_size_px
+            base = self.max_jump_px + size + self.pad_px + 3.0
+            half = min(base * (1.0 + self.window_growth * d.lost), float(max(img.shape)))
+            gate = half
+            if geo is not None:
+                pred, spread = geo[0][i], geo[1]
+                gate = max(2.0 * size, self.geometry_tol * spread)
+                half = max(half, gate + size + self.pad_px + 3.0)
+            if not np.isfinite(pred).all():
+                reasons[i] = "not_started"
+                d.lost += 1
+                continue
+            blob, why, first = self._search(img, d, pred, half, gate, taken)
+            reasons[i] = self._finish(d, pred, blob, why, first, taken)
+        if all(d.lost == 0 for d in self._dots):
+            self._ref = np.array([d.uv for d in self._dots])
+        return self._state(reasons)
+
+    # -- internals ---------------------------------------------------------------------
+
+    def _finish(
+        self,
+        d: _Dot,
+        pred: FloatArray,
+        blob: Blob | None,
+        why: str,
+        first: bool,
+        taken: list[tuple[FloatArray, float]],
+    ) -> str:
+        if blob is None:
+            d.uv = pred
+            d.lost += 1
+            return why
+        old, was_found = d.uv.copy(), d.lost == 0
+        self._accept(d, blob, adapt_area=first)
+        d.vel = d.uv - old if was_found else np.zeros(2)
+        taken.append((d.uv.copy(), float(blob.size)))
+        return ""
+
+    def _accept(self, d: _Dot, blob: Blob, adapt_area: bool) -> None:
+        d.uv = np.array(blob.uv, dtype=float)
+        d.level, d.background = blob.level, blob.background
+        if adapt_area or not np.isfinite(d.area):
+            d.area, d.size = float(blob.area), float(blob.size)
+        d.lost = 0
+
+    def _geometry(self, found: list[int]) -> tuple[FloatArray, float] | None:
+        """Every dot's position predicted from the found dots (similarity from the reference)."""
+        if self._ref is None or not found:
+            return None
+        ref = self._ref[:, 0] + 1j * self._ref[:, 1]
+        cur = np.array([self._dots[i].uv[0] + 1j * self._dots[i].uv[1] for i in found])
+        if len(found) == 1:
+            a, b = 1.0 + 0j, cur[0] - ref[found[0]]
+        else:
+            r0, c0 = ref[found].mean(), cur.mean()
+            dr = ref[found] - r0
+            a = complex(np.vdot(dr, cur - c0) / max(float(np.vdot(dr, dr).real), 1e-12))
+            b = c0 - a * r0
+        z = a * ref + b
+        spread = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
+        return np.column_stack([z.real, z.imag]), spread
+
+    def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> list[float]:
+        cv2 = require_cv2()
+        otsu, _ = cv2.threshold(win, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+        if not (np.isfinite(d.level) and np.isfinite(d.background)):
+            smooth = cv2.blur(win, (3, 3))
+            top = float(smooth.max() if self.polarity == "bright" else smooth.min())
+            return [float(otsu) + f * (top - float(otsu)) for f in (0.0, 0.4, 0.6)]
+        c = d.level - d.background
+        return [d.background + f * c for f in _LEVELS] + [float(otsu)]
+
+    def _search(
+        self,
+        img: NDArray[np.uint8],
+        d: _Dot,
+        centre: FloatArray,
+        half: float,
+        gate: float,
+        taken: list[tuple[FloatArray, float]],
+    ) -> tuple[Blob | None, str, bool]:
+        """The dot's blob near ``centre`` (pixels): ``(blob, "", first level?)`` or ``(None, why, _)``."""
+        H, W = img.shape
+        if not (0.0 <= centre[0] <= W and 0.0 <= centre[1] <= H):
+            return None, "out_of_image", False
+        c0, c1 = max(int(centre[0] - half), 0), min(int(centre[0] + half) + 1, W)
+        r0, r1 = max(int(centre[1] - half), 0), min(int(centre[1] + half) + 1, H)
+        win = img[r0:r1, c0:c1]
+        bright = self.polarity == "bright"
+        reason = ""
+        for j, thr in enumerate(self._thresholds(d, win)):
+            mask = (win > thr) if bright else (win < thr)
+            _, labels, stats = components(mask.astype(np.uint8))
+            centres = stats[1:, :2] + 0.5 * stats[1:, 2:4] + [c0, r0]
+            dist = np.hypot(*(centres - centre).T)
+            for rank, k in enumerate(np.argsort(dist) + 1):
+                if dist[k - 1] > gate + 0.5 * max(stats[k, 2], stats[k, 3]):
+                    break
+                where = (c0, r0, W, H)
+                why, blob = self._check(win, labels, stats, k, where, j, taken, d.area)
+                if blob is not None:
+                    return blob._replace(uv=(blob.uv[0] + c0, blob.uv[1] + r0)), "", j == 0
+                if rank == 0 and not reason:
+                    reason = why
+        return None, reason or "out_of_window", False
+
+    def _check(
+        self,
+        win: NDArray[np.uint8],
+        labels: NDArray[np.int32],
+        stats: NDArray[np.int32],
+        k: int,
+        where: tuple[int, int, int, int],
+        level: int,
+        taken: list[tuple[FloatArray, float]],
+        ref_area: float,
+    ) -> tuple[str, Blob | None]:
+        """``("", blob)`` if component ``k`` of the window is the dot, else ``(reason, None)``."""
+        known = bool(np.isfinite(ref_area))
+        x, y, w, h, area = (int(a) for a in stats[k])
+        c0, r0, W, H = where
+        wh, ww = win.shape
+        if x + c0 == 0 or y + r0 == 0 or x + c0 + w == W or y + r0 + h == H:
+            return "at_border", None
+        p2 = self.size_precision**2
+        at_edge = x == 0 or y == 0 or x + w == ww or y + h == wh
+        if max(w, h) > self.max_size_px or at_edge or (known and area > ref_area / p2):
+            return "merged_with_background", None
+        low = p2 * ref_area * (1.0 if level == 0 else 0.5) if known else 0.0
+        if max(w, h) < self.min_size_px or area < low:
+            return "too_small", None
+        if self.shape is not None and shape_reason(labels[y : y + h, x : x + w] == k, self.shape):
+            return "bad_shape", None
+        bright = self.polarity == "bright"
+        blob, why = measure_blob(win, labels, k, (x, y, w, h), self.pad_px, bright)
+        if blob is None:
+            return why, None
+        uv = np.array([blob.uv[0] + c0, blob.uv[1] + r0])
+        for other, size in taken:
+            if np.hypot(*(uv - other)) < 0.5 * (size + blob.size):
+                return "merged_with_dot", None
+        return "", blob
+
+    def _state(self, reasons: list[str]) -> DotTrack:
+        uv = np.array([d.uv for d in self._dots], dtype=float)
+        detected = np.array([d.lost == 0 for d in self._dots])
+        lost = np.array([d.lost for d in self._dots], dtype=int)
+        gone = tuple(int(i) for i in np.flatnonzero(lost > self.max_lost_frames))
+        return DotTrack(uv, detected, lost, int(detected.sum()), gone, tuple(reasons))
+
+
+def _check_image(image: Any) -> NDArray[np.uint8]:
+    img = np.asarray(image)
+    if img.ndim != 2 or img.dtype != np.uint8:
+        raise ShapeError(f"image must be a 2-D uint8 array, got {img.dtype} of shape {img.shape}")
+    return img
