@@ -361,6 +361,10 @@ def build(sc: Scenario) -> Experiment:
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = _sensor(sc, spec, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
+    if spec.simulator is not None and spec.simulator.kind == "mujoco":
+        from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
+
+        attach_mujoco(exp)
     check_start(sc, spec, exp)
     return exp
 

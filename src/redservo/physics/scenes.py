@@ -1,0 +1,130 @@
+"""The scene's objects as MuJoCo bodies: dots printed on paper, spheres, cylinders.
+
+Each object is a *mocap* body (its pose is set, not simulated) placed at ``wMo(t)`` before
+each frame is rendered, so moving targets move in the images too:
+
+* a :class:`~redservo.scene.PointSet` whose points are coplanar is a sheet of white paper
+  (1 mm thick, ``paper_margin`` beyond the dots) with matte black discs printed on both
+  faces, centred on the points; the disc radius is a third of the smallest distance
+  between two dots, at most 1 cm (a choice: large enough to be seen at a metre, small
+  enough that the projected disc's centroid stays within a few hundredths of a pixel of
+  the projected centre);
+* a :class:`~redservo.scene.Sphere` is a grey sphere, a
+  :class:`~redservo.scene.Cylinder` a 2 m long grey cylinder along its axis.
+
+Other objects (lines, non-coplanar point sets) are not drawn; :func:`scene_bodies` says
+which in its ``skipped`` list, which :class:`~redservo.physics.MujocoCamera` refuses when
+the task observes one.
+
+Units: metres.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.physics.mjcf import _vec, xml_pose
+from redservo.scene import Cylinder, PointSet, Scene, Sphere
+
+__all__ = ["PAPER_HALF_THICKNESS", "dot_radius", "scene_bodies", "set_poses"]
+
+PAPER_HALF_THICKNESS = 0.0001
+"""Half thickness of the paper (m): its faces are 0.1 mm from the dots' plane."""
+_DOT_HALF = 0.00015  # the printed discs stand 0.05 mm proud of the paper's faces
+
+
+def _plane(points: FloatArray) -> FloatArray | None:
+    """A 4x4 frame (in the object frame) whose z = 0 plane holds the points, or None."""
+    c = points.mean(axis=0)
+    if len(points) < 3:
+        # One or two dots: on the object's own z = const plane.
+        M = np.eye(4)
+        M[:3, 3] = c
+        return M
+    _, s, vt = np.linalg.svd(points - c)
+    if s[-1] > 1e-6:
+        return None
+    normal = vt[2]
+    if normal[2] < 0:
+        normal = -normal
+    x = vt[0] - normal * float(vt[0] @ normal)
+    x /= np.linalg.norm(x)
+    M = np.eye(4)
+    M[:3, :3] = np.column_stack([x, np.cross(normal, x), normal])
+    M[:3, 3] = c
+    return M
+
+
+def dot_radius(points: FloatArray) -> float:
+    """Radius (m) of the printed discs of a point set (module docstring)."""
+    if len(points) < 2:
+        return 0.01
+    d = np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2)
+    d[np.diag_indices_from(d)] = np.inf
+    return float(min(0.01, d.min() / 3.0))
+
+
+def _points_body(obj: PointSet, paper_margin: float) -> list[str] | None:
+    F = _plane(obj.points)
+    if F is None:
+        return None
+    local = (obj.points - F[:3, 3]) @ F[:3, :3]  # the dots in the paper's frame
+    r = dot_radius(obj.points)
+    half = np.abs(local[:, :2]).max(axis=0) + paper_margin + r
+    out = [
+        f'<geom name="{obj.name}/paper" type="box" {xml_pose(F)} '
+        f'size="{half[0]:.9g} {half[1]:.9g} {PAPER_HALF_THICKNESS}" material="paper"/>'
+    ]
+    for k, p in enumerate(local):
+        pos = F[:3, :3] @ p + F[:3, 3]
+        out.append(
+            f'<geom name="{obj.name}/dot{k}" type="cylinder" size="{r:.9g} {_DOT_HALF}" '
+            f'pos="{_vec(pos)}" xyaxes="{_vec(F[:3, 0])} {_vec(F[:3, 1])}" material="ink"/>'
+        )
+    return out
+
+
+def scene_bodies(scene: Scene, *, paper_margin: float = 0.05) -> tuple[str, list[str], list[str]]:
+    """MJCF mocap bodies of the scene's objects, the names drawn and the names skipped."""
+    xml: list[str] = []
+    drawn: list[str] = []
+    skipped: list[str] = []
+    for name in scene.names:
+        obj = scene.object(name)
+        geoms: list[str] | None = None
+        if isinstance(obj, PointSet):
+            geoms = _points_body(obj, paper_margin)
+        elif isinstance(obj, Sphere):
+            geoms = [
+                f'<geom name="{name}/sphere" type="sphere" size="{obj.radius:.9g}" '
+                f'pos="{_vec(obj.center)}" material="object"/>'
+            ]
+        elif isinstance(obj, Cylinder):
+            a, b = obj.point - obj.axis, obj.point + obj.axis
+            geoms = [
+                f'<geom name="{name}/cylinder" type="cylinder" size="{obj.radius:.9g}" '
+                f'fromto="{_vec(a)} {_vec(b)}" material="object"/>'
+            ]
+        if geoms is None:
+            skipped.append(name)
+            continue
+        wMo = scene.wMo(name, 0.0)
+        xml.append(f'<body name="obj:{name}" mocap="true" {xml_pose(wMo)}>{"".join(geoms)}</body>')
+        drawn.append(name)
+    return "".join(xml), drawn, skipped
+
+
+def set_poses(model: Any, data: Any, scene: Scene, names: Sequence[str], t: float) -> None:
+    """Move the mocap bodies of ``names`` to their poses ``wMo(t)`` (t in s)."""
+    from scipy.spatial.transform import Rotation
+
+    for name in names:
+        k = int(model.body_mocapid[model.body(f"obj:{name}").id])
+        wMo = scene.wMo(name, t)
+        data.mocap_pos[k] = wMo[:3, 3]
+        x, y, z, w = Rotation.from_matrix(wMo[:3, :3]).as_quat()
+        data.mocap_quat[k] = (w, x, y, z)
