@@ -78,20 +78,31 @@ def test_camera_image_shows_the_features(panda_run: Path) -> None:
 
     img = camera_image(Playback(load_run(panda_run)), 5, width=320)
     assert img.shape == (240, 320, 3) and img.dtype == np.uint8
-    orange = np.all(np.abs(img.astype(int) - (230, 159, 0)) < 30, axis=2)
-    blue = np.all(np.abs(img.astype(int) - (86, 180, 233)) < 30, axis=2)
+    from redservo.figstyle import role_rgb
+
+    orange = np.all(np.abs(img.astype(int) - role_rgb("desired")) < 30, axis=2)
+    blue = np.all(np.abs(img.astype(int) - role_rgb("current")) < 30, axis=2)
     assert orange.sum() > 20 and blue.sum() > 20  # desired crosses, current circles
 
 
-def test_animate_writes_a_gif(panda_run: Path, tmp_path: Path) -> None:
+def test_animate_writes_a_gif(
+    panda_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A GIF large enough to read (1280 px wide, fonts of 10 pt and more), with progress."""
     pytest.importorskip("matplotlib")
     pytest.importorskip("PIL")
     from PIL import Image
 
+    from redservo.viewer.animate import _FONT
+
     out = tmp_path / "run.gif"
     assert main(["animate", str(panda_run), "--out", str(out), "--frames", "3"]) == 0
     gif = Image.open(out)
-    assert gif.n_frames == 3 and gif.size[0] > 600
+    assert gif.n_frames == 3 and gif.size == (1280, 560)
+    assert min(_FONT.values()) >= 10
+    err = capsys.readouterr().err
+    assert "animate: drawing 3 frames" in err and "animate: frame 3 of 3" in err
+    assert f"animate: writing {out}" in err
     assert main(["animate", str(panda_run), "--out", str(tmp_path / "x.avi")]) == 2
 
 

@@ -9,7 +9,12 @@ comparison figures with it):
   :func:`figure_formats` (the ``--format`` option of the command line);
 * :func:`method_style` gives each method one fixed colour (and line style) in every
   figure, from a colour-blind-safe palette (Okabe & Ito 2008, completed with four colours
-  of Paul Tol's "muted" scheme, and a dashed line where two colours are close).
+  of Paul Tol's "muted" scheme, and a dashed line where two colours are close);
+* :data:`ROLE_COLORS` gives each *role* one colour in every picture: the current features
+  (sky blue) and the desired ones (orange) are the same in the run figures, the ``--video``
+  GIFs, ``redservo animate`` and the viewer (:func:`role_rgb` for drawing code in 0-255 RGB);
+* :func:`place_legend` puts a legend in the corner of an axes that no data reaches, or
+  outside the axes when every corner has data.
 """
 
 from __future__ import annotations
@@ -22,13 +27,18 @@ from typing import Any
 from redservo.errors import ConfigurationError
 
 __all__ = [
+    "CURRENT_COLOR",
+    "DESIRED_COLOR",
     "DPI",
     "FORMATS",
     "METHOD_STYLES",
+    "ROLE_COLORS",
     "clipped",
     "figure_formats",
     "method_style",
     "parse_formats",
+    "place_legend",
+    "role_rgb",
     "save",
     "savefig",
 ]
@@ -51,8 +61,22 @@ METHOD_STYLES: dict[str, tuple[str, str]] = {
     "sns": ("#332288", "--"),
     "qp": ("#999933", "-"),
     "large-projection": ("#44AA99", "--"),
+    "predictive": ("#AA4499", "-."),
 }
 """(colour, line style) of each method, the same in every figure (colour-blind safe)."""
+CURRENT_COLOR = "#56B4E9"
+"""The current (measured) features: trajectories, circles (Okabe-Ito sky blue)."""
+DESIRED_COLOR = "#E69F00"
+"""The desired features ``s*``: crosses, dashed outlines (Okabe-Ito orange)."""
+ROLE_COLORS: dict[str, str] = {
+    "current": CURRENT_COLOR,
+    "desired": DESIRED_COLOR,
+    "target": "#009E73",
+    "error": "#000000",
+}
+"""One colour per role in every figure, video and viewer page: the ``current`` and
+``desired`` features, the ``target`` object (3-D objects, their image, tracked image dots),
+the ``error`` curve."""
 _OTHERS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#D55E00", "#56B4E9", "#882255")
 _formats: tuple[str, ...] = ("png",)
 
@@ -67,6 +91,71 @@ def method_style(label: str, index: int = 0) -> dict[str, str]:
     if base in METHOD_STYLES:
         return {"color": METHOD_STYLES[base][0], "linestyle": ":"}
     return {"color": _OTHERS[index % len(_OTHERS)], "linestyle": "-"}
+
+
+def role_rgb(role: str) -> tuple[int, int, int]:
+    """The colour of a role of :data:`ROLE_COLORS` as 0-255 ``(r, g, b)`` (OpenCV on RGB
+    images, Pillow, viser).
+
+    Raises:
+        ConfigurationError: an unknown role (lists the roles).
+    """
+    if role not in ROLE_COLORS:
+        raise ConfigurationError(
+            f"unknown colour role {role!r}; roles: {', '.join(ROLE_COLORS)}", argument="role"
+        )
+    h = ROLE_COLORS[role].lstrip("#")
+    return int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16)
+
+
+def _data_in_axes(ax: Any) -> Any:
+    """(N, 2) positions (axes fraction) of the points of every line and collection of ``ax``."""
+    import numpy as np
+
+    pts = [np.zeros((0, 2))]
+    for line in ax.get_lines():  # reference lines (axhline: 2 points, no label) do not count
+        xy = np.asarray(line.get_xydata(), dtype=float)
+        if xy.ndim == 2 and (len(xy) > 2 or not str(line.get_label()).startswith("_")):
+            pts.append(xy)
+    for coll in ax.collections:
+        off = np.asarray(coll.get_offsets(), dtype=float)
+        if off.ndim == 2 and len(off):
+            pts.append(off)
+    data = np.concatenate(pts)
+    data = data[np.all(np.isfinite(data), axis=1)]
+    if not len(data):
+        return data
+    disp = ax.transData.transform(data)
+    return ax.transAxes.inverted().transform(disp)
+
+
+_CORNERS = {  # loc -> (x range, y range) of the corner box, axes fraction
+    "upper right": ((0.55, 1.0), (0.6, 1.0)),
+    "upper left": ((0.0, 0.45), (0.6, 1.0)),
+    "lower left": ((0.0, 0.45), (0.0, 0.4)),
+    "lower right": ((0.55, 1.0), (0.0, 0.4)),
+}
+
+
+def place_legend(ax: Any, *, outside: bool = False, **kwargs: Any) -> Any:
+    """Add the legend of ``ax`` where it hides no data; return it.
+
+    The corner (upper right, upper left, lower left, lower right) whose box (45 % of the
+    width, 40 % of the height) holds no data point is used; when every corner has data, or
+    with ``outside=True``, the legend goes outside, to the right of the axes. Keyword
+    arguments go to ``ax.legend`` (e.g. ``fontsize``, ``ncol``).
+    """
+    import numpy as np
+
+    kwargs.setdefault("fontsize", 7)
+    if not outside:
+        xy = _data_in_axes(ax)
+        for loc, ((x0, x1), (y0, y1)) in _CORNERS.items():
+            inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
+            if not np.any(inside):
+                return ax.legend(loc=loc, **kwargs)
+    kwargs.pop("ncol", None)
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
 
 def parse_formats(text: str | Sequence[str]) -> tuple[str, ...]:

@@ -22,11 +22,13 @@ from redservo._validation import FloatArray
 from redservo.figstyle import (
     FORMATS,
     METHOD_STYLES,
+    ROLE_COLORS,
     _plt,
     clipped,
     figure_formats,
     method_style,
     parse_formats,
+    place_legend,
     save,
     savefig,
 )
@@ -137,7 +139,7 @@ def plot_joints(
         name = f"q{j}" if names is None else names[j]
         ax.set_ylabel(f"{name} (norm., -)", fontsize=8)
         ax.set_ylim(-1.08, 1.08)
-    axs[0, 0].legend(fontsize=7, loc="upper right", ncol=min(len(logs), 4))
+    place_legend(axs[0, 0], outside=len(logs) > 1)
     axs[-1, 0].set_xlabel(xlabel)
     axs[0, 0].set_title(title or "normalized joint positions (±1 limits, dashed thresholds)")
     return save(fig, path)
@@ -165,7 +167,7 @@ def plot_series(
             ax.plot(data[:, c], lw=1.0, label=(labels[c] if labels else f"{field}[{c}]"))
         ax.set_title(f"{title} — {name}" if title else name, fontsize=9)
         ax.set_ylabel(ylabel)
-        ax.legend(fontsize=6, ncol=3, loc="upper right")
+        place_legend(ax, fontsize=6, ncol=3)
     axs[-1, 0].set_xlabel(xlabel)
     return save(fig, path)
 
@@ -185,7 +187,7 @@ def plot_error(
     ax.set_xlabel(xlabel)
     ax.set_ylabel("‖e1‖ (feature units)")
     ax.set_title(title or "task error")
-    ax.legend(fontsize=7)
+    place_legend(ax)
     return save(fig, path)
 
 
@@ -203,12 +205,13 @@ def plot_image_trajectory(
     fig, ax = plt.subplots(figsize=(6, 4.8))
     for ix, iy in point_slices:
         uv = camera.normalized_to_pixel(log.s[:, [ix, iy]])
-        ax.plot(uv[:, 0], uv[:, 1], lw=1.0, color="#0072B2")
-        ax.plot(uv[0, 0], uv[0, 1], "o", color="#D55E00", ms=4)
-        ax.plot(uv[-1, 0], uv[-1, 1], "s", color="#009E73", ms=4)
+        current = ROLE_COLORS["current"]
+        ax.plot(uv[:, 0], uv[:, 1], lw=1.2, color=current)
+        ax.plot(uv[0, 0], uv[0, 1], "o", mfc="none", color=current, ms=5)
+        ax.plot(uv[-1, 0], uv[-1, 1], "s", color=current, ms=4)
         if s_star is not None:
             uvs = camera.normalized_to_pixel(s_star[[ix, iy]])
-            ax.plot(uvs[0], uvs[1], "+", color="k", ms=10)
+            ax.plot(uvs[0], uvs[1], "+", color=ROLE_COLORS["desired"], ms=10, mew=1.6)
     ax.set_xlim(0, camera.width)
     ax.set_ylim(camera.height, 0)
     ax.set_aspect("equal")

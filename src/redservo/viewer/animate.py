@@ -13,6 +13,7 @@ and without an MP4 encoder the error says to write a ``.gif``.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,15 +21,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo.errors import ConfigurationError
+from redservo.figstyle import ROLE_COLORS
 from redservo.viewer.playback import Frame, limit_color
+from redservo.vision.video import Progress, _write_mp4, write_gif
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.viewer.playback import Playback
 
 __all__ = ["write_animation"]
 
-_LINK = "#8E44AD"
-_TARGET = "#E69F00"
+_LINK = "#8E44AD"  # the viewer's LINK_COLOR
+_TARGET = ROLE_COLORS["target"]
+_FONT = {"suptitle": 15, "title": 13, "label": 12, "tick": 10, "legend": 10}
+"""Font sizes (points) of the frames: readable in a GIF shown at its size (1280 x 560 px)."""
+_SIZE = (12.8, 5.6)
+"""Frame size (inches) at the default 100 dpi."""
 
 
 def _frustum(bMc: NDArray[np.float64], cam: Any, size: float) -> NDArray[np.float64]:
@@ -59,7 +66,7 @@ class _Scene3D:
         self.axes = [ax.plot([], [], [], lw=3)[0] for _ in range(n)]
         self.joints = ax.scatter(np.zeros(n), np.zeros(n), np.zeros(n), s=18, depthshade=False)
         (self.frustum,) = ax.plot([], [], [], color="0.15", lw=0.8)
-        (self.trail,) = ax.plot([], [], [], color="#56B4E9", lw=1)
+        (self.trail,) = ax.plot([], [], [], color=ROLE_COLORS["current"], lw=1.5)
         self.objects: list[Any] = []
         for _, kind, _geo in pb.frame(0).objects:
             if kind in ("points", "sphere"):
@@ -72,8 +79,8 @@ class _Scene3D:
         ax.set(xlim=lims[0], ylim=lims[1], zlim=lims[2])
         ax.set_box_aspect(np.ptp(lims, axis=1))
         for name, axis in zip("xyz", (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
-            axis(f"{name} (m)", fontsize=7, labelpad=-8)
-        ax.tick_params(labelsize=6, pad=-3)
+            axis(f"{name} (m)", fontsize=_FONT["label"], labelpad=-4)
+        ax.tick_params(labelsize=_FONT["tick"], pad=-2)
         for a in (ax.xaxis, ax.yaxis, ax.zaxis):
             a.set_major_locator(_locator(4))
 
@@ -101,7 +108,7 @@ class _Scene3D:
                 artist._offsets3d = ([geo[0][0]], [geo[0][1]], [geo[0][2]])
             else:
                 artist.set_data_3d(geo[0][:, 0], geo[0][:, 1], geo[0][:, 2])
-        self.ax.set_title(f"t = {fr.t:.2f} s (iteration {fr.k})", fontsize=9)
+        self.ax.set_title(f"t = {fr.t:.2f} s (iteration {fr.k})", fontsize=_FONT["title"])
 
 
 def _locator(n: int) -> Any:
@@ -126,17 +133,19 @@ def _limits(pb: Playback, ks: list[int]) -> NDArray[np.float64]:
     return np.array([[c[i] - half, c[i] + half] for i in range(3)])
 
 
-def _frames(pb: Playback, ks: list[int], dpi: int) -> list[NDArray[np.uint8]]:
+def _frames(
+    pb: Playback, ks: list[int], dpi: int, progress: Progress | None = None
+) -> list[NDArray[np.uint8]]:
     from redservo.figstyle import _plt
     from redservo.viewer.image import camera_image
 
     plt = _plt()
-    fig = plt.figure(figsize=(12.0, 5.0), dpi=dpi, layout="constrained")
+    fig = plt.figure(figsize=_SIZE, dpi=dpi, layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     axi = fig.add_subplot(grid[0, 1])
     axj = fig.add_subplot(grid[1, 1])
-    fig.suptitle(f"{pb.run.name} [{pb.run.method}]: {pb.run.outcome}", fontsize=10)
+    fig.suptitle(f"{pb.run.name} [{pb.run.method}]: {pb.run.outcome}", fontsize=_FONT["suptitle"])
     scene = _Scene3D(ax3, pb, _limits(pb, ks))
     t, qn, edge = pb.t, pb.qn, 1 - 2 * pb.rho
     for y in (edge, -edge):
@@ -145,16 +154,22 @@ def _frames(pb: Playback, ks: list[int], dpi: int) -> list[NDArray[np.uint8]]:
         axj.axhline(y, color="k", lw=0.8)
     lines = [axj.plot([], [], lw=1.1, label=n)[0] for n in pb.joint_names]
     axj.set(xlim=(t[0], max(t[-1], t[0] + 1e-9)), ylim=(-1.08, 1.08))
-    axj.set_xlabel("t (s)", fontsize=8)
-    axj.set_ylabel("normalized q (-)", fontsize=8)
-    axj.tick_params(labelsize=7)
-    axj.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    axj.set_xlabel("t (s)", fontsize=_FONT["label"])
+    axj.set_ylabel("normalized q (-)", fontsize=_FONT["label"])
+    axj.tick_params(labelsize=_FONT["tick"])
+    axj.legend(
+        fontsize=_FONT["legend"],
+        loc="upper left",
+        bbox_to_anchor=(1.0, 1.0),
+        frameon=False,
+        ncol=1 + (len(lines) > 7),
+    )
     cursor = axj.axvline(t[0], color="0.3", lw=0.8)
     image = axi.imshow(camera_image(pb, ks[0]))
     axi.set_axis_off()
-    axi.set_title("camera: current (blue), desired (orange)", fontsize=8)
+    axi.set_title("camera: current (blue), desired (orange)", fontsize=_FONT["title"])
     out = []
-    for k in ks:
+    for i, k in enumerate(ks):
         scene.update(pb.frame(k))
         image.set_data(camera_image(pb, k))
         for j, line in enumerate(lines):
@@ -164,6 +179,8 @@ def _frames(pb: Playback, ks: list[int], dpi: int) -> list[NDArray[np.uint8]]:
         if fig.get_layout_engine() is not None:  # lay out once: the panels do not move
             fig.set_layout_engine("none")
         out.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+        if progress is not None:
+            progress.frame(i)
     plt.close(fig)
     return out
 
@@ -174,7 +191,8 @@ def write_animation(
     *,
     fps: float = 12.0,
     max_frames: int = 120,
-    dpi: int = 80,
+    dpi: int = 100,
+    progress: bool = True,
 ) -> Path:
     """Write the video of a run (module docstring); returns ``path``.
 
@@ -183,7 +201,9 @@ def write_animation(
         path: ``.gif`` or ``.mp4``.
         fps: Frames per second.
         max_frames: At most this many frames (evenly spaced iterations, the last kept).
-        dpi: Resolution (the frame is 12 x 5 inches).
+        dpi: Resolution (the frame is 12.8 x 5.6 inches: 1280 x 560 pixels at 100 dpi).
+        progress: Say on stderr how far it is (about every tenth of the frames, then while
+            encoding): a GIF of 60 frames takes tens of seconds.
 
     Raises:
         ConfigurationError: another extension; no MP4 encoder (the message says to use
@@ -198,17 +218,15 @@ def write_animation(
         )
     if not fps > 0:
         raise ConfigurationError(f"--fps must be positive, got {fps}", argument="fps")
-    rgb = _frames(pb, pb.frames(max_frames), dpi)
+    ks = pb.frames(max_frames)
+    said = Progress("animate", len(ks), enabled=progress)
+    if progress:
+        print(f"animate: drawing {len(ks)} frames of {pb.run.name}", file=sys.stderr, flush=True)
+    rgb = _frames(pb, ks, dpi, said)
+    said.writing(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if ext == ".mp4":
-        from redservo.vision.video import _write_mp4
-
         _write_mp4(out, rgb, fps)
-        return out
-    try:
-        from PIL import Image
-    except ImportError:
-        raise ConfigurationError("a GIF needs Pillow: pip install 'redservo[viewer]'") from None
-    images = [Image.fromarray(f).quantize(colors=128) for f in rgb]
-    images[0].save(out, save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0)
+    else:
+        write_gif(out, rgb, fps)
     return out

@@ -2,11 +2,12 @@
 desired features, and the feature trajectories so far.
 
 Not a photometric rendering (that is :mod:`redservo.vision.render`, which needs OpenCV):
-a schematic image that needs only Pillow (``redservo[viewer]``). Objects are drawn in
-light gray (points as dots, a sphere's limb, a cylinder's axis or a line), the current
-point features as blue circles with their trajectory, the desired ones as orange
-crosses, and with ``task.desired_pose`` the objects seen from the desired pose in
-dashed orange.
+a schematic image that needs only Pillow (``redservo[viewer]``). In the colours of
+:data:`redservo.figstyle.ROLE_COLORS` (the same in the run figures, the ``--video`` GIFs
+and the 3-D views): objects in the ``target`` colour (points as dots, a sphere's limb, a
+cylinder's axis or a line), the current point features as sky-blue circles with their
+trajectory, the desired ones as orange crosses, and with ``task.desired_pose`` the objects
+seen from the desired pose in orange.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo.errors import ConfigurationError
+from redservo.figstyle import role_rgb
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.viewer.playback import Playback
@@ -24,9 +26,9 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["camera_image"]
 
 _BG = (28, 30, 36)
-_OBJ = (215, 215, 215)
-_CUR = (86, 180, 233)
-_DES = (230, 159, 0)
+_OBJ = role_rgb("target")
+_CUR = role_rgb("current")
+_DES = role_rgb("desired")
 
 
 def _pil() -> Any:
@@ -37,6 +39,16 @@ def _pil() -> Any:
             "the camera image needs Pillow: pip install 'redservo[viewer]'"
         ) from None
     return Image, ImageDraw
+
+
+def _font(width: int) -> Any:
+    """Pillow's default font at a size readable in the image (its bitmap font before 10.1)."""
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.load_default(size=max(12, width // 28))
+    except (TypeError, ImportError, OSError):  # pragma: no cover - Pillow < 10.1, no FreeType
+        return ImageFont.load_default()
 
 
 def camera_image(pb: Playback, k: int, *, width: int = 480) -> NDArray[np.uint8]:
@@ -83,5 +95,5 @@ def camera_image(pb: Playback, k: int, *, width: int = 480) -> NDArray[np.uint8]
             c = 1.8 * r
             draw.ellipse((u - c, v - c, u + c, v + c), outline=_CUR, width=2)
     draw.rectangle((0, 0, width - 1, h - 1), outline=(90, 90, 90))
-    draw.text((6, 4), f"k = {k}, t = {pb.t[k]:.2f} s", fill=(230, 230, 230))
+    draw.text((6, 4), f"k = {k}, t = {pb.t[k]:.2f} s", fill=(230, 230, 230), font=_font(width))
     return np.asarray(img, dtype=np.uint8)

@@ -4,7 +4,7 @@ The page shows, in the robot base frame (metres, the grid is the base's x-y plan
 robot's links (purple) through its link frames, each joint axis as a short bar coloured by
 how close the joint is to its limits (blue: inside its thresholds; orange at the threshold,
 CM01 eq. 3; vermillion at the limit), the camera frustum with the camera image on it, the
-camera's path, and the target objects (orange). The side panel has the run's summary, a
+camera's path, and the target objects (green, the ``target`` colour of every figure). The side panel has the run's summary, a
 time slider, a play button, the camera image with the current (blue) and desired
 (orange) features, and every joint's normalized position.
 
@@ -30,6 +30,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.figstyle import role_rgb
 from redservo.viewer.playback import Frame, limit_color
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -39,8 +40,8 @@ __all__ = ["DRAWN_ID", "LINK_COLOR", "TARGET_COLOR", "ViewerSession", "serve"]
 
 LINK_COLOR = (142, 68, 173)
 """RGB of the robot's links (a purple no other element of the page uses)."""
-TARGET_COLOR = (230, 159, 0)
-"""RGB of the target objects."""
+TARGET_COLOR = role_rgb("target")
+"""RGB of the target objects (:data:`redservo.figstyle.ROLE_COLORS`, as in every figure)."""
 DRAWN_ID = "redservo-drawn"
 """``id`` of the hidden element a page gets once it has drawn the scene (module docstring)."""
 
@@ -191,7 +192,7 @@ def _build_scene(s: ViewerSession) -> None:
     )
     if len(segs):
         server.scene.add_line_segments(
-            "/camera_path", segs, (86, 180, 233), thickness=0.004 * scale
+            "/camera_path", segs, role_rgb("current"), thickness=0.004 * scale
         )
     for name, kind, geo in first.objects:
         if kind == "points":

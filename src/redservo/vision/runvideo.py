@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from redservo.vision.render import Renderer
-from redservo.vision.video import write_video
+from redservo.vision.video import Progress, write_video
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.experiment import Experiment
@@ -31,6 +31,7 @@ def run_video(
     *,
     max_frames: int = 150,
     fps: float = 10.0,
+    progress: bool = True,
 ) -> Path:
     """Write ``path`` (``.gif`` or ``.mp4``) for ``result``, a run of ``exp``; return the path.
 
@@ -40,6 +41,7 @@ def run_video(
         path: Output file; the extension chooses the format.
         max_frames: At most this many frames, evenly spaced over the run (the last included).
         fps: Frames per second.
+        progress: Say on stderr how far the rendering is (:class:`~redservo.vision.video.Progress`).
     """
     log = result.log
     n = len(log)
@@ -48,9 +50,11 @@ def run_video(
     options = sensor_renderer.options if isinstance(sensor_renderer, Renderer) else None
     renderer = Renderer(exp.camera, options)
     frames = []
-    for i in idx:
+    said = Progress("video: rendering", len(idx), enabled=progress)
+    for j, i in enumerate(idx):
         bMc = exp.robot.fkine(log.q[i], check_limits=False)
         frames.append(renderer.render(exp.scene, bMc, float(log.t[i])))
+        said.frame(j)
     distortion = (options.k1, options.k2) if options is not None else 0.0
     return write_video(
         path,
@@ -62,4 +66,5 @@ def run_video(
         desired=exp.task.s_star,
         errors=log.error_norm[idx],
         fps=fps,
+        progress=Progress("video: drawing", len(idx), enabled=progress),
     )

@@ -2,14 +2,16 @@
 
 :func:`write_video` draws, on each frame (OpenCV drawing, anti-aliased):
 
-* the tracked dots (``dots_uv``, pixels) as green circles;
-* the detected features ``s`` in green and the desired ``s*`` in red, term by
-  term when a task is given — a point as a cross, a sphere as its ellipse, a
-  cylinder's limbs and a line as lines, moments as the centroid ``(xn/an,
-  yn/an)`` with a segment along the orientation α; without a task ``s`` is read
-  as stacked points ``(x1, y1, x2, y2, ...)``;
-* to the right, the error norm per frame (log scale when every value is
-  positive) up to the current frame.
+* the tracked dots (``dots_uv``, pixels) as thin circles (role ``target``);
+* the detected features ``s`` (role ``current``, sky blue) and the desired ``s*``
+  (role ``desired``, orange: the colours of :data:`redservo.figstyle.ROLE_COLORS`, as in
+  ``redservo animate`` and the viewer), term by term when a task is given — a point as a
+  circle (current) or a cross (desired), a sphere as its ellipse, a cylinder's limbs and a
+  line as lines, moments as the centroid ``(xn/an, yn/an)`` with a segment along the
+  orientation α; without a task ``s`` is read as stacked points ``(x1, y1, x2, y2, ...)``;
+* to the right, the error norm per frame (log scale, with decade ticks, when every value is
+  positive) up to the current frame; every label of the panel lies inside it
+  (:func:`redservo.vision.videopanel.panel_layout`).
 
 Output by extension: ``.gif`` with Pillow (``pip install 'redservo[viewer]'``);
 ``.mp4`` with imageio-ffmpeg when installed, else OpenCV's ``mp4v`` encoder
@@ -19,6 +21,7 @@ when this OpenCV build has one, else a :class:`ConfigurationError` suggesting
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,16 +40,18 @@ from redservo.features import (
     SphereFeature,
     sphere_moments_from_area,
 )
+from redservo.figstyle import role_rgb
 from redservo.vision.optics import Optics, require_cv2
+from redservo.vision.videopanel import error_panel
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.task import VisualTask
 
-__all__ = ["compose_frame", "write_video"]
+__all__ = ["Progress", "compose_frame", "write_gif", "write_video"]
 
-_GREEN = (40, 210, 40)
-_RED = (230, 50, 50)
-_DOT = (60, 230, 230)
+_CURRENT = role_rgb("current")
+_DESIRED = role_rgb("desired")
+_DOT = role_rgb("target")
 
 
 def _px(optics: Optics, xy: ArrayLike) -> NDArray[np.int32]:
@@ -63,7 +68,16 @@ def _draw_line(
     d = np.array([-n[1], n[0]])
     t = np.linspace(-3.0, 3.0, 241)
     pts = _px(optics, rho * n + t[:, None] * d)
-    cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, color, 1, cv2.LINE_AA)
+    cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, color, 2, cv2.LINE_AA)
+
+
+def _draw_point(img: NDArray[np.uint8], u: int, v: int, color: Any) -> None:
+    """A current point as a circle, a desired one as a cross (the viewer's shapes)."""
+    cv2 = require_cv2()
+    if color == _DESIRED:
+        cv2.drawMarker(img, (u, v), color, cv2.MARKER_CROSS, 16, 2, cv2.LINE_AA)
+    else:
+        cv2.circle(img, (u, v), 7, color, 2, cv2.LINE_AA)
 
 
 def _draw_term(
@@ -72,7 +86,7 @@ def _draw_term(
     cv2 = require_cv2()
     if isinstance(feature, PointFeature):
         ((u, v),) = _px(optics, s[:2])
-        cv2.drawMarker(img, (int(u), int(v)), color, cv2.MARKER_CROSS, 12, 1, cv2.LINE_AA)
+        _draw_point(img, int(u), int(v), color)
     elif isinstance(feature, SphereFeature):
         if feature.variant == "moments":
             xc, yc, n20, n11, n02 = s
@@ -83,7 +97,7 @@ def _draw_term(
         t = np.linspace(0.0, 2.0 * np.pi, 73)
         axes = evecs * np.sqrt(np.maximum(evals, 0.0))
         pts = _px(optics, np.array([xc, yc]) + (axes @ np.stack([np.cos(t), np.sin(t)])).T)
-        cv2.polylines(img, [pts.reshape(-1, 1, 2)], True, color, 1, cv2.LINE_AA)
+        cv2.polylines(img, [pts.reshape(-1, 1, 2)], True, color, 2, cv2.LINE_AA)
     elif isinstance(feature, CylinderFeature):
         _draw_line(img, optics, float(s[0]), float(s[1]), color)
         _draw_line(img, optics, float(s[2]), float(s[3]), color)
@@ -92,66 +106,22 @@ def _draw_term(
     elif isinstance(feature, MomentFeatures):
         xg, yg, alpha = s[0] / s[2], s[1] / s[2], s[3]
         c = _px(optics, [xg, yg])[0]
-        cv2.circle(img, (int(c[0]), int(c[1])), 5, color, 1, cv2.LINE_AA)
+        _draw_point(img, int(c[0]), int(c[1]), color)
         tip = c + np.round(40.0 * np.array([np.cos(alpha), np.sin(alpha)])).astype(np.int32)
-        cv2.line(img, (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), color, 1, cv2.LINE_AA)
+        cv2.line(img, (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), color, 2, cv2.LINE_AA)
 
 
 def _draw_features(
     img: NDArray[np.uint8], optics: Optics, task: VisualTask | None, s: FloatArray, color: Any
 ) -> None:
-    cv2 = require_cv2()
     if task is None:
         for u, v in _px(optics, s.reshape(-1, 2)):
-            cv2.drawMarker(img, (int(u), int(v)), color, cv2.MARKER_CROSS, 12, 1, cv2.LINE_AA)
+            _draw_point(img, int(u), int(v), color)
         return
     i = 0
     for term, size in zip(task.terms, task.sizes):
         _draw_term(img, optics, term.feature, s[i : i + size], color)
         i += size
-
-
-def _plot(errors: FloatArray, k: int, height: int, width: int) -> NDArray[np.uint8]:
-    """The error-norm panel (height, width, 3) with the curve up to frame ``k``."""
-    cv2 = require_cv2()
-    panel = np.full((height, width, 3), 255, np.uint8)
-    x0, x1, y0, y1 = 50, width - 12, 20, height - 30
-    cv2.rectangle(panel, (x0, y0), (x1, y1), (0, 0, 0), 1)
-    finite = errors[np.isfinite(errors)]
-    if finite.size == 0:
-        return panel
-    log = bool(np.all(finite > 0.0))
-    vals = np.log10(errors) if log else errors
-    fv = vals[np.isfinite(vals)]
-    lo, hi = float(fv.min()), float(fv.max())
-    if hi - lo < 1e-12:
-        lo, hi = lo - 1.0, hi + 1.0
-    n = max(len(errors) - 1, 1)
-    xs = x0 + (np.arange(k + 1) / n) * (x1 - x0)
-    ys = y1 - (vals[: k + 1] - lo) / (hi - lo) * (y1 - y0)
-    ok = np.isfinite(ys)
-    pts = np.stack([xs[ok], ys[ok]], 1).round().astype(np.int32)
-    if pts.shape[0] > 1:
-        cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, (200, 40, 40), 1, cv2.LINE_AA)
-    if pts.shape[0]:
-        cv2.circle(panel, (int(pts[-1, 0]), int(pts[-1, 1])), 3, (200, 40, 40), -1)
-    font = cv2.FONT_HERSHEY_SIMPLEX
-    label = "log10 |e|" if log else "|e|"
-    cv2.putText(panel, label, (x0, y0 - 6), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, f"{hi:.2g}", (2, y0 + 10), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, f"{lo:.2g}", (2, y1), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
-    now = errors[k]
-    cv2.putText(
-        panel,
-        f"frame {k}  |e| = {now:.3g}",
-        (x0, height - 10),
-        font,
-        0.4,
-        (0, 0, 0),
-        1,
-        cv2.LINE_AA,
-    )
-    return panel
 
 
 def compose_frame(
@@ -176,13 +146,40 @@ def compose_frame(
             if np.isfinite(u) and np.isfinite(v):
                 cv2.circle(rgb, (int(np.rint(u)), int(np.rint(v))), 7, _DOT, 1, cv2.LINE_AA)
     if desired is not None:
-        _draw_features(rgb, optics, task, np.asarray(desired, dtype=float), _RED)
+        _draw_features(rgb, optics, task, np.asarray(desired, dtype=float), _DESIRED)
     if detected is not None:
-        _draw_features(rgb, optics, task, np.asarray(detected, dtype=float), _GREEN)
+        _draw_features(rgb, optics, task, np.asarray(detected, dtype=float), _CURRENT)
     if errors is None:
         return rgb
-    panel = _plot(np.asarray(errors, dtype=float), k, img.shape[0], max(img.shape[1] // 2, 200))
+    panel = error_panel(
+        np.asarray(errors, dtype=float), k, img.shape[0], max(img.shape[1] // 2, 200)
+    )
     return np.concatenate([rgb, panel], axis=1)
+
+
+class Progress:
+    """Says on stderr how far a video is: ``"<what>: frame i of n"`` about every tenth of
+    the frames, then ``"<what>: writing <path>"`` (a long video is never silent).
+
+    Args:
+        what: The name in front of each line (e.g. ``"animate"``).
+        n: The number of frames.
+        enabled: False prints nothing.
+    """
+
+    def __init__(self, what: str, n: int, *, enabled: bool = True) -> None:
+        self.what, self.n, self.enabled = what, n, enabled
+        self.every = max(1, n // 10)
+
+    def frame(self, i: int) -> None:
+        """Frame ``i`` (0-based) is done."""
+        if self.enabled and ((i + 1) % self.every == 0 or i + 1 == self.n):
+            print(f"{self.what}: frame {i + 1} of {self.n}", file=sys.stderr, flush=True)
+
+    def writing(self, path: Path) -> None:
+        """The frames are done; the file is being encoded."""
+        if self.enabled:
+            print(f"{self.what}: writing {path}", file=sys.stderr, flush=True)
 
 
 def _per_frame(value: Sequence[Any] | None, n: int, name: str) -> list[Any]:
@@ -229,6 +226,7 @@ def write_video(
     errors: ArrayLike | None = None,
     dots_uv: Sequence[FloatArray | None] | None = None,
     fps: float = 10.0,
+    progress: Progress | None = None,
 ) -> Path:
     """Write ``frames`` with overlays to ``path`` (``.gif`` or ``.mp4``); return the path.
 
@@ -243,6 +241,7 @@ def write_video(
         errors: Per frame, the error norm (e.g. ``|e1|``), plotted beside the view.
         dots_uv: Per frame, the tracked dots (N, 2) in pixels.
         fps: Frames per second.
+        progress: Told of each frame composed and of the encoding (default: silent).
 
     Raises:
         ConfigurationError: unknown extension, no frames, or no encoder for ``.mp4``.
@@ -264,23 +263,38 @@ def write_video(
     err = None if errors is None else np.asarray(errors, dtype=float).reshape(-1)
     if err is not None and err.shape[0] != n:
         raise ShapeError(f"errors must have one entry per frame ({n}), got {err.shape[0]}")
-    rgb = [
-        compose_frame(
-            frames[i],
-            optics,
-            task=task,
-            detected=det[i],
-            desired=desired,
-            dots_uv=dots[i],
-            errors=err,
-            k=i,
+    rgb = []
+    for i in range(n):
+        rgb.append(
+            compose_frame(
+                frames[i],
+                optics,
+                task=task,
+                detected=det[i],
+                desired=desired,
+                dots_uv=dots[i],
+                errors=err,
+                k=i,
+            )
         )
-        for i in range(n)
-    ]
+        if progress is not None:
+            progress.frame(i)
+    if progress is not None:
+        progress.writing(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if ext == ".mp4":
         _write_mp4(out, rgb, fps)
-        return out
+    else:
+        write_gif(out, rgb, fps)
+    return out
+
+
+def write_gif(path: Path, rgb: Sequence[NDArray[np.uint8]], fps: float) -> None:
+    """Write RGB frames (H, W, 3) as a looping GIF (128 colours) with Pillow.
+
+    Raises:
+        ConfigurationError: Pillow is not installed (``redservo[viewer]``).
+    """
     try:
         from PIL import Image
     except ImportError:  # pragma: no cover - pillow is in the test extras
@@ -289,6 +303,5 @@ def write_video(
         ) from None
     images = [Image.fromarray(f).quantize(colors=128) for f in rgb]
     images[0].save(
-        out, save_all=True, append_images=images[1:], duration=int(np.rint(1000.0 / fps)), loop=0
+        path, save_all=True, append_images=images[1:], duration=round(1000.0 / fps), loop=0
     )
-    return out
