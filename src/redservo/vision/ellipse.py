@@ -5,6 +5,9 @@ a predicted centre, else the largest) and measures, in *undistorted normalized*
 coordinates, ``xc, yc``, the area ``a`` and ``n_ij = μ_ij / a`` — the values of
 :func:`redservo.features.sphere.sphere_ellipse`. Two methods:
 
+Every component counts, nested ones too (``cv2.RETR_CCOMP``'s outer
+boundaries); with a prediction, the smallest blob whose box holds it is taken.
+
 * ``"moments"`` (default, sub-pixel): the region's coverage is estimated per
   pixel, ``w = (I - b)/(L - b)`` with ``b`` the median gray level of the ring
   around the blob and ``L`` the median inside it (eroded), over the blob grown
@@ -83,10 +86,10 @@ def _pick(
         else:
             x, y, w, h = cv2.boundingRect(cnt)
             inside = x <= near[0] <= x + w and y <= near[1] <= y + h
+            # The innermost blob whose box holds the prediction (a bright sphere in a
+            # dark region of a bright scene: not the scene), else the nearest.
             key = (
-                -area
-                if inside
-                else 1e12 + float(np.hypot(x + w / 2 - near[0], y + h / 2 - near[1]))
+                area if inside else 1e12 + float(np.hypot(x + w / 2 - near[0], y + h / 2 - near[1]))
             )
         if key < best_key:
             best, best_key = cnt, key
