@@ -387,3 +387,111 @@ def test_campaign_says_which_files_it_wrote(
     last = capsys.readouterr().out.strip().splitlines()[-1]
     n = len(list((tmp_path / "b").glob("*.png")))
     assert n > 0 and last.endswith(f"campaign.json and {n} figure(s)"), last
+
+
+# --------------------------------------------------------------------------- one command line
+
+
+@pytest.mark.parametrize(
+    "argv", [["run", "afma6-gaze-demo", "--bogus"], ["frobnicate"], ["plot", "--method", "gpm"]]
+)
+def test_usage_errors_have_one_prefix(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    line = _one_error_line(capsys)
+    assert line.count("redservo") <= 2 and "error: redservo" not in line, line
+    assert "--help')" in line
+
+
+def test_plot_help_names_only_its_options(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["plot", "--help"])
+    text = capsys.readouterr().out
+    assert "--out" in text and "--method" not in text
+
+
+def test_plot_refuses_a_folder_that_is_not_a_result(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A folder of unrelated runs is no comparison: nothing is written into it."""
+    for m in ("gpm", "classical"):
+        assert (
+            main(
+                [
+                    "run",
+                    "afma6-gaze-demo",
+                    "--method",
+                    m,
+                    "--set",
+                    "simulation.max_iterations=5",
+                    "--out",
+                    str(tmp_path / m),
+                    "-q",
+                    "--no-plot",
+                ]
+            )
+            == 0
+        )
+    capsys.readouterr()
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main(["plot", str(tmp_path)]) == 2
+    line = _one_error_line(capsys)
+    assert "not a run" in line and "runs inside: classical, gpm" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    if pytest.importorskip("matplotlib"):
+        assert main(["plot", str(tmp_path / "gpm"), "--out", str(tmp_path / "figs"), "-q"]) == 0
+        assert (tmp_path / "figs" / "joints.png").is_file()
+        assert not (tmp_path / "gpm" / "joints.png").exists()
+
+
+def test_replay_refuses_a_sample_outside_the_campaign_unless_new(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    camp = tmp_path / "camp"
+    args = [
+        "campaign",
+        "afma6-gaze-demo",
+        "--samples",
+        "2",
+        "--methods",
+        "gpm",
+        "--workers",
+        "1",
+        "--set",
+        "simulation.max_iterations=5",
+    ]
+    assert main([*args, "--out", str(camp), "-q", "--no-plot"]) == 0
+    capsys.readouterr()
+    replay = ["replay", str(camp), "--sample", "9", "--method", "gpm", "-q", "--no-plot"]
+    assert main(replay) == 2
+    line = _one_error_line(capsys)
+    assert "sample 9 is not in the campaign (samples 0 to 1)" in line and "--new" in line
+    assert not (camp / "replay").exists()
+    assert main([*replay, "--new"]) == 0
+    assert "ran it as a new sample" in capsys.readouterr().err
+    assert (camp / "replay" / "sample-9-gpm" / "summary.json").is_file()
+
+
+def test_list_shows_the_shipped_urdf_robots(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    section = out.split("URDF robots", 1)[1].split("\n\n", 1)[0]
+    assert "panda" in section and "ur5e" in section and "panda-urdf-4points" in section
+    assert main(["list", "-q"]) == 0
+    names = capsys.readouterr().out.split()
+    assert "ur5e" in names
+
+
+def test_a_paper_scenario_changed_by_the_shield_says_how_to_run_the_paper_law() -> None:
+    from types import SimpleNamespace
+
+    from redservo.cli_commands import paper_note
+    from redservo.scenario import load_scenario
+
+    sc = load_scenario("cm01-humanoid-tracking")
+    note = paper_note(sc, SimpleNamespace(shield_activations=250))
+    assert note is not None and "\n" not in note
+    assert "250 step(s)" in note and "redservo reproduce --only cm01-humanoid-tracking" in note
+    assert paper_note(sc, SimpleNamespace(shield_activations=0)) is None
+    assert (
+        paper_note(load_scenario("afma6-gaze-demo"), SimpleNamespace(shield_activations=3)) is None
+    )

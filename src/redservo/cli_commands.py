@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ __all__ = [
     "cmd_reproduce",
     "cmd_run",
     "cmd_warmup",
+    "paper_note",
 ]
 
 
@@ -60,6 +62,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     figs = draw_figures(args, lambda: _plots().run_figures(result, exp, out))
     print(summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
     warn(result.summary)
+    note = paper_note(sc, result.summary)
+    if note:
+        print(note, file=sys.stderr)
     if args.video:
         from redservo.vision.runvideo import run_video
 
@@ -69,6 +74,27 @@ def cmd_run(args: argparse.Namespace) -> int:
         + (f" and {figs} figure(s)" if figs else "")
     )
     return 0
+
+
+def paper_note(sc: Any, summary: Any) -> str | None:
+    """One line when a shipped paper scenario ran with the default safety stage and it acted
+    (so the outcome need not be the paper's), with the command that runs the paper's exact
+    law; None otherwise."""
+    from redservo.reproduction import experiments
+
+    acted = int(getattr(summary, "shield_activations", 0) or 0)
+    if not str(sc.source).startswith("shipped:") or not acted:
+        return None
+    ids = [k for k, s in experiments().items() if s.scenario == sc.name and len(s.runs) > 0]
+    ids = [k for k in ids if k != "cross-comparison"]
+    if not ids:
+        return None
+    paper = sc.spec.paper or "a paper"
+    return (
+        f"note: {sc.name} is the set-up of {paper}; the default safety stage (control.shield) "
+        f"changed the command at {acted} step(s), so this outcome need not be the paper's; the "
+        f"paper's exact law: redservo reproduce --only {','.join(ids)}"
+    )
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -82,7 +108,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         sc = apply_overrides(sc, list(args.set))
     methods: list[str] = args.methods
     if not methods:  # pragma: no cover - the parser's method_list never gives an empty list
-        raise UsageError("redservo compare: --methods: give at least one method name")
+        raise UsageError("--methods: give at least one method name")
     for m in methods:
         law_class(m)  # unknown names fail before anything runs
     exp = build(sc)
@@ -164,10 +190,22 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             repair=args.repair,
             scheduler=args.scheduler,
         )
+    bundle_campaign_files(result.out, defn)
     print(result.markdown)
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
     print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0
+
+
+def bundle_campaign_files(out: Path | None, defn: Any) -> None:
+    """Copy the files the campaign's base scenario references into ``out/files/``, so that
+    ``redservo replay`` works on the directory once moved (:func:`redservo.runfiles.relocate`)."""
+    import copy
+
+    from redservo.runfiles import bundle_files
+
+    if out is not None:
+        bundle_files(Path(out), copy.deepcopy(defn.scenario.data))
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

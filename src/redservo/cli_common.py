@@ -56,7 +56,8 @@ class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are :class:`UsageError` (one line, exit code 2)."""
 
     def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+        # No prog prefix: main() prints "redservo: error: " once; the hint names the command.
+        raise UsageError(f"{message} (see '{self.prog} --help')")
 
 
 def int_in(lo: int, hi: int) -> Callable[[str], int]:

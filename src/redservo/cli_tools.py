@@ -1,14 +1,14 @@
 """The ``redservo`` commands that work on saved results (their options shared with the other
 commands are in :mod:`redservo.cli_common`).
 
-    redservo plot PATH [--format png,pdf,svg]
-    redservo replay CAMPAIGN_DIR --sample K --method M [--out DIR] [--format ...] [--no-plot]
+    redservo plot PATH [--out DIR] [--format png,pdf,svg]
+    redservo replay CAMPAIGN_DIR --sample K --method M [--new] [--out DIR] [--format ...] [--no-plot]
     redservo view PATH [--method M] [--port P] [--host H] [--frames N]
     redservo animate PATH --out run.gif|run.mp4 [--method M] [--fps F] [--frames N]
 
 ``PATH`` is a run directory (``redservo run``/``replay``), a comparison or reproduction
 directory (``--method`` picks a run, default the first), or for ``plot`` also a campaign
-directory. Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`); every
+directory (any other folder is refused, nothing written into it). Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`); every
 command imports what it needs when it runs (the command line starts fast).
 """
 
@@ -39,6 +39,7 @@ def print_list(quiet: bool) -> None:
     from redservo.campaign import shipped_campaigns
     from redservo.redundancy import METHOD_DESCRIPTIONS
     from redservo.robots import ROBOTS
+    from redservo.robots.urdf import SHIPPED_URDFS
     from redservo.scenario import shipped_scenarios
 
     robots = {name: _robot_line(name) for name in ROBOTS}
@@ -46,6 +47,10 @@ def print_list(quiet: bool) -> None:
         ("Scenarios (redservo run NAME)", shipped_scenarios()),
         ("Campaigns (redservo campaign NAME)", shipped_campaigns()),
         ("Robots (robot.model in a scenario)", robots),
+        (
+            "URDF robots (robot.urdf in a scenario; needs redservo[urdf])",
+            {name: _urdf_line(name) for name in SHIPPED_URDFS},
+        ),
         ("Methods (--method NAME)", dict(METHOD_DESCRIPTIONS)),
         ("Experiments (redservo reproduce --only ID)", _experiments()),
     ]
@@ -65,6 +70,27 @@ def _robot_line(name: str) -> str:
     robot = make_robot(name)
     doc = (type(robot).__doc__ or "").strip().splitlines()[0].rstrip(".")
     return f"{doc} ({robot.n} joints)"
+
+
+def _urdf_line(name: str) -> str:
+    """A shipped URDF: its robot name, movable joints and the shipped scenarios that use it
+    (read without Pinocchio)."""
+    import tomllib
+    from importlib import resources
+
+    from redservo.robots.urdf import shipped_urdf
+    from redservo.robots.urdf_parse import read_urdf
+
+    tree = read_urdf(shipped_urdf(name))
+    movable = sum(1 for j in tree.joints.values() if j.movable)
+    users = []
+    for entry in sorted(resources.files("redservo").joinpath("scenarios").iterdir(), key=str):
+        if entry.name.endswith(".toml"):
+            robot = tomllib.loads(entry.read_text(encoding="utf-8")).get("robot", {})
+            if str(robot.get("urdf", "")).lower() == name:
+                users.append(entry.name[:-5])
+    used = f"; scenarios: {', '.join(users)}" if users else ""
+    return f"{tree.name}, {movable} movable joints{used}"
 
 
 def _experiments() -> dict[str, str]:
@@ -92,12 +118,13 @@ def reproduce_lines(report: dict[str, Any], out: Path) -> list[str]:
 def _cmd_plot(args: argparse.Namespace) -> int:
     from redservo.replot import kind_of, replot
 
+    kind = kind_of(Path(args.path))  # refuses any other folder before anything is written
     if not _matplotlib():
         raise ImportError("figures need matplotlib: pip install 'redservo[plot]'")
-    kind = kind_of(Path(args.path))
     with figures(args):
-        paths = replot(args.path)
-    print(f"re-drew the figures of the {kind} {args.path}: {len(paths)} file(s)")
+        paths = replot(args.path, out=args.out)
+    where = f" into {args.out}" if args.out else ""
+    print(f"re-drew the figures of the {kind} {args.path}{where}: {len(paths)} file(s)")
     for p in paths:
         print(f"  {p}")
     return 0
@@ -106,7 +133,13 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 def _cmd_replay(args: argparse.Namespace) -> int:
     from redservo.replay import replay_sample
 
-    r = replay_sample(args.path, args.sample, args.method, out=args.out)
+    r = replay_sample(args.path, args.sample, args.method, out=args.out, new=args.new)
+    if r.row is None and args.new:
+        print(
+            f"sample {args.sample} is not in the campaign: ran it as a new sample drawn from "
+            "the campaign's definition and seed (--new)",
+            file=sys.stderr,
+        )
     with figures(args) as wanted:
         if wanted and _matplotlib():
             from redservo import plots
@@ -166,7 +199,12 @@ def register(sub: Any, common: argparse.ArgumentParser, int_in: Callable[..., An
         parents=[common],
         help="re-draw the figures of a saved run, comparison, campaign or reproduction",
     )
-    pl.add_argument("path", help=_PATH_HELP + "; or a campaign directory")
+    pl.add_argument(
+        "path",
+        help="a run, comparison (every method overlaid), campaign or reproduction directory; "
+        "any other folder is refused",
+    )
+    pl.add_argument("--out", help="write the figures into this directory (default: PATH itself)")
     pl.add_argument("--format", default="png", help="figure formats: png, pdf, svg (default png)")
     pl.set_defaults(func=_cmd_plot)
 
@@ -175,6 +213,12 @@ def register(sub: Any, common: argparse.ArgumentParser, int_in: Callable[..., An
     rp.add_argument("--sample", type=int_in(0, 10**9), required=True, help="sample index (0-based)")
     rp.add_argument(
         "--method", type=method_name, required=True, help="the method to run (redservo list)"
+    )
+    rp.add_argument(
+        "--new",
+        action="store_true",
+        help="allow a sample index outside the campaign: run it as a new sample drawn from the "
+        "campaign's definition and seed (without it such an index is refused)",
     )
     rp.add_argument("--out", help="run directory (default CAMPAIGN_DIR/replay/sample-K-METHOD)")
     add_figure_options(rp)

@@ -339,16 +339,23 @@ def build_robot(sc: Scenario) -> Robot:
     return robot
 
 
-def build(sc: Scenario) -> Experiment:
+def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     """Build the robot, scene, task, law and options of a scenario.
+
+    Args:
+        sc: The scenario.
+        robot: Use this robot, as it is, instead of building the scenario's (e.g. a saved
+            run's :class:`~redservo.runkin.LoggedRobot`, already mounted).
 
     Raises:
         ScenarioError: anything in the file is invalid or inconsistent (names the key).
     """
     spec = sc.spec
-    robot = _robot(sc, spec)
+    given = robot is not None
+    robot = _robot(sc, spec) if robot is None else robot
     limits = _limits(sc, spec, robot)
-    robot = mounted_robot(sc, robot)  # camera.mount = "world": the eye-to-hand wrapper
+    if not given:
+        robot = mounted_robot(sc, robot)  # camera.mount = "world": the eye-to-hand wrapper
     q0 = _start(sc, spec, robot, limits)
     scene = _scene(sc, spec, robot, q0)
     task = _task(sc, spec, scene)

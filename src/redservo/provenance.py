@@ -15,7 +15,14 @@ limits actually used); :meth:`redservo.simulation.SimulationResult.save` then ca
   (e.g. code that removed the robot's rate limits, which no scenario key expresses);
 * ``diagnostics.json`` — for each diagnostic flag raised, the iterations, the number
   attached at each and the law's first message (docs/safety.md), and the law's
-  informational lines with the iteration each first appeared.
+  informational lines with the iteration each first appeared;
+* ``files/`` — copies of the files the scenario references (a URDF and its meshes, a
+  camera file), which ``scenario.toml`` names by relative paths (:mod:`redservo.runfiles`);
+* ``kinematics.npz`` — the robot's camera poses, Jacobians and link poses at every logged
+  configuration (:mod:`redservo.runkin`), so that the run is shown without the robot's model.
+
+A run directory is thus self-contained: moved elsewhere, it re-runs, plots, replays, views
+and animates without the original files.
 
 A result made without an experiment (``simulate`` called directly) gets
 ``diagnostics.json`` only.
@@ -77,6 +84,7 @@ class Provenance:
         rebuild: Builds the experiment of a scenario (:func:`redservo.experiment.build`,
             given by the experiment so that this module, which the simulation's ``save``
             imports, stays below it); :func:`resolve` rebuilds the resolved scenario with it.
+        robot: The robot the run moved (its kinematics are logged when saved), or None.
     """
 
     data: Mapping[str, Any]
@@ -87,6 +95,7 @@ class Provenance:
     limits: JointLimits
     q0: FloatArray = field(repr=False)
     rebuild: Callable[[Scenario], Any] = field(repr=False)
+    robot: Any = field(default=None, repr=False, compare=False)
 
 
 def law_defaults(method: str) -> dict[str, Any]:
@@ -261,7 +270,15 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
     prov: Provenance | None = getattr(result, "provenance", None)
     if prov is None:
         return paths
+    from redservo.runfiles import bundle_files
+
     table, why = resolve(prov)
+    files = bundle_files(out, table)  # copies; the table now names them relatively
+    if prov.robot is not None:
+        from redservo.runkin import KINEMATICS_FILE, write_kinematics
+
+        write_kinematics(out, prov.robot, result.log.q)
+        paths.append(out / KINEMATICS_FILE)
     header = (
         f"Resolved scenario of a run written by redservo {__version__} "
         f"({datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}).\n"
@@ -282,9 +299,10 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
         "law_options": table["control"]["options"],
         "exact": not why,
         "not_exact_because": why,
+        "files": files,
     }
     (out / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default) + "\n")
-    return [*paths, out / "scenario.toml", out / "run.json"]
+    return [*paths, out / "scenario.toml", out / "run.json", *(out / f for f in files["copied"])]
 
 
 def _json_default(value: Any) -> Any:

@@ -6,7 +6,8 @@ scenario after its overrides, the seed): a sample depends only on (definition, s
 index), see :mod:`redservo.campaign`. The method runs with the campaign's law options and
 the run is saved as a self-describing run directory (``scenario.toml``: the sample's own
 start and target, so ``redservo run DIR/scenario.toml`` re-runs it); the result is checked
-against the stored row (outcome, iterations).
+against the stored row (outcome, iterations). A sample index the campaign did not run is
+refused unless ``new=True`` (``--new``): then it is a new sample of the same definition and seed.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ class Replay:
 def _definition(campaign_dir: Path) -> tuple[Any, int]:
     """The campaign definition and seed stored in ``definition.json``."""
     from redservo.campaign import parse_campaign
+    from redservo.runfiles import relocate
     from redservo.tomlwriter import dumps
 
     meta_path = campaign_dir / "definition.json"
@@ -54,9 +56,11 @@ def _definition(campaign_dir: Path) -> tuple[Any, int]:
         )
     meta = json.loads(meta_path.read_text(encoding="utf-8"))
     table = {k: v for k, v in meta["definition"].items() if k != "overrides"}
+    scenario = meta["scenario"]
+    relocate(scenario, campaign_dir)  # a moved campaign: its copies of the files
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(tmp) / "base-scenario.toml"
-        base.write_text(dumps(meta["scenario"]), encoding="utf-8")
+        base.write_text(dumps(scenario), encoding="utf-8")
         table["scenario"] = str(base)
         defn = parse_campaign(table, str(meta.get("source", campaign_dir)))
         defn.nominal  # noqa: B018 - evaluated while the base file exists
@@ -74,19 +78,66 @@ def _row(campaign_dir: Path, sample: int, method: str) -> dict[str, Any] | None:
     return None
 
 
+def _samples(campaign_dir: Path) -> int | None:
+    """How many samples the campaign ran (``campaign.json``), or None when it never finished."""
+    path = campaign_dir / "campaign.json"
+    if not path.is_file():
+        return None
+    try:
+        return int(json.loads(path.read_text(encoding="utf-8"))["samples"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _stored_samples(campaign_dir: Path) -> set[int]:
+    from redservo.replot import _campaign_rows
+
+    if not (campaign_dir / "samples.csv").is_file():
+        return set()
+    return {int(row["sample"]) for row in _campaign_rows(campaign_dir)}
+
+
+def _check_sample(root: Path, sample: int, new: bool) -> None:
+    """Refuse a sample the campaign did not run, unless ``new`` (module docstring)."""
+    if sample < 0:
+        raise ConfigurationError(f"--sample must be >= 0, got {sample}", argument="sample")
+    if new:
+        return
+    count = _samples(root)
+    if count is not None and sample < count:
+        return
+    stored = _stored_samples(root)
+    if sample in stored:
+        return
+    have = f"samples 0 to {count - 1}" if count else f"{len(stored)} stored sample(s)"
+    raise ConfigurationError(
+        f"{root}: sample {sample} is not in the campaign ({have}); add --new to run it as a "
+        "new sample drawn from the same definition and seed",
+        argument="sample",
+    )
+
+
 def replay_sample(
-    campaign_dir: str | Path, sample: int, method: str, out: str | Path | None = None
+    campaign_dir: str | Path,
+    sample: int,
+    method: str,
+    out: str | Path | None = None,
+    *,
+    new: bool = False,
 ) -> Replay:
     """Re-run sample ``sample`` (0-based) of a campaign with ``method`` and save it.
 
     Args:
         campaign_dir: The campaign's output directory.
-        sample: Sample index.
+        sample: Sample index, one the campaign ran.
         method: A method name (any method, not only the campaign's).
         out: Run directory (default ``CAMPAIGN_DIR/replay/sample-K-METHOD``).
+        new: Allow an index the campaign did not run: a new sample drawn from the same
+            definition and seed (a sample depends only on them and its index).
 
     Raises:
-        ConfigurationError: not a campaign directory; ``sample`` negative.
+        ConfigurationError: not a campaign directory; ``sample`` negative, or not one the
+            campaign ran (without ``new``).
         UnknownNameError: unknown method.
     """
     from redservo.experiment import build
@@ -94,9 +145,8 @@ def replay_sample(
 
     root = Path(campaign_dir)
     law_class(method)
-    if sample < 0:
-        raise ConfigurationError(f"--sample must be >= 0, got {sample}", argument="sample")
     defn, seed = _definition(root)
+    _check_sample(root, sample, new)
     from redservo.campaign import draw_sample
 
     s = draw_sample(defn, seed, sample)

@@ -11,8 +11,9 @@ reproduction from its files, without simulating again.
 * a reproduction directory (``report.json``): every experiment's paper figures, from the
   saved runs (each run directory holds its scenario).
 
-Figures are written next to the data in the active formats
-(:func:`redservo.figstyle.figure_formats`, the ``--format`` option).
+Figures are written next to the data (or into ``out``, the ``--out`` option) in the active
+formats (:func:`redservo.figstyle.figure_formats`, the ``--format`` option). Any other
+folder is refused (nothing is written into it).
 """
 
 from __future__ import annotations
@@ -41,9 +42,12 @@ def kind_of(path: Path) -> str:
         return "reproduction"
     if (path / "campaign.json").is_file() and (path / "samples.csv").is_file():
         return "campaign"
-    if (path / "compare.json").is_file() or len(find_runs(path, depth=1)) > 1:
+    if (path / "compare.json").is_file():
         return "compare"
     what = "does not exist" if not path.exists() else "holds none of them"
+    inside = [r.relative_to(path).as_posix() for r in find_runs(path)] if path.is_dir() else []
+    if inside:
+        what += f"; runs inside: {', '.join(inside[:6])}" + (", ..." if len(inside) > 6 else "")
     raise ConfigurationError(
         f"{path}: not a run (summary.json + log.npz), comparison (compare.json), campaign "
         f"(campaign.json + samples.csv) or reproduction (report.json) directory ({what})",
@@ -51,17 +55,27 @@ def kind_of(path: Path) -> str:
     )
 
 
-def replot(path: str | Path) -> list[Path]:
-    """Re-draw the figures of ``path`` (module docstring); returns the files written."""
+def replot(path: str | Path, out: str | Path | None = None) -> list[Path]:
+    """Re-draw the figures of ``path`` (module docstring); returns the files written.
+
+    Args:
+        path: A run, comparison, campaign or reproduction directory.
+        out: Where to write the figures (created; default ``path`` itself).
+
+    Raises:
+        ConfigurationError: ``path`` is none of these (nothing is written).
+    """
     p = Path(path)
     kind = kind_of(p)
+    dest = p if out is None else Path(out)
+    dest.mkdir(parents=True, exist_ok=True)
     if kind == "run":
-        return _run(load_run(p))
+        return _run(load_run(p), dest)
     if kind == "compare":
-        return _compare(p)
+        return _compare(p, dest)
     if kind == "campaign":
-        return _campaign(p)
-    return _reproduction(p)
+        return _campaign(p, dest)
+    return _reproduction(p, dest)
 
 
 def _context(run: Run) -> Any:
@@ -73,13 +87,13 @@ def _context(run: Run) -> Any:
     return FigureContext(scenario=run.name, joint_names=run.joint_names, joint_units=("-",) * n)
 
 
-def _run(run: Run) -> list[Path]:
+def _run(run: Run, out: Path) -> list[Path]:
     from redservo.plots import draw_run
 
-    return draw_run(run.simulation_log(), _context(run), run.method, run.path)
+    return draw_run(run.simulation_log(), _context(run), run.method, out)
 
 
-def _compare(path: Path) -> list[Path]:
+def _compare(path: Path, out: Path) -> list[Path]:
     from redservo.plots import draw_compare
 
     runs = [load_run(p) for p in find_runs(path, depth=1)]
@@ -91,7 +105,7 @@ def _compare(path: Path) -> list[Path]:
     if not runs:
         raise ConfigurationError(f"{path}: no run directories inside", argument="path")
     logs = {r.method: r.simulation_log() for r in runs}
-    return draw_compare(logs, _context(runs[0]), path)
+    return draw_compare(logs, _context(runs[0]), out)
 
 
 def _campaign_rows(path: Path) -> list[dict[str, Any]]:
@@ -113,7 +127,7 @@ def _campaign_rows(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
-def _campaign(path: Path) -> list[Path]:
+def _campaign(path: Path, out: Path) -> list[Path]:
     from redservo.campaign.stats import _figures, method_stats
 
     meta = json.loads((path / "campaign.json").read_text())
@@ -125,7 +139,7 @@ def _campaign(path: Path) -> list[Path]:
     if definition.is_file():
         scenario = json.loads(definition.read_text()).get("scenario", {})
         tracking = not scenario.get("simulation", {}).get("stop_at_convergence", True)
-    return list(_figures(stats, rows, path, tracking=tracking, name=str(meta.get("campaign", ""))))
+    return list(_figures(stats, rows, out, tracking=tracking, name=str(meta.get("campaign", ""))))
 
 
 def summary_from_dict(data: dict[str, Any]) -> Any:
@@ -140,7 +154,7 @@ def summary_from_dict(data: dict[str, Any]) -> Any:
     return RunSummary(**kw)
 
 
-def _reproduction(path: Path) -> list[Path]:
+def _reproduction(path: Path, out: Path) -> list[Path]:
     from redservo.reproduction import experiments
     from redservo.reproduction.base import Runs
     from redservo.simulation import SimulationResult
@@ -173,5 +187,6 @@ def _reproduction(path: Path) -> list[Path]:
             {k: results[k] for k in order if k in results},
             {k: exps[k] for k in order if k in exps},
         )
-        written.extend(spec.figures(runs, path / entry["id"]))
+        (out / entry["id"]).mkdir(parents=True, exist_ok=True)
+        written.extend(spec.figures(runs, out / entry["id"]))
     return written

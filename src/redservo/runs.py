@@ -3,7 +3,8 @@
 A run directory (``redservo run``, each method of ``redservo compare``, each run of
 ``redservo reproduce``, ``redservo replay``) holds ``summary.json``, ``log.npz``,
 ``log.csv``, ``diagnostics.json`` and, when the run was made from a scenario, the resolved
-``scenario.toml`` and ``run.json`` (:mod:`redservo.provenance`). :func:`load_run` reads
+``scenario.toml``, ``run.json``, the files it references (``files/``) and the robot's
+logged kinematics (``kinematics.npz``; :mod:`redservo.provenance`). :func:`load_run` reads
 them into a :class:`Run`; its :attr:`Run.log` is a pandas DataFrame (``pip install
 pandas``) with one row per iteration and the columns of ``log.csv`` (vectors split as
 ``q[0]``, ``q[1]``, ...; flags as ``flag.<label>``), and :attr:`Run.arrays` the same data
@@ -138,11 +139,47 @@ class Run:
             )
         return load_scenario(self.scenario_path)
 
-    def experiment(self) -> Experiment:
-        """Rebuild the experiment (robot, scene, task, camera) from :attr:`scenario`."""
-        from redservo.experiment import build
+    @property
+    def kinematics_path(self) -> Path | None:
+        """The logged kinematics ``kinematics.npz`` (:mod:`redservo.runkin`), if the run has them."""
+        from redservo.runkin import KINEMATICS_FILE
 
-        return build(self.scenario)
+        p = self.path / KINEMATICS_FILE
+        return p if p.is_file() else None
+
+    def experiment(self, *, logged: bool | None = None) -> Experiment:
+        """Rebuild the experiment (robot, scene, task, camera) from :attr:`scenario`.
+
+        Args:
+            logged: True: the robot replays the run's logged kinematics
+                (:class:`~redservo.runkin.LoggedRobot`: shows and plots the run, cannot
+                simulate a new one); False: the scenario's own robot; None (default): the
+                scenario's own robot, or the logged one when the former cannot be built here
+                (e.g. a URDF robot without Pinocchio).
+
+        Raises:
+            ScenarioError: the scenario does not build (and no kinematics are logged).
+        """
+        from redservo.errors import RedservoError
+        from redservo.experiment import build
+        from redservo.runkin import LoggedRobot
+
+        kin = self.kinematics_path
+        if logged and kin is None:
+            raise ConfigurationError(
+                f"{self.path}: no kinematics.npz (saved by an older redservo): re-run it with "
+                "this version",
+                argument="logged",
+            )
+        if not logged:
+            try:
+                return build(self.scenario)
+            except RedservoError as exc:
+                robot_key = str(getattr(exc, "argument", "") or "").startswith("robot")
+                if logged is False or kin is None or not robot_key:
+                    raise
+        assert kin is not None
+        return build(self.scenario, robot=LoggedRobot(kin))
 
     def simulation_log(self) -> SimulationLog:
         """The log as a :class:`redservo.simulation.SimulationLog` (for the figure functions)."""

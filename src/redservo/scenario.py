@@ -195,12 +195,19 @@ def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, pre
             )
         return
     path = Path(urdf)
-    if not path.is_absolute():
+    relative = not path.is_absolute()
+    if relative:
         path = (base_dir or Path.cwd()) / path
     if not path.is_file():
+        where = "is a directory" if path.is_dir() else "does not exist"
+        hint = (
+            f"; {urdf!r} is read relative to "
+            + ("the scenario file's folder" if base_dir is not None else "the current folder")
+            if relative
+            else ""
+        )
         raise ScenarioError(
-            f"{source}: key '{prefix}robot.urdf': no such file {str(path)!r} (a path is "
-            "relative to the scenario file)",
+            f"{source}: key '{prefix}robot.urdf': no such file {str(path)!r} ({where}{hint})",
             argument=f"{prefix}robot.urdf",
         )
     robot["urdf"] = str(path.resolve())

@@ -1,0 +1,154 @@
+"""Copy the files a scenario references into its run directory, so that the run is
+self-contained: moved to another folder or machine, ``redservo run DIR/scenario.toml``,
+``plot``, ``view`` and ``animate`` need nothing outside it.
+
+:func:`bundle_files` copies, into ``DIR/files/``:
+
+* ``robot.urdf`` when it is a file (a shipped name such as ``"panda"`` stays a name: every
+  redservo has it), with every mesh its ``<mesh filename=...>`` elements name that can be
+  found (relative to the URDF, ``file://``, absolute, or ``package://PKG/...`` looked up in
+  the folders above the URDF and in ``ROS_PACKAGE_PATH``); a mesh outside the URDF's folder
+  is copied into ``files/meshes/`` and its reference in the copy rewritten to that relative
+  path (the original file is never changed); a mesh that cannot be found is listed, not
+  skipped silently;
+* ``camera.file`` (an intrinsics file);
+
+and rewrites those keys of the resolved scenario table to the copies' paths relative to
+the run directory (a scenario's relative paths are read relative to its own file).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FILE_KEYS", "bundle_files", "relocate"]
+
+FILE_KEYS = (("robot", "urdf"), ("camera", "file"))
+"""The scenario keys that name a file (table, key)."""
+
+FOLDER = "files"
+"""The run directory's folder of copied files."""
+
+
+def _is_shipped_urdf(value: str) -> bool:
+    return "/" not in value and "\\" not in value and not value.endswith(".urdf")
+
+
+def _free(dest_dir: Path, name: str, taken: set[Path]) -> Path:
+    """``dest_dir/name``, or ``dest_dir/STEM-K.SUFFIX`` when that name is already used."""
+    candidate, k = dest_dir / name, 1
+    stem, suffix = Path(name).stem, Path(name).suffix
+    while candidate in taken:
+        candidate = dest_dir / f"{stem}-{k}{suffix}"
+        k += 1
+    taken.add(candidate)
+    return candidate
+
+
+def _copy(src: Path, dst: Path) -> None:
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    if dst.exists() and dst.samefile(src):  # re-saving a run from its own scenario.toml
+        return
+    shutil.copyfile(src, dst)
+
+
+def _find_mesh(ref: str, urdf_dir: Path) -> Path | None:
+    """The file a URDF ``<mesh filename>`` names, or None when it cannot be found."""
+    if ref.startswith("package://"):
+        pkg, _, rest = ref[len("package://") :].partition("/")
+        roots = [*urdf_dir.parents, urdf_dir]
+        roots += [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        for root in roots:
+            for candidate in (root / pkg / rest, root / rest if root.name == pkg else None):
+                if candidate is not None and candidate.is_file():
+                    return candidate
+        return None
+    path = Path(ref[len("file://") :] if ref.startswith("file://") else ref)
+    path = path if path.is_absolute() else urdf_dir / path
+    return path if path.is_file() else None
+
+
+def _urdf(src: Path, dest: Path, taken: set[Path], report: dict[str, list[str]]) -> None:
+    """Copy a URDF and its meshes (module docstring)."""
+    text = src.read_text(encoding="utf-8")
+    try:
+        refs = {str(m.get("filename")) for m in ET.fromstring(text).iter("mesh")}
+    except ET.ParseError:  # the run built it, so this is unexpected: copy it as it is
+        refs = set()
+    refs.discard("None")
+    for ref in sorted(refs):
+        found = _find_mesh(ref, src.parent)
+        if found is None:
+            report["missing"].append(f"{src.name}: mesh {ref}")
+            continue
+        try:
+            rel = found.resolve().relative_to(src.parent.resolve())
+        except ValueError:
+            rel = None
+        if rel is not None and not ref.startswith(("package://", "file://", "/")):
+            target = dest.parent / rel  # same layout: the reference stays as it is
+        else:
+            target = _free(dest.parent / "meshes", found.name, taken)
+            new = target.relative_to(dest.parent).as_posix()
+            for quote in ('"', "'"):
+                text = text.replace(
+                    f"filename={quote}{ref}{quote}", f"filename={quote}{new}{quote}"
+                )
+        _copy(found, target)
+        report["copied"].append(target.relative_to(dest.parent.parent).as_posix())
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    if not (dest.exists() and dest.samefile(src)):
+        dest.write_text(text, encoding="utf-8")
+    report["copied"].append(dest.relative_to(dest.parent.parent).as_posix())
+
+
+def bundle_files(out: Path, table: dict[str, Any]) -> dict[str, list[str]]:
+    """Copy the files ``table`` (a resolved scenario, absolute paths) references into
+    ``out/files/`` and point its keys at the copies (module docstring).
+
+    Returns:
+        ``{"copied": [...], "missing": [...]}``: the files written (relative to ``out``) and
+        the references that could not be found (e.g. a mesh).
+    """
+    report: dict[str, list[str]] = {"copied": [], "missing": []}
+    taken: set[Path] = set()
+    for section, key in FILE_KEYS:
+        sub = table.get(section)
+        value = sub.get(key) if isinstance(sub, dict) else None
+        if not isinstance(value, str) or (key == "urdf" and _is_shipped_urdf(value)):
+            continue
+        src = Path(value)
+        if not src.is_file():
+            report["missing"].append(f"{section}.{key}: {value}")
+            continue
+        dest = _free(out / FOLDER, src.name, taken)
+        if key == "urdf":
+            _urdf(src, dest, taken, report)
+        else:
+            _copy(src, dest)
+            report["copied"].append(dest.relative_to(out).as_posix())
+        assert isinstance(sub, dict)
+        sub[key] = dest.relative_to(out).as_posix()
+    return report
+
+
+def relocate(table: dict[str, Any], root: Path) -> None:
+    """Point the file keys of ``table`` whose file is gone at the copy in ``root/files/``
+    (a moved campaign directory: ``definition.json`` names the original files), when there
+    is one; the others are left as they are (building then names the missing file)."""
+    for section, key in FILE_KEYS:
+        sub = table.get(section)
+        value = sub.get(key) if isinstance(sub, dict) else None
+        if not isinstance(value, str) or (key == "urdf" and _is_shipped_urdf(value)):
+            continue
+        path = Path(value)
+        if not path.is_absolute():
+            path = root / path
+        copy = root / FOLDER / Path(value).name
+        if not path.is_file() and copy.is_file():
+            assert isinstance(sub, dict)
+            sub[key] = str(copy.resolve())
