@@ -8,7 +8,7 @@ DSTAMP := $(VENV)/.installed-docs
 OUT    ?= out
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: demo test lint typecheck pytest bench clean chromium docs
+.PHONY: demo test lint typecheck pytest bench clean chromium egl docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -35,9 +35,22 @@ chromium:
 		echo "chromium not installed: the viewer's browser test will be skipped"; \
 	fi
 
+# MuJoCo renders offscreen through EGL (MUJOCO_GL=egl, docs/physics.md): Debian's libegl1 (the
+# loader), libegl-mesa0 (Mesa's EGL) and libgl1-mesa-dri (its software rasterizer) are
+# installed when libEGL is missing and running as root; otherwise the rendering tests skip.
+egl:
+	@if ! ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' && [ "$$(id -u)" = 0 ] && \
+		command -v apt-get >/dev/null; then \
+		echo "installing libegl1 libegl-mesa0 libgl1-mesa-dri (apt-get) for MuJoCo's offscreen rendering"; \
+		apt-get update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libegl1 libegl-mesa0 \
+			libgl1-mesa-dri >/dev/null 2>&1 || \
+		echo "EGL not installed: the MuJoCo rendering tests will be skipped"; \
+	fi
+
 ## make demo: create the environment, install, compile the kernels (redservo warmup, with
 ## progress), reproduce the papers and write figures to $(OUT)/
-demo: $(STAMP)
+demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
 ## make test: create the environment, install, lint (ruff), type-check (mypy) and run the tests
@@ -52,7 +65,7 @@ typecheck: $(TSTAMP)
 	@echo "== type-check: mypy on src/redservo (about a minute the first time, cached after)"
 	$(BIN)/mypy
 
-pytest: $(TSTAMP) chromium
+pytest: $(TSTAMP) chromium egl
 	@echo "== tests: pytest (a dot per test; the first tests compile the numba kernels)"
 	$(BIN)/python -m pytest -q
 
