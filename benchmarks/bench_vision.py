@@ -1,6 +1,9 @@
 """Benchmark: accuracy of the image detectors against ground truth, and time per frame (issue 12).
 
-    .venv/bin/python benchmarks/bench_vision.py [--poses N] [--repeat N] [--out bench_vision.json]
+    .venv/bin/python benchmarks/bench_vision.py [--poses N] [--repeat N] [--frames N]
+        [--only detectors|dots] [--out bench_vision.json]
+
+One function per section (``SECTIONS``); ``main`` runs them all (or ``--only``).
 
 For each Gaussian pixel noise σ (gray levels per pixel, 0-255 scale; objects
 differ from the background by 120-200 gray levels) the renderer draws random
@@ -18,6 +21,13 @@ Then the time per frame of render + detect + track for 4 dots (σ = 0.5, blur
 0.5 px), median over ``--repeat`` frames, and the same through
 ``ImageSensor.read``. Targets: dot RMS <= 0.1 px at σ = 0.5; render + detect
 <= 2 ms.
+
+Section ``dots`` (issue 19): :class:`redservo.vision.tracking.ImageDotTracker`
+on each sequence of :mod:`redservo.vision.dotseq` (640x480, ``--frames`` frames,
+σ = 2 gray levels, blur 0.7 px): the fraction of visible dot instances found,
+the frames dot 2 took to be re-acquired after reappearing (occlusion), the
+centroid RMS and worst error (pixels) and the tracker's median time per frame.
+Targets: found >= 99 %, re-acquired within 3 frames, RMS <= 0.1 px.
 """
 
 from __future__ import annotations
@@ -148,6 +158,66 @@ def bench_time(repeat: int) -> dict[str, float]:
     }
 
 
+def bench_dot_sequences(frames: int, size: tuple[int, int]) -> list[dict[str, Any]]:
+    """Issue 19: the image tracker through each failure mode (redservo.vision.dotseq), σ = 2."""
+    from redservo.vision.dotseq import SEQUENCE_KINDS, dot_sequence
+    from redservo.vision.tracking import ImageDotTracker
+
+    rows = []
+    for kind in SEQUENCE_KINDS:
+        print(f"  dot sequence {kind}: {frames} frames at {size[0]}x{size[1]}", flush=True)
+        scale = min(size) / 120.0
+        tracker = ImageDotTracker(4, max_size_px=30.0 * scale, max_jump_px=25.0 * scale)
+        visible = found = 0
+        errs: list[float] = []
+        times: list[float] = []
+        delays: list[int] = []
+        hidden_since: int | None = None
+        for k, fr in enumerate(dot_sequence(kind, frames, size=size, seed=k_seed(kind))):
+            t0 = time.perf_counter()
+            st = tracker.start(fr.image, fr.uv) if k == 0 else tracker.update(fr.image)
+            times.append(time.perf_counter() - t0)
+            visible += int(fr.visible.sum())
+            found += int((st.detected & fr.visible).sum())
+            errs.extend(np.hypot(*(st.uv - fr.uv).T)[st.detected])
+            if not fr.visible[2]:
+                hidden_since = k
+            elif hidden_since is not None and st.detected[2]:
+                delays.append(k - hidden_since - 1)
+                hidden_since = None
+        rows.append(
+            {
+                "kind": kind,
+                "found": found / visible,
+                "reacquire_frames": max(delays) if delays else None,
+                "rms_px": _rms(errs),
+                "max_px": float(np.max(errs)),
+                "ms": float(np.median(times)) * 1e3,
+            }
+        )
+    return rows
+
+
+def k_seed(kind: str) -> int:
+    """A fixed noise seed per sequence kind."""
+    return sum(map(ord, kind))
+
+
+def _dot_table(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "| sequence | dots found (target ≥ 99 %) | re-acquired after (frames, target ≤ 3) "
+        "| centroid RMS (px, target ≤ 0.1) | centroid worst (px) | ms per frame (median) |",
+        "|" + "---|" * 6,
+    ]
+    for r in rows:
+        delay = "—" if r["reacquire_frames"] is None else str(r["reacquire_frames"])
+        lines.append(
+            f"| {r['kind']} | {100 * r['found']:.2f} % | {delay} | {r['rms_px']:.4f} "
+            f"| {r['max_px']:.3f} | {r['ms']:.2f} |"
+        )
+    return "\n".join(lines)
+
+
 def _table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| σ (gray levels) | dot RMS (px) | dot max (px) | ellipse centre RMS (px) | ellipse area max rel "
@@ -166,12 +236,8 @@ def _table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--poses", type=int, default=40, help="random poses per detector and σ")
-    parser.add_argument("--repeat", type=int, default=500, help="frames timed")
-    parser.add_argument("--out", type=Path, default=Path("bench_vision.json"))
-    args = parser.parse_args()
+def run_detectors(args: argparse.Namespace) -> dict[str, Any]:
+    """Section 1: accuracy of the detectors on rendered poses, and the time per frame."""
     rows = []
     for sigma in SIGMAS:
         rng = np.random.default_rng(0)
@@ -189,7 +255,37 @@ def main() -> None:
         f"({args.repeat} frames); ImageSensor.read: {timing['sensor_read_ms']:.2f} ms "
         f"({os.cpu_count()} cores, shared)"
     )
-    args.out.write_text(json.dumps({"rows": rows, "timing": timing}, indent=2))
+    return {"rows": rows, "timing": timing}
+
+
+def run_dot_sequences(args: argparse.Namespace) -> dict[str, Any]:
+    """Section 2 (issue 19): dot tracking through the failure modes of real images."""
+    size = (640, 480)
+    print(f"\ndot tracking, {args.frames} frames per sequence at {size[0]}x{size[1]}, σ = 2:")
+    rows = bench_dot_sequences(args.frames, size)
+    print("\n" + _dot_table(rows))
+    return {"dot_sequences": rows}
+
+
+SECTIONS = {"detectors": run_detectors, "dots": run_dot_sequences}
+"""Every benchmark section, run in this order by :func:`main`."""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--poses", type=int, default=40, help="random poses per detector and σ")
+    parser.add_argument("--repeat", type=int, default=500, help="frames timed")
+    parser.add_argument("--frames", type=int, default=500, help="frames per dot sequence")
+    parser.add_argument(
+        "--only", choices=sorted(SECTIONS), action="append", help="run only these sections"
+    )
+    parser.add_argument("--out", type=Path, default=Path("bench_vision.json"))
+    args = parser.parse_args()
+    results: dict[str, Any] = {}
+    for name, run in SECTIONS.items():
+        if args.only is None or name in args.only:
+            results |= run(args)
+    args.out.write_text(json.dumps(results, indent=2))
 
 
 if __name__ == "__main__":
