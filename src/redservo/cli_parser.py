@@ -51,6 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
         add(sub, common)
     _add_warmup(sub, common)
     register(sub, common, int_in)
+    from redservo.cli_calibrate import register as register_calibrate
+
+    register_calibrate(sub, common)
     return p
 
 
