@@ -282,3 +282,115 @@ def test_the_drawn_flag_needs_the_links_purple_in_the_render() -> None:
     assert _shows_links(np.dstack([img, np.full(img.shape[:2], 255, np.uint8)]))  # RGBA
     img[50:55, 40:80] = (230, 159, 0)  # the targets' orange is not the robot
     assert not _shows_links(img)
+
+
+_MESH_URDF_TAIL = """
+  <joint name="extra_fixed" type="fixed">
+    <parent link="panda_link0"/>
+    <child link="extra_link"/>
+    <origin xyz="0.2 0 0" rpy="0 0 0"/>
+  </joint>
+  <link name="extra_link">
+    <visual>
+      <origin xyz="0 0 0.5" rpy="0 0 1.5707963267948966"/>
+      <geometry><mesh filename="package://myrobot/meshes/part.stl" scale="2 2 2"/></geometry>
+      <material name="red"><color rgba="1 0 0 1"/></material>
+    </visual>
+    <visual>
+      <geometry><mesh filename="../meshes/part.obj"/></geometry>
+    </visual>
+    <visual>
+      <geometry><mesh filename="meshes/missing.dae"/></geometry>
+    </visual>
+  </link>
+"""
+
+
+def _mesh_urdf(root: Path) -> Path:
+    """The shipped Panda URDF in ``root/myrobot/urdf/``, its base column an STL file (a 0.12 m
+    box), plus a link fixed to the base with an STL (``package://``), an OBJ and a missing DAE."""
+    trimesh = pytest.importorskip("trimesh", reason="meshes need trimesh (redservo[viewer])")
+    from redservo.robots import shipped_urdf
+
+    pkg = root / "myrobot"
+    (pkg / "meshes").mkdir(parents=True)
+    (pkg / "urdf").mkdir()
+    trimesh.creation.box(extents=(0.12, 0.12, 0.12)).export(pkg / "meshes" / "part.stl")
+    trimesh.creation.icosphere(subdivisions=1, radius=0.05).export(pkg / "meshes" / "part.obj")
+    text = shipped_urdf("panda").read_text(encoding="utf-8")
+    column = '<geometry><cylinder radius="0.06" length="0.333"/></geometry>'
+    assert column in text
+    text = text.replace(column, '<geometry><mesh filename="../meshes/part.stl"/></geometry>', 1)
+    text = text.replace("</robot>", _MESH_URDF_TAIL + "</robot>")
+    path = pkg / "urdf" / "robot.urdf"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_urdf_visuals_load_meshes_and_primitives(tmp_path: Path) -> None:
+    from redservo.viewer.meshes import urdf_visuals
+
+    path = _mesh_urdf(tmp_path)
+    got = urdf_visuals(path)
+    by_link: dict[str, list[Any]] = {}
+    for v in got.visuals:
+        by_link.setdefault(v.link, []).append(v)
+    column = by_link["panda_link0"][0]
+    assert column.source.endswith("part.stl") and column.faces.shape == (12, 3)
+    assert np.allclose(np.ptp(column.vertices, axis=0), 0.12, atol=1e-6)
+    assert column.color == (230, 230, 230)  # the file's named material "white"
+    stl, obj = by_link["extra_link"]
+    assert np.allclose(np.ptp(stl.vertices, axis=0), 0.24, atol=1e-6)  # scale="2 2 2"
+    assert stl.color == (255, 0, 0) and obj.color is None and obj.source.endswith("part.obj")
+    assert np.allclose(stl.lMv[:3, 3], [0, 0, 0.5])
+    assert np.allclose(stl.lMv[:3, :3] @ [1, 0, 0], [0, 1, 0], atol=1e-12)  # yaw π/2
+    assert any(v.source == "cylinder" for v in by_link["panda_link1"])  # primitives built
+    assert len(got.notes) == 1 and "1 mesh file(s) not found" in got.notes[0]
+    assert "missing.dae" in got.notes[0] and "sticks" in got.notes[0]
+    assert not urdf_visuals(path, {"panda_link0"}).notes  # only the links asked for
+    assert urdf_visuals(tmp_path / "nope.urdf").notes
+
+
+def test_viewer_draws_the_urdf_meshes_and_the_objects_as_they_are(tmp_path: Path) -> None:
+    """A URDF run is served with its visual meshes placed at bMl · lMv at every frame; the
+    objects are a tag (its squares), a sphere, a cylinder (a mesh) and points."""
+    pytest.importorskip("viser", reason="the viewer needs viser (redservo[viewer])")
+    pytest.importorskip("pinocchio", reason="URDF robots need Pinocchio (redservo[urdf])")
+    from redservo.experiment import build
+    from redservo.viewer.playback import Playback
+    from redservo.viewer.server import serve
+
+    urdf = _mesh_urdf(tmp_path)
+    sc = load_scenario("panda-urdf-4points")
+    data = {**sc.data, "simulation": {"max_iterations": 8}}
+    data["robot"] = {**data["robot"], "urdf": str(urdf)}
+    data["objects"] = [
+        *data["objects"],
+        {"name": "ball", "kind": "sphere", "radius": 0.03, "pose": {"translation": [0.5, 0, 0.2]}},
+        {
+            "name": "pipe",
+            "kind": "cylinder",
+            "radius": 0.02,
+            "pose": {"translation": [0.5, 0.2, 0.2]},
+        },
+        {"name": "marker", "kind": "tag", "size": 0.08, "pose": {"translation": [0.5, -0.2, 0.2]}},
+    ]
+    run_dir = tmp_path / "run"
+    build(parse_scenario(data, "meshes")).run().save(run_dir)
+    pb = Playback(load_run(run_dir))
+    session = serve(pb, port=_free_port(), block=False, max_frames=4)
+    try:
+        surfaces = session.handles["surfaces"]
+        kinds = [how[0] for _, how in surfaces]
+        assert kinds.count("visual") == 15 + 2  # the Panda's 15 visuals + the STL and OBJ
+        assert kinds.count("tag") == 2 and {"sphere", "cylinder", "points"} <= set(kinds)
+        assert any("missing.dae" in n for n in session.notes)
+        k = session.frames[-1]
+        session.show(len(session.frames) - 1)
+        fr = pb.frame(k)
+        for handle, how in surfaces:
+            if how[0] == "visual":
+                T = fr.links[how[1]] @ how[2]
+                assert np.allclose(handle.position, T[:3, 3], atol=1e-6), how[1]
+    finally:
+        session.stop()

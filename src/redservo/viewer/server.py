@@ -4,8 +4,10 @@ The page shows, in the robot base frame (metres, the grid is the base's x-y plan
 robot's links (purple) through its link frames, each joint axis as a short bar coloured by
 how close the joint is to its limits (blue: inside its thresholds; orange at the threshold,
 CM01 eq. 3; vermillion at the limit), the camera frustum with the camera image on it, the
-camera's path, and the target objects (green, the ``target`` colour of every figure). The side panel has the run's summary, a
-time slider, a play button, the camera image with the current (blue) and desired
+camera's path, and the target objects as they are (green, the ``target`` colour of every
+figure; :mod:`~redservo.viewer.surfaces`); a URDF robot also gets its visual meshes when the
+files are there (:mod:`~redservo.viewer.meshes`). The side panel has the run's summary, a
+time slider, a play button, the camera image with the current (sky blue) and desired
 (orange) features, and every joint's normalized position.
 
 Once a page has drawn the scene (the robot included), it carries a hidden element
@@ -21,6 +23,7 @@ Why viser: docs/decisions.md ("3-D viewer").
 from __future__ import annotations
 
 import itertools
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,6 +35,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.figstyle import role_rgb
 from redservo.viewer.playback import Frame, limit_color
+from redservo.viewer.surfaces import add_objects, add_visuals, place, robot_visuals
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.viewer.playback import Playback
@@ -71,6 +75,8 @@ class ViewerSession:
     frames: list[int]
     url: str
     handles: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    """What could not be drawn (e.g. a URDF's missing mesh files), printed by :func:`serve`."""
     playing: threading.Event = field(default_factory=threading.Event)
     stopped: threading.Event = field(default_factory=threading.Event)
 
@@ -128,14 +134,7 @@ def _update(s: ViewerSession, fr: Frame) -> None:
         img = camera_image(s.playback, fr.k, width=320)
         h["camera"].image = img
         h["image"].image = img
-        for name, kind, geo in fr.objects:
-            handle = h[f"obj:{name}"]
-            if kind == "points":
-                handle.points = geo.astype(np.float32)
-            elif kind == "sphere":
-                handle.position = geo[0]
-            else:
-                handle.points = geo[0][None].astype(np.float32)
+        place(h["surfaces"], fr)
         h["time"].content = (
             f"**iteration {fr.k}** of {len(s.playback) - 1}, t = {fr.t:.2f} s, "
             f"‖e1‖ = {s.playback.run.arrays['error_norm'][fr.k]:.3g}"
@@ -194,23 +193,11 @@ def _build_scene(s: ViewerSession) -> None:
         server.scene.add_line_segments(
             "/camera_path", segs, role_rgb("current"), thickness=0.004 * scale
         )
-    for name, kind, geo in first.objects:
-        if kind == "points":
-            h[f"obj:{name}"] = server.scene.add_point_cloud(
-                f"/objects/{name}",
-                geo.astype(np.float32),
-                TARGET_COLOR,
-                point_size=0.02 * scale,
-                point_shape="circle",
-            )
-        elif kind == "sphere":
-            h[f"obj:{name}"] = server.scene.add_icosphere(
-                f"/objects/{name}", radius=geo[1], color=TARGET_COLOR, position=geo[0], opacity=0.6
-            )
-        else:
-            h[f"obj:{name}"] = server.scene.add_line_segments(
-                f"/objects/{name}", geo[0][None], TARGET_COLOR, thickness=max(geo[1], 0.005) * 2
-            )
+    visuals = robot_visuals(pb, set(first.links))
+    s.notes.extend(visuals.notes)
+    h["surfaces"] = add_visuals(server, visuals, first) + add_objects(
+        server, pb, first, TARGET_COLOR, scale
+    )
     centre = allp.mean(axis=0)
     server.initial_camera.look_at = centre
     server.initial_camera.position = centre + np.array([1.1, -1.3, 0.8]) * scale
@@ -329,6 +316,8 @@ def serve(
     except BaseException:
         session.stop()
         raise
+    for note in session.notes:
+        print(f"view: {note}", file=sys.stderr, flush=True)
     if block:
         try:
             while True:
