@@ -14,6 +14,9 @@ import pytest
 pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
 
 from redservo import METHODS
+
+COMPILED = tuple(m for m in METHODS if m != "predictive")
+"""The methods with a compiled step (``predictive`` runs on the Python step: docs/predictive.md)."""
 from redservo.campaign import draw_sample, fastloop, load_campaign, run_campaign
 from redservo.campaign.engine import FAST_PATH
 from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
@@ -52,10 +55,10 @@ def test_campaign_rows_are_those_of_the_object_path(capsys: pytest.CaptureFixtur
     """cm01-gaze, every method, the shield off (sample 1 of seed 0 hits a limit): the same rows
     bit for bit, every run on the compiled loop."""
     d = _variant("cm01-gaze", "control.shield=false")
-    fast = run_campaign(d, samples=2, workers=1, progress=False)
+    fast = run_campaign(d, samples=2, methods=COMPILED, workers=1, progress=False)
     assert "object path" not in capsys.readouterr().err  # no run fell back, not even qp
-    slow = run_campaign(d, samples=2, workers=1, progress=False, fast=False)
-    assert len(fast.rows) == 2 * len(METHODS)
+    slow = run_campaign(d, samples=2, methods=COMPILED, workers=1, progress=False, fast=False)
+    assert len(fast.rows) == 2 * len(COMPILED)
     assert _same_rows(fast.rows, slow.rows)
     outcomes = {r["outcome"] for r in fast.rows}
     assert {"converged", "joint_limit"} <= outcomes
@@ -171,7 +174,7 @@ def test_summaries_and_flag_counts_match(sets: tuple[str, ...]) -> None:
     the CM01 start: actuator saturation, a depth error, the plain paper laws, no image check."""
     exp = build(apply_overrides(load_scenario("cm01-gaze"), list(sets)))
     flags: set[str] = set()
-    for method in METHODS:
+    for method in COMPILED:
         summary, path = fast_run(exp, method, None)
         assert path == FAST_PATH, (method, path)
         assert summary is not None
@@ -326,8 +329,9 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
 
 
 def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> None:
-    """Every shipped campaign, every method, two samples: every run on the compiled loop (no
-    fallback line, every row's path note the compiled loop's)."""
+    """Every shipped campaign, every method with a compiled step, two samples: every run on
+    the compiled loop (no fallback line, every row's path note the compiled loop's); the
+    ``predictive`` method runs on the Python step, and the campaign says so in one line."""
     from redservo.campaign.definition import shipped_campaigns
 
     for name in shipped_campaigns():
@@ -336,13 +340,18 @@ def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> N
             continue  # URDF robots are loaded by Pinocchio (checked where it is installed)
         for i in range(2):
             exp = build(draw_sample(d, 0, i).scenario)
-            for method in d.methods:
+            for method in (m for m in d.methods if m in COMPILED):
                 law = campaign_law(exp, method, d.method_options.get(method))
                 assert fastloop.fast_reason(exp, law) is None, (name, method)
                 summary, path = fast_run(exp, method, d.method_options.get(method))
                 assert path == FAST_PATH and summary is not None, (name, i, method, path)
-        run_campaign(d, samples=1, workers=1, progress=False)
+        run_campaign(d, samples=1, methods=COMPILED, workers=1, progress=False)
         assert "object path" not in capsys.readouterr().err, name
+    d = load_campaign("panda-near-limits")
+    run_campaign(d, samples=1, methods=["predictive"], workers=1, progress=False)
+    err = capsys.readouterr().err
+    line = "1 run(s) of predictive on the object path, not the compiled loop: method "
+    assert line + "'predictive' has no compiled step" in err
 
 
 def test_known_feedforward_kernel_is_the_controllers() -> None:

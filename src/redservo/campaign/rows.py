@@ -1,7 +1,9 @@
 """The columns of ``samples.csv``: one row per (sample, method), formatting and parsing.
 
 Columns and their types (``int``, ``float``, ``str``, ``bool``, ``int?`` = optional integer)
-are :func:`_columns`; joint indices (``limit_axis``) are 0-based, like every joint index
+are :func:`_columns`; ``reachable`` is ``True``/``False`` (the desired camera pose is
+reachable within the success margin, :mod:`redservo.campaign.reach`) or empty (the task
+gives no desired pose, or the sample could not be built); joint indices (``limit_axis``) are 0-based, like every joint index
 redservo shows. Floats are written as the shortest exact repr, so a row reads back bit for
 bit.
 """
@@ -35,6 +37,7 @@ def _columns(joint_names: Sequence[str]) -> list[tuple[str, str]]:
         ("depth_scale", "float"),
         *((f"hand_eye_t{a}", "float") for a in xyz),
         *((f"hand_eye_r{a}_deg", "float") for a in xyz),
+        ("reachable", "str"),
         ("outcome", "str"),
         ("success", "bool"),
         ("iterations", "int"),

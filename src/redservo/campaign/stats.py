@@ -78,6 +78,14 @@ class MethodStats(NamedTuple):
     """95th percentile over runs of the peak |q̇_i| / q̇_max,i."""
     flag_runs: tuple[tuple[str, int], ...] = ()
     """For each diagnostic flag, the number of runs in which it occurred."""
+    reachable_runs: int = -1
+    """Runs whose sample's goal is reachable (:mod:`redservo.campaign.reach`); -1: unknown
+    (no desired pose, or rows without the column)."""
+    reachable_successes: int = 0
+    """Successes among those runs."""
+    reach_ci_low: float = float("nan")
+    """Wilson 95 % interval of the success rate among the reachable runs."""
+    reach_ci_high: float = float("nan")
 
 
 STAT_COLUMNS = (
@@ -116,7 +124,15 @@ def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
         shield_runs=sum(int(r.get("shield_activations") or 0) > 0 for r in rows),
         velocity_runs=sum(int(r.get("velocity_violations") or 0) > 0 for r in rows),
         flag_runs=_flag_runs(rows),
+        reachable=reachable_column([str(r.get("reachable") or "") for r in rows]),
     )
+
+
+def reachable_column(values: Sequence[str]) -> np.ndarray | None:
+    """The ``reachable`` column as booleans, or None when no row knows it (empty strings)."""
+    if not any(values):
+        return None
+    return np.array([v == "True" for v in values], dtype=bool)
 
 
 def column_stats(
@@ -128,14 +144,20 @@ def column_stats(
     shield_runs: int,
     velocity_runs: int,
     flag_runs: tuple[tuple[str, int], ...],
+    reachable: np.ndarray | None = None,
 ) -> MethodStats:
     """:class:`MethodStats` of one method from its columns (one entry per run): ``success``,
     the number of runs of each outcome, the float columns of ``samples.csv`` named in
     :class:`MethodStats` (NaN: no value) and the counts of runs with the shield, a velocity
-    violation and each flag (:class:`redservo.campaign.table.RunTable`)."""
+    violation and each flag (:class:`redservo.campaign.table.RunTable`); ``reachable``: per
+    run, whether its goal is reachable (None: unknown)."""
     n = int(success.size)
     k = int(success.sum())
     lo, hi = wilson_interval(k, n)
+    nr, kr, rlo, rhi = -1, 0, float("nan"), float("nan")
+    if reachable is not None:
+        nr, kr = int(reachable.sum()), int((success & reachable).sum())
+        rlo, rhi = wilson_interval(kr, nr)
     named = ("converged", "joint_limit", "target_lost", "max_iterations")
     return MethodStats(
         method=method,
@@ -162,6 +184,10 @@ def column_stats(
         velocity_violation_runs=velocity_runs,
         peak_velocity_ratio_p95=_pct(cols["peak_velocity_ratio"], 95),
         flag_runs=flag_runs,
+        reachable_runs=nr,
+        reachable_successes=kr,
+        reach_ci_low=rlo,
+        reach_ci_high=rhi,
     )
 
 
@@ -181,18 +207,19 @@ def _g(v: float, fmt: str = ".3g") -> str:
 def stats_table(stats: Iterable[MethodStats]) -> str:
     """Return a markdown table, one row per method, of :class:`MethodStats`."""
     head = (
-        "| method | success [95% CI] | limit hits | shield runs | target lost | max. iter. | "
+        "| method | success [95% CI] | success among reachable [95% CI] | limit hits | shield runs | target lost | max. iter. | "
         "iterations med (p90) | peak q̇ med (p95) | p95 peak q̇/limit | "
         "peak cam. v (m/s) med (p95) | peak cam. ω (rad/s) med (p95) | discontinuity med | "
         "min margin med |\n"
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     )
     lines = []
     for s in stats:
         other = f" (+{s.other_failures} errors)" if s.other_failures else ""
         lines.append(
             f"| {s.method} | {s.successes}/{s.runs} = {_g(100 * s.success_rate, '.1f')} % "
-            f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {s.limit_hits} | "
+            f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {_reach(s)} | "
+            f"{s.limit_hits} | "
             f"{s.shield_runs} | {s.target_lost} | {s.max_iterations} | "
             f"{_g(s.iterations_median, '.0f')} ({_g(s.iterations_p90, '.0f')}) | "
             f"{_g(s.joint_speed_median)} ({_g(s.joint_speed_p95)}) | "
@@ -202,6 +229,17 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
             f"{_g(s.discontinuity_median)} | {_g(s.min_margin_median, '.3f')} |"
         )
     return head + "\n".join(lines)
+
+
+def _reach(s: MethodStats) -> str:
+    """The table's cell of the success among the reachable runs."""
+    if s.reachable_runs < 0:
+        return "—"
+    rate = 100 * s.reachable_successes / s.reachable_runs if s.reachable_runs else float("nan")
+    return (
+        f"{s.reachable_successes}/{s.reachable_runs} = {_g(rate, '.1f')} % "
+        f"[{100 * s.reach_ci_low:.1f}, {100 * s.reach_ci_high:.1f}]"
+    )
 
 
 def _sample_count(n: int, counts: Mapping[str, int]) -> str:

@@ -40,6 +40,8 @@ class RunTable:
         self.velocity = np.zeros(shape, dtype=bool)
         self.attempts = np.zeros(shape, dtype=np.int64)
         self.outcome = np.full(shape, -1, dtype=np.int16)
+        self.reach = np.full(shape, -1, dtype=np.int8)
+        """Per row: 1 reachable goal, 0 unreachable, -1 unknown (:mod:`~redservo.campaign.reach`)."""
         self.outcomes: list[str] = []
         self.values = {c: np.full(shape, np.nan) for c in FLOATS}
         self.flags: dict[str, np.ndarray] = {}
@@ -68,6 +70,8 @@ class RunTable:
         if outcome not in self.outcomes:
             self.outcomes.append(outcome)
         self.outcome[k, i] = self.outcomes.index(outcome)
+        reach = str(row.get("reachable") or "")
+        self.reach[k, i] = -1 if not reach else int(reach == "True")
         for c in FLOATS:
             v = row.get(c)
             self.values[c][k, i] = np.nan if v is None else float(v)
@@ -102,6 +106,7 @@ class RunTable:
         codes = self.outcome[k][have]
         counts = {o: int((codes == j).sum()) for j, o in enumerate(self.outcomes)}
         flags = {label: int(col[k][have].sum()) for label, col in self.flags.items()}
+        reach = self.reach[k][have]
         return column_stats(
             method,
             self.success[k][have],
@@ -110,6 +115,7 @@ class RunTable:
             shield_runs=int(self.shield[k][have].sum()),
             velocity_runs=int(self.velocity[k][have].sum()),
             flag_runs=tuple(sorted((lab, c) for lab, c in flags.items() if c)),
+            reachable=None if np.all(reach < 0) else reach == 1,
         )
 
     def box(self, tracking: bool) -> list[list[float]]:

@@ -154,6 +154,7 @@ def run_job(job: Job) -> JobResult:
             exp = build(s.scenario)
         except Exception:  # each run builds again and records the error in its row
             exp = None
+        params["reachable"] = _reachable(exp)
         for m in methods:
             opts = defn.method_options.get(m)
             task = _Task(
@@ -172,6 +173,15 @@ def run_job(job: Job) -> JobResult:
                 paths[(m, str(path))] += 1
             rows.append(row)
     return JobResult(rows, dict(paths))
+
+
+def _reachable(exp: Any) -> str:
+    """The ``reachable`` column of a sample: ``"True"``, ``"False"``, or ``""`` (no desired
+    pose, or no experiment) (:mod:`redservo.campaign.reach`)."""
+    from redservo.campaign.reach import reachable
+
+    ok = None if exp is None else reachable(exp)
+    return "" if ok is None else str(bool(ok))
 
 
 def merge(results: Sequence[JobResult]) -> JobResult:

@@ -68,6 +68,7 @@ from redservo.redundancy.predictive_model import (
     PointModel,
     Prediction,
     build_qp,
+    feature_ik,
     horizon,
     local_prediction,
     point_prediction,
@@ -123,6 +124,19 @@ class Predictive(Law):
             unit="px",
             low=0.0,
         ),
+        Option(
+            "goal_weight",
+            0.1,
+            doc="relative weight γ of the terminal joint goal ‖q_N - q*‖² (0: none)",
+            low=0.0,
+        ),
+        Option(
+            "replan",
+            50,
+            kind="int",
+            doc="periods between two searches of the joint goal q*",
+            low=1,
+        ),
         Option("sqp_iterations", 1, kind="int", doc="SQP iterations per period", low=1, high=20),
         Option("max_qp_iterations", 1000, kind="int", doc="daqp's iteration limit", low=1),
         Option(
@@ -142,6 +156,8 @@ class Predictive(Law):
     effort: float
     margin: float
     image_margin_px: float
+    goal_weight: float
+    replan: int
     sqp_iterations: int
     max_qp_iterations: int
     time_budget: float | None
@@ -153,6 +169,8 @@ class Predictive(Law):
         self._fallback = make_law("qp", margin=self.margin)
         self._camera = Camera()
         self._U: FloatArray | None = None
+        self._goal: FloatArray | None = None
+        self._calls = 0
         self._obs: tuple[PointModel, FloatArray] | None = None
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
@@ -175,6 +193,8 @@ class Predictive(Law):
         """Forget the warm start and the observation."""
         self._U = None
         self._obs = None
+        self._goal = None
+        self._calls = 0
         self.last_start = self.last_plan = None
 
     def bind_camera(self, camera: Camera) -> None:
@@ -215,6 +235,9 @@ class Predictive(Law):
             pm, Pc = obs
             bMc = pm.robot.kinematics(x.q, check_limits=False)[0]
             model = pm._replace(P_b=Pc @ bMc[:3, :3].T + bMc[:3, 3])
+            if self.goal_weight > 0 and self._calls % self.replan == 0:
+                self._goal = self._search_goal(model, x)
+        self._calls += 1
         t0 = time.perf_counter()
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
@@ -249,6 +272,21 @@ class Predictive(Law):
         prev = np.zeros(n) if x.qdot_prev is None else x.qdot_prev
         return np.tile(prev, (Nc, 1))
 
+    def _band(self, x: LawInputs) -> FloatArray:
+        lim = x.limits
+        return np.maximum(self.margin * (lim.q_max - lim.q_min), lim.margin_abs)
+
+    def _search_goal(self, model: PointModel, x: LawInputs) -> FloatArray | None:
+        """The joint goal ``q*`` (docs/predictive.md, "Joint goal"): feature-space inverse
+        kinematics within the limits less the margin, from ``q`` then six starts around it
+        (normal, 15 % of each joint's range, generator seeded with 0)."""
+        band = self._band(x)
+        lo, hi = x.limits.q_min + band, x.limits.q_max - band
+        gen = np.random.default_rng(0)
+        span = x.limits.q_max - x.limits.q_min
+        seeds = [x.q] + [x.q + gen.normal(0.0, 0.15, x.q.shape) * span for _ in range(6)]
+        return feature_ik(model, seeds, lo, hi)
+
     def _qp(self, x: LawInputs, U: FloatArray, model: PointModel | None) -> QP | None:
         hz, lim = self._hz, x.limits
         pred: Prediction | None
@@ -258,8 +296,7 @@ class Predictive(Law):
                 return None
         else:
             pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
-        rng = lim.q_max - lim.q_min
-        band = np.maximum(self.margin * rng, lim.margin_abs)
+        band = self._band(x)
         cam, mpx = self._camera, self.image_margin_px
         s_lo = s_hi = None
         if pred.s is not None:
@@ -271,10 +308,13 @@ class Predictive(Law):
         sigma = float(np.linalg.norm(x.J1, 2)) if x.J1.size else 1.0
         rho = self.effort * (x.dt * max(sigma, 1e-9)) ** 2
         ff = None if x.de1_dt is None else x.de1_dt
+        goal = None
+        if model is not None and self._goal is not None:
+            goal = (self._goal, self.goal_weight * sigma**2)
         return build_qp(
             pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
             v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
-            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff,
+            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal,
         )  # fmt: skip
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:

@@ -163,6 +163,7 @@ def build_qp(
     s_hi: FloatArray | None,
     effort: float,
     ff: FloatArray | None,
+    goal: tuple[FloatArray, float] | None = None,
 ) -> QP:
     """The QP of one SQP iteration (docs/predictive.md, "Formulation").
 
@@ -170,7 +171,8 @@ def build_qp(
     simple bounds from the velocity limits and, on ``u_0``, the acceleration limit from
     ``qdot_prev``; rows: joint positions at the block ends within ``[q_lo, q_hi]``,
     acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period.
-    ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``.
+    ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``;
+    ``goal = (q*, γ)`` adds the terminal cost ``γ ‖q_N - q*‖²``.
     """
     N, Nc = hz.N, hz.Nc
     n = q0.shape[0]
@@ -185,6 +187,10 @@ def build_qp(
             rk = rk + k * dt * ff
         H += Ak.T @ Ak / N
         f += Ak.T @ rk / N
+    if goal is not None:
+        AN = _block(hz, N, np.eye(n), dt)
+        H += goal[1] * AN.T @ AN
+        f += goal[1] * AN.T @ (q0 - goal[0])
     v = np.full(n, BIG) if v_max is None else v_max
     lo, hi = np.tile(-v, Nc), np.tile(v, Nc)
     if a_max is not None and qdot_prev is not None:
@@ -214,3 +220,33 @@ def build_qp(
             blo.append(lo_s - base)
             bhi.append(hi_s - base)
     return QP(H, f, lo, hi, np.vstack(rows), np.concatenate(blo), np.concatenate(bhi))
+
+
+def feature_ik(
+    model: PointModel,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    iterations: int = 100,
+    tol: float = 1e-5,
+) -> FloatArray | None:
+    """A joint configuration within ``[lo, hi]`` whose predicted task error is ~0: projected
+    damped least squares on ``e(q) = C (s(q) - s*)`` from each seed in turn, the first that
+    converges (``‖e‖ < tol``, normalized image units) is returned; None if none does."""
+    hz = horizon(1, 1)
+    for seed in seeds:
+        q = np.clip(seed, lo, hi)
+        for _ in range(iterations):
+            pred = point_prediction(model, q, np.zeros((1, q.shape[0])), hz, 0.0)
+            if pred is None:
+                break
+            e, G = pred.e[0], pred.G[0]
+            if float(np.linalg.norm(e)) < tol:
+                return q
+            step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
+            size = float(np.max(np.abs(step)))
+            if size > 0.3:
+                step *= 0.3 / size
+            q = np.clip(q + step, lo, hi)
+    return None
