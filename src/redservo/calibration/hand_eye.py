@@ -263,5 +263,5 @@ def pose_toml(result: HandEyeResult) -> str:
         f"{result.trans_rms_m * 1e3:.3g} mm RMS ({result.trans_max_m * 1e3:.3g} max)\n"
     )
     if result.mount == "hand":
-        return head + f"[robot]\neMc = {pose}   # camera pose in the end-effector frame\n"
+        return head + f"[robot]\neMc = {pose}   # camera in the end-effector frame (URDF robots)\n"
     return head + f'[camera]\nmount = "world"\npose = {pose}   # wMc, the fixed camera\n'

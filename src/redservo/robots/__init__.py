@@ -22,6 +22,7 @@ from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.robots.afma6 import Afma6
 from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import DHLink, DHRobot
+from redservo.robots.eye_to_hand import EyeToHandRobot
 from redservo.robots.humanoid import Humanoid9
 from redservo.robots.panda import Panda
 
@@ -33,6 +34,7 @@ __all__ = [
     "Afma6",
     "DHLink",
     "DHRobot",
+    "EyeToHandRobot",
     "Humanoid9",
     "JointType",
     "Panda",
