@@ -166,8 +166,7 @@ def bench_dot_sequences(frames: int, size: tuple[int, int]) -> list[dict[str, An
     rows = []
     for kind in SEQUENCE_KINDS:
         print(f"  dot sequence {kind}: {frames} frames at {size[0]}x{size[1]}", flush=True)
-        scale = min(size) / 120.0
-        tracker = ImageDotTracker(4, max_size_px=30.0 * scale, max_jump_px=25.0 * scale)
+        tracker = ImageDotTracker(4)  # the defaults: dots <= 30 px, motion <= 25 px/frame
         visible = found = 0
         errs: list[float] = []
         times: list[float] = []

@@ -136,3 +136,44 @@ def test_ellipse_inside_a_dark_square_on_bright_paper() -> None:
     meas, why = detect_ellipse(img8, Optics(Camera()), near_uv=(78.0, 58.0))
     assert meas is not None, why  # RETR_EXTERNAL saw only the paper
     assert np.hypot(meas.uv[0] - 80.3, meas.uv[1] - 60.6) < 0.05
+
+
+def _frame(discs: list[tuple[float, float]], r: float = 3.5) -> np.ndarray:
+    img = np.full((120, 160), 35.0, np.float32)
+    for u, v in discs:
+        _paint_disc(img, np.array([u, v]), r, 225.0)
+    return np.clip(img + np.random.default_rng(len(discs)).normal(0, 2, img.shape), 0, 255).astype(
+        np.uint8
+    )
+
+
+def test_a_lone_dot_is_reacquired_in_a_growing_window() -> None:
+    # No other dot to predict it from: the window around its coasting prediction
+    # grows each frame it stays lost until it holds the dot, 90 px away.
+    tracker = ImageDotTracker(1)
+    tracker.start(_frame([(40.0, 60.0)]), [[40.0, 60.0]])
+    found_at = None
+    for k in range(1, 8):
+        st = tracker.update(_frame([] if k < 3 else [(130.0, 60.0)]))
+        if k < 3:
+            assert st.reasons[0] == "out_of_window"
+        elif st.detected[0]:
+            found_at = k
+            break
+    assert found_at is not None and found_at - 3 <= 3
+    assert np.hypot(*(st.uv[0] - [130.0, 60.0])) < 0.1
+
+
+def test_reacquisition_respects_the_geometry_of_the_other_dots() -> None:
+    square = [(50.0, 30.0), (110.0, 30.0), (110.0, 90.0), (50.0, 90.0)]
+    tracker = ImageDotTracker(4)
+    tracker.start(_frame(square), square)
+    tracker.update(_frame(square))
+    decoy = (110.0 - 25.0, 90.0)  # 25 px from dot 2's place, inside its search window
+    for _ in range(4):
+        st = tracker.update(_frame([*square[:2], square[3], decoy]))
+        assert not st.detected[2], "the decoy, off the target's geometry, was taken for dot 2"
+        assert st.detected[[0, 1, 3]].all()
+    st = tracker.update(_frame([*square, decoy]))
+    assert st.detected.all()
+    assert np.abs(st.uv - np.array(square)).max() < 0.1

@@ -18,7 +18,8 @@ last one. Per frame, for each dot:
 3. **Gray-level range**: with ``L`` the dot's plateau and ``b`` its background at
    the last frame it was found, the window is thresholded at
    ``b + f (L - b)`` for ``f = 0.5, 0.65, 0.8, 0.9`` in turn, then at the window's
-   Otsu level, until a blob passes the tests: the higher levels separate a dot
+   Otsu level (when the window spans half the dot's contrast: not in pure
+   background, whose noise Otsu would split), until a blob passes the tests: the higher levels separate a dot
    from a background brighter than the midway level (ViSP's narrow gray-level
    range around the dot's mean). Dark dots use the mirrored range.
 4. **Tests**, in order, on the components nearest the prediction (within the
@@ -37,13 +38,17 @@ last one. Per frame, for each dot:
 5. **Adaptation**: a found dot's plateau, background and (at the first level)
    area become its references for the next frame.
 
-Tracked dots are handled first, in index order, then lost ones (so that their
-geometric prediction uses this frame's positions). The dot order never changes.
+Tracked dots are handled first, in index order; a tracked dot found farther from
+the position the other found dots (two or more) give it than that gate is refused
+and searched again as a lost dot (``"off_geometry"`` if not found: a digit or
+another blob within ``max_jump_px``); then the lost ones (so that their geometric
+prediction uses this frame's positions). The dot order never changes.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -67,6 +72,7 @@ LOSS_REASONS = (
     "centroid_outside_blob",
     "low_contrast",
     "merged_with_dot",
+    "off_geometry",
     "not_started",
 )
 """Every reason a dot can be lost for in a frame (module docstring)."""
@@ -185,18 +191,23 @@ class ImageDotTracker:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
         img = _check_image(image)
         reasons = [""] * self.n_dots
-        taken: list[tuple[FloatArray, float]] = []
-        tracked = [i for i, d in enumerate(self._dots) if d.lost == 0]
-        for i in tracked:
+        taken: dict[int, tuple[FloatArray, float]] = {}
+        before = {i: replace(d) for i, d in enumerate(self._dots) if d.lost == 0}
+        for i in before:
             d = self._dots[i]
             pred = d.uv + d.vel
             base = self.max_jump_px + d.size + self.pad_px + 3.0
-            blob, why, first = self._search(img, d, pred, base, self.max_jump_px + d.size, taken)
-            reasons[i] = self._finish(d, pred, blob, why, first, taken)
-        found = [i for i in tracked if self._dots[i].lost == 0]
+            gate = self.max_jump_px + d.size
+            blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
+            reasons[i] = self._finish(i, pred, blob, why, first, taken)
+        refused = self._off_geometry(taken)
+        for i in refused:
+            self._dots[i] = before[i]
+            del taken[i]
+        found = sorted(taken)
         geo = self._geometry(found)
         for i, d in enumerate(self._dots):
-            if i in tracked:
+            if i in before and i not in refused:
                 continue
             pred = d.uv + d.vel
             size = d.size if np.isfinite(d.size) else self.max_size_px
@@ -211,23 +222,40 @@ class ImageDotTracker:
                 reasons[i] = "not_started"
                 d.lost += 1
                 continue
-            blob, why, first = self._search(img, d, pred, half, gate, taken)
-            reasons[i] = self._finish(d, pred, blob, why, first, taken)
+            blob, why, first = self._search(img, d, pred, half, gate, list(taken.values()))
+            reasons[i] = self._finish(i, pred, blob, why, first, taken)
+            if i in refused and reasons[i]:
+                reasons[i] = "off_geometry"
         if all(d.lost == 0 for d in self._dots):
             self._ref = np.array([d.uv for d in self._dots])
         return self._state(reasons)
+
+    def _off_geometry(self, taken: dict[int, tuple[FloatArray, float]]) -> list[int]:
+        """Dots found this frame far from where the other found dots (>= 2) put them."""
+        refused = []
+        for i in sorted(taken):
+            others = [j for j in taken if j != i]
+            geo = self._geometry(others) if len(others) >= 2 else None
+            if geo is None:
+                continue
+            size = taken[i][1]
+            gate = max(2.0 * size, self.geometry_tol * geo[1])
+            if float(np.hypot(*(taken[i][0] - geo[0][i]))) > gate:
+                refused.append(i)
+        return refused
 
     # -- internals ---------------------------------------------------------------------
 
     def _finish(
         self,
-        d: _Dot,
+        i: int,
         pred: FloatArray,
         blob: Blob | None,
         why: str,
         first: bool,
-        taken: list[tuple[FloatArray, float]],
+        taken: dict[int, tuple[FloatArray, float]],
     ) -> str:
+        d = self._dots[i]
         if blob is None:
             d.uv = pred
             d.lost += 1
@@ -235,7 +263,7 @@ class ImageDotTracker:
         old, was_found = d.uv.copy(), d.lost == 0
         self._accept(d, blob, adapt_area=first)
         d.vel = d.uv - old if was_found else np.zeros(2)
-        taken.append((d.uv.copy(), float(blob.size)))
+        taken[i] = (d.uv.copy(), float(blob.size))
         return ""
 
     def _accept(self, d: _Dot, blob: Blob, adapt_area: bool) -> None:
@@ -262,15 +290,22 @@ class ImageDotTracker:
         spread = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
         return np.column_stack([z.real, z.imag]), spread
 
-    def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> list[float]:
+    def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> Iterator[float]:
+        """The gray levels to try, in order (module docstring; Otsu computed only if reached)."""
         cv2 = require_cv2()
-        otsu, _ = cv2.threshold(win, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
-        if not (np.isfinite(d.level) and np.isfinite(d.background)):
+        known = bool(np.isfinite(d.level) and np.isfinite(d.background))
+        if known:
+            c = d.level - d.background
+            yield from (d.background + f * c for f in _LEVELS)
+            smooth = cv2.blur(win, (3, 3))
+            if float(smooth.max()) - float(smooth.min()) < 0.5 * abs(c):
+                return  # nothing in the window has the dot's contrast: no Otsu split of noise
+        otsu = float(cv2.threshold(win, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)[0])
+        yield otsu
+        if not known:
             smooth = cv2.blur(win, (3, 3))
             top = float(smooth.max() if self.polarity == "bright" else smooth.min())
-            return [float(otsu) + f * (top - float(otsu)) for f in (0.0, 0.4, 0.6)]
-        c = d.level - d.background
-        return [d.background + f * c for f in _LEVELS] + [float(otsu)]
+            yield from (otsu + f * (top - otsu) for f in (0.4, 0.6))
 
     def _search(
         self,
