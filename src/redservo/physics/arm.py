@@ -54,11 +54,15 @@ class TrackingStats:
     def __init__(self, n: int) -> None:
         self.peak = np.zeros(n)
         """(n,) largest ``|q̇ − q̇_cmd|`` over every physics step so far."""
+        self.peak_speed = np.zeros(n)
+        """(n,) largest ``|q̇|`` the arm reached (to compare with ``qdot_max``)."""
         self._sq = np.zeros(n)
         self.steps = 0
         """Physics steps recorded."""
 
-    def add(self, err: FloatArray) -> None:
+    def add(self, err: FloatArray, qdot: FloatArray) -> None:
+        """Record one physics step's error ``q̇ − q̇_cmd`` and velocity ``q̇`` (n,)."""
+        np.maximum(self.peak_speed, np.abs(qdot), out=self.peak_speed)
         a = np.abs(err)
         np.maximum(self.peak, a, out=self.peak)
         self._sq += a * a
@@ -114,9 +118,12 @@ class MujocoArm:
         self.tracking_time = float(tracking_time)
         wMb = np.eye(4) if scene is None else scene.wMb
         arm_xml, self.joint_names = robot_bodies(robot, self.chain, self.camera)
-        objects, self.drawn, self.skipped = ("", [], []) if scene is None else scene_bodies(scene)
-        self.xml = self._xml(arm_xml, objects, wMb, shadows)
-        self.model = self.mj.MjModel.from_xml_string(self.xml)
+        files: dict[str, bytes] = {}
+        objects, textures, self.drawn, self.skipped = (
+            ("", "", [], []) if scene is None else scene_bodies(scene, files)
+        )
+        self.xml = self._xml(arm_xml, objects, textures, wMb, shadows)
+        self.model = self.mj.MjModel.from_xml_string(self.xml, assets=files)
         self.data = self.mj.MjData(self.model)
         self._qadr = np.array([self.model.joint(n).qposadr[0] for n in self.joint_names])
         self._vadr = np.array([self.model.joint(n).dofadr[0] for n in self.joint_names])
@@ -133,7 +140,7 @@ class MujocoArm:
 
     # -- model ---------------------------------------------------------------------------------
 
-    def _xml(self, arm: str, objects: str, wMb: FloatArray, shadows: bool) -> str:
+    def _xml(self, arm: str, objects: str, textures: str, wMb: FloatArray, shadows: bool) -> str:
         c = self.camera
         h = self.timestep
         # A spot light 1.5 m above the point midway between the base and the first object.
@@ -153,7 +160,7 @@ class MujocoArm:
             '<headlight ambient="0.2 0.2 0.2" diffuse="0.25 0.25 0.25" specular="0 0 0"/>'
             f'<global offwidth="{c.width}" offheight="{c.height}"/></visual>'
             '<default><geom contype="0" conaffinity="0" density="2000"/></default>'
-            f"{_ASSETS}<worldbody>"
+            f"{_ASSETS.replace('</asset>', textures + '</asset>')}<worldbody>"
             f'<light name="sun" pos="{light[0]:.6g} {light[1]:.6g} {light[2]:.6g}" '
             f'dir="{-0.3} {-0.2} {-1.5}" diffuse="0.5 0.5 0.48" specular="0.1 0.1 0.1" '
             f'cutoff="60" castshadow="{str(shadows).lower()}"/>'
@@ -213,11 +220,11 @@ class MujocoArm:
         steps = max(round(duration / self.timestep), 1)
         mj, m, d = self.mj, self.model, self.data
         d.ctrl[:] = self.chain.T @ cmd
-        ctrl = d.ctrl.copy()
         vadr = self._vadr
         for _ in range(steps):
             mj.mj_step(m, d)
-            self.tracking.add(self._Tinv @ (d.qvel[vadr] - ctrl))
+            qdot = self._Tinv @ d.qvel[vadr]
+            self.tracking.add(qdot - cmd, qdot)
         mj.mj_kinematics(m, d)  # mj_step leaves the poses of the step's start
 
     def camera_pose(self) -> FloatArray:

@@ -9,7 +9,9 @@ the image sensor's own pipeline: the dot detector (:func:`redservo.vision.dots.d
 dark dots below :data:`DOT_THRESHOLD`), the tracker that never swaps dots, the moment
 features, the depth policies and the ``feature_lost`` rule (docs/vision.md).
 
-Measured terms: point and moment features of dot targets (point sets). Spheres, cylinders
+Measured terms: point and moment features of dot targets (point sets), and a tag's corners
+and pose features (:mod:`redservo.vision.tag_sensor`: OpenCV's decoder and our corner
+refinement, on MuJoCo's textured card). Spheres, cylinders
 and lines are drawn but not measured (their detectors' thresholds assume our renderer's gray
 levels): a task observing one is refused with a :class:`~redservo.errors.ConfigurationError`.
 
@@ -31,7 +33,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.features import MomentFeatures, PointFeature
 from redservo.physics.arm import MujocoArm
-from redservo.scene import Scene
+from redservo.scene import Scene, Tag
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
 from redservo.vision.optics import require_cv2
@@ -123,10 +125,11 @@ class MujocoCamera(ImageSensor):
 
     def _plan(self, task: VisualTask, scene: Scene) -> None:
         for i, term in enumerate(task.terms):
-            if not isinstance(term.feature, PointFeature | MomentFeatures):
+            on_tag = isinstance(scene.object(term.target), Tag)
+            if not (on_tag or isinstance(term.feature, PointFeature | MomentFeatures)):
                 raise ConfigurationError(
                     f"term {i}: the MuJoCo camera measures point and moment features of dot "
-                    f"targets, not {type(term.feature).__name__}",
+                    f"targets and the features of tags, not {type(term.feature).__name__}",
                     argument="features",
                 )
             if term.target in self.arm.skipped or term.target not in self.arm.drawn:

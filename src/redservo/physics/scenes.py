@@ -9,6 +9,12 @@ each frame is rendered, so moving targets move in the images too:
   between two dots, at most 1 cm (a choice: large enough to be seen at a metre, small
   enough that the projected disc's centroid stays within a few hundredths of a pixel of
   the projected centre);
+* a :class:`~redservo.scene.Tag` is its printed marker (OpenCV's bit pattern,
+  :func:`redservo.vision.tag_render.tag_bits`, 32 texels per cell) on white paper one cell
+  wider on every side, a texture on a 0.2 mm card whose ``+z`` face is the printed side of the
+  tag frame (MuJoCo maps a 2-D texture's columns along the face's ``+x`` and its rows along
+  ``−y``; the tag frame wants the marker's columns along ``−x`` and rows along ``+y``, so the
+  marker image is turned by π);
 * a :class:`~redservo.scene.Sphere` is a grey sphere, a
   :class:`~redservo.scene.Cylinder` a 2 m long grey cylinder along its axis.
 
@@ -28,9 +34,12 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.physics.mjcf import _vec, xml_pose
-from redservo.scene import Cylinder, PointSet, Scene, Sphere
+from redservo.scene import Cylinder, PointSet, Scene, Sphere, Tag
+from redservo.vision.tag_render import tag_bits
 
-__all__ = ["PAPER_HALF_THICKNESS", "dot_radius", "scene_bodies", "set_poses"]
+__all__ = ["PAPER_HALF_THICKNESS", "dot_radius", "scene_bodies", "set_poses", "tag_texture"]
+
+_TEXELS_PER_CELL = 32
 
 PAPER_HALF_THICKNESS = 0.0001
 """Half thickness of the paper (m): its faces are 0.1 mm from the dots' plane."""
@@ -88,15 +97,56 @@ def _points_body(obj: PointSet, paper_margin: float) -> list[str] | None:
     return out
 
 
-def scene_bodies(scene: Scene, *, paper_margin: float = 0.05) -> tuple[str, list[str], list[str]]:
-    """MJCF mocap bodies of the scene's objects, the names drawn and the names skipped."""
+def tag_texture(tag: Tag) -> bytes:
+    """The PNG of a tag's printed card (module docstring), as MuJoCo's texture file."""
+    from redservo.vision.optics import require_cv2
+    from redservo.vision.tag_render import tag_bits
+
+    cv2 = require_cv2()
+    bits = tag_bits(tag.family, tag.tag_id)  # (N, N), True = black, row 0 at the top
+    card = np.full((bits.shape[0] + 2,) * 2, 255, dtype=np.uint8)
+    card[1:-1, 1:-1] = np.where(bits, 0, 255)
+    img = np.kron(card[::-1, ::-1], np.ones((_TEXELS_PER_CELL,) * 2, dtype=np.uint8))
+    ok, png = cv2.imencode(".png", np.ascontiguousarray(img))
+    assert ok
+    return bytes(png.tobytes())
+
+
+def _tag_geom(tag: Tag, assets: dict[str, bytes]) -> tuple[str, str]:
+    """(asset XML, geom XML) of a tag's card."""
+    key = f"tag_{tag.family}_{tag.tag_id}"
+    assets[f"{key}.png"] = tag_texture(tag)
+    n = tag_bits(tag.family, tag.tag_id).shape[0]
+    half = 0.5 * tag.size * (n + 2) / n
+    asset = (
+        f'<texture name="{key}" type="2d" file="{key}.png"/>'
+        f'<material name="{key}" texture="{key}" specular="0.05" shininess="0.1"/>'
+    )
+    geom = (
+        f'<geom name="{tag.name}/card" type="box" size="{half:.9g} {half:.9g} '
+        f'{PAPER_HALF_THICKNESS}" material="{key}"/>'
+    )
+    return asset, geom
+
+
+def scene_bodies(
+    scene: Scene, assets: dict[str, bytes] | None = None, *, paper_margin: float = 0.05
+) -> tuple[str, str, list[str], list[str]]:
+    """MJCF mocap bodies of the scene's objects, their ``<asset>`` entries, the names drawn and
+    the names skipped; texture files go into ``assets`` (name → bytes, for ``from_xml_string``)."""
+    files = {} if assets is None else assets
+    asset_xml: list[str] = []
     xml: list[str] = []
     drawn: list[str] = []
     skipped: list[str] = []
     for name in scene.names:
         obj = scene.object(name)
         geoms: list[str] | None = None
-        if isinstance(obj, PointSet):
+        if isinstance(obj, Tag):
+            asset, geom = _tag_geom(obj, files)
+            asset_xml.append(asset)
+            geoms = [geom]
+        elif isinstance(obj, PointSet):
             geoms = _points_body(obj, paper_margin)
         elif isinstance(obj, Sphere):
             geoms = [
@@ -115,7 +165,7 @@ def scene_bodies(scene: Scene, *, paper_margin: float = 0.05) -> tuple[str, list
         wMo = scene.wMo(name, 0.0)
         xml.append(f'<body name="obj:{name}" mocap="true" {xml_pose(wMo)}>{"".join(geoms)}</body>')
         drawn.append(name)
-    return "".join(xml), drawn, skipped
+    return "".join(xml), "".join(asset_xml), drawn, skipped
 
 
 def set_poses(model: Any, data: Any, scene: Scene, names: Sequence[str], t: float) -> None:

@@ -163,6 +163,7 @@ def scenario_reference() -> str:
         ("`[occlusion]`", s.OcclusionSpec),
         ("`[sensor]`", s.SensorSpec),
         ("`[actuators]`", s.ActuatorsSpec),
+        ("`[simulator]`", s.SimulatorSpec),
     ):
         parts.append(_section(title, model))
         if model is s.ControlSpec:

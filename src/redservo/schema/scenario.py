@@ -25,6 +25,7 @@ from redservo.schema.base import (
 )
 from redservo.schema.features import AnyFeature
 from redservo.schema.scene import AnyObject, Pose
+from redservo.schema.simulator import SimulatorSpec
 from redservo.task import DepthMode
 
 __all__ = [
@@ -399,27 +400,6 @@ class ActuatorsSpec(Table):
         Field(0.0, description="encoder noise std (rad or m)")
     )
     seed: int | None = integer(None, ge=0, le=SEED_MAX, description="seed of the encoder noise")
-
-
-class SimulatorSpec(Table):
-    """Which simulator runs the scenario: ``kinematic`` (``q ← q + q̇ dt``, or the
-    ``[actuators]`` model) or ``mujoco`` (the arm's dynamics in MuJoCo, extra
-    ``redservo[mujoco]``, docs/physics.md); with ``mujoco``, ``camera = "rendered"`` measures
-    the features in MuJoCo's camera image (with ``[sensor]``'s noise_px, blur_px, seed,
-    depth, max_lost_frames), ``"ideal"`` measures them exactly at MuJoCo's camera pose."""
-
-    kind: Literal["kinematic", "mujoco"] = choice(
-        "kinematic", what="simulator", description="kinematic | mujoco"
-    )
-    camera: Literal["ideal", "rendered"] = choice(
-        "ideal", what="simulator camera", description="mujoco: ideal | rendered"
-    )
-    timestep: float = num(0.001, gt=0.0, le=0.1, description="mujoco: physics step (s)")
-    tracking_time: float = num(
-        0.02, gt=0.0, le=1.0, description="mujoco: time constant of the joint velocity servo (s)"
-    )
-    shadows: bool = Field(True, description="mujoco: the light casts shadows")
-    draw_arm: bool = Field(True, description="mujoco: the arm is drawn (it may hide the target)")
 
 
 class ScenarioSpec(Table):

@@ -1,0 +1,77 @@
+"""MuJoCo backend speed per 640x480 frame: physics step, render, detect (docs/physics.md).
+
+The shipped ``panda-mujoco-4points`` scenario, the arm moving under a constant command: per
+control period (40 ms) the physics advances 40 steps of 1 ms, then the camera renders
+(MuJoCo, EGL, shadows) and the image sensor detects and tracks the dots. Target (issue 23):
+physics + render + detect <= 60 ms per frame. Medians over ``--frames`` frames.
+
+    .venv/bin/python benchmarks/bench_mujoco.py [--frames 60]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+import numpy as np
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=60)
+    ap.add_argument("--no-shadows", action="store_true")
+    args = ap.parse_args(argv)
+    from redservo.experiment import build
+    from redservo.physics.camera import MujocoCamera
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sets = [] if not args.no_shadows else ["simulator.shadows=false"]
+    exp = build(apply_overrides(load_scenario("panda-mujoco-4points"), sets))
+    cam = exp.sensor
+    assert isinstance(cam, MujocoCamera)
+    arm = cam.arm
+    arm.set_q(exp.q0)
+    cam.reset()
+    cam._plan(exp.task, exp.scene)  # the dot tracker of the task (what read() does first)
+    cmd = np.zeros(exp.robot.n)
+    cmd[6] = 0.05  # rad/s: the image turns slowly, the dots stay in view
+    dt = exp.options.dt
+    phys, rend, det = [], [], []
+    print(
+        f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}, {exp.camera.width}x{exp.camera.height}, "
+        f"{args.frames} frames...",
+        file=sys.stderr,
+    )
+    for k in range(args.frames):
+        t0 = time.perf_counter()
+        arm.step(cmd, dt)
+        t1 = time.perf_counter()
+        bMc = exp.robot.fkine(arm.q, check_limits=False)
+        image = cam.renderer.render(exp.scene, bMc, k * dt)
+        t2 = time.perf_counter()
+        cam._read_dots(image, exp.scene, bMc, k * dt, k == 0, [])
+        t3 = time.perf_counter()
+        if k == 0:
+            continue  # the first frame starts the tracker and the renderer's context
+        phys.append(t1 - t0)
+        rend.append(t2 - t1)
+        det.append(t3 - t2)
+    ms = {
+        name: 1e3 * statistics.median(v)
+        for name, v in (("physics", phys), ("render", rend), ("detect", det))
+    }
+    total = sum(ms.values())
+    print(
+        f"per frame (median of {len(phys)}): physics {ms['physics']:.1f} ms "
+        f"({round(dt / arm.timestep)} steps of {arm.timestep * 1e3:g} ms), render "
+        f"{ms['render']:.1f} ms, detect {ms['detect']:.1f} ms; total {total:.1f} ms "
+        f"(target 60 ms: {'met' if total <= 60.0 else 'missed'})"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
