@@ -83,8 +83,8 @@ class CompiledStep:
         return {
             "iout": o[n : n + 16],
             "fout": o[n + 16 : n + 32],
-            "sout": o[n + 32 : n + 42],
-            "levels": o[n + 42 : 2 * n + 42],
+            "sout": o[n + 32 : n + 43],
+            "levels": o[n + 43 : 2 * n + 43],
         }
 
     def task(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:

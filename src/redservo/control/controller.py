@@ -20,18 +20,26 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
    (direction kept) so that no joint exceeds it, as a drive's saturation would.
 
+**Engines.** The steps above run as one compiled call (:mod:`redservo.binding.control`)
+when the set-up allows it (a task of image points, a law with a compiled step, a fixed
+gain, no objectives, no estimated feed-forward), with the same command, task state and
+diagnostics bit for bit; otherwise on the object path (each part a Python object over
+compiled kernels). :attr:`Controller.engine` says which, :attr:`Controller.engine_reason`
+why not compiled.
+
 Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joint.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_vector
+from redservo.binding.control import CompiledControl, bind_controller
 from redservo.control.checks import check_controller, saturation
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.objectives import Objective, ObjectiveContext
@@ -66,6 +74,9 @@ class Controller:
         depth_scale: The depth the controller uses is ``Ẑ = depth_scale · Z`` (> 0).
         qdot_saturation: Output saturation after the law (rad/s or m/s, a number or (n,)):
             the command is scaled down uniformly so that no joint exceeds it. None: none.
+        engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
+            ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
+            the reference).
 
     Raises:
         ConfigurationError: an option is out of range, or the law cannot take what the
@@ -87,6 +98,7 @@ class Controller:
         feedforward: Feedforward = "none",
         depth_scale: float = 1.0,
         qdot_saturation: float | ArrayLike | None = None,
+        engine: Literal["auto", "compiled", "python"] = "auto",
     ) -> None:
         objs = tuple(objectives)
         self.accepts = check_controller(
@@ -106,9 +118,39 @@ class Controller:
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
+        self._compiled, self.engine_reason = self._bind(engine)
         self.stage = "task"
         """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
         ``"feed-forward"``, ``"law"`` or ``"saturation"`` (a loop names it in its errors)."""
+
+    def _bind(self, engine: str) -> tuple[CompiledControl | None, str]:
+        """The compiled engine and ``""``, or None and the reason it is not used."""
+        if engine not in ("auto", "compiled", "python"):
+            raise ConfigurationError(
+                f"engine must be 'auto', 'compiled' or 'python', got {engine!r}",
+                argument="engine",
+            )
+        if engine == "python":
+            return None, "engine='python' asked for"
+        why = ""
+        if self.objectives:
+            why = "objectives need the task state before the law: Python step"
+        elif self.feedforward == "estimated":
+            why = "the estimated feed-forward needs the task state before the law: Python step"
+        bound = why or bind_controller(
+            self.robot, self.task, self.law, self.limits, lam=self.lam, dt=self.dt,
+            depth_scale=self.depth_scale,
+        )  # fmt: skip
+        if isinstance(bound, str):
+            if engine == "compiled":
+                raise ConfigurationError(f"no compiled engine: {bound}", argument="engine")
+            return None, bound
+        return bound, ""
+
+    @property
+    def engine(self) -> str:
+        """``"compiled"`` or ``"python"``: the engine of :meth:`step` (module docstring)."""
+        return "python" if self._compiled is None else "compiled"
 
     @property
     def n(self) -> int:
@@ -169,9 +211,40 @@ class Controller:
                 that needs the scene without one.
         """
         qa = as_vector(q, "q", self.robot.n)
+        if self._compiled is not None:
+            done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
+            if done is not None:
+                return done
         Ja = self.jacobian(qa, J)
         state = self.evaluate(measurement, Ja)
         return self.command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+
+    def _compiled_step(
+        self,
+        q: FloatArray,
+        measurement: Features,
+        t: float,
+        qdot_prev: ArrayLike | None,
+        J: ArrayLike | None,
+        context: SceneContext | None,
+    ) -> ControlStep | None:
+        """:meth:`step` in one compiled call, or None to take the object path (an input the
+        kernel's check rejects: the object path raises the error naming it)."""
+        assert self._compiled is not None
+        self.stage = "task"
+        s = self._measured_s(measurement)
+        Ja = None if J is None else self.jacobian(q, J)
+        self.stage = "feed-forward"
+        prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
+        de1_dt = self._feedforward_known(t, context) if self.feedforward == "known" else None
+        self.stage = "law"
+        res = self._compiled.step(q, s, measurement.inv_depth, prev, J=Ja, de1_dt=de1_dt)
+        if res is None:
+            return None
+        qdot, state, diag = res
+        self.stage = "saturation"
+        qdot, saturated = self._saturate(qdot)
+        return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
         """The model Jacobian (6, n) at ``q``: ``J`` checked when given, else computed."""
@@ -191,6 +264,13 @@ class Controller:
             GeometryError: a feature cannot be evaluated.
         """
         self.stage = "task"
+        s = self._measured_s(measurement)
+        return self.task.evaluate_measured(
+            s, measurement.inv_depth, J, depth_scale=self.depth_scale
+        )
+
+    def _measured_s(self, measurement: Features) -> FloatArray:
+        """The measurement's ``s`` (k,), its shape and its inverse depths' count checked."""
         s = np.asarray(measurement.s, dtype=float)
         if s.shape != (self.task.k,):
             raise ShapeError(
@@ -203,9 +283,7 @@ class Controller:
                 f"has {len(self.task.terms)} terms",
                 argument="measurement.inv_depth",
             )
-        return self.task.evaluate_measured(
-            s, measurement.inv_depth, J, depth_scale=self.depth_scale
-        )
+        return s
 
     def command(
         self,
@@ -266,14 +344,17 @@ class Controller:
         if self._estimator is not None:
             return self._estimator.estimate(state, t, qdot_prev)
         if self.feedforward == "known":
-            if context is None:
-                raise ConfigurationError(
-                    "feedforward='known' needs the scene's motion: pass context="
-                    "SceneContext(scene, bMc) to each step, or use 'estimated'",
-                    argument="feedforward",
-                )
-            return known_feedforward(self.task, context.scene, context.bMc, t, self.dt)
+            return self._feedforward_known(t, context)
         return None
+
+    def _feedforward_known(self, t: float, context: SceneContext | None) -> FloatArray:
+        if context is None:
+            raise ConfigurationError(
+                "feedforward='known' needs the scene's motion: pass context="
+                "SceneContext(scene, bMc) to each step, or use 'estimated'",
+                argument="feedforward",
+            )
+        return known_feedforward(self.task, context.scene, context.bMc, t, self.dt)
 
     def _law_kwargs(
         self,

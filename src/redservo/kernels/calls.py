@@ -1,10 +1,11 @@
 """A law kernel and its flag rules in one compiled call (one dispatch from Python).
 
 Each kernel here runs a law of :mod:`redservo.kernels.laws` and the matching flag rules of
-:mod:`redservo.kernels.events`, and returns only what the law object reads: the command,
-the few numbers its diagnostics and messages name, and ``(mask, vals, src)``. Calling the
-two kernels from Python costs a second dispatch and the boxing of every output array; the
-numbers are the same (the same kernels run).
+:mod:`redservo.kernels.events`, and returns what the law object reads: the command, the
+outputs it needs in the common layout of :mod:`redservo.kernels.laws` and ``(mask, vals,
+src)``, which the law's ``diagnose`` turns into its diagnostics (the compiled controller
+of :mod:`redservo.kernels.control` hands the same outputs to the same method). Calling the
+two kernels from Python would cost a second dispatch; the numbers are the same.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from redservo.kernels.events import (
     safety_with_events,
 )
 from redservo.kernels.iterative import iterative
-from redservo.kernels.laws import F_COND, I_FILTERED, I_PROJ, I_RANK, classical, gpm
+from redservo.kernels.laws import classical, gpm
 
 __all__ = [
     "classical_call",
@@ -39,12 +40,12 @@ def classical_call(
     J1: Any, e: Any, lam: float, sec: Any, has_sec: bool, rcond: float, robust: float
 ) -> Any:
     """:func:`~redservo.kernels.laws.classical` (arguments alike) and its
-    :func:`~redservo.kernels.events.classical_events`: ``(q̇, rank, projector rank,
-    filtered count, σ_max/σ_r, mask, vals, src)``."""
+    :func:`~redservo.kernels.events.classical_events`: ``(q̇, iout, fout, mask, vals,
+    src)``."""
     m, n = J1.shape
     qdot, iout, fout, _, _, _ = classical(J1, e, lam, sec, has_sec, rcond, robust)
     mask, vals, src = classical_events(m, n, iout, robust)
-    return qdot, iout[I_RANK], iout[I_PROJ], iout[I_FILTERED], fout[F_COND], mask, vals, src
+    return qdot, iout, fout, mask, vals, src
 
 
 @kernel
@@ -61,14 +62,13 @@ def gpm_call(
     robust: float,
 ) -> Any:
     """:func:`~redservo.kernels.laws.gpm` (arguments alike) and its
-    :func:`~redservo.kernels.events.gpm_events`: ``(q̇, rank, projector rank, filtered
-    count, σ_max/σ_r, axes in the band, mask, vals, src)``."""
+    :func:`~redservo.kernels.events.gpm_events`: ``(q̇, iout, fout, axes, mask, vals,
+    src)``."""
     m, n = J1.shape
     out = gpm(J1, e, q, lp, lam, sec, has_sec, alpha, rcond, robust)
     qdot, iout, fout, axes = out[0], out[1], out[2], out[3]
     mask, vals, src = gpm_events(m, n, iout, robust)
-    rank, proj, filtered = iout[I_RANK], iout[I_PROJ], iout[I_FILTERED]
-    return qdot, rank, proj, filtered, fout[F_COND], axes, mask, vals, src
+    return qdot, iout, fout, axes, mask, vals, src
 
 
 @kernel
@@ -91,15 +91,15 @@ def directional_call(
     robust: float,
 ) -> Any:
     """:func:`~redservo.kernels.directional.directional` (arguments alike) and its
-    :func:`~redservo.kernels.events.directional_events`: ``(q̇, iout, fout, mask, vals,
-    src)``."""
+    :func:`~redservo.kernels.events.directional_events`: ``(q̇, iout, fout, axes, mask,
+    vals, src)``."""
     m, n = J1.shape
     out = directional(
         J1, e1, e, ff, has_ff, q, lp, lam, dt, sec, has_sec, kappa, use_jl, mu, rcond, robust
     )
-    qdot, iout, fout = out[0], out[1], out[2]
+    qdot, iout, fout, axes = out[0], out[1], out[2], out[3]
     mask, vals, src = directional_events(m, n, iout, robust)
-    return qdot, iout, fout, mask, vals, src
+    return qdot, iout, fout, axes, mask, vals, src
 
 
 @kernel
@@ -165,11 +165,9 @@ def classical_safe_call(
 ) -> Any:
     """:func:`classical_call` then the safety stage with uniform scaling
     (:func:`~redservo.kernels.events.safety_with_events`, arguments alike): the law's
-    ``(rank, projector rank, filtered count, σ_max/σ_r, mask, vals, src)``, then the safe
-    ``(q̇, past_joint, accel_excess, mask, vals, src)``."""
-    raw, rank, proj, filtered, cond, mask, vals, src = classical_call(
-        J1, e, lam, sec, has_sec, rcond, robust
-    )
+    ``(iout, fout, mask, vals, src)``, then the safe ``(q̇, past_joint, accel_excess, mask,
+    vals, src)``."""
+    raw, iout, fout, mask, vals, src = classical_call(J1, e, lam, sec, has_sec, rcond, robust)
     none = np.zeros(q.shape[0])  # no task command: uniform scaling
     safe = safety_with_events(raw, q, lp, has_v, has_a, dt, prev, has_prev, shield, none, False)
-    return (rank, proj, filtered, cond, mask, vals, src, *safe)
+    return (iout, fout, mask, vals, src, *safe)

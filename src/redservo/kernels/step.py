@@ -13,10 +13,11 @@ Option layout: the named slots of :mod:`redservo.kernels.lawopts` (each law's op
 theirs, ``Law.OPTIONS``).
 
 Step outputs: the law's ``(q̇, iout, fout, axes, axf, vec)`` (:mod:`redservo.kernels.laws`)
-with ``q̇`` after the safety layer, and ``sout`` (10,): the numbers of
+with ``q̇`` after the safety layer, and ``sout`` (11,): the numbers of
 :func:`redservo.kernels.safety.apply_safety` (non-finite count, scale, over-velocity,
 dropped, shield change, shield acted, acceleration excess, exceeded), the law's raw
-``|q̇|∞`` and the distance past a hard limit no command could avoid (0: none).
+``|q̇|∞``, the distance past a hard limit no command could avoid (0: none) and that
+joint.
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ from redservo.kernels.projection import large_projection
 from redservo.kernels.safety import apply_safety
 from redservo.kernels.sns import sns
 
-__all__ = ["I_SNS_BAD", "LAW_IDS", "law_step", "step_events"]
+__all__ = ["I_SNS_BAD", "LAW_IDS", "law_events", "law_step", "sout_events", "step_events"]
 
 LAW_IDS: dict[str, int] = {
     "classical": 0,
@@ -89,7 +90,7 @@ LAW_IDS: dict[str, int] = {
     "large-projection": 10,
 }
 """Methods with a fully compiled step, and their ids."""
-NS = 10
+NS = 11
 I_SNS_RESTORED, I_SNS_BAD, F_SNS_SCALE = 5, 6, 2
 """Where :func:`law_step` packs ``sns``'s restored flag, infeasible joint and task scale."""
 
@@ -217,7 +218,7 @@ def law_step(
     first = iopt[I_FIRST] != 0
     if first:
         task = classical(J1, e, lam, sec, False, fopt[F_RCOND], fopt[F_ROBUST])[0]
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, _ = apply_safety(
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = apply_safety(
         qdot, q, lp, has_v, has_a, dt, prev, has_prev, iopt[I_SHIELD] != 0, task, first
     )
     sout = np.empty(NS)
@@ -234,7 +235,52 @@ def law_step(
         big = max(big, abs(qdot[i]))
     sout[8] = big
     sout[9] = past
+    sout[10] = joint
     return out, iout, fout, axes, axf, vec, sout
+
+
+@kernel
+def law_events(
+    law_id: int,
+    fopt: Any,
+    m: int,
+    iout: Any,
+    fout: Any,
+    axes: Any,
+    axf: Any,
+    vec: Any,
+) -> Any:
+    """``(mask, vals, src)`` of the events of law ``law_id`` from its outputs in the common
+    layout (:mod:`redservo.kernels.laws`): the kernel of :mod:`redservo.kernels.events` the
+    law object calls, with the same arguments."""
+    n = axes.shape[0]
+    rb = fopt[F_ROBUST]
+    if law_id == 0:
+        return classical_events(m, n, iout, rb)
+    if law_id == 1:
+        return gpm_events(m, n, iout, rb)
+    if law_id == 2:
+        return gpm_auto_events(m, n, iout, axf, rb, fopt[F_GAIN])
+    if law_id >= 3 and law_id <= 6:
+        return iterative_events(m, n, iout, fout, vec, rb, fopt[F_CON_FILTER])
+    if law_id == 7:
+        return directional_events(m, n, iout, rb)
+    if law_id == 8:
+        return wln_events(m, n, iout, rb)
+    if law_id == 9:
+        restored = iout[I_SNS_RESTORED] != 0
+        return sns_events(m, iout[0], fout[F_SNS_SCALE], restored)
+    return large_projection_events(m, n, iout, axes, rb, fopt[F_P_FILTER])
+
+
+@kernel
+def sout_events(sout: Any) -> Any:
+    """``(mask, vals, src)`` of the safety layer from the numbers ``sout`` of
+    :func:`law_step`."""
+    return safety_events(
+        int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
+        sout[7] != 0, sout[9],
+    )  # fmt: skip
 
 
 @kernel
@@ -250,29 +296,6 @@ def step_events(
     sout: Any,
 ) -> int:
     """The event mask (bit ``j`` = flag ``j`` of :mod:`redservo.kernels.flagbits`) of one
-    :func:`law_step`: its law's events (the kernel of :mod:`redservo.kernels.events` the law
-    object calls) and the safety layer's."""
-    n = axes.shape[0]
-    rb = fopt[F_ROBUST]
-    if law_id == 0:
-        mask = classical_events(m, n, iout, rb)[0]
-    elif law_id == 1:
-        mask = gpm_events(m, n, iout, rb)[0]
-    elif law_id == 2:
-        mask = gpm_auto_events(m, n, iout, axf, rb, fopt[F_GAIN])[0]
-    elif law_id >= 3 and law_id <= 6:
-        mask = iterative_events(m, n, iout, fout, vec, rb, fopt[F_CON_FILTER])[0]
-    elif law_id == 7:
-        mask = directional_events(m, n, iout, rb)[0]
-    elif law_id == 8:
-        mask = wln_events(m, n, iout, rb)[0]
-    elif law_id == 9:
-        restored = iout[I_SNS_RESTORED] != 0
-        mask = sns_events(m, iout[0], fout[F_SNS_SCALE], restored)[0]
-    else:
-        mask = large_projection_events(m, n, iout, axes, rb, fopt[F_P_FILTER])[0]
-    safe = safety_events(
-        int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
-        sout[7] != 0, sout[9],
-    )  # fmt: skip
-    return mask | safe[0]
+    :func:`law_step`: its law's events (:func:`law_events`) and the safety layer's."""
+    mask = law_events(law_id, fopt, m, iout, fout, axes, axf, vec)[0]
+    return mask | sout_events(sout)[0]

@@ -4,7 +4,7 @@
 task (current depth; CM01 eq. 25 combination ``C``); ``*_step`` adds the law and its
 safety layer through :func:`redservo.kernels.step.law_step` (argument layouts there) and
 writes into the caller's float buffer ``out`` (:func:`output_size`): ``q̇`` (n), the law's
-integer outputs ``iout`` (16), its ``fout`` (16), the safety numbers ``sout`` (10) and
+integer outputs ``iout`` (16), its ``fout`` (16), the safety numbers ``sout`` (11) and
 the level of each axis (n). Filling a buffer instead of returning arrays saves the
 boxing of seven arrays (several µs) on every call from Python.
 :func:`redservo.binding.compiled_step` packs these arguments from the public objects.
@@ -203,8 +203,8 @@ def write_outputs(out: Any, qdot: Any, iout: Any, fout: Any, sout: Any, axes: An
 
 def output_size(n: int) -> int:
     """Length of a step's output buffer for n joints: ``q̇`` (n), the law's ``iout`` (16,
-    as floats), ``fout`` (16), the safety numbers ``sout`` (10), the per-axis levels (n)."""
-    return 2 * n + 16 + 16 + 10
+    as floats), ``fout`` (16), the safety numbers ``sout`` (11), the per-axis levels (n)."""
+    return 2 * n + 16 + 16 + 11
 
 
 @kernel

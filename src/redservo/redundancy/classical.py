@@ -3,19 +3,21 @@
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event
-from redservo.redundancy.kio import kernel_inputs, task_names
+from redservo.redundancy.kio import I_PROJ, I_RANK, LawOutputs, kernel_inputs, task_context
 from redservo.redundancy.messages import events
 from redservo.redundancy.safety import prev_command, safety_events
 
 _K = lazy("calls")
 
 __all__ = ["Classical"]
+
+_NONE: FloatArray = np.zeros(0)
+"""The outputs ``classical`` does not have (``axes``, ``axf``, ``vec``)."""
 
 
 @register
@@ -32,8 +34,12 @@ class Classical(Law):
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
         thr = self.filter_threshold
-        qdot, *task = _K.classical_call(k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, thr)
-        return LawResult(qdot, self._diagnostics(x, *task))
+        qdot, iout, fout, mask, vals, src = _K.classical_call(
+            k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, thr
+        )
+        none = _NONE
+        out = LawOutputs(iout, fout, none, none, none, mask, vals, src)
+        return LawResult(qdot, self.diagnose(x.J1.shape[0], out))
 
     def _compute_safe(self, x: LawInputs) -> LawResult | None:
         """The law and the safety stage in one kernel call (:meth:`Law._compute_safe`)."""
@@ -42,53 +48,31 @@ class Classical(Law):
         k = kernel_inputs(x)
         prev, has_prev = prev_command(x.qdot_prev, x.J1.shape[1])
         out = _K.classical_safe_call(
-            k.J1,
-            k.e,
-            x.lam,
-            k.sec,
-            k.has_sec,
-            self.rcond,
-            self.filter_threshold,
-            k.q,
-            k.lp,
-            k.has_v,
-            k.has_a,
-            x.dt,
-            prev,
-            has_prev,
-            self.shield,
-        )
-        qdot, joint, worst, mask, vals, src = out[7:]
+            k.J1, k.e, x.lam, k.sec, k.has_sec, self.rcond, self.filter_threshold, k.q, k.lp,
+            k.has_v, k.has_a, x.dt, prev, has_prev, self.shield,
+        )  # fmt: skip
+        qdot, joint, worst, mask, vals, src = out[5:]
         more = (
             safety_events(mask, vals, src, k.q, qdot, x.dt, x.limits, worst, joint) if mask else ()
         )
-        rank, proj, filtered, cond, lmask, lvals, lsrc = out[:7]
-        diag = self._diagnostics(x, rank, proj, filtered, cond, lmask, lvals, lsrc, more)
-        return LawResult(qdot, diag)
+        iout, fout, lmask, lvals, lsrc = out[:5]
+        none = _NONE
+        law_out = LawOutputs(iout, fout, none, none, none, lmask, lvals, lsrc)
+        return LawResult(qdot, self.diagnose(x.J1.shape[0], law_out, more))
 
-    def _diagnostics(
-        self,
-        x: LawInputs,
-        rank: int,
-        proj: int,
-        filtered: int,
-        cond: float,
-        mask: int,
-        vals: FloatArray,
-        src: NDArray[np.int64],
-        more: tuple[Event, ...] = (),
-    ) -> Diagnostics:
-        """The diagnostics from the fused kernel's numbers, then the events ``more``."""
-        m = x.J1.shape[0]
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's)."""
+        iout = out.iout
+        rank = int(iout[I_RANK])
         found: tuple[Event, ...] = ()
-        if mask:
-            found = events(
-                mask, vals, src, **task_names(m, rank, cond, filtered, self.filter_threshold)
-            )
+        if out.mask:
+            ctx = task_context(m, iout, out.fout, self.filter_threshold)
+            found = events(out.mask, out.vals, out.src, **ctx)
         return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
-            projector_rank=proj,
+            projector_rank=int(iout[I_PROJ]),
             events=(*found, *more) if more else found,
         )

@@ -99,7 +99,15 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
 from redservo.kernels.lawopts import F_DIR_MARGIN, F_KAPPA, I_JOINT_FORCE
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import (
+    I_PROJ,
+    I_RANK,
+    LawOutputs,
+    kernel_inputs,
+    optional,
+    task_context,
+)
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
@@ -107,6 +115,8 @@ _K = lazy("directional")
 _KC = lazy("calls")
 _I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
 """Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
+_NONE: FloatArray = np.zeros(0)
+"""An output the law's kernel does not have."""
 
 __all__ = ["Directional", "DirectionalProjection", "directional_projection"]
 
@@ -255,41 +265,39 @@ class Directional(Law):
     margin: float
 
     def compute(self, x: LawInputs) -> LawResult:
-        m, n = x.J1.shape
+        m = x.J1.shape[0]
         k = kernel_inputs(x)
         ff, has_ff = optional(x.de1_dt, m)
-        qdot, iout, fout, mask, vals, src = _KC.directional_call(
-            k.J1,
-            np.ascontiguousarray(x.e1),
-            k.e,
-            ff,
-            has_ff,
-            k.q,
-            k.lp,
-            x.lam,
-            x.dt,
-            k.sec,
-            k.has_sec,
-            self.kappa,
-            self.use_joint_limits,
-            self.margin,
-            self.rcond,
+        qdot, iout, fout, axes, mask, vals, src = _KC.directional_call(
+            k.J1, np.ascontiguousarray(x.e1), k.e, ff, has_ff, k.q, k.lp, x.lam, x.dt, k.sec,
+            k.has_sec, self.kappa, self.use_joint_limits, self.margin, self.rcond,
             self.filter_threshold,
-        )
+        )  # fmt: skip
+        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
+        return LawResult(qdot, self.diagnose(m, out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's): the task directions freed, clipped and blocked are an
+        information line."""
+        iout = out.iout
         r = int(iout[I_RANK])
-        thr = self.filter_threshold
+        n = out.axes.shape[0]
         info: list[str] = []
         if iout[_I_ANY_Z]:
             info.append(
                 f"task directions: {int(iout[_I_FREED])} free, {int(iout[_I_CLIPPED])} clipped, "
                 f"{int(iout[_I_BLOCKED])} blocked (of {r}); {n - r} null-space direction(s)"
             )
-        diag = Diagnostics(
+        found: tuple[Event, ...] = ()
+        if out.mask:
+            ctx = task_context(m, iout, out.fout, self.filter_threshold)
+            found = events(out.mask, out.vals, out.src, **ctx)
+        return Diagnostics(
             method=self.name,
             task_rank=r,
             rank_deficient=r < m,
             projector_rank=int(iout[I_PROJ]),
-            events=events(mask, vals, src, **task_context(m, iout, fout, thr)) if mask else (),
+            events=(*found, *more) if more else found,
             info=tuple(info),
         )
-        return LawResult(qdot, diag)

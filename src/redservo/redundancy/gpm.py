@@ -68,9 +68,9 @@ from redservo.redundancy.kio import (
     F_ALPHA,
     I_PROJ,
     I_RANK,
+    LawOutputs,
     kernel_inputs,
     task_context,
-    task_names,
 )
 from redservo.redundancy.linalg import TaskSVD
 from redservo.redundancy.messages import events
@@ -88,6 +88,8 @@ ALPHA_FILTER = 1e-2
 secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|`` it stops."""
 
 
+_NONE: FloatArray = np.zeros(0)
+"""An output a law's kernel does not have."""
 _K = lazy("laws")
 _KE = lazy("events")
 _KL = lazy("linalg")
@@ -122,34 +124,32 @@ class GradientProjection(Law):
 
     def compute(self, x: LawInputs) -> LawResult:
         k = kernel_inputs(x)
-        thr = self.filter_threshold
-        qdot, rank, proj, filtered, cond, axes, mask, vals, src = _KC.gpm_call(
-            k.J1,
-            k.e,
-            k.q,
-            k.lp,
-            x.lam,
-            k.sec,
-            k.has_sec,
-            self.alpha,
-            self.rcond,
-            thr,
-        )
-        m = x.J1.shape[0]
-        band = tuple(int(i) for i in np.flatnonzero(axes))
+        qdot, iout, fout, axes, mask, vals, src = _KC.gpm_call(
+            k.J1, k.e, k.q, k.lp, x.lam, k.sec, k.has_sec, self.alpha, self.rcond,
+            self.filter_threshold,
+        )  # fmt: skip
+        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
+        return LawResult(qdot, self.diagnose(x.J1.shape[0], out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's): the axes in the band are the critical ones."""
+        iout = out.iout
+        rank = int(iout[I_RANK])
+        band = tuple(int(i) for i in np.flatnonzero(out.axes))
         found: tuple[Event, ...] = ()
-        if mask:
-            found = events(mask, vals, src, **task_names(m, rank, cond, filtered, thr))
-        diag = Diagnostics(
+        if out.mask:
+            ctx = task_context(m, iout, out.fout, self.filter_threshold)
+            found = events(out.mask, out.vals, out.src, **ctx)
+        return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
-            projector_rank=proj,
+            projector_rank=int(iout[I_PROJ]),
             critical=(band,) if band else (),
             alpha=self.alpha,
-            events=found,
+            events=(*found, *more) if more else found,
         )
-        return LawResult(qdot, diag)
 
 
 @register
@@ -212,22 +212,32 @@ class GradientProjectionAuto(Law):
             self.robust,
         )
         m, n = x.J1.shape
-        rank = int(iout[I_RANK])
-        thr = self.filter_threshold
         cap = np.inf if self.alpha_max is None else self.alpha_max
-        mask, vals, src = _KE.gpm_auto_events(m, n, iout, cand, thr, cap)
+        mask, vals, src = _KE.gpm_auto_events(m, n, iout, cand, self.filter_threshold, cap)
+        out = LawOutputs(iout, fout, _NONE, cand, _NONE, mask, vals, src)
+        return LawResult(qdot, self.diagnose(m, out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's; ``axf`` holds the candidates): the stopped axis is critical
+        when a positive α is applied."""
+        iout, fout = out.iout, out.fout
+        rank = int(iout[I_RANK])
         axis = int(iout[_I_K])
         alpha = float(fout[F_ALPHA])
-        diag = Diagnostics(
+        found: tuple[Event, ...] = ()
+        if out.mask:
+            ctx = self._context(m, iout, fout, out.axf)
+            found = events(out.mask, out.vals, out.src, **ctx)
+        return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
             projector_rank=int(iout[I_PROJ]),
             critical=((axis,),) if alpha > 0.0 else (),
             alpha=alpha,
-            events=events(mask, vals, src, **self._context(m, iout, fout, cand)) if mask else (),
+            events=(*found, *more) if more else found,
         )
-        return LawResult(qdot, diag)
 
     def _context(
         self, m: int, iout: NDArray[np.int64], fout: FloatArray, cand: FloatArray

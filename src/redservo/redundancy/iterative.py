@@ -107,11 +107,13 @@ from redservo.kernels.lawopts import F_CON_FILTER, F_CON_RCOND, F_GAIN, I_LEVELS
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.flags import Event
 from redservo.redundancy.kio import (
     I_ITER,
     I_OVER,
     I_PROJ,
     I_RANK,
+    LawOutputs,
     kernel_inputs,
     levels,
     optional,
@@ -288,29 +290,36 @@ class _IterativeLaw(Law):
             self.rcond if self.constraint_rcond is None else self.constraint_rcond,
             robust,
         )
-        m = x.J1.shape[0]
+        out = LawOutputs(iout, fout, axes, gamma, vec, mask, vals, src)
+        return LawResult(qdot, self.diagnose(x.J1.shape[0], out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's; ``axf`` holds γ, ``vec`` the gains a then b)."""
+        iout, vec = out.iout, out.vec
         rank = int(iout[I_RANK])
         count = int(iout[I_ITER])
         n_a = int(iout[_I_NA])
         nb = max(count - 1, 0) * n_a
-        thr = self.filter_threshold
-        diag = Diagnostics(
+        con = CONSTRAINT_FILTER if self.robust else 0.0
+        found: tuple[Event, ...] = ()
+        if out.mask:
+            ctx = _context(m, iout, out.fout, vec, self.filter_threshold, con)
+            found = events(out.mask, out.vals, out.src, **ctx)
+        return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
             projector_rank=int(iout[I_PROJ]),
-            critical=levels(axes, count),
+            critical=levels(out.axes, count),
             iterations=count,
             overconstrained=bool(iout[I_OVER]),
             alpha=self.alpha if self.with_e2 else None,
             a=vec[:n_a],
             b=vec[n_a : n_a + nb],
-            gamma=gamma,
-            events=events(mask, vals, src, **_context(m, iout, fout, vec, thr, robust))
-            if mask
-            else (),
+            gamma=out.axf,
+            events=(*found, *more) if more else found,
         )
-        return LawResult(qdot, diag)
 
 
 def _context(

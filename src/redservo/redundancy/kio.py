@@ -25,6 +25,7 @@ __all__ = [
     "I_RANK",
     "KernelInputs",
     "LawOptions",
+    "LawOutputs",
     "kernel_inputs",
     "law_options",
     "levels",
@@ -46,6 +47,30 @@ def optional(value: FloatArray | None, n: int) -> tuple[FloatArray, bool]:
             z = _ZEROS[n] = np.zeros(n)
         return z, False
     return np.ascontiguousarray(value, dtype=np.float64), True
+
+
+class LawOutputs(NamedTuple):
+    """A law kernel's outputs in the common layout of :mod:`redservo.kernels.laws`, and its
+    events: what a law's ``diagnose(m, out)`` reads (from its own kernel call, or from the
+    compiled controller's buffer, :mod:`redservo.kernels.control`; integer outputs may then
+    be float64 holding integers)."""
+
+    iout: NDArray[Any]
+    """(16,) integer outputs (rank, filtered count, projector rank, ...)."""
+    fout: FloatArray
+    """(16,) float outputs (``σ_max/σ_r``, α, ...)."""
+    axes: NDArray[Any]
+    """(n,) per axis, the level at which it is constrained (0: none)."""
+    axf: FloatArray
+    """(n,) per-law numbers (γ, gpm-auto's candidates)."""
+    vec: FloatArray
+    """Per-law vector (the gains a and b)."""
+    mask: int
+    """The law's event mask (:mod:`redservo.kernels.flagbits`)."""
+    vals: FloatArray
+    """(20,) the events' values."""
+    src: NDArray[Any]
+    """(20,) the events' source bits."""
 
 
 class KernelInputs(NamedTuple):
@@ -90,13 +115,6 @@ def task_context(
         "filtered": int(iout[I_FILTERED]),
         "inv_robust": 1.0 / robust if robust else np.inf,
     }
-
-
-def task_names(m: int, rank: int, cond: float, filtered: int, robust: float) -> dict[str, Any]:
-    """:func:`task_context` from the numbers a fused kernel (:mod:`redservo.kernels.calls`)
-    returns instead of ``iout`` and ``fout``."""
-    inv = 1.0 / robust if robust else np.inf
-    return {"rank": rank, "m": m, "cond": cond, "filtered": filtered, "inv_robust": inv}
 
 
 def levels(axes: NDArray[np.int64], count: int | None = None) -> tuple[tuple[int, ...], ...]:

@@ -79,7 +79,15 @@ from redservo.kernels.lawopts import (
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
-from redservo.redundancy.kio import F_ALPHA, I_PROJ, I_RANK, kernel_inputs, task_context
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import (
+    F_ALPHA,
+    I_PROJ,
+    I_RANK,
+    LawOutputs,
+    kernel_inputs,
+    task_context,
+)
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
@@ -88,6 +96,8 @@ _K = lazy("projection")
 _KE = lazy("events")
 _I_DEGENERATE = 5
 _MODES = {"switched": 0, "norm": 1, "classical": 2}
+_NONE: FloatArray = np.zeros(0)
+"""An output the law's kernel does not have."""
 
 __all__ = [
     "LargeProjection",
@@ -349,26 +359,33 @@ class LargeProjection(Law):
             self.filter_threshold,
             P_FILTER if self.robust else 0.0,
         )
-        rank = int(iout[I_RANK])
         thr, pf = self.filter_threshold, P_FILTER if self.robust else 0.0
         mask, vals, src = _KE.large_projection_events(m, n, iout, axes, thr, pf)
+        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
+        return LawResult(qdot, self.diagnose(m, out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's): the axes whose projector entry was activated are critical."""
+        iout, fout, axes = out.iout, out.fout, out.axes
+        rank = int(iout[I_RANK])
+        thr, pf = self.filter_threshold, P_FILTER if self.robust else 0.0
         info: list[str] = []
         if iout[_I_DEGENERATE]:
             info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
         activated = tuple(int(i) for i in np.flatnonzero(axes))
         ctx = {}
-        if mask:
+        if out.mask:
             n_pf = int(np.count_nonzero(axes == 2))
             ctx = {**task_context(m, iout, fout, thr), "pf": pf, "n_pf": n_pf}
             ctx["inv_pf"] = 1.0 / pf if pf else np.inf
-        diag = Diagnostics(
+        return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
             projector_rank=int(iout[I_PROJ]),
             critical=(activated,) if activated else (),
             alpha=float(fout[F_ALPHA]),
-            events=events(mask, vals, src, **ctx),
+            events=(*events(out.mask, out.vals, out.src, **ctx), *more),
             info=tuple(info),
         )
-        return LawResult(qdot, diag)

@@ -1,0 +1,220 @@
+"""The compiled engine of a :class:`~redservo.control.Controller` (pure Python glue).
+
+:func:`bind_controller` packs a controller's robot, task, law and limits once for the
+kernels of :mod:`redservo.kernels.control`; :meth:`CompiledControl.step` then runs the
+kinematics, ``e1``, ``J1``, the law, its safety layer and the flag rules in one compiled
+call, and builds the :class:`~redservo.task.TaskState` and the law's
+:class:`~redservo.Diagnostics` from the kernel's buffer with the law's own ``diagnose``
+(the method its Python call uses): the command, the task state and the diagnostics are bit
+for bit those of the object path (``task.evaluate_measured`` then ``law(...)``).
+
+Covered: tasks of image points (any depth option), the robots with compiled kinematics
+(Afma6, DH chains, chains such as URDF robots; any other robot with the Jacobian from
+Python), the laws with a compiled step and a ``diagnose`` method, a fixed gain λ, uniform
+scaling. Anything else gets a reason (one line) and the controller runs the object path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from redservo import _task_plan as plan
+from redservo._validation import FloatArray
+from redservo.binding.step import _robot_args
+from redservo.errors import ConfigurationError
+from redservo.kernels import lazy
+from redservo.limits import JointLimits
+from redservo.packs import limits_pack
+from redservo.redundancy.base import Diagnostics, Law, law_class
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import LawOutputs, law_options
+from redservo.redundancy.safety import safety_events
+from redservo.robots.base import Robot
+from redservo.task import TaskState, VisualTask
+
+__all__ = ["CompiledControl", "bind_controller"]
+
+_K = lazy("control")
+_KINDS = {"afma6": "afma6_control", "dh": "dh_control", "chain": "chain_control"}
+_NO_C = np.zeros((0, 0))
+_EMPTY = np.zeros(0)
+_ZEROS: dict[int, FloatArray] = {}
+
+
+def _zeros(n: int) -> FloatArray:
+    z = _ZEROS.get(n)
+    if z is None:
+        z = _ZEROS[n] = np.zeros(n)
+    return z
+
+
+@dataclass(frozen=True)
+class CompiledControl:
+    """A controller's set-up packed for :mod:`redservo.kernels.control` (module docstring)."""
+
+    kernel: Callable[..., Any] | None
+    """The kernel with the robot's kinematics, or None: the Jacobian comes from Python."""
+    robot: tuple[Any, ...]
+    """The robot pack (empty for a robot without compiled kinematics)."""
+    jacobian: Callable[[FloatArray], FloatArray]
+    """The robot object's model Jacobian (6, n) at ``q``, when the caller gives none and
+    there is no compiled kinematics."""
+    law_pack: tuple[Any, ...]
+    limits_pack: tuple[Any, ...]
+    s_star: FloatArray
+    C: FloatArray
+    law: Law
+    limits: JointLimits
+    task: VisualTask
+    lam: float
+    dt: float
+    depth_scale: float
+    slices: tuple[slice, ...]
+    """The parts of the kernel's buffer, in the order of
+    :func:`redservo.kernels.control.control_layout`."""
+    size: int
+
+    def step(
+        self,
+        q: FloatArray,
+        s: FloatArray,
+        inv_depth: Sequence[FloatArray],
+        qdot_prev: FloatArray | None,
+        *,
+        J: FloatArray | None = None,
+        de1_dt: FloatArray | None = None,
+        secondary: FloatArray | None = None,
+    ) -> tuple[FloatArray, TaskState, Diagnostics] | None:
+        """``(q̇, task state, diagnostics)`` of one step, or None when an input fails the
+        kernel's conservative check (NaN, a joint outside its limits, ...): the controller
+        then runs the object path, which raises the error that names the input.
+
+        Args: as :meth:`redservo.control.Controller.step` (``J`` the model Jacobian (6, n)
+        when the caller has it; ``de1_dt`` (m,) and ``secondary`` (n,) as the law takes
+        them). Units: rad or m, s, normalized image units, 1/m.
+        """
+        iz = self._inverse_depths(inv_depth)
+        if iz is None:
+            return None  # the object path checks them
+        meas = (s, iz, self.s_star, self.C)
+        n = q.shape[0]
+        if qdot_prev is None:
+            prev = _zeros(n)
+        elif qdot_prev.shape == (n,) and qdot_prev.dtype == np.float64:
+            prev = np.ascontiguousarray(qdot_prev)
+        else:
+            return None  # the object path checks it
+        ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
+        sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
+        buf = np.empty(self.size)
+        common = (self.law_pack, self.limits_pack, self.lam, self.dt, ff, sec)
+        if J is None and self.kernel is not None:
+            lmask, smask, vec = self.kernel(
+                q, self.robot, meas, *common, prev, qdot_prev is not None, buf
+            )
+        else:
+            Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
+            lmask, smask, vec = _K.given_control(
+                q, Jm, meas, *common, prev, qdot_prev is not None, buf
+            )
+        if lmask < 0:
+            return None
+        return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)
+
+    def _inverse_depths(self, inv_depth: Sequence[FloatArray]) -> FloatArray | None:
+        """The points' inverse depths (N,) as ``L`` uses them (the task's depth option), or
+        None when they are not one number per point."""
+        try:
+            iz = np.concatenate(inv_depth).astype(np.float64, copy=False)
+        except (ValueError, TypeError):
+            return None
+        if iz.shape != (len(self.task.terms),):
+            return None
+        task = self.task
+        if task.depth != "current" or self.depth_scale != 1.0:
+            star = task._group.star  # type: ignore[union-attr]
+            iz = plan.depth_option(iz, star, task.depth, self.depth_scale)
+        return iz
+
+    def _results(
+        self,
+        q: FloatArray,
+        s: FloatArray,
+        inv_depth: tuple[FloatArray, ...],
+        buf: FloatArray,
+        lmask: int,
+        smask: int,
+        vec: FloatArray,
+    ) -> tuple[FloatArray, TaskState, Diagnostics]:
+        """Views of the kernel's buffer as the object path's results."""
+        (qdot, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc, e, e1, J1, L) = (
+            buf[sl] for sl in self.slices
+        )
+        m = e1.shape[0]
+        if self.C.shape[0] == 0:
+            e1 = e
+        state = TaskState(s, e, e1, L.reshape(-1, 6), J1.reshape(m, q.shape[0]), inv_depth)
+        out = LawOutputs(iout.astype(np.int64), fout, axes, axf, vec, lmask, lvals, lsrc)
+        more: tuple[Event, ...] = ()
+        if smask:
+            more = safety_events(
+                smask,
+                svals,
+                ssrc.astype(np.int64),
+                q,
+                qdot,
+                self.dt,
+                self.limits,
+                float(sout[6]),
+                int(sout[10]),
+            )
+        return qdot, state, self.law.diagnose(m, out, more)  # type: ignore[attr-defined]
+
+
+def bind_controller(
+    robot: Robot,
+    task: VisualTask,
+    law: object,
+    limits: JointLimits,
+    *,
+    lam: object,
+    dt: float,
+    depth_scale: float,
+) -> CompiledControl | str:
+    """The compiled engine of this set-up, or the reason (one line) it has none."""
+    from redservo.features import PointFeature
+
+    if not isinstance(law, Law):
+        return f"the law is a Python callable ({type(law).__name__})"
+    name = law.name
+    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
+        return f"method {name!r} has no compiled controller step"
+    if law.scaling != "uniform":
+        return "secondary-first scaling runs on the Python step"
+    if isinstance(lam, bool) or not isinstance(lam, int | float):
+        return "an adaptive gain runs on the Python step"
+    if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
+        return "only tasks of image points are compiled for the controller"
+    try:
+        o = law_options(law, robot.n)
+    except ConfigurationError as err:
+        return str(err)
+    try:
+        kind, robot_args = _robot_args(robot)
+        kernel: Callable[..., Any] | None = getattr(_K, _KINDS[kind])
+    except ConfigurationError:  # the Jacobian from the robot object, the rest compiled
+        robot_args, kernel = (), None
+    lp = limits_pack(limits)
+    C = _NO_C if task.C is None else np.ascontiguousarray(task.C, dtype=np.float64)
+    m = task.k if task.C is None else C.shape[0]
+    layout = _K.control_layout(robot.n, m, task.k)
+    size = layout.pop("size")[1]
+    return CompiledControl(
+        kernel, robot_args, lambda q: robot.jacobian(q, check_limits=False), (o.law_id, o.fopt, o.iopt, o.vopt), (lp.rows, lp.has_v, lp.has_a),
+        np.ascontiguousarray(task.s_star, dtype=np.float64), C, law, limits, task, float(lam),
+        float(dt), float(depth_scale), tuple(slice(*v) for v in layout.values()), size,
+    )  # fmt: skip

@@ -1,0 +1,147 @@
+"""The Controller's compiled engine equals its object path bit for bit (issue 18, item 1).
+
+For every method with a compiled controller step, on the Afma6, a DH chain (the Panda), a
+URDF chain, and a robot whose Jacobian comes from Python: the command, the task state and
+the diagnostics of ``Controller(engine="compiled")`` are those of ``engine="python"``, over a
+closed loop that reaches the limits (the shield, the rate limits and the flags act), with
+the depth options, a combination matrix and a known feed-forward.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import pytest
+
+from redservo import METHODS, ConfigurationError, Controller, JointLimits, make_law
+from redservo.control import Measurement, SceneContext
+from redservo.features import PointFeature
+from redservo.robots import Afma6, Panda
+from redservo.scene import ConstantVelocity, PointSet, Scene
+from redservo.spatial import make_transform
+from redservo.task import TaskTerm, VisualTask
+
+PTS = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]])
+S_STAR = np.array([-0.1, -0.1, 0.1, -0.1, 0.1, 0.1, -0.1, 0.1])
+COMPILED = [m for m in METHODS if m not in ("qp", "sns", "wln", "predictive")]
+
+
+def _same(a: Any, b: Any) -> bool:
+    if dataclasses.is_dataclass(a):
+        fa, fb = dataclasses.asdict(a), dataclasses.asdict(b)  # type: ignore[arg-type]
+        return fa.keys() == fb.keys() and all(_same(fa[k], fb[k]) for k in fa)
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, tuple | list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray | float) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float), equal_nan=True)
+    return bool(a == b)
+
+
+def _robot(kind: str) -> Any:
+    if kind == "afma6":
+        return Afma6()
+    if kind == "panda":
+        return Panda()
+    if kind == "urdf":
+        from redservo.robots.urdf import URDFRobot, shipped_urdf
+
+        return URDFRobot(shipped_urdf("panda"), camera_link="camera_link")
+    return Humanoidish()
+
+
+class Humanoidish(Afma6):
+    """An Afma6 seen as a robot without compiled kinematics (its own class)."""
+
+
+def _loop(kind: str, method: str, *, depth: str = "current", C: bool = False, v: float = 0.0):
+    """Run both engines side by side from a start near the limits; yield both steps."""
+    robot = _robot(kind)
+    lim = robot.limits()
+    limits = JointLimits(lim.q_min, lim.q_max, rho=0.1, qdot_max=0.5, qddot_max=4.0)
+    q = lim.center + 0.8 * lim.range / 2 * np.sign(np.arange(robot.n) % 2 - 0.5)
+    wMo = robot.fkine(q) @ make_transform(t=(0.04, -0.03, 0.6), rotvec=(0.0, 0.0, 0.9))
+    traj = ConstantVelocity(wMo, v=np.array([0.0, v, 0.0]))
+    scene = Scene([PointSet("sq", PTS, trajectory=traj)])
+    terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
+    Cm = np.linalg.qr(np.random.default_rng(3).normal(size=(8, 8)))[0][:6] if C else None
+    star = None if depth == "current" else tuple(np.array([1.0 / 0.5]) for _ in PTS)
+    task = VisualTask(terms, S_STAR, depth=depth, C=Cm, inv_depth_star=star)
+    ff = "known" if v else "none"
+    ctl = {
+        e: Controller(robot, task, make_law(method), limits, lam=0.6, dt=0.04, feedforward=ff,
+                      engine=e)
+        for e in ("compiled", "python")
+    }  # fmt: skip
+    prev = None
+    for i in range(40):
+        t = 0.04 * i
+        bMc = robot.fkine(q, check_limits=False)
+        s, inv = task.measure(scene, bMc, t)
+        ctx = SceneContext(scene, bMc)
+        a = ctl["compiled"].step(q, Measurement(s, inv), t, qdot_prev=prev, context=ctx)
+        b = ctl["python"].step(q, Measurement(s, inv), t, qdot_prev=prev, context=ctx)
+        yield a, b
+        prev = a.qdot.copy()
+        q = q + 0.04 * prev
+
+
+@pytest.mark.parametrize("method", COMPILED)
+@pytest.mark.parametrize("kind", ["afma6", "panda", "urdf", "python-jacobian"])
+def test_compiled_controller_is_the_object_path_bit_for_bit(kind: str, method: str) -> None:
+    flagged = 0
+    for a, b in _loop(kind, method):
+        assert np.array_equal(a.qdot, b.qdot), (kind, method)
+        assert all(_same(x, y) for x, y in zip(a.state, b.state))
+        assert _same(a.diagnostics, b.diagnostics), (a.diagnostics, b.diagnostics)
+        flagged += bool(a.diagnostics.events)
+    assert flagged > 0  # the loop exercised the flag rules
+
+
+@pytest.mark.parametrize("method", ["classical", "iterative-smooth", "directional"])
+@pytest.mark.parametrize(("depth", "C", "v"), [("desired", False, 0.0), ("mean", True, 0.02)])
+def test_depth_options_combination_and_feedforward(method: str, depth: str, C: bool, v: float):
+    for a, b in _loop("afma6", method, depth=depth, C=C, v=v):
+        assert np.array_equal(a.qdot, b.qdot)
+        assert np.array_equal(a.state.J1, b.state.J1) and np.array_equal(a.state.e1, b.state.e1)
+        assert _same(a.diagnostics, b.diagnostics)
+        assert (a.de1_dt is None) == (v == 0.0)
+
+
+def test_engine_is_said_and_the_reason_is_one_line() -> None:
+    robot = Afma6()
+    terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
+    task = VisualTask(terms, S_STAR)
+    assert Controller(robot, task, make_law("gpm"), lam=0.5, dt=0.04).engine == "compiled"
+    sns = Controller(robot, task, make_law("sns"), lam=0.5, dt=0.04)
+    assert sns.engine == "python" and "sns" in sns.engine_reason
+    assert "\n" not in sns.engine_reason
+    with pytest.raises(ConfigurationError) as err:
+        Controller(robot, task, make_law("sns"), lam=0.5, dt=0.04, engine="compiled")
+    assert err.value.argument == "engine"
+    py = Controller(robot, task, make_law("gpm"), lam=0.5, dt=0.04, engine="python")
+    assert py.engine == "python"
+
+
+def test_bad_inputs_raise_the_object_paths_errors() -> None:
+    """A joint outside its limits or a NaN feature: the compiled engine hands the step to the
+    object path, whose error names the input."""
+    from redservo import JointLimitError, ShapeError
+
+    robot = Afma6()
+    terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
+    task = VisualTask(terms, S_STAR)
+    ctl = Controller(robot, task, make_law("classical"), lam=0.5, dt=0.04)
+    q = robot.limits().center.copy()
+    meas = Measurement(S_STAR + 0.01, tuple(np.array([1.5]) for _ in PTS))
+    assert ctl.step(q, meas, 0.0, qdot_prev=None).qdot.shape == (6,)
+    q_out = q.copy()
+    q_out[1] = robot.limits().q_max[1] + 0.1
+    with pytest.raises(JointLimitError):
+        ctl.step(q_out, meas, 0.0, qdot_prev=None)
+    bad = Measurement(np.full(8, np.nan), meas.inv_depth)
+    with pytest.raises(ShapeError):
+        ctl.step(q, bad, 0.0, qdot_prev=None)
