@@ -66,7 +66,7 @@ typecheck: $(TSTAMP)
 	$(BIN)/mypy
 
 pytest: $(TSTAMP) chromium egl
-	@echo "== tests: pytest (a dot per test; the first tests compile the numba kernels)"
+	@echo "== tests: pytest collects the tests (10-20 s), then prints a dot per test; the first tests compile the numba kernels"
 	$(BIN)/python -m pytest -q
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
