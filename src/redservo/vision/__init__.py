@@ -7,6 +7,7 @@ when a function needs it.
 
 * :mod:`~redservo.vision.render` — :class:`RenderOptions`, :class:`Renderer` (and ``render.render`` for one frame)
 * :mod:`~redservo.vision.dots` — :func:`detect_dots`, :class:`DotTracker`
+* :mod:`~redservo.vision.tracking` — :class:`ImageDotTracker` (gray levels, re-acquisition, loss reasons)
 * :mod:`~redservo.vision.ellipse` — :func:`detect_ellipse`
 * :mod:`~redservo.vision.lines` — :func:`refine_line`, :func:`find_lines`, :func:`orient_like`
 * :mod:`~redservo.vision.moments` — :func:`dot_moment_features`, :func:`region_moments`
@@ -29,6 +30,7 @@ __all__ = [
     "DEPTH_POLICIES",
     "FEATURE_LOST",
     "DotTracker",
+    "ImageDotTracker",
     "ImageSensor",
     "Optics",
     "RenderOptions",
@@ -55,6 +57,7 @@ _WHERE = {
     "FEATURE_LOST": "sensor",
     "ImageSensor": "sensor",
     "DotTracker": "dots",
+    "ImageDotTracker": "tracking",
     "detect_dots": "dots",
     "detect_ellipse": "ellipse",
     "find_lines": "lines",
