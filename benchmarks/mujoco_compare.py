@@ -11,6 +11,8 @@ every 1 ms physics step).
 
     .venv/bin/python benchmarks/mujoco_compare.py                       # the shipped set
     .venv/bin/python benchmarks/mujoco_compare.py --laws panda-mujoco-4points   # every law
+    .venv/bin/python benchmarks/mujoco_compare.py --laws panda-4points \
+        --modes kinematic,mujoco-ideal,mujoco-rendered-noarm   # the arm not drawn
 
 Slow: a rendered run is ~0.1 s per iteration on a 2-core machine (it says what it runs).
 """
@@ -34,6 +36,11 @@ MODES: dict[str, list[str]] = {
     "kinematic": ['simulator.kind="kinematic"'],
     "mujoco-ideal": ['simulator.kind="mujoco"', 'simulator.camera="ideal"'],
     "mujoco-rendered": ['simulator.kind="mujoco"', 'simulator.camera="rendered"'],
+    "mujoco-rendered-noarm": [
+        'simulator.kind="mujoco"',
+        'simulator.camera="rendered"',
+        "simulator.draw_arm=false",
+    ],
 }
 
 
@@ -69,7 +76,7 @@ def run_one(name: str, mode: str, method: str | None) -> dict[str, Any]:
 
 
 def fmt(row: dict[str, Any]) -> str:
-    head = f"{row['scenario']:22s} {row['mode']:16s} {row['method']!s:20s}"
+    head = f"{row['scenario']:22s} {row['mode']:21s} {row['method']!s:20s}"
     if "error" in row:
         return f"{head} not run: {row['error']}"
     parts = [

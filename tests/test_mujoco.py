@@ -114,6 +114,25 @@ def test_rendered_dots_agree_with_our_projection() -> None:
     assert image.shape == (120, 160) and image.min() < 40 and image.max() > 150  # ink, paper
 
 
+def test_rendered_tag_corners_agree_with_our_projection() -> None:
+    pytest.importorskip("cv2", reason="tags are decoded by OpenCV (redservo[vision])")
+    _needs_rendering()
+    from redservo.scene import Tag
+
+    robot = Panda()
+    q = robot.ready_configuration()
+    cMo = make_transform(t=(0.01, -0.01, 0.3), rotvec=(np.pi - 0.2, 0.15, 0.3))  # printed side
+    tag = Tag("tag", size=0.08, tag_id=7, trajectory=Static(robot.fkine(q) @ cMo))
+    scene = Scene([tag])
+    camera = Camera(px=300.0, py=300.0, u0=160.0, v0=120.0, width=320, height=240)
+    arm = MujocoArm(robot, scene, camera=camera, q_ref=q)
+    task = VisualTask([TaskTerm(PointFeature(p), "tag") for p in tag.points], s_star=np.zeros(8))
+    reading = MujocoCamera(arm, depth="true").read(task, scene, robot.fkine(q), 0.0)
+    assert reading.s is not None and reading.lost == (), reading.reason
+    truth, _ = task.measure(scene, robot.fkine(q), 0.0)
+    assert np.abs(reading.s - truth).max() * 300.0 <= 0.5  # px, each corner in its own order
+
+
 def test_camera_refuses_a_pose_that_is_not_its_arms() -> None:
     _needs_rendering()
     robot = Panda()
