@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
-from redservo.vision.dots import Polarity, detect_dots
+from redservo.vision.dots import DotTrack, Polarity, detect_dots
 from redservo.vision.imagefile import check_frame_size, read_gray
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.tracking import ImageDotTracker
@@ -243,17 +243,23 @@ def iter_dots(
             track = tracker.start(img, init if init is not None else _initial_order(det.uv))
         else:
             track = tracker.update(img)
-        notes = []
-        if m != tracker.n_dots:
-            notes.append(f"found {m} blob(s), expected {tracker.n_dots}")
-        missing = np.flatnonzero(~track.detected)
-        if missing.size:
-            why = ", ".join(f"{int(j)} ({track.reasons[j]})" for j in missing)
-            notes.append(f"dot(s) {why} lost")
-        if track.gone:
-            notes.append(
-                f"feature_lost: dot(s) {', '.join(map(str, track.gone))} lost for more than "
-                f"{max_lost_frames} frame(s)"
-            )
+        notes = _notes(track, m, tracker.n_dots, max_lost_frames)
         xy = optics.to_normalized(track.uv)
-        yield DotFrame(i, track.uv, xy, track.detected, m, "; ".join(notes), track.reasons)
+        yield DotFrame(i, track.uv, xy, track.detected, m, notes, track.reasons)
+
+
+def _notes(track: DotTrack, m: int, n_dots: int, max_lost_frames: int) -> str:
+    """What went wrong in a frame: blob count, lost dots with their reasons, gone dots."""
+    notes = []
+    if m != n_dots:
+        notes.append(f"found {m} blob(s), expected {n_dots}")
+    missing = np.flatnonzero(~track.detected)
+    if missing.size:
+        why = ", ".join(f"{int(j)} ({track.reasons[j]})" for j in missing)
+        notes.append(f"dot(s) {why} lost")
+    if track.gone:
+        notes.append(
+            f"feature_lost: dot(s) {', '.join(map(str, track.gone))} lost for more than "
+            f"{max_lost_frames} frame(s)"
+        )
+    return "; ".join(notes)
