@@ -177,3 +177,31 @@ def test_reacquisition_respects_the_geometry_of_the_other_dots() -> None:
     st = tracker.update(_frame([*square, decoy]))
     assert st.detected.all()
     assert np.abs(st.uv - np.array(square)).max() < 0.1
+
+
+def test_dark_dots_in_white_squares_on_black_paper() -> None:
+    # The nested target in negative: the same dots, tracked with polarity "dark".
+    tracker = ImageDotTracker(4, polarity="dark")
+    for k, fr in enumerate(dot_sequence("nested", 20)):
+        img = 255 - fr.image
+        st = tracker.start(img, fr.uv) if k == 0 else tracker.update(img)
+        assert st.detected.all(), st.reasons
+        assert np.abs(st.uv - fr.uv).max() < 0.1
+    det = detect_dots(img, polarity="dark")
+    assert det.uv.shape == (4, 2)
+
+
+def test_image_tracker_refuses_bad_input() -> None:
+    from redservo.errors import ConfigurationError, ShapeError
+
+    with pytest.raises(ConfigurationError, match="polarity"):
+        ImageDotTracker(2, polarity="grey")  # type: ignore[arg-type]
+    with pytest.raises(ConfigurationError, match="size_precision"):
+        ImageDotTracker(2, size_precision=1.5)
+    tracker = ImageDotTracker(2)
+    with pytest.raises(ConfigurationError, match="start"):
+        tracker.update(np.zeros((10, 10), np.uint8))
+    with pytest.raises(ShapeError, match="shape"):
+        tracker.start(np.zeros((10, 10), np.uint8), np.zeros((3, 2)))
+    with pytest.raises(ShapeError, match="uint8"):
+        tracker.start(np.zeros((10, 10)), np.zeros((2, 2)))
