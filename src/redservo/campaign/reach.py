@@ -5,8 +5,9 @@ pose (``bMc* = wMb⁻¹ wMref(0) cdMref⁻¹``, the scenario's ``task.desired_po
 the first feature's object) with every joint at least ``margin`` (a fraction of its range,
 default the scenario's success margin ``min_margin``) inside its limits. The search is a
 damped least-squares inverse kinematics projected on those bounds, from several seeds: the
-sample's start, the scenario's nominal start, the middle of the range and
-:data:`RANDOM_SEEDS` configurations drawn uniformly inside the bounds (a generator seeded
+sample's start, the scenario's nominal start, the middle of the range, four starts around
+the sample's start (normal, 15 % of each range) and :data:`RANDOM_SEEDS` configurations drawn
+uniformly inside the bounds (a generator seeded
 with 0: the answer depends only on the sample). It uses the robot's own kinematics
 (``Robot.kinematics``: the camera pose and its Jacobian in the camera frame).
 
@@ -27,7 +28,7 @@ from redservo.spatial import inverse, matrix_to_rotvec
 
 __all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "solve_ik"]
 
-RANDOM_SEEDS = 8
+RANDOM_SEEDS = 12
 """Random seeds tried after the deterministic ones."""
 POS_TOL = 1e-4
 """Position tolerance of the inverse kinematics (m)."""
@@ -53,6 +54,11 @@ def _pose_error(bMc: FloatArray, target: FloatArray) -> FloatArray:
     return np.concatenate([cMt[:3, 3], matrix_to_rotvec(cMt[:3, :3])])
 
 
+def _dls(J: FloatArray, err: FloatArray, damping: float) -> FloatArray:
+    """Damped least-squares step ``Jᵀ(JJᵀ + δ²I)⁻¹ err``."""
+    return np.asarray(J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(J.shape[0]), err))
+
+
 def solve_ik(
     robot: Any,
     target: FloatArray,
@@ -63,7 +69,8 @@ def solve_ik(
     iterations: int = 300,
     damping: float = 1e-3,
 ) -> FloatArray | None:
-    """Projected damped least squares from ``seed``: ``q ← clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err)``;
+    """Projected damped least squares from ``seed``: ``q ← clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err)``,
+    the joints at a bound that the step pushes out left out of ``J`` (active set);
     returns ``q`` within ``[lo, hi]`` reaching ``target`` within :data:`POS_TOL` and
     :data:`ROT_TOL`, or None."""
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
@@ -72,7 +79,10 @@ def solve_ik(
         err = _pose_error(bMc, target)
         if np.linalg.norm(err[:3]) < POS_TOL and np.linalg.norm(err[3:]) < ROT_TOL:
             return q
-        step = J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(6), err)
+        step = _dls(J, err, damping)
+        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
+        if blocked.any():  # joints at a bound pushing out: solve with the others
+            step = _dls(np.where(blocked, 0.0, J), err, damping)
         size = float(np.max(np.abs(step)))
         if size > 0.5:  # at most 0.5 rad (or m) per joint and iteration
             step *= 0.5 / size
@@ -96,5 +106,6 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
     if nominal is not None:
         seeds.append(np.asarray(nominal, dtype=float))
     seeds.append(0.5 * (lo + hi))
+    seeds += [np.clip(seeds[0] + gen.normal(0.0, 0.15, rng.shape) * rng, lo, hi) for _ in range(4)]
     seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
     return any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds)

@@ -170,12 +170,15 @@ class Predictive(Law):
         self._camera = Camera()
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
+        self._s_now: FloatArray | None = None
         self._calls = 0
         self._obs: tuple[PointModel, FloatArray] | None = None
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
         self.last_plan: FloatArray | None = None
         """The last solution ``U`` (Nc, n), None after a fallback."""
+        self.last_model: PointModel | None = None
+        """The global model of the last solve (None: the local model)."""
 
     def set_safety(
         self,
@@ -235,9 +238,11 @@ class Predictive(Law):
             pm, Pc = obs
             bMc = pm.robot.kinematics(x.q, check_limits=False)[0]
             model = pm._replace(P_b=Pc @ bMc[:3, :3].T + bMc[:3, 3])
+            self._s_now = (Pc[:, :2] / Pc[:, 2:3]).reshape(-1)
             if self.goal_weight > 0 and self._calls % self.replan == 0:
                 self._goal = self._search_goal(model, x)
         self._calls += 1
+        self.last_model = model
         t0 = time.perf_counter()
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
@@ -298,7 +303,9 @@ class Predictive(Law):
             pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
         band = self._band(x)
         cam, mpx = self._camera, self.image_margin_px
-        s_lo = s_hi = None
+        s_lo = s_hi = s_now = None
+        if model is not None:
+            s_now = self._s_now
         if pred.s is not None:
             p = pred.s.shape[1] // 2
             s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)
@@ -314,7 +321,7 @@ class Predictive(Law):
         return build_qp(
             pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
             v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
-            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal,
+            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal, s_now=s_now,
         )  # fmt: skip
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:

@@ -164,6 +164,7 @@ def build_qp(
     effort: float,
     ff: FloatArray | None,
     goal: tuple[FloatArray, float] | None = None,
+    s_now: FloatArray | None = None,
 ) -> QP:
     """The QP of one SQP iteration (docs/predictive.md, "Formulation").
 
@@ -172,7 +173,8 @@ def build_qp(
     ``qdot_prev``; rows: joint positions at the block ends within ``[q_lo, q_hi]``,
     acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period.
     ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``;
-    ``goal = (q*, γ)`` adds the terminal cost ``γ ‖q_N - q*‖²``.
+    ``goal = (q*, γ)`` adds the terminal cost ``γ ‖q_N - q*‖²``; ``s_now`` (2p,): the
+    measured points, whose image bounds are relaxed to them when they are already outside.
     """
     N, Nc = hz.N, hz.Nc
     n = q0.shape[0]
@@ -211,7 +213,7 @@ def build_qp(
             blo.append(-a_max * dt)
             bhi.append(a_max * dt)
     if pred.s is not None and pred.S is not None and s_lo is not None and s_hi is not None:
-        s0 = pred.s[0]  # relax only what the first prediction already violates
+        s0 = pred.s[0] if s_now is None else s_now  # relax only what is already violated
         lo_s, hi_s = np.minimum(s_lo, s0), np.maximum(s_hi, s0)
         for k in range(1, N + 1):
             Bk = _block(hz, k, pred.S[k - 1], dt)
@@ -245,6 +247,10 @@ def feature_ik(
             if float(np.linalg.norm(e)) < tol:
                 return q
             step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
+            blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
+            if blocked.any():  # joints at a bound pushing out: solve with the others
+                Gf = np.where(blocked, 0.0, G)
+                step = -Gf.T @ np.linalg.solve(Gf @ Gf.T + 1e-6 * np.eye(G.shape[0]), e)
             size = float(np.max(np.abs(step)))
             if size > 0.3:
                 step *= 0.3 / size
