@@ -117,3 +117,35 @@ def test_bad_input() -> None:
     with pytest.raises(GeometryError, match="size"):
         Tag("t", size=0.0)
     assert detect_tags(img) == []
+
+
+def _run(name: str, *sets: str, start: list[float] | None = None):
+    import copy
+
+    from redservo.experiment import build
+    from redservo.scenario import Scenario, apply_overrides, load_scenario
+
+    sc = load_scenario(name)
+    if start is not None:  # a closer start: the tag's translation from the start camera
+        data = copy.deepcopy(sc.data)
+        data["objects"][0]["pose_in_camera"]["translation"] = start
+        sc = Scenario(data, sc.source)
+    small = ["camera.px=300", "camera.py=300", "camera.u0=160", "camera.v0=120"]
+    small += ["camera.width=320", "camera.height=240"]
+    return build(apply_overrides(sc, [*small, *sets])).run()
+
+
+@pytest.mark.parametrize("name", ["afma6-tag-ibvs", "afma6-tag-pbvs"])
+def test_tag_scenarios_converge_through_images(name: str) -> None:
+    """From a closer start, in 320 x 240 images, with λ = 3: converged."""
+    res = _run(name, "control.lam=3.0", "simulation.max_iterations=70", start=[0.01, -0.01, 0.33])
+    assert res.outcome == "converged", res.outcome
+    assert res.summary.success
+
+
+def test_pbvs_on_detected_poses_matches_the_ideal_sensor() -> None:
+    """The first steps of PBVS through images follow those on the exact pose."""
+    it = "simulation.max_iterations=5"
+    img = _run("afma6-tag-pbvs", it)
+    ideal = _run("afma6-tag-pbvs", it, 'sensor.kind="ideal"')
+    np.testing.assert_allclose(img.log.e, ideal.log.e, atol=6e-3)  # m and rad

@@ -37,6 +37,7 @@ from redservo.features.moments import (
     rotation_invariants,
 )
 from redservo.features.point import PointFeature, point_interaction, project_point
+from redservo.features.pose import PoseThetaU, PoseTranslation, thetau_interaction
 from redservo.features.sphere import (
     SPHERE_VARIANTS,
     SphereFeature,
@@ -63,6 +64,8 @@ __all__ = [
     "MomentFeatures",
     "MomentTarget",
     "PointFeature",
+    "PoseThetaU",
+    "PoseTranslation",
     "RotationFeatures",
     "SphereFeature",
     "SphereImage",
@@ -87,6 +90,7 @@ __all__ = [
     "sphere_interaction",
     "sphere_moments_from_area",
     "sphere_paper_interaction",
+    "thetau_interaction",
     "wrap_angle",
 ]
 
@@ -96,9 +100,19 @@ _CLASSES: dict[str, type[Feature]] = {
     "cylinder": CylinderFeature,
     "sphere": SphereFeature,
     "moments": MomentFeatures,
+    "pose_translation": PoseTranslation,
+    "pose_thetau": PoseThetaU,
 }
 
-FEATURES: tuple[str, ...] = ("point", "line", "cylinder", "sphere", "moments")
+FEATURES: tuple[str, ...] = (
+    "point",
+    "line",
+    "cylinder",
+    "sphere",
+    "moments",
+    "pose_translation",
+    "pose_thetau",
+)
 """Feature kinds accepted by :func:`make_feature`."""
 
 
@@ -116,7 +130,8 @@ def make_feature(kind: str, **options: Any) -> Feature:
     """Build a feature by kind name, passing ``options`` to its constructor.
 
     Examples: ``make_feature("sphere", radius=0.1, variant="paper")``,
-    ``make_feature("cylinder", radius=0.05, axis=(0, 1, 0))``.
+    ``make_feature("cylinder", radius=0.05, axis=(0, 1, 0))``,
+    ``make_feature("pose_thetau", variant="cdRc", desired=cdMo)``.
 
     Raises:
         UnknownNameError: unknown ``kind``.

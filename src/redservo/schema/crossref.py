@@ -36,7 +36,7 @@ def _features(spec: ScenarioSpec, objects: dict[str, ObjectSpec]) -> int:
         obj = objects.get(feat.object)
         if obj is None:
             fail(unknown_name("object", feat.object, list(objects)), f"{where}.object")
-        if obj.kind != feat.object_kind:
+        if not feat.observes(obj.kind):
             fail(
                 f"a {feat.kind} feature observes a '{feat.object_kind}' object; "
                 f"{obj.name!r} is a '{obj.kind}' object",
@@ -58,6 +58,9 @@ def _features(spec: ScenarioSpec, objects: dict[str, ObjectSpec]) -> int:
             )
         if feat.kind == "moments" and spec.task.desired_pose is None:
             fail("moment features need task.desired_pose (c*Mo of the target)", "task.desired_pose")
+        needs_pose = feat.kind.startswith("pose_") and getattr(feat, "variant", "") != "cMo"
+        if needs_pose and spec.task.desired_pose is None:
+            fail(f"{feat.kind} features need task.desired_pose (c*Mo)", "task.desired_pose")
         total += size * feat.count(obj)
     return total
 

@@ -19,6 +19,7 @@ from pydantic import Field, model_validator
 from redservo._validation import FloatArray
 from redservo.features.base import Feature
 from redservo.features.moments import RotationFeatures
+from redservo.features.pose import RotationVariant, TranslationVariant
 from redservo.features.sphere import SphereVariant
 from redservo.scene import SceneObject
 from redservo.schema.base import Doc, Table, choice, fail, integer, tagged_union
@@ -53,6 +54,10 @@ class FeatureSpec(Table):
             fail(f"components must be distinct, got {self.components}", "components")
         return self
 
+    def observes(self, kind: str) -> bool:
+        """Whether this feature can observe an object of ``kind``."""
+        return kind == self.object_kind
+
     def size(self, obj: ObjectSpec) -> int:
         """Number of components of one feature of this entry (per point for ``point``)."""
         raise NotImplementedError  # pragma: no cover - abstract
@@ -83,11 +88,16 @@ class PointSpec(FeatureSpec):
         description="only this point of the set (0-based; default: every point)",
     )
 
+    def observes(self, kind: str) -> bool:
+        return kind in ("points", "tag")  # a tag's points are its corners
+
     def size(self, obj: ObjectSpec) -> int:
         return 2
 
     def count(self, obj: ObjectSpec) -> int:
-        return 1 if self.index is not None else len(getattr(obj, "points", [[0.0]]))
+        if self.index is not None:
+            return 1
+        return 4 if obj.kind == "tag" else len(getattr(obj, "points", [[0.0]]))
 
     def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
         pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
@@ -172,12 +182,50 @@ class MomentsSpec(FeatureSpec):
         ]
 
 
+class _PoseSpec(FeatureSpec):
+    """A pose-based feature of any object (its frame's pose, :mod:`redservo.features.pose`)."""
+
+    object_kind: ClassVar[str] = "any"
+
+    def observes(self, kind: str) -> bool:
+        return True
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 3
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        variant = cast(Any, self).variant
+        cdMo = None if desired is None else desired.get(obj.name)
+        return [_feature(self.kind, variant=variant, desired=cdMo)]
+
+
+class PoseTranslationSpec(_PoseSpec):
+    """Translation ``t`` of a pose (PBVS): ``cdMc`` (the camera in the desired frame, s* = 0),
+    ``cMo`` (the object in the camera frame) or ``cMcd``; cdMc and cMcd need
+    ``task.desired_pose``."""
+
+    kind: Literal["pose_translation"]
+    variant: TranslationVariant = choice(
+        "cdMc", what="translation variant", description="cdMc | cMo | cMcd"
+    )
+
+
+class PoseThetaUSpec(_PoseSpec):
+    """Rotation ``θu`` of ``c*R_c`` (``cdRc``) or ``c R_c*`` (``cRcd``) (PBVS); needs
+    ``task.desired_pose``."""
+
+    kind: Literal["pose_thetau"]
+    variant: RotationVariant = choice("cdRc", what="rotation variant", description="cdRc | cRcd")
+
+
 FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
     "point": PointSpec,
     "line": LineSpec,
     "cylinder": CylinderSpec,
     "sphere": SphereSpec,
     "moments": MomentsSpec,
+    "pose_translation": PoseTranslationSpec,
+    "pose_thetau": PoseThetaUSpec,
 }
 """Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`):
 a new kind is one entry here."""

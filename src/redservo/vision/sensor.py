@@ -9,7 +9,8 @@ attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vi
   sets tracked by one :class:`~redservo.vision.dots.DotTracker`); a point term
   is the dot of its point, the moments come from all dots of the set;
 * ``SphereFeature``: its ellipse, ``(xc, yc, a)`` or ``(xc, yc, n20, n11, n02)``;
-* ``CylinderFeature``: both limbs (edges); ``LineFeature``: the stripe's centre line.
+* ``CylinderFeature``: both limbs (edges); ``LineFeature``: the stripe's centre line;
+* a tag's corners and pose features: :mod:`redservo.vision.tag_sensor`.
 
 Initialisation (decision): on the first frame after :meth:`reset`, trackers
 start from the true projections (as a user clicking on the dots would); from
@@ -50,6 +51,7 @@ from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.moments import dot_moment_features
 from redservo.vision.render import Renderer, RenderOptions
+from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 from redservo.vision.terms import TermState, measure_lines, measure_sphere, rendered_dots
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -58,11 +60,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["FEATURE_LOST", "ImageSensor"]
 
-_KINDS: dict[type, str] = {
-    SphereFeature: "sphere",
-    CylinderFeature: "cylinder",
-    LineFeature: "line",
-}
+_KINDS: dict[type, str] = {SphereFeature: "sphere", CylinderFeature: "cylinder"}
+_KINDS[LineFeature] = "line"
 
 FEATURE_LOST = "feature_lost"
 """Prefix of ``SensorReading.reason`` when a feature is lost for good."""
@@ -188,7 +187,9 @@ class ImageSensor:
         self._terms = []
         for i, term in enumerate(task.terms):
             f = term.feature
-            if isinstance(f, PointFeature | MomentFeatures):
+            if (tag := tag_term(i, f, scene.object(term.target))) is not None:
+                self._terms.append(tag)
+            elif isinstance(f, PointFeature | MomentFeatures):
                 self._terms.append(self._dot_term(i, f, term.target, scene))
             elif isinstance(f, SphereFeature | CylinderFeature | LineFeature):
                 if self.depth == "estimated" and isinstance(f, LineFeature):
@@ -351,7 +352,9 @@ class ImageSensor:
             except GeometryError as exc:
                 notes.append(f"term {i}: {exc}")
                 return None
-        if st.kind == "sphere":
+        if isinstance(st, TagTerm):
+            s, why = measure_tag(image, self.renderer, st, feature)
+        elif st.kind == "sphere":
             s, why = measure_sphere(image, self.renderer, st, feature, self.ellipse_method, truth)
         else:
             s, why = measure_lines(image, self.renderer, st, truth)
@@ -368,7 +371,7 @@ class ImageSensor:
         out = []
         for i, (term, st) in enumerate(zip(task.terms, self._terms)):
             d: FloatArray | None = truth_d[i]
-            if self.depth == "estimated" and st.s is not None:
+            if self.depth == "estimated" and st.s is not None and st.kind != "tag":
                 kw: dict[str, Any] = {}
                 if st.kind in ("point", "moments"):
                     name = term.target

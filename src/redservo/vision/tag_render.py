@@ -10,11 +10,12 @@ are the tag-frame corners 1, 0, 3, 2 (``size/2`` times ``(1, -1), (-1, -1), (-1,
 and AprilTag 3 finds the tag's corner ``k`` at the image of corner ``k``
 (``tests/test_vision_tags.py`` checks it with the AprilTag 3 bindings when installed).
 
-Each pixel is mapped through the plane's homography (with the camera's distortion) and
-sampled ``SUPERSAMPLE x SUPERSAMPLE`` times: its coverage is the fraction of its samples on
-the paper (paper layer) and on a black cell (ink layer), which places the tag's edges to a
-few hundredths of a pixel. The tag is drawn only from its printed side (the camera on the
-``+z`` side of the tag frame) and only when its paper is wholly in front of the camera.
+Each pixel centre is mapped through the plane's homography (after undistortion) to the
+cell grid; the pixel blends its cell with its neighbours across the nearest grid lines with the
+1-px ramp of the other shapes (:mod:`redservo.vision.shapes`), ``clip(0.5 + d, 0, 1)``, ``d`` the
+distance to the line in pixels (first order): a straight edge is placed to about 0.01 px. The
+tag is drawn only from its printed side (the camera on the ``+z`` side of the tag frame) and
+only when its paper is wholly in front of the camera.
 """
 
 from __future__ import annotations
@@ -32,14 +33,12 @@ from redservo.tag_families import TAG_FAMILIES
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.shapes import Layer
 
-__all__ = ["INK_LEVEL", "PAPER_LEVEL", "SUPERSAMPLE", "tag_bits", "tag_layers"]
+__all__ = ["INK_LEVEL", "PAPER_LEVEL", "tag_bits", "tag_layers"]
 
 PAPER_LEVEL = 220.0
 """Gray level of the tag's white cells and margin."""
 INK_LEVEL = 20.0
 """Gray level of its black cells."""
-SUPERSAMPLE = 4
-"""Samples per pixel side for the coverage."""
 
 
 @lru_cache(maxsize=64)
@@ -55,36 +54,47 @@ def tag_bits(family: str, tag_id: int) -> NDArray[np.bool_]:
 
 
 def _coverage(
-    optics: Optics, Hinv: FloatArray, s: float, cells: NDArray[np.bool_] | None
+    optics: Optics, M: FloatArray, pattern: NDArray[np.float64]
 ) -> Callable[[slice, slice], FloatArray]:
-    """Coverage of the paper (``cells`` None) or of the black cells, by supersampling."""
-    n = SUPERSAMPLE
-    off = (np.arange(n) + 0.5) / n
+    """Coverage of the cells of ``pattern`` (1 = covered), with a zero border around it.
+
+    ``M`` (3x3) maps normalized ``(x, y, 1)`` to homogeneous cell coordinates
+    ``(col, row, 1)`` (column 0 on the pattern's left edge). Each pixel blends its own cell
+    and its neighbours across the nearest column and row lines with the renderer's 1-px ramp
+    ``clip(0.5 + d, 0, 1)``, ``d`` the distance to that line in pixels (first order).
+    """
+    padded = np.pad(pattern, 1)
+    last = padded.shape[0] - 1
+    sx, sy = 1.0 / optics.camera.px, 1.0 / optics.camera.py
 
     def coverage(rows: slice, cols: slice) -> FloatArray:
-        h, w = rows.stop - rows.start, cols.stop - cols.start
-        u = (np.arange(cols.start, cols.stop)[:, None] + off[None, :]).ravel()
-        v = (np.arange(rows.start, rows.stop)[:, None] + off[None, :]).ravel()
-        uu, vv = np.meshgrid(u, v)
-        xy = optics.to_normalized(np.stack([uu, vv], axis=-1))
-        x, y = xy[..., 0], xy[..., 1]
-        q0 = Hinv[0, 0] * x + Hinv[0, 1] * y + Hinv[0, 2]
-        q1 = Hinv[1, 0] * x + Hinv[1, 1] * y + Hinv[1, 2]
-        q2 = Hinv[2, 0] * x + Hinv[2, 1] * y + Hinv[2, 2]
-        front = q2 > 0.0
-        q2 = np.where(front, q2, 1.0)
-        a, b = q0 / q2, q1 / q2  # tag-frame coordinates (m)
-        if cells is None:
-            m = 0.5 * s
-            hit = front & (np.abs(a) < m) & (np.abs(b) < m)
-        else:
-            k = cells.shape[0]
-            col = np.floor((0.5 * s - a) * (k / s)).astype(np.int64)
-            row = np.floor((b + 0.5 * s) * (k / s)).astype(np.int64)
-            inside = front & (col >= 0) & (col < k) & (row >= 0) & (row < k)
-            hit = inside & cells[np.clip(row, 0, k - 1), np.clip(col, 0, k - 1)]
-        out: FloatArray = hit.reshape(h, n, w, n).mean(axis=(1, 3))
-        return out
+        x, y = optics.grid(rows, cols)
+        C = M[0, 0] * x + M[0, 1] * y + M[0, 2]
+        R = M[1, 0] * x + M[1, 1] * y + M[1, 2]
+        W = M[2, 0] * x + M[2, 1] * y + M[2, 2]
+        front = W > 0.0
+        W = np.where(front, W, 1.0)
+        col, row = C / W, R / W
+        W2 = W * W
+        gc = np.hypot((M[0, 0] * W - C * M[2, 0]) * sx, (M[0, 1] * W - C * M[2, 1]) * sy) / W2
+        gr = np.hypot((M[1, 0] * W - R * M[2, 0]) * sx, (M[1, 1] * W - R * M[2, 1]) * sy) / W2
+        out = np.zeros(col.shape)
+        for value, grad, store in ((col, gc, 0), (row, gr, 1)):
+            i = np.floor(value)
+            f = value - i
+            near = np.where(f < 0.5, -1.0, 1.0)  # the neighbour across the nearest line
+            dist = np.where(f < 0.5, f, 1.0 - f) / np.maximum(grad, 1e-12)
+            own = np.clip(0.5 + dist, 0.0, 1.0)
+            idx = np.clip(i + 1.0, 0, last).astype(np.intp)  # +1: the zero border
+            nb = np.clip(i + 1.0 + near, 0, last).astype(np.intp)
+            if store == 0:
+                c_own, c_nb, wc = idx, nb, own
+            else:
+                r_own, r_nb, wr = idx, nb, own
+        out = wr * (wc * padded[r_own, c_own] + (1.0 - wc) * padded[r_own, c_nb]) + (1.0 - wr) * (
+            wc * padded[r_nb, c_own] + (1.0 - wc) * padded[r_nb, c_nb]
+        )
+        return np.where(front, out, 0.0)
 
     return coverage
 
@@ -112,17 +122,28 @@ def tag_layers(obj: Tag, cMo: FloatArray, optics: Optics) -> list[Layer]:
     if r0 >= r1 or c0 >= c1:
         return []
     H = np.column_stack([R[:, 0], R[:, 1], t])
-    Hinv = np.linalg.inv(H)
+    Hinv = np.linalg.inv(H)  # normalized (x, y, 1) to the tag plane (a, b, 1), up to scale
+
+    def to_cells(side: float, n: int) -> FloatArray:
+        """Tag plane to the cells of an n x n grid of ``side`` (the marker image's axes:
+        columns along -x, rows along +y, corner (0, 0) at (side/2, -side/2))."""
+        A = np.array([[-n / side, 0.0, 0.5 * n], [0.0, n / side, 0.5 * n], [0.0, 0.0, 1.0]])
+        return np.asarray(A @ Hinv, dtype=float)
+
     depth = float(np.linalg.norm(t))
     rect = (r0, r1, c0, c1)
+    white = np.ones((1, 1))
+    ink = cells.astype(float)
     return [
-        Layer(obj.name, "tag", depth, PAPER_LEVEL, rect, _coverage(optics, Hinv, paper, None)),
+        Layer(
+            obj.name, "tag", depth, PAPER_LEVEL, rect, _coverage(optics, to_cells(paper, 1), white)
+        ),
         Layer(
             f"{obj.name}.ink",
             "tag",
             depth * (1.0 - 1e-9),
             INK_LEVEL,
             rect,
-            _coverage(optics, Hinv, obj.size, cells),
+            _coverage(optics, to_cells(obj.size, k), ink),
         ),
     ]
