@@ -27,7 +27,7 @@ from redservo.reproduction.cm01_gaze import (
 from redservo.reproduction.cm01_gaze_runs import AUTO, AUTO_CURRENT, IMPERFECT_QDOT_MAX, imperfect
 
 # Claims of CM01 that this scenario does not reproduce, with the reason given in their note.
-NOT_REPRODUCED = ("small-alpha-hits-axis-5",)
+NOT_REPRODUCED = ("small-alpha-hits-axis-5", "basic-crosses-threshold")
 
 
 @pytest.fixture(scope="module")
@@ -53,8 +53,11 @@ def test_every_claim_that_must_hold_holds(claims: dict[str, Claim]) -> None:
 
 def test_claims_and_checks_are_separated(claims: dict[str, Claim]) -> None:
     kinds = {name: c.kind for name, c in claims.items()}
-    assert sum(k == PAPER for k in kinds.values()) == 16
+    assert sum(k == PAPER for k in kinds.values()) == 13
     for by_construction in (
+        "classical-hits-axis-1",  # a set-up check
+        "gpm-auto-early-transient",  # alpha grows with the error norm: any run passes
+        "gpm-auto-early-transient-current",
         "gpm-auto-one-axis-at-a-time",
         "basic-stops-band-axes",
         "equal-convergence-ideal-robot",

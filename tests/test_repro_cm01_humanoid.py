@@ -128,7 +128,7 @@ def test_tracking_claims(tracking: Runs) -> None:
     assert len(claims) == 5
     failed = [(c.claim, c.evidence) for c in claims if not c.reproduced]
     assert not failed, failed
-    assert [c.kind for c in claims].count(PAPER) == 4
+    assert [c.kind for c in claims].count(PAPER) == 3  # the tracking error is not CM01's
 
 
 def test_tracking_order_read_from_the_logs(tracking: Runs) -> None:

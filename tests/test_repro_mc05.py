@@ -104,7 +104,7 @@ def test_occlusion_claims_reproduced(occlusion_runs: Runs) -> None:
     assert len(claims) == 8
     failed = [name for name, c in claims.items() if not c.reproduced]
     # MC05 Fig. 7 says features are accelerated; individually some are pushed away.
-    assert failed == ["features-accelerated-none-pushed"], failed
+    assert not failed, failed  # MC05 does not say that no feature is pushed away
     assert claims["avoidance-acts-on-task-only-to-help"].kind == IMPL
     assert claims["error-norm-never-slowed"].kind == IMPL
 
@@ -184,9 +184,15 @@ def test_joint_limit_claims_reproduced(joint_limit_runs: Runs) -> None:
     failed = [name for name, c in claims.items() if not c.reproduced and name != "mainly-an"]
     assert not failed, failed
     assert claims["mainly-an"].evidence
-    assert (
-        claims["rank-null-far"].kind == IMPL and claims["rank-not-null-near-limits"].kind == PAPER
-    )
+    # Consequences of eq. 9 and set-up outcomes are implementation checks.
+    for name in (
+        "rank-null-far",
+        "rank-not-null-near-limits",
+        "not-slowed",
+        "classical-ends-in-limit",
+    ):
+        assert claims[name].kind == IMPL, name
+    assert [c.kind for c in claims.values()].count(PAPER) == 3
 
 
 def test_optical_axis_variant_accelerates_an() -> None:

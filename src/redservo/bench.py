@@ -16,8 +16,8 @@ Every (case, method, path) is timed in ``rounds`` interleaved rounds of ``batch`
 (each round visits every item once, so a change of machine load affects all items
 alike); the tables report the median over rounds of the per-call time, in µs, and the
 interquartile range. The moment features are also timed alone (``features``). The
-harness prints progress through a callback and reports no targets: the targets of
-issue 10 are checked by ``benchmarks/bench_control_step.py``.
+harness prints progress through a callback and reports no targets: the speed
+targets are checked by ``benchmarks/bench_control_step.py``.
 """
 
 from __future__ import annotations

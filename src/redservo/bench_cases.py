@@ -1,4 +1,4 @@
-"""The set-ups ``redservo bench`` times (issue 10): what users run, self-contained.
+"""The set-ups ``redservo bench`` times: what users run, self-contained.
 
 * ``afma6-4points``: 4-point IBVS on the Afma6, a 0.2 m square seen at 0.6 m, the start
   rotated 80° about the optical axis: the classical law makes the camera retreat and the

@@ -109,10 +109,13 @@ def _add_reproduce(sub: Any, common: argparse.ArgumentParser) -> None:
     rp.add_argument(
         "--robustness",
         type=int,
+        nargs="?",
+        const=20,
         default=0,
         metavar="N",
-        help="also re-run every experiment on N perturbed set-ups and report, per claim, how "
-        "often it holds (default 0: none)",
+        help="also re-run every experiment on N perturbed set-ups per factor (each factor "
+        "alone and all together) and report, per claim and factor, how often it holds "
+        "(--robustness alone: N = 20; default: none)",
     )
     rp.add_argument("--seed", type=int, default=0, help="seed of the perturbed set-ups (default 0)")
     rp.add_argument(
@@ -126,8 +129,10 @@ def _add_reproduce(sub: Any, common: argparse.ArgumentParser) -> None:
         "--sensor",
         choices=("ideal", "image"),
         default="ideal",
-        help="image: also run every experiment with its features measured in the rendered "
-        "camera image, and report per claim whether it still holds (needs redservo[vision])",
+        help="image: also run every experiment (the cross-comparison included) with its "
+        "features measured in a realistic rendered camera image (noise, blur, lighting "
+        "gradient, uncorrected distortion), and report per claim whether it still holds "
+        "(needs redservo[vision])",
     )
     rp.add_argument(
         "--no-pixel-noise",

@@ -24,7 +24,9 @@ from redservo.reproduction.checks import IMPL, PAPER, Check, Claim, Verdict
 from redservo.reproduction.registry import experiments
 
 if TYPE_CHECKING:  # pragma: no cover
+    from redservo.experiment import Experiment
     from redservo.reproduction.report import ExperimentResult
+    from redservo.sensors import Sensor
 
 __all__ = [
     "IMPL",
@@ -110,14 +112,17 @@ def reproduce(
         fast: Quick version (coarser; used by the tests).
         progress: Print one line per run (and per robustness set-up) on stderr.
         log: Custom progress sink (overrides ``progress``).
-        robustness: Re-run every experiment on this many perturbed set-ups (0: none).
+        robustness: Re-run every experiment on this many perturbed set-ups per factor, each
+            factor alone and all together (0: none; ``redservo reproduce --robustness``
+            alone means 20).
         seed: Seed of the perturbed set-ups.
         workers: Processes of the robustness sweep (default: the number of cores).
         pixel_noise: Measure the features in a noisy image in the sweep (default: when
             OpenCV is installed).
-        sensor: ``"ideal"`` (default) or ``"image"``: also run every experiment with its
-            features measured in the rendered camera image, and report per claim whether it
-            still holds (needs ``redservo[vision]``).
+        sensor: ``"ideal"`` (default) or ``"image"``: also run every experiment (the
+            cross-comparison included) with its features measured in a realistic rendered
+            image (:data:`redservo.reproduction.imaging.REALISTIC`), and report per claim
+            whether it still holds (needs ``redservo[vision]``).
 
     Returns:
         The report as a dict (the content of ``report.json``).
@@ -166,29 +171,22 @@ def reproduce(
 def _through_images(
     results: Sequence[ExperimentResult], fast: bool, sink: Callable[[str], None] | None
 ) -> dict[tuple[str, str], bool]:
-    """Run every experiment again with an image sensor (the nominal set-up, features measured
-    in the rendered image with σ = 0.5 gray levels of noise, true depth); return the verdict
-    of every claim."""
-    from redservo.reproduction.perturbation import MAX_JOINTS, Perturbation
+    """Run every experiment again, the cross-comparison included, with its features measured
+    in a realistic rendered image (:data:`~redservo.reproduction.imaging.REALISTIC`: noise,
+    blur, a lighting gradient, uncorrected lens distortion; true depth) by the library's
+    detector; return the verdict of every claim."""
+    from redservo.reproduction.imaging import REALISTIC, image_sensor
+
+    def sensor(exp: Experiment) -> Sensor:
+        return image_sensor(exp.camera, REALISTIC, seed=0)
 
     verdicts: dict[tuple[str, str], bool] = {}
     for e in results:
-        p = Perturbation(
-            experiment=e.spec.id,
-            index=-1,
-            attempt=0,
-            target_shift=(0.0, 0.0, 0.0),
-            target_turn_deg=(0.0, 0.0, 0.0),
-            start_offsets=(0.0,) * MAX_JOINTS,
-            period=None,
-            depth_scale=1.0,
-            noise_px=0.5,
-            seed=0,
-        )
         tag = (lambda msg: sink(f"{msg} [through images]")) if sink is not None else None
-        runs = run_experiment(e.spec, fast=fast, progress=tag, perturbation=p)
+        runs = run_experiment(e.spec, fast=fast, progress=tag, sensor=sensor)
         for c in e.spec.claims(runs):
             verdicts[(e.spec.id, c.name)] = bool(c.reproduced)
+        e.image_runs = runs
     return verdicts
 
 

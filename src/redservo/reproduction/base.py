@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment, build
 from redservo.reproduction.checks import Check, Claim, evaluate
 from redservo.scenario import Scenario, apply_overrides, load_scenario
@@ -27,6 +28,7 @@ from redservo.simulation import SimulationResult
 
 if TYPE_CHECKING:
     from redservo.reproduction.perturbation import Perturbation
+    from redservo.sensors import Sensor
 
 __all__ = [
     "PAPER_EXACT",
@@ -128,6 +130,8 @@ class ExperimentSpec:
         base_overrides: Overrides applied to the shipped scenario for every run (an
             experiment that varies a shipped scenario).
         extra: ``f(runs) -> markdown`` appended to the report section (e.g. a table).
+        variant_of: Id of the experiment whose statements this one checks again on
+            another set-up (its paper claims are counted once in the headline), or "".
     """
 
     id: str
@@ -141,6 +145,7 @@ class ExperimentSpec:
     notes: str = ""
     base_overrides: tuple[str, ...] = ()
     extra: Callable[[Runs], str] | None = None
+    variant_of: str = ""
 
     def claims(self, runs: Runs) -> list[Claim]:
         """Evaluate every check on ``runs`` (report order)."""
@@ -170,6 +175,7 @@ def run_experiment(
     fast: bool = False,
     progress: Callable[[str], None] | None = None,
     perturbation: Perturbation | None = None,
+    sensor: Callable[[Experiment], Sensor] | None = None,
 ) -> Runs:
     """Run every run of ``spec`` (the quick version with ``fast=True``).
 
@@ -178,10 +184,15 @@ def run_experiment(
         fast: Apply ``spec.fast``.
         progress: Called with one line per run.
         perturbation: Run on this perturbed set-up instead of the nominal one.
+        sensor: ``f(experiment) -> sensor`` measuring the features of every run, those on
+            another scenario included (e.g. the image sensor of ``reproduce --sensor
+            image``); None keeps each scenario's sensor (or the perturbation's).
 
     Raises:
         ScenarioError: the (perturbed) scenario is invalid, e.g. the target leaves the
             image at the start.
+        ConfigurationError: a perturbation on an experiment with a run on another scenario
+            (its start and target are not those the perturbation was drawn for).
     """
     base = nominal_scenario(spec, fast=fast)
     bound = perturbation.bind(base) if perturbation is not None else None
@@ -191,7 +202,12 @@ def run_experiment(
     for run in spec.runs:
         key = (run.scenario, run.overrides)
         if bound is not None and run.scenario is not None:
-            raise ValueError(f"{spec.id}: a run on another scenario cannot be perturbed")
+            raise ConfigurationError(
+                f"{spec.id}: run {run.label!r} is on scenario {run.scenario!r}, which a "
+                "perturbed set-up drawn for the experiment's own scenario cannot move; use "
+                "sensor= to change only the measurement",
+                argument="perturbation",
+            )
         if key not in built:
             sc = base if run.scenario is None else load_scenario(run.scenario)
             sc = apply_overrides(sc, list(run.overrides)) if run.overrides else sc
@@ -203,6 +219,8 @@ def run_experiment(
         exp = copy.copy(built[key])
         if bound is not None:
             exp.sensor = bound.sensor(exp)
+        if sensor is not None:
+            exp.sensor = sensor(exp)
         if run.setup is not None:
             run.setup(exp)
         if progress is not None:

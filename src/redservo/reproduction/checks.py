@@ -7,12 +7,20 @@ robustness sweep iterate over an experiment's checks; nothing is written by hand
 
 Two kinds (the report's headline counts the first only):
 
-* ``"paper claim"``: something a paper reports about its experiment (a limit hit, an
-  axis stopped first, a faster convergence...). Whether it holds depends on the set-up.
-* ``"implementation check"``: a property that holds *by construction* of the law or the
-  simulator (one axis stopped at a time, a stopped axis has zero speed, an exact-Jacobian
-  law decays exponentially, the projector's rank is 0 away from the limits). Useful tests
-  that the code does what docs/formulas.md says, not reproductions.
+* ``"paper claim"``: something a paper states about its experiment (a limit hit, an
+  axis stopped first, a faster convergence...) that the implementation could fail. Each
+  quotes the paper's sentence in its docstring.
+* ``"implementation check"``: a property that holds *by construction* of the law, the
+  simulator or the equations (one axis stopped at a time, a stopped axis has zero speed, an
+  exact-Jacobian law decays exponentially, the projector's rank is 0 away from the limits,
+  a bound of eq. 9), and **set-up checks**, outcomes of the chosen set-up that the
+  experiment needs (with no avoidance a limit is hit, so there is something to avoid).
+  Useful tests that the code and the scenario do what docs/formulas.md says, not
+  reproductions.
+
+A statement checked in several variants of one experiment (two critical-axis rules of
+gpm-auto; MC05 §V-A on two start poses) is one statement: the variant's check names the
+one it restates (``statement``) and the headline counts it once.
 
 Declare checks with :func:`registrar`::
 
@@ -83,6 +91,7 @@ class Claim:
         name: The check's stable identifier.
         kind: ``"paper claim"`` or ``"implementation check"``.
         source: Where the paper states it (e.g. ``"CM01 §V-A2, Fig. 9"``).
+        statement: The statement it checks (the name of the check it restates, or its own).
     """
 
     claim: str
@@ -92,6 +101,7 @@ class Claim:
     name: str = ""
     kind: Kind = PAPER
     source: str = ""
+    statement: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -99,6 +109,7 @@ class Claim:
             "kind": self.kind,
             "claim": self.claim,
             "source": self.source,
+            "statement": self.statement or self.name,
             "reproduced": bool(self.reproduced),
             "evidence": self.evidence,
             "note": self.note,
@@ -115,6 +126,8 @@ class Check:
         kind: ``"paper claim"`` or ``"implementation check"`` (module docstring).
         fn: ``f(runs) -> Verdict``.
         source: Where the paper states it.
+        statement: The name of the check this one restates in a variant of the same
+            experiment (counted once in the headline), or "" (its own statement).
     """
 
     name: str
@@ -122,6 +135,7 @@ class Check:
     kind: Kind
     fn: CheckFn
     source: str = ""
+    statement: str = ""
 
     def __call__(self, runs: Runs) -> Claim:
         """Evaluate on ``runs``; a check that raises does not hold (the error is the note)."""
@@ -131,7 +145,14 @@ class Check:
             # A perturbed run may lack what the check reads (e.g. no constrained axis at all).
             v = Verdict(False, {"error": type(exc).__name__}, f"could not be computed: {exc}")
         return Claim(
-            self.text, bool(v.holds), v.evidence, v.note, self.name, self.kind, self.source
+            self.text,
+            bool(v.holds),
+            v.evidence,
+            v.note,
+            self.name,
+            self.kind,
+            self.source,
+            self.statement or self.name,
         )
 
 
@@ -148,7 +169,7 @@ class Registrar:
         self.target = target
 
     def __call__(
-        self, name: str, kind: Kind, text: str, source: str = ""
+        self, name: str, kind: Kind, text: str, source: str = "", *, statement: str = ""
     ) -> Callable[[CheckFn], CheckFn]:
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
@@ -156,7 +177,7 @@ class Registrar:
             raise ValueError(f"duplicate check name {name!r}")
 
         def deco(fn: CheckFn) -> CheckFn:
-            self.target.append(Check(name, text, kind, fn, source))
+            self.target.append(Check(name, text, kind, fn, source, statement))
             return fn
 
         return deco

@@ -62,11 +62,14 @@ def _thr(runs: Runs) -> float:
 
 @check(
     "classical-hits-axis-1",
-    PAPER,
-    "With no avoidance (classical) a joint limit is hit: axis 1 at iteration 54",
+    IMPL,
+    "Set-up check: with no avoidance (classical) a joint limit is hit, axis 1 (CM01: at "
+    "iteration 54), so there is something to avoid",
     "CM01 §V-A2, Fig. 9a",
 )
 def _classical(runs: Runs) -> Verdict:
+    """CM01: "The robot encounters the limit of axis 1 at iteration 54 for α = 0 (i.e., no
+    secondary task)". Our start was searched for this outcome: a set-up check."""
     cl = runs["classical"]
     axis, it = hit(cl)
     ok = cl.outcome == "joint_limit" and axis == 1
@@ -107,14 +110,16 @@ def _small_alpha_axis(runs: Runs) -> Verdict:
 @check(
     "larger-alpha-succeeds",
     PAPER,
-    f"A larger α succeeds (ours {ALPHA_ENOUGH:g} and {ALPHA_MODERATE:g}; CM01 α ≥ 2)",
+    f"The task is achieved with α ≥ 2: gpm with α = {ALPHA_MODERATE:g} (CM01's value) succeeds",
     "CM01 §V-A2",
 )
 def _larger_alpha(runs: Runs) -> Verdict:
+    """CM01 §V-A2: "The task is achieved with α ≥ 2." Checked at α = 2, CM01's own value (our
+    α = 0.5 also succeeds nominally; it is reported as evidence, not required)."""
     ok = {a: runs[GPM[a]] for a in (ALPHA_ENOUGH, ALPHA_MODERATE)}
     ev = {f"outcome α={a:g}": r.outcome for a, r in ok.items()}
     ev.update({f"iterations α={a:g}": r.summary["iterations"] for a, r in ok.items()})
-    return Verdict(all(succeeded(r) for r in ok.values()), ev)
+    return Verdict(succeeded(ok[ALPHA_MODERATE]), ev)
 
 
 @check(
@@ -202,7 +207,13 @@ _RULE_NOTE = {
 
 
 def _declare_auto(label: str, suffix: str) -> None:
-    """The two gpm-auto claims for one critical-axis rule."""
+    """The two gpm-auto checks for one critical-axis rule.
+
+    The early transient is an implementation check: α of eq. 9 is proportional to ‖e1‖, which
+    is largest at the start, so any run passes "peak in the first quarter, ≥ 10× the
+    second-half median". The order of the stopped axes is a paper claim (CM01 §V-A2); the
+    second rule's check restates the first's statement (counted once in the headline).
+    """
 
     def transient(runs: Runs) -> Verdict:
         return _transient(runs, label)
@@ -210,12 +221,15 @@ def _declare_auto(label: str, suffix: str) -> None:
     def order(runs: Runs) -> Verdict:
         return _order(runs, label)
 
+    first_rule = suffix == ""
     check(
         f"gpm-auto-early-transient{suffix}",
-        PAPER,
-        "gpm-auto computes large α values early in the run, a large-gain transient "
-        f"(CM01 Fig. 10c: unstable at the beginning) — {_RULE_NOTE[label]}",
+        IMPL,
+        "gpm-auto computes large α values early in the run, a large-gain transient (CM01 "
+        "Fig. 10c); α ∝ ‖e1‖ (eq. 9) makes it so in any run — "
+        f"{_RULE_NOTE[label]}",
         "CM01 §V-A2, Fig. 10c",
+        statement="" if first_rule else "gpm-auto-early-transient",
     )(transient)
     check(
         f"gpm-auto-axis-1-then-5{suffix}",
@@ -223,6 +237,7 @@ def _declare_auto(label: str, suffix: str) -> None:
         "gpm-auto first stops axis 1, then axis 5 overtakes it as the most critical axis "
         f"(CM01: after iteration 80) — {_RULE_NOTE[label]}",
         "CM01 §V-A2",
+        statement="" if first_rule else "gpm-auto-axis-1-then-5",
     )(order)
 
 

@@ -41,7 +41,7 @@ SATURATION_LEVELS: tuple[float | None, ...] = (None, 0.1, 0.05, 0.03, 0.02)
 def _velocity_grid(
     runs: Runs, labels: Sequence[str], path: Path, title: str, *, with_alpha: bool = False
 ) -> Path:
-    from redservo.figstyle import _plt, save
+    from redservo.figstyle import _plt, place_legend, save
 
     plt = _plt()
     names = runs.base.robot.joint_names
@@ -64,8 +64,8 @@ def _velocity_grid(
             row[2].set_title(f"{label}: α", fontsize=9)
         for ax in row:
             ax.set_xlabel("iteration")
-        row[0].legend(fontsize=6, ncol=2, loc="best")
-        row[1].legend(fontsize=6, ncol=2, loc="best")
+        place_legend(row[0], fontsize=6, ncol=2)  # in a corner free of data, else outside
+        place_legend(row[1], fontsize=6, ncol=2)
     fig.suptitle(title, fontsize=10)
     return save(fig, path)
 

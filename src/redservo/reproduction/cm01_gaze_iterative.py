@@ -31,11 +31,15 @@ from redservo.reproduction.metrics import (
     threshold,
 )
 
-__all__ = ["CHECKS", "EQUAL_RATE_TOL"]
+__all__ = ["CHECKS", "EQUAL_RATE_TOL", "VISIBLE_CROSS"]
 
 EQUAL_RATE_TOL = 0.02
 """Largest relative spread of the iteration counts of the iterative variants on the ideal
 robot for 'the same convergence'."""
+
+VISIBLE_CROSS = 0.01
+"""Normalized band excess (0.5 % of the joint range) from which a threshold crossing counts
+as visible, as q5's in CM01 Fig. 11."""
 
 CHECKS: list[Check] = []
 check = registrar(CHECKS)
@@ -69,11 +73,15 @@ def _basic_stops(runs: Runs) -> Verdict:
 @check(
     "basic-crosses-threshold",
     PAPER,
-    "iterative-basic: an axis that starts outside the band still crosses its threshold "
-    "(CM01: q5 enters the band at iteration 30 and crosses q̃5)",
+    "iterative-basic: q5 enters the critical area and its threshold q̃5 is crossed, visibly "
+    f"(by at least {VISIBLE_CROSS:g} in normalized coordinates; CM01 Fig. 11: at iteration 30)",
     "CM01 §V-A3, Fig. 11",
 )
 def _basic_crosses(runs: Runs) -> Verdict:
+    """CM01 §V-A3: "as soon as q5 enters the critical area (iteration 30) a new vector a0* is
+    computed in order to simultaneously stop the motion on the axes q1 and q5. It remains
+    that threshold q̃5 is crossed." The crossing is visible in CM01's Fig. 11, so a crossing
+    of q5 below ``VISIBLE_CROSS`` (normalized) does not count."""
     thr = _thr(runs)
     outside = np.flatnonzero(np.abs(runs.base.limits.normalized(runs.base.q0)) < thr)
     basic = runs["iterative-basic"]
@@ -93,7 +101,8 @@ def _basic_crosses(runs: Runs) -> Verdict:
         "axis 1, which the single level of eqs. 10-12 (predicting with J1⁺e1 only) does not "
         "foresee."
     )
-    return Verdict(bool(crossed), ev, note)
+    deep = float(ex[:, 4].max())
+    return Verdict(deep >= VISIBLE_CROSS, ev, note if deep < VISIBLE_CROSS else "")
 
 
 @check(
@@ -148,9 +157,14 @@ def _smooth_no_limit(runs: Runs) -> Verdict:
     "CM01 §V-A3",
 )
 def _smooth_faster(runs: Runs) -> Verdict:
+    """CM01 §V-A3: "Let us note that on the experiments reported here, considering this wider
+    area allows a faster convergence of the task." Compared: iterative-smooth and iterative
+    only (the other variants are evidence): smooth converges, and iterative either takes
+    more iterations or does not converge."""
     it = {label: runs[imperfect(label)] for label in ITERATIVE}
     n = {label: r.summary["iterations"] for label, r in it.items()}
-    ok = all(succeeded(r) for r in it.values()) and n["iterative-smooth"] < n["iterative"]
+    sm, itr = it["iterative-smooth"], it["iterative"]
+    ok = succeeded(sm) and (not succeeded(itr) or n["iterative-smooth"] < n["iterative"])
     ev = {f"iterations, {label}": k for label, k in n.items()}
     ev.update(
         {

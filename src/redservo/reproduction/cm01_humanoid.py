@@ -107,7 +107,9 @@ def group_panel(ax: Any, t: FloatArray, qn: FloatArray, group: str, names: Seque
         ax.axhline(y, color="k", lw=0.8)
     ax.set_ylim(-1.08, 1.08)
     ax.set_ylabel(group, fontsize=9)
-    ax.legend(fontsize=6, loc="best", ncol=3, framealpha=0.6)
+    from redservo.figstyle import place_legend
+
+    place_legend(ax, fontsize=6, ncol=3)  # in a corner free of data, else outside
 
 
 def _frames(robot: Any, q: FloatArray) -> FloatArray:

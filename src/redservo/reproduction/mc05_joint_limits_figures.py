@@ -55,7 +55,7 @@ def _fig2(runs: Runs, out: Path, plane: tuple[int, int]) -> Path:
     ax.set_xlabel(f"q{a + 1} = {names[a]}")
     ax.set_ylabel(f"q{b + 1} = {names[b]}")
     ax.set_title(
-        f"Fig. 2: joint plane (q{a + 1}, q{b + 1}); limits (black), thresholds (dashed)",
+        f"MC05 Fig. 2: joint plane (q{a + 1}, q{b + 1}); limits (black), thresholds (dashed)",
         fontsize=9,
     )
     ax.legend(fontsize=7, loc="best")
@@ -109,7 +109,7 @@ def _fig3(runs: Runs, out: Path) -> Path:
     ax.set_ylim(-0.2, 6.3)
     ax.set_xlabel("t (s)")
     ax.set_ylabel("DOF left for the avoidance")
-    ax.set_title("Fig. 3: rank of the directional projector (directional run)", fontsize=9)
+    ax.set_title("MC05 Fig. 3: rank of the directional projector (directional run)", fontsize=9)
     ax.legend(fontsize=7)
     return save(fig, out / "fig3_projector_rank.png")
 
@@ -133,7 +133,7 @@ def _fig4(runs: Runs, out: Path) -> Path:
     axs[0, 0].legend(fontsize=7)
     for ax in axs[1]:
         ax.set_xlabel("t (s)")
-    fig.suptitle("Fig. 4: feature errors (directional vs classical, with and without limits)")
+    fig.suptitle("MC05 Fig. 4: feature errors (directional vs classical, with and without limits)")
     return save(fig, out / "fig4_features.png")
 
 

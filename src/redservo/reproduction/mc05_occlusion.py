@@ -150,11 +150,14 @@ check = registrar(CHECKS)
 
 @check(
     "no-avoidance-occluded",
-    PAPER,
-    "Without any avoidance the target is quickly occluded",
+    IMPL,
+    "Set-up check: without any avoidance the target is quickly occluded, so there is "
+    "something to avoid",
     "MC05 §V-B",
 )
 def _none(runs: Runs) -> Verdict:
+    """MC05 §V-B: "Without any avoidance law, the visual target is quickly occluded, which
+    makes the servo fail." The occluder's path was chosen for it: a set-up check."""
     none = runs[NONE]
     dt = runs.experiments[NONE].options.dt
     return Verdict(
@@ -164,11 +167,15 @@ def _none(runs: Runs) -> Verdict:
 
 @check(
     "classical-projector-occluded",
-    PAPER,
-    "With the classical projector (2 free DOF) the avoidance is too slow: occluded",
+    IMPL,
+    "Set-up check: with the classical projector (2 free DOF) the avoidance is too slow: "
+    "occluded, so the directional projector has something to improve on",
     "MC05 §V-B, Fig. 6a",
 )
 def _classical(runs: Runs) -> Verdict:
+    """MC05 §V-B: "the secondary control law is not fast enough to avoid the occlusion (Fig.
+    6a)". Whether it is fast enough depends on the occluder's speed, which we chose: a set-up
+    check."""
     cl, none = runs[CLASSICAL], runs[NONE]
     dt = runs.experiments[CLASSICAL].options.dt
     ev = {
@@ -186,6 +193,8 @@ def _classical(runs: Runs) -> Verdict:
     "MC05 §V-B, Fig. 6b",
 )
 def _directional(runs: Runs) -> Verdict:
+    """MC05 §V-B: "This motion is available using our approach (Fig. 5). The robot velocity
+    is fast enough to avoid the occlusion (Fig. 6-b)." (the task completes: checked too)"""
     d = runs[DIRECTIONAL]
     exp = runs.experiments[DIRECTIONAL]
     clear = clearance(exp, d) * exp.camera.px
@@ -267,15 +276,18 @@ def _never_slowed(runs: Runs) -> Verdict:
 
 
 @check(
-    "features-accelerated-none-pushed",
+    "features-accelerated",
     PAPER,
-    "The avoidance accelerates the decrease of some task features and pushes none of them "
-    "away (Fig. 7, per feature)",
+    "The decreasing speed of some visual features has been accelerated to enlarge the free "
+    "space of the first task (Fig. 7, per feature)",
     "MC05 §V-B, Fig. 7",
 )
 def _fig7_per_feature(runs: Runs) -> Verdict:
+    """MC05 §V-B: "The decreasing speed of some visual features has been accelerated to
+    enlarge the free space of the first task (Fig 7)." MC05 does not say that no feature is
+    pushed away; those pushed are reported as evidence, not required."""
     f7 = figure7_features(runs)
-    ok = bool(f7["accelerated"]) and not f7["pushed away"]
+    ok = bool(f7["accelerated"])
     ev = {
         "avoidance window (iterations)": f7["window"],
         "∫|e| / ∫|e ref| per feature": _rounded(f7["ratio"]),
@@ -285,24 +297,27 @@ def _fig7_per_feature(runs: Runs) -> Verdict:
         "pushed away": f7["pushed away"],
     }
     note = (
-        ""
-        if ok
-        else "MC05 eq. 9 only bounds the error norm (in the SVD basis of J1): the directional "
+        "MC05 eq. 9 only bounds the error norm (in the SVD basis of J1): the directional "
         "operator lets the avoidance move any combination of features that does not increase "
         "the norm, so single features can be pushed away while others are accelerated."
+        if f7["pushed away"]
+        else ""
     )
     return Verdict(ok, ev, note)
 
 
 @check(
     "features-unmodified-after",
-    PAPER,
+    IMPL,
     "When the occlusion ends, the features' decrease is no longer modified: from the time the "
     "avoidance motion has died out, the command changes the features exactly as the main task "
     f"asks, J1 q̇ = −λ e1 (within {AFTER_TOL:.0%} of λ‖e1‖)",
     "MC05 §V-B, Fig. 7",
 )
 def _after(runs: Runs) -> Verdict:
+    """MC05 §V-B: "When the occlusion ends, the features decrease is no longer modified."
+    Once the avoidance speed is small, J1 q̇ = −λ e1 follows nearly automatically: an
+    implementation check."""
     d = runs[DIRECTIONAL]
     exp = runs.experiments[DIRECTIONAL]
     lam, dt = exp.options.constant_lam, exp.options.dt

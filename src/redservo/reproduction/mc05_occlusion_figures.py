@@ -34,7 +34,7 @@ NONE = "no avoidance"
 
 
 def _fig5(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.figstyle import place_legend, save
 
     plt = pyplot()
     fig, axs = plt.subplots(2, 1, figsize=(7, 5.2), sharex=True, sharey=True)
@@ -50,8 +50,9 @@ def _fig5(runs: Runs, out: Path) -> Path:
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel("m/s")
         ax.set_title(f"({tag}) avoidance translation, camera frame — {label}", fontsize=9)
-        ax.legend(fontsize=7)
+        place_legend(ax, fontsize=7)
     axs[1].set_xlabel("t (s)")
+    fig.suptitle("MC05 Fig. 5: camera translation of the avoidance term, classical vs directional")
     return save(fig, out / "fig5_avoidance_velocities.png")
 
 
@@ -103,7 +104,7 @@ def _fig6(runs: Runs, out: Path) -> Path:
                 c = cam.normalized_to_pixel(disc[0])
                 ax.add_patch(plt.Circle((c[0], c[1]), disc[1] * cam.px, color="tab:red", alpha=0.5))
         axs[row, 0].set_ylabel(label, fontsize=8)
-    fig.suptitle("Fig. 6: image at the main phases (dots: target; disc: occluding sphere)")
+    fig.suptitle("MC05 Fig. 6: image at the main phases (dots: target; disc: occluding sphere)")
     return save(fig, out / "fig6_image_phases.png")
 
 
@@ -163,7 +164,7 @@ def _fig7(runs: Runs, out: Path) -> Path:
     for ax in axs[1]:
         ax.set_xlabel("t (s)")
     fig.suptitle(
-        f"Fig. 7: task feature errors (shaded: sphere within {NEAR_PX:g} px of a dot, "
+        f"MC05 Fig. 7: task feature errors (shaded: sphere within {NEAR_PX:g} px of a dot, "
         "directional run)"
     )
     return save(fig, out / "fig7_features.png")

@@ -66,5 +66,6 @@ EXPERIMENTS: tuple[ExperimentSpec, ...] = (
         notes=NOTES,
         base_overrides=OPTICAL_AXIS_OVERRIDES,
         plane=(2, 0),
+        variant_of="mc05-joint-limits",
     ),
 )

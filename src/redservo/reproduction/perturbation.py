@@ -18,15 +18,26 @@ experiment could differ by:
 * **depth error**: the controller's depth is ``depth_scale · Z``, ``depth_scale``
   log-uniform in ``DEPTH_SCALE`` (×0.5 to ×2);
 * **pixel noise**: the features are measured in a rendered 640×480 image
-  (:class:`redservo.vision.ImageSensor`, true depth, then the depth error above) with
-  Gaussian image noise of standard deviation uniform in ``NOISE_PX`` gray levels (0-255
-  scale). Needs OpenCV (``redservo[vision]``); :func:`image_sensor_available` says
-  whether it is installed, and the sweep says so when it is not.
+  (:func:`redservo.reproduction.imaging.image_sensor`, true depth, then the depth error
+  above) with Gaussian image noise of standard deviation uniform in ``NOISE_PX`` gray
+  levels (0-255 scale);
+* **blur**: the same image, blurred with a Gaussian of standard deviation uniform in
+  ``BLUR_PX`` pixels;
+* **focal length**: the same image drawn by a camera whose focal lengths are the assumed
+  ones times a factor uniform in ``1 ± FOCAL_ERROR`` (an uncalibrated camera: the detector
+  and the controller keep the assumed intrinsics).
 
-Every draw comes from ``numpy.random.SeedSequence(seed, spawn_key=(crc32(id), index,
-attempt))``: the same seed gives the same set-ups on any machine, in any process, in any
-order. A set-up whose scenario is invalid (the target outside the image at the start) is
-redrawn with the next ``attempt``.
+The three image factors need OpenCV (``redservo[vision]``); :func:`image_sensor_available`
+says whether it is installed, and the sweep says so when it is not.
+
+A set-up perturbs one **factor** (:data:`FACTORS`) alone, every other number at its nominal
+value, or ``"all"`` of them together. Every draw comes from
+``numpy.random.SeedSequence(seed, spawn_key=(crc32(id), index, attempt))``, the factor not
+included: set-up ``i`` of a single factor uses the very value that set-up ``i`` of ``"all"``
+combines with the others, so a claim that fails in both can be traced to that factor. The
+same seed gives the same set-ups on any machine, in any process, in any order. A set-up
+whose scenario is invalid (the target outside the image at the start) is redrawn with the
+next ``attempt``.
 """
 
 from __future__ import annotations
@@ -39,6 +50,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from redservo.reproduction.imaging import Imaging, image_sensor
 from redservo.scenario import Scenario, parse_scenario
 from redservo.spatial import make_transform, matrix_to_rotvec, rotvec_to_matrix
 
@@ -47,7 +59,11 @@ if TYPE_CHECKING:
     from redservo.sensors import Sensor
 
 __all__ = [
+    "BLUR_PX",
     "DEPTH_SCALE",
+    "FACTORS",
+    "FOCAL_ERROR",
+    "IMAGE_FACTORS",
     "NOISE_PX",
     "PERIODS",
     "START_SHIFT",
@@ -74,8 +90,26 @@ PERIODS = (0.04, 0.08)
 """Control periods (s) drawn with equal probability."""
 DEPTH_SCALE = (0.5, 2.0)
 """Range of the depth-error factor ``Ẑ/Z`` (log-uniform)."""
-NOISE_PX = (0.0, 4.0)
+NOISE_PX = (0.0, 10.0)
 """Range (gray levels) of the image noise standard deviation (uniform)."""
+BLUR_PX = (0.0, 2.0)
+"""Range (pixels) of the standard deviation of the image blur (uniform)."""
+FOCAL_ERROR = 0.05
+"""Half-width of the relative error of the focal lengths (uniform: ±5 %)."""
+FACTORS: tuple[str, ...] = (
+    "target shift",
+    "target turn",
+    "start",
+    "period",
+    "depth",
+    "noise",
+    "blur",
+    "focal",
+    "all",
+)
+"""The factors a set-up perturbs alone, and ``"all"`` of them together (report order)."""
+IMAGE_FACTORS: frozenset[str] = frozenset({"noise", "blur", "focal"})
+"""Factors that need the image sensor (OpenCV)."""
 MAX_JOINTS = 12
 """Start offsets drawn per set-up (the first n are used)."""
 
@@ -102,8 +136,12 @@ class Perturbation:
         start_offsets: (MAX_JOINTS,) joint offsets as fractions of the half-width in [-1, 1].
         period: Control period (s), or None to keep the scenario's.
         depth_scale: Depth-error factor ``Ẑ/Z``.
-        noise_px: Image noise std (gray levels), or None for the ideal sensor.
+        noise_px: Image noise std (gray levels), or None for the ideal sensor (then
+            ``blur_px`` and ``focal_scale`` are unused).
         seed: Seed of the image noise.
+        factor: The factor perturbed (:data:`FACTORS`; ``"all"``: every one).
+        blur_px: Image blur std (pixels).
+        focal_scale: True focal lengths / assumed ones.
     """
 
     experiment: str
@@ -116,6 +154,9 @@ class Perturbation:
     depth_scale: float
     noise_px: float | None
     seed: int
+    factor: str = "all"
+    blur_px: float = 0.0
+    focal_scale: float = 1.0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -124,8 +165,21 @@ class Perturbation:
         """One line: the period, depth factor and noise of the set-up."""
         parts = [f"dt = {self.period * 1e3:.0f} ms" if self.period else "nominal dt"]
         parts.append(f"depth ×{self.depth_scale:.2f}")
-        parts.append("ideal sensor" if self.noise_px is None else f"image σ = {self.noise_px:.1f}")
-        return ", ".join(parts)
+        if self.noise_px is None:
+            parts.append("ideal sensor")
+        else:
+            parts.append(
+                f"image σ = {self.noise_px:.1f}, blur {self.blur_px:.2f} px, "
+                f"focal ×{self.focal_scale:.3f}"
+            )
+        return f"{self.factor}: " + ", ".join(parts)
+
+    @property
+    def imaging(self) -> Imaging | None:
+        """The image the features are measured in, or None (ideal sensor)."""
+        if self.noise_px is None:
+            return None
+        return Imaging(noise_px=self.noise_px, blur_px=self.blur_px, focal_scale=self.focal_scale)
 
     def bind(self, base: Scenario) -> BoundPerturbation:
         """Resolve the draw on the nominal scenario ``base`` (start, target poses)."""
@@ -157,11 +211,10 @@ class Perturbation:
 
     def sensor_for(self, exp: Experiment) -> Sensor | None:
         """The image sensor of this set-up for ``exp``'s camera, or None (ideal sensor)."""
-        if self.noise_px is None:
+        imaging = self.imaging
+        if imaging is None:
             return None
-        from redservo.vision import ImageSensor
-
-        return ImageSensor(exp.camera, noise_px=self.noise_px, depth="true", seed=self.seed)
+        return image_sensor(exp.camera, imaging, seed=self.seed)
 
 
 @dataclass(frozen=True)
@@ -211,6 +264,7 @@ def draw_perturbation(
     attempt: int = 0,
     periods: tuple[float, ...] | None = PERIODS,
     pixel_noise: bool = True,
+    factor: str = "all",
 ) -> Perturbation:
     """Draw set-up ``index`` of ``experiment`` (module docstring).
 
@@ -220,8 +274,15 @@ def draw_perturbation(
         seed: Seed of the whole sweep.
         attempt: Redraw number.
         periods: Periods to draw from (s), or None to keep each scenario's period.
-        pixel_noise: Measure the features in a noisy image (needs OpenCV).
+        pixel_noise: Measure the features in a rendered image (needs OpenCV); without it
+            the image factors are not drawn (the sensor stays ideal).
+        factor: The factor perturbed alone (:data:`FACTORS`), or ``"all"``.
+
+    Raises:
+        ValueError: an unknown ``factor``.
     """
+    if factor not in FACTORS:
+        raise ValueError(f"factor must be one of {', '.join(FACTORS)}, got {factor!r}")
     key = (zlib.crc32(experiment.encode()), int(index), int(attempt))
     rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=key))
     shift = rng.uniform(-TARGET_SHIFT, TARGET_SHIFT, 3)
@@ -232,15 +293,25 @@ def draw_perturbation(
     depth = math.exp(rng.uniform(log_lo, log_hi))
     noise = float(rng.uniform(*NOISE_PX))
     noise_seed = int(rng.integers(0, 2**31 - 1))
+    blur = float(rng.uniform(*BLUR_PX))
+    focal = 1.0 + float(rng.uniform(-FOCAL_ERROR, FOCAL_ERROR))
+
+    def on(name: str) -> bool:
+        return factor in ("all", name)
+
+    image = pixel_noise and (factor == "all" or factor in IMAGE_FACTORS)
     return Perturbation(
         experiment=experiment,
         index=int(index),
         attempt=int(attempt),
-        target_shift=tuple(float(v) for v in shift),  # type: ignore[arg-type]
-        target_turn_deg=tuple(float(v) for v in turn),  # type: ignore[arg-type]
-        start_offsets=tuple(float(v) for v in offsets),
-        period=None if periods is None else float(periods[period_i % len(periods)]),
-        depth_scale=float(depth),
-        noise_px=noise if pixel_noise else None,
+        target_shift=tuple(float(v) if on("target shift") else 0.0 for v in shift),  # type: ignore[arg-type]
+        target_turn_deg=tuple(float(v) if on("target turn") else 0.0 for v in turn),  # type: ignore[arg-type]
+        start_offsets=tuple(float(v) if on("start") else 0.0 for v in offsets),
+        period=float(periods[period_i % len(periods)]) if periods and on("period") else None,
+        depth_scale=float(depth) if on("depth") else 1.0,
+        noise_px=(noise if on("noise") else 0.0) if image else None,
         seed=noise_seed,
+        factor=factor,
+        blur_px=blur if image and on("blur") else 0.0,
+        focal_scale=focal if image and on("focal") else 1.0,
     )

@@ -1,10 +1,11 @@
 """``report.md``, ``report.json`` and the console summary of ``redservo reproduce``.
 
-The headline counts **paper claims** only; implementation checks (properties that hold by
-construction, :mod:`redservo.reproduction.checks`) are reported separately. With a
-robustness sweep every claim also shows the fraction of perturbed set-ups in which it
-holds, with its 95 % Wilson interval, and the report sorts the claims into robust,
-fragile and not reproduced (:mod:`redservo.reproduction.robustness`).
+The headline counts **distinct paper statements** (a statement checked in several variants
+counts once); implementation and set-up checks (:mod:`redservo.reproduction.checks`) are
+reported separately. With a robustness sweep every claim also shows, per perturbed factor,
+the fraction of set-ups in which it holds with its 95 % Wilson interval, and the report sorts
+the claims into robust, inconclusive, fragile and not reproduced on the interval
+(:mod:`redservo.reproduction.robustness`, :mod:`redservo.reproduction.report_robustness`).
 """
 
 from __future__ import annotations
@@ -16,18 +17,11 @@ from typing import Any
 
 from redservo.reproduction.base import ExperimentSpec, Runs
 from redservo.reproduction.checks import IMPL, PAPER, Claim
-from redservo.reproduction.perturbation import (
-    DEPTH_SCALE,
-    NOISE_PX,
-    PERIODS,
-    START_SHIFT,
-    START_TURN_DEG,
-    TARGET_SHIFT,
-    TARGET_TURN_DEG,
-)
-from redservo.reproduction.robustness import ROBUST_FRACTION, CheckRobustness, Robustness
+from redservo.reproduction.imaging import REALISTIC
+from redservo.reproduction.report_robustness import pct, robust_text, robustness_section
+from redservo.reproduction.robustness_tally import CATEGORIES, ROBUST_LEVEL, Robustness
 
-__all__ = ["ExperimentResult", "console_summary", "markdown", "to_json"]
+__all__ = ["ExperimentResult", "console_summary", "markdown", "statements", "to_json"]
 
 
 @dataclass
@@ -38,6 +32,7 @@ class ExperimentResult:
     runs: Runs
     claims: list[Claim]
     figures: list[Path]
+    image_runs: Runs | None = None
 
 
 ImageVerdicts = Mapping[tuple[str, str], bool] | None
@@ -53,25 +48,6 @@ def fmt(v: Any) -> str:
     return str(v)
 
 
-def _pct(x: float) -> str:
-    return f"{100.0 * x:.0f} %"
-
-
-def _robust_text(r: CheckRobustness | None) -> str:
-    if r is None:
-        return ""
-    lo, hi = r.interval
-    return f"{r.holds}/{r.n} ({_pct(r.fraction)}, 95 % CI {_pct(lo)}–{_pct(hi)})"
-
-
-def _periods(r: CheckRobustness) -> str:
-    parts = [
-        f"{k} ms: {v[0]}/{v[1]}" if k != "nominal" else f"nominal dt: {v[0]}/{v[1]}"
-        for k, v in sorted(r.by_period.items())
-    ]
-    return "; ".join(parts)
-
-
 def _counts(results: Sequence[ExperimentResult]) -> dict[str, tuple[int, int]]:
     out: dict[str, tuple[int, int]] = {}
     for kind in (PAPER, IMPL):
@@ -80,22 +56,44 @@ def _counts(results: Sequence[ExperimentResult]) -> dict[str, tuple[int, int]]:
     return out
 
 
+def statements(results: Sequence[ExperimentResult]) -> dict[tuple[str, str], list[bool]]:
+    """The distinct paper statements: ``{(experiment, statement): [verdict per variant]}``.
+
+    A claim of a variant experiment (``ExperimentSpec.variant_of``) or restating another check
+    (``Check.statement``) is the same statement as the one it restates.
+    """
+    out: dict[tuple[str, str], list[bool]] = {}
+    for e in results:
+        for c in e.claims:
+            if c.kind == PAPER:
+                key = (e.spec.variant_of or e.spec.id, c.statement or c.name)
+                out.setdefault(key, []).append(bool(c.reproduced))
+    return out
+
+
 def _headline(results: Sequence[ExperimentResult], rob: Robustness | None) -> list[str]:
     counts = _counts(results)
     (p_ok, p_all), (i_ok, i_all) = counts[PAPER], counts[IMPL]
+    st = statements(results)
+    every = sum(all(v) for v in st.values())
+    some = sum(any(v) for v in st.values())
     lines = [
-        f"**{p_ok} of {p_all} paper claims reproduced** on the nominal set-ups "
-        f"({i_ok} of {i_all} implementation checks hold; they are tests of the code, not "
-        "reproductions, and are not counted above).",
+        f"**{every} of {len(st)} distinct paper statements reproduced** on the nominal set-ups "
+        f"(in every variant that checks them; {some} of {len(st)} in at least one). Counting "
+        f"each variant apart (two critical-axis rules of gpm-auto, MC05 §V-A on two starts): "
+        f"{p_ok} of {p_all} paper-claim checks hold. {i_ok} of {i_all} implementation and "
+        "set-up checks hold; they test the code, the equations' consequences and the chosen "
+        "set-up, not the papers, and are not counted above.",
         "",
     ]
     if rob is not None:
         cats = rob.by_category(PAPER)
         lines += [
-            f"**Robustness** over {rob.n} perturbed set-ups per experiment: "
-            f"{len(cats['robust'])} paper claims robust (hold in ≥ {_pct(ROBUST_FRACTION)} of "
-            f"the set-ups), {len(cats['fragile'])} fragile, {len(cats['not reproduced'])} not "
-            "reproduced (see [Robustness](#robustness)).",
+            f"**Robustness** over {rob.n} perturbed set-ups per experiment and factor: "
+            f"{len(cats['robust'])} paper-claim checks robust (95 % Wilson lower bound ≥ "
+            f"{pct(ROBUST_LEVEL)} with all factors together), {len(cats['inconclusive'])} "
+            f"inconclusive, {len(cats['fragile'])} fragile (upper bound < {pct(ROBUST_LEVEL)}), "
+            f"{len(cats['not reproduced'])} not reproduced (see [Robustness](#robustness)).",
             "",
         ]
     return lines
@@ -125,54 +123,9 @@ def _summary_table(
                 row += f" {_image_text(image.get((e.spec.id, c.name)))} |"
             if rob is not None:
                 r = rob.get(e.spec.id, c.name)
-                row += f" {r.category + ': ' + _robust_text(r) if r else '—'} |"
+                row += f" {r.category + ': ' + robust_text(r) if r else '—'} |"
             lines.append(row)
     return [*lines, ""]
-
-
-def _robustness_section(rob: Robustness) -> list[str]:
-    noise = (
-        f"features measured in a rendered image with Gaussian noise of σ ∈ [{NOISE_PX[0]:g}, "
-        f"{NOISE_PX[1]:g}] gray levels (`redservo.vision.ImageSensor`, true depth)"
-        if rob.pixel_noise
-        else "no pixel noise: the image sensor needs OpenCV (`pip install 'redservo[vision]'`), "
-        "which is not installed, so the features are ideal"
-    )
-    period = (
-        "each experiment keeps its quick period (`--fast`)"
-        if rob.fast
-        else f"period {' or '.join(f'{p * 1e3:.0f} ms' for p in PERIODS)} (λ kept)"
-    )
-    lines = [
-        '<a id="robustness"></a>',
-        "## Robustness",
-        "",
-        f"Each experiment was re-run on {rob.n} perturbed set-ups (seed {rob.seed}; "
-        f"{rob.workers} worker process(es), {rob.seconds:.0f} s wall time): target moved by "
-        f"±{TARGET_SHIFT * 100:g} cm and turned by ±{TARGET_TURN_DEG:g}° per axis, start "
-        f"±{START_TURN_DEG:g}° per revolute joint and ±{START_SHIFT * 100:g} cm per prismatic "
-        f"joint, {period}, depth error ×{DEPTH_SCALE[0]:g} to ×{DEPTH_SCALE[1]:g} "
-        f"(log-uniform), {noise}. A claim is **robust** when it holds on the nominal set-up "
-        f"and in at least {_pct(ROBUST_FRACTION)} of the perturbed ones, **fragile** when it "
-        "holds nominally but less often, **not reproduced** when it does not hold nominally. "
-        "Intervals are 95 % Wilson intervals (docs/formulas.md §12.8). Definitions: "
-        "`src/redservo/reproduction/perturbation.py`.",
-        "",
-    ]
-    failed = [s for s in rob.setups if s.error]
-    if failed:
-        lines += [f"{len(failed)} set-up(s) could not be run (counted as failures):", ""]
-        lines += [f"- `{s.experiment}` #{s.index}: {s.error}" for s in failed]
-        lines.append("")
-    for kind, title in ((PAPER, "Paper claims"), (IMPL, "Implementation checks")):
-        lines += [f"### {title}", ""]
-        for cat, members in rob.by_category(kind).items():
-            lines.append(f"**{cat.capitalize()}** ({len(members)})")
-            lines.append("")
-            for r in members:
-                lines.append(f"- `{r.experiment}` {r.text} — {_robust_text(r)}; {_periods(r)}.")
-            lines.append("")
-    return lines
 
 
 def _claim_line(c: Claim, rob: Robustness | None, exp_id: str, image: ImageVerdicts = None) -> str:
@@ -189,7 +142,7 @@ def _claim_line(c: Claim, rob: Robustness | None, exp_id: str, image: ImageVerdi
     if rob is not None:
         r = rob.get(exp_id, c.name)
         if r is not None:
-            line += f" Robustness: {r.category}, {_robust_text(r)}."
+            line += f" Robustness: {r.category}, {robust_text(r)}."
     line += f" Evidence: {ev}."
     return line + (f" {c.note}" if c.note else "")
 
@@ -219,6 +172,8 @@ def _section(
             lines.append("")
     if spec.extra is not None:
         lines += [spec.extra(e.runs), ""]
+        if e.image_runs is not None:
+            lines += ["### Through images", "", spec.extra(e.image_runs), ""]
     if e.figures:
         lines += ["### Figures", ""]
         lines += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in e.figures]
@@ -252,15 +207,17 @@ def markdown(
         md += [
             "## Through images",
             "",
-            "Every experiment was also run with its features measured in the rendered camera "
-            "image (`redservo.vision.ImageSensor`: dots, ellipse, limbs detected in pixels; "
-            "image noise σ = 0.5 gray levels; the true depth, so that only the measurement "
-            "differs). The column *through images* says whether each claim still holds with "
-            "measured features.",
+            "Every experiment, the cross-comparison included, was also run with its features "
+            "measured in a rendered camera image by the library's detector "
+            "(`redservo.vision.ImageSensor`: dots, ellipse, limbs detected in pixels; the true "
+            f"depth, so that only the measurement differs), made realistic: {REALISTIC.describe()} "
+            "(`redservo.reproduction.imaging.REALISTIC`). The column *through images* says "
+            "whether each claim still holds with measured features; each experiment's section "
+            "lists its implementation checks through images too.",
             "",
         ]
     if rob is not None:
-        md += _robustness_section(rob)
+        md += robustness_section(rob)
     md += [_section(e, rob, out, image) for e in results]
     return "\n".join(md)
 
@@ -275,8 +232,14 @@ def to_json(
 ) -> dict[str, Any]:
     """The content of ``report.json``."""
     counts = _counts(results)
+    st = statements(results)
     report: dict[str, Any] = {
         "fast": fast,
+        "paper_statements": {
+            "reproduced": sum(all(v) for v in st.values()),
+            "reproduced_in_some_variant": sum(any(v) for v in st.values()),
+            "total": len(st),
+        },
         "paper_claims": {"reproduced": counts[PAPER][0], "total": counts[PAPER][1]},
         "implementation_checks": {"hold": counts[IMPL][0], "total": counts[IMPL][1]},
         "experiments": [],
@@ -297,16 +260,18 @@ def to_json(
         report["robustness"] = rob.to_dict()
     if image is not None:
         report["through_images"] = {f"{k[0]}/{k[1]}": v for k, v in image.items()}
+        report["imaging"] = REALISTIC.to_dict()
     return report
 
 
 def console_summary(report: dict[str, Any], out: Path) -> list[str]:
     """Lines for the terminal: the headline, every paper claim not reproduced, with a
     robustness sweep every paper claim that is not robust, and where the report is."""
-    pc, ic = report["paper_claims"], report["implementation_checks"]
+    ps, pc, ic = report["paper_statements"], report["paper_claims"], report["implementation_checks"]
     lines = [
-        f"reproduced {pc['reproduced']}/{pc['total']} paper claims "
-        f"({ic['hold']}/{ic['total']} implementation checks hold)"
+        f"reproduced {ps['reproduced']}/{ps['total']} distinct paper statements "
+        f"({pc['reproduced']}/{pc['total']} paper-claim checks with variants; "
+        f"{ic['hold']}/{ic['total']} implementation and set-up checks hold)"
     ]
     claims = [(e["id"], c) for e in report["experiments"] for c in e["claims"]]
     failed = [(i, c) for i, c in claims if not c["reproduced"]]
@@ -318,20 +283,22 @@ def console_summary(report: dict[str, Any], out: Path) -> list[str]:
     rob = report.get("robustness")
     if rob is not None:
         paper = [c for c in rob["checks"] if c["kind"] == PAPER]
-        cats = {k: [c for c in paper if c["category"] == k] for k in ("robust", "fragile")}
-        n_not = len(paper) - len(cats["robust"]) - len(cats["fragile"])
+        cats = {k: [c for c in paper if c["category"] == k] for k in CATEGORIES}
         lines.append(
-            f"robustness over {rob['n']} perturbed set-ups per experiment "
-            f"({rob['seconds']:.0f} s, {rob['workers']} worker(s)): {len(cats['robust'])} robust, "
-            f"{len(cats['fragile'])} fragile, {n_not} not reproduced"
+            f"robustness over {rob['n']} perturbed set-ups per experiment and factor "
+            f"({rob['seconds']:.0f} s, {rob['workers']} worker(s)): "
+            + ", ".join(f"{len(v)} {k}" for k, v in cats.items())
         )
         weak = [c for c in paper if c["category"] != "robust"]
         if weak:
             lines.append(f"not robust ({len(weak)}):")
-            lines += [
-                f"  - [{c['experiment']}] {' '.join(str(c['claim']).split())} — "
-                f"{c['category']}, holds in {c['holds']}/{c['n']}"
-                for c in weak
-            ]
+            for c in weak:
+                broken = c["broken_by"] or ([c["weakest_factor"]] if c["weakest_factor"] else [])
+                lines.append(
+                    f"  - [{c['experiment']}] {' '.join(str(c['claim']).split())} — "
+                    f"{c['category']}, holds in {c['holds']}/{c['n']}"
+                    + (f"; broken by {', '.join(broken)}" if c["broken_by"] else "")
+                    + (f"; weakest: {broken[0]}" if broken and not c["broken_by"] else "")
+                )
     lines.append(f"details, evidence and figures: {out / 'report.md'} (and report.json)")
     return lines
