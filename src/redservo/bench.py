@@ -162,7 +162,7 @@ def _items(
     kw = {**_law_kwargs(case), "lam": case.lam, "dt": case.dt}
     robot, task, scene, q = case.robot, case.task, case.scene, case.q
     out: list[tuple[str, Callable[[], Any]]] = []
-    if "compiled" in paths:
+    if "compiled" in paths and method != "predictive":  # predictive: a Python step only
         if method == "qp":
             qp_step = compiled_qp_step(
                 robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
@@ -178,6 +178,9 @@ def _items(
         def api() -> Any:
             bMc, J = robot.kinematics(q)
             st = task.evaluate(scene, bMc, J, 0.0)
+            observe = getattr(law, "observe", None)  # predictive: its global model
+            if observe is not None:
+                observe(robot, task, st)
             return law(J1=st.J1, e1=st.e1, q=q, limits=case.limits, lam=case.lam, dt=case.dt)
 
         out.append(("api", api))
@@ -260,7 +263,7 @@ def _reference_main(cases: list[str], methods: list[str], rounds: int, batch: in
         (name, m, "reference", fn)
         for name in cases
         for m in methods
-        if m != "qp"
+        if m not in ("qp", "predictive")
         for _, fn in _items(by_name[name], m, ("compiled",))
     ]
     return [asdict(r) for r in _measure(items, rounds, batch, None)]

@@ -1,0 +1,81 @@
+"""Time of one ``predictive`` step (N = 10) on the Panda 4-point task, in closed loop.
+
+Every law call of closed-loop runs is timed (``Predictive.compute``: the horizon's
+predictions, the QP, daqp, and every ``replan`` periods the joint-goal search; the safety
+stage and the task evaluation are not included): the ``panda-4points`` scenario and the
+first ``--samples`` starts of the ``panda-near-limits`` campaign (seed 0). Prints the
+median, p95 and worst step time, and how many steps fell back. The target of issue 20:
+median <= 5 ms on a 2-core machine.
+
+    .venv/bin/python benchmarks/bench_predictive.py --samples 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from redservo import Flag, make_law
+from redservo.campaign.definition import load_campaign
+from redservo.campaign.sampling import draw_sample
+from redservo.experiment import build
+from redservo.scenario import load_scenario
+from redservo.simulation import simulate
+
+
+def _timed_run(exp: Any, times: list[float], **options: Any) -> tuple[str, int]:
+    """Run ``exp`` with ``predictive`` and append each law call's time (s) to ``times``;
+    return the outcome and the number of fallbacks."""
+    law = make_law("predictive", **options)
+    compute = law.compute
+    fallbacks = 0
+
+    def timed(x: Any) -> Any:
+        nonlocal fallbacks
+        t0 = time.perf_counter()
+        res = compute(x)
+        times.append(time.perf_counter() - t0)
+        fallbacks += res.diagnostics.has(Flag.SOLVER_FALLBACK)
+        return res
+
+    law.compute = timed  # type: ignore[method-assign]
+    res = simulate(
+        exp.robot, exp.scene, exp.task, law, exp.q0, options=exp.options, camera=exp.camera,
+        limits=exp.limits,
+    )  # fmt: skip
+    return res.outcome, fallbacks
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=5, help="campaign starts (default 5)")
+    parser.add_argument("--horizon", type=int, default=10)
+    args = parser.parse_args()
+    exps = [("panda-4points", build(load_scenario("panda-4points")))]
+    d = load_campaign("panda-near-limits")
+    exps += [
+        (f"panda-near-limits #{i}", build(draw_sample(d, 0, i).scenario))
+        for i in range(args.samples)
+    ]
+    times: list[float] = []
+    load0 = os.getloadavg()[0]
+    for name, exp in exps:
+        n0 = len(times)
+        outcome, fb = _timed_run(exp, times, horizon=args.horizon)
+        t = np.array(times[n0:]) * 1e3
+        print(f"{name}: {outcome}, {t.size} steps, median {np.median(t):.2f} ms, {fb} fallbacks")
+    t = np.array(times) * 1e3
+    print(
+        f"predictive, N = {args.horizon}, {t.size} steps: median {np.median(t):.2f} ms, "
+        f"p95 {np.percentile(t, 95):.2f} ms, worst {t.max():.2f} ms "
+        f"(load average {load0:.2f} before, {os.getloadavg()[0]:.2f} after, "
+        f"{os.cpu_count()} cores)"
+    )
+
+
+if __name__ == "__main__":
+    main()
