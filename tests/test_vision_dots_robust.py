@@ -41,7 +41,12 @@ def test_tracker_finds_every_visible_dot_inside_its_blob(kind: str) -> None:
     visible = np.array([f.visible for f in frames])
     found = np.array([s.detected for s in states])
     assert (found & visible).sum() >= 0.99 * visible.sum(), f"{kind}: dots missed"
-    assert not (found & ~visible).any(), f"{kind}: a hidden dot was 'found'"
+    if kind != "bright_merge":  # there a dot 0-2 px from the band may still be separable
+        assert not (found & ~visible).any(), f"{kind}: a hidden dot was 'found'"
+    for i in range(4):  # re-acquired within 3 frames of reappearing (occlusion, merge)
+        back = [k for k in range(1, len(frames)) if visible[k, i] and not visible[k - 1, i]]
+        for k in back:
+            assert found[k : k + 4, i].any(), f"{kind}: dot {i} not re-acquired after frame {k}"
     err = np.array([np.hypot(*(s.uv - f.uv).T) for f, s in zip(frames, states)])[found]
     # Never a centroid outside its blob: always within the dot's disc.
     assert err.max() < R_DOT, f"{kind}: a centroid left its dot ({err.max():.2f} px)"

@@ -18,6 +18,9 @@ Kinds (:data:`SEQUENCE_KINDS`):
 * ``"bright_crossing"``: bright dots on a dark background; a mid-gray band
   (brighter than the global threshold, darker than the dots) that dots 0 and 3
   cross back and forth (each lies wholly on it for 8 frames each time);
+* ``"bright_merge"``: the same with a band as bright as the dots: a dot on it or
+  within 2 px of it is merged with it (not visible; 0-2 px away, it may still be
+  separable), and must be re-acquired after;
 * ``"motion_blur"``: the target runs around a circle at 3 px per frame per 120
   px of image height (12 px per frame at 640 x 480), blurred along the motion;
 * ``"gradient"``: the lighting falls from 1 to 0.3 across the image;
@@ -40,7 +43,15 @@ from redservo.vision.optics import require_cv2
 
 __all__ = ["SEQUENCE_KINDS", "DotSequenceFrame", "dot_sequence"]
 
-SEQUENCE_KINDS = ("nested", "bright_crossing", "motion_blur", "gradient", "occlusion", "digits")
+SEQUENCE_KINDS = (
+    "nested",
+    "bright_crossing",
+    "bright_merge",
+    "motion_blur",
+    "gradient",
+    "occlusion",
+    "digits",
+)
 
 _SS = 8  # supersampling per pixel side
 
@@ -104,7 +115,7 @@ def _target(k: int, kind: str, W: int, H: int, spacing: float) -> tuple[FloatArr
         c = np.array([W / 2 + rad * np.cos(w * k), H / 2 + rad * np.sin(w * k)])
         vel = rad * w * np.array([-np.sin(w * k), np.cos(w * k)])
         return base + c, np.tile(vel, (4, 1))
-    if kind == "bright_crossing":
+    if kind in ("bright_crossing", "bright_merge"):
         phase = k % 120 if k % 120 < 60 else 120 - k % 120  # back and forth, 60 frames each way
         c = np.array([0.3 * W + 0.4 * W * phase / 60.0, H / 2 + 0.05 * H * np.sin(0.1 * k)])
         return base + c, np.zeros((4, 2))
@@ -152,10 +163,13 @@ def dot_sequence(
         visible = np.ones(4, bool)
         paper = 215.0 if kind == "nested" else 40.0
         img = np.full((H, W), paper, np.float32)
-        if kind == "bright_crossing":
+        if kind in ("bright_crossing", "bright_merge"):
             x0 = 0.3 * W + 0.4 * W * 30 / 60.0 - 0.5 * spacing
             x0 -= r  # the band is 2 r + 8 frames of motion wide
-            img[:, int(x0) : int(x0 + 8 * 0.4 * W / 60.0 + 2 * r)] = 150.0
+            xa, xb = int(x0), int(x0 + 8 * 0.4 * W / 60.0 + 2 * r)
+            img[:, xa:xb] = 150.0 if kind == "bright_crossing" else 230.0
+            if kind == "bright_merge":  # hidden while within 2 px of the band (blur joins them)
+                visible = (uv[:, 0] + r + 2.0 <= xa) | (uv[:, 0] - r - 2.0 >= xb)
         if kind == "nested":
             for p in uv:
                 _paint_square(img, float(p[0]), float(p[1]), 2.6 * r, 25.0)
