@@ -35,6 +35,7 @@ import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any
 
 from redservo.errors import RedservoError, ScenarioError
 from redservo.reproduction.base import ExperimentSpec, run_experiment
@@ -158,13 +159,7 @@ def run_robustness(
     if nworkers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     noise = image_sensor_available() if pixel_noise is None else bool(pixel_noise)
-    available = factors_for(fast, noise)
-    chosen = available if factors is None else tuple(factors)
-    bad = [f for f in chosen if f not in available]
-    if bad or not chosen:
-        raise ValueError(
-            f"factors {bad or list(chosen)} not available here; available: {', '.join(available)}"
-        )
+    chosen = _chosen(factors, fast, noise)
     todo = [spec for spec in specs if spec.checks]
     tasks = [
         (spec.id, i, seed, fast, noise, not fast, f)
@@ -187,16 +182,7 @@ def run_robustness(
                 f"{elapsed:.0f} s elapsed, ~{left:.0f} s left){status}"
             )
 
-    if nworkers == 1 or len(tasks) == 1:
-        for task in tasks:
-            report(_safe(*task))
-    else:
-        with ProcessPoolExecutor(max_workers=min(nworkers, len(tasks))) as pool:
-            pending: set[Future[SetupResult]] = {pool.submit(_safe, *t) for t in tasks}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    report(fut.result())
+    _execute(tasks, nworkers, report)
     checks = aggregate(todo, results, nominal or {}, chosen)
     order = [s.id for s in todo]
     return Robustness(
@@ -210,6 +196,34 @@ def run_robustness(
         sorted(results, key=lambda r: (chosen.index(r.factor), order.index(r.experiment), r.index)),
         chosen,
     )
+
+
+def _chosen(factors: Sequence[str] | None, fast: bool, noise: bool) -> tuple[str, ...]:
+    """The factors to sweep (default: every available one); ValueError on another."""
+    available = factors_for(fast, noise)
+    chosen = available if factors is None else tuple(factors)
+    bad = [f for f in chosen if f not in available]
+    if bad or not chosen:
+        raise ValueError(
+            f"factors {bad or list(chosen)} not available here; available: {', '.join(available)}"
+        )
+    return chosen
+
+
+def _execute(
+    tasks: Sequence[tuple[Any, ...]], nworkers: int, report: Callable[[SetupResult], None]
+) -> None:
+    """Run every task (the arguments of :func:`_safe`), in ``nworkers`` processes when > 1."""
+    if nworkers == 1 or len(tasks) == 1:
+        for task in tasks:
+            report(_safe(*task))
+        return
+    with ProcessPoolExecutor(max_workers=min(nworkers, len(tasks))) as pool:
+        pending: set[Future[SetupResult]] = {pool.submit(_safe, *t) for t in tasks}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                report(fut.result())
 
 
 def _safe(
