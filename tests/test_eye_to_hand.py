@@ -30,17 +30,26 @@ def _setup() -> tuple[EyeToHandRobot, np.ndarray]:
 
 
 def _features() -> list[object]:
+    from redservo.features.pose import PoseThetaU, PoseTranslation
+
     moments = MomentFeatures(SQUARE, desired_area=0.01, desired_depth=0.5)
+    cdMo = make_transform(rotvec=[0.1, 0.0, 0.2], t=[0.0, 0.01, 0.4])
     return [
         PointFeature([0.02, -0.01, 0.0]),
         LineFeature([0.0, 0.01, 0.0], [1.0, 0.3, 0.1]),
         SphereFeature(0.03, [0.0, 0.0, 0.02]),
         CylinderFeature(0.02, [0.2, 1.0, 0.1], [0.0, 0.0, 0.05]),
         moments,
+        *(PoseTranslation(v, cdMo) for v in ("cdMc", "cMo", "cMcd")),
+        *(PoseThetaU(v, cdMo) for v in ("cdRc", "cRcd")),
     ]
 
 
-@pytest.mark.parametrize("feature", _features(), ids=lambda f: type(f).__name__)
+@pytest.mark.parametrize(
+    "feature",
+    _features(),
+    ids=lambda f: f"{type(f).__name__}-{getattr(f, 'variant', '')}".rstrip("-"),
+)
 def test_task_jacobian_by_finite_differences(feature: object) -> None:
     """``ds/dq = L_s · (−cVe(q) eJe(q))`` against finite differences of the real geometry
     ``cMo(q) = inv(bMc) · bMe(q) · eMo`` (which does not use the wrapper)."""
