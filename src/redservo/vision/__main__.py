@@ -7,6 +7,10 @@ GIF or MP4. Examples::
     python -m redservo.vision 0 --dots 4 --frames 100          # first webcam
     python -m redservo.vision shots/ --dark --gif dots.gif     # an image folder
     python -m redservo.vision clip.avi --px 800 --py 800 --u0 320 --v0 240
+    python -m redservo.vision clip.avi --tags 36h11 --tag-size 0.05 --camera cam.yaml
+    python -m redservo.vision run.bag --tags 36h11 --tag-size 0.05   # a ROS bag, its camera_info
+
+With ``--tags`` it prints the tags of each frame instead (:mod:`redservo.vision.tagcli`).
 
 Exit codes, as for ``redservo``: 0 on success; 2 on bad input (a bad option, a missing or
 unreadable source, an image over the size cap, a file in an image folder that is not a
@@ -32,6 +36,7 @@ import numpy as np
 
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, RedservoError
+from redservo.vision.tagcli import add_tag_arguments, run_tags
 
 __all__ = ["MAX_COUNT", "MAX_DOTS", "PROG", "main"]
 
@@ -112,7 +117,7 @@ def _output(text: str) -> Path:
 
 def _parser() -> _Parser:
     p = _Parser(prog=PROG, description=(__doc__ or "").split("\n")[0])
-    p.add_argument("source", help="camera index (0), image folder, or video file")
+    p.add_argument("source", help="camera index (0), image folder, video file, or ROS bag")
     p.add_argument(
         "--dots", type=_count(MAX_DOTS), default=None, help="number of dots (default: first frame)"
     )
@@ -137,6 +142,7 @@ def _parser() -> _Parser:
     p.add_argument(
         "--gif", type=_output, default=None, help="write the frames with the dots (.gif or .mp4)"
     )
+    add_tag_arguments(p, _number(True, 1e3))
     p.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
     return p
 
@@ -164,6 +170,10 @@ def _run(args: argparse.Namespace) -> int:
     from redservo.vision.sources import frames, iter_dots
     from redservo.vision.video import write_video
 
+    if args.tags:
+        if args.gif:
+            raise _UsageError("--gif draws dots; it does not go with --tags")
+        return run_tags(args)
     is_camera = args.source.isdigit()
     if args.gif and is_camera and args.frames is None:
         raise _UsageError("--gif with a camera needs --frames (the frames are kept in memory)")

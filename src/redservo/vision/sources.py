@@ -13,6 +13,8 @@
   this OpenCV build decodes), whose frame size (from the container) must not exceed
   ``MAX_IMAGE_PIXELS`` either;
 * an opened ``cv2.VideoCapture``;
+* a ROS 1 ``.bag`` file or a ROS 2 bag folder: its first image topic
+  (:mod:`redservo.vision.bags`, extra ``redservo[bags]``);
 * a list or tuple of images (already read).
 
 :func:`track_dots` runs the dot detector and tracker of
@@ -39,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
+from redservo.vision.bags import bag_frames, is_bag
 from redservo.vision.dots import DotTrack, Polarity, detect_dots
 from redservo.vision.imagefile import check_frame_size, read_gray
 from redservo.vision.optics import Optics, require_cv2
@@ -128,6 +131,9 @@ def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np
         yield from _capture(cv2.VideoCapture(int(source)), f"camera device {source}", max_frames)
         return
     path = Path(source)
+    if is_bag(path):  # a ROS 1 .bag or a ROS 2 bag folder: redservo.vision.bags
+        yield from bag_frames(path, max_frames=max_frames)
+        return
     if path.is_dir():
         files = _image_files(path)
         for k, f in enumerate(files):

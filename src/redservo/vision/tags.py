@@ -100,7 +100,9 @@ def _intrinsics(camera: Camera | Optics) -> tuple[FloatArray, FloatArray]:
     """OpenCV's camera matrix (pixel centres on the integers) and distortion vector."""
     if isinstance(camera, Optics | Camera):
         cam = camera.camera if isinstance(camera, Optics) else camera
-        dist = [float(getattr(camera, k, 0.0) or 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
+        # the camera's own distortion (OpenCV's model) if any, else an Optics' k1, k2
+        src = cam if getattr(cam, "distorted", False) else camera
+        dist = [float(getattr(src, k, 0.0) or 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
     else:
         raise ConfigurationError(
             f"camera must be a redservo.camera.Camera or an Optics, got {type(camera).__name__}"
