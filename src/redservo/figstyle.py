@@ -125,35 +125,48 @@ def _data_in_axes(ax: Any) -> Any:
     data = data[np.all(np.isfinite(data), axis=1)]
     if not len(data):
         return data
+    ax.get_xlim(), ax.get_ylim()  # applies a pending autoscale, so transData is final
     disp = ax.transData.transform(data)
     return ax.transAxes.inverted().transform(disp)
 
 
-_CORNERS = {  # loc -> (x range, y range) of the corner box, axes fraction
-    "upper right": ((0.55, 1.0), (0.6, 1.0)),
-    "upper left": ((0.0, 0.45), (0.6, 1.0)),
-    "lower left": ((0.0, 0.45), (0.0, 0.4)),
-    "lower right": ((0.55, 1.0), (0.0, 0.4)),
-}
+_CORNERS = ("upper right", "upper left", "lower left", "lower right")
+
+
+def _legend_box(ax: Any, legend: Any) -> Any:
+    """The legend's box in axes fraction ``(x0, y0, x1, y1)``, slightly padded."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = ax.figure
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    legend.draw(renderer)  # places it (a legend finds its offset when drawn)
+    box = legend.get_window_extent(renderer)
+    (x0, y0), (x1, y1) = ax.transAxes.inverted().transform([[box.x0, box.y0], [box.x1, box.y1]])
+    return np.array([x0 - 0.01, y0 - 0.01, x1 + 0.01, y1 + 0.01])
 
 
 def place_legend(ax: Any, *, outside: bool = False, **kwargs: Any) -> Any:
     """Add the legend of ``ax`` where it hides no data; return it.
 
-    The corner (upper right, upper left, lower left, lower right) whose box (45 % of the
-    width, 40 % of the height) holds no data point is used; when every corner has data, or
-    with ``outside=True``, the legend goes outside, to the right of the axes. Keyword
-    arguments go to ``ax.legend`` (e.g. ``fontsize``, ``ncol``).
+    The first corner (upper right, upper left, lower left, lower right) where the legend,
+    as drawn, covers no data point is used; when it would cover data in every corner, or
+    with ``outside=True``, the legend goes outside, to the right of the axes (one column).
+    Keyword arguments go to ``ax.legend`` (e.g. ``fontsize``, ``ncol``).
     """
     import numpy as np
 
     kwargs.setdefault("fontsize", 7)
     if not outside:
         xy = _data_in_axes(ax)
-        for loc, ((x0, x1), (y0, y1)) in _CORNERS.items():
+        for loc in _CORNERS:
+            legend = ax.legend(loc=loc, **kwargs)
+            x0, y0, x1, y1 = _legend_box(ax, legend)
             inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
             if not np.any(inside):
-                return ax.legend(loc=loc, **kwargs)
+                return legend
+            legend.remove()
     kwargs.pop("ncol", None)
     return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
