@@ -144,3 +144,14 @@ if __name__ == "__main__":
         print(f"wrote the flag table of {PAGE}")
     else:
         print(flag_table())
+
+
+def test_every_make_step_says_what_it_does() -> None:
+    """make demo / test / docs: each step that can take more than a few seconds (install,
+    lint, type-check, tests, the site) first prints one ``== ...`` line saying what it does."""
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    recipes = dict(re.findall(r"^([$()\w./-]+):[^\n=]*\n((?:\t[^\n]*\n)+)", makefile, re.M))
+    for target in ("$(STAMP)", "$(TSTAMP)", "$(DSTAMP)", "lint", "typecheck", "pytest", "docs"):
+        first = recipes[target].splitlines()[0].strip()
+        assert first.startswith('@echo "== '), f"make {target}: first line {first!r}"
+    assert "docs" in re.search(r"^\.PHONY:(.*)$", makefile, re.M).group(1).split()
