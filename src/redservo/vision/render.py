@@ -20,8 +20,10 @@ far to near over a uniform or textured background. Then, in this order:
 
 Objects wholly outside the image or behind the camera draw nothing; partly
 visible ones are clipped (a sphere straddling the camera plane is drawn as the
-unbounded region it really images to). Radial distortion (``k1``, ``k2``) bends
-everything through :class:`~redservo.vision.optics.Optics`.
+unbounded region it really images to). Lens distortion bends everything through
+:class:`~redservo.vision.optics.Optics`: the camera's own (OpenCV's ``k1, k2, p1, p2, k3``)
+or else these options' radial ``k1``, ``k2``. It is exact, not a remap of a pinhole image:
+each pixel is shaded at the undistorted normalized point its centre images.
 """
 
 from __future__ import annotations
