@@ -3,6 +3,14 @@
 Implements Chaumette & Marchand 2001 (gradient projection, automatic gain and
 the iterative null-space scheme), Mansard & Chaumette 2005 (directional
 redundancy) and modern baselines behind one pure-function law interface.
+
+Start here (:mod:`redservo.api`): :func:`load_scenario`, :func:`run`, :func:`compare`,
+:func:`campaign`; :func:`load_run` reads a saved run; :class:`Controller` is the control
+core for a loop of your own; :func:`make_law` builds a law by name (``METHODS``).
+
+>>> import redservo
+>>> redservo.run("afma6-gaze-demo").outcome
+'converged'
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from redservo.redundancy.gain import AdaptiveGain
 from redservo.runs import Run, load_run
 
 if TYPE_CHECKING:  # imported on first use by __getattr__ below
+    from redservo.api import compare, load_scenario, run
     from redservo.control import Controller
 
 __all__ = [
@@ -57,16 +66,33 @@ __all__ = [
     "ShapeError",
     "UnknownNameError",
     "__version__",
+    "campaign",
+    "compare",
     "load_run",
+    "load_scenario",
     "make_law",
+    "run",
 ]
+
+_API = ("load_scenario", "run", "compare", "campaign")
+"""The functions of :mod:`redservo.api`, imported on first use (``redservo.campaign`` is also
+the campaign package, which is callable: it runs :func:`redservo.api.campaign`)."""
 
 
 def __getattr__(name: str) -> Any:
-    """``redservo.Controller`` on first use: it needs the robots, scene and task modules,
-    which ``import redservo`` alone does not load."""
+    """``redservo.Controller`` and the :mod:`redservo.api` functions on first use: they need
+    the robots, scene and task modules, which ``import redservo`` alone does not load."""
     if name == "Controller":
         from redservo.control import Controller
 
         return Controller
+    if name == "campaign":
+        import importlib
+
+        # The callable package: importing it also sets it as this module's attribute.
+        return importlib.import_module("redservo.campaign")
+    if name in _API:
+        from redservo import api
+
+        return getattr(api, name)
     raise AttributeError(f"module 'redservo' has no attribute {name!r}")

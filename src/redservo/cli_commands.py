@@ -7,7 +7,6 @@ command line starts fast; each returns the exit code.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ from typing import Any
 from redservo.cli_common import (
     UsageError,
     draw_figures,
+    engine_note,
     figures,
     progress,
     require,
@@ -62,6 +62,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     figs = draw_figures(args, lambda: _plots().run_figures(result, exp, out))
     print(summary_line(f"{sc.name} [{sc.method}]", result.summary, exp.robot.joint_names))
     warn(result.summary)
+    engine_note(result)
     note = paper_note(sc, result.summary)
     if note:
         print(note, file=sys.stderr)
@@ -120,14 +121,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
             results[m] = exp.run(method=m, progress=update)
         finally:
             close()
-        results[m].save(out / m, extra={"scenario": sc.name, "method": m})
         print(summary_line(m, results[m].summary, exp.robot.joint_names))
         warn(results[m].summary, f"{m}: ")
-    from redservo.report import summary_table
+        engine_note(results[m], f"{m}: ")
+    from redservo.api import write_comparison
 
-    rows = {m: r.summary.to_dict() for m, r in results.items()}
-    (out / "compare.json").write_text(json.dumps({"scenario": sc.name, "methods": rows}, indent=2))
-    (out / "compare.md").write_text(f"# {sc.name}\n\n" + summary_table(rows) + "\n")
+    write_comparison(out, sc.name, results)
     figs = draw_figures(args, lambda: _plots().compare_figures(results, exp, out))
     print(
         f"wrote {out}/compare.md, compare.json, one run directory per method"

@@ -125,8 +125,11 @@ from __future__ import annotations
 
 import math
 import os
+import sys
+import types
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -278,3 +281,16 @@ def _engine(
             )
         timeout = float(timeout)
     return Engine(n_workers, scheduler, bool(fast), timeout)
+
+
+class _CallableModule(types.ModuleType):
+    """``redservo.campaign(...)`` is :func:`redservo.api.campaign` (the top-level API), while
+    ``redservo.campaign`` stays this package: calling the package runs a campaign."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        from redservo.api import campaign
+
+        return campaign(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
