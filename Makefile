@@ -66,8 +66,8 @@ typecheck: $(TSTAMP)
 	$(BIN)/mypy
 
 pytest: $(TSTAMP) chromium egl
-	@echo "== tests: pytest collects the tests (10-20 s), then prints a dot per test; the first tests compile the numba kernels"
-	$(BIN)/python -m pytest -q
+	@echo "== tests: pytest collects the tests, then prints a dot per test (and a line every 10 s while one runs long: the first ones compile the numba kernels)"
+	$(BIN)/python -m pytest -q -p tests.heartbeat
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
 ## into site/, strictly: a broken link or reference fails the build

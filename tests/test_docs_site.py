@@ -155,3 +155,15 @@ def test_every_make_step_says_what_it_does() -> None:
         first = recipes[target].splitlines()[0].strip()
         assert first.startswith('@echo "== '), f"make {target}: first line {first!r}"
     assert "docs" in re.search(r"^\.PHONY:(.*)$", makefile, re.M).group(1).split()
+
+
+def test_the_heartbeat_names_the_long_step() -> None:
+    """make test's pytest plugin (tests/heartbeat.py) says what runs, and for how long."""
+    from tests import heartbeat
+
+    heartbeat.pytest_runtest_logstart("tests/test_x.py::test_y", None)
+    since = heartbeat._state["since"]
+    assert heartbeat.line(since + 20.2) == "\n  … still running tests/test_x.py::test_y (20 s)\n"
+    heartbeat.pytest_runtest_logfinish("tests/test_x.py::test_y", None)
+    assert heartbeat.line(since + 30.0) is None
+    assert "-p tests.heartbeat" in (ROOT / "Makefile").read_text(encoding="utf-8")
