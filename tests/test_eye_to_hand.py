@@ -97,13 +97,19 @@ def test_sign_differs_from_eye_in_hand() -> None:
 
 
 def test_no_compiled_kinematics() -> None:
-    """The compiled step refuses it by type (never silently with eye-in-hand kinematics)."""
-    from redservo.binding.step import _robot_args
+    """The compiled step and the campaign's compiled loop refuse it by type (never silently
+    with the carrier's eye-in-hand kinematics)."""
+    from redservo.binding import compiled_step
+    from redservo.campaign.fastloop import fast_run
     from redservo.errors import ConfigurationError
+    from redservo.experiment import build
+    from redservo.scenario import load_scenario
 
-    robot, _ = _setup()
+    exp = build(load_scenario("panda-eye-to-hand"))
     with pytest.raises(ConfigurationError, match="EyeToHandRobot"):
-        _robot_args(robot)
+        compiled_step(exp.robot, exp.scene, exp.task, exp.law, limits=exp.limits, lam=0.5, dt=0.04)
+    summary, path = fast_run(exp, "iterative-smooth", None)
+    assert summary is None and "EyeToHandRobot" in path
 
 
 # -- scenarios ---------------------------------------------------------------------------------
