@@ -13,8 +13,9 @@ last one. Per frame, for each dot:
    dot's position then. Else it coasts at its last velocity.
 2. **Search window**: a square of half-size ``max_jump_px + size + pad_px + 3``
    around the prediction, which grows by ``window_growth`` x that for each frame
-   the dot has been lost (capped at the image); a prediction outside the image is
-   ``"out_of_image"``.
+   the dot has been lost (capped at the image) when it has no geometric
+   prediction (with one: ``gate + size + pad_px + 3``, gate below); a prediction
+   outside the image is ``"out_of_image"``.
 3. **Gray-level range**: with ``L`` the dot's plateau and ``b`` its background at
    the last frame it was found, the window is thresholded at
    ``b + f (L - b)`` for ``f = 0.5, 0.65, 0.8, 0.9`` in turn, then at the window's
@@ -217,7 +218,7 @@ class ImageDotTracker:
             if geo is not None:
                 pred, spread = geo[0][i], geo[1]
                 gate = max(2.0 * size, self.geometry_tol * spread)
-                half = max(half, gate + size + self.pad_px + 3.0)
+                half = gate + size + self.pad_px + 3.0  # the geometry is known: no growth
             if not np.isfinite(pred).all():
                 reasons[i] = "not_started"
                 d.lost += 1
