@@ -17,12 +17,12 @@ $(BIN)/python:
 # demo: only what the commands need (redservo[all]); test: the test tools as well.
 $(STAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[all] into $(VENV) (a minute or two on a fresh machine)"
-	$(BIN)/python -m pip install --quiet -e '.[all]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[all]'
 	touch $(STAMP)
 
 $(TSTAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[test] into $(VENV) (a minute or two on a fresh machine)"
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP) $(TSTAMP)
 
 # The viewer's test takes a screenshot with Debian's Chromium: installed when missing and
@@ -63,7 +63,7 @@ lint: $(TSTAMP)
 
 typecheck: $(TSTAMP)
 	@echo "== type-check: mypy on src/redservo (about a minute the first time, cached after)"
-	$(BIN)/mypy
+	$(BIN)/python -m tests.heartbeat $(BIN)/mypy
 
 pytest: $(TSTAMP) chromium egl
 	@echo "== tests: pytest collects the tests, then prints a dot per test (and a line every 10 s while one runs long: the first ones compile the numba kernels)"
@@ -73,7 +73,7 @@ pytest: $(TSTAMP) chromium egl
 ## into site/, strictly: a broken link or reference fails the build
 $(DSTAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[docs] (MkDocs Material, mkdocstrings) into $(VENV)"
-	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[docs]'
 	touch $(DSTAMP)
 
 docs: $(DSTAMP)

@@ -1,4 +1,10 @@
-"""A pytest plugin for ``make test`` (``-p tests.heartbeat``): no silent stretch over 10 s.
+"""No silent stretch over 10 s in ``make test``: a pytest plugin, and a command wrapper.
+
+As a command, ``python -m tests.heartbeat CMD ARGS...`` runs ``CMD`` and prints
+``… mypy still running (20 s)`` every :data:`EVERY` seconds until it ends (the Makefile wraps
+pip and mypy with it, which print nothing while they work); its exit code is ``CMD``'s.
+
+As a pytest plugin for ``make test`` (``-p tests.heartbeat``):
 
 ``pytest -q`` prints a dot when a test ends, so a test that compiles the numba kernels, or
 the collection of 2400 tests on two busy cores, can leave the terminal silent for a minute.
@@ -11,8 +17,11 @@ changes nothing else: the tests themselves never see it.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 EVERY = 10.0
@@ -67,3 +76,23 @@ def pytest_runtest_logfinish(nodeid: str, location: Any) -> None:
 
 def pytest_unconfigure(config: Any) -> None:
     _stop.set()
+
+
+def run(cmd: list[str], every: float = EVERY) -> int:
+    """Run ``cmd``, print a line every ``every`` s while it runs; return its exit code."""
+    name, start = Path(cmd[0]).name, time.monotonic()
+    proc = subprocess.Popen(cmd)
+    while True:
+        try:
+            return proc.wait(timeout=every)
+        except subprocess.TimeoutExpired:
+            took = time.monotonic() - start
+            print(f"  … {name} still running ({took:.0f} s)", file=sys.stderr, flush=True)
+        except KeyboardInterrupt:  # the child got it too; wait for it to stop
+            return proc.wait()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit("usage: python -m tests.heartbeat CMD [ARGS...]")
+    sys.exit(run(sys.argv[1:]))

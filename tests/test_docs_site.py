@@ -167,3 +167,13 @@ def test_the_heartbeat_names_the_long_step() -> None:
     heartbeat.pytest_runtest_logfinish("tests/test_x.py::test_y", None)
     assert heartbeat.line(since + 30.0) is None
     assert "-p tests.heartbeat" in (ROOT / "Makefile").read_text(encoding="utf-8")
+
+
+def test_the_heartbeat_command_returns_the_exit_code_and_talks(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from tests import heartbeat
+
+    code = "import sys, time; time.sleep(0.3); sys.exit(3)"
+    assert heartbeat.run([sys.executable, "-c", code], every=0.05) == 3
+    assert "still running (" in capsys.readouterr().err
