@@ -177,3 +177,15 @@ def test_the_heartbeat_command_returns_the_exit_code_and_talks(
     code = "import sys, time; time.sleep(0.3); sys.exit(3)"
     assert heartbeat.run([sys.executable, "-c", code], every=0.05) == 3
     assert "still running (" in capsys.readouterr().err
+
+
+def test_the_getting_started_python_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The Python blocks of docs/getting-started.md run, in order, in a fresh folder."""
+    text = (ROOT / "docs" / "getting-started.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) >= 2
+    monkeypatch.chdir(tmp_path)
+    scope: dict[str, object] = {}
+    for block in blocks:
+        exec(compile(block, "getting-started.md", "exec"), scope)
+    assert (tmp_path / "runs" / "gaze" / "summary.json").is_file()
