@@ -13,7 +13,10 @@ optical axis; m = 6, n = 6):
   lam=0.5, dt=0.04)``;
 * ``path classical`` / ``path iterative-smooth``: the three calls in a row (the sum);
 * ``compiled classical``: the whole step through :func:`redservo.binding.compiled_step`,
-  for the ratio ``path / compiled``.
+  for the ratio ``path / compiled``;
+* ``Controller.step`` / ``Controller.step python``: :meth:`redservo.Controller.step` on the
+  measured features, on its compiled engine and on the object path (``engine="python"``);
+  target: the compiled engine ≤ 1.5x the compiled step.
 
 Each item is timed in batches of ``--batch`` calls; the rounds interleave the items, so a
 change of machine load touches all of them alike; the figures are medians (µs per call)
@@ -55,6 +58,14 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
     s, inv_depth = st.s, st.inv_depth
     laws = {m: make_law(m) for m in ("classical", "iterative-smooth")}
     step = compiled_step(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
+    from redservo import Controller
+    from redservo.control import Measurement
+
+    meas = Measurement(s, tuple(inv_depth))
+    ctl = {
+        e: Controller(robot, task, make_law("classical"), limits, lam=lam, dt=dt, engine=e)
+        for e in ("auto", "python")
+    }
 
     def law_call(law: Any) -> Callable[[], Any]:
         return lambda: law(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
@@ -76,6 +87,8 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
         ("path classical", path(laws["classical"])),
         ("path iterative-smooth", path(laws["iterative-smooth"])),
         ("compiled classical", lambda: step(q)),
+        ("Controller.step", lambda: ctl["auto"].step(q, meas, 0.0, qdot_prev=None)),
+        ("Controller.step python", lambda: ctl["python"].step(q, meas, 0.0, qdot_prev=None)),
     ]
 
 
@@ -135,6 +148,9 @@ def main() -> None:
     for m in ("classical", "iterative-smooth"):
         ratio = res[f"path {m}"]["median_us"] / compiled
         print(f"\npath {m} / compiled classical step: {ratio:.1f}x")
+    ratio = res["Controller.step"]["median_us"] / compiled
+    mark = "met" if ratio <= 1.5 else "missed"
+    print(f"\nController.step / compiled classical step: {ratio:.2f}x (target ≤ 1.5x: {mark})")
     if args.json is not None:
         data = {
             "case": "afma6-4points",

@@ -37,7 +37,9 @@ def _same(a: Any, b: Any) -> bool:
     if isinstance(a, tuple | list):
         return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
     if isinstance(a, np.ndarray | float) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float), equal_nan=True)
+        return np.array_equal(
+            np.asarray(a, dtype=float), np.asarray(b, dtype=float), equal_nan=True
+        )
     return bool(a == b)
 
 
@@ -117,13 +119,19 @@ def test_engine_is_said_and_the_reason_is_one_line() -> None:
     task = VisualTask(terms, S_STAR)
     assert Controller(robot, task, make_law("gpm"), lam=0.5, dt=0.04).engine == "compiled"
     sns = Controller(robot, task, make_law("sns"), lam=0.5, dt=0.04)
-    assert sns.engine == "python" and "sns" in sns.engine_reason
+    assert sns.engine == "kernels" and "sns" in sns.engine_reason
     assert "\n" not in sns.engine_reason
+
+    def mine(**kw: Any) -> Any:
+        return make_law("classical")(**kw)
+
+    user = Controller(robot, task, mine, lam=0.5, dt=0.04)
+    assert user.engine == "python" and "mine" in user.engine_reason
     with pytest.raises(ConfigurationError) as err:
         Controller(robot, task, make_law("sns"), lam=0.5, dt=0.04, engine="compiled")
     assert err.value.argument == "engine"
     py = Controller(robot, task, make_law("gpm"), lam=0.5, dt=0.04, engine="python")
-    assert py.engine == "python"
+    assert py.engine == "kernels" and py.engine_reason == "engine='python' asked for"
 
 
 def test_bad_inputs_raise_the_object_paths_errors() -> None:

@@ -18,7 +18,6 @@ from redservo import (
 from redservo.bench_cases import dh_chain
 from redservo.features import LineFeature, PointFeature, SphereFeature
 from redservo.features.base import Measurement
-from redservo.kernels import kinematics, linalg
 from redservo.robots import Afma6
 from redservo.scene import ConstantVelocity, PointSet, Scene, Sphere, Static
 from redservo.spatial import inverse, make_transform
@@ -60,10 +59,9 @@ def _reference(task, scene, bMc, J, t, *, depth_scale=1.0, noise=None):
         i += term.feature.size
     L = L_parts[0] if len(L_parts) == 1 else np.vstack(L_parts)
     e = task.error(s)
-    mm, mv = kinematics.matmul, linalg.matvec  # the loops of the compiled steps
     if task.C is None:
-        return s, e, e, L, mm(L, J)
-    return s, e, mv(task.C, e), L, mm(mm(task.C, L), J)
+        return s, e, e, L, L @ J
+    return s, e, task.C @ e, L, (task.C @ L) @ J
 
 
 def _setup(depth="current", *, mixed=False, wMb=None, seed=0):

@@ -20,6 +20,7 @@ __all__ = [
     "UsageError",
     "add_figure_options",
     "draw_figures",
+    "engine_note",
     "figures",
     "int_in",
     "method_list",
@@ -163,6 +164,12 @@ def _safety_text(summary: Mapping[str, Any]) -> str:
     if summary.get("shield_activations"):
         text += f" (the shield acted at {summary['shield_activations']} step(s))"
     return text
+
+
+def engine_note(result: Any, prefix: str = "") -> None:
+    """One ``note:`` line when a user's Python code took part in the run's control step."""
+    if getattr(result, "engine", "compiled") == "python":
+        print(f"note: {prefix}Python control step ({result.engine_reason})", file=sys.stderr)
 
 
 def warn(summary: Any, prefix: str = "") -> None:

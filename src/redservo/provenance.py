@@ -12,7 +12,9 @@ limits actually used); :meth:`redservo.simulation.SimulationResult.save` then ca
 * ``run.json`` — the redservo version, the method and its options, the creation time,
   and ``exact``: whether re-running ``scenario.toml`` rebuilds the very same experiment
   (start, limits, options; checked by building it), with the reasons when it does not
-  (e.g. code that removed the robot's rate limits, which no scenario key expresses);
+  (e.g. code that removed the robot's rate limits, which no scenario key expresses),
+  and the controller's ``engine`` (``"compiled"``, ``"kernels"`` or ``"python"``,
+  :attr:`redservo.control.Controller.engine`) with ``engine_reason``;
 * ``diagnostics.json`` — for each diagnostic flag raised, the iterations, the number
   attached at each and the law's first message (docs/safety.md), and the law's
   informational lines with the iteration each first appeared;
@@ -299,6 +301,8 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
         "law_options": table["control"]["options"],
         "exact": not why,
         "not_exact_because": why,
+        "engine": result.engine,
+        "engine_reason": result.engine_reason,
         "files": files,
     }
     (out / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default) + "\n")

@@ -38,8 +38,6 @@ from redservo.kernels import lazy
 from redservo.scene import Scene
 
 _K = lazy("features")
-_KK = lazy("kinematics")
-_KL = lazy("linalg")
 _SCENE_CMO = Scene.cMo
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
@@ -305,7 +303,11 @@ class VisualTask:
             if type(J) is not np.ndarray or J.ndim != 2 or J.shape[0] != 6:
                 J = as_matrix(J, "J", 6)
             L = _K.points_interaction(s, iz)
-            return self._combine(s, s - self.s_star, L, J, group.split(iz))
+            e = s - self.s_star
+            C = self.C
+            if C is None:
+                return _new_state(TaskState, (s, e, e, L, L @ J, group.split(iz)))
+            return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, group.split(iz)))
         parts: Sequence[FloatArray] = ()
         if self._custom:
             s, inv_depth = self.measure(scene, bMc, t)
@@ -357,24 +359,11 @@ class VisualTask:
         if self.depth != "current" or depth_scale != 1.0:
             iz = plan.depth_option(iz, self._group.star, self.depth, depth_scale)  # type: ignore[union-attr]
         L = _K.points_interaction(s, iz)
-        return self._combine(s, s - self.s_star, L, J, inv_depth)
-
-    def _combine(
-        self,
-        s: FloatArray,
-        e: FloatArray,
-        L: FloatArray,
-        J: FloatArray,
-        inv_depth: tuple[FloatArray, ...],
-    ) -> TaskState:
-        """The state from ``s``, ``e = s − s*``, ``L`` and ``J``: ``e1 = C e``, ``J1 = C L J``
-        with the loops of the compiled steps (:mod:`redservo.kernels.control`), so that the
-        object path and the compiled controller agree to the last bit."""
+        e = s - self.s_star
         C = self.C
         if C is None:
-            return _new_state(TaskState, (s, e, e, L, _KK.matmul(L, J), inv_depth))
-        J1 = _KK.matmul(_KK.matmul(C, L), J)
-        return _new_state(TaskState, (s, e, _KL.matvec(C, e), L, J1, inv_depth))
+            return _new_state(TaskState, (s, e, e, L, L @ J, inv_depth))
+        return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, inv_depth))
 
     def _state(
         self,
@@ -392,7 +381,10 @@ class VisualTask:
             if self._custom
             else plan.interaction(self._plan, s, parts, self.depth, depth_scale)
         )
-        return self._combine(s, self.error(s), np.ascontiguousarray(L), J, inv_depth)
+        e = self.error(s)
+        if self.C is None:
+            return TaskState(s, e, e, L, L @ J, inv_depth)
+        return TaskState(s, e, self.C @ e, L, (self.C @ L) @ J, inv_depth)
 
     def interaction(
         self, s: FloatArray, inv_depth: Sequence[FloatArray], *, depth_scale: float = 1.0

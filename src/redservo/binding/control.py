@@ -24,7 +24,7 @@ import numpy as np
 
 from redservo import _task_plan as plan
 from redservo._validation import FloatArray
-from redservo.binding.step import _robot_args
+from redservo.binding.step import robot_pack
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
@@ -204,7 +204,7 @@ def bind_controller(
     except ConfigurationError as err:
         return str(err)
     try:
-        kind, robot_args = _robot_args(robot)
+        kind, robot_args = robot_pack(robot)
         kernel: Callable[..., Any] | None = getattr(_K, _KINDS[kind])
     except ConfigurationError:  # the Jacobian from the robot object, the rest compiled
         robot_args, kernel = (), None

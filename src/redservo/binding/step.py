@@ -35,7 +35,7 @@ from redservo.scene import PointSet, Scene, Static
 from redservo.spatial import inverse
 from redservo.task import VisualTask
 
-__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
+__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step", "robot_pack"]
 
 _K = lazy("tasks")
 _KC = lazy("chain_tasks")
@@ -63,12 +63,11 @@ class CompiledStep:
     kernel: Callable[..., Any]
     """The kernel of :mod:`redservo.kernels.tasks`."""
     args: tuple[Any, ...]
-    """The packed arguments between ``q`` and ``qdot_prev`` (robot, scene, task, law,
-    limits, λ, dt), then a zero previous command."""
+    """The packs between ``q`` and ``qdot_prev`` (robot, task, law, limits; plain tuples,
+    :mod:`redservo.kernels.tasks`), λ and dt, then a zero previous command."""
     task_kernel: Callable[..., Any]
-    """The kernel computing ``(e1, J1)`` alone (kinematics and features)."""
-    n_task: int
-    """How many of ``args`` :attr:`task_kernel` takes after ``q``."""
+    """The kernel computing ``(e1, J1)`` alone (kinematics and features) from ``q``, the
+    robot pack and the task pack."""
     out: FloatArray
     """The output buffer the kernel fills."""
 
@@ -89,11 +88,17 @@ class CompiledStep:
 
     def task(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(e1, J1)`` at ``q``: the compiled kinematics and features of the step."""
-        e1, J1 = self.task_kernel(q, *self.args[: self.n_task])
+        e1, J1 = self.task_kernel(q, self.args[0], self.args[1])
         return e1, J1
 
 
-def _robot_args(robot: Robot) -> tuple[str, tuple[Any, ...]]:
+def robot_pack(robot: Robot) -> tuple[str, tuple[Any, ...]]:
+    """``(kind, pack)``: the robot as the kernels take it (:mod:`redservo.kernels.tasks`),
+    kind ``"afma6"``, ``"dh"`` or ``"chain"``.
+
+    Raises:
+        ConfigurationError: a robot without compiled kinematics.
+    """
     eMc, cVe = np.ascontiguousarray(robot.eMc), np.ascontiguousarray(robot.cVe)
     if isinstance(robot, Afma6):
         return "afma6", (eMc, cVe, COUPLING, OFFSET)
@@ -158,15 +163,15 @@ def compiled_step(
     """
     from redservo.features import MomentFeatures, PointFeature
 
-    kind, robot_args = _robot_args(robot)
+    kind, robot_args = robot_pack(robot)
     bMo, feats = _target(scene, task)
     if task.depth != "current":
         raise ConfigurationError("a compiled step uses the current depth", argument="task")
     n = robot.n
     o = law_options(law, n)
     lp = limits_pack(limits)
-    law_args = (o.law_id, o.fopt, o.iopt, o.vopt, lp.rows, lp.has_v, lp.has_a, float(lam))
-    tail = (*law_args, float(dt), np.zeros(n))
+    law_pack = (o.law_id, o.fopt, o.iopt, o.vopt)
+    tail = (law_pack, (lp.rows, lp.has_v, lp.has_a), float(lam), float(dt), np.zeros(n))
     s_star = np.ascontiguousarray(task.s_star)
     if all(isinstance(f, PointFeature) for f in feats):
         pts = np.ascontiguousarray(np.array([f.point_o for f in feats]))
@@ -194,13 +199,7 @@ def compiled_step(
         )
     from redservo.kernels.tasks import output_size
 
-    return CompiledStep(
-        fn,
-        (*robot_args, *visual, *tail),
-        task_fn,
-        len(robot_args) + len(visual),
-        np.zeros(output_size(n)),
-    )
+    return CompiledStep(fn, (robot_args, visual, *tail), task_fn, np.zeros(output_size(n)))
 
 
 @dataclass(frozen=True)

@@ -20,12 +20,13 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
    (direction kept) so that no joint exceeds it, as a drive's saturation would.
 
-**Engines.** The steps above run as one compiled call (:mod:`redservo.binding.control`)
-when the set-up allows it (a task of image points, a law with a compiled step, a fixed
-gain, no objectives, no estimated feed-forward), with the same command, task state and
-diagnostics bit for bit; otherwise on the object path (each part a Python object over
-compiled kernels). :attr:`Controller.engine` says which, :attr:`Controller.engine_reason`
-why not compiled.
+**Engines** (:attr:`Controller.engine`). ``"compiled"``: the steps above run as one
+compiled call (:mod:`redservo.binding.control`) when the set-up allows it (a task of image
+points, a law with a compiled step, a fixed gain, no objectives, no estimated
+feed-forward), with the same command, task state and diagnostics bit for bit as the
+object path. ``"kernels"``: the object path, each part a compiled kernel called from its
+Python object. ``"python"``: a user's own law, feature or objective written in Python
+takes part. :attr:`Controller.engine_reason` says why a step is not one compiled call.
 
 Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joint.
 """
@@ -39,8 +40,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_vector
-from redservo.binding.control import CompiledControl, bind_controller
 from redservo.control.checks import check_controller, saturation
+from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.objectives import Objective, ObjectiveContext
 from redservo.control.steps import ControlStep, Features, SceneContext
@@ -118,39 +119,24 @@ class Controller:
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
-        self._compiled, self.engine_reason = self._bind(engine)
+        self._compiled, why = bind_engine(self, engine)
+        self._python = python_parts(self)
+        self.engine_reason = (
+            "written in Python: " + ", ".join(self._python) if self._python else why
+        )
+        """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self.stage = "task"
         """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
         ``"feed-forward"``, ``"law"`` or ``"saturation"`` (a loop names it in its errors)."""
 
-    def _bind(self, engine: str) -> tuple[CompiledControl | None, str]:
-        """The compiled engine and ``""``, or None and the reason it is not used."""
-        if engine not in ("auto", "compiled", "python"):
-            raise ConfigurationError(
-                f"engine must be 'auto', 'compiled' or 'python', got {engine!r}",
-                argument="engine",
-            )
-        if engine == "python":
-            return None, "engine='python' asked for"
-        why = ""
-        if self.objectives:
-            why = "objectives need the task state before the law: Python step"
-        elif self.feedforward == "estimated":
-            why = "the estimated feed-forward needs the task state before the law: Python step"
-        bound = why or bind_controller(
-            self.robot, self.task, self.law, self.limits, lam=self.lam, dt=self.dt,
-            depth_scale=self.depth_scale,
-        )  # fmt: skip
-        if isinstance(bound, str):
-            if engine == "compiled":
-                raise ConfigurationError(f"no compiled engine: {bound}", argument="engine")
-            return None, bound
-        return bound, ""
-
     @property
     def engine(self) -> str:
-        """``"compiled"`` or ``"python"``: the engine of :meth:`step` (module docstring)."""
-        return "python" if self._compiled is None else "compiled"
+        """The engine of :meth:`step`: ``"compiled"`` (one compiled call), ``"kernels"`` (the
+        object path: each part a compiled kernel called from Python) or ``"python"`` (a
+        user's own law, feature or objective written in Python takes part)."""
+        if self._compiled is not None:
+            return "compiled"
+        return "python" if self._python else "kernels"
 
     @property
     def n(self) -> int:

@@ -371,10 +371,11 @@ class ServoLoop:
         assert run.last is not None
         ctrl = self.controller
         try:
-            run.state = ctrl.evaluate(run.last, J)
-            return ctrl.command(
-                q, run.state, float(run.last.t_measured) - run.t0, qdot_prev=run.prev, J=J
+            step = ctrl.step(
+                q, run.last, float(run.last.t_measured) - run.t0, qdot_prev=run.prev, J=J
             )
+            run.state = step.state
+            return step
         finally:
             run.stage = ctrl.stage  # named in the note of an exception
 

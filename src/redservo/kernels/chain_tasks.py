@@ -20,18 +20,11 @@ __all__ = ["chain_points", "chain_step"]
 
 
 @kernel
-def chain_points(
-    q: Any,
-    frames: Any,
-    joints: Any,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-) -> Any:
-    """``(e1, J1)`` of an image-point task (current depth) on a chain."""
+def chain_points(q: Any, robot: Any, task: Any) -> Any:
+    """``(e1, J1)`` of an image-point task (current depth) on a chain (``robot``:
+    ``(frames, joints, eMc, cVe)``; ``task``: ``(bMo, pts, s_star, C)``)."""
+    frames, joints, eMc, cVe = robot
+    bMo, pts, s_star, C = task
     bMc, J = chain_kinematics(q, frames, joints, eMc, cVe)
     e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
     return e1, J1
@@ -40,21 +33,10 @@ def chain_points(
 @kernel
 def chain_step(
     q: Any,
-    frames: Any,
-    joints: Any,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
+    robot: Any,
+    task: Any,
+    law: Any,
+    limits: Any,
     lam: float,
     dt: float,
     prev: Any,
@@ -62,5 +44,5 @@ def chain_step(
     out: Any,
 ) -> None:
     """A full image-point step on a chain: kinematics, features, ``J1``, law, safety."""
-    e1, J1 = chain_points(q, frames, joints, eMc, cVe, bMo, pts, s_star, C)
-    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
+    e1, J1 = chain_points(q, robot, task)
+    _after_task(e1, J1, q, law, limits, lam, dt, prev, has_prev, out)

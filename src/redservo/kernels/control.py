@@ -2,7 +2,9 @@
 
 One call turns joint positions and *measured* points into the safe command and everything
 the controller returns: kinematics of the robot, ``L(s, 1/Ẑ)``, ``e1 = C (s − s*)``,
-``J1 = C L J`` (CM01 eq. 25), the law and its safety layer
+``J1 = C L J`` (CM01 eq. 25; products by BLAS, ``np.dot``, as numpy's ``@`` on the object
+path, so that both agree to the last bit, as the campaign loop of
+:mod:`redservo.kernels.loop_task` does), the law and its safety layer
 (:func:`redservo.kernels.step.law_step`) and the events of both
 (:func:`~redservo.kernels.step.law_events`, :func:`~redservo.kernels.step.sout_events`).
 
@@ -42,8 +44,7 @@ from redservo.kernels.chain import chain_kinematics
 from redservo.kernels.features import points_interaction
 from redservo.kernels.flagbits import N_FLAGS
 from redservo.kernels.inputs import inputs_ok
-from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics, matmul
-from redservo.kernels.linalg import matvec
+from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
 from redservo.kernels.step import NS, law_events, law_step, sout_events
 
 __all__ = ["afma6_control", "chain_control", "control_layout", "dh_control"]
@@ -104,10 +105,10 @@ def _measured(
         e[i] = s[i] - s_star[i]
     if C.shape[0] == 0:  # no combination matrix: e1 = e, J1 = L J
         e1 = e.copy()
-        J1 = matmul(L, J)
-    else:
-        e1 = matvec(C, e)
-        J1 = matmul(matmul(C, L), J)
+        J1 = np.dot(L, J)
+    else:  # BLAS, as numpy's ``C @ e`` and ``(C @ L) @ J`` on the object path
+        e1 = np.dot(C, e)
+        J1 = np.dot(np.dot(C, L), J)
     m = e1.shape[0]
     has_ff = ff.shape[0] > 0
     has_sec = sec.shape[0] > 0

@@ -2,11 +2,18 @@
 
 ``*_points``/``*_moments`` return ``(e1, J1)`` for a robot and an image-point or moment
 task (current depth; CM01 eq. 25 combination ``C``); ``*_step`` adds the law and its
-safety layer through :func:`redservo.kernels.step.law_step` (argument layouts there) and
-writes into the caller's float buffer ``out`` (:func:`output_size`): ``q̇`` (n), the law's
+safety layer through :func:`redservo.kernels.step.law_step` and writes into the caller's
+float buffer ``out`` (:func:`output_size`): ``q̇`` (n), the law's
 integer outputs ``iout`` (16), its ``fout`` (16), the safety numbers ``sout`` (11) and
 the level of each axis (n). Filling a buffer instead of returning arrays saves the
 boxing of seven arrays (several µs) on every call from Python.
+
+Arguments travel as packs, plain tuples unpacked by name at the top of each kernel (a
+NamedTuple would cost numba a slow type lookup per call): ``robot`` as in
+:mod:`redservo.kernels.control` (Afma6 ``(eMc, cVe, coupling, offset)``, DH ``(par, base,
+flange, standard, eMc, cVe)``), ``task`` ``(bMo, pts, s_star, C)`` for points or ``(bMo,
+pts, area*, depth*, kind, s_star)`` for moments, ``law`` ``(law_id, fopt, iopt, vopt)``
+(:mod:`redservo.kernels.lawopts`), ``limits`` ``(rows, has_v, has_a)``.
 :func:`redservo.binding.compiled_step` packs these arguments from the public objects.
 """
 
@@ -95,58 +102,30 @@ def moments_task(
 
 
 @kernel
-def afma6_points(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-) -> Any:
-    """``(e1, J1)`` of an image-point task on the Afma6."""
+def afma6_points(q: Any, robot: Any, task: Any) -> Any:
+    """``(e1, J1)`` of an image-point task on the Afma6 (packs in the module docstring)."""
+    eMc, cVe, coupling, offset = robot
+    bMo, pts, s_star, C = task
     bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
     e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
     return e1, J1
 
 
 @kernel
-def dh_points(
-    q: Any,
-    par: Any,
-    base: Any,
-    flange: Any,
-    standard: bool,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-) -> Any:
+def dh_points(q: Any, robot: Any, task: Any) -> Any:
     """``(e1, J1)`` of an image-point task on a DH chain."""
+    par, base, flange, standard, eMc, cVe = robot
+    bMo, pts, s_star, C = task
     bMc, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
     e1, J1, _, _ = points_task(bMc, J, bMo, pts, s_star, C)
     return e1, J1
 
 
 @kernel
-def afma6_moments(
-    q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    area_star: float,
-    depth_star: float,
-    kind: int,
-    s_star: Any,
-) -> Any:
+def afma6_moments(q: Any, robot: Any, task: Any) -> Any:
     """``(e1, J1)`` of the moment-feature task on the Afma6."""
+    eMc, cVe, coupling, offset = robot
+    bMo, pts, area_star, depth_star, kind, s_star = task
     bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
     e1, J1, _, _ = moments_task(bMc, J, bMo, pts, area_star, depth_star, kind, s_star)
     return e1, J1
@@ -157,13 +136,8 @@ def _after_task(
     e1: Any,
     J1: Any,
     q: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
+    law: Any,
+    limits: Any,
     lam: float,
     dt: float,
     prev: Any,
@@ -171,6 +145,8 @@ def _after_task(
     out: Any,
 ) -> None:
     """Run the law and its safety layer on ``(e1, J1)``; fill ``out`` (module docstring)."""
+    law_id, fopt, iopt, vopt = law
+    lp, has_v, has_a = limits
     z = np.zeros(q.shape[0])
     qdot, iout, fout, axes, _, _, sout = law_step(
         law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
@@ -210,21 +186,10 @@ def output_size(n: int) -> int:
 @kernel
 def afma6_step(
     q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
+    robot: Any,
+    task: Any,
+    law: Any,
+    limits: Any,
     lam: float,
     dt: float,
     prev: Any,
@@ -232,30 +197,17 @@ def afma6_step(
     out: Any,
 ) -> None:
     """A full image-point step on the Afma6: kinematics, features, ``J1``, law, safety."""
-    e1, J1 = afma6_points(q, eMc, cVe, coupling, offset, bMo, pts, s_star, C)
-    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
+    e1, J1 = afma6_points(q, robot, task)
+    _after_task(e1, J1, q, law, limits, lam, dt, prev, has_prev, out)
 
 
 @kernel
 def dh_step(
     q: Any,
-    par: Any,
-    base: Any,
-    flange: Any,
-    standard: bool,
-    eMc: Any,
-    cVe: Any,
-    bMo: Any,
-    pts: Any,
-    s_star: Any,
-    C: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
+    robot: Any,
+    task: Any,
+    law: Any,
+    limits: Any,
     lam: float,
     dt: float,
     prev: Any,
@@ -263,30 +215,17 @@ def dh_step(
     out: Any,
 ) -> None:
     """A full image-point step on a DH chain (e.g. the Panda)."""
-    e1, J1 = dh_points(q, par, base, flange, standard, eMc, cVe, bMo, pts, s_star, C)
-    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
+    e1, J1 = dh_points(q, robot, task)
+    _after_task(e1, J1, q, law, limits, lam, dt, prev, has_prev, out)
 
 
 @kernel
 def afma6_moments_step(
     q: Any,
-    eMc: Any,
-    cVe: Any,
-    coupling: float,
-    offset: float,
-    bMo: Any,
-    pts: Any,
-    area_star: float,
-    depth_star: float,
-    kind: int,
-    s_star: Any,
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
+    robot: Any,
+    task: Any,
+    law: Any,
+    limits: Any,
     lam: float,
     dt: float,
     prev: Any,
@@ -294,7 +233,5 @@ def afma6_moments_step(
     out: Any,
 ) -> None:
     """A full moment-feature step on the Afma6."""
-    e1, J1 = afma6_moments(
-        q, eMc, cVe, coupling, offset, bMo, pts, area_star, depth_star, kind, s_star
-    )
-    _after_task(e1, J1, q, law_id, fopt, iopt, vopt, lp, has_v, has_a, lam, dt, prev, has_prev, out)
+    e1, J1 = afma6_moments(q, robot, task)
+    _after_task(e1, J1, q, law, limits, lam, dt, prev, has_prev, out)

@@ -89,6 +89,10 @@ class SimulationResult:
     provenance: Any = field(default=None, repr=False, compare=False)
     """What the run was made from (:class:`redservo.provenance.Provenance`), set by
     :meth:`redservo.experiment.Experiment.run`; None for a bare :func:`simulate`."""
+    engine: str = "compiled"
+    """The controller's engine (:attr:`redservo.control.Controller.engine`)."""
+    engine_reason: str = ""
+    """Why the controller did not run compiled (one line), or ``""``."""
 
     def save(self, directory: str | Path, *, extra: dict[str, Any] | None = None) -> Path:
         """Write ``summary.json``, ``log.npz``, ``log.csv`` and ``diagnostics.json`` into
@@ -249,7 +253,7 @@ def simulate(
             progress(it)
     log = buf.to_log(robot.joint_names, task.names)
     summary = summarize(log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin)
-    return SimulationResult(outcome, summary, log)
+    return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
 
 class _Run:
@@ -289,24 +293,24 @@ class _Run:
         s = reading.s
         if opt.noise_std > 0:
             s = s + self.rng.normal(0.0, opt.noise_std, ctrl.task.k)
+        meas = Measurement(s, tuple(reading.inv_depth))
+        if opt.check_image and not all(
+            _in_image(self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px)
+            for name in self.targets
+        ):
+            return "target_lost", None  # an object left the image
         try:
-            state = ctrl.evaluate(Measurement(s, tuple(reading.inv_depth)), J)
-            if opt.check_image and not all(
-                _in_image(
-                    self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px
-                )
-                for name in self.targets
-            ):
-                raise GeometryError("an object left the image")
+            step = ctrl.step(
+                q_meas, meas, t, qdot_prev=qdot_prev, J=J, context=SceneContext(self.scene, bMc)
+            )
         except GeometryError:
+            if ctrl.stage != "task":
+                raise
             return "target_lost", None
-        step = ctrl.command(
-            q_meas, state, t, qdot_prev=qdot_prev, J=J, context=SceneContext(self.scene, bMc)
-        )
         if step.stop is not None:
             return cast(Outcome, step.stop), None
         assert step.diagnostics is not None
-        qdot = step.qdot
+        state, qdot = step.state, step.qdot
         buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
