@@ -167,7 +167,7 @@ def _frames(
     cursor = axj.axvline(t[0], color="0.3", lw=0.8)
     image = axi.imshow(camera_image(pb, ks[0]))
     axi.set_axis_off()
-    axi.set_title("camera: current (blue), desired (orange)", fontsize=_FONT["title"])
+    axi.set_title("camera: current (sky blue), desired (orange)", fontsize=_FONT["title"])
     out = []
     for i, k in enumerate(ks):
         scene.update(pb.frame(k))
