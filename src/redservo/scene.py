@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, GeometryError, ShapeError, UnknownNameError
 from redservo.spatial import inverse, matrix_to_rotvec, rotvec_to_matrix, twist_transform
+from redservo.tag_families import check_tag, tag_points
 
 __all__ = [
     "ConstantVelocity",
@@ -257,20 +258,9 @@ class PointSet(SceneObject):
 
 @dataclass(frozen=True, eq=False)
 class Tag(PointSet):
-    """A square fiducial tag (AprilTag or ArUco) of side ``size`` (m): its ``points`` are its
-    four outer corners, so point features on a tag are its corners.
-
-    Frame (ViSP's ``vpDetectorAprilTag`` tag frame): origin at the tag centre, the tag in the
-    plane ``z = 0``, ``z`` out of its printed face; corner ``k`` is ``size/2`` times
-    ``(-1, -1), (1, -1), (1, 1), (-1, 1)`` (AprilTag 3's corner order). ``size`` is the
-    side of the black border; the renderer adds a one-cell white margin. Details in
-    docs/vision.md (Tags); detection in :func:`redservo.vision.detect_tags`.
-
-    Attributes:
-        size: Side of the tag's black square (m), > 0.
-        tag_id: Its id in the family (0-based).
-        family: Family name (:data:`redservo.tag_families.TAG_FAMILIES`).
-    """
+    """A square fiducial tag (AprilTag or ArUco): ``size`` (m, the black square's side), ``tag_id``
+    and ``family``; its ``points`` are its 4 corners in ViSP's tag frame
+    (:func:`redservo.tag_families.tag_points`; docs/vision.md, Tags)."""
 
     points: FloatArray = field(init=False)
     size: float = 0.05
@@ -278,16 +268,9 @@ class Tag(PointSet):
     family: str = "36h11"
 
     def __post_init__(self) -> None:
-        from redservo.tag_families import check_tag
-
-        size = float(self.size)
-        if not (np.isfinite(size) and size > 0.0):
-            raise GeometryError(f"tag size must be positive and finite (m), got {self.size!r}")
         object.__setattr__(self, "family", check_tag(self.family, self.tag_id))
-        object.__setattr__(self, "size", size)
-        h = 0.5 * size
-        corners = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
-        object.__setattr__(self, "points", corners)
+        object.__setattr__(self, "points", tag_points(self.size))
+        object.__setattr__(self, "size", float(self.size))
         super().__post_init__()
 
 

@@ -1,16 +1,24 @@
-"""Fiducial tag families: names, OpenCV dictionaries, bits and number of ids (pure data).
+"""Fiducial tag families: names, OpenCV dictionaries, bits and number of ids (pure data), and
+the tag frame.
 
 Shared by the scene's :class:`~redservo.scene.Tag` (which checks a family and an id without
 importing OpenCV) and :mod:`redservo.vision.tags` (which builds the ``cv2.aruco`` dictionary).
+
+Tag frame (ViSP's ``vpDetectorAprilTag`` frame): origin at the tag centre, the tag in the plane
+``z = 0``, ``z`` out of its printed face; corner ``k`` is ``size/2`` times
+``(-1, -1), (1, -1), (1, 1), (-1, 1)`` (AprilTag 3's corner order), ``size`` the side of the
+black border (the renderer adds a one-cell white margin).
 Each entry is ``name: (cv2.aruco dictionary constant, bits per side, number of ids)``; the
 tag is drawn ``bits + 2`` cells wide (a one-cell black border) on a one-cell white margin.
 """
 
 from __future__ import annotations
 
-from redservo.errors import ConfigurationError, UnknownNameError
+import numpy as np
 
-__all__ = ["TAG_FAMILIES", "check_tag"]
+from redservo.errors import ConfigurationError, GeometryError, UnknownNameError
+
+__all__ = ["TAG_FAMILIES", "check_tag", "tag_points"]
 
 TAG_FAMILIES: dict[str, tuple[str, int, int]] = {
     "36h11": ("DICT_APRILTAG_36h11", 6, 587),
@@ -46,3 +54,16 @@ def check_tag(family: str, tag_id: int | None = None) -> str:
                 f"tag id must be an integer in [0, {n - 1}] for family {key!r}, got {tag_id!r}"
             )
     return key
+
+
+def tag_points(size: float) -> np.ndarray:
+    """(4, 3) the corners (m) of a tag of side ``size`` in its frame (module docstring).
+
+    Raises:
+        GeometryError: ``size`` is not positive and finite.
+    """
+    s = float(size)
+    if not (np.isfinite(s) and s > 0.0):
+        raise GeometryError(f"tag size must be positive and finite (m), got {size!r}")
+    h = 0.5 * s
+    return np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])

@@ -236,7 +236,7 @@ def scene_layers(
         if isinstance(obj, Tag):
             from redservo.vision.tag_render import tag_layers
 
-            layers.extend(tag_layers(obj, cMo, optics))
+            layers.extend(Layer(*parts) for parts in tag_layers(obj, cMo, optics))
             continue
         if isinstance(obj, PointSet):
             layers.extend(_point_layers(obj, cMo, optics, levels))

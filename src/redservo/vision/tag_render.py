@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,9 +32,11 @@ from redservo.camera import MIN_DEPTH
 from redservo.scene import Tag
 from redservo.tag_families import TAG_FAMILIES
 from redservo.vision.optics import Optics, require_cv2
-from redservo.vision.shapes import Layer
 
-__all__ = ["INK_LEVEL", "PAPER_LEVEL", "tag_bits", "tag_layers"]
+__all__ = ["INK_LEVEL", "PAPER_LEVEL", "LayerParts", "tag_bits", "tag_layers"]
+
+LayerParts = tuple[str, str, float, float, tuple[int, int, int, int], Any]
+"""``(name, kind, depth, level, rect, coverage)``: the fields of a ``shapes.Layer``."""
 
 PAPER_LEVEL = 220.0
 """Gray level of the tag's white cells and margin."""
@@ -99,8 +102,9 @@ def _coverage(
     return coverage
 
 
-def tag_layers(obj: Tag, cMo: FloatArray, optics: Optics) -> list[Layer]:
-    """The paper and ink layers of ``obj`` at pose ``cMo`` (4x4), or none when not drawn."""
+def tag_layers(obj: Tag, cMo: FloatArray, optics: Optics) -> list[LayerParts]:
+    """The paper and ink layers of ``obj`` at pose ``cMo`` (4x4), or none when not drawn, as the
+    arguments of :class:`redservo.vision.shapes.Layer` (which builds them: no import cycle)."""
     R, t = cMo[:3, :3], cMo[:3, 3]
     if float(R[:, 2] @ t) >= 0.0:
         return []  # seen from behind
@@ -134,16 +138,9 @@ def tag_layers(obj: Tag, cMo: FloatArray, optics: Optics) -> list[Layer]:
     rect = (r0, r1, c0, c1)
     white = np.ones((1, 1))
     ink = cells.astype(float)
+    paper_cov = _coverage(optics, to_cells(paper, 1), white)
+    ink_cov = _coverage(optics, to_cells(obj.size, k), ink)
     return [
-        Layer(
-            obj.name, "tag", depth, PAPER_LEVEL, rect, _coverage(optics, to_cells(paper, 1), white)
-        ),
-        Layer(
-            f"{obj.name}.ink",
-            "tag",
-            depth * (1.0 - 1e-9),
-            INK_LEVEL,
-            rect,
-            _coverage(optics, to_cells(obj.size, k), ink),
-        ),
+        (obj.name, "tag", depth, PAPER_LEVEL, rect, paper_cov),
+        (f"{obj.name}.ink", "tag", depth * (1.0 - 1e-9), INK_LEVEL, rect, ink_cov),
     ]

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, ShapeError
-from redservo.tag_families import TAG_FAMILIES, check_tag
+from redservo.tag_families import TAG_FAMILIES, check_tag, tag_points
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.tag_refine import refine_quad
 
@@ -82,8 +82,7 @@ class TagDetection:
 
 def tag_corners(size: float) -> FloatArray:
     """(4, 3) the tag-frame corners (m) of a tag of side ``size``, in the detection order."""
-    h = 0.5 * float(size)
-    return np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
+    return tag_points(size)
 
 
 @lru_cache(maxsize=16)
