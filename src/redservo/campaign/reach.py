@@ -19,6 +19,7 @@ Units: metres, radians.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -26,7 +27,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.spatial import inverse, matrix_to_rotvec
 
-__all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "solve_ik"]
+__all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "reachable_column", "solve_ik"]
 
 RANDOM_SEEDS = 12
 """Random seeds tried after the deterministic ones."""
@@ -109,3 +110,11 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
     seeds += [np.clip(seeds[0] + gen.normal(0.0, 0.15, rng.shape) * rng, lo, hi) for _ in range(4)]
     seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
     return any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds)
+
+
+def reachable_column(values: Sequence[str]) -> np.ndarray | None:
+    """The ``reachable`` column of ``samples.csv`` as booleans, or None when no row knows it
+    (every value empty)."""
+    if not any(values):
+        return None
+    return np.array([v == "True" for v in values], dtype=bool)

@@ -13,6 +13,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from redservo.campaign.definition import CampaignDefinition, ErrorSpec, Range
+from redservo.campaign.reach import reachable_column
 from redservo.errors import ConfigurationError
 
 Z95 = 1.959963984540054
@@ -79,12 +80,10 @@ class MethodStats(NamedTuple):
     flag_runs: tuple[tuple[str, int], ...] = ()
     """For each diagnostic flag, the number of runs in which it occurred."""
     reachable_runs: int = -1
-    """Runs whose sample's goal is reachable (:mod:`redservo.campaign.reach`); -1: unknown
-    (no desired pose, or rows without the column)."""
+    """Runs whose goal is reachable (:mod:`redservo.campaign.reach`; -1: unknown), the
+    successes among them and the Wilson 95 % interval of that rate."""
     reachable_successes: int = 0
-    """Successes among those runs."""
     reach_ci_low: float = float("nan")
-    """Wilson 95 % interval of the success rate among the reachable runs."""
     reach_ci_high: float = float("nan")
 
 
@@ -128,13 +127,6 @@ def method_stats(method: str, rows: Sequence[Mapping[str, Any]]) -> MethodStats:
     )
 
 
-def reachable_column(values: Sequence[str]) -> np.ndarray | None:
-    """The ``reachable`` column as booleans, or None when no row knows it (empty strings)."""
-    if not any(values):
-        return None
-    return np.array([v == "True" for v in values], dtype=bool)
-
-
 def column_stats(
     method: str,
     success: np.ndarray,
@@ -154,10 +146,9 @@ def column_stats(
     n = int(success.size)
     k = int(success.sum())
     lo, hi = wilson_interval(k, n)
-    nr, kr, rlo, rhi = -1, 0, float("nan"), float("nan")
-    if reachable is not None:
-        nr, kr = int(reachable.sum()), int((success & reachable).sum())
-        rlo, rhi = wilson_interval(kr, nr)
+    ok = np.zeros(0, bool) if reachable is None else reachable
+    nr, kr = (int(ok.sum()), int((ok & success).sum())) if reachable is not None else (-1, 0)
+    rlo, rhi = (float("nan"),) * 2 if reachable is None else wilson_interval(kr, nr)
     named = ("converged", "joint_limit", "target_lost", "max_iterations")
     return MethodStats(
         method=method,
@@ -235,11 +226,9 @@ def _reach(s: MethodStats) -> str:
     """The table's cell of the success among the reachable runs."""
     if s.reachable_runs < 0:
         return "—"
-    rate = 100 * s.reachable_successes / s.reachable_runs if s.reachable_runs else float("nan")
-    return (
-        f"{s.reachable_successes}/{s.reachable_runs} = {_g(rate, '.1f')} % "
-        f"[{100 * s.reach_ci_low:.1f}, {100 * s.reach_ci_high:.1f}]"
-    )
+    k, n = s.reachable_successes, s.reachable_runs
+    rate = _g(100 * k / n if n else float("nan"), ".1f")
+    return f"{k}/{n} = {rate} % [{100 * s.reach_ci_low:.1f}, {100 * s.reach_ci_high:.1f}]"
 
 
 def _sample_count(n: int, counts: Mapping[str, int]) -> str:
