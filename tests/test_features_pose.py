@@ -23,7 +23,8 @@ VARIANTS = [
 def _random_pose(rng: np.random.Generator, big: bool = False) -> np.ndarray:
     angle = 2.5 if big else 0.8
     return make_transform(
-        t=rng.uniform(-0.2, 0.2, 3) + np.array([0.0, 0.0, 0.6]), rotvec=rng.uniform(-angle, angle, 3)
+        t=rng.uniform(-0.2, 0.2, 3) + np.array([0.0, 0.0, 0.6]),
+        rotvec=rng.uniform(-angle, angle, 3),
     )
 
 
@@ -123,3 +124,12 @@ def test_every_law_decreases_the_pbvs_error() -> None:
 def test_pbvs_with_the_ideal_sensor_converges() -> None:
     res = _load("afma6-pbvs").run()
     assert res.outcome == "converged" and res.summary.success
+
+
+def test_the_compiled_step_refuses_pose_features_with_a_reason() -> None:
+    """A campaign on pose features leaves the compiled loop with this one-line reason."""
+    from redservo.binding.step import compiled_step
+
+    e = _load("afma6-pbvs")
+    with pytest.raises(ConfigurationError, match="needs point features"):
+        compiled_step(e.robot, e.scene, e.task, e.law, limits=e.limits, lam=0.8, dt=0.04)

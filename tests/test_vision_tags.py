@@ -149,3 +149,23 @@ def test_pbvs_on_detected_poses_matches_the_ideal_sensor() -> None:
     img = _run("afma6-tag-pbvs", it)
     ideal = _run("afma6-tag-pbvs", it, 'sensor.kind="ideal"')
     np.testing.assert_allclose(img.log.e, ideal.log.e, atol=6e-3)  # m and rad
+
+
+def test_the_image_sensor_refuses_what_it_cannot_measure() -> None:
+    from redservo.features import PointFeature, PoseThetaU
+    from redservo.scene import PointSet
+    from redservo.task import TaskTerm, VisualTask
+    from redservo.vision import ImageSensor
+
+    wMo = make_transform(t=[0.0, 0.0, 0.3], rotvec=FACING)
+    scene = Scene(
+        [Tag("tag", size=0.1, trajectory=Static(wMo)), PointSet("dots", [[0.0, 0.0, 0.3]])]
+    )
+    cases = [
+        (TaskTerm(PoseThetaU("cdRc", wMo), "dots"), "pose feature on a tag only"),
+        (TaskTerm(PointFeature([0.0, 0.0, 0.0]), "tag"), "one of its 4 corners"),
+    ]
+    for term, message in cases:
+        task = VisualTask.from_desired_poses([term], {term.target: wMo})
+        with pytest.raises(ConfigurationError, match=message):
+            ImageSensor(CAM).read(task, scene, np.eye(4), 0.0)
