@@ -197,3 +197,19 @@ def test_robustness_alone_means_twenty_set_ups() -> None:
     assert parser.parse_args(["reproduce", "--robustness"]).robustness == 20
     assert parser.parse_args(["reproduce"]).robustness == 0
     assert parser.parse_args(["reproduce", "--robustness", "3"]).robustness == 3
+
+
+def test_the_report_names_the_breaking_factor_and_whose_fragility() -> None:
+    from redservo.reproduction.report_robustness import robustness_section
+    from redservo.reproduction.robustness_tally import Robustness
+
+    spec = experiments()[CHEAP]
+    setups = _rows({"start": 5, "depth": 20, "all": 6})
+    checks = aggregate(
+        [spec], setups, {(CHEAP, "directional-succeeds"): True}, ("start", "depth", "all")
+    )
+    rob = Robustness(20, 0, False, False, 1, 1.0, checks, setups, ("start", "depth", "all"))
+    md = "\n".join(robustness_section(rob, [(CHEAP, "the slice is narrow"), ("other", "x")]))
+    assert "| start | depth | all | category |" in md and "**5/20**" in md
+    assert "fragile, all factors 6/20" in md and "broken by start (5/20)" in md
+    assert "**`mc05-joint-limits`.** the slice is narrow" in md and "**`other`.**" not in md

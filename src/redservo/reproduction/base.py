@@ -132,6 +132,9 @@ class ExperimentSpec:
         extra: ``f(runs) -> markdown`` appended to the report section (e.g. a table).
         variant_of: Id of the experiment whose statements this one checks again on
             another set-up (its paper claims are counted once in the headline), or "".
+        fragility: What breaks its non-robust claims, one factor at a time, and whether the
+            paper's own set-up would be broken too (markdown; printed with a robustness
+            sweep; its numbers come from the sweep it names).
     """
 
     id: str
@@ -146,6 +149,7 @@ class ExperimentSpec:
     base_overrides: tuple[str, ...] = ()
     extra: Callable[[Runs], str] | None = None
     variant_of: str = ""
+    fragility: str = ""
 
     def claims(self, runs: Runs) -> list[Claim]:
         """Evaluate every check on ``runs`` (report order)."""

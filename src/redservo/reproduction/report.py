@@ -217,7 +217,7 @@ def markdown(
             "",
         ]
     if rob is not None:
-        md += robustness_section(rob)
+        md += robustness_section(rob, [(e.spec.id, e.spec.fragility) for e in results])
     md += [_section(e, rob, out, image) for e in results]
     return "\n".join(md)
 

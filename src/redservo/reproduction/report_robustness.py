@@ -4,6 +4,8 @@ decided on the Wilson interval and the factors that break each claim
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from redservo.reproduction.checks import IMPL, PAPER
 from redservo.reproduction.perturbation import (
     BLUR_PX,
@@ -62,8 +64,8 @@ def _ranges(rob: Robustness) -> str:
         "the detector and the controller keep the assumed one) — all with the library's "
         "detector and the true depth"
         if rob.pixel_noise
-        else "no image factor: the image sensor needs OpenCV (`pip install 'redservo[vision]'`), "
-        "which is not installed, so the features are ideal"
+        else "no image factor (`--no-pixel-noise`, or OpenCV is not installed: `pip install "
+        "'redservo[vision]'`), so the features are ideal"
     )
     return (
         f"**target shift** ±{TARGET_SHIFT * 100:g} cm per axis; **target turn** "
@@ -94,8 +96,9 @@ def _table(rob: Robustness, kind: str) -> list[str]:
     return [*lines, ""]
 
 
-def robustness_section(rob: Robustness) -> list[str]:
-    """The ``## Robustness`` section of ``report.md``."""
+def robustness_section(rob: Robustness, notes: Sequence[tuple[str, str]] = ()) -> list[str]:
+    """The ``## Robustness`` section of ``report.md``; ``notes`` are ``(experiment id,
+    markdown)`` explanations of what breaks the fragile claims (``ExperimentSpec.fragility``)."""
     lines = [
         '<a id="robustness"></a>',
         "## Robustness",
@@ -130,4 +133,11 @@ def robustness_section(rob: Robustness) -> list[str]:
         )
     if not weak:
         lines.append("Every paper claim is robust.")
-    return [*lines, ""]
+    lines.append("")
+    swept = {c.experiment for c in rob.checks}
+    mine = [(i, text) for i, text in notes if text and i in swept]
+    if mine:
+        lines += ["### Whose fragility: the method's or our set-up's", ""]
+        for exp_id, text in mine:
+            lines += [f"**`{exp_id}`.** {text}", ""]
+    return lines
