@@ -153,3 +153,31 @@ def test_cli_with_a_camera_file_and_errors(tmp_path: Path, capsys) -> None:
     assert err.count("\n") == 1 and "unknown tag family" in err
     assert main([str(folder), "--tags", "25h9"]) == 0
     assert capsys.readouterr().out.splitlines() == ["frame 0: no tag", "frame 1: no tag"]
+
+
+def test_tag_feature_source_feeds_the_servo_loop(tmp_path: Path) -> None:
+    """The frames of a bag as a hardware FeatureSource: corners and pose features per frame."""
+    from redservo.features import PointFeature, PoseTranslation
+    from redservo.hardware import FeatureSource
+    from redservo.task import TaskTerm, VisualTask
+    from redservo.vision.tag_source import TagFeatureSource
+
+    tag = Tag("tag", size=0.1, tag_id=7)
+    bag = _write(tmp_path / "run", _images(), ros1=False, encoding="mono8")
+    terms = [TaskTerm(PointFeature(p), "tag") for p in tag.points]
+    terms.append(TaskTerm(PoseTranslation("cMo"), "tag"))
+    task = VisualTask.from_desired_poses(terms, {"tag": POSES[0]})
+    src = TagFeatureSource(task, {"tag": tag}, str(bag), bag_camera(bag))
+    assert isinstance(src, FeatureSource)
+    for k, P in enumerate(POSES):
+        m = src.measure(0.1 * k)
+        assert m is not None and m.t_measured == pytest.approx(0.1 * k)
+        truth, _ = task.measure(
+            Scene([Tag("tag", size=0.1, tag_id=7, trajectory=Static(P))]), np.eye(4), 0.0
+        )
+        np.testing.assert_allclose(m.s[:8], truth[:8], atol=1e-3)  # normalized: 0.3 px at 300 px
+        np.testing.assert_allclose(m.s[8:], P[:3, 3], atol=2e-3)  # m
+        np.testing.assert_allclose(
+            m.inv_depth[0], [1.0 / (P @ [-0.05, -0.05, 0.0, 1.0])[2]], rtol=0.02
+        )
+    assert src.measure(1.0) is None and "no more frames" in src.reason

@@ -17,6 +17,7 @@ when a function needs it.
 * :mod:`~redservo.vision.video` — :func:`write_video` (GIF / MP4 with overlays)
 * :mod:`~redservo.vision.optics` — :class:`Optics` (intrinsics + radial distortion)
 * :mod:`~redservo.vision.tags` — :func:`detect_tags`, :class:`TagDetection`, :func:`iter_tags` (AprilTag, ArUco)
+* :mod:`~redservo.vision.tag_source` — :class:`TagFeatureSource` (tags in real frames, for the servo loop)
 
 See docs/vision.md.
 """
@@ -36,6 +37,7 @@ __all__ = [
     "RenderOptions",
     "Renderer",
     "TagDetection",
+    "TagFeatureSource",
     "detect_dots",
     "detect_ellipse",
     "detect_tags",
@@ -72,6 +74,7 @@ _WHERE = {
     "track_dots": "sources",
     "write_video": "video",
     "TagDetection": "tags",
+    "TagFeatureSource": "tag_source",
     "detect_tags": "tags",
     "iter_tags": "tags",
 }

@@ -353,7 +353,7 @@ class ImageSensor:
                 notes.append(f"term {i}: {exc}")
                 return None
         if isinstance(st, TagTerm):
-            s, why = measure_tag(image, self.renderer, st, feature)
+            s, why = measure_tag(image, self.renderer.optics, st, feature)
         elif st.kind == "sphere":
             s, why = measure_sphere(image, self.renderer, st, feature, self.ellipse_method, truth)
         else:

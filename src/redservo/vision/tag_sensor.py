@@ -31,7 +31,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.features import PointFeature, PoseThetaU, PoseTranslation
 from redservo.scene import SceneObject, Tag
-from redservo.vision.render import Renderer
+from redservo.vision.optics import Optics
 from redservo.vision.tags import TagDetection, detect_tags
 from redservo.vision.terms import TermState
 
@@ -83,13 +83,13 @@ def tag_term(i: int, feature: Any, obj: SceneObject) -> TagTerm | None:
     return TagTerm("tag", tag=obj, corner=k)
 
 
-def _detections(image: NDArray[np.uint8], renderer: Renderer, tag: Tag) -> list[TagDetection]:
+def _detections(image: NDArray[np.uint8], optics: Optics, tag: Tag) -> list[TagDetection]:
     key = f"{tag.family}/{tag.size!r}"
     if _LAST.get("image") is not image:
         _LAST.clear()
         _LAST["image"] = image
     if key not in _LAST:
-        _LAST[key] = detect_tags(image, tag.family, camera=renderer.optics, tag_size=tag.size)
+        _LAST[key] = detect_tags(image, tag.family, camera=optics, tag_size=tag.size)
     out: list[TagDetection] = _LAST[key]
     return out
 
@@ -102,12 +102,13 @@ def _angle(A: FloatArray | None, B: FloatArray) -> float:
 
 
 def measure_tag(
-    image: NDArray[np.uint8], renderer: Renderer, st: TagTerm, feature: Any
+    image: NDArray[np.uint8], optics: Optics, st: TagTerm, feature: Any
 ) -> tuple[FloatArray | None, str]:
-    """The term's value in ``image`` (and ``st.inv_depth``), or None and why."""
+    """The term's value in ``image`` seen through ``optics`` (and ``st.inv_depth``), or None and
+    why."""
     tag = st.tag
     assert tag is not None
-    found = [d for d in _detections(image, renderer, tag) if d.id == tag.tag_id]
+    found = [d for d in _detections(image, optics, tag) if d.id == tag.tag_id]
     if not found:
         return None, f"tag {tag.family} id {tag.tag_id} not detected"
     det = found[0]
@@ -124,7 +125,7 @@ def measure_tag(
     if st.corner >= 0:
         P = cMo[:3, :3] @ tag.points[st.corner] + cMo[:3, 3]
         st.inv_depth = np.array([1.0 / P[2]]) if P[2] > 0.0 else st.inv_depth
-        return renderer.optics.to_normalized(det.corners[st.corner]), ""
+        return optics.to_normalized(det.corners[st.corner]), ""
     meas = feature.measure(cMo)
     st.inv_depth = meas.inv_depth
     return np.asarray(meas.s, dtype=float), ""
