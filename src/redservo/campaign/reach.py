@@ -1,14 +1,17 @@
 """Is a campaign sample's goal reachable? Inverse kinematics of the desired camera pose.
 
-A sample is *reachable* when some joint configuration puts the camera at the task's desired
-pose (``bMc* = wMb⁻¹ wMref(0) cdMref⁻¹``, the scenario's ``task.desired_pose`` relative to
-the first feature's object) with every joint at least ``margin`` (a fraction of its range,
+A sample is *reachable* when some joint configuration within the margin either puts the
+camera at the task's desired pose, or (features that several poses share, such as moments)
+brings the task error itself below half the convergence tolerance (the same projected
+damped least squares on ``e1(q)``, from the non-random seeds below). The pose is
+``bMc* = wMb⁻¹ wMref(0) cdMref⁻¹``, the scenario's ``task.desired_pose`` relative to the
+first feature's object; every joint stays at least ``margin`` (a fraction of its range,
 default the scenario's success margin ``min_margin``) inside its limits. The search is a
 damped least-squares inverse kinematics projected on those bounds, from several seeds: the
 sample's start, the scenario's nominal start, the middle of the range, four starts around
 the sample's start (normal, 15 % of each range) and :data:`RANDOM_SEEDS` configurations drawn
-uniformly inside the bounds (a generator seeded
-with 0: the answer depends only on the sample). It uses the robot's own kinematics
+uniformly inside the bounds (a generator seeded with 0: the answer depends only on the
+sample). It uses the robot's own kinematics
 (``Robot.kinematics``: the camera pose and its Jacobian in the camera frame).
 
 A reachable goal is not a promise that a method can get there (the path matters); an
@@ -108,8 +111,39 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
         seeds.append(np.asarray(nominal, dtype=float))
     seeds.append(0.5 * (lo + hi))
     seeds += [np.clip(seeds[0] + gen.normal(0.0, 0.15, rng.shape) * rng, lo, hi) for _ in range(4)]
+    near = list(seeds)  # the start, the nominal start, the middle, 4 around the start
     seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
-    return any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds)
+    if any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds):
+        return True
+    tol = 0.5 * exp.options.tolerance
+    return any(_feature_goal(exp, s, lo, hi, tol) for s in near)
+
+
+def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, tol: float) -> bool:
+    """Projected damped least squares on the task error ``e1(q)`` itself (the scene at t = 0):
+    True if some ``q`` within ``[lo, hi]`` reaches ``‖e1‖ < tol``."""
+    from redservo.errors import GeometryError
+
+    q = np.clip(np.asarray(seed, dtype=float), lo, hi)
+    for _ in range(150):
+        bMc, J = exp.robot.kinematics(q, check_limits=False)
+        try:
+            st = exp.task.evaluate(exp.scene, bMc, J, 0.0)
+        except GeometryError:
+            return False
+        if float(np.linalg.norm(st.e1)) < tol:
+            return True
+        if not np.all(np.isfinite(st.J1)):
+            return False
+        step = -_dls(st.J1, st.e1, 1e-3)
+        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
+        if blocked.any():
+            step = -_dls(np.where(blocked, 0.0, st.J1), st.e1, 1e-3)
+        size = float(np.max(np.abs(step)))
+        if size > 0.3:
+            step *= 0.3 / size
+        q = np.clip(q + step, lo, hi)
+    return False
 
 
 def reachable_column(values: Sequence[str]) -> np.ndarray | None:

@@ -240,14 +240,19 @@ class Predictive(Law):
             model = pm._replace(P_b=Pc @ bMc[:3, :3].T + bMc[:3, 3])
             self._s_now = (Pc[:, :2] / Pc[:, 2:3]).reshape(-1)
             if self.goal_weight > 0 and self._calls % self.replan == 0:
-                self._goal = self._search_goal(model, x)
+                try:
+                    with np.errstate(all="ignore"):
+                        self._goal = self._search_goal(model, x)
+                except np.linalg.LinAlgError:  # a degenerate start: no goal this time
+                    self._goal = None
         self._calls += 1
         self.last_model = model
         t0 = time.perf_counter()
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
-            qp = self._qp(x, U, model)
-            if qp is None:
+            with np.errstate(all="ignore"):
+                qp = self._qp(x, U, model)
+            if qp is None or not all(np.all(np.isfinite(a)) for a in (qp.H, qp.f, qp.A)):
                 why, value = fb.HORIZON_INFEASIBLE, float("nan")
                 break
             U, why, value, iters = self._solve(qp, U)

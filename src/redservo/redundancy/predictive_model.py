@@ -244,6 +244,8 @@ def feature_ik(
             if pred is None:
                 break
             e, G = pred.e[0], pred.G[0]
+            if not (np.all(np.isfinite(G)) and np.all(np.isfinite(e))):
+                break
             if float(np.linalg.norm(e)) < tol:
                 return q
             step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
