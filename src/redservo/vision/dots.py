@@ -4,7 +4,8 @@ Detection (:func:`detect_dots`), per frame:
 
 1. threshold the image (a gray level, or ``"otsu"``) for bright or dark dots;
 2. take *every* connected component of the mask, whatever its nesting (a white
-   dot in a black square on white paper is found; :mod:`redservo.vision.blobs`),
+   dot in a black square on white paper is found): the outer boundaries of
+   ``cv2.findContours(..., cv2.RETR_CCOMP)``, each labelled in a window around it,
    whose bounding box is ``min_size_px``-``max_size_px`` wide; a blob whose
    window (box + ``pad_px`` + 2) reaches the image border is rejected (partly
    outside the image) and counted;
@@ -117,28 +118,30 @@ def detect_dots(
         raise ConfigurationError(
             f"size_consistency must be in (0, 1] or None, got {size_consistency!r}"
         )
+    cv2 = require_cv2()
     mask, _ = binarize(img, threshold, polarity)
-    n, labels, stats = components(mask)
+    # RETR_CCOMP: every component's outer boundary (top level) whatever its nesting, and
+    # the holes (second level, skipped); 30x faster here than labelling the whole image.
+    contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+    tree = [] if hierarchy is None else hierarchy[0]
     H, W = img.shape
     m = int(np.ceil(pad_px)) + 2
     blobs: list[Blob] = []
     n_border = n_rejected = 0
-    for k in range(1, n):
-        x, y, bw, bh, _ = (int(a) for a in stats[k])
-        size = max(bw, bh)
-        if size < min_size_px or size > max_size_px:
+    for cnt, node in zip(contours, tree):
+        if node[3] >= 0:
+            continue  # a hole
+        x, y, bw, bh = cv2.boundingRect(cnt)
+        if not min_size_px <= max(bw, bh) <= max_size_px:
             continue
         if x - m < 0 or y - m < 0 or x + bw + m > W or y + bh + m > H:
             n_border += 1
             continue
-        if shape is not None and shape_reason(labels[y : y + bh, x : x + bw] == k, shape):
-            n_rejected += 1
-            continue
-        blob, _why = measure_blob(img, labels, k, (x, y, bw, bh), pad_px, polarity == "bright")
+        blob = _blob(img, mask, cnt, (x, y, bw, bh), m, pad_px, polarity, shape)
         if blob is None:
             n_rejected += 1
-            continue
-        blobs.append(blob)
+        else:
+            blobs.append(blob)
     if size_consistency is not None and len(blobs) >= 3:
         med = float(np.median([b.area for b in blobs]))
         keep = [size_consistency * med <= b.area <= med / size_consistency for b in blobs]
@@ -147,6 +150,30 @@ def detect_dots(
     uv = np.array([b.uv for b in blobs], dtype=float).reshape(-1, 2)
     sizes = np.array([b.size for b in blobs], dtype=float)
     return DotDetection(uv, sizes, n_border, n_rejected)
+
+
+def _blob(
+    img: NDArray[np.uint8],
+    mask: NDArray[np.uint8],
+    cnt: NDArray[np.int32],
+    box: tuple[int, int, int, int],
+    m: int,
+    pad_px: float,
+    polarity: Polarity,
+    shape: ShapeLimits | None,
+) -> Blob | None:
+    """The blob whose outer boundary is ``cnt``, labelled in a window around its box."""
+    x, y, bw, bh = box
+    r0, c0 = y - m, x - m
+    win = (slice(r0, y + bh + m), slice(c0, x + bw + m))
+    _, labels, _ = components(mask[win])
+    k = int(labels[cnt[0, 0, 1] - r0, cnt[0, 0, 0] - c0])  # a boundary pixel is the blob's
+    if shape is not None and shape_reason(labels[m : m + bh, m : m + bw] == k, shape):
+        return None
+    blob, _why = measure_blob(img[win], labels, k, (m, m, bw, bh), pad_px, polarity == "bright")
+    if blob is None:
+        return None
+    return blob._replace(uv=(blob.uv[0] + c0, blob.uv[1] + r0))
 
 
 class DotTrack(NamedTuple):
