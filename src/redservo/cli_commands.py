@@ -71,7 +71,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         print(f"wrote {run_video(exp, result, args.video)} (camera view, features, error)")
     print(
-        f"wrote {out}/: scenario.toml, summary.json, log.npz, log.csv, diagnostics.json"
+        f"wrote {out}/: scenario.toml, summary.json, log.npz, log.csv, diagnostics.json, "
+        "kinematics.npz"
+        + (", files/ (copies of the files it references)" if (out / "files").is_dir() else "")
         + (f" and {figs} figure(s)" if figs else "")
     )
     return 0
