@@ -20,9 +20,58 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
+import time
 from pathlib import Path
+from typing import Any, TextIO
 
 from redservo.cli import main
+
+
+class _Tap:
+    """A stream that notes the time of every write (the rest goes to the stream it wraps)."""
+
+    def __init__(self, stream: TextIO, watch: Watch) -> None:
+        self._stream, self._watch = stream, watch
+
+    def write(self, text: str) -> int:
+        self._watch.last = time.monotonic()
+        return self._stream.write(text)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+class Watch:
+    """While a step runs, say ``… still working on <what> (N s)`` on stderr whenever it has
+    written nothing for ``every`` seconds: no silent stretch longer than that in make demo."""
+
+    def __init__(self, what: str, every: float = 10.0) -> None:
+        self.what, self.every = what, every
+        self.last = self.start = time.monotonic()
+        self.said = threading.Event()  # set once a line was printed (for the tests)
+        self._stop = threading.Event()
+
+    def _run(self, err: TextIO) -> None:
+        while not self._stop.wait(self.every / 4):
+            now = time.monotonic()
+            if now - self.last >= self.every:
+                err.write(f"  … still working on {self.what} ({now - self.start:.0f} s)\n")
+                err.flush()
+                self.last = now
+                self.said.set()
+
+    def __enter__(self) -> Watch:
+        self._out, self._err = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = _Tap(self._out, self), _Tap(self._err, self)
+        self._thread = threading.Thread(target=self._run, args=(self._err,), daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+        sys.stdout, sys.stderr = self._out, self._err
 
 
 def _steps(out: Path) -> list[list[str]]:
@@ -72,7 +121,8 @@ def run() -> int:
     out = Path(args.out)
     for step in _steps(out):
         print(f"$ redservo {' '.join(step)}", flush=True)
-        code = main(step)
+        with Watch(f"redservo {step[0]}"):
+            code = main(step)
         if code:
             return code
     run_dir = out / "panda-4points"

@@ -189,3 +189,16 @@ def test_the_getting_started_python_runs(tmp_path: Path, monkeypatch: pytest.Mon
     for block in blocks:
         exec(compile(block, "getting-started.md", "exec"), scope)
     assert (tmp_path / "runs" / "gaze" / "summary.json").is_file()
+
+
+def test_make_demo_says_when_a_step_is_quiet_for_long(capsys: pytest.CaptureFixture[str]) -> None:
+    """examples/demo.py runs each step under a Watch: a step that writes nothing for ``every``
+    seconds gets a ``… still working on`` line on stderr."""
+    spec = importlib.util.spec_from_file_location("demo", ROOT / "examples" / "demo.py")
+    assert spec is not None and spec.loader is not None
+    demo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(demo)
+    with demo.Watch("redservo quiet", every=0.05) as watch:
+        assert watch.said.wait(60.0)  # the watch's own thread sets it once it has spoken
+    assert "… still working on redservo quiet (" in capsys.readouterr().err
+    assert sys.stdout is not watch and "Tap" not in type(sys.stderr).__name__
