@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib.util
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -63,6 +64,22 @@ def test_campaign_rows_are_those_of_the_object_path(capsys: pytest.CaptureFixtur
     outcomes = {r["outcome"] for r in fast.rows}
     assert {"converged", "joint_limit"} <= outcomes
     assert any(r["flags"] for r in fast.rows)
+
+
+def test_campaign_json_records_the_engine_of_each_run(tmp_path: Path) -> None:
+    """campaign.json and campaign.md say which runs took the compiled loop (issue 18)."""
+    import json
+
+    d = load_campaign("cm01-gaze")
+    run_campaign(d, samples=2, methods=["gpm", "qp"], workers=1, progress=False, out=tmp_path)
+    meta = json.loads((tmp_path / "campaign.json").read_text())
+    assert meta["engine"] == {"gpm": {"compiled loop": 2}, "qp": {"compiled loop": 2}}
+    assert "Engine: 4 run(s) computed by this call on the compiled loop." in (
+        tmp_path / "campaign.md"
+    ).read_text()
+    slow = run_campaign(d, samples=1, methods=["gpm"], workers=1, progress=False, fast=False)
+    assert list(slow.engines["gpm"].values()) == [1]
+    assert "compiled loop" not in slow.engines["gpm"]
 
 
 def test_panda_rows_with_a_combination_matrix_and_lost_targets() -> None:

@@ -14,7 +14,7 @@ import json
 import math
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ import numpy as np
 from redservo.campaign.complete import CampaignIncompleteError, incomplete_message, missing_runs
 from redservo.campaign.definition import CampaignDefinition
 from redservo.campaign.engine import (
+    FAST_PATH,
     Engine,
     Job,
     JobResult,
@@ -71,6 +72,8 @@ class CampaignResult:
         out: Output directory, or None.
         figures: Paths of the written figures.
         markdown: Heading, the statistics table and notes (``campaign.md``).
+        engines: Per method, how many of the runs computed by this call took the compiled
+            loop (``"compiled loop"``) or the object path (keyed by the reason).
     """
 
     definition: CampaignDefinition
@@ -83,6 +86,7 @@ class CampaignResult:
     out: Path | None
     figures: tuple[Path, ...]
     markdown: str
+    engines: dict[str, dict[str, int]] = field(default_factory=dict)
 
     @property
     def complete(self) -> bool:
@@ -105,6 +109,7 @@ class CampaignResult:
             "completed": {m: s.runs for m, s in self.stats.items()},
             "complete": self.complete,
             "methods": list(self.methods),
+            "engine": self.engines,
             "fingerprint": d.fingerprint(self.seed),
             "success": (
                 "converged, every joint at least min_margin from its limits all along, no "
@@ -156,7 +161,7 @@ def run(
         append = spill
 
     try:
-        computed, stopped = _execute(defn, seed, engine, append, table, progress)
+        computed, stopped, paths = _execute(defn, seed, engine, append, table, progress)
         missing = missing_runs(table, n, names)
         view = _view(rowfile, index, table)
     finally:
@@ -165,6 +170,10 @@ def run(
     if folder is not None:
         remove_with(view, folder)
     result = _report(defn, names, n, seed, table, view, computed, out_dir)
+    engines: dict[str, dict[str, int]] = {}
+    for (method, path), count in sorted(paths.items()):
+        engines.setdefault(method, {})[path] = count
+    result = replace(result, engines=engines, markdown=result.markdown + _engine_note(engines))
     if out_dir is not None and store is not None:
         result = _write(result, out_dir, store, table)
     if missing:
@@ -181,11 +190,12 @@ def _execute(
     append: Callable[[Sequence[Mapping[str, Any]]], Any],
     table: RunTable,
     progress: bool,
-) -> tuple[int, CampaignIncompleteError | None]:
-    """Run the pairs ``table`` has no row for on ``engine``, handing each finished batch of rows to ``append`` (the
-    file) and their values, as they read back from it, to ``table``. Returns the number of
-    rows computed and the error that stopped the engine (lost workers); says on stderr which
-    runs fell back and which failed."""
+) -> tuple[int, CampaignIncompleteError | None, dict[tuple[str, str], int]]:
+    """Run the pairs ``table`` has no row for on ``engine``, handing each finished batch of
+    rows to ``append`` (the file) and their values, as they read back from it, to ``table``.
+    Returns the number of rows computed, the error that stopped the engine (lost workers)
+    and how many runs of each method took each path; says on stderr which runs fell back
+    and which failed."""
     missing = ~table.present
     bar = _bar(int(missing.sum()), defn.name, progress)
     errors: list[str] = []
@@ -222,7 +232,23 @@ def _execute(
         print(f"redservo campaign: {line}", file=sys.stderr)
     for msg in errors:
         print(f"redservo campaign: run failed with an exception: {msg}", file=sys.stderr)
-    return computed, stopped
+    return computed, stopped, paths
+
+
+def _engine_note(engines: dict[str, dict[str, int]]) -> str:
+    """The ``campaign.md`` line saying where this call's runs ran (compiled loop or not)."""
+    fast = sum(c for paths in engines.values() for p, c in paths.items() if p == FAST_PATH)
+    other = {
+        p: [m for m, paths in engines.items() if p in paths]
+        for paths in engines.values()
+        for p in paths
+        if p != FAST_PATH
+    }
+    text = f"\n\nEngine: {fast} run(s) computed by this call on the compiled loop"
+    for reason, methods in other.items():
+        n = sum(engines[m][reason] for m in methods)
+        text += f"; {n} run(s) of {', '.join(methods)} on the object path ({reason})"
+    return text + ".\n"
 
 
 def _jobs(

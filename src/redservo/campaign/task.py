@@ -108,15 +108,15 @@ class _Task(NamedTuple):
 def _run_task(task: _Task) -> dict[str, Any]:
     """Run one (sample, method) and return its row; an exception becomes an ``error`` row.
 
-    With ``task.fast`` the row's ``_path`` says whether the compiled loop ran it
-    (:data:`FAST_PATH`) or why not (the job removes it).
+    The row's ``_path`` says whether the compiled loop ran it (:data:`FAST_PATH`) or why
+    not (the job removes it and counts it).
     """
     from redservo.experiment import build
 
     row: dict[str, Any] = {"sample": task.sample, "method": task.method, **task.params}
     try:
         exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
-        summary = None
+        summary, row["_path"] = None, ASKED
         if task.fast:
             from redservo.campaign.fastloop import fast_run
 
@@ -193,11 +193,15 @@ def merge(results: Sequence[JobResult]) -> JobResult:
     return JobResult(rows, dict(paths))
 
 
+ASKED = "fast=False asked for"
+"""The ``_path`` note of a run the caller sent to the object path (no line is printed)."""
+
+
 def fallback_lines(paths: dict[tuple[str, str], int]) -> list[str]:
     """One line per reason some runs left the compiled loop: the methods and the count."""
     by_reason: dict[str, dict[str, int]] = {}
     for (method, path), count in paths.items():
-        if path != FAST_PATH:
+        if path not in (FAST_PATH, ASKED):
             by_reason.setdefault(path, {})
             by_reason[path][method] = by_reason[path].get(method, 0) + count
     return [
