@@ -21,6 +21,8 @@ from redservo.features import (
     LineFeature,
     MomentFeatures,
     PointFeature,
+    PoseThetaU,
+    PoseTranslation,
     SphereFeature,
     centred_moment_interaction,
     cylinder_lines,
@@ -618,6 +620,8 @@ def test_make_feature_builds_every_kind() -> None:
         "cylinder": {"radius": 0.05, "axis": [0, 1, 0]},
         "sphere": {"radius": 0.1, "variant": "paper"},
         "moments": {"points_o": DOTS, "desired_area": 0.04, "desired_depth": 0.5},
+        "pose_translation": {"variant": "cMo"},
+        "pose_thetau": {"variant": "cdRc", "desired": np.eye(4)},
     }
     assert set(options) == set(FEATURES)
     expected: dict[str, Callable[..., Feature]] = {
@@ -626,6 +630,8 @@ def test_make_feature_builds_every_kind() -> None:
         "cylinder": CylinderFeature,
         "sphere": SphereFeature,
         "moments": MomentFeatures,
+        "pose_translation": PoseTranslation,
+        "pose_thetau": PoseThetaU,
     }
     for kind in FEATURES:
         feat = make_feature(kind, **options[kind])

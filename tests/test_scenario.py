@@ -309,7 +309,7 @@ def test_kinds_match_the_registries() -> None:
     from redservo.schema.scene import OBJECT_KINDS
 
     assert set(FEATURE_KINDS) == set(FEATURES)
-    assert set(OBJECT_KINDS) == {"points", "sphere", "cylinder", "line"}
+    assert set(OBJECT_KINDS) == {"points", "sphere", "cylinder", "line", "tag"}
 
 
 @pytest.mark.parametrize(
