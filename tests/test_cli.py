@@ -495,3 +495,17 @@ def test_a_paper_scenario_changed_by_the_shield_says_how_to_run_the_paper_law() 
     assert (
         paper_note(load_scenario("afma6-gaze-demo"), SimpleNamespace(shield_activations=3)) is None
     )
+
+
+def test_every_command_that_writes_takes_out(capsys: pytest.CaptureFixture[str]) -> None:
+    """Commands that write files name where with --out (view and warmup write none, list
+    prints)."""
+    import argparse
+
+    from redservo.cli_parser import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    silent = {"list", "view", "warmup"}
+    for name, parser in sub.choices.items():
+        flags = {s for a in parser._actions for s in a.option_strings}
+        assert ("--out" in flags) != (name in silent), name

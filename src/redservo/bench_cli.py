@@ -45,7 +45,13 @@ def add_bench_arguments(b: argparse.ArgumentParser, int_in: Callable[..., Any]) 
         action="store_true",
         help="skip the reference timings (the kernels run as plain Python, numba disabled)",
     )
-    b.add_argument("--json", metavar="PATH", help="also write the numbers as JSON to PATH")
+    b.add_argument(
+        "--out",
+        "--json",
+        dest="json",
+        metavar="PATH",
+        help="also write the numbers as JSON to PATH (--json is the same option)",
+    )
 
 
 def _split(text: str | None) -> list[str] | None:
