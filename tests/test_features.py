@@ -19,6 +19,7 @@ from redservo.features import (
     CylinderFeature,
     Feature,
     LineFeature,
+    LogDepth,
     MomentFeatures,
     PointFeature,
     PoseThetaU,
@@ -622,6 +623,7 @@ def test_make_feature_builds_every_kind() -> None:
         "moments": {"points_o": DOTS, "desired_area": 0.04, "desired_depth": 0.5},
         "pose_translation": {"variant": "cMo"},
         "pose_thetau": {"variant": "cdRc", "desired": np.eye(4)},
+        "log_depth": {"point_o": [0.01, 0.0, 0.0]},
     }
     assert set(options) == set(FEATURES)
     expected: dict[str, Callable[..., Feature]] = {
@@ -632,6 +634,7 @@ def test_make_feature_builds_every_kind() -> None:
         "moments": MomentFeatures,
         "pose_translation": PoseTranslation,
         "pose_thetau": PoseThetaU,
+        "log_depth": LogDepth,
     }
     for kind in FEATURES:
         feat = make_feature(kind, **options[kind])

@@ -133,3 +133,29 @@ def test_the_compiled_step_refuses_pose_features_with_a_reason() -> None:
     e = _load("afma6-pbvs")
     with pytest.raises(ConfigurationError, match="needs point features"):
         compiled_step(e.robot, e.scene, e.task, e.law, limits=e.limits, lam=0.8, dt=0.04)
+
+
+def test_log_depth_interaction_and_parameters() -> None:
+    """The 2½-D task's log Z: L against finite differences; a depth factor scales 1/Z only."""
+    from redservo.features import LogDepth
+
+    rng = np.random.default_rng(5)
+    f = LogDepth([0.03, -0.02, 0.01])
+    out = np.zeros((1, 6))
+    for _ in range(4):
+        cMo = _random_pose(rng)
+        m = f.measure(cMo)
+        X = cMo[:3, :3] @ f.point_o + cMo[:3, 3]
+        assert m.s[0] == pytest.approx(np.log(X[2]))
+        h = 1e-6
+        for j in range(6):
+            v = np.zeros(6)
+            v[j] = 1.0
+            sp = f.measure(inverse(exp_twist(v, h)) @ cMo).s
+            sm = f.measure(inverse(exp_twist(v, -h)) @ cMo).s
+            out[:, j] = (sp - sm) / (2.0 * h)
+        L = f.interaction(m.s, m.inv_depth)
+        np.testing.assert_allclose(L, out, atol=1e-6)
+        L2 = f.interaction(m.s, m.inv_depth / 2.0)  # depth overestimated twice
+        np.testing.assert_allclose(L2[0, 2], L[0, 2] / 2.0)
+        np.testing.assert_allclose(L2[0, 3:], L[0, 3:])

@@ -135,7 +135,7 @@ def _run(name: str, *sets: str, start: list[float] | None = None):
     return build(apply_overrides(sc, [*small, *sets])).run()
 
 
-@pytest.mark.parametrize("name", ["afma6-tag-ibvs", "afma6-tag-pbvs"])
+@pytest.mark.parametrize("name", ["afma6-tag-ibvs", "afma6-tag-pbvs", "afma6-tag-2half-d"])
 def test_tag_scenarios_converge_through_images(name: str) -> None:
     """From a closer start, in 320 x 240 images, with λ = 3: converged."""
     res = _run(name, "control.lam=3.0", "simulation.max_iterations=70", start=[0.01, -0.01, 0.33])

@@ -37,7 +37,7 @@ from redservo.features.moments import (
     rotation_invariants,
 )
 from redservo.features.point import PointFeature, point_interaction, project_point
-from redservo.features.pose import PoseThetaU, PoseTranslation, thetau_interaction
+from redservo.features.pose import LogDepth, PoseThetaU, PoseTranslation, thetau_interaction
 from redservo.features.sphere import (
     SPHERE_VARIANTS,
     SphereFeature,
@@ -60,6 +60,7 @@ __all__ = [
     "ImageMoments",
     "LineFeature",
     "LineProjection",
+    "LogDepth",
     "Measurement",
     "MomentFeatures",
     "MomentTarget",
@@ -102,6 +103,7 @@ _CLASSES: dict[str, type[Feature]] = {
     "moments": MomentFeatures,
     "pose_translation": PoseTranslation,
     "pose_thetau": PoseThetaU,
+    "log_depth": LogDepth,
 }
 
 FEATURES: tuple[str, ...] = (
@@ -112,6 +114,7 @@ FEATURES: tuple[str, ...] = (
     "moments",
     "pose_translation",
     "pose_thetau",
+    "log_depth",
 )
 """Feature kinds accepted by :func:`make_feature`."""
 

@@ -47,6 +47,7 @@ from redservo.spatial import inverse, matrix_to_rotvec, rotvec_to_matrix, skew
 __all__ = [
     "ROTATION_VARIANTS",
     "TRANSLATION_VARIANTS",
+    "LogDepth",
     "PoseThetaU",
     "PoseTranslation",
     "RotationVariant",
@@ -178,3 +179,40 @@ class PoseThetaU(Feature):
 
     def __repr__(self) -> str:
         return f"PoseThetaU(variant={self.variant!r})"
+
+
+class LogDepth(Feature):
+    """``s = log Z`` (Z in metres) of a point fixed in the object frame: with ``s* = log Z*`` the
+    error is ``log(Z/Z*)``, the depth component of the 2½-D task (Malis, Chaumette & Boudet 1999;
+    with a point ``(x, y)`` and ``θu`` of ``c*R_c``).
+
+    ``L = [0, 0, -1/Z, -y, x, 0]`` (from ``Ż = -v_z - ω_x Y + ω_y X``). Parameters
+    ``(1/Z, x/Z, y/Z)``: ``L`` uses ``1/Z`` and ``x, y`` as their ratios, so a depth-estimate factor
+    scales only the ``1/Z`` term.
+
+    Args:
+        point_o: (3,) the point in the object frame (m).
+    """
+
+    names = ("log_z",)
+    angular = (False,)
+
+    def __init__(self, point_o: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        self.point_o = as_vector(point_o, "point_o", 3)
+
+    def measure(self, cMo: FloatArray) -> Measurement:
+        from redservo.features.point import project_point
+
+        T = as_transform(cMo, "cMo")
+        X = T[:3, :3] @ self.point_o + T[:3, 3]
+        x, y, inv_z = project_point(X)  # raises GeometryError behind the camera
+        return Measurement(np.array([np.log(X[2])]), np.array([inv_z, x * inv_z, y * inv_z]))
+
+    def interaction(self, s: FloatArray, inv_depth: FloatArray) -> FloatArray:
+        as_vector(s, "s", 1)
+        p = as_vector(inv_depth, "inv_depth", 3)
+        x, y = p[1] / p[0], p[2] / p[0]
+        return np.array([[0.0, 0.0, -p[0], -y, x, 0.0]])
+
+    def __repr__(self) -> str:
+        return f"LogDepth(point_o={self.point_o.tolist()})"

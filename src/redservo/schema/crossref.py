@@ -43,7 +43,7 @@ def _features(spec: ScenarioSpec, objects: dict[str, ObjectSpec]) -> int:
                 f"{where}.kind",
             )
         index = getattr(feat, "index", None)
-        n_points = len(getattr(obj, "points", []))
+        n_points = 4 if obj.kind == "tag" else len(getattr(obj, "points", []))
         if index is not None and index >= n_points:
             fail(
                 f"must be in [0, {n_points - 1}] ({obj.name!r} has {n_points} points), got {index}",

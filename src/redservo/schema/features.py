@@ -199,6 +199,24 @@ class _PoseSpec(FeatureSpec):
         return [_feature(self.kind, variant=variant, desired=cdMo)]
 
 
+class LogDepthSpec(FeatureSpec):
+    """``log Z`` of one point of a ``points`` or ``tag`` object (the 2½-D task's depth
+    component, error ``log(Z/Z*)``)."""
+
+    kind: Literal["log_depth"]
+    index: int = integer(0, ge=0, le=9_999, description="the point of the set (0-based)")
+
+    def observes(self, kind: str) -> bool:
+        return kind in ("points", "tag")
+
+    def size(self, obj: ObjectSpec) -> int:
+        return 1
+
+    def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
+        return [_feature("log_depth", point_o=pts[self.index])]
+
+
 class PoseTranslationSpec(_PoseSpec):
     """Translation ``t`` of a pose (PBVS): ``cdMc`` (the camera in the desired frame, s* = 0),
     ``cMo`` (the object in the camera frame) or ``cMcd``; cdMc and cMcd need
@@ -226,6 +244,7 @@ FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
     "moments": MomentsSpec,
     "pose_translation": PoseTranslationSpec,
     "pose_thetau": PoseThetaUSpec,
+    "log_depth": LogDepthSpec,
 }
 """Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`):
 a new kind is one entry here."""

@@ -7,8 +7,8 @@ renderer's intrinsics and distortion) instead of the dot tracker:
   normalized (undistorted); its inverse depth for ``depth="estimated"`` is ``1/Z`` of that
   corner in the detected pose;
 * a pose feature (:class:`~redservo.features.PoseTranslation`,
-  :class:`~redservo.features.PoseThetaU`): the feature of the detected pose ``cMo``, and its
-  parameters for ``depth="estimated"`` from that pose.
+  :class:`~redservo.features.PoseThetaU`, :class:`~redservo.features.LogDepth`): the feature of
+  the detected pose ``cMo``, and its parameters for ``depth="estimated"`` from that pose.
 
 Each frame is decoded once for all the terms of one tag. A tag not found (or its id not
 among those found) leaves the term undetected with the reason; the sensor then coasts and,
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.features import PointFeature, PoseThetaU, PoseTranslation
+from redservo.features import LogDepth, PointFeature, PoseThetaU, PoseTranslation
 from redservo.scene import SceneObject, Tag
 from redservo.vision.optics import Optics
 from redservo.vision.tags import TagDetection, detect_tags
@@ -62,7 +62,7 @@ def tag_term(i: int, feature: Any, obj: SceneObject) -> TagTerm | None:
         ConfigurationError: a pose feature whose object is not a tag, or a point feature on a
             tag that is not one of its corners.
     """
-    pose = isinstance(feature, PoseTranslation | PoseThetaU)
+    pose = isinstance(feature, PoseTranslation | PoseThetaU | LogDepth)
     if not isinstance(obj, Tag):
         if pose:
             raise ConfigurationError(
