@@ -203,3 +203,20 @@ def test_scenario_runs_through_mujoco_images_and_refuses_actuators() -> None:
     bad["actuators"] = {"tau": 0.05}
     with pytest.raises(ScenarioError, match="actuators"):
         build(parse_scenario(bad, "bad.toml"))
+
+
+def test_scenario_with_the_ideal_sensor_and_its_refusals() -> None:
+    base = load_scenario("panda-mujoco-4points").data
+    data = copy.deepcopy(base)
+    data["simulator"]["camera"] = "ideal"
+    exp = build(parse_scenario(data, "ideal.toml"))
+    assert isinstance(exp.actuator, MujocoActuator) and exp.sensor is None
+    res = exp.run(max_iterations=3)
+    assert len(res.log) == 3
+    arm = exp.actuator.arm
+    np.testing.assert_array_equal(res.log.q[0], exp.q0)  # the arm starts at the run's q0
+    assert np.abs(arm.q - exp.q0).max() > 1e-4 and arm.tracking.steps == 3 * 40
+    bad = copy.deepcopy(data)
+    bad["simulator"]["timestep"] = 0.003  # does not divide dt = 0.04 s
+    with pytest.raises(ScenarioError, match=r"simulator\.timestep"):
+        build(parse_scenario(bad, "bad.toml"))
