@@ -83,8 +83,10 @@ def test_a_moved_run_works_without_its_original_files(
     run = tmp_path / "run"
     assert main(["run", str(scenario), "--out", str(run), "-q", "--no-plot"]) == 0
     # The URDF and its meshes are in the run, named relatively; the missing mesh is listed.
-    table = load_scenario(run / "scenario.toml").data
-    assert table["robot"]["urdf"].endswith("files/panda.urdf")
+    import tomllib
+
+    saved = tomllib.loads((run / "scenario.toml").read_text())
+    assert saved["robot"]["urdf"] == "files/panda.urdf"  # relative to the run directory
     copied = json.loads((run / "run.json").read_text())["files"]
     assert "files/panda.urdf" in copied["copied"] and "files/meshes/link0.stl" in copied["copied"]
     assert any("gone.stl" in m for m in copied["missing"])
@@ -175,3 +177,26 @@ def test_a_missing_absolute_urdf_is_not_said_to_be_relative(tmp_path: Path) -> N
     (tmp_path / "r.toml").write_text(_SCENARIO.format(urdf="sub/robot.urdf"))
     with pytest.raises(ScenarioError, match="read relative to the scenario file's folder"):
         load_scenario(tmp_path / "r.toml")
+
+
+def test_a_camera_file_is_copied_and_named_relatively(tmp_path: Path) -> None:
+    pytest.importorskip("cv2")
+    from redservo.camera import Camera
+    from redservo.camera_io import save_camera
+
+    calib = save_camera(tmp_path / "calib" / "wrist.yaml", Camera(px=580.0, py=585.0))
+    text = _SCENARIO.format(urdf="panda") + '[camera]\nfile = "../calib/wrist.yaml"\n'
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "cam.toml").write_text(text)
+    run = tmp_path / "run"
+    assert (
+        main(["run", str(tmp_path / "s" / "cam.toml"), "--out", str(run), "-q", "--no-plot"]) == 0
+    )
+    import tomllib
+
+    saved = tomllib.loads((run / "scenario.toml").read_text())
+    assert saved["camera"]["file"] == "files/wrist.yaml"  # relative to the run directory
+    calib.unlink()
+    assert main(["run", str(run / "scenario.toml"), "--out", str(tmp_path / "again"), "-q",
+                 "--no-plot"]) == 0  # fmt: skip
+    assert load_run(tmp_path / "again").summary["iterations"] == load_run(run).summary["iterations"]
