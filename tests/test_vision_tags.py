@@ -112,6 +112,8 @@ def test_bad_input() -> None:
         detect_tags(img, tag_size=0.05)
     with pytest.raises(ConfigurationError, match="tag_size"):
         detect_tags(img, camera=CAM, tag_size=-1.0)
+    with pytest.raises(ConfigurationError, match="tag_size"):
+        detect_tags(img, camera=CAM, tag_size="5 cm")  # type: ignore[arg-type]
     with pytest.raises(ConfigurationError, match=r"\[0, 29\]"):
         Tag("t", family="16h5", tag_id=30)
     with pytest.raises(GeometryError, match="size"):

@@ -112,7 +112,8 @@ def measure_tag(
     if not found:
         return None, f"tag {tag.family} id {tag.tag_id} not detected"
     det = found[0]
-    assert det.cMo is not None  # detect_tags was given the camera and the size
+    if det.cMo is None:  # pragma: no cover - IPPE returns a pose for any four corners
+        return None, f"tag {tag.family} id {tag.tag_id}: no pose from its corners"
     cMo = det.cMo
     if (  # the planar ambiguity: as good a fit, and nearer the last pose
         st.cMo is not None

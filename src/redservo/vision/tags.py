@@ -171,7 +171,11 @@ def detect_tags(
     if img.ndim == 3:
         img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     if tag_size is not None:
-        if not (np.isfinite(tag_size) and tag_size > 0.0):
+        try:
+            ok = bool(np.isfinite(float(tag_size)) and float(tag_size) > 0.0)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
             raise ConfigurationError(f"tag_size must be positive (m), got {tag_size!r}")
         if camera is None:
             raise ConfigurationError("tag_size needs camera (the intrinsics) for a pose")
