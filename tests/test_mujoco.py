@@ -220,3 +220,13 @@ def test_scenario_with_the_ideal_sensor_and_its_refusals() -> None:
     bad["simulator"]["timestep"] = 0.003  # does not divide dt = 0.04 s
     with pytest.raises(ScenarioError, match=r"simulator\.timestep"):
         build(parse_scenario(bad, "bad.toml"))
+
+
+def test_a_rendered_scenario_without_an_offscreen_backend_is_one_clear_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import redservo.physics._mj as mj
+
+    monkeypatch.setattr(mj, "_RENDER_OK", ["MuJoCo cannot render offscreen (test)"])
+    with pytest.raises(ScenarioError, match=r"simulator\.camera.*libegl1.*camera = 'ideal'"):
+        build(load_scenario("panda-mujoco-4points"))

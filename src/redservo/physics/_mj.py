@@ -21,7 +21,8 @@ def require_mujoco() -> Any:
     """Return the ``mujoco`` module (``MUJOCO_GL=egl`` unless set).
 
     Raises:
-        ConfigurationError: MuJoCo is not installed (``pip install 'redservo[mujoco]'``).
+        ConfigurationError: MuJoCo is not installed (``pip install 'redservo[mujoco]'``), or
+            its OpenGL backend fails to load.
     """
     os.environ.setdefault("MUJOCO_GL", "egl")
     try:
@@ -29,6 +30,12 @@ def require_mujoco() -> Any:
     except ImportError as exc:  # pragma: no cover - the extra is installed by make test
         raise ConfigurationError(
             f"the MuJoCo backend needs the mujoco package: pip install 'redservo[mujoco]' ({exc})",
+            argument="simulator.kind",
+        ) from None
+    except Exception as exc:  # its OpenGL backend failed to load (MUJOCO_GL names it)
+        raise ConfigurationError(
+            f"mujoco failed to import with MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} "
+            f"({type(exc).__name__}: {exc}); unset it for egl (docs/physics.md)",
             argument="simulator.kind",
         ) from None
     return mujoco

@@ -23,7 +23,8 @@ def attach_mujoco(exp: Experiment) -> None:
 
     Raises:
         ScenarioError: ``[actuators]`` is set too, the camera is fixed in the world, the
-            robot or the sensor settings cannot be modelled (names the key).
+            robot or the sensor settings cannot be modelled, or MuJoCo cannot render offscreen
+            here with ``camera = "rendered"`` (names the key).
     """
     sc, spec = exp.scenario, exp.scenario.spec
     sim = spec.simulator
@@ -58,7 +59,16 @@ def attach_mujoco(exp: Experiment) -> None:
         )
     exp.actuator = MujocoActuator(arm)
     if sim.camera == "rendered":
+        from redservo.physics._mj import rendering_available
         from redservo.physics.camera import MujocoCamera
+
+        why = rendering_available()
+        if why is not None:
+            raise sc.error(
+                "simulator.camera",
+                f"{why}; install Debian's libegl1 libegl-mesa0 libgl1-mesa-dri (make test does, "
+                "as root), or set simulator.camera = 'ideal'",
+            )
 
         s = spec.sensor
         try:
