@@ -210,10 +210,10 @@ def test_event_kernels_compiled_and_plain_agree(seed: int) -> None:
     assert events.iterative_events(m, n, it[1], zero, it[5], rb, 1e-2)[1][2] == np.inf
     law = make_law("iterative-smooth", robust=bool(seed % 2))
     o = law_options(law, n)
-    res = step.law_step(
-        o.law_id, o.fopt, o.iopt, o.vopt, J1, e, e, False, q, lp, has_v, has_a, 0.7, 0.04,
-        sec, hs, p["prev"], True, sec, False,
-    )  # fmt: skip
+    none = np.zeros(0)
+    inputs = (none, sec if hs else none, p["prev"], none)
+    law_pack, lim = (o.law_id, o.fopt, o.iopt, o.vopt), (lp, has_v, has_a)
+    res = step.law_step(law_pack, lim, (0.7, 0.04), J1, e, q, inputs)
     both(step.step_events, o.law_id, o.fopt, m, *res[1:])
 
 

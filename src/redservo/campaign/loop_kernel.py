@@ -136,13 +136,11 @@ def _law(J1: Any, e1: Any, ff: Any, has_ff: bool, q: Any, prev: Any, hist: Any,
     ``(q̇, bits, abs_grad, abort)``."""
     law_id, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
-    lam, dt = sim[0], sim[1]
-    n = q.shape[0]
-    zn = np.zeros(n)
+    none = q[:0]
+    inputs = (ff if has_ff else e1[:0], none, prev, hist if has_hist else none)
     qd, iout, fout, axes, axf, vec, sout = law_step(
-        law_id, fopt, iopt, vopt, J1, e1, ff, has_ff, q, lp, has_v, has_a, lam, dt,
-        zn, False, prev, True, hist, has_hist,
-    )  # fmt: skip
+        (law_id, fopt, iopt, vopt), (lp, has_v, has_a), (sim[0], sim[1]), J1, e1, q, inputs
+    )
     if law_id == _SNS and iout[I_SNS_BAD] >= 0:
         return qd, 0, axf, ABORT_INFEASIBLE
     bits = step_events(law_id, fopt, e1.shape[0], iout, fout, axes, axf, vec, sout)

@@ -96,8 +96,8 @@ def _measured(
 ) -> Any:
     """The step after the kinematics (module docstring)."""
     s, iz, s_star, C = meas
-    law_id, fopt, iopt, vopt = law
-    rows, has_v, has_a = limits
+    law_id, fopt = law[0], law[1]
+    rows = limits[0]
     L = points_interaction(s, iz)
     k = s.shape[0]
     e = np.empty(k)
@@ -110,16 +110,11 @@ def _measured(
         e1 = np.dot(C, e)
         J1 = np.dot(np.dot(C, L), J)
     m = e1.shape[0]
-    has_ff = ff.shape[0] > 0
-    has_sec = sec.shape[0] > 0
-    if not inputs_ok(J1, e1, q, rows, ff, sec, prev if has_prev else ff[:0]):
+    pv = prev if has_prev else q[:0]
+    if not inputs_ok(J1, e1, q, rows, ff, sec, pv):
         return -1, 0, e[:0]  # the object path raises the error naming the input
-    fe = ff if has_ff else e1
-    sv = sec if has_sec else q
-    qdot, iout, fout, axes, axf, vec, sout = law_step(
-        law_id, fopt, iopt, vopt, J1, e1, fe, has_ff, q, rows, has_v, has_a, lam, dt,
-        sv, has_sec, prev, has_prev, q, False,
-    )  # fmt: skip
+    inputs = (ff, sec, pv, q[:0])
+    qdot, iout, fout, axes, axf, vec, sout = law_step(law, limits, (lam, dt), J1, e1, q, inputs)
     lmask, lvals, lsrc = law_events(law_id, fopt, m, iout, fout, axes, axf, vec)
     smask, svals, ssrc = sout_events(sout)
     at = 0

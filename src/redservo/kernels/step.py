@@ -96,31 +96,13 @@ I_SNS_RESTORED, I_SNS_BAD, F_SNS_SCALE = 5, 6, 2
 
 
 @kernel
-def _raw_law(
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
-    J1: Any,
-    e1: Any,
-    e: Any,
-    ff: Any,
-    has_ff: bool,
-    q: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    sec: Any,
-    has_sec: bool,
-    prev: Any,
-    has_prev: bool,
-    hist: Any,
-    has_hist: bool,
-) -> Any:
+def _raw_law(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, e: Any, q: Any, io: Any) -> Any:
     """The raw command of law ``law_id``, its options read from their slots
-    (:mod:`redservo.kernels.lawopts`)."""
+    (:mod:`redservo.kernels.lawopts`); ``io`` the optional inputs with their flags."""
+    law_id, fopt, iopt, _ = law
+    lp = limits[0]
+    lam, dt = gains
+    ff, has_ff, sec, has_sec, _, _, hist, has_hist = io
     rc = fopt[F_RCOND]
     rb = fopt[F_ROBUST]
     if law_id == 0:
@@ -147,8 +129,7 @@ def _raw_law(
         history = iopt[I_HISTORY] != 0
         return wln(J1, e, q, lp, lam, sec, has_sec, history, hist, has_hist, rc, rb, 1e-9)
     if law_id == 9:
-        return _sns(fopt, iopt, vopt, J1, e, q, lp, has_v, has_a, lam, dt, sec, has_sec, prev,
-                    has_prev, rc)  # fmt: skip
+        return _sns(law, limits, gains, J1, e, q, io)
     return large_projection(
         J1, e1, e, q, lp, lam, sec, has_sec, fopt[F_E0], fopt[F_E1], iopt[I_PROJECTOR],
         fopt[F_RHO], fopt[F_RHO1], fopt[F_LAMBDA_TUNE], rc, rb, fopt[F_P_FILTER],
@@ -156,15 +137,17 @@ def _raw_law(
 
 
 @kernel
-def _sns(fopt: Any, iopt: Any, vopt: Any, J1: Any, e: Any, q: Any, lp: Any, has_v: bool,
-         has_a: bool, lam: float, dt: float, sec: Any, has_sec: bool, prev: Any,
-         has_prev: bool, rc: float) -> Any:  # fmt: skip
+def _sns(law: Any, limits: Any, gains: Any, J1: Any, e: Any, q: Any, io: Any) -> Any:
     """``sns`` with its outputs repacked in the common layout of :mod:`redservo.kernels.laws`
     (rank, free null-space dimension, iterations, scale < 1, restored, infeasible joint)."""
+    _, fopt, iopt, vopt = law
+    lp, has_v, has_a = limits
+    lam, dt = gains
+    _, _, sec, has_sec, prev, has_prev, _, _ = io
     out = sns(
         J1, e, q, lp, has_v, has_a, lam, dt, prev, has_prev, sec, has_sec, vopt[V_VMAX],
-        iopt[I_HAS_V] != 0, vopt[V_AMAX], iopt[I_HAS_A] != 0, fopt[F_SNS_MARGIN], rc,
-        iopt[I_SHIELD] != 0,
+        iopt[I_HAS_V] != 0, vopt[V_AMAX], iopt[I_HAS_A] != 0, fopt[F_SNS_MARGIN],
+        fopt[F_RCOND], iopt[I_SHIELD] != 0,
     )  # fmt: skip
     n = q.shape[0]
     qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
@@ -183,37 +166,45 @@ def _sns(fopt: Any, iopt: Any, vopt: Any, J1: Any, e: Any, q: Any, lp: Any, has_
 
 
 @kernel
+def _given(x: Any, n: int) -> Any:
+    """An optional input as the law kernels take it: ``(x, True)``, or zeros and False when
+    ``x`` is empty (absent)."""
+    if x.shape[0] > 0:
+        return x, True
+    return np.zeros(n), False
+
+
+@kernel
 def law_step(
-    law_id: int,
-    fopt: Any,
-    iopt: Any,
-    vopt: Any,
+    law: Any,
+    limits: Any,
+    gains: Any,
     J1: Any,
     e1: Any,
-    ff: Any,
-    has_ff: bool,
     q: Any,
-    lp: Any,
-    has_v: bool,
-    has_a: bool,
-    lam: float,
-    dt: float,
-    sec: Any,
-    has_sec: bool,
-    prev: Any,
-    has_prev: bool,
-    hist: Any,
-    has_hist: bool,
+    inputs: Any,
 ) -> Any:
-    """One law call and its safety layer on plain arrays (module docstring)."""
+    """One law call and its safety layer on plain arrays (module docstring).
+
+    Packs: ``law`` ``(law_id, fopt, iopt, vopt)``, ``limits`` ``(rows, has_v, has_a)``,
+    ``gains`` ``(λ, dt)``; ``inputs`` ``(ff, sec, prev, hist)``: the feed-forward (m,), the
+    secondary command (n,), the previous command (n,) and ``wln``'s history (n,), each an
+    empty array when absent."""
+    n = q.shape[0]
     m = e1.shape[0]
+    ff_in, sec_in, prev_in, hist_in = inputs
+    ff, has_ff = _given(ff_in, m)
+    sec, has_sec = _given(sec_in, n)
+    prev, has_prev = _given(prev_in, n)
+    hist, has_hist = _given(hist_in, n)
+    lam, dt = gains
+    _, fopt, iopt, _ = law
+    lp, has_v, has_a = limits
     e = np.empty(m)
     for i in range(m):
         e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # effective error, CM01 eq. 2
-    qdot, iout, fout, axes, axf, vec = _raw_law(
-        law_id, fopt, iopt, vopt, J1, e1, e, ff, has_ff, q, lp, has_v, has_a, lam, dt,
-        sec, has_sec, prev, has_prev, hist, has_hist,
-    )  # fmt: skip
+    io = (ff, has_ff, sec, has_sec, prev, has_prev, hist, has_hist)
+    qdot, iout, fout, axes, axf, vec = _raw_law(law, limits, gains, J1, e1, e, q, io)
     task = qdot
     first = iopt[I_FIRST] != 0
     if first:

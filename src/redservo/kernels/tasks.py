@@ -145,13 +145,9 @@ def _after_task(
     out: Any,
 ) -> None:
     """Run the law and its safety layer on ``(e1, J1)``; fill ``out`` (module docstring)."""
-    law_id, fopt, iopt, vopt = law
-    lp, has_v, has_a = limits
-    z = np.zeros(q.shape[0])
-    qdot, iout, fout, axes, _, _, sout = law_step(
-        law_id, fopt, iopt, vopt, J1, e1, e1, False, q, lp, has_v, has_a, lam, dt,
-        z, False, prev, has_prev, z, False,
-    )  # fmt: skip
+    none = q[:0]
+    inputs = (e1[:0], none, prev if has_prev else none, none)
+    qdot, iout, fout, axes, _, _, sout = law_step(law, limits, (lam, dt), J1, e1, q, inputs)
     write_outputs(out, qdot, iout, fout, sout, axes)
 
 
