@@ -438,8 +438,13 @@ def test_plot_refuses_a_folder_that_is_not_a_result(
     assert "not a run" in line and "runs inside: classical, gpm" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == before
     if pytest.importorskip("matplotlib"):
-        assert main(["plot", str(tmp_path / "gpm"), "--out", str(tmp_path / "figs"), "-q"]) == 0
-        assert (tmp_path / "figs" / "joints.png").is_file()
+        assert (
+            main(
+                ["plot", str(tmp_path / "gpm"), "--out", str(tmp_path / "figs"), "--format", "svg"]
+            )
+            == 0
+        )
+        assert (tmp_path / "figs" / "joints.svg").is_file()
         assert not (tmp_path / "gpm" / "joints.png").exists()
 
 

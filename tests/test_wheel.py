@@ -1,7 +1,8 @@
 """The wheel builds and runs outside the source tree (issue 22, part 7).
 
-The wheel is built offline (``pip wheel --no-deps --no-build-isolation``, from a copy of the
-sources so that the tree gets no build/ or egg-info), installed with ``--no-deps`` into a
+The wheel is built offline by setuptools' PEP 517 hook (what ``pip wheel --no-deps
+--no-build-isolation`` calls), from a copy of the sources so that the tree gets no build/ or
+egg-info, installed with ``--no-deps`` into a
 fresh virtual environment whose dependencies come from this one (a ``.pth`` line naming
 this environment's site-packages: a plain path, so this environment's editable install of
 the source tree is *not* picked up), and ``redservo list`` and a short ``redservo run`` are
@@ -45,8 +46,9 @@ def test_the_wheel_installs_and_runs_outside_the_source_tree(tmp_path: Path) -> 
     shutil.copytree(ROOT / "src", src / "src", ignore=ignore)
     dist = tmp_path / "dist"
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "--no-input"]
-    _run([*pip, "wheel", "--no-deps", "--no-build-isolation", "--no-index", "-w", str(dist),
-          "."], cwd=src)  # fmt: skip
+    # The PEP 517 hook pip would call (pip wheel --no-build-isolation), ~2 s faster without pip.
+    build = f"from setuptools.build_meta import build_wheel; build_wheel({str(dist)!r})"
+    _run([sys.executable, "-c", build], cwd=src)
     (wheel,) = dist.glob("redservo-*.whl")
 
     env_dir = tmp_path / "env"
