@@ -210,3 +210,19 @@ def test_image_tracker_refuses_bad_input() -> None:
         tracker.start(np.zeros((10, 10), np.uint8), np.zeros((3, 2)))
     with pytest.raises(ShapeError, match="uint8"):
         tracker.start(np.zeros((10, 10)), np.zeros((2, 2)))
+
+
+def test_a_dot_lost_for_long_stops_coasting_and_is_found_again() -> None:
+    # A lone dot moving right at 4 px/frame vanishes for 30 frames: coasting on would
+    # carry its prediction out of the image; it stops after max_lost_frames instead.
+    tracker = ImageDotTracker(1, max_lost_frames=3)
+    tracker.start(_frame([(30.0, 60.0)]), [[30.0, 60.0]])
+    for k in range(1, 5):
+        st = tracker.update(_frame([(30.0 + 4 * k, 60.0)]))
+    assert st.detected[0]
+    for _ in range(30):
+        st = tracker.update(_frame([]))
+        assert not st.detected[0] and st.reasons[0] == "out_of_window"
+    assert 0.0 < st.uv[0, 0] < 160.0
+    st = tracker.update(_frame([(120.0, 30.0)]))
+    assert st.detected[0] and np.hypot(*(st.uv[0] - [120.0, 30.0])) < 0.1

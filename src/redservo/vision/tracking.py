@@ -14,8 +14,10 @@ last one. Per frame, for each dot:
 2. **Search window**: a square of half-size ``max_jump_px + size + pad_px + 3``
    around the prediction, which grows by ``window_growth`` x that for each frame
    the dot has been lost (capped at the image) when it has no geometric
-   prediction (with one: ``gate + size + pad_px + 3``, gate below); a prediction
-   outside the image is ``"out_of_image"``.
+   prediction (with one: ``gate + size + pad_px + 3``, gate below). A lost dot
+   coasts at its last velocity for ``max_lost_frames`` frames, then stays put. A
+   window overlapping the image is searched even if its centre is outside; a dot
+   not found with its prediction outside the image is ``"out_of_image"``.
 3. **Gray-level range**: with ``L`` the dot's plateau and ``b`` its background at
    the last frame it was found, the window is thresholded at
    ``b + f (L - b)`` for ``f = 0.5, 0.65, 0.8, 0.9`` in turn, then at the window's
@@ -260,6 +262,8 @@ class ImageDotTracker:
         if blob is None:
             d.uv = pred
             d.lost += 1
+            if d.lost > self.max_lost_frames:
+                d.vel = np.zeros(2)  # stop coasting: the window grows around the last guess
             return why
         old, was_found = d.uv.copy(), d.lost == 0
         self._accept(d, blob, adapt_area=first)
@@ -319,10 +323,11 @@ class ImageDotTracker:
     ) -> tuple[Blob | None, str, bool]:
         """The dot's blob near ``centre`` (pixels): ``(blob, "", first level?)`` or ``(None, why, _)``."""
         H, W = img.shape
-        if not (0.0 <= centre[0] <= W and 0.0 <= centre[1] <= H):
-            return None, "out_of_image", False
+        outside = not (0.0 <= centre[0] <= W and 0.0 <= centre[1] <= H)
         c0, c1 = max(int(centre[0] - half), 0), min(int(centre[0] + half) + 1, W)
         r0, r1 = max(int(centre[1] - half), 0), min(int(centre[1] + half) + 1, H)
+        if c1 - c0 < 2 or r1 - r0 < 2:
+            return None, "out_of_image", False
         win = img[r0:r1, c0:c1]
         bright = self.polarity == "bright"
         reason = ""
@@ -340,7 +345,7 @@ class ImageDotTracker:
                     return blob._replace(uv=(blob.uv[0] + c0, blob.uv[1] + r0)), "", j == 0
                 if rank == 0 and not reason:
                     reason = why
-        return None, reason or "out_of_window", False
+        return None, "out_of_image" if outside else (reason or "out_of_window"), False
 
     def _check(
         self,
