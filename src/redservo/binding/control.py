@@ -42,14 +42,6 @@ _K = lazy("control")
 _KINDS = {"afma6": "afma6_control", "dh": "dh_control", "chain": "chain_control"}
 _NO_C = np.zeros((0, 0))
 _EMPTY = np.zeros(0)
-_ZEROS: dict[int, FloatArray] = {}
-
-
-def _zeros(n: int) -> FloatArray:
-    z = _ZEROS.get(n)
-    if z is None:
-        z = _ZEROS[n] = np.zeros(n)
-    return z
 
 
 @dataclass(frozen=True)
@@ -70,8 +62,8 @@ class CompiledControl:
     law: Law
     limits: JointLimits
     task: VisualTask
-    lam: float
-    dt: float
+    gains: tuple[float, float]
+    """``(λ, dt)`` (1/s, s)."""
     depth_scale: float
     slices: tuple[slice, ...]
     """The parts of the kernel's buffer, in the order of
@@ -103,7 +95,7 @@ class CompiledControl:
         meas = (s, iz, self.s_star, self.C)
         n = q.shape[0]
         if qdot_prev is None:
-            prev = _zeros(n)
+            prev = _EMPTY
         elif qdot_prev.shape == (n,) and qdot_prev.dtype == np.float64:
             prev = np.ascontiguousarray(qdot_prev)
         else:
@@ -111,16 +103,12 @@ class CompiledControl:
         ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
         sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
         buf = np.empty(self.size)
-        common = (self.law_pack, self.limits_pack, self.lam, self.dt, ff, sec)
+        packs = (self.law_pack, self.limits_pack, self.gains, (ff, sec, prev), buf)
         if J is None and self.kernel is not None:
-            lmask, smask, vec = self.kernel(
-                q, self.robot, meas, *common, prev, qdot_prev is not None, buf
-            )
+            lmask, smask, vec = self.kernel(q, self.robot, meas, *packs)
         else:
             Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
-            lmask, smask, vec = _K.given_control(
-                q, Jm, meas, *common, prev, qdot_prev is not None, buf
-            )
+            lmask, smask, vec = _K.given_control(q, Jm, meas, *packs)
         if lmask < 0:
             return None
         return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)
@@ -167,7 +155,7 @@ class CompiledControl:
                 ssrc.astype(np.int64),
                 q,
                 qdot,
-                self.dt,
+                self.gains[1],
                 self.limits,
                 float(sout[6]),
                 int(sout[10]),
@@ -214,7 +202,18 @@ def bind_controller(
     layout = _K.control_layout(robot.n, m, task.k)
     size = layout.pop("size")[1]
     return CompiledControl(
-        kernel, robot_args, lambda q: robot.jacobian(q, check_limits=False), (o.law_id, o.fopt, o.iopt, o.vopt), (lp.rows, lp.has_v, lp.has_a),
-        np.ascontiguousarray(task.s_star, dtype=np.float64), C, law, limits, task, float(lam),
-        float(dt), float(depth_scale), tuple(slice(*v) for v in layout.values()), size,
-    )  # fmt: skip
+        kernel=kernel,
+        robot=robot_args,
+        jacobian=lambda q: robot.jacobian(q, check_limits=False),
+        law_pack=(o.law_id, o.fopt, o.iopt, o.vopt),
+        limits_pack=(lp.rows, lp.has_v, lp.has_a),
+        s_star=np.ascontiguousarray(task.s_star, dtype=np.float64),
+        C=C,
+        law=law,
+        limits=limits,
+        task=task,
+        gains=(float(lam), float(dt)),
+        depth_scale=float(depth_scale),
+        slices=tuple(slice(*v) for v in layout.values()),
+        size=size,
+    )

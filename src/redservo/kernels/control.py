@@ -86,12 +86,8 @@ def _measured(
     meas: Any,
     law: Any,
     limits: Any,
-    lam: float,
-    dt: float,
-    ff: Any,
-    sec: Any,
-    prev: Any,
-    has_prev: bool,
+    gains: Any,
+    inputs: Any,
     buf: Any,
 ) -> Any:
     """The step after the kinematics (module docstring)."""
@@ -110,11 +106,12 @@ def _measured(
         e1 = np.dot(C, e)
         J1 = np.dot(np.dot(C, L), J)
     m = e1.shape[0]
-    pv = prev if has_prev else q[:0]
-    if not inputs_ok(J1, e1, q, rows, ff, sec, pv):
+    ff, sec, prev = inputs
+    if not inputs_ok(J1, e1, q, rows, ff, sec, prev):
         return -1, 0, e[:0]  # the object path raises the error naming the input
-    inputs = (ff, sec, pv, q[:0])
-    qdot, iout, fout, axes, axf, vec, sout = law_step(law, limits, (lam, dt), J1, e1, q, inputs)
+    qdot, iout, fout, axes, axf, vec, sout = law_step(
+        law, limits, gains, J1, e1, q, (ff, sec, prev, q[:0])
+    )
     lmask, lvals, lsrc = law_events(law_id, fopt, m, iout, fout, axes, axf, vec)
     smask, svals, ssrc = sout_events(sout)
     at = 0
@@ -136,18 +133,14 @@ def afma6_control(
     meas: Any,
     law: Any,
     limits: Any,
-    lam: float,
-    dt: float,
-    ff: Any,
-    sec: Any,
-    prev: Any,
-    has_prev: bool,
+    gains: Any,
+    inputs: Any,
     buf: Any,
 ) -> Any:
     """The Controller's step on the Afma6 (module docstring)."""
     eMc, cVe, coupling, offset = robot
     _, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    return _measured(q, J, meas, law, limits, lam, dt, ff, sec, prev, has_prev, buf)
+    return _measured(q, J, meas, law, limits, gains, inputs, buf)
 
 
 @kernel
@@ -157,18 +150,14 @@ def dh_control(
     meas: Any,
     law: Any,
     limits: Any,
-    lam: float,
-    dt: float,
-    ff: Any,
-    sec: Any,
-    prev: Any,
-    has_prev: bool,
+    gains: Any,
+    inputs: Any,
     buf: Any,
 ) -> Any:
     """The Controller's step on a DH chain (module docstring)."""
     par, base, flange, standard, eMc, cVe = robot
     _, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    return _measured(q, J, meas, law, limits, lam, dt, ff, sec, prev, has_prev, buf)
+    return _measured(q, J, meas, law, limits, gains, inputs, buf)
 
 
 @kernel
@@ -178,18 +167,14 @@ def chain_control(
     meas: Any,
     law: Any,
     limits: Any,
-    lam: float,
-    dt: float,
-    ff: Any,
-    sec: Any,
-    prev: Any,
-    has_prev: bool,
+    gains: Any,
+    inputs: Any,
     buf: Any,
 ) -> Any:
     """The Controller's step on a chain of fixed transforms and axes (module docstring)."""
     frames, joints, eMc, cVe = robot
     _, J = chain_kinematics(q, frames, joints, eMc, cVe)
-    return _measured(q, J, meas, law, limits, lam, dt, ff, sec, prev, has_prev, buf)
+    return _measured(q, J, meas, law, limits, gains, inputs, buf)
 
 
 @kernel
@@ -199,13 +184,9 @@ def given_control(
     meas: Any,
     law: Any,
     limits: Any,
-    lam: float,
-    dt: float,
-    ff: Any,
-    sec: Any,
-    prev: Any,
-    has_prev: bool,
+    gains: Any,
+    inputs: Any,
     buf: Any,
 ) -> Any:
     """The Controller's step with the model Jacobian ``J`` (6, n) given by the caller."""
-    return _measured(q, J, meas, law, limits, lam, dt, ff, sec, prev, has_prev, buf)
+    return _measured(q, J, meas, law, limits, gains, inputs, buf)
