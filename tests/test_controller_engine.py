@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from redservo import METHODS, ConfigurationError, Controller, JointLimits, make_law
+from redservo import METHODS, AdaptiveGain, ConfigurationError, Controller, JointLimits, make_law
 from redservo.control import Measurement, SceneContext
 from redservo.features import PointFeature
 from redservo.robots import Afma6, Panda
@@ -59,7 +59,10 @@ class Humanoidish(Afma6):
     """An Afma6 seen as a robot without compiled kinematics (its own class)."""
 
 
-def _loop(kind: str, method: str, *, depth: str = "current", C: bool = False, v: float = 0.0):
+def _loop(
+    kind: str, method: str, *, depth: str = "current", C: bool = False, v: float = 0.0,
+    lam: Any = 0.6,
+):  # fmt: skip
     """Run both engines side by side from a start near the limits; yield both steps."""
     robot = _robot(kind)
     lim = robot.limits()
@@ -74,7 +77,7 @@ def _loop(kind: str, method: str, *, depth: str = "current", C: bool = False, v:
     task = VisualTask(terms, S_STAR, depth=depth, C=Cm, inv_depth_star=star)
     ff = "known" if v else "none"
     ctl = {
-        e: Controller(robot, task, make_law(method), limits, lam=0.6, dt=0.04, feedforward=ff,
+        e: Controller(robot, task, make_law(method), limits, lam=lam, dt=0.04, feedforward=ff,
                       engine=e)
         for e in ("compiled", "python")
     }  # fmt: skip
@@ -111,6 +114,15 @@ def test_depth_options_combination_and_feedforward(method: str, depth: str, C: b
         assert np.array_equal(a.state.J1, b.state.J1) and np.array_equal(a.state.e1, b.state.e1)
         assert _same(a.diagnostics, b.diagnostics)
         assert (a.de1_dt is None) == (v == 0.0)
+
+
+@pytest.mark.parametrize("method", ["gpm-auto", "iterative-smooth"])
+def test_adaptive_gain(method: str) -> None:
+    """λ(‖e1‖∞) (AdaptiveGain) is evaluated as the law evaluates it."""
+    gain = AdaptiveGain(zero=1.2, inf=0.3, slope=8.0)
+    for i, (a, b) in enumerate(_loop("panda", method, C=True, lam=gain)):
+        assert np.array_equal(a.qdot, b.qdot), i
+        assert _same(a.diagnostics, b.diagnostics)
 
 
 def test_engine_is_said_and_the_reason_is_one_line() -> None:

@@ -10,8 +10,8 @@ for bit those of the object path (``task.evaluate_measured`` then ``law(...)``).
 
 Covered: tasks of image points (any depth option), the robots with compiled kinematics
 (Afma6, DH chains, chains such as URDF robots; any other robot with the Jacobian from
-Python), the laws with a compiled step and a ``diagnose`` method, a fixed gain λ, uniform
-scaling. Anything else gets a reason (one line) and the controller runs the object path.
+Python), the laws with a compiled step and a ``diagnose`` method, a fixed or adaptive gain
+λ, uniform scaling. Anything else gets a reason (one line) and the controller runs the object path.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, law_class
 from redservo.redundancy.flags import Event
+from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.kio import LawOutputs, law_options
 from redservo.redundancy.safety import safety_events
 from redservo.robots.base import Robot
@@ -63,7 +64,9 @@ class CompiledControl:
     limits: JointLimits
     task: VisualTask
     gains: tuple[float, float]
-    """``(λ, dt)`` (1/s, s)."""
+    """``(λ, dt)`` (1/s, s); λ is NaN for an adaptive gain (:attr:`adaptive`)."""
+    adaptive: AdaptiveGain | None
+    """The adaptive gain λ(‖e1‖∞), evaluated at each step as the law would, or None."""
     depth_scale: float
     slices: tuple[slice, ...]
     """The parts of the kernel's buffer, in the order of
@@ -103,7 +106,8 @@ class CompiledControl:
         ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
         sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
         buf = np.empty(self.size)
-        packs = (self.law_pack, self.limits_pack, self.gains, (ff, sec, prev), buf)
+        gains = self.gains if self.adaptive is None else self._adapted(s)
+        packs = (self.law_pack, self.limits_pack, gains, (ff, sec, prev), buf)
         if J is None and self.kernel is not None:
             lmask, smask, vec = self.kernel(q, self.robot, meas, *packs)
         else:
@@ -112,6 +116,12 @@ class CompiledControl:
         if lmask < 0:
             return None
         return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)
+
+    def _adapted(self, s: FloatArray) -> tuple[float, float]:
+        """``(λ(‖e1‖∞), dt)`` with ``e1 = C (s − s*)`` computed as the object path does."""
+        e = s - self.s_star
+        e1 = e if self.C.shape[0] == 0 else self.C @ e
+        return gain_value(self.adaptive, e1), self.gains[1]  # type: ignore[arg-type]
 
     def _inverse_depths(self, inv_depth: Sequence[FloatArray]) -> FloatArray | None:
         """The points' inverse depths (N,) as ``L`` uses them (the task's depth option), or
@@ -183,8 +193,10 @@ def bind_controller(
         return f"method {name!r} has no compiled controller step"
     if law.scaling != "uniform":
         return "secondary-first scaling runs on the Python step"
-    if isinstance(lam, bool) or not isinstance(lam, int | float):
-        return "an adaptive gain runs on the Python step"
+    if not isinstance(lam, AdaptiveGain) and (
+        isinstance(lam, bool) or not isinstance(lam, int | float)
+    ):
+        return f"gain {lam!r} is neither a number nor an AdaptiveGain"
     if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
         return "only tasks of image points are compiled for the controller"
     try:
@@ -212,7 +224,8 @@ def bind_controller(
         law=law,
         limits=limits,
         task=task,
-        gains=(float(lam), float(dt)),
+        gains=(np.nan if isinstance(lam, AdaptiveGain) else float(lam), float(dt)),
+        adaptive=lam if isinstance(lam, AdaptiveGain) else None,
         depth_scale=float(depth_scale),
         slices=tuple(slice(*v) for v in layout.values()),
         size=size,

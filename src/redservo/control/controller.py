@@ -22,7 +22,7 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
 
 **Engines** (:attr:`Controller.engine`). ``"compiled"``: the steps above run as one
 compiled call (:mod:`redservo.binding.control`) when the set-up allows it (a task of image
-points, a law with a compiled step, a fixed gain, no objectives, no estimated
+points, a law with a compiled step, a fixed or adaptive gain, no objectives, no estimated
 feed-forward), with the same command, task state and diagnostics bit for bit as the
 object path. ``"kernels"``: the object path, each part a compiled kernel called from its
 Python object. ``"python"``: a user's own law, feature or objective written in Python
