@@ -200,3 +200,12 @@ def test_a_camera_file_is_copied_and_named_relatively(tmp_path: Path) -> None:
     assert main(["run", str(run / "scenario.toml"), "--out", str(tmp_path / "again"), "-q",
                  "--no-plot"]) == 0  # fmt: skip
     assert load_run(tmp_path / "again").summary["iterations"] == load_run(run).summary["iterations"]
+
+
+def test_a_missing_absolute_camera_file_is_not_said_to_be_relative(tmp_path: Path) -> None:
+    gone = (tmp_path / "nowhere" / "wrist.yaml").as_posix()
+    text = _SCENARIO.format(urdf="panda") + f'[camera]\nfile = "{gone}"\n'
+    (tmp_path / "s.toml").write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(tmp_path / "s.toml")
+    assert "does not exist" in str(info.value) and "relative" not in str(info.value)

@@ -205,12 +205,16 @@ def resolve_camera_file(
     if not isinstance(camera, dict) or not isinstance(camera.get("file"), str):
         return
     path = Path(camera["file"]).expanduser()
-    if not path.is_absolute():
+    relative = not path.is_absolute()
+    if relative:
         path = (base_dir or Path.cwd()) / path
     if not path.is_file():
+        where = "is a directory" if path.is_dir() else "does not exist"
+        if relative:  # an absolute path is not read relative to anything
+            folder = "the scenario file's folder" if base_dir is not None else "the current folder"
+            where += f"; {camera['file']!r} is read relative to {folder}"
         raise ScenarioError(
-            f"{source}: key '{prefix}camera.file': no such file {str(path)!r} (a path is "
-            "relative to the scenario file)",
+            f"{source}: key '{prefix}camera.file': no such file {str(path)!r} ({where})",
             argument=f"{prefix}camera.file",
         )
     camera["file"] = str(path.resolve())
