@@ -67,7 +67,14 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
     """Per method: CPU seconds per control step of the compiled loop alone, and the steps
     timed (``samples`` samples, each run ``repeat`` times)."""
     from redservo.campaign import draw_sample, load_campaign
-    from redservo.campaign.fastloop import _buffers, _law_args, _packed, _run_loop, campaign_law
+    from redservo.campaign.fastloop import (
+        _buffers,
+        _law_args,
+        _packed,
+        _run_loop,
+        campaign_law,
+        fast_reason,
+    )
     from redservo.experiment import build
 
     defn = load_campaign(campaign)
@@ -77,6 +84,8 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
         cpu, steps = 0.0, 0
         for exp in exps:
             law = campaign_law(exp, method, defn.method_options.get(method))
+            if fast_reason(exp, law) is not None:  # e.g. predictive: the Python step
+                break
             p = _packed(exp)
             assert not isinstance(p, str), p
             logs = _buffers(exp.options.max_iterations, exp.robot.n)
@@ -87,7 +96,8 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
                 rows = _run_loop(exp, law, args)[0]
             cpu += (time.process_time() - t) / repeat
             steps += rows
-        out[method] = (cpu / steps, steps)
+        if steps:
+            out[method] = (cpu / steps, steps)
     return out
 
 
@@ -208,14 +218,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _rates(a: argparse.Namespace) -> None:
     print("\ncompiled loop alone (CPU µs per step, steps per CPU s):")
     total_cpu = total_steps = 0.0
-    for method, (per_step, steps) in loop_rates(a.campaign, a.loop_samples).items():
+    rates = loop_rates(a.campaign, a.loop_samples)
+    for method, (per_step, steps) in rates.items():
         total_cpu, total_steps = total_cpu + per_step * steps, total_steps + steps
         print(f"  {method:20s} {per_step * 1e6:6.2f} µs  {1 / per_step:9.0f}  ({steps} steps)")
     print(f"  {'all methods':20s} {total_cpu / total_steps * 1e6:6.2f} µs  "
           f"{total_steps / total_cpu:9.0f}")  # fmt: skip
+    methods = list(rates)  # the methods the compiled loop runs (not predictive's Python step)
     rows: list[tuple[str, Any]] = [
-        ("compiled loop", campaign_rate(a.campaign, a.samples)),
-        ("object path", campaign_rate(a.campaign, a.object_samples, fast=False)),
+        ("compiled loop", campaign_rate(a.campaign, a.samples, methods=methods)),
+        ("object path", campaign_rate(a.campaign, a.object_samples, fast=False, methods=methods)),
     ]
     print("\nwhole campaign in one process (sampling, set-up, runs, summaries, rows):")
     for name, r in rows:
