@@ -198,6 +198,7 @@ def _steps(note: Callable[[str], None]) -> None:
         law = make_law("classical")
         step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
         step(c.q, step(c.q).copy())
+    _controllers(cases)
     if importlib.util.find_spec("daqp") is None:
         note("qp step skipped: needs daqp (pip install 'redservo[qp]')")
         return
@@ -206,6 +207,21 @@ def _steps(note: Callable[[str], None]) -> None:
         c.robot, c.scene, c.task, make_law("qp"), limits=c.limits, lam=0.5, dt=0.04
     )
     qp(c.q, qp(c.q))
+
+
+def _controllers(cases: dict[str, Any]) -> None:
+    """The Controller's compiled step with its own kinematics (Afma6, DH) and with a given
+    Jacobian (what the simulator and the servo loop pass)."""
+    from redservo.control import Controller, Measurement
+    from redservo.redundancy import make_law
+
+    for name in ("afma6-4points", "panda-6d-free"):
+        c = cases[name]
+        ctl = Controller(c.robot, c.task, make_law("classical"), c.limits, lam=0.5, dt=0.04)
+        bMc, J = c.robot.kinematics(c.q)
+        meas = Measurement(*c.task.measure(c.scene, bMc, 0.0))
+        prev = ctl.step(c.q, meas, 0.0, qdot_prev=None).qdot.copy()
+        ctl.step(c.q, meas, 0.0, qdot_prev=prev, J=J)
 
 
 def _campaign_loop(note: Callable[[str], None]) -> None:
@@ -230,7 +246,7 @@ def _campaign_loop(note: Callable[[str], None]) -> None:
 GROUPS: tuple[Group, ...] = (
     Group("laws", "every method through the public API", _laws),
     Group("scenarios", "every shipped scenario, 3 iterations", _scenarios),
-    Group("compiled steps", "Afma6 points and moments, Panda points, qp", _steps),
+    Group("compiled steps", "Afma6 points and moments, Panda points, qp, controllers", _steps),
     Group("campaign loop", "every shipped campaign, one sample per method", _campaign_loop),
 )
 """What :func:`warmup` runs, in order."""
