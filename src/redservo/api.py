@@ -22,6 +22,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from redservo.errors import ConfigurationError
+from redservo.overrides import Overrides
+from redservo.overrides import as_assignments as _assignments
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.campaign import CampaignResult
@@ -34,26 +36,6 @@ __all__ = ["Overrides", "ScenarioLike", "campaign", "compare", "load_scenario", 
 ScenarioLike = Any
 """What :func:`load_scenario` accepts: a shipped scenario name (``redservo list``), a path
 to a TOML file, a scenario table (``dict``), or a :class:`~redservo.scenario.Scenario`."""
-
-Overrides = Mapping[str, Any] | Sequence[str] | None
-"""Scenario overrides: ``{"control.lam": 0.8, "features[0].variant": "paper"}``, or the
-command line's ``["control.lam=0.8"]`` strings (``--set``); None: none."""
-
-
-def _assignments(overrides: Overrides) -> list[str]:
-    if overrides is None:
-        return []
-    if isinstance(overrides, str):
-        raise ConfigurationError(
-            f"overrides: give a dict or a list of 'key=value' strings, got the string "
-            f"{overrides!r}",
-            argument="overrides",
-        )
-    if isinstance(overrides, Mapping):
-        from redservo.tomlwriter import _value
-
-        return [f"{key}={_value(value)}" for key, value in overrides.items()]
-    return [str(item) for item in overrides]
 
 
 def load_scenario(scenario: ScenarioLike, overrides: Overrides = None) -> Scenario:
@@ -250,28 +232,15 @@ def campaign(
     >>> res.samples, res.methods
     (2, ('gpm',))
     """
-    from dataclasses import replace
+    from redservo.campaign import campaign_call
 
-    from redservo.campaign import load_campaign, run_campaign
-    from redservo.scenario import apply_overrides
-
-    defn = load_campaign(definition)
-    sets = _assignments(overrides)
-    if sets:
-        defn = replace(defn, scenario=apply_overrides(defn.scenario, sets))
-    result = run_campaign(
-        defn,
+    return campaign_call(
+        definition,
         methods=methods,
         samples=samples,
         seed=seed,
         workers=workers,
+        overrides=overrides,
         out=out,
         progress=progress,
     )
-    if result.out is not None:
-        import copy
-
-        from redservo.runfiles import bundle_files
-
-        bundle_files(Path(result.out), copy.deepcopy(defn.scenario.data))
-    return result

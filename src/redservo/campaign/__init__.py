@@ -163,6 +163,7 @@ __all__ = [
     "Sample",
     "StartSpec",
     "TargetSpec",
+    "campaign_call",
     "draw_sample",
     "load_campaign",
     "method_stats",
@@ -283,14 +284,46 @@ def _engine(
     return Engine(n_workers, scheduler, bool(fast), timeout)
 
 
+def campaign_call(
+    definition: str | Path,
+    *,
+    methods: Sequence[str] | None = None,
+    samples: int | None = None,
+    seed: int = 0,
+    workers: int | None = 1,
+    overrides: Any = None,
+    out: str | Path | None = None,
+    progress: bool = False,
+) -> CampaignResult:
+    """:func:`redservo.api.campaign` (documented there): :func:`run_campaign` with the base
+    scenario's ``overrides`` applied, and the files it references copied into ``out/files/``
+    so that ``redservo replay`` works on the directory once moved (:mod:`redservo.runfiles`)."""
+    import copy
+    from dataclasses import replace
+
+    from redservo.overrides import as_assignments
+    from redservo.runfiles import bundle_files
+    from redservo.scenario import apply_overrides
+
+    defn = load_campaign(definition)
+    sets = as_assignments(overrides)
+    if sets:
+        defn = replace(defn, scenario=apply_overrides(defn.scenario, sets))
+    result = run_campaign(
+        defn, methods=methods, samples=samples, seed=seed, workers=workers, out=out,
+        progress=progress,
+    )  # fmt: skip
+    if result.out is not None:
+        bundle_files(Path(result.out), copy.deepcopy(defn.scenario.data))
+    return result
+
+
 class _CallableModule(types.ModuleType):
     """``redservo.campaign(...)`` is :func:`redservo.api.campaign` (the top-level API), while
     ``redservo.campaign`` stays this package: calling the package runs a campaign."""
 
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        from redservo.api import campaign
-
-        return campaign(*args, **kwargs)
+    def __call__(self, *args: Any, **kwargs: Any) -> CampaignResult:
+        return campaign_call(*args, **kwargs)
 
 
 sys.modules[__name__].__class__ = _CallableModule
