@@ -127,66 +127,33 @@ def _measured(
 
 
 @kernel
-def afma6_control(
-    q: Any,
-    robot: Any,
-    meas: Any,
-    law: Any,
-    limits: Any,
-    gains: Any,
-    inputs: Any,
-    buf: Any,
-) -> Any:
-    """The Controller's step on the Afma6 (module docstring)."""
+def afma6_control(q: Any, robot: Any, *packs: Any) -> Any:
+    """The Controller's step on the Afma6; ``packs``: ``meas, law, limits, gains, inputs,
+    buf`` (module docstring)."""
     eMc, cVe, coupling, offset = robot
     _, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    return _measured(q, J, meas, law, limits, gains, inputs, buf)
+    return _measured(q, J, *packs)
 
 
 @kernel
-def dh_control(
-    q: Any,
-    robot: Any,
-    meas: Any,
-    law: Any,
-    limits: Any,
-    gains: Any,
-    inputs: Any,
-    buf: Any,
-) -> Any:
-    """The Controller's step on a DH chain (module docstring)."""
+def dh_control(q: Any, robot: Any, *packs: Any) -> Any:
+    """The Controller's step on a DH chain (``packs`` as :func:`afma6_control`)."""
     par, base, flange, standard, eMc, cVe = robot
     _, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    return _measured(q, J, meas, law, limits, gains, inputs, buf)
+    return _measured(q, J, *packs)
 
 
 @kernel
-def chain_control(
-    q: Any,
-    robot: Any,
-    meas: Any,
-    law: Any,
-    limits: Any,
-    gains: Any,
-    inputs: Any,
-    buf: Any,
-) -> Any:
-    """The Controller's step on a chain of fixed transforms and axes (module docstring)."""
+def chain_control(q: Any, robot: Any, *packs: Any) -> Any:
+    """The Controller's step on a chain of fixed transforms and axes (``packs`` as
+    :func:`afma6_control`)."""
     frames, joints, eMc, cVe = robot
     _, J = chain_kinematics(q, frames, joints, eMc, cVe)
-    return _measured(q, J, meas, law, limits, gains, inputs, buf)
+    return _measured(q, J, *packs)
 
 
 @kernel
-def given_control(
-    q: Any,
-    J: Any,
-    meas: Any,
-    law: Any,
-    limits: Any,
-    gains: Any,
-    inputs: Any,
-    buf: Any,
-) -> Any:
-    """The Controller's step with the model Jacobian ``J`` (6, n) given by the caller."""
-    return _measured(q, J, meas, law, limits, gains, inputs, buf)
+def given_control(q: Any, J: Any, *packs: Any) -> Any:
+    """The Controller's step with the model Jacobian ``J`` (6, n) given by the caller
+    (``packs`` as :func:`afma6_control`)."""
+    return _measured(q, J, *packs)
