@@ -59,8 +59,13 @@ def _pose_error(bMc: FloatArray, target: FloatArray) -> FloatArray:
 
 
 def _dls(J: FloatArray, err: FloatArray, damping: float) -> FloatArray:
-    """Damped least-squares step ``Jᵀ(JJᵀ + δ²I)⁻¹ err``."""
-    return np.asarray(J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(J.shape[0]), err))
+    """Damped least-squares step ``Jᵀ(JJᵀ + δ²I)⁻¹ err`` (least squares if that is singular,
+    e.g. ``J`` overflowed near a singular pose: then NaN, and the seed is given up)."""
+    A = J @ J.T + damping**2 * np.eye(J.shape[0])
+    try:
+        return np.asarray(J.T @ np.linalg.solve(A, err))
+    except np.linalg.LinAlgError:
+        return np.full(J.shape[1], np.nan)
 
 
 def solve_ik(
@@ -87,6 +92,8 @@ def solve_ik(
         blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
         if blocked.any():  # joints at a bound pushing out: solve with the others
             step = _dls(np.where(blocked, 0.0, J), err, damping)
+        if not np.all(np.isfinite(step)):
+            return None
         size = float(np.max(np.abs(step)))
         if size > 0.5:  # at most 0.5 rad (or m) per joint and iteration
             step *= 0.5 / size
@@ -139,6 +146,8 @@ def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, to
         blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
         if blocked.any():
             step = -_dls(np.where(blocked, 0.0, st.J1), st.e1, 1e-3)
+        if not np.all(np.isfinite(step)):
+            return False
         size = float(np.max(np.abs(step)))
         if size > 0.3:
             step *= 0.3 / size

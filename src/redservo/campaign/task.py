@@ -180,7 +180,10 @@ def _reachable(exp: Any) -> str:
     pose, or no experiment) (:mod:`redservo.campaign.reach`)."""
     from redservo.campaign.reach import reachable
 
-    ok = None if exp is None else reachable(exp)
+    try:
+        ok = None if exp is None else reachable(exp)
+    except Exception:  # the column is then unknown; the runs themselves are unaffected
+        ok = None
     return "" if ok is None else str(bool(ok))
 
 
