@@ -22,7 +22,12 @@ from redservo.reproduction.perturbation import (
 )
 from redservo.reproduction.report import ExperimentResult, statements
 from redservo.reproduction.robustness import run_robustness
-from redservo.reproduction.robustness_tally import SetupResult, aggregate, categorize
+from redservo.reproduction.robustness_tally import (
+    CheckRobustness,
+    SetupResult,
+    aggregate,
+    categorize,
+)
 
 CHEAP = "mc05-joint-limits"
 
@@ -80,7 +85,7 @@ def test_categories_are_decided_on_the_interval_and_the_breaking_factor_is_named
     assert categorize(True, (0.3, 0.6)) == "fragile"
     assert categorize(False, (0.9, 1.0)) == "not reproduced"
 
-    def row(holds: dict[str, int]) -> object:
+    def row(holds: dict[str, int]) -> CheckRobustness:
         rows = aggregate([spec], _rows(holds), {(CHEAP, "directional-succeeds"): True})
         return next(r for r in rows if r.name == "directional-succeeds")
 

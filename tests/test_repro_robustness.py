@@ -96,9 +96,12 @@ def test_pixel_noise_uses_the_image_sensor() -> None:
 
 def test_sweep_does_not_depend_on_the_number_of_workers() -> None:
     spec = experiments()[CHEAP]
-    kw = {"seed": 1, "fast": True, "pixel_noise": False, "factors": ("all",)}
-    one = run_robustness([spec], 2, workers=1, **kw)
-    two = run_robustness([spec], 2, workers=2, **kw)
+    one = run_robustness(
+        [spec], 2, workers=1, seed=1, fast=True, pixel_noise=False, factors=["all"]
+    )
+    two = run_robustness(
+        [spec], 2, workers=2, seed=1, fast=True, pixel_noise=False, factors=["all"]
+    )
     assert [c.to_dict() for c in one.checks] == [c.to_dict() for c in two.checks]
     assert [s.verdicts for s in one.setups] == [s.verdicts for s in two.setups]
     assert one.n == 2 and all(c.n == 2 for c in one.checks)

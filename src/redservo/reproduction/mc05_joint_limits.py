@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from redservo.reproduction import mc05_fragility
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec, without_limits
 from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar
 from redservo.reproduction.mc05 import (
@@ -256,6 +257,7 @@ def joint_limit_experiment(
     plane: tuple[int, int] = (0, 1),
     kappa: float = KAPPA,
     variant_of: str = "",
+    fragility: str = "",
 ) -> ExperimentSpec:
     """The MC05 §V-A experiment (runs, Figs. 2-4 and :data:`CHECKS`) on a given scenario;
     ``variant_of`` names the experiment whose statements it checks again."""
@@ -274,6 +276,7 @@ def joint_limit_experiment(
         notes=notes,
         base_overrides=base_overrides,
         variant_of=variant_of,
+        fragility=fragility,
     )
 
 
@@ -311,5 +314,6 @@ EXPERIMENTS: tuple[ExperimentSpec, ...] = (
         title="MC05 §V-A — full-rank moment task and joint limits (Figs. 2-4)",
         scenario="mc05-joint-limits",
         notes=NOTES,
+        fragility=mc05_fragility.JOINT_LIMITS,
     ),
 )

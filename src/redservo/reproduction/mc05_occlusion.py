@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from redservo.reproduction import mc05_fragility
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec
 from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar
 from redservo.reproduction.mc05 import (
@@ -354,6 +355,7 @@ EXPERIMENTS: tuple[ExperimentSpec, ...] = (
         figures=figures,
         checks=tuple(CHECKS),
         fast=("simulation.max_iterations=200", "simulation.tolerance=0.02"),
+        fragility=mc05_fragility.OCCLUSION,
         notes=(
             "Scenario choice (a random search over target poses, sphere start, size and speed, "
             "beta and gain; details in the scenario file): the sphere hides the dots after "
