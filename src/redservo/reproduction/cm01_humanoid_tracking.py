@@ -161,7 +161,7 @@ def _transferred(runs: Runs) -> Verdict:
     IMPL,
     f"Once the point is acquired, the tracking error stays small (‖e1‖ ≤ {MAX_TRACKING_ERROR}, "
     "i.e. 6 px at 600 px); CM01 states no tracking error, so this checks our set-up",
-    "docs/formulas.md §1.3",
+    "docs/formulas.md §1.4",
 )
 def _error(runs: Runs) -> Verdict:
     """Not a CM01 statement (§V-B2 reports which joints move, not the error), and the nominal
