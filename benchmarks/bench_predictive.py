@@ -54,6 +54,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=5, help="campaign starts (default 5)")
     parser.add_argument("--horizon", type=int, default=10)
+    parser.add_argument("--goal-weight", type=float, default=0.1, help="0: no joint goal")
     args = parser.parse_args()
     exps = [("panda-4points", build(load_scenario("panda-4points")))]
     d = load_campaign("panda-near-limits")
@@ -65,12 +66,12 @@ def main() -> None:
     load0 = os.getloadavg()[0]
     for name, exp in exps:
         n0 = len(times)
-        outcome, fb = _timed_run(exp, times, horizon=args.horizon)
+        outcome, fb = _timed_run(exp, times, horizon=args.horizon, goal_weight=args.goal_weight)
         t = np.array(times[n0:]) * 1e3
         print(f"{name}: {outcome}, {t.size} steps, median {np.median(t):.2f} ms, {fb} fallbacks")
     t = np.array(times) * 1e3
     print(
-        f"predictive, N = {args.horizon}, {t.size} steps: median {np.median(t):.2f} ms, "
+        f"predictive, N = {args.horizon}, goal_weight {args.goal_weight:g}, {t.size} steps: median {np.median(t):.2f} ms, "
         f"p95 {np.percentile(t, 95):.2f} ms, worst {t.max():.2f} ms "
         f"(load average {load0:.2f} before, {os.getloadavg()[0]:.2f} after, "
         f"{os.cpu_count()} cores)"

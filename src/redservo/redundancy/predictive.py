@@ -21,7 +21,7 @@ Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
 * **Solver**: sequential QP, ``sqp_iterations`` (default 1: the real-time iteration, whose
   linearisation point is the previous solution shifted by one period, the warm start) on
   ``daqp`` called directly (the dense active-set solver the ``qp`` law already uses through
-  its lookup), with ``primal_start`` at the shifted solution.
+  its lookup), started cold (the warm start is the linearisation point).
 * **Cost**: the reference is ``e = 0`` at every predicted period (Allibert 2010 track
   ``s*``); ``ρ = effort · dt² σ_max(J1)²`` (relative, like ``qp``'s ε); with a known
   feed-forward ``∂e1/∂t`` the predicted errors drift by ``k dt ∂e1/∂t``.
