@@ -15,14 +15,14 @@ import pytest
 pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
 
 from redservo import METHODS
-
-COMPILED = tuple(m for m in METHODS if m != "predictive")
-"""The methods with a compiled step (``predictive`` runs on the Python step: docs/predictive.md)."""
 from redservo.campaign import draw_sample, fastloop, load_campaign, run_campaign
 from redservo.campaign.engine import FAST_PATH
 from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
 from redservo.experiment import build
 from redservo.scenario import apply_overrides, load_scenario
+
+COMPILED = tuple(m for m in METHODS if m != "predictive")
+"""The methods with a compiled step (``predictive`` runs on the Python step: docs/predictive.md)."""
 
 
 def _exact(value: Any) -> Any:
