@@ -23,12 +23,14 @@ Units: seconds, metres, radians, normalized image coordinates.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.robots.base import Robot
+
+if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with the laws
+    from redservo.robots.base import Robot
 
 __all__ = ["Horizon", "PointModel", "Prediction", "horizon", "point_prediction"]
 
