@@ -156,7 +156,11 @@ def test_realistic_image_keeps_the_assumed_camera_for_the_detector() -> None:
     sensor = image_sensor(Camera(), Imaging(focal_scale=1.05, k1=-0.05, gradient=0.15))
     r = sensor.renderer
     assert r.optics.camera.px == 600.0 and r.optics.k1 == 0.0  # what the detector uses
-    assert r.true_optics.camera.px == pytest.approx(630.0) and r.true_optics.k1 == -0.05
+    true_cam = r.true_optics.camera  # the lens drawn: the camera's own distortion model
+    assert true_cam.px == pytest.approx(630.0) and true_cam.k1 == -0.05
+    # the drawn lens moves a point 0.3 normalized units off-centre by k1 r³ (about 0.8 px)
+    uv_true, uv_model = r.true_optics.to_pixel([0.3, 0.0]), r.optics.to_pixel([0.3, 0.0])
+    assert uv_true[0] - uv_model[0] == pytest.approx(600 * (1.05 * 0.3 * (1 - 0.05 * 0.09) - 0.3))
     img = r.render_layers([]).astype(float)  # the background under the lighting gradient
     assert img[:, :20].mean() < 0.8 * img[:, -20:].mean()
     assert np.all(img >= 0)
@@ -189,7 +193,7 @@ def test_reproduce_through_images_runs_the_cross_comparison(
     report = repro.reproduce(out, only="cross-comparison", fast=True, sensor="image")
     assert report["imaging"]["k1"] != 0.0 and report["through_images"] == {}
     md = (out / "report.md").read_text()
-    assert "### Through images" in md and "uncorrected radial distortion" in md
+    assert "### Through images" in md and "uncorrected lens distortion" in md
     tail = md[md.index("### Through images") :]
     assert "cell: **limit**" in tail
     json.dumps(report, default=str)

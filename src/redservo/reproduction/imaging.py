@@ -6,8 +6,9 @@
 * ``blur_px``: Gaussian blur, standard deviation in pixels;
 * ``focal_scale``: the camera's true focal lengths are ``focal_scale`` times the ones the
   controller and the detector use (an uncalibrated focal length: 1.05 is +5 %);
-* ``k1``: radial lens distortion of the true lens (OpenCV's ``k1``, normalized units),
-  **left uncorrected**: the detector converts pixels with the distortion-free model;
+* ``k1``, ``k2``, ``p1``, ``p2``: distortion of the true lens (OpenCV's model, normalized
+  units; :class:`redservo.camera.Camera`), **left uncorrected**: the detector converts pixels
+  with the controller's camera model, without it;
 * ``gradient``: a lighting gradient, the image multiplied by a gain going linearly from
   ``1 − gradient`` at the left border to ``1 + gradient`` at the right one and by the same
   amount top to bottom (so ``0.15`` is ±15 % of light along each axis).
@@ -45,7 +46,10 @@ class Imaging:
         noise_px: Pixel noise, standard deviation (gray levels, >= 0).
         blur_px: Gaussian blur, standard deviation (pixels, >= 0).
         focal_scale: True focal length / assumed focal length (> 0; 1 = calibrated).
-        k1: Uncorrected radial distortion of the true lens (dimensionless, |k1| <= 1).
+        k1: Uncorrected radial distortion of the true lens, r² term (dimensionless).
+        k2: Uncorrected radial distortion, r⁴ term (dimensionless).
+        p1: Uncorrected tangential distortion (dimensionless).
+        p2: Uncorrected tangential distortion (dimensionless).
         gradient: Lighting gradient, relative gain change from the centre to a border (>= 0, < 1).
     """
 
@@ -54,6 +58,9 @@ class Imaging:
     focal_scale: float = 1.0
     k1: float = 0.0
     gradient: float = 0.0
+    k2: float = 0.0
+    p1: float = 0.0
+    p2: float = 0.0
 
     def __post_init__(self) -> None:
         checks = {
@@ -61,6 +68,9 @@ class Imaging:
             "blur_px": self.blur_px >= 0.0,
             "focal_scale": self.focal_scale > 0.0,
             "k1": abs(self.k1) <= 1.0,
+            "k2": abs(self.k2) <= 1.0,
+            "p1": abs(self.p1) <= 1.0,
+            "p2": abs(self.p2) <= 1.0,
             "gradient": 0.0 <= self.gradient < 1.0,
         }
         for name, ok in checks.items():
@@ -68,7 +78,7 @@ class Imaging:
             if not (np.isfinite(value) and ok):
                 raise ConfigurationError(
                     f"Imaging.{name} out of range: {value!r} (noise_px, blur_px >= 0; "
-                    "focal_scale > 0; |k1| <= 1; 0 <= gradient < 1)",
+                    "focal_scale > 0; |k1|, |k2|, |p1|, |p2| <= 1; 0 <= gradient < 1)",
                     argument=name,
                 )
 
@@ -80,7 +90,8 @@ class Imaging:
         return (
             f"noise σ = {self.noise_px:g} gray levels, blur σ = {self.blur_px:g} px, "
             f"focal length {100.0 * (self.focal_scale - 1.0):+g} % uncalibrated, "
-            f"uncorrected radial distortion k1 = {self.k1:g}, lighting gradient "
+            f"uncorrected lens distortion k1 = {self.k1:g}, k2 = {self.k2:g}, p1 = {self.p1:g}, "
+            f"p2 = {self.p2:g} (OpenCV's model), lighting gradient "
             f"±{100.0 * self.gradient:g} % per axis"
         )
 
@@ -98,8 +109,9 @@ IDEAL_IMAGE = Imaging()
 def image_sensor(camera: Camera, imaging: Imaging, *, seed: int = 0) -> ImageSensor:
     """An :class:`~redservo.vision.ImageSensor` for ``camera`` seeing through ``imaging``.
 
-    The detector normalizes with ``camera`` (no distortion); the image is drawn with the focal
-    lengths scaled by ``imaging.focal_scale`` and with ``imaging.k1``, then lit with the
+    The detector normalizes with ``camera`` as given; the image is drawn by ``camera`` with its
+    focal lengths scaled by ``imaging.focal_scale`` and, when ``imaging`` has any distortion,
+    the lens ``(k1, k2, p1, p2)`` of ``imaging`` (replacing the camera's), then lit with the
     gradient. True depth (:mod:`redservo.vision.depth`).
     """
     from redservo.vision import ImageSensor
@@ -126,7 +138,10 @@ def _renderer(camera: Camera, options: Any, imaging: Imaging) -> Any:
             super().__init__(camera, options)
             s = imaging.focal_scale
             true_cam = replace(camera, px=camera.px * s, py=camera.py * s)
-            self.true_optics = Optics(true_cam, imaging.k1, 0.0)
+            lens = (imaging.k1, imaging.k2, imaging.p1, imaging.p2)
+            if any(lens):
+                true_cam = replace(true_cam, k1=lens[0], k2=lens[1], p1=lens[2], p2=lens[3], k3=0.0)
+            self.true_optics = Optics(true_cam)
             h, w = self.optics.shape
             gu = np.linspace(-imaging.gradient, imaging.gradient, w, dtype=np.float32)
             gv = np.linspace(-imaging.gradient, imaging.gradient, h, dtype=np.float32)
