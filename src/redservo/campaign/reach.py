@@ -22,6 +22,7 @@ Units: metres, radians.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -38,6 +39,9 @@ POS_TOL = 1e-4
 """Position tolerance of the inverse kinematics (m)."""
 ROT_TOL = 1e-3
 """Orientation tolerance (rad)."""
+STALL_ITERATIONS, STALL_GAIN = 40, 0.99
+"""A seed is given up when its pose error has not fallen below 0.99 of its best for 40
+iterations (stuck against the bounds or in a local minimum)."""
 
 
 def desired_camera_pose(exp: Any) -> FloatArray | None:
@@ -55,7 +59,20 @@ def desired_camera_pose(exp: Any) -> FloatArray | None:
 def _pose_error(bMc: FloatArray, target: FloatArray) -> FloatArray:
     """(6,) camera-frame twist ``(t, θu)`` from ``bMc`` to ``target`` (m, rad)."""
     cMt = inverse(bMc) @ target
-    return np.concatenate([cMt[:3, 3], matrix_to_rotvec(cMt[:3, :3])])
+    return np.concatenate([cMt[:3, 3], _theta_u(cMt[:3, :3])])
+
+
+def _theta_u(R: FloatArray) -> FloatArray:
+    """θu of a rotation matrix (rad): ``θ/(2 sin θ) vee(R − Rᵀ)`` away from θ = π (where
+    :func:`redservo.spatial.matrix_to_rotvec` takes over), 20x cheaper than it."""
+    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
+    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    theta = math.acos(c)
+    if theta < 1e-6:
+        return 0.5 * v
+    if theta > math.pi - 1e-3:
+        return np.asarray(matrix_to_rotvec(R))
+    return (0.5 * theta / math.sin(theta)) * v
 
 
 def _dls(J: FloatArray, err: FloatArray, damping: float) -> FloatArray:
@@ -81,13 +98,21 @@ def solve_ik(
     """Projected damped least squares from ``seed``: ``q ← clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err)``,
     the joints at a bound that the step pushes out left out of ``J`` (active set);
     returns ``q`` within ``[lo, hi]`` reaching ``target`` within :data:`POS_TOL` and
-    :data:`ROT_TOL`, or None."""
+    :data:`ROT_TOL`, or None (also when the error stalls: :data:`STALL_ITERATIONS`)."""
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
+    best, since = math.inf, 0
     for _ in range(iterations):
         bMc, J = robot.kinematics(q, check_limits=False)
         err = _pose_error(bMc, target)
         if np.linalg.norm(err[:3]) < POS_TOL and np.linalg.norm(err[3:]) < ROT_TOL:
             return q
+        size = float(np.linalg.norm(err))
+        if size < STALL_GAIN * best:
+            best, since = size, 0
+        else:
+            since += 1
+            if since >= STALL_ITERATIONS:  # stuck against the bounds or in a local minimum
+                return None
         step = _dls(J, err, damping)
         blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
         if blocked.any():  # joints at a bound pushing out: solve with the others
