@@ -74,9 +74,10 @@ def test_campaign_json_records_the_engine_of_each_run(tmp_path: Path) -> None:
     run_campaign(d, samples=2, methods=["gpm", "qp"], workers=1, progress=False, out=tmp_path)
     meta = json.loads((tmp_path / "campaign.json").read_text())
     assert meta["engine"] == {"gpm": {"compiled loop": 2}, "qp": {"compiled loop": 2}}
-    assert "Engine: 4 run(s) computed by this call on the compiled loop." in (
-        tmp_path / "campaign.md"
-    ).read_text()
+    assert (
+        "Engine: 4 run(s) computed by this call on the compiled loop."
+        in (tmp_path / "campaign.md").read_text()
+    )
     slow = run_campaign(d, samples=1, methods=["gpm"], workers=1, progress=False, fast=False)
     assert list(slow.engines["gpm"].values()) == [1]
     assert "compiled loop" not in slow.engines["gpm"]
