@@ -16,8 +16,10 @@ Python), the laws with a compiled step and a ``diagnose`` method, a fixed or ada
 
 from __future__ import annotations
 
+from collections import namedtuple
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -71,6 +73,9 @@ class CompiledControl:
     slices: tuple[slice, ...]
     """The parts of the kernel's buffer, in the order of
     :func:`redservo.kernels.control.control_layout`."""
+    views: Any
+    """A NamedTuple type with the layout's part names, in that order (the views of a buffer
+    are read by name, so the layout is written down once, in the kernel module)."""
     size: int
 
     def step(
@@ -149,28 +154,33 @@ class CompiledControl:
         vec: FloatArray,
     ) -> tuple[FloatArray, TaskState, Diagnostics]:
         """Views of the kernel's buffer as the object path's results."""
-        (qdot, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc, e, e1, J1, L) = (
-            buf[sl] for sl in self.slices
+        v = self.views._make(buf[sl] for sl in self.slices)  # named by control_layout
+        m = v.e1.shape[0]
+        e1 = v.e if self.C.shape[0] == 0 else v.e1
+        state = TaskState(s, v.e, e1, v.L.reshape(-1, 6), v.J1.reshape(m, q.shape[0]), inv_depth)
+        out = LawOutputs(
+            v.iout.astype(np.int64), v.fout, v.axes, v.axf, vec, lmask, v.lvals, v.lsrc
         )
-        m = e1.shape[0]
-        if self.C.shape[0] == 0:
-            e1 = e
-        state = TaskState(s, e, e1, L.reshape(-1, 6), J1.reshape(m, q.shape[0]), inv_depth)
-        out = LawOutputs(iout.astype(np.int64), fout, axes, axf, vec, lmask, lvals, lsrc)
         more: tuple[Event, ...] = ()
         if smask:
             more = safety_events(
                 smask,
-                svals,
-                ssrc.astype(np.int64),
+                v.svals,
+                v.ssrc.astype(np.int64),
                 q,
-                qdot,
+                v.qdot,
                 self.gains[1],
                 self.limits,
-                float(sout[6]),
-                int(sout[10]),
+                float(v.sout[6]),
+                int(v.sout[10]),
             )
-        return qdot, state, self.law.diagnose(m, out, more)  # type: ignore[attr-defined]
+        return v.qdot, state, self.law.diagnose(m, out, more)  # type: ignore[attr-defined]
+
+
+@lru_cache(maxsize=4)
+def _views(names: tuple[str, ...]) -> Any:
+    """The NamedTuple type of a buffer's views (:attr:`CompiledControl.views`)."""
+    return namedtuple("ControlViews", names)
 
 
 def bind_controller(
@@ -228,5 +238,6 @@ def bind_controller(
         adaptive=lam if isinstance(lam, AdaptiveGain) else None,
         depth_scale=float(depth_scale),
         slices=tuple(slice(*v) for v in layout.values()),
+        views=_views(tuple(layout)),
         size=size,
     )
