@@ -165,3 +165,23 @@ def test_bad_inputs_raise_the_object_paths_errors() -> None:
     bad = Measurement(np.full(8, np.nan), meas.inv_depth)
     with pytest.raises(ShapeError):
         ctl.step(q, bad, 0.0, qdot_prev=None)
+
+
+def test_run_json_records_the_engine(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    """run.json says which engine ran and why not compiled; the command line says it in one
+    line only when a user's own Python code took part."""
+    import json
+
+    import redservo
+    from redservo.cli_common import engine_note
+
+    res = redservo.run("cm01-gaze", out=tmp_path / "gaze", max_iterations=5)
+    meta = json.loads((tmp_path / "gaze" / "run.json").read_text())
+    assert (meta["engine"], meta["engine_reason"]) == ("compiled", "")
+    res = redservo.run("mc05-occlusion", out=tmp_path / "occ", max_iterations=5)
+    meta = json.loads((tmp_path / "occ" / "run.json").read_text())
+    assert meta["engine"] == "kernels" and "objectives" in meta["engine_reason"]
+    engine_note(res)
+    assert capsys.readouterr().err == ""
+    engine_note(type("R", (), {"engine": "python", "engine_reason": "written in Python: x"})())
+    assert capsys.readouterr().err == "note: Python control step (written in Python: x)\n"
