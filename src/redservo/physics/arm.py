@@ -10,8 +10,14 @@ reference posture, follows a step of its velocity command with the time constant
 and other postures, make the real tracking differ (what :attr:`MujocoArm.tracking` records).
 
 :meth:`MujocoArm.step` holds a command for a duration (whole physics steps) and records the
-peak and the RMS of ``|q̇ − q̇_cmd|`` per joint. :meth:`MujocoArm.render` draws the arm's
-camera image, lit by one shadow-casting spot light and MuJoCo's head light.
+peak and the RMS of ``|q̇ − q̇_cmd|`` per joint. :meth:`MujocoArm.render` draws the camera
+image, lit by one shadow-casting spot light and MuJoCo's head light.
+
+**Eye-to-hand.** Given an :class:`~redservo.robots.eye_to_hand.EyeToHandRobot`, the model
+is its carrier arm with no camera on it, the camera fixed in the world at the wrapper's
+``bMc`` (same intrinsics convention as the hand camera), and the scene's objects (whose
+frame is then the end effector's: ``wMo = eMo``) bodies fixed to the last link at ``eMo``,
+moved by the physics; :meth:`MujocoArm.camera_pose` is then the wrapper's ``eMc(q)``.
 
 Units: metres, radians, seconds (joint velocities rad/s or m/s).
 """
@@ -28,9 +34,10 @@ from redservo._validation import FloatArray, as_vector
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.physics._mj import require_mujoco
-from redservo.physics.mjcf import Chain, chain_of, robot_bodies, xml_pose
+from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodies, xml_pose
 from redservo.physics.scenes import scene_bodies, set_poses
 from redservo.robots.base import Robot
+from redservo.robots.eye_to_hand import EyeToHandRobot
 from redservo.scene import Scene
 
 __all__ = ["MujocoArm", "TrackingStats"]
@@ -46,6 +53,16 @@ _ASSETS = (
     '<material name="object" rgba="0.6 0.6 0.62 1" specular="0.2"/>'
     "</asset>"
 )
+
+_EYE_TO_HAND_LOOK = (
+    '<material name="arm" rgba="0.85 0.55 0.2 1" specular="0.3"/>',
+    '<material name="arm" rgba="0.85 0.85 0.82 1" specular="0.3"/>',
+    'ambient="0.2 0.2 0.2"',
+    'ambient="0.3 0.3 0.3"',
+)
+"""With the camera fixed in the world the arm is in every image, behind the target, partly in
+its shadow: painted light grey (as a Panda is) in a brighter room (ambient 0.3), so that
+no part of it is darker than the ink threshold (orange in the shadow reaches gray level 40)."""
 
 
 class TrackingStats:
@@ -78,9 +95,12 @@ class MujocoArm:
     """A robot (and optionally a scene) as a MuJoCo model (module docstring).
 
     Args:
-        robot: The robot (its kinematics define the MJCF exactly: :mod:`redservo.physics.mjcf`).
-        scene: Objects to draw (mocap bodies at ``wMo(t)``); None: an empty world.
-        camera: Intrinsics and image size of the arm's camera (default :class:`Camera`).
+        robot: The robot (its kinematics define the MJCF exactly: :mod:`redservo.physics.mjcf`);
+            an :class:`~redservo.robots.eye_to_hand.EyeToHandRobot`: its carrier, with the
+            camera fixed in the world (module docstring).
+        scene: Objects to draw (mocap bodies at ``wMo(t)``; eye-to-hand: bodies carried at
+            ``eMo = wMo(0)``); None: an empty world.
+        camera: Intrinsics and image size of the camera (default :class:`Camera`).
         q_ref: (n,) posture of the gain design (default: the middle of the limits).
         timestep: Physics step (s), > 0 (default 1 ms).
         tracking_time: Time constant of the velocity servo (s), > 0.
@@ -112,25 +132,27 @@ class MujocoArm:
         self.robot = robot
         self.scene = scene
         self.camera = camera or Camera()
-        self.chain: Chain = chain_of(robot)
+        self.world_camera: FloatArray | None = None
+        """Eye-to-hand: ``bMc`` (4x4) of the camera fixed in the world; None: on the arm."""
+        carrier = robot
+        if isinstance(robot, EyeToHandRobot):
+            carrier, self.world_camera = robot.carrier, robot.bMc.copy()
+        self.chain: Chain = chain_of(carrier)
         self._Tinv = np.linalg.inv(self.chain.T)
         self.timestep = float(timestep)
         self.tracking_time = float(tracking_time)
-        wMb = np.eye(4) if scene is None else scene.wMb
-        arm_xml, self.joint_names = robot_bodies(robot, self.chain, self.camera)
+        ref = (robot.q_min + robot.q_max) / 2.0 if q_ref is None else as_vector(q_ref, "q_ref")
+        wMb = np.eye(4) if scene is None or self.world_camera is not None else scene.wMb
         files: dict[str, bytes] = {}
-        objects, textures, self.drawn, self.skipped = (
-            ("", "", [], []) if scene is None else scene_bodies(scene, files)
-        )
-        self.xml = self._xml(arm_xml, objects, textures, wMb, shadows)
+        self.xml = self._xml(carrier, ref, wMb, files, shadows)
         self.model = self.mj.MjModel.from_xml_string(self.xml, assets=files)
         self.data = self.mj.MjData(self.model)
         self._qadr = np.array([self.model.joint(n).qposadr[0] for n in self.joint_names])
         self._vadr = np.array([self.model.joint(n).dofadr[0] for n in self.joint_names])
         self._site = self.model.site("camera").id
+        self._effector = None if self.world_camera is None else self.model.site("effector").id
         self._wMb = wMb
         self._bMw = np.linalg.inv(wMb)
-        ref = (robot.q_min + robot.q_max) / 2.0 if q_ref is None else as_vector(q_ref, "q_ref")
         self.kv = self._gains(ref)
         self.tracking = TrackingStats(robot.n)
         self._renderer: Any = None
@@ -140,19 +162,32 @@ class MujocoArm:
 
     # -- model ---------------------------------------------------------------------------------
 
-    def _xml(self, arm: str, objects: str, textures: str, wMb: FloatArray, shadows: bool) -> str:
-        c = self.camera
-        h = self.timestep
-        # A spot light 1.5 m above the point midway between the base and the first object.
-        mid = wMb[:3, 3].copy()
-        if self.scene is not None and self.drawn:
-            mid = 0.5 * (mid + self.scene.wMo(self.drawn[0], 0.0)[:3, 3])
-        light = mid + np.array([0.3, 0.2, 1.5])
+    def _xml(
+        self,
+        carrier: Robot,
+        q_ref: FloatArray,
+        wMb: FloatArray,
+        files: dict[str, bytes],
+        shadows: bool,
+    ) -> str:
+        """The model's MJCF; sets ``joint_names``, ``drawn`` and ``skipped``."""
+        c, h, scene = self.camera, self.timestep, self.scene
+        bMe0 = None
+        if self.world_camera is not None:  # eye-to-hand: the scene's frame is the effector's
+            bMe0 = np.asarray(carrier.fkine_ee(np.zeros(carrier.n)))
+        objects, textures, self.drawn, self.skipped = (
+            ("", "", [], []) if scene is None else scene_bodies(scene, files, carrier=bMe0)
+        )
+        carried, objects = (objects, "") if bMe0 is not None else ("", objects)
+        arm, self.joint_names = robot_bodies(carrier, self.chain, c, effector=bMe0, carried=carried)
+        if self.world_camera is not None:
+            arm += camera_xml(self.world_camera, c)
+        light, aim = self._light(carrier, q_ref, wMb)
         actuators = "".join(
             f'<velocity name="v{j}" joint="{name}" kv="1"/>'
             for j, name in enumerate(self.joint_names)
         )
-        return (
+        xml = (
             '<mujoco model="redservo">'
             '<compiler angle="radian" autolimits="true"/>'
             f'<option timestep="{h!r}" integrator="implicitfast" gravity="0 0 -9.81"/>'
@@ -161,13 +196,38 @@ class MujocoArm:
             f'<global offwidth="{c.width}" offheight="{c.height}"/></visual>'
             '<default><geom contype="0" conaffinity="0" density="2000"/></default>'
             f"{_ASSETS.replace('</asset>', textures + '</asset>')}<worldbody>"
-            f'<light name="sun" pos="{light[0]:.6g} {light[1]:.6g} {light[2]:.6g}" '
-            f'dir="{-0.3} {-0.2} {-1.5}" diffuse="0.5 0.5 0.48" specular="0.1 0.1 0.1" '
+            f'<light name="sun" pos="{_vec(light)}" dir="{_vec(aim - light)}" '
+            'diffuse="0.5 0.5 0.48" specular="0.1 0.1 0.1" '
             f'cutoff="60" castshadow="{str(shadows).lower()}"/>'
             f'<body name="base" {xml_pose(wMb)}>'
             f"{arm}</body>{objects}</worldbody>"
             f"<actuator>{actuators}</actuator></mujoco>"
         )
+        if self.world_camera is not None:
+            paint, light_paint, ambient, bright = _EYE_TO_HAND_LOOK
+            xml = xml.replace(paint, light_paint).replace(ambient, bright, 1)
+        return xml
+
+    def _light(
+        self, carrier: Robot, q_ref: FloatArray, wMb: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Where the spot light is and the point it aims at (world frame, m).
+
+        Camera on the arm: 1.5 m above the point midway between the base and the first
+        object, shining down. Camera fixed in the world: 1 m above and 0.3 m behind the
+        camera, aimed at the first carried object at ``q_ref`` (else the base)."""
+        scene = self.scene
+        if self.world_camera is None:
+            mid = wMb[:3, 3].copy()
+            if scene is not None and self.drawn:
+                mid = 0.5 * (mid + scene.wMo(self.drawn[0], 0.0)[:3, 3])
+            return mid + np.array([0.3, 0.2, 1.5]), mid + np.array([0.0, 0.0, 0.0])
+        wMc = wMb @ self.world_camera
+        aim = wMb[:3, 3].copy()
+        if scene is not None and self.drawn:
+            wMe = wMb @ carrier.fkine_ee(np.asarray(q_ref, dtype=float))
+            aim = (wMe @ scene.wMo(self.drawn[0], 0.0))[:3, 3]
+        return wMc[:3, 3] - 0.3 * wMc[:3, 2] + np.array([0.0, 0.0, 1.0]), aim
 
     def _gains(self, q_ref: FloatArray) -> FloatArray:
         """``kv_j = (M_jj(q_ref) + armature_j) / tracking_time`` (module docstring)."""
@@ -227,20 +287,43 @@ class MujocoArm:
             self.tracking.add(qdot - cmd, qdot)
         mj.mj_kinematics(m, d)  # mj_step leaves the poses of the step's start
 
-    def camera_pose(self) -> FloatArray:
-        """``bMc`` (4x4): our camera frame in the robot base frame, from MuJoCo's state."""
+    def _site_pose(self, site: int) -> FloatArray:
+        """``wMs`` (4x4) of a site, from MuJoCo's state."""
         d = self.data
-        wMc = np.eye(4)
-        wMc[:3, :3] = d.site_xmat[self._site].reshape(3, 3)
-        wMc[:3, 3] = d.site_xpos[self._site]
-        return np.asarray(self._bMw @ wMc)
+        wMs = np.eye(4)
+        wMs[:3, :3] = d.site_xmat[site].reshape(3, 3)
+        wMs[:3, 3] = d.site_xpos[site]
+        return wMs
+
+    def camera_pose(self) -> FloatArray:
+        """The camera pose as :attr:`robot` defines it (4x4), from MuJoCo's state.
+
+        Camera on the arm: ``bMc``, our camera frame in the robot base frame. Camera fixed
+        in the world (an :class:`~redservo.robots.eye_to_hand.EyeToHandRobot`): ``eMc(q) =
+        inv(bMe(q)) · bMc``, the fixed camera seen from the end effector, as the wrapper's
+        ``fkine`` (the scene's frame is then the effector's)."""
+        wMc = self._site_pose(self._site)
+        if self._effector is None:
+            return np.asarray(self._bMw @ wMc)
+        return np.asarray(np.linalg.inv(self._site_pose(self._effector)) @ wMc)
+
+    def object_pose(self, name: str) -> FloatArray:
+        """``bMo`` (4x4): a drawn object's frame in the robot base frame, from MuJoCo's state
+        (a carried object: ``bMe(q) · eMo``, moved by the physics; else its mocap pose)."""
+        d = self.data
+        k = self.model.body(f"obj:{name}").id
+        wMo = np.eye(4)
+        wMo[:3, :3] = d.xmat[k].reshape(3, 3)
+        wMo[:3, 3] = d.xpos[k]
+        return np.asarray(self._bMw @ wMo)
 
     # -- images --------------------------------------------------------------------------------
 
     def render(self, t: float = 0.0) -> NDArray[np.uint8]:
-        """The arm camera's RGB image (H, W, 3) now, the objects at their poses at ``t`` (s)."""
+        """The camera's RGB image (H, W, 3) now, the objects at their poses at ``t`` (s)
+        (carried objects where the arm holds them)."""
         mj, m, d = self.mj, self.model, self.data
-        if self.scene is not None and self.drawn:
+        if self.scene is not None and self.drawn and self._effector is None:
             set_poses(m, d, self.scene, self.drawn, t)
             mj.mj_kinematics(m, d)
         if self._renderer is None:

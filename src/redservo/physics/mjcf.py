@@ -42,7 +42,7 @@ from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.robots.base import Robot
 
-__all__ = ["Chain", "chain_of", "joint_map", "robot_bodies", "xml_pose"]
+__all__ = ["Chain", "camera_xml", "chain_of", "joint_map", "robot_bodies", "xml_pose"]
 
 FLIP = np.diag([1.0, -1.0, -1.0])
 """Our camera frame (z forward, y down) → MuJoCo's (−z forward, y up): ``R_mj = R · FLIP``."""
@@ -126,6 +126,13 @@ def _anchors(chain: Chain) -> list[FloatArray]:
     return out
 
 
+def _short_of(a: FloatArray, b: FloatArray, d: float) -> FloatArray:
+    """The point ``d`` (m) before ``b`` on the segment from ``a`` (``a`` if shorter)."""
+    ab = b - a
+    n = float(np.linalg.norm(ab))
+    return np.asarray(a if n <= d else b - ab * (d / n))
+
+
 def _link_geom(a: FloatArray, b: FloatArray, r: float, name: str) -> str:
     if np.linalg.norm(b - a) < 0.01:
         return f'<geom name="{name}" type="sphere" size="{r}" pos="{_vec(a)}" material="arm" group="1"/>'
@@ -135,34 +142,48 @@ def _link_geom(a: FloatArray, b: FloatArray, r: float, name: str) -> str:
     )
 
 
-def _camera_xml(chain: Chain, camera: Camera) -> str:
-    """The camera (ours turned by π about x), a site at our camera frame and a small body."""
-    M = chain.bMc0.copy()
+def camera_xml(bMc: FloatArray, camera: Camera) -> str:
+    """The camera at ``bMc`` in its body's frame (ours turned by π about x), a site
+    ``camera`` at our camera frame and a small housing behind the optical centre."""
+    M = bMc.copy()
     M[:3, :3] = M[:3, :3] @ FLIP
     w, h = camera.width, camera.height
     # MuJoCo's principal point offset is from the image centre, y up.
     dx, dy = camera.u0 - w / 2.0, -(camera.v0 - h / 2.0)
-    R, c = chain.bMc0[:3, :3], chain.bMc0[:3, 3]
+    R, c = bMc[:3, :3], bMc[:3, 3]
     box = c - 0.03 * R[:, 2]  # the camera's housing, behind its optical centre
     return (
         f'<camera name="camera" {xml_pose(M)} resolution="{w} {h}" sensorsize="{w} {h}" '
         f'focalpixel="{camera.px:.17g} {camera.py:.17g}" principalpixel="{dx:.17g} {dy:.17g}"/>'
-        f'<site name="camera" {xml_pose(chain.bMc0)} size="0.005"/>'
+        f'<site name="camera" {xml_pose(bMc)} size="0.005"/>'
         f'<geom name="camera_housing" type="box" size="0.02 0.02 0.02" pos="{_vec(box)}" '
         f'xyaxes="{_vec(R[:, 0])} {_vec(R[:, 1])}" material="camera" group="1"/>'
     )
 
 
 def robot_bodies(
-    robot: Robot, chain: Chain, camera: Camera, *, link_radius: float = 0.04
+    robot: Robot,
+    chain: Chain,
+    camera: Camera,
+    *,
+    link_radius: float = 0.04,
+    effector: FloatArray | None = None,
+    carried: str = "",
 ) -> tuple[str, list[str]]:
     """The nested bodies of the arm (MJCF text) and its joint names, base frame at identity.
 
-    Every body has ``gravcomp="1"`` (gravity compensated, as a real arm's controller does)."""
+    Every body has ``gravcomp="1"`` (gravity compensated, as a real arm's controller does).
+    ``effector`` None: the camera is on the arm, at ``chain.bMc0``. Else (eye-to-hand) the
+    arm has no camera; ``effector`` is ``bMe`` at ``qpos = 0`` (4x4): the last link ends
+    there, carries a site ``effector`` at it and the bodies ``carried`` (MJCF text)."""
     anchors = _anchors(chain)
     R, c = chain.bMc0[:3, :3], chain.bMc0[:3, 3]
-    # The last link stops behind the camera plane, so that the arm never fills the image.
-    tip = c - (0.03 + link_radius) * R[:, 2]
+    # The last link stops behind the camera plane, so that the arm never fills the image
+    # (eye-to-hand: its rounded end 5 mm short of the effector, where the objects are).
+    if effector is None:
+        tip = c - (0.03 + link_radius) * R[:, 2]
+    else:
+        tip = _short_of(anchors[-1], effector[:3, 3], link_radius + 0.005)
     ends = [*anchors[1:], tip]
     names = [f"j{j}" for j in range(robot.n)]
     xml, close = [], []
@@ -187,5 +208,8 @@ def robot_bodies(
             )
             xml.append(_link_geom(anchors[j], ends[j], link_radius, f"g{j}"))
         close.append("</body>")
-    xml.append(_camera_xml(chain, camera))
+    if effector is None:
+        xml.append(camera_xml(chain.bMc0, camera))
+    else:
+        xml.append(f'<site name="effector" {xml_pose(effector)} size="0.005"/>{carried}')
     return "".join(xml) + "".join(close), names

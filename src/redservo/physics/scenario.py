@@ -3,7 +3,10 @@
 :func:`attach_mujoco` replaces the built :class:`~redservo.experiment.Experiment`'s
 actuator by a :class:`~redservo.physics.MujocoActuator` (the arm's dynamics) and, with
 ``camera = "rendered"``, its sensor by a :class:`~redservo.physics.MujocoCamera` configured
-by the ``[sensor]`` table's image keys. Errors name the scenario key.
+by the ``[sensor]`` table's image keys. The camera is the scenario's: on the arm, or with
+``camera.mount = "world"`` fixed in the world, the objects carried by the arm's last link
+(the experiment's robot is then the eye-to-hand wrapper, which :class:`MujocoArm` models).
+Errors name the scenario key.
 """
 
 from __future__ import annotations
@@ -18,13 +21,30 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["attach_mujoco"]
 
 
+def _refuse_distortion(exp: Experiment) -> None:
+    """MuJoCo renders a pinhole image: a distorted lens would be undistorted wrongly."""
+    sc, spec = exp.scenario, exp.scenario.spec
+    k = spec.sensor.distortion
+    if exp.camera.distorted:
+        key = "camera.file" if spec.camera.file is not None else "camera.distortion"
+    elif any(v != 0.0 for v in (k if isinstance(k, list) else [k])):
+        key = "sensor.distortion"
+    else:
+        return
+    raise sc.error(
+        key,
+        "MuJoCo renders a pinhole camera: with simulator.camera = 'rendered' the lens must "
+        "have no distortion (or set simulator.camera = 'ideal')",
+    )
+
+
 def attach_mujoco(exp: Experiment) -> None:
     """Give ``exp`` the MuJoCo arm as actuator (and camera); see the module docstring.
 
     Raises:
-        ScenarioError: ``[actuators]`` is set too, the camera is fixed in the world, the
-            robot or the sensor settings cannot be modelled, or MuJoCo cannot render offscreen
-            here with ``camera = "rendered"`` (names the key).
+        ScenarioError: ``[actuators]`` is set too, the robot or the sensor settings cannot
+            be modelled, or with ``camera = "rendered"``: MuJoCo cannot render offscreen here,
+            or the lens is distorted (MuJoCo renders a pinhole camera) (names the key).
     """
     sc, spec = exp.scenario, exp.scenario.spec
     sim = spec.simulator
@@ -33,8 +53,6 @@ def attach_mujoco(exp: Experiment) -> None:
         raise sc.error(
             "actuators", "not with [simulator] kind = 'mujoco' (the arm's dynamics replace it)"
         )
-    if spec.camera.mount != "hand":
-        raise sc.error("camera.mount", "the MuJoCo simulator models an eye-in-hand camera only")
     from redservo.physics.arm import MujocoArm
     from redservo.physics.robot import MujocoActuator
 
@@ -59,6 +77,7 @@ def attach_mujoco(exp: Experiment) -> None:
         )
     exp.actuator = MujocoActuator(arm)
     if sim.camera == "rendered":
+        _refuse_distortion(exp)
         from redservo.physics._mj import rendering_available
         from redservo.physics.camera import MujocoCamera
 

@@ -1,7 +1,9 @@
 """The scene's objects as MuJoCo bodies: dots printed on paper, spheres, cylinders.
 
 Each object is a *mocap* body (its pose is set, not simulated) placed at ``wMo(t)`` before
-each frame is rendered, so moving targets move in the images too:
+each frame is rendered, so moving targets move in the images too; with a camera fixed in the
+world (eye-to-hand) each object is instead a body fixed to the arm's last link at ``eMo``,
+moved by the physics (:func:`scene_bodies`' ``carrier``):
 
 * a :class:`~redservo.scene.PointSet` whose points are coplanar is a sheet of white paper
   (1 mm thick, ``paper_margin`` beyond the dots) with matte black discs printed on both
@@ -129,41 +131,60 @@ def _tag_geom(tag: Tag, assets: dict[str, bytes]) -> tuple[str, str]:
     return asset, geom
 
 
+def _object_geoms(
+    obj: object, name: str, files: dict[str, bytes], paper_margin: float
+) -> tuple[list[str] | None, str]:
+    """The geoms of one object in its own frame (None: not drawn) and its ``<asset>`` entries."""
+    if isinstance(obj, Tag):
+        asset, geom = _tag_geom(obj, files)
+        return [geom], asset
+    if isinstance(obj, PointSet):
+        return _points_body(obj, paper_margin), ""
+    if isinstance(obj, Sphere):
+        return [
+            f'<geom name="{name}/sphere" type="sphere" size="{obj.radius:.9g}" '
+            f'pos="{_vec(obj.center)}" material="object"/>'
+        ], ""
+    if isinstance(obj, Cylinder):
+        a, b = obj.point - obj.axis, obj.point + obj.axis
+        return [
+            f'<geom name="{name}/cylinder" type="cylinder" size="{obj.radius:.9g}" '
+            f'fromto="{_vec(a)} {_vec(b)}" material="object"/>'
+        ], ""
+    return None, ""
+
+
 def scene_bodies(
-    scene: Scene, assets: dict[str, bytes] | None = None, *, paper_margin: float = 0.05
+    scene: Scene,
+    assets: dict[str, bytes] | None = None,
+    *,
+    paper_margin: float = 0.05,
+    carrier: FloatArray | None = None,
 ) -> tuple[str, str, list[str], list[str]]:
-    """MJCF mocap bodies of the scene's objects, their ``<asset>`` entries, the names drawn and
-    the names skipped; texture files go into ``assets`` (name → bytes, for ``from_xml_string``)."""
+    """MJCF bodies of the scene's objects, their ``<asset>`` entries, the names drawn and
+    the names skipped; texture files go into ``assets`` (name → bytes, for ``from_xml_string``).
+
+    ``carrier`` None: mocap bodies at ``wMo(0)`` (moved by :func:`set_poses`). Else the
+    scene's world frame is an end effector ``e`` whose pose at ``qpos = 0``, in the frame of
+    the body the XML goes into, is ``carrier`` (4x4): each object is a gravity-compensated
+    body fixed at ``carrier · eMo`` there (``eMo = wMo(0)``), carried by the arm's physics."""
     files = {} if assets is None else assets
     asset_xml: list[str] = []
     xml: list[str] = []
     drawn: list[str] = []
     skipped: list[str] = []
     for name in scene.names:
-        obj = scene.object(name)
-        geoms: list[str] | None = None
-        if isinstance(obj, Tag):
-            asset, geom = _tag_geom(obj, files)
-            asset_xml.append(asset)
-            geoms = [geom]
-        elif isinstance(obj, PointSet):
-            geoms = _points_body(obj, paper_margin)
-        elif isinstance(obj, Sphere):
-            geoms = [
-                f'<geom name="{name}/sphere" type="sphere" size="{obj.radius:.9g}" '
-                f'pos="{_vec(obj.center)}" material="object"/>'
-            ]
-        elif isinstance(obj, Cylinder):
-            a, b = obj.point - obj.axis, obj.point + obj.axis
-            geoms = [
-                f'<geom name="{name}/cylinder" type="cylinder" size="{obj.radius:.9g}" '
-                f'fromto="{_vec(a)} {_vec(b)}" material="object"/>'
-            ]
+        geoms, asset = _object_geoms(scene.object(name), name, files, paper_margin)
         if geoms is None:
             skipped.append(name)
             continue
+        asset_xml.append(asset)
         wMo = scene.wMo(name, 0.0)
-        xml.append(f'<body name="obj:{name}" mocap="true" {xml_pose(wMo)}>{"".join(geoms)}</body>')
+        if carrier is None:
+            head = f'<body name="obj:{name}" mocap="true" {xml_pose(wMo)}>'
+        else:
+            head = f'<body name="obj:{name}" gravcomp="1" {xml_pose(carrier @ wMo)}>'
+        xml.append(f"{head}{''.join(geoms)}</body>")
         drawn.append(name)
     return "".join(xml), "".join(asset_xml), drawn, skipped
 
