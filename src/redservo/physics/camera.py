@@ -67,6 +67,11 @@ class MujocoRenderer(Renderer):
     def render(self, scene: Scene, bMc: FloatArray, t: float = 0.0) -> NDArray[np.uint8]:
         """The gray image (H, W) uint8 of the arm's camera now, objects at ``t`` (s).
 
+        ``bMc`` must be :meth:`MujocoArm.camera_pose`: the camera in the base frame, or for a
+        camera fixed in the world (eye-to-hand) ``eMc(q)``, the fixed camera seen from the
+        effector, which the eye-to-hand robot's ``fkine`` hands the sensor; a pose of any
+        other arm state fails.
+
         Raises:
             ConfigurationError: ``bMc`` is not the arm's camera pose (another arm's state).
         """

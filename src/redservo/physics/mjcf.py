@@ -26,7 +26,10 @@ Menagerie's value for the Panda. The robot's geoms collide with nothing.
 **Camera.** MuJoCo's camera looks along its −z with y up; ours along +z with y down: the
 MJCF camera is ours turned by π about x. Its intrinsics are ours (``focalpixel``,
 ``principalpixel``, ``resolution``), so a rendered point lands where
-:class:`~redservo.camera.Camera` projects it (pixel centres at ``i + 0.5``).
+:class:`~redservo.camera.Camera` projects it (pixel centres at ``i + 0.5``). The camera is on
+the last link at ``bMc(0)`` (eye-in-hand), or (eye-to-hand, :func:`robot_bodies`' ``effector``)
+fixed in the world by :func:`camera_xml`, the last link then carrying a site at the end
+effector and the target bodies.
 
 Units: metres, radians, kilograms, seconds.
 """
