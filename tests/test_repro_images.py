@@ -37,5 +37,11 @@ def test_reproduce_through_images_reports_every_claim(tmp_path) -> None:
     assert len(images) == len(claims) > 0
     md = (out / "report.md").read_text()
     assert "| through images |" in md and "## Through images" in md
-    # The occlusion is still avoided when the dots are detected in the image.
-    assert any(v for v in images.values())
+    # Under the realistic image (a ±15 % lighting gradient among others) every paper claim of
+    # the occlusion keeps its verdict: the dots are tracked with their own gray levels. With the
+    # fixed known-levels threshold the directional run ended feature_lost at iteration 18 and
+    # all three failed.
+    paper = [c for c in claims if c["kind"] == "paper claim"]
+    assert len(paper) == 3
+    for c in paper:
+        assert images[f"mc05-occlusion/{c['name']}"] == c["reproduced"] is True, c["name"]

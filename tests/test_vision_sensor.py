@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -23,6 +25,7 @@ cv2 = pytest.importorskip(
 )
 
 from redservo.vision import FEATURE_LOST, ImageSensor  # noqa: E402
+from redservo.vision.tracking import LOSS_REASONS  # noqa: E402
 
 PX = 600.0
 DOTS = np.array(
@@ -201,6 +204,8 @@ def test_an_occluded_dot_is_lost_then_feature_lost() -> None:
         if got.lost:
             seen_lost = True
             assert "dot blob(s), expected 4" in got.reason and "predicted" in got.reason
+            why = re.search(r"dot\(s\) \d+ \((\w+)\)", got.reason)  # each lost dot, with why
+            assert why is not None and why.group(1) in LOSS_REASONS, got.reason
     else:
         pytest.fail("the occluded dots were never reported lost")
     assert seen_lost
@@ -270,3 +275,34 @@ def test_in_the_loop_like_the_ideal_sensor() -> None:
     assert got.outcome == ideal.outcome == "converged"
     n_got, n_ideal = got.summary.to_dict()["iterations"], ideal.summary.to_dict()["iterations"]
     assert abs(n_got - n_ideal) <= 5
+
+
+def test_dots_tracked_under_a_lighting_gradient() -> None:
+    # ±15 % of light per axis (reproduce --sensor image): the dots sit in the dim corner, at
+    # about 0.8 of their level (below the known-levels threshold), the sphere in the bright
+    # one, above it (speckles the size of a dot). Each dot keeps its own gray levels.
+    from redservo.reproduction.imaging import Imaging, image_sensor
+
+    dots = np.array([[-0.04, -0.03, 0.0], [0.04, -0.03, 0.0], [0.04, 0.03, 0.0], [-0.03, 0.03, 0]])
+    scene = Scene(
+        [
+            PointSet(
+                "target",
+                dots,
+                trajectory=ConstantVelocity(make_transform(t=[-0.56, -0.4, 1.5]), v=[-0.1, 0, 0]),
+            ),
+            Sphere("ball", 0.12, trajectory=Static(make_transform(t=[0.5, 0.38, 1.2]))),
+        ]
+    )
+    terms = [TaskTerm(PointFeature(p), "target") for p in dots]
+    task = VisualTask.from_desired_poses(terms, {"target": make_transform(t=[0, 0, 1.0])})
+    lit = Imaging(noise_px=4.0, blur_px=0.8, gradient=0.15)
+    sensor = image_sensor(ImageSensor().camera, lit, seed=1)
+    for k in range(8):
+        got = sensor.read(task, scene, EYE, 0.1 * k)
+        ideal = IdealSensor().read(task, scene, EYE, 0.1 * k)
+        assert got.s is not None and ideal.s is not None
+        assert got.lost == () and got.reason == "", got.reason  # the blob count is right too
+        assert np.abs(got.s - ideal.s).max() * PX < 0.15
+    u, v = sensor.dots_uv[0].astype(int)  # the dots are dimmer than the known-levels threshold
+    assert got.image is not None and got.image[v - 4 : v + 5, u - 4 : u + 5].max() < 200

@@ -6,19 +6,22 @@ detects every task term in it in the features' own conventions and order, and
 attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`):
 
 * ``PointFeature``, ``MomentFeatures``: the dots of the term's point set (all
-  sets tracked by one :class:`~redservo.vision.dots.DotTracker`); a point term
-  is the dot of its point, the moments come from all dots of the set;
+  sets tracked in the image by one :class:`~redservo.vision.tracking.ImageDotTracker`,
+  each dot with its own gray levels: a lighting gradient does not lose it); a point
+  term is the dot of its point, the moments come from all dots of the set;
 * ``SphereFeature``: its ellipse, ``(xc, yc, a)`` or ``(xc, yc, n20, n11, n02)``;
 * ``CylinderFeature``: both limbs (edges); ``LineFeature``: the stripe's centre line;
 * a tag's corners and pose features: :mod:`redservo.vision.tag_sensor`.
 
 Initialisation (decision): on the first frame after :meth:`reset`, trackers
 start from the true projections (as a user clicking on the dots would); from
-then on only the image is used. Thresholds come from the renderer's gray levels.
+then on only the image is used. The dots' gray levels are learnt from the image; the
+other detectors' thresholds come from the renderer's gray levels.
 
 Losses: a term not detected in a frame is listed in ``SensorReading.lost`` (task
-term indices) and keeps its last value (a dot coasts on its constant-velocity
-prediction); a different number of dots than expected is said in ``reason``. A
+term indices) and keeps its last value (a dot coasts on its prediction), and ``reason``
+names each lost dot with why (:data:`~redservo.vision.tracking.LOSS_REASONS`); a
+whole-image blob count different from the number of dots is said in ``reason`` too. A
 term lost for more than ``max_lost_frames`` consecutive frames (or never seen)
 makes ``s`` None with a ``reason`` starting with ``"feature_lost:"``
 (:data:`FEATURE_LOST`), the cue for the simulator to stop with outcome
@@ -52,7 +55,8 @@ from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.moments import dot_moment_features
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
-from redservo.vision.terms import TermState, measure_lines, measure_sphere, rendered_dots
+from redservo.vision.terms import TermState, dot_tracker, measure_lines, measure_sphere, track_dots
+from redservo.vision.tracking import ImageDotTracker
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
@@ -133,6 +137,7 @@ class ImageSensor:
         self.max_lost_frames = max_lost_frames
         self.ellipse_method: EllipseMethod = ellipse_method
         self._tracker: DotTracker | None = None
+        self._dot_tracker: ImageDotTracker | None = None
         self._terms: list[TermState] = []
         self._sets: dict[str, FloatArray] = {}
         self._detected: NDArray[np.bool_] = np.zeros(0, dtype=bool)
@@ -168,7 +173,7 @@ class ImageSensor:
     def reset(self) -> None:
         """Forget the trackers and restart the noise stream."""
         self.renderer.reset()
-        self._tracker = None
+        self._tracker = self._dot_tracker = None
         self._terms = []
         self._task_id = None
         self.feature_lost = False
@@ -203,10 +208,12 @@ class ImageSensor:
                     f"term {i}: the image sensor cannot measure {type(f).__name__}"
                 )
         n_dots = sum(len(p) for p in self._sets.values())
-        self._tracker = None
+        self._tracker = self._dot_tracker = None
         if n_dots:
-            jump = 25.0 + 3.0 * self.renderer.options.blur_px
-            self._tracker = DotTracker(n_dots, jump, self.max_lost_frames)
+            opt = self.renderer.options
+            self._dot_tracker = dot_tracker(n_dots, opt, self.max_lost_frames)
+            # the blob-position tracker, for subclasses that detect blobs themselves
+            self._tracker = DotTracker(n_dots, 25.0 + 3.0 * opt.blur_px, self.max_lost_frames)
         self._task_id = id(task)
 
     def _dot_term(
@@ -309,18 +316,11 @@ class ImageSensor:
         first: bool,
         notes: list[str],
     ) -> FloatArray:
-        """Detect and track the dots; return their normalized positions (N, 2)."""
-        if self._tracker is None:
+        """Track the dots in the image; return their normalized positions (N, 2)."""
+        if self._dot_tracker is None:
             return np.zeros((0, 2))
-        det = rendered_dots(image, self.renderer.options)
-        if first:
-            self._tracker.start(self._truth_uv(scene, bMc, t))
-        track = self._tracker.update(det.uv)
-        n = self._tracker.n_dots
-        if track.n_blobs != n:
-            notes.append(f"found {track.n_blobs} dot blob(s), expected {n}")
-        if det.n_border:
-            notes.append(f"{det.n_border} blob(s) cut by the image border")
+        start = self._truth_uv(scene, bMc, t) if first else None
+        track = track_dots(self._dot_tracker, image, self.renderer.options, start, notes)
         self._detected = track.detected
         self.dots_uv = track.uv
         return self.renderer.optics.to_normalized(track.uv)

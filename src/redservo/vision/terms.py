@@ -1,9 +1,13 @@
 """One task term measured in a rendered image: detector settings and per-term tracking state.
 
-Used by :class:`~redservo.vision.sensor.ImageSensor`. The detectors' thresholds
-follow from the renderer's gray levels (:func:`gray_threshold`); spheres are
-tracked by their last centre, lines by a constant-velocity prediction of
-``(ρ, θ)`` and the sign of their edges, learnt on the first frame.
+Used by :class:`~redservo.vision.sensor.ImageSensor`. Dots are tracked in the image
+itself by :class:`~redservo.vision.tracking.ImageDotTracker` (:func:`dot_tracker`,
+:func:`track_dots`): each dot with its own gray-level range, learnt from the image,
+so that a lighting gradient, which moves every level, does not lose it; the whole-image
+blob count of the notes (:func:`rendered_dots`) and the sphere's threshold follow from
+the renderer's gray levels (:func:`gray_threshold`). Spheres are tracked by their last
+centre, lines by a constant-velocity prediction of ``(ρ, θ)`` and the sign of their
+edges, learnt on the first frame.
 """
 
 from __future__ import annotations
@@ -15,12 +19,23 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.features import SphereFeature
-from redservo.vision.dots import DotDetection, detect_dots
+from redservo.vision.dots import DotDetection, DotTrack, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
 from redservo.vision.lines import orient_like, refine_line
+from redservo.vision.optics import require_cv2
 from redservo.vision.render import Renderer, RenderOptions
+from redservo.vision.tracking import ImageDotTracker
 
-__all__ = ["TermState", "gray_threshold", "measure_lines", "measure_sphere", "rendered_dots"]
+__all__ = [
+    "TermState",
+    "dot_tracker",
+    "flat_field",
+    "gray_threshold",
+    "measure_lines",
+    "measure_sphere",
+    "rendered_dots",
+    "track_dots",
+]
 
 
 @dataclass
@@ -67,18 +82,94 @@ def _span(opt: RenderOptions) -> float:
 
 
 def rendered_dots(image: NDArray[np.uint8], opt: RenderOptions) -> DotDetection:
-    """The dots of a rendered image, with thresholds and sizes from the render options."""
+    """The dots of a rendered image, with thresholds and sizes from the render options.
+
+    The image is first divided by its local background level relative to the options'
+    (:func:`flat_field`), so that the gray levels' threshold holds under a lighting
+    gradient too.
+    """
     lv = opt.levels
     thr = gray_threshold(lv.point, opt.background, [lv.sphere, lv.cylinder, lv.line], _span(opt))
-    R = lv.dot_radius_px
+    lo, hi, pad = _dot_sizes(opt)
     return detect_dots(
-        image,
+        flat_field(image, opt),
         threshold=thr,
         polarity="bright" if lv.point > opt.background else "dark",
-        min_size_px=max(2.0, R),
-        max_size_px=2.0 * R + 4.0 + 6.0 * opt.blur_px,
-        pad_px=max(2.5, 3.0 * opt.blur_px + 1.0),
+        min_size_px=lo,
+        max_size_px=hi,
+        pad_px=pad,
     )
+
+
+def flat_field(image: NDArray[np.uint8], opt: RenderOptions) -> NDArray[np.uint8]:
+    """``image`` with its lighting brought back to the options' background level.
+
+    Light multiplies every gray level, so ``I · background / B`` with ``B`` the local
+    background level (the image, box-blurred 5 × 5 against its noise, opened by a square
+    wider than a dot for bright dots, closed for dark ones: what is left without the dots)
+    restores the rendered levels wherever the background shows: the dots' threshold
+    holds under a lighting gradient. Regions brighter than the background (a sphere)
+    are their own ``B`` and come out at most at their own level. Unchanged when the
+    background level is 0 (no light to divide by).
+    """
+    if opt.background <= 0.0:
+        return image
+    cv2 = require_cv2()
+    side = 2 * int(np.ceil(opt.levels.dot_radius_px + 3.0 * opt.blur_px)) + 3
+    kernel = np.ones((side, side), np.uint8)
+    op = cv2.MORPH_OPEN if opt.levels.point > opt.background else cv2.MORPH_CLOSE
+    local = cv2.max(cv2.morphologyEx(cv2.blur(image, (5, 5)), op, kernel), 1)
+    out: NDArray[np.uint8] = cv2.divide(image, local, scale=float(opt.background))
+    return out  # rounded and saturated to 0-255
+
+
+def _dot_sizes(opt: RenderOptions) -> tuple[float, float, float]:
+    """Sizes (pixels) of a rendered dot's blob: smallest and largest bounding box, and the
+    margin of the centroid's support."""
+    R = opt.levels.dot_radius_px
+    return max(2.0, R), 2.0 * R + 4.0 + 6.0 * opt.blur_px, max(2.5, 3.0 * opt.blur_px + 1.0)
+
+
+def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageDotTracker:
+    """The tracker of ``n_dots`` rendered dots: sizes from the render options, a motion of
+    up to ``25 + 3 blur_px`` pixels per frame after the constant-velocity prediction."""
+    lo, hi, pad = _dot_sizes(opt)
+    return ImageDotTracker(
+        n_dots,
+        polarity="bright" if opt.levels.point > opt.background else "dark",
+        max_jump_px=25.0 + 3.0 * opt.blur_px,
+        max_lost_frames=max_lost_frames,
+        min_size_px=lo,
+        max_size_px=hi,
+        pad_px=pad,
+    )
+
+
+def track_dots(
+    tracker: ImageDotTracker,
+    image: NDArray[np.uint8],
+    opt: RenderOptions,
+    start_uv: FloatArray | None,
+    notes: list[str],
+) -> DotTrack:
+    """Track the dots into ``image`` (from ``start_uv``, pixels, on a first frame).
+
+    Appends to ``notes`` the dots lost in this frame with their reasons
+    (:data:`~redservo.vision.tracking.LOSS_REASONS`) and, when the whole-image blob
+    count (:func:`rendered_dots`) differs from the number of dots, that count.
+    """
+    track = tracker.start(image, start_uv) if start_uv is not None else tracker.update(image)
+    det = rendered_dots(image, opt)
+    n = tracker.n_dots
+    if det.uv.shape[0] != n:
+        notes.append(f"found {det.uv.shape[0]} dot blob(s), expected {n}")
+    missing = np.flatnonzero(~track.detected)
+    if missing.size:
+        why = ", ".join(f"{int(j)} ({track.reasons[j]})" for j in missing)
+        notes.append(f"dot(s) {why} not found")
+    if det.n_border:
+        notes.append(f"{det.n_border} blob(s) cut by the image border")
+    return track
 
 
 def measure_sphere(
