@@ -9,11 +9,14 @@ the image sensor's own pipeline: the dot detector (:func:`redservo.vision.dots.d
 dark dots below :data:`DOT_THRESHOLD`), the tracker that never swaps dots, the moment
 features, the depth policies and the ``feature_lost`` rule (docs/vision.md).
 
-Measured terms: point and moment features of dot targets (point sets), and a tag's corners
+Measured terms: point and moment features of dot targets (point sets), a tag's corners
 and pose features (:mod:`redservo.vision.tag_sensor`: OpenCV's decoder and our corner
-refinement, on MuJoCo's textured card). Spheres, cylinders
-and lines are drawn but not measured (their detectors' thresholds assume our renderer's gray
-levels): a task observing one is refused with a :class:`~redservo.errors.ConfigurationError`.
+refinement, on MuJoCo's textured card), a sphere's ellipse (dark matte, found by its edge
+on rays from the prediction with each edge point's own gray levels and fitted by an
+ellipse: :mod:`redservo.physics.shapes`) and a cylinder's two limbs (dark matte, the
+image sensor's edge refinement along the predicted lines, each edge point at the level
+midway between its own sides: :func:`redservo.vision.lines.refine_line`). Lines are not
+drawn: a task observing one is refused with a :class:`~redservo.errors.ConfigurationError`.
 
 The image is the one of the arm's *current* MuJoCo state: ``read(task, scene, bMc, t)``
 checks that ``bMc`` is the arm's camera pose (to 1 µm), so a sensor wired to another arm
@@ -24,21 +27,23 @@ Units: pixels, gray levels (0-255), seconds.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.features import MomentFeatures, PointFeature
+from redservo.features import CylinderFeature, MomentFeatures, PointFeature, SphereFeature
 from redservo.physics.arm import MujocoArm
+from redservo.physics.shapes import measure_sphere_term
 from redservo.scene import Scene, Tag
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
 from redservo.vision.optics import require_cv2
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.sensor import ImageSensor
+from redservo.vision.terms import TermState
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.task import VisualTask
@@ -50,6 +55,9 @@ DOT_THRESHOLD = 55.0
 lights of :mod:`redservo.physics.arm`): ink (reflectance 0.04) in full light is about 10,
 paper (0.93) in the arm's shadow (ambient 0.2 + head light 0.25) about 107, the background
 about 115; 55 is halfway between ink and shadowed paper."""
+
+_MEASURED = (PointFeature, MomentFeatures, SphereFeature, CylinderFeature)
+"""The features measured on drawn objects other than tags (lines are not drawn)."""
 
 POSE_TOLERANCE = 1e-6
 """How far (m, and rad per matrix entry) ``bMc`` may be from the arm's camera pose."""
@@ -131,10 +139,11 @@ class MujocoCamera(ImageSensor):
     def _plan(self, task: VisualTask, scene: Scene) -> None:
         for i, term in enumerate(task.terms):
             on_tag = isinstance(scene.object(term.target), Tag)
-            if not (on_tag or isinstance(term.feature, PointFeature | MomentFeatures)):
+            if not (on_tag or isinstance(term.feature, _MEASURED)):
                 raise ConfigurationError(
                     f"term {i}: the MuJoCo camera measures point and moment features of dot "
-                    f"targets and the features of tags, not {type(term.feature).__name__}",
+                    "targets, spheres, cylinders and the features of tags, not "
+                    f"{type(term.feature).__name__} (lines are not drawn)",
                     argument="features",
                 )
             if term.target in self.arm.skipped or term.target not in self.arm.drawn:
@@ -144,6 +153,25 @@ class MujocoCamera(ImageSensor):
                     argument="features",
                 )
         super()._plan(task, scene)
+
+    def _measure(
+        self,
+        feature: Any,
+        st: TermState,
+        image: NDArray[np.uint8],
+        set_xy: FloatArray,
+        truth: FloatArray | None,
+        notes: list[str],
+        i: int,
+    ) -> FloatArray | None:
+        """A sphere by its edge (:mod:`redservo.physics.shapes`); other terms as the base."""
+        if st.kind != "sphere":
+            return super()._measure(feature, st, image, set_xy, truth, notes, i)
+        blur = self.renderer.options.blur_px
+        s, why = measure_sphere_term(image, self.renderer.optics, st, feature, truth, blur)
+        if s is None:
+            notes.append(f"term {i} (sphere): {why}")
+        return s
 
     def _read_dots(
         self,

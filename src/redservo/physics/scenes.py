@@ -17,8 +17,10 @@ moved by the physics (:func:`scene_bodies`' ``carrier``):
   tag frame (MuJoCo maps a 2-D texture's columns along the face's ``+x`` and its rows along
   ``−y``; the tag frame wants the marker's columns along ``−x`` and rows along ``+y``, so the
   marker image is turned by π);
-* a :class:`~redservo.scene.Sphere` is a grey sphere, a
-  :class:`~redservo.scene.Cylinder` a 2 m long grey cylinder along its axis.
+* a :class:`~redservo.scene.Sphere` is a dark matte sphere, a
+  :class:`~redservo.scene.Cylinder` a 2 m long dark matte cylinder along its axis
+  (:data:`SHAPE_RGBA`: a clear edge against the lighter sky, arm and paper), both finely
+  tessellated meshes (:mod:`redservo.physics.meshes`: outlines true to 0.01 px).
 
 Other objects (lines, non-coplanar point sets) are not drawn; :func:`scene_bodies` says
 which in its ``skipped`` list, which :class:`~redservo.physics.MujocoCamera` refuses when
@@ -35,13 +37,27 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.physics.meshes import cylinder_mesh, sphere_mesh
 from redservo.physics.mjcf import _vec, xml_pose
 from redservo.scene import Cylinder, PointSet, Scene, Sphere, Tag
 from redservo.vision.tag_render import tag_bits
 
-__all__ = ["PAPER_HALF_THICKNESS", "dot_radius", "scene_bodies", "set_poses", "tag_texture"]
+__all__ = [
+    "PAPER_HALF_THICKNESS",
+    "SHAPE_RGBA",
+    "dot_radius",
+    "scene_bodies",
+    "set_poses",
+    "tag_texture",
+]
 
 _TEXELS_PER_CELL = 32
+
+SHAPE_RGBA = "0.05 0.05 0.055 1"
+"""Paint of the spheres and cylinders: dark and matte (no specular highlight), so that in
+full light they stay below gray level 15 (ambient 0.2 + head light 0.25 + spot 0.5 of
+reflectance 0.05), far from the sky (about 118) and the paper; their outline is an edge of
+one sign whatever the shading and shadows (:mod:`redservo.physics.shapes`)."""
 
 PAPER_HALF_THICKNESS = 0.0001
 """Half thickness of the paper (m): its faces are 0.1 mm from the dots' plane."""
@@ -131,6 +147,19 @@ def _tag_geom(tag: Tag, assets: dict[str, bytes]) -> tuple[str, str]:
     return asset, geom
 
 
+def _shape_geom(name: str, kind: str) -> str:
+    """The geom of a sphere's or cylinder's fine mesh (:mod:`redservo.physics.meshes`)."""
+    return f'<geom name="{name}/{kind}" type="mesh" mesh="{name}/mesh" material="{name}/matte"/>'
+
+
+def _matte(name: str) -> str:
+    """The ``<asset>`` entry of an object's dark matte paint (:data:`SHAPE_RGBA`)."""
+    return (
+        f'<material name="{name}/matte" rgba="{SHAPE_RGBA}" specular="0" shininess="0" '
+        'reflectance="0"/>'
+    )
+
+
 def _object_geoms(
     obj: object, name: str, files: dict[str, bytes], paper_margin: float
 ) -> tuple[list[str] | None, str]:
@@ -141,16 +170,13 @@ def _object_geoms(
     if isinstance(obj, PointSet):
         return _points_body(obj, paper_margin), ""
     if isinstance(obj, Sphere):
-        return [
-            f'<geom name="{name}/sphere" type="sphere" size="{obj.radius:.9g}" '
-            f'pos="{_vec(obj.center)}" material="object"/>'
-        ], ""
+        mesh = sphere_mesh(f"{name}/mesh", obj.radius, obj.center)
+        return [_shape_geom(name, "sphere")], mesh + _matte(name)
     if isinstance(obj, Cylinder):
         a, b = obj.point - obj.axis, obj.point + obj.axis
-        return [
-            f'<geom name="{name}/cylinder" type="cylinder" size="{obj.radius:.9g}" '
-            f'fromto="{_vec(a)} {_vec(b)}" material="object"/>'
-        ], ""
+        return [_shape_geom(name, "cylinder")], cylinder_mesh(
+            f"{name}/mesh", obj.radius, a, b
+        ) + _matte(name)
     return None, ""
 
 
