@@ -44,8 +44,11 @@ def _needs_rendering() -> None:
         pytest.skip(why)
 
 
-def _dots(eMo: np.ndarray = EMO) -> Scene:
-    return Scene([PointSet("target", SQUARE, trajectory=Static(eMo))])
+def _dots(eMo: np.ndarray = EMO, wMb: np.ndarray | None = None) -> Scene:
+    """The card at ``eMo`` on the effector (the scene's world frame is the effector's, or
+    ``wMb`` (4x4) maps it: ``eMo = inv(wMb) · wMo``)."""
+    W = np.eye(4) if wMb is None else wMb
+    return Scene([PointSet("target", SQUARE, trajectory=Static(W @ eMo))], wMb=W)
 
 
 def _near_start(robot: Any, rng: np.random.Generator, k: int, spread: float) -> list[Any]:
@@ -57,7 +60,7 @@ def _near_start(robot: Any, rng: np.random.Generator, k: int, spread: float) -> 
 @pytest.mark.parametrize("carrier", [Panda(), Afma6()], ids=["panda", "afma6"])
 def test_carried_object_and_camera_poses_agree_with_our_kinematics(carrier: Any) -> None:
     robot = EyeToHandRobot(carrier, WMC)
-    arm = MujocoArm(robot, _dots())
+    arm = MujocoArm(robot, _dots(wMb=make_transform(t=(0.2, -0.1, 0.3), rotvec=(0.3, 0.2, -1))))
     assert arm.world_camera is not None and arm.drawn == ["target"]
     rng = np.random.default_rng(5)
     worst = 0.0
@@ -73,6 +76,14 @@ def test_carried_object_and_camera_poses_agree_with_our_kinematics(carrier: Any)
     arm.step(np.full(robot.n, 0.2), 0.1)
     bMo = carrier.fkine_ee(arm.q) @ EMO
     assert np.abs(arm.object_pose("target") - bMo).max() <= 1e-9
+
+
+def test_a_moving_object_cannot_be_carried() -> None:
+    from redservo.scene import ConstantVelocity
+
+    moving = Scene([PointSet("target", SQUARE, trajectory=ConstantVelocity(EMO, v=[0.01, 0, 0]))])
+    with pytest.raises(ConfigurationError, match=r"'target' moves.*carried by the end effector"):
+        MujocoArm(EyeToHandRobot(Panda(), WMC), moving)
 
 
 def test_mujoco_robot_reports_the_eye_to_hand_camera_pose() -> None:

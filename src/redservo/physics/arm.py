@@ -38,7 +38,7 @@ from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodie
 from redservo.physics.scenes import scene_bodies, set_poses
 from redservo.robots.base import Robot
 from redservo.robots.eye_to_hand import EyeToHandRobot
-from redservo.scene import Scene
+from redservo.scene import Scene, Static
 
 __all__ = ["MujocoArm", "TrackingStats"]
 
@@ -63,6 +63,22 @@ _EYE_TO_HAND_LOOK = (
 """With the camera fixed in the world the arm is in every image, behind the target, partly in
 its shadow: painted light grey (as a Panda is) in a brighter room (ambient 0.3), so that
 no part of it is darker than the ink threshold (orange in the shadow reaches gray level 40)."""
+
+
+def _check_carried(scene: Scene) -> None:
+    """Eye-to-hand: every object rides on the effector, static in its frame.
+
+    Raises:
+        ConfigurationError: an object moves (``wMo(t)`` not :class:`~redservo.scene.Static`).
+    """
+    for name in scene.names:
+        traj = scene.object(name).trajectory
+        if not isinstance(traj, Static):
+            raise ConfigurationError(
+                f"object {name!r} moves ({type(traj).__name__}): with the camera fixed in the "
+                "world every object is carried by the end effector, static in its frame",
+                argument="scene",
+            )
 
 
 class TrackingStats:
@@ -172,11 +188,14 @@ class MujocoArm:
     ) -> str:
         """The model's MJCF; sets ``joint_names``, ``drawn`` and ``skipped``."""
         c, h, scene = self.camera, self.timestep, self.scene
-        bMe0 = None
+        bMe0 = carried_at = None
         if self.world_camera is not None:  # eye-to-hand: the scene's frame is the effector's
             bMe0 = np.asarray(carrier.fkine_ee(np.zeros(carrier.n)))
+            if scene is not None:
+                _check_carried(scene)
+                carried_at = bMe0 @ np.linalg.inv(scene.wMb)  # cMo = cMe · inv(wMb) · wMo
         objects, textures, self.drawn, self.skipped = (
-            ("", "", [], []) if scene is None else scene_bodies(scene, files, carrier=bMe0)
+            ("", "", [], []) if scene is None else scene_bodies(scene, files, carrier=carried_at)
         )
         carried, objects = (objects, "") if bMe0 is not None else ("", objects)
         arm, self.joint_names = robot_bodies(carrier, self.chain, c, effector=bMe0, carried=carried)
@@ -226,7 +245,7 @@ class MujocoArm:
         aim = wMb[:3, 3].copy()
         if scene is not None and self.drawn:
             wMe = wMb @ carrier.fkine_ee(np.asarray(q_ref, dtype=float))
-            aim = (wMe @ scene.wMo(self.drawn[0], 0.0))[:3, 3]
+            aim = (wMe @ np.linalg.inv(scene.wMb) @ scene.wMo(self.drawn[0], 0.0))[:3, 3]
         return wMc[:3, 3] - 0.3 * wMc[:3, 2] + np.array([0.0, 0.0, 1.0]), aim
 
     def _gains(self, q_ref: FloatArray) -> FloatArray:
