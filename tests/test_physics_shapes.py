@@ -139,17 +139,22 @@ def test_lines_are_still_refused() -> None:
         MujocoCamera(arm, depth="true").read(task, scene, robot.fkine(arm.q), 0.0)
 
 
-@pytest.mark.parametrize(("name", "ratio"), [("cm01-humanoid-sphere", 0.7), ("cm01-cylinder", 0.7)])
-def test_closed_loop_through_mujoco_images_makes_progress(name: str, ratio: float) -> None:
+@pytest.mark.parametrize("name", ["cm01-humanoid-sphere", "cm01-cylinder"])
+def test_closed_loop_through_mujoco_images_makes_progress(name: str) -> None:
+    """25 iterations through the rendered camera reduce the error about as the kinematic
+    simulator with the ideal sensor does (measured: ratios 0.61 and 0.68 against 0.63
+    and 0.68)."""
     _needs_rendering()
     data = copy.deepcopy(load_scenario(name).data)
-    data["simulator"] = {"kind": "mujoco", "camera": "rendered", "timestep": 0.001}
     data["camera"] = {"px": 400.0, "py": 400.0, "u0": 160.0, "v0": 120.0, "width": 320}
     data["camera"]["height"] = 240
     data["simulation"]["max_iterations"] = 25
+    kinematic = build(parse_scenario(data, f"{name}.toml")).run()
+    data["simulator"] = {"kind": "mujoco", "camera": "rendered", "timestep": 0.001}
     exp = build(parse_scenario(data, f"{name}-mujoco.toml"))
     assert isinstance(exp.sensor, MujocoCamera)
     res = exp.run()
     assert res.outcome == "max_iterations" and len(res.log) == 25
     e = np.linalg.norm(res.log.e1, axis=1)
-    assert e[-1] < ratio * e[0], e[[0, -1]]
+    e_kin = np.linalg.norm(kinematic.log.e1, axis=1)
+    assert e[-1] < 0.8 * e[0] and e[-1] < 1.1 * e_kin[-1], (e[[0, -1]], e_kin[-1])
