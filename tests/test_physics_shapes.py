@@ -130,13 +130,19 @@ def test_meshes_are_closed_and_outward() -> None:
         assert np.all(np.einsum("ij,ij->i", n, v[f].mean(axis=1) - c) > 0.0)
 
 
-def test_lines_are_still_refused() -> None:
+def test_lines_and_a_feature_on_the_wrong_object_are_refused() -> None:
+    _needs_rendering()  # read() renders before it plans the task
     robot = Panda()
     scene = Scene([Sphere("ball", radius=0.05)])
     arm = MujocoArm(robot, scene, camera=CAMERA)
     task = VisualTask([TaskTerm(LineFeature((0, 0, 1), (0, 1, 0)), "ball")], s_star=[0.0, 0.0])
     with pytest.raises(ConfigurationError, match="lines are not drawn"):
         MujocoCamera(arm, depth="true").read(task, scene, robot.fkine(arm.q), 0.0)
+    wrong = VisualTask([TaskTerm(CylinderFeature(0.05, (0, 1, 0)), "ball")], s_star=np.zeros(4))
+    with pytest.raises(
+        ConfigurationError, match="measured on a drawn Cylinder; 'ball' is a Sphere"
+    ):
+        MujocoCamera(arm, depth="true").read(wrong, scene, robot.fkine(arm.q), 0.0)
 
 
 @pytest.mark.parametrize("name", ["cm01-humanoid-sphere", "cm01-cylinder"])

@@ -37,7 +37,7 @@ from redservo.errors import ConfigurationError
 from redservo.features import CylinderFeature, MomentFeatures, PointFeature, SphereFeature
 from redservo.physics.arm import MujocoArm
 from redservo.physics.shapes import measure_sphere_term
-from redservo.scene import Scene, Tag
+from redservo.scene import Cylinder, Scene, Sphere, Tag
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
 from redservo.vision.optics import require_cv2
@@ -58,6 +58,9 @@ about 115; 55 is halfway between ink and shadowed paper."""
 
 _MEASURED = (PointFeature, MomentFeatures, SphereFeature, CylinderFeature)
 """The features measured on drawn objects other than tags (lines are not drawn)."""
+
+_SHAPES: dict[type, type] = {SphereFeature: Sphere, CylinderFeature: Cylinder}
+"""The object a sphere or cylinder feature's outline is measured on."""
 
 POSE_TOLERANCE = 1e-6
 """How far (m, and rad per matrix entry) ``bMc`` may be from the arm's camera pose."""
@@ -150,6 +153,14 @@ class MujocoCamera(ImageSensor):
                 raise ConfigurationError(
                     f"term {i}: object {term.target!r} is not drawn in the MuJoCo scene "
                     "(only coplanar point sets, spheres and cylinders are)",
+                    argument="features",
+                )
+            shape = _SHAPES.get(type(term.feature))
+            if shape is not None and not isinstance(scene.object(term.target), shape):
+                raise ConfigurationError(
+                    f"term {i}: a {type(term.feature).__name__} is measured on a drawn "
+                    f"{shape.__name__}; {term.target!r} is a "
+                    f"{type(scene.object(term.target)).__name__}",
                     argument="features",
                 )
         super()._plan(task, scene)
