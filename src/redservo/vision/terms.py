@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.features import SphereFeature
-from redservo.vision.dots import DotDetection, DotTrack, detect_dots
+from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
 from redservo.vision.lines import orient_like, refine_line
 from redservo.vision.optics import require_cv2
@@ -28,6 +28,7 @@ from redservo.vision.tracking import ImageDotTracker
 
 __all__ = [
     "TermState",
+    "count_dot_blobs",
     "dot_tracker",
     "flat_field",
     "gray_threshold",
@@ -156,20 +157,42 @@ def track_dots(
 
     Appends to ``notes`` the dots lost in this frame with their reasons
     (:data:`~redservo.vision.tracking.LOSS_REASONS`) and, when the whole-image blob
-    count (:func:`rendered_dots`) differs from the number of dots, that count.
+    count (:func:`count_dot_blobs`) differs from the number of dots, that count.
     """
     track = tracker.start(image, start_uv) if start_uv is not None else tracker.update(image)
-    det = rendered_dots(image, opt)
+    n_blobs, n_border = count_dot_blobs(image, opt)
     n = tracker.n_dots
-    if det.uv.shape[0] != n:
-        notes.append(f"found {det.uv.shape[0]} dot blob(s), expected {n}")
+    if n_blobs != n:
+        notes.append(f"found {n_blobs} dot blob(s), expected {n}")
     missing = np.flatnonzero(~track.detected)
     if missing.size:
         why = ", ".join(f"{int(j)} ({track.reasons[j]})" for j in missing)
         notes.append(f"dot(s) {why} not found")
-    if det.n_border:
-        notes.append(f"{det.n_border} blob(s) cut by the image border")
+    if n_border:
+        notes.append(f"{n_border} blob(s) cut by the image border")
     return track
+
+
+def count_dot_blobs(image: NDArray[np.uint8], opt: RenderOptions) -> tuple[int, int]:
+    """How many blobs of a dot's size :func:`rendered_dots` would consider: ``(inside,
+    cut by the image border)``, without measuring them (a quarter of the cost)."""
+    cv2 = require_cv2()
+    lv = opt.levels
+    thr = gray_threshold(lv.point, opt.background, [lv.sphere, lv.cylinder, lv.line], _span(opt))
+    bright = lv.point > opt.background
+    mask, _ = binarize(flat_field(image, opt), thr, "bright" if bright else "dark")
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    lo, hi, pad = _dot_sizes(opt)
+    H, W = image.shape
+    m = int(np.ceil(pad)) + 2
+    inside = border = 0
+    for cnt in contours:
+        x, y, bw, bh = cv2.boundingRect(cnt)
+        if lo <= max(bw, bh) <= hi:
+            cut = x - m < 0 or y - m < 0 or x + bw + m > W or y + bh + m > H
+            border += cut
+            inside += not cut
+    return inside, border
 
 
 def measure_sphere(
