@@ -177,3 +177,19 @@ def test_a_distorted_lens_is_refused_with_the_rendered_camera() -> None:
         build(parse_scenario(bad, "bad.toml"))
     bad["simulator"]["camera"] = "ideal"  # exact features: the lens does not matter
     assert build(parse_scenario(bad, "ideal.toml")).sensor is None
+
+
+def test_world_camera_measures_a_carried_sphere_where_our_projection_puts_it() -> None:
+    _needs_rendering()
+    from redservo.features import SphereFeature
+    from redservo.scene import Sphere
+
+    robot = EyeToHandRobot(Panda(), WMC)
+    # A 4 cm ball held 8 cm beyond the flange, on its axis.
+    scene = Scene([Sphere("ball", radius=0.04, trajectory=Static(make_transform(t=(0, 0, 0.08))))])
+    arm = MujocoArm(robot, scene, camera=CAMERA, q_ref=Q0)
+    task = VisualTask([TaskTerm(SphereFeature(0.04), "ball")], s_star=np.zeros(3))
+    cam = MujocoCamera(arm, depth="true")
+    for q in _near_start(robot, np.random.default_rng(8), 2, 0.1):
+        arm.set_q(q)
+        assert _measured_px(cam, task, scene, robot.fkine(q)) <= 0.5
