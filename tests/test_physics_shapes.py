@@ -39,10 +39,11 @@ POSES = [  # the object in the camera frame: off-centre, tilted, turned
     make_transform(t=(0.03, 0.02, 0.45), rotvec=(-0.3, 0.0, 1.2)),
     make_transform(t=(0.05, -0.02, 0.5), rotvec=(0.1, 0.0, -0.6)),
 ]
-CENTRE_PX, AXES_PX = 0.1, 0.1
-"""Tolerances (px) of the sphere's ellipse: centre, semi-axes (measured ≤ 0.03 and ≤ 0.02)."""
-RHO_PX, THETA_RAD = 0.1, 0.002
-"""Tolerances of a limb: ρ (px) and θ (rad) (measured ≤ 0.05 px and ≤ 1.3e-3 rad)."""
+CENTRE_PX, AXES_PX = 0.15, 0.15
+"""Tolerances (px) of the sphere's ellipse: centre, semi-axes (measured ≤ 0.04 at 320x240)."""
+RHO_PX, THETA_RAD = 0.2, 0.002
+"""Tolerances of a limb: ρ (px) and θ (rad) (measured ≤ 0.10 px and ≤ 5.6e-4 rad at 320x240,
+radii 4 mm to 3 cm)."""
 
 
 def _needs_rendering() -> None:
@@ -112,6 +113,20 @@ def test_cylinder_limbs_agree_with_our_projection(cMo: np.ndarray) -> None:
     rho_px = np.abs(err[[0, 2]]) * CAMERA.px
     theta = np.abs(wrap_angle(err[[1, 3]]))
     assert rho_px.max() <= RHO_PX and theta.max() <= THETA_RAD, (rho_px, theta)
+
+
+@pytest.mark.parametrize("cMo", POSES[:2])
+def test_a_narrow_cylinder_keeps_its_limbs_apart(cMo: np.ndarray) -> None:
+    """A band 7-8 px wide: both limbs' edges (opposite signs) lie in each limb's search
+    window; the signs known from the dark paint keep each limb on its own edge (with signs
+    learnt from the image, a limb locked onto the other one: ρ off by the band's width)."""
+    _needs_rendering()
+    cyl = Cylinder("cyl", radius=0.006, axis=np.array([0.0, 1.0, 0.0]))
+    reading, truth = _read(cyl, CylinderFeature(0.006, (0.0, 1.0, 0.0)), cMo, noise_px=2.0)
+    assert reading.s is not None and reading.lost == (), reading.reason
+    err = reading.s - truth
+    assert np.abs(err[[0, 2]]).max() * CAMERA.px <= RHO_PX
+    assert np.abs(wrap_angle(err[[1, 3]])).max() <= THETA_RAD
 
 
 def test_meshes_are_closed_and_outward() -> None:

@@ -36,7 +36,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.features import CylinderFeature, MomentFeatures, PointFeature, SphereFeature
 from redservo.physics.arm import MujocoArm
-from redservo.physics.shapes import measure_sphere_term
+from redservo.physics.shapes import limb_signs, measure_sphere_term
 from redservo.scene import Cylinder, Scene, Sphere, Tag
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
@@ -175,7 +175,11 @@ class MujocoCamera(ImageSensor):
         notes: list[str],
         i: int,
     ) -> FloatArray | None:
-        """A sphere by its edge (:mod:`redservo.physics.shapes`); other terms as the base."""
+        """A sphere by its edge (:mod:`redservo.physics.shapes`); a cylinder's limbs with
+        their edge signs known from the dark paint (:func:`~redservo.physics.shapes.limb_signs`);
+        other terms as the base."""
+        if st.kind == "cylinder" and not st.signs and truth is not None:
+            st.signs = limb_signs(truth)
         if st.kind != "sphere":
             return super()._measure(feature, st, image, set_xy, truth, notes, i)
         blur = self.renderer.options.blur_px

@@ -41,6 +41,7 @@ from redservo.vision.terms import TermState
 
 __all__ = [
     "MIN_CONTRAST",
+    "limb_signs",
     "measure_sphere_edges",
     "measure_sphere_term",
     "predicted_ellipse",
@@ -215,3 +216,18 @@ def measure_sphere_term(
         return None, why
     st.uv = meas.uv
     return sphere_value(meas, feature), ""
+
+
+def limb_signs(s: FloatArray) -> list[float]:
+    """The edge signs of a dark cylinder's two limbs ``s = (ρ1, θ1, ρ2, θ2)``: +1 where the
+    image goes from dark to light along the limb's normal ``(cos θ, sin θ)``.
+
+    The band lies between the limbs: around the midpoint ``m`` of the feet of the image
+    centre on both limbs, so limb ``k``'s sign is +1 when ``m`` is on its low side
+    (``m · n_k < ρ_k``). Given to the edge refinement, it keeps a narrow band's limb from
+    locking onto the other limb, whose edge of the opposite sign lies in the same search
+    window (:func:`redservo.vision.lines.refine_line`)."""
+    n = [np.array([np.cos(s[1]), np.sin(s[1])]), np.array([np.cos(s[3]), np.sin(s[3])])]
+    feet = [s[0] * n[0], s[2] * n[1]]  # feet of (0, 0) on each limb (normalized)
+    m = 0.5 * (feet[0] + feet[1])
+    return [1.0 if float(m @ n[k]) < float(s[2 * k]) else -1.0 for k in range(2)]
