@@ -89,7 +89,7 @@ def test_sphere_ellipse_agrees_with_our_projection(cMo: np.ndarray) -> None:
     assert image.min() < 20 and np.median(image) > 100  # a dark sphere on the lighter sky
 
 
-def test_sphere_area_variant_and_a_lost_sphere() -> None:
+def test_sphere_area_variant_a_cut_sphere_and_a_lost_one() -> None:
     _needs_rendering()
     ball = Sphere("ball", radius=0.04)
     reading, truth = _read(ball, SphereFeature(0.04), POSES[0])
@@ -98,6 +98,10 @@ def test_sphere_area_variant_and_a_lost_sphere() -> None:
     assert (
         abs(r_px[0] - r_px[1]) <= AXES_PX and np.abs(reading.s[:2] - truth[:2]).max() * 300 <= 0.1
     )
+    cut = make_transform(t=(0.25, 0.0, 0.5))  # 42 % of the outline beyond the right border
+    reading, truth = _read(Sphere("ball", radius=0.05), SphereFeature(0.05), cut)
+    assert reading.s is not None, reading.reason  # from its visible arc
+    assert np.abs(reading.s[:2] - truth[:2]).max() * CAMERA.px <= 2.0 * CENTRE_PX
     aside = make_transform(t=(0.5, 0.0, 0.5))  # in front, out of the image
     reading, _ = _read(ball, SphereFeature(0.04), aside)
     assert reading.s is None and "sphere" in reading.reason and "edge found" in reading.reason

@@ -12,7 +12,9 @@ point of the outline is found with its *own* levels: :func:`measure_sphere_edges
    matte sphere of :mod:`redservo.physics.scenes`, decided from the image when 0) and
    its sub-pixel position where the profile crosses the level midway between the
    levels 2-3 px inside and outside (:func:`redservo.vision.lines.refine_line`'s
-   edge rule), dropping edges of less than :data:`MIN_CONTRAST` gray levels;
+   edge rule), dropping edges of less than :data:`MIN_CONTRAST` gray levels and those
+   within 4 px of the image border (a sphere cut by the border is fitted to its visible
+   arc, while at least ``min_fraction`` of the rays find it);
 3. maps the edge points to undistorted pixels and fits an ellipse
    (``cv2.fitEllipseDirect``), twice dropping points farther than
    max(3 robust σ, 0.5 px) from it; then casts the rays again from the fitted centre
