@@ -213,7 +213,11 @@ def markdown(
             f"depth, so that only the measurement differs), made realistic: {REALISTIC.describe()} "
             "(`redservo.reproduction.imaging.REALISTIC`). The column *through images* says "
             "whether each claim still holds with measured features; each experiment's section "
-            "lists its implementation checks through images too.",
+            "lists its implementation checks through images too. Those that test the "
+            "equations' exact arithmetic on the features (‖e1‖ falling by (1 − λ dt) at every "
+            "step, iteration counts to the tolerance, rates fitted down to 1e-4 of the start "
+            "error) can fail there: any rendered image, even noise-free, moves the measured "
+            "features by more than the margins they test (docs/results.md).",
             "",
         ]
     if rob is not None:
