@@ -18,7 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's import, as redservo
 pytest.importorskip("mujoco", reason="the MuJoCo backend needs redservo[mujoco]")
 
 from redservo.camera import Camera
-from redservo.errors import ConfigurationError, ScenarioError
+from redservo.errors import ConfigurationError
 from redservo.experiment import build
 from redservo.features import PointFeature
 from redservo.physics import MujocoActuator, MujocoArm, MujocoCamera, MujocoRobot
@@ -165,18 +165,35 @@ def test_scenario_through_the_world_cameras_images_makes_progress() -> None:
     assert exp.actuator.arm.tracking.steps == 25 * 40
 
 
-def test_a_distorted_lens_is_refused_with_the_rendered_camera() -> None:
-    data = load_scenario(SCENARIO).data
-    bad = copy.deepcopy(data)
-    bad["camera"]["distortion"] = [-0.12, 0.05, 0.0, 0.0, 0.0]
-    with pytest.raises(ScenarioError, match=r"camera\.distortion.*pinhole"):
-        build(parse_scenario(bad, "bad.toml"))
-    bad = copy.deepcopy(data)
-    bad["sensor"]["distortion"] = -0.1
-    with pytest.raises(ScenarioError, match=r"sensor\.distortion.*pinhole"):
-        build(parse_scenario(bad, "bad.toml"))
-    bad["simulator"]["camera"] = "ideal"  # exact features: the lens does not matter
-    assert build(parse_scenario(bad, "ideal.toml")).sensor is None
+@pytest.mark.parametrize("mount", ["world", "hand"])
+def test_a_distorted_off_centre_lens_renders_dots_where_our_model_puts_them(mount: str) -> None:
+    """MuJoCo renders a pinhole: the lens is a warp of a wider render (physics.lens), and the
+    principal point is off the image centre (MuJoCo's principalpixel reverses both axes)."""
+    _needs_rendering()
+    lens = Camera(300.0, 290.0, 170.0, 112.0, 320, 240, k1=-0.12, k2=0.05, p1=5e-4, p2=-4e-4)
+    robot: Any = EyeToHandRobot(Panda(), WMC)
+    scene = _dots()
+    if mount == "hand":
+        robot = Panda()
+        cMo = make_transform(t=(0.02, -0.01, 0.5), rotvec=(0.2, -0.1, 0.3))
+        scene = Scene([PointSet("target", SQUARE, trajectory=Static(robot.fkine(Q0) @ cMo))])
+    arm = MujocoArm(robot, scene, camera=lens, q_ref=Q0)
+    task = VisualTask([TaskTerm(PointFeature(p), "target") for p in SQUARE], s_star=np.zeros(8))
+    cam = MujocoCamera(arm, depth="true")
+    for q in _near_start(robot, np.random.default_rng(9), 2, 0.05):
+        arm.set_q(q)
+        assert _measured_px(cam, task, scene, robot.fkine(q)) <= 0.5
+
+
+def test_the_sensor_distortion_becomes_the_rendered_lens() -> None:
+    _needs_rendering()
+    data = copy.deepcopy(load_scenario(SCENARIO).data)
+    data["camera"].pop("distortion")
+    data["sensor"]["distortion"] = [-0.1, 0.02]  # radial k1, k2 of an undistorted camera
+    exp = build(parse_scenario(data, "k.toml"))
+    assert isinstance(exp.sensor, MujocoCamera)
+    assert exp.sensor.arm.camera.distortion == (-0.1, 0.02, 0.0, 0.0, 0.0)
+    assert not exp.camera.distorted  # the scenario's camera is unchanged
 
 
 def test_world_camera_measures_a_carried_sphere_where_our_projection_puts_it() -> None:

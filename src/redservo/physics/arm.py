@@ -34,6 +34,7 @@ from redservo._validation import FloatArray, as_vector
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.physics._mj import require_mujoco
+from redservo.physics.lens import LensWarp
 from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodies, xml_pose
 from redservo.physics.scenes import scene_bodies, set_poses
 from redservo.robots.base import Robot
@@ -148,6 +149,9 @@ class MujocoArm:
         self.robot = robot
         self.scene = scene
         self.camera = camera or Camera()
+        self._lens = LensWarp(self.camera) if self.camera.distorted else None
+        self._pinhole = self.camera if self._lens is None else self._lens.pinhole
+        """The pinhole camera MuJoCo renders (:mod:`redservo.physics.lens` for a distorted one)."""
         self.world_camera: FloatArray | None = None
         """Eye-to-hand: ``bMc`` (4x4) of the camera fixed in the world; None: on the arm."""
         carrier = robot
@@ -187,7 +191,7 @@ class MujocoArm:
         shadows: bool,
     ) -> str:
         """The model's MJCF; sets ``joint_names``, ``drawn`` and ``skipped``."""
-        c, h, scene = self.camera, self.timestep, self.scene
+        c, h, scene = self._pinhole, self.timestep, self.scene
         bMe0 = carried_at = None
         if self.world_camera is not None:  # eye-to-hand: the scene's frame is the effector's
             bMe0 = np.asarray(carrier.fkine_ee(np.zeros(carrier.n)))
@@ -346,10 +350,10 @@ class MujocoArm:
             set_poses(m, d, self.scene, self.drawn, t)
             mj.mj_kinematics(m, d)
         if self._renderer is None:
-            self._renderer = mj.Renderer(m, self.camera.height, self.camera.width)
+            self._renderer = mj.Renderer(m, self._pinhole.height, self._pinhole.width)
         self._renderer.update_scene(d, camera="camera", scene_option=self._options)
         img: NDArray[np.uint8] = self._renderer.render()
-        return img
+        return img if self._lens is None else self._lens.apply(img)
 
     def close(self) -> None:
         """Free the renderer's OpenGL context (the arm can render again later)."""

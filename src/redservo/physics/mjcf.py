@@ -151,8 +151,9 @@ def camera_xml(bMc: FloatArray, camera: Camera) -> str:
     M = bMc.copy()
     M[:3, :3] = M[:3, :3] @ FLIP
     w, h = camera.width, camera.height
-    # MuJoCo's principal point offset is from the image centre, y up.
-    dx, dy = camera.u0 - w / 2.0, -(camera.v0 - h / 2.0)
+    # MuJoCo's principalpixel is (w/2 − u0, h/2 − v0): both axes reversed from ours (measured:
+    # u0 = w/2 + 10 rendered with +10 put every point 20 px off; tests with off-centre u0, v0).
+    dx, dy = w / 2.0 - camera.u0, h / 2.0 - camera.v0
     R, c = bMc[:3, :3], bMc[:3, 3]
     box = c - 0.03 * R[:, 2]  # the camera's housing, behind its optical centre
     return (

@@ -6,36 +6,32 @@ actuator by a :class:`~redservo.physics.MujocoActuator` (the arm's dynamics) and
 by the ``[sensor]`` table's image keys. The camera is the scenario's: on the arm, or with
 ``camera.mount = "world"`` fixed in the world, the objects carried by the arm's last link
 (the experiment's robot is then the eye-to-hand wrapper, which :class:`MujocoArm` models).
-Errors name the scenario key.
+A distorted lens (the camera's, or ``[sensor] distortion``) is rendered by
+:mod:`redservo.physics.lens`. Errors name the scenario key.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING
 
 from redservo.errors import RedservoError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from redservo.camera import Camera
     from redservo.experiment import Experiment
 
 __all__ = ["attach_mujoco"]
 
 
-def _refuse_distortion(exp: Experiment) -> None:
-    """MuJoCo renders a pinhole image: a distorted lens would be undistorted wrongly."""
-    sc, spec = exp.scenario, exp.scenario.spec
-    k = spec.sensor.distortion
-    if exp.camera.distorted:
-        key = "camera.file" if spec.camera.file is not None else "camera.distortion"
-    elif any(v != 0.0 for v in (k if isinstance(k, list) else [k])):
-        key = "sensor.distortion"
-    else:
-        return
-    raise sc.error(
-        key,
-        "MuJoCo renders a pinhole camera: with simulator.camera = 'rendered' the lens must "
-        "have no distortion (or set simulator.camera = 'ideal')",
-    )
+def _arm_camera(exp: Experiment) -> Camera:
+    """The camera MuJoCo renders: the scenario's, with ``[sensor] distortion`` (radial ``k1``
+    or ``[k1, k2]`` of an undistorted camera, as the image sensor applies it) as its lens."""
+    k = exp.scenario.spec.sensor.distortion
+    ks = [float(v) for v in (k if isinstance(k, list) else [k])]
+    if not any(ks):
+        return exp.camera
+    return dataclasses.replace(exp.camera, **dict(zip(("k1", "k2"), ks, strict=False)))
 
 
 def attach_mujoco(exp: Experiment) -> None:
@@ -43,8 +39,8 @@ def attach_mujoco(exp: Experiment) -> None:
 
     Raises:
         ScenarioError: ``[actuators]`` is set too, the robot or the sensor settings cannot
-            be modelled, or with ``camera = "rendered"``: MuJoCo cannot render offscreen here,
-            or the lens is distorted (MuJoCo renders a pinhole camera) (names the key).
+            be modelled, or MuJoCo cannot render offscreen here with ``camera = "rendered"``
+            (names the key).
     """
     sc, spec = exp.scenario, exp.scenario.spec
     sim = spec.simulator
@@ -60,7 +56,7 @@ def attach_mujoco(exp: Experiment) -> None:
         arm = MujocoArm(
             exp.robot,
             exp.scene,
-            camera=exp.camera,
+            camera=_arm_camera(exp) if sim.camera == "rendered" else exp.camera,
             q_ref=exp.q0,
             timestep=sim.timestep,
             tracking_time=sim.tracking_time,
@@ -77,7 +73,6 @@ def attach_mujoco(exp: Experiment) -> None:
         )
     exp.actuator = MujocoActuator(arm)
     if sim.camera == "rendered":
-        _refuse_distortion(exp)
         from redservo.physics._mj import rendering_available
         from redservo.physics.camera import MujocoCamera
 
