@@ -1,13 +1,13 @@
-"""Spheres and cylinders through MuJoCo's camera (docs/physics.md, "Spheres and cylinders"):
-how far the measured ellipse and limbs are from our projection model on static scenes at
-random poses (and carried by the arm, eye-to-hand), and the CM01 sphere and cylinder scenarios run to the end through the rendered
-camera against the kinematic simulator.
+"""Spheres, cylinders and lines through MuJoCo's camera (docs/physics.md, "Spheres, cylinders
+and lines"): how far the measured ellipse, limbs and line are from our projection model on
+static scenes at random poses (and carried by the arm, eye-to-hand), and the CM01 sphere and
+cylinder scenarios run to the end through the rendered camera against the kinematic simulator.
 
     .venv/bin/python benchmarks/mujoco_shapes.py [--samples 20] [--noise 2] [--no-runs]
 
 Prints, over the poses measured: the sphere's centre and semi-axes errors (px), the limbs'
-ρ (px) and θ (rad) errors (max and median), then per scenario the outcome, iterations and
-wall time with each simulator.
+and the line's ρ (px) and θ (rad) errors (max and median), then per scenario the outcome,
+iterations and wall time with each simulator.
 """
 
 from __future__ import annotations
@@ -22,12 +22,12 @@ import numpy as np
 
 from redservo.camera import Camera
 from redservo.experiment import build
-from redservo.features import CylinderFeature, SphereFeature
+from redservo.features import CylinderFeature, LineFeature, SphereFeature
 from redservo.features.base import wrap_angle
 from redservo.physics import MujocoArm, MujocoCamera
 from redservo.robots import Panda
 from redservo.scenario import load_scenario, parse_scenario
-from redservo.scene import Cylinder, Scene, Sphere, Static
+from redservo.scene import Cylinder, Line, Scene, Sphere, Static
 from redservo.spatial import make_transform
 from redservo.task import TaskTerm, VisualTask
 
@@ -44,18 +44,19 @@ def agreement(samples: int, noise: float, camera: Camera) -> None:
     q = robot.ready_configuration()
     bMc = robot.fkine(q)
     rng = np.random.default_rng(0)
-    sph, cyl, lost = [], [], 0
+    sph, cyl, lin, lost = [], [], [], 0
     for _ in range(samples):
         cMo = make_transform(
             t=(rng.uniform(-0.08, 0.08), rng.uniform(-0.06, 0.06), rng.uniform(0.4, 0.8)),
             rotvec=rng.uniform(-0.6, 0.6, 3),
         )
         r = float(rng.uniform(0.03, 0.07))
-        for obj, f in (
+        y = np.array([0.0, 1.0, 0.0])
+        for obj, feature in (
             (Sphere("o", radius=r), SphereFeature(r, variant="moments")),
-            (Cylinder("o", radius=0.5 * r, axis=np.array([0.0, 1.0, 0.0])), None),
+            (Cylinder("o", radius=0.5 * r, axis=y), CylinderFeature(0.5 * r, y)),
+            (Line("o", point=np.zeros(3), direction=y), LineFeature(np.zeros(3), y)),
         ):
-            feature = f or CylinderFeature(0.5 * r, (0.0, 1.0, 0.0))
             scene = Scene([replace(obj, trajectory=Static(bMc @ cMo))])
             arm = MujocoArm(robot, scene, camera=camera, q_ref=q)
             task = VisualTask([TaskTerm(feature, "o")], s_star=feature.measure(cMo).s)
@@ -70,9 +71,11 @@ def agreement(samples: int, noise: float, camera: Camera) -> None:
             if isinstance(feature, SphereFeature):
                 axes = np.abs(_axes(reading.s, camera.px) - _axes(truth, camera.px))
                 sph.append(np.r_[np.abs(d[:2]) * camera.px, axes])
-            else:
+            elif isinstance(feature, CylinderFeature):
                 cyl.append(np.r_[np.abs(d[[0, 2]]) * camera.px, np.abs(wrap_angle(d[[1, 3]]))])
-    s, c = np.array(sph), np.array(cyl)
+            else:
+                lin.append(np.r_[abs(d[0]) * camera.px, abs(wrap_angle(d[1]))])
+    s, c, ln = np.array(sph), np.array(cyl), np.array(lin)
     size = f"{camera.width}x{camera.height}, noise {noise:g}"
     print(
         f"sphere   {size}: {len(s)} poses, centre max {s[:, :2].max():.3f} px "
@@ -82,7 +85,12 @@ def agreement(samples: int, noise: float, camera: Camera) -> None:
     print(
         f"cylinder {size}: {len(c)} poses, rho max {c[:, :2].max():.3f} px "
         f"(median {np.median(c[:, :2]):.3f}), theta max {c[:, 2:].max():.1e} rad "
-        f"(median {np.median(c[:, 2:]):.1e}); {lost} pose(s) not measured"
+        f"(median {np.median(c[:, 2:]):.1e})"
+    )
+    print(
+        f"line     {size}: {len(ln)} poses, rho max {ln[:, 0].max():.3f} px "
+        f"(median {np.median(ln[:, 0]):.3f}), theta max {ln[:, 1].max():.1e} rad "
+        f"(median {np.median(ln[:, 1]):.1e}); {lost} measurement(s) failed"
     )
 
 
@@ -159,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     camera = Camera(
         px=0.9375 * w, py=0.9375 * w, u0=w / 2, v0=3 * w / 8, width=w, height=3 * w // 4
     )
-    print(f"rendering {2 * args.samples} static frames ...", file=sys.stderr, flush=True)
+    print(f"rendering {3 * args.samples} static frames ...", file=sys.stderr, flush=True)
     agreement(args.samples, args.noise, camera)
     eye_to_hand(max(args.samples // 2, 1), args.noise, camera)
     if not args.no_runs:

@@ -15,8 +15,11 @@ refinement, on MuJoCo's textured card), a sphere's ellipse (dark matte, found by
 on rays from the prediction with each edge point's own gray levels and fitted by an
 ellipse: :mod:`redservo.physics.shapes`) and a cylinder's two limbs (dark matte, the
 image sensor's edge refinement along the predicted lines, each edge point at the level
-midway between its own sides: :func:`redservo.vision.lines.refine_line`). Lines are not
-drawn: a task observing one is refused with a :class:`~redservo.errors.ConfigurationError`.
+midway between its own sides: :func:`redservo.vision.lines.refine_line`, with the edge
+signs of the dark paint) and a line (drawn as a thin dark rod: the image of its axis from
+its two limbs, :func:`redservo.physics.shapes.measure_rod`). A feature on an object of
+another kind, or on an object that is not drawn, is refused with a
+:class:`~redservo.errors.ConfigurationError`.
 
 The image is the one of the arm's *current* MuJoCo state: ``read(task, scene, bMc, t)``
 checks that ``bMc`` is the arm's camera pose (to 1 µm), so a sensor wired to another arm
@@ -34,10 +37,18 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.features import CylinderFeature, MomentFeatures, PointFeature, SphereFeature
+from redservo.features import (
+    CylinderFeature,
+    LineFeature,
+    MomentFeatures,
+    PointFeature,
+    SphereFeature,
+)
 from redservo.physics.arm import MujocoArm
-from redservo.physics.shapes import limb_signs, measure_sphere_term
-from redservo.scene import Cylinder, Scene, Sphere, Tag
+from redservo.physics.scenes import LINE_ROD_RADIUS
+from redservo.physics.shapes import RodTerm, limb_signs, measure_rod, measure_sphere_term
+from redservo.scene import Cylinder, Line, Scene, Sphere, Tag
+from redservo.sensors import SensorReading
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
 from redservo.vision.optics import require_cv2
@@ -56,11 +67,11 @@ lights of :mod:`redservo.physics.arm`): ink (reflectance 0.04) in full light is 
 paper (0.93) in the arm's shadow (ambient 0.2 + head light 0.25) about 107, the background
 about 115; 55 is halfway between ink and shadowed paper."""
 
-_MEASURED = (PointFeature, MomentFeatures, SphereFeature, CylinderFeature)
-"""The features measured on drawn objects other than tags (lines are not drawn)."""
+_MEASURED = (PointFeature, MomentFeatures, SphereFeature, CylinderFeature, LineFeature)
+"""The features measured on drawn objects other than tags."""
 
-_SHAPES: dict[type, type] = {SphereFeature: Sphere, CylinderFeature: Cylinder}
-"""The object a sphere or cylinder feature's outline is measured on."""
+_SHAPES: dict[type, type] = {SphereFeature: Sphere, CylinderFeature: Cylinder, LineFeature: Line}
+"""The object a sphere, cylinder or line feature is measured on."""
 
 POSE_TOLERANCE = 1e-6
 """How far (m, and rad per matrix entry) ``bMc`` may be from the arm's camera pose."""
@@ -138,6 +149,8 @@ class MujocoCamera(ImageSensor):
         )
         self.arm = arm
         self.renderer = MujocoRenderer(arm, self.renderer.options)
+        self._rods: dict[int, RodTerm] = {}
+        self._frame: tuple[Scene, FloatArray, float] | None = None
 
     def _plan(self, task: VisualTask, scene: Scene) -> None:
         for i, term in enumerate(task.terms):
@@ -145,14 +158,14 @@ class MujocoCamera(ImageSensor):
             if not (on_tag or isinstance(term.feature, _MEASURED)):
                 raise ConfigurationError(
                     f"term {i}: the MuJoCo camera measures point and moment features of dot "
-                    "targets, spheres, cylinders and the features of tags, not "
-                    f"{type(term.feature).__name__} (lines are not drawn)",
+                    "targets, spheres, cylinders, lines and the features of tags, not "
+                    f"{type(term.feature).__name__}",
                     argument="features",
                 )
             if term.target in self.arm.skipped or term.target not in self.arm.drawn:
                 raise ConfigurationError(
                     f"term {i}: object {term.target!r} is not drawn in the MuJoCo scene "
-                    "(only coplanar point sets, spheres and cylinders are)",
+                    "(only coplanar point sets, tags, spheres, cylinders and lines are)",
                     argument="features",
                 )
             shape = _SHAPES.get(type(term.feature))
@@ -163,7 +176,17 @@ class MujocoCamera(ImageSensor):
                     f"{type(scene.object(term.target)).__name__}",
                     argument="features",
                 )
+        self._rods = {
+            i: RodTerm(CylinderFeature(LINE_ROD_RADIUS, obj.direction, obj.point), term.target)
+            for i, term in enumerate(task.terms)
+            if isinstance(obj := scene.object(term.target), Line)
+        }
         super()._plan(task, scene)
+
+    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
+        """As :meth:`ImageSensor.read`; keeps the frame's poses for a rod's first frame."""
+        self._frame = (scene, np.asarray(bMc, dtype=float), float(t))
+        return super().read(task, scene, bMc, t)
 
     def _measure(
         self,
@@ -180,12 +203,19 @@ class MujocoCamera(ImageSensor):
         other terms as the base."""
         if st.kind == "cylinder" and not st.signs and truth is not None:
             st.signs = limb_signs(truth)
-        if st.kind != "sphere":
+        if st.kind == "line":
+            rod = self._rods[i]
+            assert self._frame is not None  # set by read()
+            scene, bMc, t = self._frame
+            cMo = scene.cMo(rod.target, bMc, t) if rod.state.s is None else None
+            s, why = measure_rod(image, self.renderer, rod, cMo, truth if st.s is None else st.s)
+        elif st.kind != "sphere":
             return super()._measure(feature, st, image, set_xy, truth, notes, i)
-        blur = self.renderer.options.blur_px
-        s, why = measure_sphere_term(image, self.renderer.optics, st, feature, truth, blur)
+        else:
+            blur = self.renderer.options.blur_px
+            s, why = measure_sphere_term(image, self.renderer.optics, st, feature, truth, blur)
         if s is None:
-            notes.append(f"term {i} (sphere): {why}")
+            notes.append(f"term {i} ({st.kind}): {why}")
         return s
 
     def _read_dots(

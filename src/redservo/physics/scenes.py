@@ -1,4 +1,4 @@
-"""The scene's objects as MuJoCo bodies: dots printed on paper, spheres, cylinders.
+"""The scene's objects as MuJoCo bodies: dots printed on paper, tags, spheres, cylinders, lines.
 
 Each object is a *mocap* body (its pose is set, not simulated) placed at ``wMo(t)`` before
 each frame is rendered, so moving targets move in the images too; with a camera fixed in the
@@ -22,9 +22,10 @@ moved by the physics (:func:`scene_bodies`' ``carrier``):
   (:data:`SHAPE_RGBA`: a clear edge against the lighter sky, arm and paper), both finely
   tessellated meshes (:mod:`redservo.physics.meshes`: outlines true to 0.01 px).
 
-Other objects (lines, non-coplanar point sets) are not drawn; :func:`scene_bodies` says
-which in its ``skipped`` list, which :class:`~redservo.physics.MujocoCamera` refuses when
-the task observes one.
+A :class:`~redservo.scene.Line` is a 2 m dark matte rod of radius :data:`LINE_ROD_RADIUS`
+(the line is its axis). Other objects (non-coplanar point sets) are not drawn;
+:func:`scene_bodies` says which in its ``skipped`` list, which
+:class:`~redservo.physics.MujocoCamera` refuses when the task observes one.
 
 Units: metres.
 """
@@ -39,10 +40,11 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.physics.meshes import cylinder_mesh, sphere_mesh
 from redservo.physics.mjcf import _vec, xml_pose
-from redservo.scene import Cylinder, PointSet, Scene, Sphere, Tag
+from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere, Tag
 from redservo.vision.tag_render import tag_bits
 
 __all__ = [
+    "LINE_ROD_RADIUS",
     "PAPER_HALF_THICKNESS",
     "SHAPE_RGBA",
     "dot_radius",
@@ -58,6 +60,10 @@ SHAPE_RGBA = "0.05 0.05 0.055 1"
 full light they stay below gray level 15 (ambient 0.2 + head light 0.25 + spot 0.5 of
 reflectance 0.05), far from the sky (about 118) and the paper; their outline is an edge of
 one sign whatever the shading and shadows (:mod:`redservo.physics.shapes`)."""
+
+LINE_ROD_RADIUS = 0.005
+"""Radius (m) of the rod that draws a :class:`~redservo.scene.Line`: 6 px wide at 1 m with
+a 600 px focal length, wide enough for both its edges to be measured (a choice)."""
 
 PAPER_HALF_THICKNESS = 0.0001
 """Half thickness of the paper (m): its faces are 0.1 mm from the dots' plane."""
@@ -172,6 +178,11 @@ def _object_geoms(
     if isinstance(obj, Sphere):
         mesh = sphere_mesh(f"{name}/mesh", obj.radius, obj.center)
         return [_shape_geom(name, "sphere")], mesh + _matte(name)
+    if isinstance(obj, Line):  # a thin rod along the line
+        a, b = obj.point - obj.direction, obj.point + obj.direction
+        return [_shape_geom(name, "rod")], cylinder_mesh(
+            f"{name}/mesh", LINE_ROD_RADIUS, a, b
+        ) + _matte(name)
     if isinstance(obj, Cylinder):
         a, b = obj.point - obj.axis, obj.point + obj.axis
         return [_shape_geom(name, "cylinder")], cylinder_mesh(

@@ -1,4 +1,8 @@
-"""A sphere's ellipse measured in a MuJoCo image, from its edge, whatever its shading.
+"""Spheres, cylinders and lines measured in a MuJoCo image by their edges, whatever the shading.
+
+A cylinder's limbs are the image sensor's (:func:`redservo.vision.terms.measure_lines`) with
+their edge signs from the dark paint (:func:`limb_signs`); a line is drawn as a thin rod
+whose axis is found from its two limbs (:func:`line_from_limbs`, :func:`measure_rod`).
 
 MuJoCo draws a sphere shaded by its lights and shadowed by the arm, on a background that
 may change along its outline (the sky, the arm, another object). A threshold or a
@@ -31,19 +35,26 @@ Units: pixels for the search, normalized image units for the result, gray levels
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.features import SphereFeature
+from redservo.errors import GeometryError
+from redservo.features import CylinderFeature, SphereFeature
 from redservo.vision.ellipse import EllipseMeasurement, ellipse_moments
-from redservo.vision.lines import _edge_offsets
+from redservo.vision.lines import _edge_offsets, orient_like
 from redservo.vision.optics import Optics, require_cv2
-from redservo.vision.terms import TermState
+from redservo.vision.render import Renderer
+from redservo.vision.terms import TermState, measure_lines
 
 __all__ = [
     "MIN_CONTRAST",
+    "RodTerm",
     "limb_signs",
+    "line_from_limbs",
+    "measure_rod",
     "measure_sphere_edges",
     "measure_sphere_term",
     "predicted_ellipse",
@@ -233,3 +244,64 @@ def limb_signs(s: FloatArray) -> list[float]:
     feet = [s[0] * n[0], s[2] * n[1]]  # feet of (0, 0) on each limb (normalized)
     m = 0.5 * (feet[0] + feet[1])
     return [1.0 if float(m @ n[k]) < float(s[2 * k]) else -1.0 for k in range(2)]
+
+
+def line_from_limbs(limbs: FloatArray, signs: list[float]) -> tuple[float, float]:
+    """The image ``(ρ, θ)`` of a rod's axis from its two limbs ``(ρ1, θ1, ρ2, θ2)`` and their
+    edge signs (:func:`limb_signs`).
+
+    Limb ``k`` is the plane ``N_k · X = 0`` through the optical centre, ``N_k = (cos θk,
+    sin θk, −ρk)``; the rod lies where ``sign_k N̂_k · X < 0`` for both. The mirror symmetry
+    of a cylinder about the plane through the optical centre and its axis makes that plane
+    the bisector of the wedge, ``(M1 − M2) · X = 0`` with ``M_k = sign_k N̂_k``: exact for any
+    radius. θ in (-π, π]; the caller orients the pair (:func:`redservo.vision.lines.orient_like`).
+    """
+    m = []
+    for k in range(2):
+        rho, theta = float(limbs[2 * k]), float(limbs[2 * k + 1])
+        N = np.array([np.cos(theta), np.sin(theta), -rho])
+        m.append(signs[k] * N / np.linalg.norm(N))
+    a, b, c = m[0] - m[1]
+    return float(-c / np.hypot(a, b)), float(np.arctan2(b, a))
+
+
+@dataclass
+class RodTerm:
+    """A line term drawn as a rod: the rod's limbs as a cylinder feature, tracked in ``state``."""
+
+    limbs: CylinderFeature
+    target: str
+    state: TermState = field(default_factory=lambda: TermState("cylinder"))
+
+
+def measure_rod(
+    image: NDArray[np.uint8],
+    renderer: Renderer,
+    rod: RodTerm,
+    cMo: FloatArray | None,
+    ref: FloatArray | None,
+) -> tuple[FloatArray | None, str]:
+    """A line's ``(ρ, θ)`` in a MuJoCo image, from the two limbs of its rod, or None and why.
+
+    The limbs are predicted from ``cMo`` (the object's pose, on a first frame) then tracked
+    (:func:`redservo.vision.terms.measure_lines`, edge signs from :func:`limb_signs`); the
+    axis is :func:`line_from_limbs`, oriented like ``ref`` (the last value or the truth)."""
+    st = rod.state
+    truth = None
+    if st.s is None:
+        if cMo is None:
+            return None, "not visible on the first frame"
+        try:
+            truth = rod.limbs.measure(cMo).s
+        except GeometryError as exc:
+            return None, str(exc)
+        st.signs = limb_signs(truth)
+    s, why = measure_lines(image, renderer, st, truth)
+    if s is None:
+        st.lost += 1
+        return None, f"the rod's {why}"
+    st.prev_s, st.s, st.lost = st.s, s, 0
+    rho, theta = line_from_limbs(s, st.signs)
+    if ref is not None:
+        rho, theta = orient_like(rho, theta, float(ref[0]), float(ref[1]))
+    return np.array([rho, theta]), ""
