@@ -113,14 +113,17 @@ def _edge_points(
 
 
 def _contrast(prof: FloatArray, s: FloatArray, off: FloatArray) -> FloatArray:
-    """Outside minus inside level (gray levels) 2-3 px either side of each edge (NaN: none)."""
-    out = np.full(prof.shape[0], np.nan)
-    for i in np.flatnonzero(np.isfinite(off)):
-        k = int(np.searchsorted(s, off[i]))
-        lo, hi = prof[i, max(k - 6, 0) : max(k - 3, 1)], prof[i, k + 4 : k + 7]
-        if lo.size and hi.size:
-            out[i] = float(hi.mean() - lo.mean())
-    return out
+    """Outside minus inside level (gray levels) 2-3 px either side of each edge (NaN: none,
+    or a window past the profile's ends)."""
+    n = prof.shape[1]
+    k = np.searchsorted(s, np.nan_to_num(off, nan=s[0]))
+    lo = np.clip(k[:, None] + np.arange(-6, -3), 0, n - 1)
+    hi = np.clip(k[:, None] + np.arange(4, 7), 0, n - 1)
+    step = np.take_along_axis(prof, hi, axis=1).mean(axis=1) - np.take_along_axis(
+        prof, lo, axis=1
+    ).mean(axis=1)
+    ok = np.isfinite(off) & (k - 6 >= 0) & (k + 6 <= n - 1)
+    return np.where(ok, step, np.nan)
 
 
 def _fit(
