@@ -1,8 +1,9 @@
 """Eye-to-hand through MuJoCo (docs/physics.md, "Eye-to-hand"): how far the features measured
 in the fixed camera's rendered image are from our projection model, at random postures near
-the start of ``panda-mujoco-eye-to-hand``, for its dots card and for an AprilTag card.
+the start of ``panda-mujoco-eye-to-hand``, for its dots card and for an AprilTag card, with a
+pinhole lens or (``--lens``) the scenario's distorted one (errors in undistorted pixels).
 
-    .venv/bin/python benchmarks/mujoco_world_camera.py [--samples 10] [--width 640]
+    .venv/bin/python benchmarks/mujoco_world_camera.py [--samples 10] [--width 640] [--lens]
 
 Prints, per target, the largest and the median error over the features and postures (px),
 and the carried object's pose against our kinematics ``bMe(q) · eMo`` (m / rad).
@@ -28,6 +29,7 @@ Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 WMC = make_transform(t=(0.95, 0.0, 0.55), rotvec=(-1.2092, -1.2092, 1.2092))
 EMO_DOTS = make_transform(t=(0.0, -0.06, 0.01), rotvec=(0.331, -2.031, -1.553))
 EMO_TAG = make_transform(t=(0.0, -0.06, 0.05), rotvec=(-1.075, 1.6977, -1.593))
+LENS = (-0.12, 0.05, 0.0005, -0.0004, 0.0)  # the scenario's k1, k2, p1, p2, k3
 SQUARE = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0]])
 
 
@@ -68,11 +70,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=10)
     ap.add_argument("--width", type=int, default=640, help="image width (height 3/4 of it)")
     ap.add_argument("--spread", type=float, default=0.15, help="rad around the start")
+    ap.add_argument("--lens", action="store_true", help="the scenario's distorted lens")
     args = ap.parse_args(argv)
     w = args.width
-    camera = Camera(
-        px=0.9375 * w, py=0.9375 * w, u0=w / 2, v0=3 * w / 8, width=w, height=3 * w // 4
-    )
+    k = dict(zip(("k1", "k2", "p1", "p2", "k3"), LENS, strict=True)) if args.lens else {}
+    camera = Camera(0.9375 * w, 0.9375 * w, w / 2, 3 * w / 8, w, 3 * w // 4, **k)
     print(f"rendering {2 * args.samples} frames ...", file=sys.stderr, flush=True)
     measure(
         Scene([PointSet("dots", SQUARE, trajectory=Static(EMO_DOTS))]),
