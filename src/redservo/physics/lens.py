@@ -53,7 +53,9 @@ class LensWarp:
                 f"{w}x{h} image (or needs a pinhole render wider than {_MAX_PX} px)",
                 argument="camera",
             )
-        self.pinhole = Camera(camera.px, camera.py, *map(float, c0), *map(int, size))
+        self.pinhole = Camera(
+            camera.px, camera.py, float(c0[0]), float(c0[1]), int(size[0]), int(size[1])
+        )
         """The pinhole camera rendered (same focal lengths, wider image, no distortion)."""
         uv = xy * f + c0 - 0.5  # array coordinates (OpenCV: centres on the integers)
         self._map_x = np.ascontiguousarray(uv[..., 0], dtype=np.float32)
