@@ -306,3 +306,24 @@ def test_dots_tracked_under_a_lighting_gradient() -> None:
         assert np.abs(got.s - ideal.s).max() * PX < 0.15
     u, v = sensor.dots_uv[0].astype(int)  # the dots are dimmer than the known-levels threshold
     assert got.image is not None and got.image[v - 4 : v + 5, u - 4 : u + 5].max() < 200
+
+
+def test_sphere_measured_under_a_lighting_gradient() -> None:
+    # A sphere in the dim corner of a ±15 % gradient is darker than its fixed threshold
+    # (midway to the cylinder's level): the threshold follows the light measured at its centre.
+    from redservo.reproduction.imaging import Imaging, image_sensor
+
+    ball = Sphere("ball", 0.03, trajectory=Static(make_transform(t=[-0.43, -0.32, 1.0])))
+    task = VisualTask.from_desired_poses([TaskTerm(SphereFeature(0.03), "ball")], DESIRED)
+    scene = Scene([ball])
+    lit = Imaging(noise_px=4.0, blur_px=0.8, gradient=0.15)
+    sensor = image_sensor(ImageSensor().camera, lit, seed=1)
+    ideal = IdealSensor().read(task, scene, EYE, 0.0)
+    for _ in range(3):
+        got = sensor.read(task, scene, EYE, 0.0)
+        assert got.s is not None and ideal.s is not None and got.lost == (), got.reason
+        # the light's slope pulls the intensity-weighted centre 0.14 px toward the bright side
+        assert np.abs(got.s[:2] - ideal.s[:2]).max() * PX < 0.3
+        assert got.s[2] == pytest.approx(ideal.s[2], rel=2e-2)
+    u, v = (int(c) for c in sensor.renderer.optics.to_pixel(ideal.s[:2]))
+    assert got.image is not None and np.median(got.image[v - 3 : v + 4, u - 3 : u + 4]) < 135

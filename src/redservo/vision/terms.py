@@ -61,6 +61,8 @@ class TermState:
     """Some of the term's dots were not found in this frame."""
     inv_depth: FloatArray | None = None
     """Last inverse-depth parameters."""
+    gain: float | None = None
+    """Light's gain at a sphere (:func:`measure_sphere`; None = not measured yet)."""
 
 
 def gray_threshold(level: float, background: float, others: list[float], span: float) -> float:
@@ -203,16 +205,25 @@ def measure_sphere(
     method: EllipseMethod,
     truth: FloatArray | None,
 ) -> tuple[FloatArray | None, str]:
-    """The sphere's ``s`` (per its variant) near its last centre, or None and why."""
+    """The sphere's ``s`` (per its variant) near its last centre, or None and why.
+
+    The threshold is the gray levels' one (:func:`gray_threshold`) times the light's gain at
+    the sphere, the median gray level of its centre over its rendered level (on the first
+    frame at its true centre, then at its last measured one): a lighting gradient that dims
+    the sphere below the fixed threshold does not lose it.
+    """
     opt = renderer.options
     lv = opt.levels
     if st.uv is None and truth is not None:
         uv0 = renderer.optics.to_pixel(truth[:2])
         st.uv = (float(uv0[0]), float(uv0[1]))
+    if st.gain is None:
+        st.gain = 1.0 if st.uv is None else _gain(image, st.uv, 2.0, lv.sphere)
+    thr = st.gain * gray_threshold(lv.sphere, opt.background, [lv.cylinder], _span(opt))
     meas, why = detect_ellipse(
         image,
         renderer.optics,
-        threshold=gray_threshold(lv.sphere, opt.background, [lv.cylinder], _span(opt)),
+        threshold=float(np.clip(thr, 1.0, 254.0)),
         polarity="bright" if lv.sphere > opt.background else "dark",
         near_uv=st.uv,
         method=method,
@@ -222,9 +233,28 @@ def measure_sphere(
     if meas is None:
         return None, why
     st.uv = meas.uv
+    r_px = 0.4 * np.sqrt(max(meas.area, 0.0) / np.pi) * renderer.camera.px
+    st.gain = _gain(image, meas.uv, max(float(r_px), 2.0), lv.sphere)
     if feature.variant == "moments":
         return np.array([meas.xc, meas.yc, meas.n20, meas.n11, meas.n02]), ""
     return np.array([meas.xc, meas.yc, meas.area]), ""
+
+
+def _gain(
+    image: NDArray[np.uint8], uv: tuple[float, float], radius_px: float, level: float
+) -> float:
+    """The light's gain at pixel ``uv``: the median gray level within ``radius_px`` of it over
+    ``level`` (the object's rendered level), clipped to [0.5, 2]; 1 outside the image."""
+    H, W = image.shape
+    u, v, r = float(uv[0]), float(uv[1]), int(np.ceil(radius_px))
+    c, w = int(np.floor(u)), int(np.floor(v))
+    if level <= 0.0 or not (0 <= c < W and 0 <= w < H):
+        return 1.0
+    rows = np.arange(max(w - r, 0), min(w + r + 1, H))
+    cols = np.arange(max(c - r, 0), min(c + r + 1, W))
+    near = (rows[:, None] + 0.5 - v) ** 2 + (cols[None, :] + 0.5 - u) ** 2 <= radius_px**2
+    patch = image[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1][near]
+    return float(np.clip(np.median(patch) / level, 0.5, 2.0)) if patch.size else 1.0
 
 
 def measure_lines(
