@@ -17,7 +17,9 @@
 the measurement differs) whose renderer draws the scene with the *true* camera and lens and
 applies the gradient, while the detector normalizes with the nominal camera: the image
 errors reach the features exactly as they would on a real, imperfectly calibrated camera.
-The detector is the library's, unchanged.
+The detector is the library's, unchanged: it tracks each dot with its own gray levels
+(:class:`~redservo.vision.tracking.ImageDotTracker`) and scales a sphere's threshold by the
+light measured at it, so the gradient costs no feature.
 
 :data:`REALISTIC` is what ``redservo reproduce --sensor image`` uses.
 """
