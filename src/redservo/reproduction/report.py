@@ -216,8 +216,9 @@ def markdown(
             "lists its implementation checks through images too. Those that test the "
             "equations' exact arithmetic on the features (‖e1‖ falling by (1 − λ dt) at every "
             "step, iteration counts to the tolerance, rates fitted down to 1e-4 of the start "
-            "error) can fail there: any rendered image, even noise-free, moves the measured "
-            "features by more than the margins they test (docs/results.md).",
+            "error) can fail there: the pixels' quantization (the first two, even in a "
+            "noise-free image) and noise (the third) move the measured features by more than "
+            "the margins they test (docs/results.md).",
             "",
         ]
     if rob is not None:
