@@ -31,7 +31,7 @@ def _arm_camera(exp: Experiment) -> Camera:
     ks = [float(v) for v in (k if isinstance(k, list) else [k])]
     if not any(ks):
         return exp.camera
-    k1, k2 = (ks + [0.0])[:2]
+    k1, k2 = [*ks, 0.0][:2]
     return dataclasses.replace(exp.camera, k1=k1, k2=k2)
 
 
