@@ -83,11 +83,13 @@ def _panda_state():
 
 def test_plan_keeps_the_points_in_the_image() -> None:
     """Global model on the Panda: the planned image points at every period stay inside the
-    image less the pixel margin (the nonlinear prediction of the plan, within 1 px: three SQP
-    iterations; one iteration keeps the linearised constraint, the nonlinear prediction then
-    comes within ~10 px at the end of the horizon), and the global model was used."""
+    image less the pixel margin, or no deeper in the band than the measured points already
+    are (the law relaxes the bound of a point that starts inside the band), for the
+    nonlinear prediction of the plan, within 1 px (five SQP iterations; one iteration keeps
+    the linearised constraint, the nonlinear prediction then comes ~10 px closer at the end
+    of the horizon), and the global model was used."""
     exp, state = _panda_state()
-    law = make_law("predictive", image_margin_px=60.0, sqp_iterations=3)
+    law = make_law("predictive", image_margin_px=60.0, sqp_iterations=5)
     q, prev = exp.q0, np.zeros(exp.robot.n)
     cam = exp.camera
     for _ in range(5):  # a few periods, each planned from the previous
@@ -97,8 +99,10 @@ def test_plan_keeps_the_points_in_the_image() -> None:
         model = law.last_model
         pred = point_prediction(model, q, law.last_plan, law._hz, DT)
         uv = pred.s.reshape(law.horizon, -1, 2) * [cam.px, cam.py] + [cam.u0, cam.v0]
-        assert np.all(uv[..., 0] >= 59.0) and np.all(uv[..., 0] <= cam.width - 59.0)
-        assert np.all(uv[..., 1] >= 59.0) and np.all(uv[..., 1] <= cam.height - 59.0)
+        now = state.s.reshape(-1, 2) * [cam.px, cam.py] + [cam.u0, cam.v0]
+        lo = np.minimum(60.0, now) - 1.0
+        hi = np.minimum(np.maximum([cam.width - 60.0, cam.height - 60.0], now), 1e9) + 1.0
+        assert np.all(uv >= lo) and np.all(uv <= hi)
         q, prev = q + DT * res.qdot, res.qdot
         bMc, J = exp.robot.kinematics(q, check_limits=False)
         state = exp.task.evaluate(exp.scene, bMc, J, DT)

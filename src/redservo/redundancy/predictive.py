@@ -3,7 +3,7 @@
 Allibert, Courtial & Chaumette, "Predictive control for constrained image-based visual
 servoing", IEEE T-RO 26(5), 2010 (docs/predictive.md). At each period::
 
-    min_U  Σ_{k=1..N} ‖e_k(U)‖² / N + ρ ‖U‖²
+    min_U  Σ_{k=1..N} ‖e_k(U)‖² / N + ρ ‖U − Ū‖² + γ ‖q_N − q*‖²
     s.t.   |u_j| <= q̇_max,   |u_0 - q̇_prev| <= q̈_max dt,   |u_j - u_{j-1}| <= q̈_max dt
            q_min + margin Δq <= q_k <= q_max - margin Δq          (k = 1…N)
            image points inside the image less ``image_margin_px``   (k = 1…N, global model)
@@ -13,18 +13,17 @@ with ``U`` the joint velocities of ``control_horizon`` blocks over ``horizon`` p
 
 Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
 
-* **Model**: ``model="global"`` predicts with the model robot's kinematics and the projection
-  of the target's points when the law is bound to a task of image points (the
-  :class:`~redservo.Controller` calls :meth:`Predictive.observe` before each step);
-  otherwise (a bare law call, moments, lines...) the local model with the constant ``J1`` is
-  used and ``info`` says so. ``model="local"`` forces the local model.
-* **Solver**: sequential QP, ``sqp_iterations`` (default 1: the real-time iteration, whose
-  linearisation point is the previous solution shifted by one period, the warm start) on
-  ``daqp`` called directly (the dense active-set solver the ``qp`` law already uses through
-  its lookup), started cold (the warm start is the linearisation point).
+* **Model**: ``model="global"`` predicts with the model robot's kinematics and the target:
+  its points (a task of image points of one target) or its pose estimated from the moment
+  features (:mod:`redservo.redundancy.predictive_moments`); the :class:`~redservo.Controller`
+  calls :meth:`Predictive.observe` before each step. Otherwise (a bare law call, lines...)
+  the local model with the constant ``J1``, and ``info`` says so; ``model="local"`` forces it.
+* **Solver**: sequential QP, ``sqp_iterations`` (default 1: the real-time iteration,
+  linearised at the previous solution shifted by one period, the warm start) on ``daqp``.
 * **Cost**: the reference is ``e = 0`` at every predicted period (Allibert 2010 track
-  ``s*``); ``ρ = effort · dt² σ_max(J1)²`` (relative, like ``qp``'s ε); with a known
-  feed-forward ``∂e1/∂t`` the predicted errors drift by ``k dt ∂e1/∂t``.
+  ``s*``); ``ρ = effort · dt² σ_max(J1)²`` damps the step from ``Ū``; the joint goal ``q*``
+  (:mod:`redservo.redundancy.predictive_goal`) is weighted by ``γ = goal_weight σ_max(J1)²``;
+  a known feed-forward ``∂e1/∂t`` drifts the predicted errors by ``k dt ∂e1/∂t``.
 * **Relaxed bounds**: a joint (or image point) already inside its band may stay where it is
   but not go deeper: its bound is relaxed to the current value.
 * **Fallback**: if daqp reports an infeasible horizon (flag ``horizon-infeasible``), hits its
@@ -33,8 +32,8 @@ Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
   ``solver-fallback`` is raised; the next solve starts from ``qdot_prev``. ``time_budget =
   None`` (default) disables the clock, so that simulations and campaigns do not depend on
   the machine; a real servo loop sets it below its period.
-* **Safety**: the command goes through the same safety stage as every law (shield, rate
-  limits): the constraints above make it a no-op in the usual case.
+* **Safety**: the first block also lies in the shield's box (its braking bound) and the
+  command goes through the same safety stage as every law: a no-op in the usual case.
 
 State kept between calls (``stateful``): the last solution ``U`` (the warm start) and the
 task observation of the current step; :meth:`reset` clears both.
@@ -43,6 +42,7 @@ task observation of the current step; :meth:`reset` clears both.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -63,20 +63,26 @@ from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.flags import FLAGS, Flag
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
+from redservo.redundancy.predictive_goal import refresh_goal
 from redservo.redundancy.predictive_model import (
     QP,
     PointModel,
     Prediction,
     build_qp,
-    feature_ik,
     horizon,
     local_prediction,
-    point_prediction,
+    point_model,
 )
+from redservo.redundancy.predictive_moments import MomentModel, moment_model
+from redservo.redundancy.safety import position_box
 
 __all__ = ["Predictive"]
 
 _BIT = {f: j for j, f in enumerate(FLAGS)}
+Model = PointModel | MomentModel
+"""A global prediction model (image points, or the moment features of one target)."""
+GOAL_RANDOM_SEEDS = 60
+"""Seeds drawn uniformly within the bounds after the seven near ``q`` (joint-goal search)."""
 
 
 @register
@@ -107,10 +113,16 @@ class Predictive(Law):
             choices=("global", "local"),
             doc="'global' (kinematics + projection) or 'local' (constant J1)",
         ),
-        Option("effort", 1e-3, doc="relative weight ρ of ‖U‖²", low=0.0, low_open=True),
+        Option(
+            "effort",
+            1e-3,
+            doc="relative weight ρ of ‖U − Ū‖² (damping of the step from the warm start)",
+            low=0.0,
+            low_open=True,
+        ),
         Option(
             "margin",
-            0.011,
+            0.0102,
             doc="keep-out band at each joint limit, a fraction of the range (at least the "
             "limits' own margin)",
             low=0.0,
@@ -172,12 +184,13 @@ class Predictive(Law):
         self._goal: FloatArray | None = None
         self._s_now: FloatArray | None = None
         self._calls = 0
-        self._obs: tuple[PointModel, FloatArray] | None = None
+        self._obs: Callable[[FloatArray], Model | None] | None = None
+        self._moments: MomentModel | None = None
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
         self.last_plan: FloatArray | None = None
         """The last solution ``U`` (Nc, n), None after a fallback."""
-        self.last_model: PointModel | None = None
+        self.last_model: Model | None = None
         """The global model of the last solve (None: the local model)."""
 
     def set_safety(
@@ -197,6 +210,7 @@ class Predictive(Law):
         self._U = None
         self._obs = None
         self._goal = None
+        self._moments = None
         self._calls = 0
         self.last_start = self.last_plan = None
 
@@ -207,23 +221,26 @@ class Predictive(Law):
     def observe(self, robot: Any, task: Any, state: Any) -> None:
         """The :class:`~redservo.Controller`'s hook before each call: the model robot, the
         task and its evaluated state (``s``, ``inv_depth``). For a task of image points of
-        one target it sets the global model's points for the next call (only)."""
+        one target, or of the moment features of one target, it sets the global model for
+        the next call (only)."""
+        from redservo.features import MomentFeatures
         from redservo.features.point import PointFeature
 
         self._obs = None
         terms = task.terms
-        if self.model != "global" or not all(type(t.feature) is PointFeature for t in terms):
+        if self.model != "global" or len({t.target for t in terms}) != 1:
             return
-        if len({t.target for t in terms}) != 1:
-            return
-        xy = np.asarray(state.s, dtype=float).reshape(-1, 2)
-        iz = np.array([float(np.asarray(d).reshape(-1)[0]) for d in state.inv_depth])
-        if xy.shape[0] != iz.shape[0] or not np.all(iz > 0) or not np.all(np.isfinite(xy)):
-            return
-        self._obs = (
-            PointModel(robot, np.empty((0, 3)), task.C, np.asarray(task.s_star, dtype=float)),
-            np.c_[xy / iz[:, None], 1.0 / iz],
-        )
+        if all(type(t.feature) is PointFeature for t in terms):
+            self._obs = lambda q: point_model(robot, task, state, q)
+        elif len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
+            feature, prev = terms[0].feature, self._moments
+
+            def build(q: FloatArray) -> MomentModel | None:
+                bMc = robot.kinematics(q, check_limits=False)[0]
+                self._moments = moment_model(robot, feature, task, state, prev, bMc)
+                return self._moments
+
+            self._obs = build
 
     # -- one step ------------------------------------------------------------------------------
 
@@ -235,16 +252,15 @@ class Predictive(Law):
         self.last_start = start
         model = None
         if obs is not None:
-            pm, Pc = obs
-            bMc = pm.robot.kinematics(x.q, check_limits=False)[0]
-            model = pm._replace(P_b=Pc @ bMc[:3, :3].T + bMc[:3, 3])
-            self._s_now = (Pc[:, :2] / Pc[:, 2:3]).reshape(-1)
+            model = obs(x.q)
+        if model is not None:
+            self._s_now = model.image_points(x.q)
             if self.goal_weight > 0 and self._calls % self.replan == 0:
                 try:
                     with np.errstate(all="ignore"):
                         self._goal = self._search_goal(model, x)
-                except np.linalg.LinAlgError:  # a degenerate start: no goal this time
-                    self._goal = None
+                except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
+                    pass
         self._calls += 1
         self.last_model = model
         t0 = time.perf_counter()
@@ -286,22 +302,25 @@ class Predictive(Law):
         lim = x.limits
         return np.maximum(self.margin * (lim.q_max - lim.q_min), lim.margin_abs)
 
-    def _search_goal(self, model: PointModel, x: LawInputs) -> FloatArray | None:
-        """The joint goal ``q*`` (docs/predictive.md, "Joint goal"): feature-space inverse
-        kinematics within the limits less the margin, from ``q`` then six starts around it
-        (normal, 15 % of each joint's range, generator seeded with 0)."""
+    def _search_goal(self, model: Model, x: LawInputs) -> FloatArray | None:
+        """The joint goal ``q*`` (docs/predictive.md, "Joint goal";
+        :mod:`redservo.redundancy.predictive_goal`) within the limits less the margin, from
+        ``q``, six starts around it (normal, 15 % of each joint's range) and
+        :data:`GOAL_RANDOM_SEEDS` uniform in the bounds (generator seeded with 0); the
+        previous goal is kept when it is still the better one."""
         band = self._band(x)
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
         gen = np.random.default_rng(0)
         span = x.limits.q_max - x.limits.q_min
         seeds = [x.q] + [x.q + gen.normal(0.0, 0.15, x.q.shape) * span for _ in range(6)]
-        return feature_ik(model, seeds, lo, hi)
+        seeds += [gen.uniform(lo, hi) for _ in range(GOAL_RANDOM_SEEDS)]
+        return refresh_goal(model, self._goal, x.q, seeds, lo, hi)
 
-    def _qp(self, x: LawInputs, U: FloatArray, model: PointModel | None) -> QP | None:
+    def _qp(self, x: LawInputs, U: FloatArray, model: Model | None) -> QP | None:
         hz, lim = self._hz, x.limits
         pred: Prediction | None
         if model is not None:
-            pred = point_prediction(model, x.q, U, hz, x.dt)
+            pred = model.predict(x.q, U, hz, x.dt)
             if pred is None:
                 return None
         else:
@@ -327,6 +346,7 @@ class Predictive(Law):
             pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
             v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
             s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal, s_now=s_now,
+            u0_box=position_box(x.q, lim, x.dt) if self.shield else None,
         )  # fmt: skip
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:

@@ -23,7 +23,7 @@ Units: seconds, metres, radians, normalized image coordinates.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -32,7 +32,7 @@ from redservo._validation import FloatArray
 if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with the laws
     from redservo.robots.base import Robot
 
-__all__ = ["Horizon", "PointModel", "Prediction", "horizon", "point_prediction"]
+__all__ = ["Horizon", "PointModel", "Prediction", "horizon", "point_model", "point_prediction"]
 
 BIG = 1e9
 """Stand-in for an absent bound (daqp takes finite bounds)."""
@@ -67,6 +67,30 @@ class PointModel(NamedTuple):
     P_b: FloatArray
     C: FloatArray | None
     s_star: FloatArray
+
+    def predict(self, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float) -> Prediction | None:
+        """:func:`point_prediction` of this model."""
+        return point_prediction(self, q0, U, hz, dt)
+
+    def image_points(self, q: FloatArray) -> FloatArray:
+        """(2p,) the points' normalized image coordinates at ``q``."""
+        bMc = self.robot.kinematics(q, check_limits=False)[0]
+        Pc = (self.P_b - bMc[:3, 3]) @ bMc[:3, :3]
+        return np.asarray((Pc[:, :2] / Pc[:, 2:3]).reshape(-1))
+
+
+def point_model(robot: Robot, task: Any, state: Any, q: FloatArray) -> PointModel | None:
+    """The :class:`PointModel` of a task of image points of one target from its evaluated
+    ``state`` (``s``, ``inv_depth``) at ``q``: the measured points put in the base frame,
+    ``P_b = bMc(q) (x/ζ, y/ζ, 1/ζ)``; None when a depth is not positive or a point not finite."""
+    xy = np.asarray(state.s, dtype=float).reshape(-1, 2)
+    iz = np.array([float(np.asarray(d).reshape(-1)[0]) for d in state.inv_depth])
+    if xy.shape[0] != iz.shape[0] or not np.all(iz > 0) or not np.all(np.isfinite(xy)):
+        return None
+    Pc = np.c_[xy / iz[:, None], 1.0 / iz]
+    bMc = robot.kinematics(q, check_limits=False)[0]
+    s_star = np.asarray(task.s_star, dtype=float)
+    return PointModel(robot, Pc @ bMc[:3, :3].T + bMc[:3, 3], task.C, s_star)
 
 
 class Prediction(NamedTuple):
@@ -149,6 +173,30 @@ def _block(hz: Horizon, k: int, G: FloatArray, dt: float) -> FloatArray:
     return dt * np.concatenate([hz.M[k - 1, j] * G for j in range(hz.Nc)], axis=1)
 
 
+def _simple_bounds(
+    Nc: int,
+    n: int,
+    dt: float,
+    v_max: FloatArray | None,
+    a_max: FloatArray | None,
+    qdot_prev: FloatArray | None,
+    u0_box: tuple[FloatArray, FloatArray] | None,
+) -> tuple[FloatArray, FloatArray]:
+    """``(lo, hi)`` (Nc n,) of :func:`build_qp`: the velocity limits on every block, the
+    acceleration limit from ``qdot_prev`` and the shield's box on the first."""
+    v = np.full(n, BIG) if v_max is None else v_max
+    lo, hi = np.tile(-v, Nc), np.tile(v, Nc)
+    if a_max is not None and qdot_prev is not None:
+        lo[:n] = np.maximum(lo[:n], qdot_prev - a_max * dt)
+        hi[:n] = np.minimum(hi[:n], qdot_prev + a_max * dt)
+        lo[:n] = np.minimum(lo[:n], hi[:n])
+    if u0_box is not None:  # the shield's box (braking bound), where it meets the rate box
+        b_lo, b_hi = np.maximum(lo[:n], u0_box[0]), np.minimum(hi[:n], u0_box[1])
+        ok = b_lo <= b_hi
+        lo[:n], hi[:n] = np.where(ok, b_lo, lo[:n]), np.where(ok, b_hi, hi[:n])
+    return lo, hi
+
+
 def build_qp(
     pred: Prediction,
     Ubar: FloatArray,
@@ -167,23 +215,29 @@ def build_qp(
     ff: FloatArray | None,
     goal: tuple[FloatArray, float] | None = None,
     s_now: FloatArray | None = None,
+    u0_box: tuple[FloatArray, FloatArray] | None = None,
 ) -> QP:
     """The QP of one SQP iteration (docs/predictive.md, "Formulation").
 
-    Cost ``Σ_k ‖e_k(U)‖² / N + ρ ‖U‖²`` (``ρ = effort``, absolute, (task units · s)²);
+    Cost ``Σ_k ‖e_k(U)‖² / N + ρ ‖U − Ū‖²`` (``ρ = effort``, absolute, (task units · s)²:
+    a damping of the step from the linearisation point, which leaves the converged plan
+    unbiased);
     simple bounds from the velocity limits and, on ``u_0``, the acceleration limit from
     ``qdot_prev``; rows: joint positions at the block ends within ``[q_lo, q_hi]``,
     acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period.
     ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``;
     ``goal = (q*, γ)`` adds the terminal cost ``γ ‖q_N - q*‖²``; ``s_now`` (2p,): the
-    measured points, whose image bounds are relaxed to them when they are already outside.
+    measured points, whose image bounds are relaxed to them when they are already outside;
+    ``u0_box = (lo, hi)`` (n,): the position shield's velocity box (its braking bound) on
+    the first block, where it meets the rate box, so that the shield leaves the command as
+    it is.
     """
     N, Nc = hz.N, hz.Nc
     n = q0.shape[0]
     nv = Nc * n
     ub = Ubar.reshape(-1)
     H = effort * np.eye(nv)
-    f = np.zeros(nv)
+    f = -effort * ub
     for k in range(1, N + 1):
         Ak = _block(hz, k, pred.G[k - 1], dt)
         rk = pred.e[k - 1] - Ak @ ub
@@ -195,12 +249,7 @@ def build_qp(
         AN = _block(hz, N, np.eye(n), dt)
         H += goal[1] * AN.T @ AN
         f += goal[1] * AN.T @ (q0 - goal[0])
-    v = np.full(n, BIG) if v_max is None else v_max
-    lo, hi = np.tile(-v, Nc), np.tile(v, Nc)
-    if a_max is not None and qdot_prev is not None:
-        lo[:n] = np.maximum(lo[:n], qdot_prev - a_max * dt)
-        hi[:n] = np.minimum(hi[:n], qdot_prev + a_max * dt)
-        lo[:n] = np.minimum(lo[:n], hi[:n])
+    lo, hi = _simple_bounds(Nc, n, dt, v_max, a_max, qdot_prev, u0_box)
     rows, blo, bhi = [], [], []
     for k in hz.ends:  # positions: q_0 + dt M[k-1] U, extremal at the block ends
         rows.append(_block(hz, k, np.eye(n), dt))
@@ -224,39 +273,3 @@ def build_qp(
             blo.append(lo_s - base)
             bhi.append(hi_s - base)
     return QP(H, f, lo, hi, np.vstack(rows), np.concatenate(blo), np.concatenate(bhi))
-
-
-def feature_ik(
-    model: PointModel,
-    seeds: list[FloatArray],
-    lo: FloatArray,
-    hi: FloatArray,
-    *,
-    iterations: int = 100,
-    tol: float = 1e-5,
-) -> FloatArray | None:
-    """A joint configuration within ``[lo, hi]`` whose predicted task error is ~0: projected
-    damped least squares on ``e(q) = C (s(q) - s*)`` from each seed in turn, the first that
-    converges (``‖e‖ < tol``, normalized image units) is returned; None if none does."""
-    hz = horizon(1, 1)
-    for seed in seeds:
-        q = np.clip(seed, lo, hi)
-        for _ in range(iterations):
-            pred = point_prediction(model, q, np.zeros((1, q.shape[0])), hz, 0.0)
-            if pred is None:
-                break
-            e, G = pred.e[0], pred.G[0]
-            if not (np.all(np.isfinite(G)) and np.all(np.isfinite(e))):
-                break
-            if float(np.linalg.norm(e)) < tol:
-                return q
-            step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
-            blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
-            if blocked.any():  # joints at a bound pushing out: solve with the others
-                Gf = np.where(blocked, 0.0, G)
-                step = -Gf.T @ np.linalg.solve(Gf @ Gf.T + 1e-6 * np.eye(G.shape[0]), e)
-            size = float(np.max(np.abs(step)))
-            if size > 0.3:
-                step *= 0.3 / size
-            q = np.clip(q + step, lo, hi)
-    return None

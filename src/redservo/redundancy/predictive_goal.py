@@ -1,0 +1,178 @@
+"""The ``predictive`` law's joint goal ``q*``: a configuration within the limits less the band
+whose predicted task error is zero (docs/predictive.md, "Joint goal").
+
+The search has two stages, because the image error alone is a poor guide far from the goal
+(a random seed often puts the target behind the camera, where the projection is undefined):
+
+1. **The desired camera pose** ``bMc*`` from the image: virtual visual servoing of the
+   target's points (in the base frame, :class:`~redservo.redundancy.predictive_model.PointModel`)
+   from the current camera pose, Gauss-Newton steps ``v_c = −L⁺ (s − s*)`` (CM01 eq. 26 for
+   ``L``) applied as ``bMc ← bMc exp(v_c)`` until ``‖s − s*‖ < 1e-10``; for the moment
+   features, ``bMo cMo*⁻¹`` (:mod:`redservo.redundancy.predictive_moments`).
+2. **Inverse kinematics of that pose** (:func:`redservo.ik.solve_ik`, the campaigns'
+   reachability search) from each seed in turn, then a few steps of feature-space projected
+   damped least squares on ``e(q) = C (s(q) − s*)`` to bring the predicted error below
+   :data:`TOL`. Of the first :data:`CANDIDATES` seeds that get there, the goal nearest to
+   ``q`` is ``q*``.
+
+When stage 1 fails (a point behind the camera, no convergence), the feature-space search
+runs from the seeds directly; when no seed reaches a zero error, the best configuration met
+may be the goal (:func:`joint_goal`). Units: metres, radians, normalized image coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.ik import solve_ik
+from redservo.redundancy.predictive_model import PointModel, horizon
+from redservo.redundancy.predictive_model import _points_interaction as points_interaction
+from redservo.redundancy.predictive_moments import MomentModel
+from redservo.spatial import exp_twist
+
+__all__ = ["STALL", "TOL", "camera_goal", "goal_error", "joint_goal", "refresh_goal"]
+
+STALL = 15
+"""Iterations without progress after which :func:`feature_ik` gives up a seed."""
+
+
+def camera_goal(model: PointModel, bMc: FloatArray, iterations: int = 50) -> FloatArray | None:
+    """``bMc*`` (4, 4): the camera pose at which the model's points project at ``s*``
+    (virtual visual servoing from ``bMc``), or None (a point at or behind the camera,
+    or no convergence)."""
+    T = np.array(bMc, dtype=float)
+    for _ in range(iterations):
+        Pc = (model.P_b - T[:3, 3]) @ T[:3, :3]
+        if not np.all(Pc[:, 2] > 1e-6):
+            return None
+        iz = 1.0 / Pc[:, 2]
+        xy = Pc[:, :2] * iz[:, None]
+        e = xy.reshape(-1) - model.s_star
+        if not np.all(np.isfinite(e)):
+            return None
+        if float(np.linalg.norm(e)) < 1e-10:
+            return T
+        v = -np.linalg.lstsq(points_interaction(xy, iz), e, rcond=None)[0]
+        T = T @ exp_twist(v)
+    return None
+
+
+def refresh_goal(
+    model: PointModel | MomentModel,
+    old: FloatArray | None,
+    q: FloatArray,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+) -> FloatArray | None:
+    """The better of the previous goal ``old`` (its error under the current model) and a new
+    search from ``seeds`` (:func:`joint_goal`): a failed search keeps a goal that still
+    holds, a best-effort goal gives way to an exact one."""
+    new = joint_goal(model, q, seeds, lo, hi)
+    if old is None:
+        return None if new is None else new[1]
+    r_old = goal_error(model, old)
+    if new is None or r_old <= new[0]:
+        return old if r_old < np.inf else None
+    return new[1]
+
+
+def goal_error(model: PointModel | MomentModel, q: FloatArray) -> float:
+    """``‖e(q)‖`` under the model (``inf`` when the prediction fails)."""
+    pred = model.predict(q, np.zeros((1, q.shape[0])), horizon(1, 1), 0.0)
+    return np.inf if pred is None else float(np.linalg.norm(pred.e[0]))
+
+
+def joint_goal(
+    model: PointModel | MomentModel,
+    q: FloatArray,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+) -> tuple[float, FloatArray] | None:
+    """``(‖e(q*)‖, q*)`` with ``q*`` within ``[lo, hi]`` (module docstring), or None when no
+    seed reaches it.
+
+    Then the feature-space search from every seed (the task may be met at other poses than
+    ``bMc*``, e.g. the moment features); when no seed reaches a zero error, the best
+    configuration met is the goal if its error is below a tenth of the error at ``q`` (the
+    goal lies just beyond the band: the law gets as close as the band allows).
+    """
+    bMc = model.robot.kinematics(q, check_limits=False)[0]
+    target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
+    best: tuple[float, FloatArray | None] = (np.inf, None)
+    found: list[FloatArray] = []
+    if target is not None:
+        for seed in seeds:
+            qs = solve_ik(model.robot, target, seed, lo, hi)
+            if qs is not None:
+                r, qp = _ik_from(model, qs, lo, hi, 30, TOL)
+                if r < TOL and qp is not None:
+                    found.append(qp)
+                    if len(found) == CANDIDATES:
+                        break
+                best = min(best, (r, qp), key=lambda b: b[0])
+    if found:  # the nearest, in fractions of each joint's range between the bounds
+        near = min(found, key=lambda g: float(np.max(np.abs(g - q) / (hi - lo))))
+        return goal_error(model, near), near
+    for seed in seeds:
+        r, qp = _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
+        if r < TOL and qp is not None:
+            return r, qp
+        best = min(best, (r, qp), key=lambda b: b[0])
+    if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
+        return best[0], best[1]
+    return None
+
+
+CANDIDATES = 4
+"""Exact goals collected before the nearest to ``q`` is chosen (a far goal takes a long
+joint-space path, which the image constraint blocks more often)."""
+
+TOL = 1e-5
+"""Error ``‖e(q*)‖`` (task units: normalized image coordinates, moments) of a joint goal."""
+
+
+def _ik_from(
+    model: PointModel | MomentModel,
+    q: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    iterations: int,
+    tol: float,
+) -> tuple[float, FloatArray | None]:
+    """Projected damped least squares on ``e(q) = C (s(q) - s*)`` within ``[lo, hi]`` from
+    ``q``: ``(error, q)`` of the best configuration met (``error < tol``: converged; ``inf,
+    None``: the prediction failed at the seed). A seed is given up when its error has not
+    fallen below 0.99 of its best for :data:`STALL` iterations (stuck against the bounds or
+    in a local minimum)."""
+    hz = horizon(1, 1)
+    best: tuple[float, FloatArray | None] = (np.inf, None)
+    since = 0
+    for _ in range(iterations):
+        pred = model.predict(q, np.zeros((1, q.shape[0])), hz, 0.0)
+        if pred is None:
+            return best
+        e, G = pred.e[0], pred.G[0]
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(e))):
+            return best
+        size = float(np.linalg.norm(e))
+        if size < 0.99 * best[0]:
+            best, since = (size, q), 0
+        else:
+            since += 1
+            if since >= STALL:
+                return best
+        if size < tol:
+            return best
+        step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
+        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
+        if blocked.any():  # joints at a bound pushing out: solve with the others
+            Gf = np.where(blocked, 0.0, G)
+            step = -Gf.T @ np.linalg.solve(Gf @ Gf.T + 1e-6 * np.eye(G.shape[0]), e)
+        size = float(np.max(np.abs(step)))
+        if size > 0.3:
+            step *= 0.3 / size
+        q = np.clip(q + step, lo, hi)
+    return best

@@ -1,0 +1,241 @@
+"""The ``predictive`` law's global model of the six moment features (docs/predictive.md).
+
+The moment features of coplanar points (:class:`~redservo.features.MomentFeatures`, MC05
+§IV, Tahri & Chaumette 2005) are a function of the object's pose ``cMo``; the feature knows
+the object's points ``points_o`` (its model), the measurement gives ``s`` and the object
+plane ``(A, B, C)``. The law needs the target's pose in the base frame, ``bMo``, so that the
+model robot's kinematics predict the features along the horizon
+(``s_k = s(cMb(q̄_k) bMo)``, ``G_k = C L_s(s_k) J(q̄_k)``, MC05 eq. 5 for ``J1``), as the
+point model does with the points (Allibert, Courtial & Chaumette 2010's global model).
+
+``cMo`` is estimated from the measured features and object plane: Gauss-Newton on the pose
+(the residual ``(s(cMo) − s, w (plane(cMo) − plane))``, :data:`PLANE_WEIGHT`, the camera
+moving by the step twist in its own frame, ``cMo ← exp(v_c)⁻¹ cMo``), warm-started from the
+previous period's ``bMo`` (the target is still in the base frame), else from the plane and
+the centroid with 16 turns about the plane normal, the best kept. The desired pose ``cMo*``
+is found by **virtual visual servoing** from ``s*`` (``v_c = −L_s⁺ (s(cMo) − s*)``): any pose
+with the desired features is a goal of the task, so ``bMc* = bMo cMo*⁻¹`` (the joint goal).
+
+The image points of the object (projected ``points_o``) give the visibility constraint.
+Units: metres, radians, normalized image coordinates.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.errors import RedservoError
+from redservo.redundancy.predictive_model import Horizon, Prediction, _points_interaction
+from redservo.spatial import exp_twist, inverse, rotvec_to_matrix
+
+if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with the laws
+    from redservo.features import MomentFeatures
+    from redservo.robots.base import Robot
+
+__all__ = ["MomentModel", "estimate_pose", "moment_model"]
+
+TOL = 1e-9
+"""Residual ``‖s(cMo) − s‖`` below which the pose estimate is accepted."""
+
+
+class MomentModel(NamedTuple):
+    """The global model of a moment task: the model robot, a private copy of the feature
+    (its moment cache is the law's), the target pose ``bMo`` (4, 4), ``C`` (m, 6) or None,
+    ``s*`` (6,), and the desired pose ``cMo*`` (4, 4) or None."""
+
+    robot: Robot
+    feature: MomentFeatures
+    bMo: FloatArray
+    C: FloatArray | None
+    s_star: FloatArray
+    cMo_star: FloatArray | None
+
+    def predict(self, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float) -> Prediction | None:
+        """The predictions at ``U`` (Nc, n) from ``q0`` (None: a point at or behind the
+        camera along the horizon, or a degenerate image)."""
+        N, n = hz.N, q0.shape[0]
+        P = self.feature.points_o
+        m = 6 if self.C is None else self.C.shape[0]
+        e, G = np.empty((N, m)), np.empty((N, m, n))
+        s, S = np.empty((N, 2 * len(P))), np.empty((N, 2 * len(P), n))
+        for k in range(1, N + 1):
+            bMc, J = self.robot.kinematics(q0 + dt * (hz.M[k - 1] @ U), check_limits=False)
+            cMo = inverse(bMc) @ self.bMo
+            Pc = P @ cMo[:3, :3].T + cMo[:3, 3]
+            if not np.all(Pc[:, 2] > 1e-6) or not np.all(np.isfinite(J)):
+                return None
+            try:
+                meas = self.feature.measure(cMo)
+                L = self.feature.interaction(meas.s, meas.inv_depth)
+            except RedservoError:
+                return None
+            ek, Gk = self.feature.error(meas.s, self.s_star), L @ J
+            e[k - 1], G[k - 1] = (ek, Gk) if self.C is None else (self.C @ ek, self.C @ Gk)
+            iz = 1.0 / Pc[:, 2]
+            xy = Pc[:, :2] * iz[:, None]
+            s[k - 1], S[k - 1] = xy.reshape(-1), _points_interaction(xy, iz) @ J
+        return Prediction(e, G, s, S)
+
+    def image_points(self, q: FloatArray) -> FloatArray:
+        """(2p,) the object's points' normalized image coordinates at ``q``."""
+        cMo = inverse(self.robot.kinematics(q, check_limits=False)[0]) @ self.bMo
+        Pc = self.feature.points_o @ cMo[:3, :3].T + cMo[:3, 3]
+        return np.asarray((Pc[:, :2] / Pc[:, 2:3]).reshape(-1))
+
+    def camera_goal(self, bMc: FloatArray) -> FloatArray | None:
+        """``bMc* = bMo cMo*⁻¹`` (None when ``cMo*`` was not found)."""
+        return None if self.cMo_star is None else self.bMo @ inverse(self.cMo_star)
+
+
+def _vvs(
+    feature: Any, cMo: FloatArray, target: FloatArray, iterations: int
+) -> tuple[FloatArray, float]:
+    """Virtual visual servoing of ``cMo`` towards the features ``target`` (module
+    docstring): ``(cMo, residual)``, residual ``inf`` when the pose became degenerate."""
+    T = np.array(cMo, dtype=float)
+    r = np.inf
+    for _ in range(iterations):
+        try:
+            meas = feature.measure(T)
+            e = feature.error(meas.s, target)
+            r = float(np.linalg.norm(e))
+            if r < TOL or not np.isfinite(r):
+                return T, r
+            L = feature.interaction(meas.s, meas.inv_depth)
+        except RedservoError:
+            return T, np.inf
+        v = -np.linalg.lstsq(L, e, rcond=None)[0]
+        size = max(float(np.linalg.norm(v[:3])) / 0.1, float(np.linalg.norm(v[3:])) / 0.3, 1.0)
+        T = inverse(exp_twist(v / size)) @ T
+    return T, r
+
+
+def _candidates(feature: Any, s: FloatArray, plane: FloatArray) -> list[FloatArray]:
+    """Initial poses ``cMo`` from the measured plane ``(A, B, C)`` and centroid: the object
+    plane on the measured one, its centroid on the centroid ray, 8 turns about the normal,
+    each seen from both sides."""
+    P = feature.points_o
+    o = P.mean(axis=0)
+    n_o = np.linalg.svd(P - o)[2][2]
+    n_c = plane / np.linalg.norm(plane)
+    xg, yg = s[0] / s[2], s[1] / s[2]
+    Zg = 1.0 / float(plane @ [xg, yg, 1.0])
+    out = []
+    for sign in (1.0, -1.0):
+        R0 = _align(sign * n_o, n_c)
+        for k in range(8):
+            R = R0 @ rotvec_to_matrix(n_o * (k * np.pi / 4))
+            T = np.eye(4)
+            T[:3, :3] = R
+            T[:3, 3] = Zg * np.array([xg, yg, 1.0]) - R @ o
+            out.append(T)
+    return out
+
+
+def _align(a: FloatArray, b: FloatArray) -> FloatArray:
+    """The smallest rotation taking the unit vector ``a`` to ``b``."""
+    w = np.cross(a, b)
+    c = float(a @ b)
+    if np.linalg.norm(w) < 1e-12:
+        if c > 0:
+            return np.eye(3)
+        axis = np.cross(a, [1.0, 0.0, 0.0])
+        if np.linalg.norm(axis) < 1e-6:
+            axis = np.cross(a, [0.0, 1.0, 0.0])
+        return rotvec_to_matrix(np.pi * axis / np.linalg.norm(axis))
+    return rotvec_to_matrix(w / np.linalg.norm(w) * np.arctan2(np.linalg.norm(w), c))
+
+
+def _residual(feature: Any, T: FloatArray, s: FloatArray, plane: FloatArray) -> FloatArray:
+    """``(s(T) − s, w (plane(T) − plane))`` (9,), ``w`` = :data:`PLANE_WEIGHT`."""
+    meas = feature.measure(T)
+    return np.concatenate([feature.error(meas.s, s), PLANE_WEIGHT * (meas.inv_depth - plane)])
+
+
+def _fit(
+    feature: Any, T: FloatArray, s: FloatArray, plane: FloatArray, iterations: int
+) -> tuple[FloatArray, float]:
+    """Gauss-Newton on :func:`_residual` over the pose (forward differences of 1e-7 on the
+    camera twist): ``(cMo, ‖s(cMo) − s‖)``, ``inf`` when the pose became degenerate."""
+    T = np.array(T, dtype=float)
+    try:
+        for _ in range(iterations):
+            r = _residual(feature, T, s, plane)
+            if float(np.linalg.norm(r)) < TOL or not np.all(np.isfinite(r)):
+                break
+            J = np.empty((r.size, 6))
+            for j in range(6):
+                d = np.zeros(6)
+                d[j] = 1e-7
+                J[:, j] = (_residual(feature, inverse(exp_twist(d)) @ T, s, plane) - r) / 1e-7
+            v = -np.linalg.lstsq(J, r, rcond=None)[0]
+            size = max(float(np.linalg.norm(v[:3])) / 0.1, float(np.linalg.norm(v[3:])) / 0.3, 1.0)
+            T = inverse(exp_twist(v / size)) @ T
+        r6 = float(np.linalg.norm(feature.error(feature.measure(T).s, s)))
+    except RedservoError:
+        return T, np.inf
+    return T, r6 if np.isfinite(r6) else np.inf
+
+
+PLANE_WEIGHT = 0.1
+"""Weight of the measured object plane ``(A, B, C)`` (1/m) against the features in the pose
+estimate: the six features alone leave poses that differ by a few degrees of tilt with the
+same values (the rotation invariants react to the tilt at second order); the plane tells
+them apart, and a plane estimated from a depth policy only pulls along those directions."""
+
+
+def estimate_pose(
+    feature: Any, s: FloatArray, plane: FloatArray, guess: FloatArray | None
+) -> FloatArray | None:
+    """``cMo`` whose features are ``s`` and whose plane is nearest ``plane`` (module
+    docstring), or None."""
+    if not (np.all(np.isfinite(plane)) and np.linalg.norm(plane) > 0 and s[2] > 0):
+        return None
+    if guess is not None:
+        T, r = _fit(feature, guess, s, plane, 6)
+        if r < FIT_TOL:
+            return T
+    best, best_r = None, np.inf
+    for T0 in _candidates(feature, s, plane):
+        T, r = _fit(feature, T0, s, plane, 30)
+        if r < best_r:
+            best, best_r = T, r
+        if r < FIT_TOL:
+            break
+    return best if best_r < FIT_TOL else None
+
+
+FIT_TOL = 1e-7
+"""Feature residual ``‖s(cMo) − s‖`` below which a pose estimate is accepted."""
+
+
+def moment_model(
+    robot: Robot, feature: Any, task: Any, state: Any, prev: MomentModel | None, bMc: FloatArray
+) -> MomentModel | None:
+    """The :class:`MomentModel` of the current measurement, or None (no pose estimate).
+    ``prev``: the previous period's model (its ``bMo`` warm-starts the estimate and its
+    ``cMo*`` is reused while ``s*`` is the same)."""
+    from redservo.features import MomentFeatures
+
+    s = np.asarray(state.s, dtype=float)
+    plane = np.asarray(state.inv_depth[0], dtype=float).reshape(-1)
+    s_star = np.asarray(task.s_star, dtype=float)
+    own = prev.feature if prev is not None else MomentFeatures(
+        feature.points_o, desired_area=feature.desired_area,
+        desired_depth=feature.desired_depth, rotation_features=feature.rotation_features,
+    )  # fmt: skip
+    guess = None if prev is None else inverse(bMc) @ prev.bMo
+    cMo = estimate_pose(own, s, plane, guess)
+    if cMo is None:
+        return None
+    star = None
+    if prev is not None and np.array_equal(prev.s_star, s_star):
+        star = prev.cMo_star
+    if star is None:
+        T, r = _vvs(own, cMo, s_star, 60)
+        star = T if r < TOL else None
+    C = None if task.C is None else np.asarray(task.C, dtype=float)
+    return MomentModel(robot, own, bMc @ cMo, C, s_star, star)
