@@ -135,3 +135,19 @@ def test_moment_model_solves_a_start_the_local_model_did_not() -> None:
     assert summary.success and summary.outcome == "converged"
     assert summary.velocity_violations == 0 and summary.acceleration_violations == 0
     assert summary.shield_activations == 0
+
+
+def test_the_simulation_binds_its_camera_to_the_law() -> None:
+    """simulate() hands its camera to the law's image constraint (Law.bind_camera)."""
+    import dataclasses
+
+    from redservo import make_law
+    from redservo.simulation.loop import simulate
+    from redservo.simulation.options import SimulationOptions
+
+    exp = build(load_scenario("panda-4points"))
+    cam = dataclasses.replace(exp.camera, width=800, height=600, u0=400.0, v0=300.0)
+    law = make_law("predictive")
+    opt = SimulationOptions(max_iterations=2)
+    simulate(exp.robot, exp.scene, exp.task, law, exp.q0, options=opt, camera=cam)
+    assert law._camera is cam

@@ -199,7 +199,8 @@ def simulate(
         law: A control law (:func:`redservo.make_law`); reset at the start.
         q0: (n,) start configuration, within the limits.
         options: :class:`SimulationOptions` (defaults if None).
-        camera: Image size for the ``target_lost`` check (default :class:`Camera`).
+        camera: Image size for the ``target_lost`` check and a law's image constraint
+            (``Law.bind_camera``, the predictive law) (default :class:`Camera`).
         limits: Joint limits given to the law (default: the robot's, with ``options.rho``:
             position, velocity and acceleration limits).
         secondary: Optional ``f(state, q, t) -> (n,)`` extra joint command passed to the law.
@@ -221,6 +222,9 @@ def simulate(
         robot, task, law, opt, limits=lim, secondary=secondary, objectives=objectives
     )
     run = _Run(robot, scene, ctrl, opt, camera or Camera(), sensor or IdealSensor(), actuator)
+    bind = getattr(law, "bind_camera", None)  # the predictive law's image constraint
+    if bind is not None:
+        bind(run.camera)
     ctrl.reset()
     run.sensor.reset()
     if actuator is not None:
