@@ -11,7 +11,13 @@ from redservo.campaign.definition import load_campaign
 from redservo.campaign.sampling import draw_sample
 from redservo.experiment import build
 from redservo.ik import pose_error
-from redservo.redundancy.predictive_goal import camera_goal, goal_error, joint_goal, refresh_goal
+from redservo.redundancy.predictive_goal import (
+    GoalSearch,
+    better_goal,
+    camera_goal,
+    goal_error,
+    joint_goal,
+)
 from redservo.redundancy.predictive_model import horizon, point_model
 from redservo.redundancy.predictive_moments import estimate_pose, moment_model
 from redservo.scenario import load_scenario
@@ -107,18 +113,38 @@ def test_joint_goal_meets_the_task_within_the_bounds() -> None:
 
 
 def test_a_failed_search_keeps_the_previous_goal() -> None:
-    """No seed: the previous goal stays (it still meets the task); a worse old goal gives
-    way to a new exact one."""
+    """A search that found nothing keeps the previous goal (it still meets the task); a
+    worse old goal gives way to a new exact one."""
     exp, model, lo, hi = _panda_sample(0)
     gen = np.random.default_rng(0)
     seeds = [exp.q0] + [gen.uniform(lo, hi) for _ in range(20)]
     found = joint_goal(model, exp.q0, seeds, lo, hi)
     assert found is not None
     good = found[1]
-    assert refresh_goal(model, good, exp.q0, [], lo, hi) is good
+    assert better_goal(model, good, None) is good
     poor = np.clip(exp.q0, lo, hi)
-    new = refresh_goal(model, poor, exp.q0, seeds, lo, hi)
-    assert new is not None and goal_error(model, new) < 1e-5
+    assert goal_error(model, poor) > 1e-3
+    assert better_goal(model, poor, found) is good
+
+
+def test_a_search_spread_over_periods_finds_the_same_goal() -> None:
+    """With a deadline already past, the search runs one seed per call and ends, several
+    calls later, with the goal the uninterrupted search finds (a servo loop's time budget)."""
+    exp, model, lo, hi = _panda_sample(3)
+    span = exp.limits.q_max - exp.limits.q_min
+    whole, spread = GoalSearch(12), GoalSearch(12)
+    whole.start(model, exp.q0, lo, hi, span)
+    done, want = whole.advance(None)
+    assert done and want is not None
+    spread.start(model, exp.q0, lo, hi, span)
+    calls = 0
+    while True:
+        calls += 1
+        done, got = spread.advance(deadline=0.0)
+        if done:
+            break
+    assert calls > 1 and not spread.running
+    assert got is not None and np.array_equal(got[1], want[1])
 
 
 MC05_SAMPLE = 7

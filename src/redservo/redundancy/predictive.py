@@ -27,7 +27,7 @@ Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
 * **Relaxed bounds**: a joint (or image point) already inside its band may stay where it is
   but not go deeper: its bound is relaxed to the current value.
 * **Fallback**: if daqp reports an infeasible horizon (flag ``horizon-infeasible``), hits its
-  iteration limit or the solve exceeds ``time_budget`` (flag ``solver-iterations``), or gives
+  iteration limit or the step exceeds ``time_budget`` (flag ``solver-iterations``), or gives
   a non-finite result, the command is the ``qp`` law's (with the same margin), and
   ``solver-fallback`` is raised; the next solve starts from ``qdot_prev``. ``time_budget =
   None`` (default) disables the clock, so that simulations and campaigns do not depend on
@@ -63,7 +63,7 @@ from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.flags import FLAGS, Flag
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
-from redservo.redundancy.predictive_goal import refresh_goal
+from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
     PointModel,
@@ -182,6 +182,7 @@ class Predictive(Law):
         self._camera = Camera()
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
+        self._search = GoalSearch(GOAL_RANDOM_SEEDS)
         self._s_now: FloatArray | None = None
         self._calls = 0
         self._obs: Callable[[FloatArray], Model | None] | None = None
@@ -210,6 +211,7 @@ class Predictive(Law):
         self._U = None
         self._obs = None
         self._goal = None
+        self._search.reset()
         self._moments = None
         self._calls = 0
         self.last_start = self.last_plan = None
@@ -245,25 +247,17 @@ class Predictive(Law):
     # -- one step ------------------------------------------------------------------------------
 
     def compute(self, x: LawInputs) -> LawResult:
-        n = x.q.shape[0]
+        t0 = time.perf_counter()  # the time budget covers the model, the goal and the solve
         obs, self._obs = self._obs, None
         hz = self._hz
-        start = self._start(x, n)
-        self.last_start = start
-        model = None
-        if obs is not None:
-            model = obs(x.q)
+        start = self.last_start = self._start(x, x.q.shape[0])
+        model = None if obs is None else obs(x.q)
         if model is not None:
             self._s_now = model.image_points(x.q)
-            if self.goal_weight > 0 and self._calls % self.replan == 0:
-                try:
-                    with np.errstate(all="ignore"):
-                        self._goal = self._search_goal(model, x)
-                except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
-                    pass
+            if self.goal_weight > 0:
+                self._update_goal(model, x, t0)
         self._calls += 1
         self.last_model = model
-        t0 = time.perf_counter()
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
             with np.errstate(all="ignore"):
@@ -302,19 +296,28 @@ class Predictive(Law):
         lim = x.limits
         return np.maximum(self.margin * (lim.q_max - lim.q_min), lim.margin_abs)
 
-    def _search_goal(self, model: Model, x: LawInputs) -> FloatArray | None:
-        """The joint goal ``q*`` (docs/predictive.md, "Joint goal";
-        :mod:`redservo.redundancy.predictive_goal`) within the limits less the margin, from
-        ``q``, six starts around it (normal, 15 % of each joint's range) and
-        :data:`GOAL_RANDOM_SEEDS` uniform in the bounds (generator seeded with 0); the
-        previous goal is kept when it is still the better one."""
+    def _update_goal(self, model: Model, x: LawInputs, t0: float) -> None:
+        """Start the joint-goal search every ``replan`` periods (docs/predictive.md, "Joint
+        goal"; :class:`~redservo.redundancy.predictive_goal.GoalSearch`, within the limits less
+        the band) and advance it: to its end without ``time_budget``, else until half of it
+        has passed since the step began (``t0``), the search going on in the next periods;
+        the previous goal is kept when it is still the better one."""
         band = self._band(x)
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
-        gen = np.random.default_rng(0)
-        span = x.limits.q_max - x.limits.q_min
-        seeds = [x.q] + [x.q + gen.normal(0.0, 0.15, x.q.shape) * span for _ in range(6)]
-        seeds += [gen.uniform(lo, hi) for _ in range(GOAL_RANDOM_SEEDS)]
-        return refresh_goal(model, self._goal, x.q, seeds, lo, hi)
+        if self._calls % self.replan == 0:
+            self._search.start(model, x.q, lo, hi, x.limits.q_max - x.limits.q_min)
+        if not self._search.running:
+            return
+        budget = self.time_budget
+        deadline = None if budget is None else t0 + 0.5 * budget
+        try:
+            with np.errstate(all="ignore"):
+                done, found = self._search.advance(deadline)
+        except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
+            self._search.reset()
+            return
+        if done:
+            self._goal = better_goal(model, self._goal, found)
 
     def _qp(self, x: LawInputs, U: FloatArray, model: Model | None) -> QP | None:
         hz, lim = self._hz, x.limits

@@ -22,6 +22,10 @@ may be the goal (:func:`joint_goal`). Units: metres, radians, normalized image c
 
 from __future__ import annotations
 
+import time
+from collections.abc import Generator
+from typing import cast
+
 import numpy as np
 
 from redservo._validation import FloatArray
@@ -31,7 +35,16 @@ from redservo.redundancy.predictive_model import _points_interaction as points_i
 from redservo.redundancy.predictive_moments import MomentModel
 from redservo.spatial import exp_twist
 
-__all__ = ["STALL", "TOL", "camera_goal", "goal_error", "joint_goal", "refresh_goal"]
+__all__ = [
+    "STALL",
+    "TOL",
+    "GoalSearch",
+    "better_goal",
+    "camera_goal",
+    "goal_error",
+    "joint_goal",
+    "search_steps",
+]
 
 STALL = 15
 """Iterations without progress after which :func:`feature_ik` gives up a seed."""
@@ -58,24 +71,68 @@ def camera_goal(model: PointModel, bMc: FloatArray, iterations: int = 50) -> Flo
     return None
 
 
-def refresh_goal(
+def better_goal(
     model: PointModel | MomentModel,
     old: FloatArray | None,
-    q: FloatArray,
-    seeds: list[FloatArray],
-    lo: FloatArray,
-    hi: FloatArray,
+    new: tuple[float, FloatArray] | None,
 ) -> FloatArray | None:
-    """The better of the previous goal ``old`` (its error under the current model) and a new
-    search from ``seeds`` (:func:`joint_goal`): a failed search keeps a goal that still
+    """The better of the previous goal ``old`` (its error under the current model) and the
+    result ``new`` of a search (:func:`joint_goal`): a failed search keeps a goal that still
     holds, a best-effort goal gives way to an exact one."""
-    new = joint_goal(model, q, seeds, lo, hi)
     if old is None:
         return None if new is None else new[1]
     r_old = goal_error(model, old)
     if new is None or r_old <= new[0]:
         return old if r_old < np.inf else None
     return new[1]
+
+
+class GoalSearch:
+    """A joint-goal search that can be spread over several periods (a servo loop's time
+    budget): :meth:`start` draws the seeds, :meth:`advance` runs seeds until a deadline and
+    returns the goal once the search is over (:func:`search_steps`)."""
+
+    def __init__(self, random_seeds: int) -> None:
+        self.random_seeds = random_seeds
+        self._steps: Generator[None, None, tuple[float, FloatArray] | None] | None = None
+
+    @property
+    def running(self) -> bool:
+        """A search is under way."""
+        return self._steps is not None
+
+    def reset(self) -> None:
+        """Drop a search under way."""
+        self._steps = None
+
+    def start(
+        self,
+        model: PointModel | MomentModel,
+        q: FloatArray,
+        lo: FloatArray,
+        hi: FloatArray,
+        span: FloatArray,
+    ) -> None:
+        """Seeds: ``q``, six around it (normal, 15 % of each joint's range ``span``) and
+        :attr:`random_seeds` uniform within ``[lo, hi]``, a generator seeded with 0."""
+        gen = np.random.default_rng(0)
+        seeds = [q] + [q + gen.normal(0.0, 0.15, q.shape) * span for _ in range(6)]
+        seeds += [gen.uniform(lo, hi) for _ in range(self.random_seeds)]
+        self._steps = search_steps(model, q, seeds, lo, hi)
+
+    def advance(self, deadline: float | None) -> tuple[bool, tuple[float, FloatArray] | None]:
+        """``(done, result)``: run the search until it ends or ``time.perf_counter()`` passes
+        ``deadline`` (None: to the end)."""
+        if self._steps is None:
+            return True, None
+        try:
+            while True:
+                next(self._steps)
+                if deadline is not None and time.perf_counter() > deadline:
+                    return False, None
+        except StopIteration as stop:
+            self._steps = None
+            return True, stop.value
 
 
 def goal_error(model: PointModel | MomentModel, q: FloatArray) -> float:
@@ -92,9 +149,27 @@ def joint_goal(
     hi: FloatArray,
 ) -> tuple[float, FloatArray] | None:
     """``(‖e(q*)‖, q*)`` with ``q*`` within ``[lo, hi]`` (module docstring), or None when no
-    seed reaches it.
+    seed reaches it: :func:`search_steps` run to its end."""
+    steps = search_steps(model, q, seeds, lo, hi)
+    try:
+        while True:
+            next(steps)
+    except StopIteration as stop:
+        return cast("tuple[float, FloatArray] | None", stop.value)
 
-    Then the feature-space search from every seed (the task may be met at other poses than
+
+def search_steps(
+    model: PointModel | MomentModel,
+    q: FloatArray,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+) -> Generator[None, None, tuple[float, FloatArray] | None]:
+    """The search of :func:`joint_goal`, yielding after each seed (so that it can be spread
+    over periods); its return value is the result.
+
+    The pose IK of the desired camera pose from each seed (module docstring), the nearest
+    of the first :data:`CANDIDATES` exact goals; then the feature-space search from every seed (the task may be met at other poses than
     ``bMc*``, e.g. the moment features); when no seed reaches a zero error, the best
     configuration met is the goal if its error is below a tenth of the error at ``q`` (the
     goal lies just beyond the band: the law gets as close as the band allows).
@@ -113,6 +188,7 @@ def joint_goal(
                     if len(found) == CANDIDATES:
                         break
                 best = min(best, (r, qp), key=lambda b: b[0])
+            yield
     if found:  # the nearest, in fractions of each joint's range between the bounds
         near = min(found, key=lambda g: float(np.max(np.abs(g - q) / (hi - lo))))
         return goal_error(model, near), near
@@ -121,6 +197,7 @@ def joint_goal(
         if r < TOL and qp is not None:
             return r, qp
         best = min(best, (r, qp), key=lambda b: b[0])
+        yield
     if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
         return best[0], best[1]
     return None

@@ -199,8 +199,7 @@ def simulate(
         law: A control law (:func:`redservo.make_law`); reset at the start.
         q0: (n,) start configuration, within the limits.
         options: :class:`SimulationOptions` (defaults if None).
-        camera: Image size for the ``target_lost`` check and a law's image constraint
-            (``Law.bind_camera``, the predictive law) (default :class:`Camera`).
+        camera: The image for ``target_lost`` and a law's image bounds (default :class:`Camera`).
         limits: Joint limits given to the law (default: the robot's, with ``options.rho``:
             position, velocity and acceleration limits).
         secondary: Optional ``f(state, q, t) -> (n,)`` extra joint command passed to the law.
@@ -222,9 +221,6 @@ def simulate(
         robot, task, law, opt, limits=lim, secondary=secondary, objectives=objectives
     )
     run = _Run(robot, scene, ctrl, opt, camera or Camera(), sensor or IdealSensor(), actuator)
-    bind = getattr(law, "bind_camera", None)  # the predictive law's image constraint
-    if bind is not None:
-        bind(run.camera)
     ctrl.reset()
     run.sensor.reset()
     if actuator is not None:
@@ -275,6 +271,9 @@ class _Run:
     ) -> None:
         self.robot, self.scene, self.ctrl, self.opt = robot, scene, ctrl, opt
         self.camera, self.sensor, self.actuator = camera, sensor, actuator
+        bind = getattr(ctrl.law, "bind_camera", None)  # the predictive law's image bounds
+        if bind is not None:
+            bind(camera)
         self.rng = np.random.default_rng(opt.seed)
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
