@@ -154,7 +154,7 @@ class Predictive(Law):
         Option(
             "time_budget",
             None,
-            doc="wall-clock limit of one solve, or None (deterministic)",
+            doc="wall-clock limit of one step (model, goal search, solve), or None (deterministic)",
             unit="s",
             low=0.0,
             low_open=True,
