@@ -16,7 +16,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.spatial import inverse, matrix_to_rotvec
 
-__all__ = ["POS_TOL", "ROT_TOL", "pose_error", "solve_ik"]
+__all__ = ["POS_TOL", "ROT_TOL", "Stall", "pose_error", "solve_ik"]
 
 POS_TOL = 1e-4
 """Position tolerance of the inverse kinematics (m)."""
@@ -46,6 +46,21 @@ def _theta_u(R: FloatArray) -> FloatArray:
     return (0.5 * theta / math.sin(theta)) * v
 
 
+class Stall:
+    """Call with each iteration's error: True once it has not fallen below
+    :data:`STALL_GAIN` of its best for :data:`STALL_ITERATIONS` iterations."""
+
+    def __init__(self) -> None:
+        self.best, self.since = math.inf, 0
+
+    def __call__(self, size: float) -> bool:
+        if size < STALL_GAIN * self.best:
+            self.best, self.since = size, 0
+            return False
+        self.since += 1
+        return self.since >= STALL_ITERATIONS
+
+
 def _dls(J: FloatArray, err: FloatArray, damping: float) -> FloatArray:
     """Damped least-squares step ``Jᵀ(JJᵀ + δ²I)⁻¹ err`` (least squares if that is singular,
     e.g. ``J`` overflowed near a singular pose: then NaN, and the seed is given up)."""
@@ -71,19 +86,14 @@ def solve_ik(
     returns ``q`` within ``[lo, hi]`` reaching ``target`` within :data:`POS_TOL` and
     :data:`ROT_TOL`, or None (also when the error stalls: :data:`STALL_ITERATIONS`)."""
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
-    best, since = math.inf, 0
+    stalled = Stall()
     for _ in range(iterations):
         bMc, J = robot.kinematics(q, check_limits=False)
         err = pose_error(bMc, target)
         if np.linalg.norm(err[:3]) < POS_TOL and np.linalg.norm(err[3:]) < ROT_TOL:
             return q
-        size = float(np.linalg.norm(err))
-        if size < STALL_GAIN * best:
-            best, since = size, 0
-        else:
-            since += 1
-            if since >= STALL_ITERATIONS:  # stuck against the bounds or in a local minimum
-                return None
+        if stalled(float(np.linalg.norm(err))):  # stuck against the bounds or a local minimum
+            return None
         step = _dls(J, err, damping)
         blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
         if blocked.any():  # joints at a bound pushing out: solve with the others

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.ik import STALL_GAIN, STALL_ITERATIONS, _dls, solve_ik
+from redservo.ik import Stall, _dls, solve_ik
 from redservo.spatial import inverse
 
 __all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "reachable_column", "solve_ik"]
@@ -81,7 +81,7 @@ def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, to
     from redservo.errors import GeometryError
 
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
-    best, since = np.inf, 0
+    stalled = Stall()
     for _ in range(150):
         bMc, J = exp.robot.kinematics(q, check_limits=False)
         try:
@@ -91,12 +91,8 @@ def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, to
         size = float(np.linalg.norm(st.e1))
         if size < tol:
             return True
-        if size < STALL_GAIN * best:
-            best, since = size, 0
-        else:
-            since += 1
-            if since >= STALL_ITERATIONS:  # stuck against the bounds or in a local minimum
-                return False
+        if stalled(size):  # stuck against the bounds or in a local minimum
+            return False
         if not np.all(np.isfinite(st.J1)):
             return False
         step = -_dls(st.J1, st.e1, 1e-3)

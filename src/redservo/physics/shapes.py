@@ -43,8 +43,8 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import GeometryError
 from redservo.features import CylinderFeature, SphereFeature
-from redservo.vision.ellipse import EllipseMeasurement, ellipse_moments
-from redservo.vision.lines import _edge_offsets, orient_like
+from redservo.vision.ellipse import EllipseMeasurement, pixel_ellipse
+from redservo.vision.lines import _edge_offsets, orient_like, profiles
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.render import Renderer
 from redservo.vision.terms import TermState, measure_lines
@@ -89,18 +89,11 @@ def _edge_points(
     blur_px: float,
 ) -> tuple[FloatArray, float]:
     """Sub-pixel edge points (K, 2) (pixels, distorted image) along rays, and the sign used."""
-    cv2 = require_cv2()
+    require_cv2()  # a clear error when OpenCV is missing
     ang = np.linspace(0.0, 2.0 * np.pi, n_rays, endpoint=False)
     d = np.stack([np.cos(ang), np.sin(ang)], axis=1)
     s = np.arange(0.25 * radius, 1.5 * radius + 8.0, _STEP)
-    pos = centre[None, None, :] + s[None, :, None] * d[:, None, :] - 0.5  # centres on integers
-    prof = cv2.remap(
-        image.astype(np.float32),
-        pos[..., 0].astype(np.float32),
-        pos[..., 1].astype(np.float32),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    ).astype(float)
+    prof = profiles(image, np.broadcast_to(centre, d.shape), d, s)
     off, used = _edge_offsets(prof, s, sign, blur_px)
     step = _contrast(prof, s, off)
     h, w = image.shape
@@ -184,18 +177,8 @@ def measure_sphere_edges(
             optics.to_pixel(np.array([(cu - cam.u0) / cam.px, (cv - cam.v0) / cam.py]))
         )
         radius = 0.5 * float(np.sqrt(d1 * d2))
-    A, B = 0.5 * d1, 0.5 * d2
-    n20, n11, n02 = ellipse_moments(A, B, np.deg2rad(ang))
-    xc, yc = (cu - cam.u0) / cam.px, (cv - cam.v0) / cam.py
-    return EllipseMeasurement(
-        float(xc),
-        float(yc),
-        float(np.pi * A * B / (cam.px * cam.py)),
-        n20 / cam.px**2,
-        n11 / (cam.px * cam.py),
-        n02 / cam.py**2,
-        (float(centre[0]), float(centre[1])),
-    ), ""
+    meas = pixel_ellipse(cam, (cu, cv), 0.5 * d1, 0.5 * d2, ang, (centre[0], centre[1]))
+    return meas, ""
 
 
 def sphere_value(meas: EllipseMeasurement, feature: SphereFeature) -> FloatArray:

@@ -33,7 +33,7 @@ visible part): the result is None with the reason.
 
 from __future__ import annotations
 
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,7 +42,13 @@ from redservo.errors import ConfigurationError
 from redservo.vision.dots import Polarity, binarize
 from redservo.vision.optics import Optics, require_cv2
 
-__all__ = ["EllipseMeasurement", "EllipseMethod", "detect_ellipse", "ellipse_moments"]
+__all__ = [
+    "EllipseMeasurement",
+    "EllipseMethod",
+    "detect_ellipse",
+    "ellipse_moments",
+    "pixel_ellipse",
+]
 
 EllipseMethod = Literal["moments", "contour"]
 
@@ -155,18 +161,31 @@ def _contour_method(cnt: NDArray[np.int32], optics: Optics) -> EllipseMeasuremen
     xy = optics.to_normalized(cnt.reshape(-1, 2).astype(float) + 0.5)
     und = (xy * [cam.px, cam.py] + [cam.u0, cam.v0]).astype(np.float32)  # undistorted pixels
     (cu, cv), (d1, d2), angle = cv2.fitEllipse(und)
-    A, B = 0.5 * d1 + 0.5, 0.5 * d2 + 0.5
-    n20, n11, n02 = ellipse_moments(A, B, np.deg2rad(angle))
-    xc, yc = (cu - cam.u0) / cam.px, (cv - cam.v0) / cam.py
-    uv = optics.to_pixel(np.array([xc, yc]))
+    uv = optics.to_pixel(np.array([(cu - cam.u0) / cam.px, (cv - cam.v0) / cam.py]))
+    return pixel_ellipse(cam, (cu, cv), 0.5 * d1 + 0.5, 0.5 * d2 + 0.5, angle, (uv[0], uv[1]))
+
+
+def pixel_ellipse(
+    cam: Any,
+    centre: tuple[float, float],
+    A: float,
+    B: float,
+    angle_deg: float,
+    centre_uv: tuple[float, float],
+) -> EllipseMeasurement:
+    """The :class:`EllipseMeasurement` of an ellipse fitted in undistorted pixels: centre
+    ``(cu, cv)`` (px), semi-axes ``A``, ``B`` (px), ``angle_deg`` (OpenCV's ``fitEllipse``
+    convention); ``centre_uv``: the centre in the (distorted) image, for the record."""
+    cu, cv = centre
+    n20, n11, n02 = ellipse_moments(A, B, np.deg2rad(angle_deg))
     return EllipseMeasurement(
-        float(xc),
-        float(yc),
+        float((cu - cam.u0) / cam.px),
+        float((cv - cam.v0) / cam.py),
         float(np.pi * A * B / (cam.px * cam.py)),
         n20 / cam.px**2,
         n11 / (cam.px * cam.py),
         n02 / cam.py**2,
-        (float(uv[0]), float(uv[1])),
+        (float(centre_uv[0]), float(centre_uv[1])),
     )
 
 

@@ -37,7 +37,7 @@ from redservo.errors import ConfigurationError
 from redservo.features.base import wrap_angle
 from redservo.vision.optics import Optics, require_cv2
 
-__all__ = ["LineMeasurement", "LineMode", "find_lines", "orient_like", "refine_line"]
+__all__ = ["LineMeasurement", "LineMode", "find_lines", "orient_like", "profiles", "refine_line"]
 
 LineMode = Literal["edge", "ridge"]
 _STEP = 0.5
@@ -98,6 +98,23 @@ def _samples(
     ok = (uv[:, 0] >= margin) & (uv[:, 0] <= w - margin) & (uv[:, 1] >= margin)
     ok &= uv[:, 1] <= h - margin
     return uv[ok], nu[ok]
+
+
+def profiles(image: NDArray[np.uint8], uv: FloatArray, d: FloatArray, s: FloatArray) -> FloatArray:
+    """Gray levels (K, S) sampled (bilinear) at ``uv + s d`` (pixels; ``uv``, ``d`` (K, 2),
+    ``s`` (S,)): the profiles across K edges, sampled every :data:`_STEP` px."""
+    cv2 = require_cv2()
+    pos = uv[:, None, :] + s[None, :, None] * d[:, None, :] - 0.5  # OpenCV: centres on integers
+    return np.asarray(
+        cv2.remap(
+            image.astype(np.float32),
+            pos[..., 0].astype(np.float32),
+            pos[..., 1].astype(np.float32),
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        ),
+        dtype=float,
+    )
 
 
 def _edge_offsets(
@@ -192,21 +209,14 @@ def refine_line(
 
     The measured line is oriented like the prediction (:func:`orient_like`).
     """
-    cv2 = require_cv2()
+    require_cv2()  # a clear error when OpenCV is missing
     if mode not in ("edge", "ridge"):
         raise ConfigurationError(f"line mode must be 'edge' or 'ridge', got {mode!r}")
     uv, nu = _samples(optics, rho, theta, step_px, search_px + 2.0)
     if uv.shape[0] < min_points:
         return None, f"the line has fewer than {min_points} samples inside the image"
     s = np.arange(-search_px, search_px + 1e-9, _STEP)
-    pos = uv[:, None, :] + s[None, :, None] * nu[:, None, :] - 0.5  # OpenCV: centres on integers
-    prof = cv2.remap(
-        image.astype(np.float32),
-        pos[..., 0].astype(np.float32),
-        pos[..., 1].astype(np.float32),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    ).astype(float)
+    prof = profiles(image, uv, nu, s)
     if mode == "edge":
         off, used = _edge_offsets(prof, s, sign, blur_px)
     else:
