@@ -35,8 +35,9 @@ Decisions (the paper is silent or differs; docs/decisions.md, "predictive"):
 * **Safety**: the first block also lies in the shield's box (its braking bound) and the
   command goes through the same safety stage as every law: a no-op in the usual case.
 
-State kept between calls (``stateful``): the last solution ``U`` (the warm start) and the
-task observation of the current step; :meth:`reset` clears both.
+State kept between calls (``stateful``): the last solution ``U`` (the warm start), the joint
+goal and its search, the moment model's target pose and the task observation of the current
+step; :meth:`reset` clears them.
 """
 
 from __future__ import annotations

@@ -122,7 +122,8 @@ class GoalSearch:
 
     def advance(self, deadline: float | None) -> tuple[bool, tuple[float, FloatArray] | None]:
         """``(done, result)``: run the search until it ends or ``time.perf_counter()`` passes
-        ``deadline`` (None: to the end)."""
+        ``deadline`` (None: to the end); one seed at least per call (a seed's inverse
+        kinematics takes up to a few milliseconds)."""
         if self._steps is None:
             return True, None
         try:
