@@ -29,11 +29,9 @@ from typing import cast
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.ik import solve_ik
 from redservo.redundancy.predictive_model import PointModel, horizon
 from redservo.redundancy.predictive_model import _points_interaction as points_interaction
 from redservo.redundancy.predictive_moments import MomentModel
-from redservo.spatial import exp_twist
 
 __all__ = [
     "STALL",
@@ -54,6 +52,8 @@ def camera_goal(model: PointModel, bMc: FloatArray, iterations: int = 50) -> Flo
     """``bMc*`` (4, 4): the camera pose at which the model's points project at ``s*``
     (virtual visual servoing from ``bMc``), or None (a point at or behind the camera,
     or no convergence)."""
+    from redservo.spatial import exp_twist  # scipy: not loaded by ``import redservo``
+
     T = np.array(bMc, dtype=float)
     for _ in range(iterations):
         Pc = (model.P_b - T[:3, 3]) @ T[:3, :3]
@@ -175,6 +175,8 @@ def search_steps(
     configuration met is the goal if its error is below a tenth of the error at ``q`` (the
     goal lies just beyond the band: the law gets as close as the band allows).
     """
+    from redservo.ik import solve_ik  # scipy: not loaded by ``import redservo``
+
     bMc = model.robot.kinematics(q, check_limits=False)[0]
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
     best: tuple[float, FloatArray | None] = (np.inf, None)

@@ -29,13 +29,23 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import RedservoError
 from redservo.redundancy.predictive_model import Horizon, Prediction, _points_interaction
-from redservo.spatial import exp_twist, inverse, rotvec_to_matrix
 
 if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with the laws
     from redservo.features import MomentFeatures
     from redservo.robots.base import Robot
 
 __all__ = ["MomentModel", "estimate_pose", "moment_model"]
+
+
+def _inverse(T: FloatArray) -> FloatArray:
+    """The inverse of a homogeneous transform (4, 4) (``redservo.spatial``, which loads scipy,
+    is imported only where a pose is estimated, so that ``import redservo`` stays light)."""
+    Rt = T.T[:3, :3]  # computed as redservo.spatial.inverse does, to the last bit
+    out = np.eye(4)
+    out[:3, :3] = Rt
+    out[:3, 3] = -(Rt @ T[:3, 3])
+    return out
+
 
 TOL = 1e-9
 """Residual ``‖s(cMo) − s‖`` below which the pose estimate is accepted."""
@@ -63,7 +73,7 @@ class MomentModel(NamedTuple):
         s, S = np.empty((N, 2 * len(P))), np.empty((N, 2 * len(P), n))
         for k in range(1, N + 1):
             bMc, J = self.robot.kinematics(q0 + dt * (hz.M[k - 1] @ U), check_limits=False)
-            cMo = inverse(bMc) @ self.bMo
+            cMo = _inverse(bMc) @ self.bMo
             Pc = P @ cMo[:3, :3].T + cMo[:3, 3]
             if not np.all(Pc[:, 2] > 1e-6) or not np.all(np.isfinite(J)):
                 return None
@@ -81,13 +91,13 @@ class MomentModel(NamedTuple):
 
     def image_points(self, q: FloatArray) -> FloatArray:
         """(2p,) the object's points' normalized image coordinates at ``q``."""
-        cMo = inverse(self.robot.kinematics(q, check_limits=False)[0]) @ self.bMo
+        cMo = _inverse(self.robot.kinematics(q, check_limits=False)[0]) @ self.bMo
         Pc = self.feature.points_o @ cMo[:3, :3].T + cMo[:3, 3]
         return np.asarray((Pc[:, :2] / Pc[:, 2:3]).reshape(-1))
 
     def camera_goal(self, bMc: FloatArray) -> FloatArray | None:
         """``bMc* = bMo cMo*⁻¹`` (None when ``cMo*`` was not found)."""
-        return None if self.cMo_star is None else self.bMo @ inverse(self.cMo_star)
+        return None if self.cMo_star is None else self.bMo @ _inverse(self.cMo_star)
 
 
 def _vvs(
@@ -95,6 +105,8 @@ def _vvs(
 ) -> tuple[FloatArray, float]:
     """Virtual visual servoing of ``cMo`` towards the features ``target`` (module
     docstring): ``(cMo, residual)``, residual ``inf`` when the pose became degenerate."""
+    from redservo.spatial import exp_twist
+
     T = np.array(cMo, dtype=float)
     r = np.inf
     for _ in range(iterations):
@@ -109,7 +121,7 @@ def _vvs(
             return T, np.inf
         v = -np.linalg.lstsq(L, e, rcond=None)[0]
         size = max(float(np.linalg.norm(v[:3])) / 0.1, float(np.linalg.norm(v[3:])) / 0.3, 1.0)
-        T = inverse(exp_twist(v / size)) @ T
+        T = _inverse(exp_twist(v / size)) @ T
     return T, r
 
 
@@ -117,6 +129,8 @@ def _candidates(feature: Any, s: FloatArray, plane: FloatArray) -> list[FloatArr
     """Initial poses ``cMo`` from the measured plane ``(A, B, C)`` and centroid: the object
     plane on the measured one, its centroid on the centroid ray, 8 turns about the normal,
     each seen from both sides."""
+    from redservo.spatial import rotvec_to_matrix
+
     P = feature.points_o
     o = P.mean(axis=0)
     n_o = np.linalg.svd(P - o)[2][2]
@@ -137,6 +151,8 @@ def _candidates(feature: Any, s: FloatArray, plane: FloatArray) -> list[FloatArr
 
 def _align(a: FloatArray, b: FloatArray) -> FloatArray:
     """The smallest rotation taking the unit vector ``a`` to ``b``."""
+    from redservo.spatial import rotvec_to_matrix
+
     w = np.cross(a, b)
     c = float(a @ b)
     if np.linalg.norm(w) < 1e-12:
@@ -160,6 +176,8 @@ def _fit(
 ) -> tuple[FloatArray, float]:
     """Gauss-Newton on :func:`_residual` over the pose (forward differences of 1e-7 on the
     camera twist): ``(cMo, ‖s(cMo) − s‖)``, ``inf`` when the pose became degenerate."""
+    from redservo.spatial import exp_twist
+
     T = np.array(T, dtype=float)
     try:
         for _ in range(iterations):
@@ -170,10 +188,10 @@ def _fit(
             for j in range(6):
                 d = np.zeros(6)
                 d[j] = 1e-7
-                J[:, j] = (_residual(feature, inverse(exp_twist(d)) @ T, s, plane) - r) / 1e-7
+                J[:, j] = (_residual(feature, _inverse(exp_twist(d)) @ T, s, plane) - r) / 1e-7
             v = -np.linalg.lstsq(J, r, rcond=None)[0]
             size = max(float(np.linalg.norm(v[:3])) / 0.1, float(np.linalg.norm(v[3:])) / 0.3, 1.0)
-            T = inverse(exp_twist(v / size)) @ T
+            T = _inverse(exp_twist(v / size)) @ T
         r6 = float(np.linalg.norm(feature.error(feature.measure(T).s, s)))
     except RedservoError:
         return T, np.inf
@@ -227,7 +245,7 @@ def moment_model(
         feature.points_o, desired_area=feature.desired_area,
         desired_depth=feature.desired_depth, rotation_features=feature.rotation_features,
     )  # fmt: skip
-    guess = None if prev is None else inverse(bMc) @ prev.bMo
+    guess = None if prev is None else _inverse(bMc) @ prev.bMo
     cMo = estimate_pose(own, s, plane, guess)
     if cMo is None:
         return None
