@@ -16,7 +16,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.spatial import inverse, matrix_to_rotvec
 
-__all__ = ["POS_TOL", "ROT_TOL", "Stall", "pose_error", "solve_ik"]
+__all__ = ["POS_TOL", "ROT_TOL", "Stall", "pose_error", "projected_step", "solve_ik"]
 
 POS_TOL = 1e-4
 """Position tolerance of the inverse kinematics (m)."""
@@ -48,9 +48,11 @@ def _theta_u(R: FloatArray) -> FloatArray:
 
 class Stall:
     """Call with each iteration's error: True once it has not fallen below
-    :data:`STALL_GAIN` of its best for :data:`STALL_ITERATIONS` iterations."""
+    :data:`STALL_GAIN` of its best for ``iterations`` (:data:`STALL_ITERATIONS`) iterations;
+    ``since == 0`` right after a call that set a new best."""
 
-    def __init__(self) -> None:
+    def __init__(self, iterations: int = STALL_ITERATIONS) -> None:
+        self.iterations = iterations
         self.best, self.since = math.inf, 0
 
     def __call__(self, size: float) -> bool:
@@ -58,7 +60,7 @@ class Stall:
             self.best, self.since = size, 0
             return False
         self.since += 1
-        return self.since >= STALL_ITERATIONS
+        return self.since >= self.iterations
 
 
 def _dls(J: FloatArray, err: FloatArray, damping: float) -> FloatArray:
@@ -94,14 +96,34 @@ def solve_ik(
             return q
         if stalled(float(np.linalg.norm(err))):  # stuck against the bounds or a local minimum
             return None
-        step = _dls(J, err, damping)
-        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
-        if blocked.any():  # joints at a bound pushing out: solve with the others
-            step = _dls(np.where(blocked, 0.0, J), err, damping)
-        if not np.all(np.isfinite(step)):
+        nxt = projected_step(J, err, q, lo, hi, damping, 0.5)  # at most 0.5 rad (or m)
+        if nxt is None:
             return None
-        size = float(np.max(np.abs(step)))
-        if size > 0.5:  # at most 0.5 rad (or m) per joint and iteration
-            step *= 0.5 / size
-        q = np.clip(q + step, lo, hi)
+        q = nxt
     return None
+
+
+def projected_step(
+    J: FloatArray,
+    err: FloatArray,
+    q: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    damping: float,
+    cap: float,
+) -> FloatArray | None:
+    """One projected damped-least-squares step: ``clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err, lo, hi)``,
+    the joints at a bound that the step pushes out left out of ``J`` (active set), the step
+    scaled to at most ``cap`` per joint (rad or m); None when it is not finite (``J``
+    singular or overflowed). ``err`` is the change asked of the task (``−e`` to cancel an
+    error ``e``)."""
+    step = _dls(J, err, damping)
+    blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
+    if blocked.any():  # joints at a bound pushing out: solve with the others
+        step = _dls(np.where(blocked, 0.0, J), err, damping)
+    if not np.all(np.isfinite(step)):
+        return None
+    size = float(np.max(np.abs(step)))
+    if size > cap:
+        step *= cap / size
+    return np.asarray(np.clip(q + step, lo, hi))

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.ik import Stall, _dls, solve_ik
+from redservo.ik import Stall, projected_step, solve_ik
 from redservo.spatial import inverse
 
 __all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "reachable_column", "solve_ik"]
@@ -95,16 +95,10 @@ def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, to
             return False
         if not np.all(np.isfinite(st.J1)):
             return False
-        step = -_dls(st.J1, st.e1, 1e-3)
-        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
-        if blocked.any():
-            step = -_dls(np.where(blocked, 0.0, st.J1), st.e1, 1e-3)
-        if not np.all(np.isfinite(step)):
+        nxt = projected_step(st.J1, -st.e1, q, lo, hi, 1e-3, 0.3)
+        if nxt is None:
             return False
-        size = float(np.max(np.abs(step)))
-        if size > 0.3:
-            step *= 0.3 / size
-        q = np.clip(q + step, lo, hi)
+        q = nxt
     return False
 
 

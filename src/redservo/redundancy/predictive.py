@@ -184,7 +184,6 @@ class Predictive(Law):
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
-        self._s_now: FloatArray | None = None
         self._calls = 0
         self._obs: Callable[[FloatArray], Model | None] | None = None
         self._moments: MomentModel | None = None
@@ -253,10 +252,8 @@ class Predictive(Law):
         hz = self._hz
         start = self.last_start = self._start(x, x.q.shape[0])
         model = None if obs is None else obs(x.q)
-        if model is not None:
-            self._s_now = model.image_points(x.q)
-            if self.goal_weight > 0:
-                self._update_goal(model, x, t0)
+        if model is not None and self.goal_weight > 0:
+            self._update_goal(model, x, t0)
         self._calls += 1
         self.last_model = model
         U, why, value, iters = start, 0, 0.0, 0
@@ -331,9 +328,8 @@ class Predictive(Law):
             pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
         band = self._band(x)
         cam, mpx = self._camera, self.image_margin_px
-        s_lo = s_hi = s_now = None
-        if model is not None:
-            s_now = self._s_now
+        s_lo = s_hi = None
+        s_now = None if model is None else model.s_now
         if pred.s is not None:
             p = pred.s.shape[1] // 2
             s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)

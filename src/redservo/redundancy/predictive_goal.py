@@ -227,9 +227,11 @@ def _ik_from(
     None``: the prediction failed at the seed). A seed is given up when its error has not
     fallen below 0.99 of its best for :data:`STALL` iterations (stuck against the bounds or
     in a local minimum)."""
+    from redservo.ik import Stall, projected_step  # scipy: not loaded by ``import redservo``
+
     hz = horizon(1, 1)
     best: tuple[float, FloatArray | None] = (np.inf, None)
-    since = 0
+    stalled = Stall(STALL)
     for _ in range(iterations):
         pred = model.predict(q, np.zeros((1, q.shape[0])), hz, 0.0)
         if pred is None:
@@ -238,21 +240,14 @@ def _ik_from(
         if not (np.all(np.isfinite(G)) and np.all(np.isfinite(e))):
             return best
         size = float(np.linalg.norm(e))
-        if size < 0.99 * best[0]:
-            best, since = (size, q), 0
-        else:
-            since += 1
-            if since >= STALL:
-                return best
+        if stalled(size):  # stuck against the bounds or in a local minimum
+            return best
+        if stalled.since == 0:
+            best = (size, q)
         if size < tol:
             return best
-        step = -G.T @ np.linalg.solve(G @ G.T + 1e-6 * np.eye(G.shape[0]), e)
-        blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
-        if blocked.any():  # joints at a bound pushing out: solve with the others
-            Gf = np.where(blocked, 0.0, G)
-            step = -Gf.T @ np.linalg.solve(Gf @ Gf.T + 1e-6 * np.eye(G.shape[0]), e)
-        size = float(np.max(np.abs(step)))
-        if size > 0.3:
-            step *= 0.3 / size
-        q = np.clip(q + step, lo, hi)
+        nxt = projected_step(G, -e, q, lo, hi, 1e-3, 0.3)
+        if nxt is None:
+            return best
+        q = nxt
     return best

@@ -67,16 +67,12 @@ class PointModel(NamedTuple):
     P_b: FloatArray
     C: FloatArray | None
     s_star: FloatArray
+    s_now: FloatArray | None = None
+    """(2p,) the points' normalized image coordinates where the model was built."""
 
     def predict(self, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float) -> Prediction | None:
         """:func:`point_prediction` of this model."""
         return point_prediction(self, q0, U, hz, dt)
-
-    def image_points(self, q: FloatArray) -> FloatArray:
-        """(2p,) the points' normalized image coordinates at ``q``."""
-        bMc = self.robot.kinematics(q, check_limits=False)[0]
-        Pc = (self.P_b - bMc[:3, 3]) @ bMc[:3, :3]
-        return np.asarray((Pc[:, :2] / Pc[:, 2:3]).reshape(-1))
 
 
 def point_model(robot: Robot, task: Any, state: Any, q: FloatArray) -> PointModel | None:
@@ -90,7 +86,9 @@ def point_model(robot: Robot, task: Any, state: Any, q: FloatArray) -> PointMode
     Pc = np.c_[xy / iz[:, None], 1.0 / iz]
     bMc = robot.kinematics(q, check_limits=False)[0]
     s_star = np.asarray(task.s_star, dtype=float)
-    return PointModel(robot, Pc @ bMc[:3, :3].T + bMc[:3, 3], task.C, s_star)
+    P_b = Pc @ bMc[:3, :3].T + bMc[:3, 3]
+    back = (P_b - bMc[:3, 3]) @ bMc[:3, :3]  # the model's own projection at q
+    return PointModel(robot, P_b, task.C, s_star, (back[:, :2] / back[:, 2:3]).reshape(-1))
 
 
 class Prediction(NamedTuple):

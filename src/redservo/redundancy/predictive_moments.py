@@ -62,6 +62,8 @@ class MomentModel(NamedTuple):
     C: FloatArray | None
     s_star: FloatArray
     cMo_star: FloatArray | None
+    s_now: FloatArray | None = None
+    """(2p,) the object's points' normalized image coordinates where the model was built."""
 
     def predict(self, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float) -> Prediction | None:
         """The predictions at ``U`` (Nc, n) from ``q0`` (None: a point at or behind the
@@ -88,12 +90,6 @@ class MomentModel(NamedTuple):
             xy = Pc[:, :2] * iz[:, None]
             s[k - 1], S[k - 1] = xy.reshape(-1), _points_interaction(xy, iz) @ J
         return Prediction(e, G, s, S)
-
-    def image_points(self, q: FloatArray) -> FloatArray:
-        """(2p,) the object's points' normalized image coordinates at ``q``."""
-        cMo = _inverse(self.robot.kinematics(q, check_limits=False)[0]) @ self.bMo
-        Pc = self.feature.points_o @ cMo[:3, :3].T + cMo[:3, 3]
-        return np.asarray((Pc[:, :2] / Pc[:, 2:3]).reshape(-1))
 
     def camera_goal(self, bMc: FloatArray) -> FloatArray | None:
         """``bMc* = bMo cMo*⁻¹`` (None when ``cMo*`` was not found)."""
@@ -256,4 +252,8 @@ def moment_model(
         T, r = _vvs(own, cMo, s_star, 60)
         star = T if r < TOL else None
     C = None if task.C is None else np.asarray(task.C, dtype=float)
-    return MomentModel(robot, own, bMc @ cMo, C, s_star, star)
+    bMo = bMc @ cMo
+    back = _inverse(bMc) @ bMo  # the model's own projection at q
+    Pc = own.points_o @ back[:3, :3].T + back[:3, 3]
+    s_now = (Pc[:, :2] / Pc[:, 2:3]).reshape(-1)
+    return MomentModel(robot, own, bMo, C, s_star, star, s_now)
