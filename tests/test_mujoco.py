@@ -230,3 +230,20 @@ def test_a_rendered_scenario_without_an_offscreen_backend_is_one_clear_error(
     monkeypatch.setattr(mj, "_RENDER_OK", ["MuJoCo cannot render offscreen (test)"])
     with pytest.raises(ScenarioError, match=r"simulator\.camera.*libegl1.*camera = 'ideal'"):
         build(load_scenario("panda-mujoco-4points"))
+
+
+@pytest.mark.parametrize(
+    ("timestep", "dt", "message"),
+    [
+        (1e-12, 0.04, r"simulator\.timestep.*>= 1e-05"),  # was accepted: 4e10 steps a period
+        (2e-5, 1.0, r"simulator\.timestep.*at most 10000 physics steps per control period"),
+    ],
+)
+def test_a_tiny_physics_step_is_one_scenario_error(timestep: float, dt: float, message: str) -> None:
+    data = copy.deepcopy(load_scenario("panda-mujoco-4points").data)
+    data["simulator"].update(camera="ideal", timestep=timestep)
+    data["control"]["dt"] = dt
+    with pytest.raises(ScenarioError, match=message):
+        build(parse_scenario(data, "tiny.toml"))
+    with pytest.raises(ConfigurationError, match=r"timestep must be in \[1e-05, 1\] s"):
+        MujocoArm(Panda(), timestep=1e-12)

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray, as_vector
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
+from redservo.schema.simulator import MIN_TIMESTEP
 from redservo.physics._mj import require_mujoco
 from redservo.physics.lens import LensWarp
 from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodies, xml_pose
@@ -119,7 +120,7 @@ class MujocoArm:
             ``eMo = wMo(0)``); None: an empty world.
         camera: Intrinsics and image size of the camera (default :class:`Camera`).
         q_ref: (n,) posture of the gain design (default: the middle of the limits).
-        timestep: Physics step (s), > 0 (default 1 ms).
+        timestep: Physics step (s), in [1e-5, 1] (default 1 ms).
         tracking_time: Time constant of the velocity servo (s), > 0.
         shadows: Let the light cast shadows.
         draw_arm: Draw the arm's bodies in the camera image (False: only the objects).
@@ -140,11 +141,14 @@ class MujocoArm:
         shadows: bool = True,
         draw_arm: bool = True,
     ) -> None:
-        for name, value in (("timestep", timestep), ("tracking_time", tracking_time)):
-            if not (math.isfinite(value) and 0.0 < value <= 1.0):
-                raise ConfigurationError(
-                    f"{name} must be in (0, 1] s, got {value!r}", argument=name
-                )
+        if not (math.isfinite(timestep) and MIN_TIMESTEP <= timestep <= 1.0):
+            raise ConfigurationError(
+                f"timestep must be in [{MIN_TIMESTEP:g}, 1] s, got {timestep!r}", argument="timestep"
+            )
+        if not (math.isfinite(tracking_time) and 0.0 < tracking_time <= 1.0):
+            raise ConfigurationError(
+                f"tracking_time must be in (0, 1] s, got {tracking_time!r}", argument="tracking_time"
+            )
         self.mj = require_mujoco()
         self.robot = robot
         self.scene = scene

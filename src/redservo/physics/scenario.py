@@ -16,6 +16,7 @@ import dataclasses
 from typing import TYPE_CHECKING
 
 from redservo.errors import RedservoError
+from redservo.schema.simulator import MAX_PHYSICS_STEPS
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.camera import Camera
@@ -67,6 +68,13 @@ def attach_mujoco(exp: Experiment) -> None:
     except RedservoError as exc:
         raise sc.error("simulator", str(exc)) from None
     ratio = exp.options.dt / sim.timestep
+    if ratio > MAX_PHYSICS_STEPS + 1e-6:
+        raise sc.error(
+            "simulator.timestep",
+            f"must be at least dt / {MAX_PHYSICS_STEPS} = {exp.options.dt / MAX_PHYSICS_STEPS:g} s "
+            f"(at most {MAX_PHYSICS_STEPS} physics steps per control period dt = "
+            f"{exp.options.dt} s), got {sim.timestep} s: {ratio:.3g} steps per period",
+        )
     if abs(ratio - round(ratio)) > 1e-6:
         raise sc.error(
             "simulator.timestep",

@@ -8,7 +8,14 @@ from pydantic import Field
 
 from redservo.schema.base import Table, choice, num
 
-__all__ = ["SimulatorSpec"]
+__all__ = ["MAX_PHYSICS_STEPS", "MIN_TIMESTEP", "SimulatorSpec"]
+
+MIN_TIMESTEP = 1e-5
+"""Smallest MuJoCo ``timestep`` (s): 10 µs, a hundredth of the 1 ms default (``timestep =
+1e-12`` asked for 4·10¹⁰ physics steps per control period, a run that never ends)."""
+MAX_PHYSICS_STEPS = 10_000
+"""Most MuJoCo physics steps per control period (``dt / timestep``): 10 s of control period
+at the 1 ms default."""
 
 
 class SimulatorSpec(Table):
@@ -24,7 +31,13 @@ class SimulatorSpec(Table):
     camera: Literal["ideal", "rendered"] = choice(
         "ideal", what="simulator camera", description="mujoco: ideal | rendered"
     )
-    timestep: float = num(0.001, gt=0.0, le=0.1, description="mujoco: physics step (s)")
+    timestep: float = num(
+        0.001,
+        ge=MIN_TIMESTEP,
+        le=0.1,
+        description="mujoco: physics step (s); at least 1e-5 (10 µs), and at most "
+        f"{MAX_PHYSICS_STEPS} physics steps per control period dt",
+    )
     tracking_time: float = num(
         0.02, gt=0.0, le=1.0, description="mujoco: time constant of the joint velocity servo (s)"
     )
