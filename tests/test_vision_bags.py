@@ -88,7 +88,9 @@ def _messages(ts, images: list[np.ndarray], encoding: str, ros1: bool):
     return out, info, js
 
 
-def _write(path: Path, images: list[np.ndarray], *, ros1: bool, encoding: str) -> Path:
+def _write(
+    path: Path, images: list[np.ndarray], *, ros1: bool, encoding: str, storage: str | None = None
+) -> Path:
     if ros1:
         from rosbags.rosbag1 import Writer as W1
 
@@ -98,7 +100,10 @@ def _write(path: Path, images: list[np.ndarray], *, ros1: bool, encoding: str) -
         from rosbags.rosbag2 import Writer as W2
 
         ts = get_typestore(Stores.ROS2_HUMBLE)
-        writer, ser = W2(path, version=9), ts.serialize_cdr
+        from rosbags.rosbag2 import StoragePlugin
+
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        writer, ser = W2(path, version=9, storage_plugin=plugin), ts.serialize_cdr
     imgs, info, js = _messages(ts, images, encoding, ros1)
     with writer as w:
         ci = w.add_connection("/camera/camera_info", "sensor_msgs/msg/CameraInfo", typestore=ts)
@@ -181,3 +186,127 @@ def test_tag_feature_source_feeds_the_servo_loop(tmp_path: Path) -> None:
             m.inv_depth[0], [1.0 / (P @ [-0.05, -0.05, 0.0, 1.0])[2]], rtol=0.02
         )
     assert src.measure(1.0) is None and "no more frames" in src.reason
+
+
+# -- damaged bags and bad image messages: one clear error naming the bag (issue 32) ------------
+
+
+def _damage(bag: Path, how: str) -> Path:
+    """``bag`` (a ROS 1 file or a ROS 2 folder) truncated, bit-flipped or with bad metadata."""
+    target = bag if bag.is_file() else next(p for p in bag.iterdir() if p.suffix != ".yaml")
+    data = bytearray(target.read_bytes())
+    if how == "truncated":
+        data = data[: len(data) // 2]
+    elif how == "flipped":
+        i = len(data) // 2
+        data[i : i + 8] = b"\xff" * 8
+    elif how == "metadata":
+        (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: [1, 2")
+    target.write_bytes(bytes(data))
+    return bag
+
+
+@pytest.mark.parametrize(
+    ("ros1", "storage", "how"),
+    [
+        (True, None, "truncated"),
+        (False, "sqlite3", "truncated"),
+        (False, "sqlite3", "flipped"),
+        (False, "sqlite3", "metadata"),
+        (False, "mcap", "truncated"),
+    ],
+)
+def test_a_damaged_bag_is_one_clear_error(
+    tmp_path: Path, ros1: bool, storage: str | None, how: str, capsys
+) -> None:
+    from redservo.errors import ConfigurationError
+
+    images = [np.full((24, 32), 100, np.uint8)] * 40  # a bag large enough to damage inside
+    name = "run.bag" if ros1 else "run"
+    bag = _damage(
+        _write(tmp_path / name, images, ros1=ros1, encoding="mono8", storage=storage), how
+    )
+    with pytest.raises(ConfigurationError, match="damaged or truncated") as info:
+        list(frames(str(bag)))
+    assert str(bag) in str(info.value)
+    for argv in ([str(bag)], [str(bag), "--tags", "36h11"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert str(bag) in err and "damaged or truncated" in err and "internal" not in err
+
+
+def _bad_image(ts: object, ros1: bool, how: str) -> tuple[str, object]:
+    T = ts.types  # type: ignore[attr-defined]
+    hdr = {"stamp": T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), "frame_id": "c"}
+    if ros1:
+        hdr["seq"] = 0
+    header = T["std_msgs/msg/Header"](**hdr)
+    if how == "compressed":
+        msg = T["sensor_msgs/msg/CompressedImage"](
+            header=header, format="png", data=np.frombuffer(b"not a png at all", np.uint8)
+        )
+        return "sensor_msgs/msg/CompressedImage", msg
+    h, w, step, n, enc = {
+        "short": (24, 32, 32, 100, "mono8"),
+        "step": (24, 32, 16, 24 * 32, "mono8"),
+        "empty": (0, 32, 32, 0, "mono8"),
+        "encoding": (24, 32, 32, 24 * 32, "yuv422"),
+    }[how]
+    msg = T["sensor_msgs/msg/Image"](
+        header=header,
+        height=h,
+        width=w,
+        encoding=enc,
+        is_bigendian=0,
+        step=step,
+        data=np.zeros(n, np.uint8),
+    )
+    return "sensor_msgs/msg/Image", msg
+
+
+@pytest.mark.parametrize("ros1", [True, False])
+@pytest.mark.parametrize(
+    ("how", "message"),
+    [
+        ("short", "100 bytes of data, fewer than height x step"),
+        ("step", "step 16 bytes is shorter than a row"),
+        ("empty", "an image of 32 x 0 pixels; both must be at least 1"),
+        ("encoding", "image encoding 'yuv422' is not supported"),
+        ("compressed", "cannot decode the compressed image"),
+    ],
+)
+def test_a_bad_image_message_names_the_bag_topic_and_index(
+    tmp_path: Path, ros1: bool, how: str, message: str, capsys
+) -> None:
+    if ros1:
+        from rosbags.rosbag1 import Writer as W1
+
+        ts = get_typestore(Stores.ROS1_NOETIC)
+        path, writer, ser = tmp_path / "bad.bag", W1(tmp_path / "bad.bag"), ts.serialize_ros1
+    else:
+        from rosbags.rosbag2 import Writer as W2
+
+        ts = get_typestore(Stores.ROS2_HUMBLE)
+        path, writer, ser = tmp_path / "bad", W2(tmp_path / "bad", version=9), ts.serialize_cdr
+    msgtype, msg = _bad_image(ts, ros1, how)
+    good = ts.types["sensor_msgs/msg/CompressedImage" if how == "compressed" else msgtype]
+    with writer as w:
+        c = w.add_connection("/cam", msgtype, typestore=ts)
+        if how != "compressed":
+            ok = good(
+                header=msg.header,
+                height=24,
+                width=32,
+                encoding="mono8",
+                is_bigendian=0,
+                step=32,
+                data=np.zeros(24 * 32, np.uint8),
+            )
+            w.write(c, 1, ser(ok, msgtype))
+        w.write(c, 2, ser(msg, msgtype))
+    index = 0 if how == "compressed" else 1
+    assert main([str(path)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert f"{path}: topic /cam, message {index}: {message}" in err, err
