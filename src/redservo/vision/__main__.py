@@ -12,6 +12,10 @@ GIF or MP4. Examples::
 
 With ``--tags`` it prints the tags of each frame instead (:mod:`redservo.vision.tagcli`).
 
+A video read only in part (fewer frames than its container announces, frames that could not be
+decoded: they keep their numbers, printed as ``frame k: damaged ...``) is said on stderr as one
+line ``python -m redservo.vision: warning: ...``.
+
 Exit codes, as for ``redservo``: 0 on success; 2 on bad input (a bad option, a missing or
 unreadable source, an image over the size cap, a file in an image folder that is not a
 regular file, an output that cannot be written), printed as one line
@@ -28,14 +32,16 @@ import os
 import sys
 import tempfile
 import traceback
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, RedservoError
+from redservo.vision.capture import VideoWarning
 from redservo.vision.tagcli import add_tag_arguments, run_tags
 
 __all__ = ["MAX_COUNT", "MAX_DOTS", "PROG", "main"]
@@ -167,21 +173,29 @@ def _check_writable(out: Path) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from redservo.vision.sources import frames, iter_dots
+    from redservo.vision.sources import FrameList, iter_dots, numbered_frames
     from redservo.vision.video import write_video
 
     if args.tags:
         if args.gif:
             raise _UsageError("--gif draws dots; it does not go with --tags")
         return run_tags(args)
+    for flag, value in (("--camera", args.camera), ("--tag-size", args.tag_size)):
+        if value is not None:
+            raise _UsageError(
+                f"{flag} goes with --tags; the dot tracker takes the intrinsics from "
+                "--px --py --u0 --v0 --k1"
+            )
     is_camera = args.source.isdigit()
     if args.gif and is_camera and args.frames is None:
         raise _UsageError("--gif with a camera needs --frames (the frames are kept in memory)")
     camera = Camera(args.px, args.py, args.u0, args.v0)
     if args.gif:
         _check_writable(args.gif)  # before reading every frame, not after
-    # With --gif the frames are kept (read once); otherwise they stream.
-    source = list(frames(args.source, max_frames=args.frames)) if args.gif else args.source
+    # With --gif the frames are kept (read once, with their numbers); otherwise they stream.
+    source: Any = args.source
+    if args.gif:
+        source = FrameList(numbered_frames(args.source, max_frames=args.frames))
     result = []
     for fr in iter_dots(
         source,
@@ -197,13 +211,15 @@ def _run(args: argparse.Namespace) -> int:
         coords = " ".join(f"{x:+.4f} {y:+.4f}" for x, y in fr.xy)
         print(f"frame {fr.frame}: {coords}" + (f"  [{fr.reason}]" if fr.reason else ""))
     if args.gif:
+        kept = {k for k, _ in source}
+        drawn = [fr for fr in result if fr.frame in kept]  # not the damaged frames' gaps
         write_video(
             args.gif,
-            source,
+            [img for _, img in source],
             camera=camera,
             distortion=args.k1,
-            dots_uv=[fr.uv for fr in result],
-            detected=[None if np.isnan(fr.xy).any() else fr.xy.ravel() for fr in result],
+            dots_uv=[fr.uv for fr in drawn],
+            detected=[None if np.isnan(fr.xy).any() else fr.xy.ravel() for fr in drawn],
         )
         print(f"wrote {args.gif}")
     return 0
@@ -224,6 +240,11 @@ def _describe(exc: BaseException) -> tuple[int, str]:
     )
 
 
+def _show_warning(message: Warning | str, *_: object, **__: object) -> None:
+    """A warning (a truncated video, damaged frames) as one ``warning:`` line on stderr."""
+    print(f"{PROG}: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the dot tracker on a source; return the exit status (module docstring)."""
     try:
@@ -232,7 +253,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     try:
-        return _run(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", VideoWarning)
+            warnings.showwarning = _show_warning
+            return _run(args)
     except KeyboardInterrupt:  # pragma: no cover - interactive
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130

@@ -9,13 +9,16 @@
   error, as it could block forever) of at most
   :data:`~redservo.vision.imagefile.MAX_IMAGE_PIXELS` pixels, checked from its header before
   decoding (:func:`~redservo.vision.imagefile.read_gray`);
-* a file: a video read by ``cv2.VideoCapture`` (``.avi``, ``.mp4``, ... whatever
+* a file with an image suffix: that one image, read as a folder's images are;
+* another file: a video read by ``cv2.VideoCapture`` (``.avi``, ``.mp4``, ... whatever
   this OpenCV build decodes), whose frame size (from the container) must not exceed
-  ``MAX_IMAGE_PIXELS`` either;
+  ``MAX_IMAGE_PIXELS`` either; a damaged frame keeps its number as a gap and a truncated
+  file is reported (:mod:`redservo.vision.capture`);
 * an opened ``cv2.VideoCapture``;
 * a ROS 1 ``.bag`` file or a ROS 2 bag folder: its first image topic
   (:mod:`redservo.vision.bags`, extra ``redservo[bags]``);
-* a list or tuple of images (already read).
+* a list or tuple of images (arrays, or image file paths), or a :class:`FrameList` of
+  numbered frames already read.
 
 :func:`track_dots` runs the dot detector and tracker of
 :mod:`redservo.vision.dots` on such a source and returns, per frame, the dots
@@ -42,43 +45,24 @@ from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.vision.bags import bag_frames, is_bag
+from redservo.vision.capture import as_gray, read_capture
 from redservo.vision.dots import DotTrack, Polarity, detect_dots
-from redservo.vision.imagefile import check_frame_size, read_gray
+from redservo.vision.imagefile import read_gray
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.tracking import ImageDotTracker
 
-__all__ = ["IMAGE_SUFFIXES", "DotFrame", "frames", "iter_dots", "track_dots"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "DotFrame",
+    "FrameList",
+    "frames",
+    "iter_dots",
+    "numbered_frames",
+    "track_dots",
+]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
 """Files of an image folder that :func:`frames` reads."""
-
-
-def _gray(frame: NDArray[Any]) -> NDArray[np.uint8]:
-    cv2 = require_cv2()
-    if frame.ndim == 3:
-        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-    if frame.dtype != np.uint8:
-        frame = cv2.convertScaleAbs(frame, alpha=255.0 / max(float(frame.max()), 1.0))
-    return np.ascontiguousarray(frame)
-
-
-def _capture(cap: Any, what: str, max_frames: int | None) -> Iterator[NDArray[np.uint8]]:
-    if not cap.isOpened():
-        raise ConfigurationError(f"cannot open {what} with cv2.VideoCapture")
-    try:
-        cv2 = require_cv2()
-        w = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
-        h = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-        check_frame_size(max(w, 0), max(h, 0), what)
-        k = 0
-        while max_frames is None or k < max_frames:
-            ok, frame = cap.read()
-            if not ok:
-                break
-            yield _gray(frame)
-            k += 1
-    finally:
-        cap.release()
 
 
 def _image_files(folder: Path) -> list[Path]:
@@ -101,17 +85,53 @@ def _image_files(folder: Path) -> list[Path]:
     return files
 
 
-def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np.uint8]]:
-    """Yield the grayscale frames (H, W) uint8 of ``source`` (module docstring).
+def _listed(
+    items: list[Any] | tuple[Any, ...], max_frames: int | None
+) -> Iterator[NDArray[np.uint8]]:
+    """The images of a list: arrays (gray, BGR or BGRA) or image file paths."""
+    for k, item in enumerate(items[:max_frames]):
+        if isinstance(item, str | os.PathLike):
+            yield read_gray(Path(item))
+            continue
+        img = np.asarray(item)
+        if not (
+            img.dtype.kind in "uif"
+            and (img.ndim == 2 or (img.ndim == 3 and img.shape[2] in (3, 4)))
+            and min(img.shape[:2], default=0) > 0
+        ):
+            raise ConfigurationError(
+                f"source[{k}]: expected an image (a 2-D gray or 3-D BGR/BGRA numeric array) "
+                f"or an image file path, got {type(item).__name__} of shape {img.shape}",
+                argument="source",
+            )
+        yield as_gray(img)
+
+
+class FrameList(list[tuple[int, NDArray[np.uint8]]]):
+    """Frames already read, with their numbers: ``(frame number, (H, W) uint8)`` pairs, e.g.
+    ``FrameList(numbered_frames(video))``; as a source, the numbers are kept (gaps too)."""
+
+
+def numbered_frames(
+    source: Any, *, max_frames: int | None = None
+) -> Iterator[tuple[int, NDArray[np.uint8]]]:
+    """Yield ``(frame number, grayscale frame (H, W) uint8)`` of ``source`` (module docstring).
+
+    The numbers count from 0 and skip the frames of a video that could not be decoded
+    (:mod:`redservo.vision.capture`: the later frames keep their numbers, and a
+    :class:`~redservo.vision.capture.VideoWarning` at the end names the skipped ones and
+    compares the frames read with the container's count).
 
     Args:
-        source: Device index, folder, video file, or an opened ``cv2.VideoCapture``.
+        source: Device index, folder, image or video file, ROS bag, an opened
+            ``cv2.VideoCapture``, or a list of images (arrays or image file paths).
         max_frames: Stop after this many frames (None = all; a camera never ends).
 
     Raises:
-        ConfigurationError: the source does not exist, holds no image, cannot be opened, a
-            folder holds something other than regular files under an image name, or an
-            image is larger than ``MAX_IMAGE_PIXELS`` (the message names the file).
+        ConfigurationError: the source does not exist, holds no image, cannot be opened, not
+            one frame of a video decodes, a folder holds something other than regular files
+            under an image name, a list holds something other than images, or an image is
+            larger than ``MAX_IMAGE_PIXELS`` (the message names the file).
     """
     cv2 = require_cv2()
     if max_frames is not None and not (
@@ -121,32 +141,41 @@ def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np
             f"max_frames must be a positive integer or None, got {max_frames!r}"
         )
     if isinstance(source, cv2.VideoCapture):
-        yield from _capture(source, "the given capture", max_frames)
-        return
-    if isinstance(source, list | tuple):
-        for img in source[:max_frames]:
-            yield _gray(np.asarray(img))
+        yield from read_capture(source, "the given capture", max_frames)
         return
     if isinstance(source, int) or (isinstance(source, str) and source.isdigit()):
-        yield from _capture(cv2.VideoCapture(int(source)), f"camera device {source}", max_frames)
+        cap = cv2.VideoCapture(int(source))
+        yield from read_capture(cap, f"camera device {source}", max_frames, video=False)
+        return
+    if isinstance(source, FrameList):
+        yield from (item for item in source if max_frames is None or item[0] < max_frames)
+        return
+    if isinstance(source, list | tuple):
+        yield from enumerate(_listed(source, max_frames))
         return
     path = Path(source)
     if is_bag(path):  # a ROS 1 .bag or a ROS 2 bag folder: redservo.vision.bags
-        yield from bag_frames(path, max_frames=max_frames)
+        yield from enumerate(bag_frames(path, max_frames=max_frames))
         return
     if path.is_dir():
-        files = _image_files(path)
-        for k, f in enumerate(files):
-            if max_frames is not None and k >= max_frames:
-                return
-            yield read_gray(f)
+        yield from enumerate(read_gray(f) for f in _image_files(path)[:max_frames])
         return
     if not path.is_file():
         raise ConfigurationError(
             f"{path}: no such file or folder (a source is a video file, an image folder "
             "or a camera index)"
         )
-    yield from _capture(cv2.VideoCapture(str(path)), f"video file {path}", max_frames)
+    if path.suffix.lower() in IMAGE_SUFFIXES:  # one image, read safely (imagefile)
+        yield 0, read_gray(path)
+        return
+    yield from read_capture(cv2.VideoCapture(str(path)), f"video file {path}", max_frames)
+
+
+def frames(source: Any, *, max_frames: int | None = None) -> Iterator[NDArray[np.uint8]]:
+    """Yield the grayscale frames (H, W) uint8 of ``source``: :func:`numbered_frames` without
+    the numbers (same arguments and errors)."""
+    for _, img in numbered_frames(source, max_frames=max_frames):
+        yield img
 
 
 class DotFrame(NamedTuple):
@@ -167,6 +196,9 @@ class DotFrame(NamedTuple):
     reasons: tuple[str, ...] = ()
     """Per dot, why it was lost in this frame (:data:`redservo.vision.tracking.LOSS_REASONS`;
     ``""`` when found); empty before the tracker started."""
+
+
+_DAMAGED = "damaged: the frame could not be decoded (no measurement; its number is kept)"
 
 
 def _initial_order(uv: FloatArray) -> FloatArray:
@@ -227,7 +259,13 @@ def iter_dots(
     if n_dots is None and init is not None:
         n_dots = init.shape[0]
     tracker: ImageDotTracker | None = None
-    for i, img in enumerate(frames(source, max_frames=max_frames)):
+    expected = 0
+    for i, img in numbered_frames(source, max_frames=max_frames):
+        for gap in range(expected, i):  # frames of a video that could not be decoded
+            n = tracker.n_dots if tracker is not None else max(n_dots or 0, 0)
+            nan = np.full((n, 2), np.nan)
+            yield DotFrame(gap, nan, nan.copy(), np.zeros(n, bool), 0, _DAMAGED)
+        expected = i + 1
         det = detect_dots(
             img,
             threshold=threshold,

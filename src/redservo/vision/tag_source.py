@@ -10,7 +10,9 @@ depths from that pose. Every term must observe a tag (``tags[target]``).
 Each :meth:`~TagFeatureSource.measure` call takes the next frame, stamped with the loop time
 ``t`` it was read at (the sources here carry no clock; a driver with camera stamps converts them
 to the loop's clock itself). A frame in which a term's tag is not found, or the end of the
-source, returns None (the loop's "target lost"); :attr:`TagFeatureSource.reason` says why.
+source, returns None (the loop's "target lost"); :attr:`TagFeatureSource.reason` says why. A
+video frame that could not be decoded is such a frame too (its number kept,
+:mod:`redservo.vision.capture`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from redservo.errors import ConfigurationError
 from redservo.hardware.protocols import FeatureMeasurement
 from redservo.scene import Tag
 from redservo.vision.optics import Optics
-from redservo.vision.sources import frames
+from redservo.vision.sources import numbered_frames
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -46,7 +48,8 @@ class TagFeatureSource:
 
     Raises:
         ConfigurationError: a term's target is not in ``tags``, or a term is not a tag corner
-            or a pose feature.
+            or a pose feature; when reading, a source that is not readable (a list holding
+            something other than images or image file paths, a missing file, ...).
     """
 
     def __init__(
@@ -68,7 +71,8 @@ class TagFeatureSource:
                     "point feature on a corner or a pose feature)"
                 )
             self._terms.append(st)
-        self._frames: Iterator[NDArray[np.uint8]] = frames(source)
+        self._frames: Iterator[tuple[int, NDArray[np.uint8]]] = numbered_frames(source)
+        self._next: tuple[int, NDArray[np.uint8]] | None = None
         self.reason = ""
         """Why the last :meth:`measure` returned None ("" otherwise)."""
         self.frame = -1
@@ -76,11 +80,16 @@ class TagFeatureSource:
 
     def measure(self, t: float) -> FeatureMeasurement | None:
         """The features in the next frame, stamped ``t`` (s), or None (see :attr:`reason`)."""
-        image = next(self._frames, None)
-        if image is None:
+        if self._next is None:
+            self._next = next(self._frames, None)
+        if self._next is None:
             self.reason = "the source has no more frames"
             return None
         self.frame += 1
+        if self._next[0] > self.frame:  # a video frame that could not be decoded
+            self.reason = f"frame {self.frame}: damaged (could not be decoded)"
+            return None
+        image, self._next = self._next[1], None
         parts, depths = [], []
         for i, (term, st) in enumerate(zip(self.task.terms, self._terms)):
             s, why = measure_tag(image, self.optics, st, term.feature)

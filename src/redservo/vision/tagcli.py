@@ -6,7 +6,8 @@ One line per detected tag and frame::
 
 (corners in the order and pixel convention of :func:`redservo.vision.detect_tags`; ``t`` and
 ``thetau`` the pose ``cMo`` in ViSP's tag frame, with ``--tag-size``; the last number the RMS
-reprojection error), or ``frame k: no tag``. The camera is ``--camera FILE`` (an OpenCV or ROS
+reprojection error), ``frame k: no tag``, or ``frame k: damaged (could not be decoded)`` for a
+video frame that does not decode (the later frames keep their numbers). The camera is ``--camera FILE`` (an OpenCV or ROS
 camera_info YAML, :func:`redservo.camera_io.load_camera`), else a bag's own ``CameraInfo``
 topic, else ``--px --py --u0 --v0 --k1``.
 """
@@ -60,14 +61,18 @@ def format_tag(frame: int, det: Any) -> str:
 def run_tags(args: argparse.Namespace) -> int:
     """Print the tags of every frame of ``args.source``."""
     from redservo.tag_families import check_tag
-    from redservo.vision.tags import iter_tags
+    from redservo.vision.sources import numbered_frames
+    from redservo.vision.tags import detect_tags
 
     family = check_tag(args.tags)
     camera = camera_of(args)
     size = args.tag_size
-    for k, dets in enumerate(
-        iter_tags(args.source, family, camera=camera, tag_size=size, max_frames=args.frames)
-    ):
+    expected = 0
+    for k, image in numbered_frames(args.source, max_frames=args.frames):
+        for gap in range(expected, k):
+            print(f"frame {gap}: damaged (could not be decoded)")
+        expected = k + 1
+        dets = detect_tags(image, family, camera=camera, tag_size=size)
         if not dets:
             print(f"frame {k}: no tag")
         for det in dets:
