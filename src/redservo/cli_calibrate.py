@@ -1,6 +1,7 @@
 """The calibration commands (:mod:`redservo.calibration`; need ``redservo[vision]``).
 
     redservo calibrate IMAGES... (--chessboard 9x6 --square 0.025 | --circles 7x5 --spacing 0.03)
+                       [--distortion auto|none|k1|k1k2|k1k2p|full5]
                        [--out camera.yaml] [--poses-out poses.json]
     redservo calibrate-hand-eye POSES.json|csv [--mount hand|world] [--method tsai] [--out FILE]
 
@@ -38,6 +39,14 @@ def register(sub: Any, common: argparse.ArgumentParser) -> None:
     c.add_argument("--square", type=float, help="chessboard square side (m)")
     c.add_argument("--spacing", type=float, help="circle grid: distance between centres (m)")
     c.add_argument("--out", default="camera.yaml", help="output file (default camera.yaml)")
+    c.add_argument(
+        "--distortion",
+        choices=("auto", "none", "k1", "k1k2", "k1k2p", "full5"),
+        default="auto",
+        help="distortion terms fitted: none, k1, k1k2, k1k2p (+ tangential p1 p2), full5 "
+        "(+ k3); auto (default) by the number of distinct views and their coverage, and says "
+        "which (docs/vision.md)",
+    )
     c.add_argument(
         "--poses-out",
         metavar="FILE",
@@ -102,6 +111,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise _usage(
             f"the {'square' if args.chessboard else 'spacing'} must be in (0, 10) m, got {spacing}"
         )
+    writable(args.out, "--out")  # before the work, not after
+    if args.poses_out:
+        writable(args.poses_out, "--poses-out")
     quiet = args.quiet
 
     def progress(name: str) -> None:
@@ -109,25 +121,25 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             print(f"detecting the {pattern} in {name}", file=sys.stderr, flush=True)
 
     res = calibrate_camera(
-        args.images, pattern=pattern, size=size, spacing=spacing, progress=progress
+        args.images,
+        pattern=pattern,
+        size=size,
+        spacing=spacing,
+        progress=progress,
+        distortion=args.distortion,
     )
-    what = "corners" if pattern == "chessboard" else "circles"
-    for name, n, err in res.per_image:
-        found = f"{n} {what}, {err:.3f} px RMS" if n else "pattern not found (not used)"
-        print(f"  {name}: {found}")
-    c = res.camera
-    print(
-        f"RMS reprojection error {res.rms_px:.4f} px over {res.used} of {len(res.per_image)} "
-        f"image(s); px = {c.px:.3f}, py = {c.py:.3f}, u0 = {c.u0:.3f}, v0 = {c.v0:.3f} "
-        f"(pixel centres at +0.5), distortion k1, k2, p1, p2, k3 = "
-        + ", ".join(f"{v:.5g}" for v in c.distortion)
-    )
+    _report(res, "corners" if pattern == "chessboard" else "circles")
     out = save_camera(
-        args.out, c, rms_px=res.rms_px, n_images=res.used, pattern=f"{pattern} {size[0]}x{size[1]}"
+        args.out,
+        res.camera,
+        rms_px=res.rms_px,
+        n_images=res.used,
+        pattern=f"{pattern} {size[0]}x{size[1]}",
+        distortion_fit=res.model,
     )
     print(f"wrote {out}")
     if args.poses_out:
-        used = [name for name, n, _ in res.per_image if n]
+        used = res.used_names
         poses = [
             {"image": name, "cMo": [[round(float(v), 9) for v in row] for row in T]}
             for name, T in zip(used, res.poses, strict=True)
@@ -137,6 +149,55 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             fh.write("\n")
         print(f"wrote {args.poses_out} (add each image's robot pose wMe for calibrate-hand-eye)")
     return 0
+
+
+def _report(res: Any, what: str) -> None:
+    """The per-image lines, the result and its model (stdout), the warnings (stderr)."""
+    for k, (name, n, err) in enumerate(res.per_image):
+        if not n:
+            found = "pattern not found (not used)"
+        elif k in res.duplicate_of:
+            found = f"{n} {what}, repeats {res.per_image[res.duplicate_of[k]][0]} (not used)"
+        else:
+            found = f"{n} {what}, {err:.3f} px RMS"
+        print(f"  {name}: {found}")
+    c = res.camera
+    print(
+        f"RMS reprojection error {res.rms_px:.4f} px over {res.used} of {len(res.per_image)} "
+        f"image(s); px = {c.px:.3f}, py = {c.py:.3f}, u0 = {c.u0:.3f}, v0 = {c.v0:.3f} "
+        f"(pixel centres at +0.5), distortion k1, k2, p1, p2, k3 = "
+        + ", ".join(f"{v:.5g}" for v in c.distortion)
+    )
+    print(
+        f"distortion model {res.model} ({res.model_reason}); pattern coverage "
+        f"{res.coverage:.0%} of the image, tilt spread {res.tilt_spread_deg:.1f} deg"
+    )
+    for line in res.warnings:
+        print(f"warning: {line}", file=sys.stderr)
+
+
+def writable(path: str, option: str) -> None:
+    """Raise ConfigurationError naming ``option`` and ``path`` when no file can be written
+    there (checked before a long computation, not after it)."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from redservo.errors import ConfigurationError
+
+    out = Path(path)
+    try:
+        if out.is_dir():
+            raise IsADirectoryError(21, "is a folder")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out.parent):
+            pass
+        if out.exists() and not os.access(out, os.W_OK):
+            raise PermissionError(13, "permission denied")
+    except OSError as exc:
+        raise ConfigurationError(
+            f"{option} {out}: cannot write there ({exc.strerror or exc})", argument=option
+        ) from None
 
 
 def _cmd_hand_eye(args: argparse.Namespace) -> int:
