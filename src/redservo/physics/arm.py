@@ -33,7 +33,6 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray, as_vector
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
-from redservo.schema.simulator import MIN_TIMESTEP
 from redservo.physics._mj import require_mujoco
 from redservo.physics.lens import LensWarp
 from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodies, xml_pose
@@ -41,6 +40,7 @@ from redservo.physics.scenes import scene_bodies, set_poses
 from redservo.robots.base import Robot
 from redservo.robots.eye_to_hand import EyeToHandRobot
 from redservo.scene import Scene, Static
+from redservo.schema.simulator import MIN_TIMESTEP
 
 __all__ = ["MujocoArm", "TrackingStats"]
 
