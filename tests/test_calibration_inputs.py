@@ -140,3 +140,85 @@ def test_an_unwritable_output_is_refused_before_the_work(
     assert main(["calibrate", *views[:3], *BOARD, option, str(target)]) == 2
     err = _one_error(capsys)  # no "detecting ..." progress line: nothing was read
     assert f"{option} {target}: cannot write there" in err
+
+
+# -- calibrate-hand-eye --------------------------------------------------------------------------
+
+
+def _pose_file(tmp_path: Path, pairs: object) -> Path:
+    import json
+
+    path = tmp_path / "poses.json"
+    path.write_text(json.dumps(pairs))
+    return path
+
+
+GOOD_POSE = {"translation": [0.1, 0.0, 0.5], "rotvec": [0.0, 0.1, 0.0]}
+
+
+@pytest.mark.parametrize(
+    ("wMe", "message"),
+    [
+        ({"translation": [0, 0, 0], "rotvec": "abc"}, "pairs[0].wMe.rotvec: expected 3 numbers"),
+        ({"translation": ["0", 0, 0]}, "pairs[0].wMe.translation: expected 3 numbers (m)"),
+        ({"translation": [True, 0, 0]}, "pairs[0].wMe.translation: expected 3 numbers (m)"),
+        ({"translation": [1e308, 0, 0]}, "pairs[0].wMe.translation: must be finite and at most"),
+        ({"rotvec": [0, 0, 1e3]}, "pairs[0].wMe.rotvec: must be finite and at most 12.57 rad"),
+        (
+            [[1, 0, 0, 1e308], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+            "pairs[0].wMe: the translation [1e+308, 0, 0] m is longer than 100 m",
+        ),
+        ([[1, 0, 0], "x"], "pairs[0].wMe: expected a 4x4 list of numbers"),
+    ],
+)
+def test_hand_eye_pose_values_are_validated(
+    tmp_path: Path, wMe: object, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _pose_file(tmp_path, [{"wMe": wMe, "cMo": GOOD_POSE}] * 3)
+    assert main(["calibrate-hand-eye", str(path)]) == 2
+    err = _one_error(capsys)
+    assert f"{path}: {message}" in err, err
+
+
+def test_hand_eye_deep_json_and_bad_csv_numbers(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["calibrate-hand-eye", str(deep)]) == 2
+    assert f"{deep}: the JSON is nested too deeply" in _one_error(capsys)
+    from redservo.calibration.pose_file import CSV_COLUMNS
+
+    for bad, message in (("inf", "must be finite"), ("1e308", "must be finite and at most 100")):
+        path = tmp_path / "p.csv"
+        row = ["0.1"] * 12
+        row[0] = bad
+        path.write_text(",".join(CSV_COLUMNS) + "\n" + (",".join(row) + "\n") * 3)
+        assert main(["calibrate-hand-eye", str(path)]) == 2
+        assert f"{path}: row 0 wMe translation: {message}" in _one_error(capsys)
+
+
+@pytest.mark.parametrize(("recorded", "asked"), [("hand", "world"), ("world", "hand")])
+def test_hand_eye_mount_mismatch_is_explained(
+    tmp_path: Path, recorded: str, asked: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.test_calibration import _pairs
+
+    wMe, cMo = _pairs(recorded)
+    pairs = [{"wMe": a.tolist(), "cMo": b.tolist()} for a, b in zip(wMe, cMo, strict=True)]
+    path = _pose_file(tmp_path, pairs)
+    assert main(["calibrate-hand-eye", str(path), "--mount", asked]) == 2
+    err = _one_error(capsys)
+    assert f"these pose pairs fit mount '{recorded}'" in err and f"--mount {recorded}" in err
+    assert main(["calibrate-hand-eye", str(path), "--mount", recorded]) == 0
+    capsys.readouterr()
+
+
+def test_hand_eye_unwritable_out_is_refused_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    path = _pose_file(tmp_path, [{"wMe": GOOD_POSE, "cMo": GOOD_POSE}])  # 1 pair: would fail
+    assert main(["calibrate-hand-eye", str(path), "--out", str(blocker / "he.toml")]) == 2
+    assert "--out" in _one_error(capsys)

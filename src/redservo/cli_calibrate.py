@@ -203,6 +203,8 @@ def writable(path: str, option: str) -> None:
 def _cmd_hand_eye(args: argparse.Namespace) -> int:
     from redservo.calibration.hand_eye import hand_eye, load_pose_pairs, pose_toml
 
+    if args.out:
+        writable(args.out, "--out")
     wMe, cMo = load_pose_pairs(args.poses)
     res = hand_eye(wMe, cMo, mount=args.mount, method=args.method)
     other = "wMo (the fixed target)" if args.mount == "hand" else "eMo (the carried target)"

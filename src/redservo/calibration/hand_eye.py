@@ -17,31 +17,32 @@ Residuals: the other unknown (``wMo``, resp. ``eMo``) computed from each pair sh
 pose; the result reports the spread of those K poses around their mean: RMS and largest
 rotation (degrees) and translation (m) deviations.
 
-Pose files (:func:`load_pose_pairs`): JSON, a list (or ``{"pairs": [...]}``) of
-``{"wMe": POSE, "cMo": POSE}`` where a POSE is a 4x4 nested list or
-``{"translation": [x, y, z], "rotvec": [rx, ry, rz]}`` (m, rad); or CSV with the header
-``wMe_tx,wMe_ty,wMe_tz,wMe_rx,wMe_ry,wMe_rz,cMo_tx,cMo_ty,cMo_tz,cMo_rx,cMo_ry,cMo_rz``
-(translations in m, rotation vectors in rad), one pair per row.
+Pose files: :func:`~redservo.calibration.pose_file.load_pose_pairs` (JSON or CSV, validated).
+
+Mount mismatch: pairs recorded with the camera on the hand but solved with ``mount =
+"world"`` (or the reverse) have no consistent solution. When the solution for the given
+mount fails or leaves residuals over :data:`MISMATCH_DEG` / :data:`MISMATCH_M`, the other
+mount is solved too; if it fits (within those), the error says so and names the mount.
 """
 
 from __future__ import annotations
 
-import csv
-import json
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
 from redservo._validation import FloatArray, as_transform
-from redservo.errors import ConfigurationError, RedservoError
+from redservo.calibration.pose_file import CSV_COLUMNS, load_pose_pairs
+from redservo.errors import ConfigurationError
 from redservo.spatial import inverse, make_transform, matrix_to_rotvec
 
 __all__ = [
+    "CSV_COLUMNS",
     "METHODS",
+    "MISMATCH_DEG",
+    "MISMATCH_M",
     "HandEyeResult",
     "Mount",
     "hand_eye",
@@ -53,9 +54,10 @@ __all__ = [
 Mount = Literal["hand", "world"]
 METHODS = ("tsai", "park", "horaud", "andreff", "daniilidis")
 """The solvers of ``cv2.calibrateHandEye`` (``CALIB_HAND_EYE_*``)."""
-CSV_COLUMNS = tuple(
-    f"{m}_{c}" for m in ("wMe", "cMo") for c in ("tx", "ty", "tz", "rx", "ry", "rz")
-)
+MISMATCH_DEG = 2.0
+"""Rotation residual (deg RMS) above which the other mount is tried (module docstring)."""
+MISMATCH_M = 0.02
+"""Translation residual (m RMS) above which the other mount is tried."""
 
 
 @dataclass
@@ -110,7 +112,8 @@ def hand_eye(
         method: One of :data:`METHODS`.
 
     Raises:
-        ConfigurationError: fewer than 3 pairs, different counts, an unknown method/mount.
+        ConfigurationError: fewer than 3 pairs, different counts, an unknown method/mount,
+            no rigid solution, or pairs that fit the other mount (the message says so).
         ShapeError: a pose is not a rigid transform.
     """
     from redservo.vision.optics import require_cv2
@@ -132,14 +135,68 @@ def hand_eye(
         )
     A = [as_transform(T, f"wMe[{k}]") for k, T in enumerate(wMe)]
     B = [as_transform(T, f"cMo[{k}]") for k, T in enumerate(cMo)]
+    res: HandEyeResult | None = None
+    try:
+        res = _solve(cv2, A, B, mount, method)
+    except ConfigurationError as exc:
+        failure = exc
+    if res is None or res.rot_rms_deg > MISMATCH_DEG or res.trans_rms_m > MISMATCH_M:
+        _check_mount(cv2, A, B, mount, method, res)
+    if res is None:
+        raise failure
+    return res
+
+
+def _residuals(res: HandEyeResult | None) -> str:
+    if res is None:
+        return "no rigid solution"
+    return f"residuals {res.rot_rms_deg:.3g} deg, {res.trans_rms_m * 1e3:.3g} mm RMS"
+
+
+def _check_mount(
+    cv2: Any,
+    A: list[FloatArray],
+    B: list[FloatArray],
+    mount: Mount,
+    method: str,
+    res: HandEyeResult | None,
+) -> None:
+    """Raise ConfigurationError when the pairs fit the other mount (module docstring)."""
+    other: Mount = "world" if mount == "hand" else "hand"
+    try:
+        alt = _solve(cv2, A, B, other, method)
+    except ConfigurationError:
+        return
+    if alt.rot_rms_deg <= MISMATCH_DEG and alt.trans_rms_m <= MISMATCH_M:
+        raise ConfigurationError(
+            f"these pose pairs fit mount '{other}' ({_residuals(alt)}), not mount '{mount}' "
+            f"({_residuals(res)}): mount 'hand' is a camera riding on the effector with the "
+            "target fixed in the world, 'world' a fixed camera with the target riding on the "
+            f"effector; use --mount {other}",
+            argument="mount",
+        )
+
+
+def _solve(
+    cv2: Any, A: list[FloatArray], B: list[FloatArray], mount: Mount, method: str
+) -> HandEyeResult:
+    """The solution for ``mount`` and its residuals (module docstring)."""
     robot = A if mount == "hand" else [inverse(T) for T in A]
     if hasattr(cv2, "calibrateHandEye"):
         flag = getattr(cv2, f"CALIB_HAND_EYE_{method.upper()}")
         R, t = cv2.calibrateHandEye(
-            [T[:3, :3] for T in robot], [T[:3, 3] for T in robot],
-            [T[:3, :3] for T in B], [T[:3, 3] for T in B], method=flag,
-        )  # fmt: skip
-        X = make_transform(np.asarray(R, dtype=float), np.ravel(t))
+            [T[:3, :3] for T in robot],
+            [T[:3, 3] for T in robot],
+            [T[:3, :3] for T in B],
+            [T[:3, 3] for T in B],
+            method=flag,
+        )
+        R = np.asarray(R, dtype=float)
+        if not (np.isfinite(R).all() and np.linalg.det(R) > 0.5):
+            raise ConfigurationError(
+                "cv2.calibrateHandEye found no rotation: the pose pairs are degenerate"
+            )
+        X = make_transform(R, np.ravel(t))
         solver = f"cv2.calibrateHandEye ({method})"
     else:
         X = park_martin(robot, B)
@@ -150,11 +207,10 @@ def hand_eye(
         others = [inverse(a) @ X @ b for a, b in zip(A, B, strict=True)]  # eMo
     mean, dr, dt = _mean_pose(others)
     deg = np.degrees(dr)
+    rot_rms, trans_rms = float(np.sqrt(np.mean(deg**2))), float(np.sqrt(np.mean(dt**2)))
     return HandEyeResult(
-        mount, X, mean,
-        float(np.sqrt(np.mean(deg**2))), float(deg.max()),
-        float(np.sqrt(np.mean(dt**2))), float(dt.max()), len(A), solver,
-    )  # fmt: skip
+        mount, X, mean, rot_rms, float(deg.max()), trans_rms, float(dt.max()), len(A), solver
+    )
 
 
 def park_martin(gMb: Sequence[FloatArray], cMt: Sequence[FloatArray]) -> FloatArray:
@@ -183,70 +239,15 @@ def park_martin(gMb: Sequence[FloatArray], cMt: Sequence[FloatArray]) -> FloatAr
             "calibration needs rotations about at least two different axes"
         )
     R = V @ np.diag(w**-0.5) @ V.T @ M.T
+    if not np.linalg.det(R) > 0.0:
+        raise ConfigurationError(
+            "the robot's and the target's motions fit no rigid hand-eye transform (the best "
+            "fit is a reflection): the pose pairs do not belong together"
+        )
     C = np.vstack([a[:3, :3] - np.eye(3) for a in As])
     d = np.concatenate([R @ b[:3, 3] - a[:3, 3] for a, b in zip(As, Bs, strict=True)])
     t = np.linalg.lstsq(C, d, rcond=None)[0]
     return make_transform(R, t)
-
-
-def _pose(value: Any, where: str) -> FloatArray:
-    if isinstance(value, dict):
-        unknown = set(value) - {"translation", "rotvec"}
-        if unknown:
-            raise ConfigurationError(
-                f"{where}: unknown key(s) {sorted(unknown)}; allowed: translation, rotvec"
-            )
-        t = value.get("translation", [0.0, 0.0, 0.0])
-        r = value.get("rotvec", [0.0, 0.0, 0.0])
-        arr_t, arr_r = np.asarray(t, dtype=float), np.asarray(r, dtype=float)
-        if arr_t.shape != (3,) or arr_r.shape != (3,):
-            raise ConfigurationError(f"{where}: translation and rotvec need 3 numbers each")
-        return make_transform(t=arr_t, rotvec=arr_r)
-    return as_transform(np.asarray(value, dtype=float), where)
-
-
-def load_pose_pairs(path: str | os.PathLike[str]) -> tuple[list[FloatArray], list[FloatArray]]:
-    """``(wMe list, cMo list)`` from a JSON or CSV pose file (module docstring).
-
-    Raises:
-        ConfigurationError: missing file, bad format; the message names the file and the
-            entry (``pairs[K].wMe``, ``row K``) or the column.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise ConfigurationError(f"{p}: no such pose file", argument="poses")
-    wMe: list[FloatArray] = []
-    cMo: list[FloatArray] = []
-    try:
-        if p.suffix.lower() == ".csv":
-            with p.open(newline="") as fh:
-                reader = csv.DictReader(fh)
-                missing = [c for c in CSV_COLUMNS if c not in (reader.fieldnames or [])]
-                if missing:
-                    raise ConfigurationError(f"missing column(s) {', '.join(missing)}")
-                for k, row in enumerate(reader):
-                    try:
-                        v = np.array([float(row[c]) for c in CSV_COLUMNS])
-                    except (TypeError, ValueError):
-                        raise ConfigurationError(f"row {k}: every column needs a number") from None
-                    wMe.append(make_transform(t=v[:3], rotvec=v[3:6]))
-                    cMo.append(make_transform(t=v[6:9], rotvec=v[9:]))
-        else:
-            try:
-                data = json.loads(p.read_text())
-            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-                raise ConfigurationError(f"not valid JSON ({exc})") from None
-            pairs = data.get("pairs") if isinstance(data, dict) else data
-            if not isinstance(pairs, list):
-                raise ConfigurationError("expected a list of {wMe, cMo} pairs (or {pairs: [...]})")
-            for k, pair in enumerate(pairs):
-                if not isinstance(pair, dict) or {"wMe", "cMo"} - set(pair):
-                    raise ConfigurationError(f"pairs[{k}]: needs the keys wMe and cMo")
-                wMe.append(_pose(pair["wMe"], f"pairs[{k}].wMe"))
-                cMo.append(_pose(pair["cMo"], f"pairs[{k}].cMo"))
-    except RedservoError as exc:
-        raise ConfigurationError(f"{p}: {exc}", argument="poses") from None
-    return wMe, cMo
 
 
 def _fmt(values: FloatArray) -> str:
