@@ -239,7 +239,9 @@ def test_a_rendered_scenario_without_an_offscreen_backend_is_one_clear_error(
         (2e-5, 1.0, r"simulator\.timestep.*at most 10000 physics steps per control period"),
     ],
 )
-def test_a_tiny_physics_step_is_one_scenario_error(timestep: float, dt: float, message: str) -> None:
+def test_a_tiny_physics_step_is_one_scenario_error(
+    timestep: float, dt: float, message: str
+) -> None:
     data = copy.deepcopy(load_scenario("panda-mujoco-4points").data)
     data["simulator"].update(camera="ideal", timestep=timestep)
     data["control"]["dt"] = dt

@@ -143,11 +143,13 @@ class MujocoArm:
     ) -> None:
         if not (math.isfinite(timestep) and MIN_TIMESTEP <= timestep <= 1.0):
             raise ConfigurationError(
-                f"timestep must be in [{MIN_TIMESTEP:g}, 1] s, got {timestep!r}", argument="timestep"
+                f"timestep must be in [{MIN_TIMESTEP:g}, 1] s, got {timestep!r}",
+                argument="timestep",
             )
         if not (math.isfinite(tracking_time) and 0.0 < tracking_time <= 1.0):
             raise ConfigurationError(
-                f"tracking_time must be in (0, 1] s, got {tracking_time!r}", argument="tracking_time"
+                f"tracking_time must be in (0, 1] s, got {tracking_time!r}",
+                argument="tracking_time",
             )
         self.mj = require_mujoco()
         self.robot = robot
