@@ -181,3 +181,24 @@ def test_tag_feature_source_reads_image_paths_and_refuses_junk(tmp_path: Path) -
         bad = TagFeatureSource(task, {"tag": tag}, junk, cam)
         with pytest.raises(ConfigurationError, match=what.replace("[", r"\[")):
             bad.measure(0.0)
+
+
+def test_tag_feature_source_keeps_the_number_of_a_damaged_frame(tmp_path: Path) -> None:
+    from redservo.features import PointFeature
+    from redservo.scene import Tag
+    from redservo.task import TaskTerm, VisualTask
+    from redservo.camera import Camera
+    from redservo.vision import TagFeatureSource
+
+    tag = Tag("tag", size=0.1, tag_id=7)
+    task = VisualTask([TaskTerm(PointFeature(tag.points[0]), "tag")], np.zeros(2))
+    path = _damage_frame(_video(tmp_path / "clip.avi"), 10)
+    src = TagFeatureSource(task, {"tag": tag}, str(path), Camera())
+    reasons = []
+    with pytest.warns(VideoWarning):
+        for _ in range(N + 1):
+            assert src.measure(0.0) is None  # no tag in these frames
+            reasons.append(src.reason)
+    assert reasons[10] == "frame 10: damaged (could not be decoded)"
+    assert reasons[9].startswith("frame 9, term 0") and reasons[11].startswith("frame 11, term 0")
+    assert reasons[N] == "the source has no more frames"

@@ -13,7 +13,9 @@ when a function needs it.
 * :mod:`~redservo.vision.moments` — :func:`dot_moment_features`, :func:`region_moments`
 * :mod:`~redservo.vision.depth` — the depth policies, :func:`estimate_inv_depth`
 * :mod:`~redservo.vision.sensor` — :class:`ImageSensor` (a :class:`redservo.sensors.Sensor`)
-* :mod:`~redservo.vision.sources` — :func:`frames`, :func:`track_dots` (video, folder, webcam)
+* :mod:`~redservo.vision.sources` — :func:`frames`, :func:`numbered_frames`, :func:`track_dots`
+  (video, folder, webcam; a damaged or truncated video is a :class:`VideoWarning`,
+  :mod:`~redservo.vision.capture`)
 * :mod:`~redservo.vision.video` — :func:`write_video` (GIF / MP4 with overlays)
 * :mod:`~redservo.vision.optics` — :class:`Optics` (intrinsics + radial distortion)
 * :mod:`~redservo.vision.tags` — :func:`detect_tags`, :class:`TagDetection`, :func:`iter_tags` (AprilTag, ArUco)
@@ -38,6 +40,7 @@ __all__ = [
     "Renderer",
     "TagDetection",
     "TagFeatureSource",
+    "VideoWarning",
     "detect_dots",
     "detect_ellipse",
     "detect_tags",
@@ -46,6 +49,7 @@ __all__ = [
     "find_lines",
     "frames",
     "iter_tags",
+    "numbered_frames",
     "orient_like",
     "refine_line",
     "region_moments",
@@ -71,6 +75,8 @@ _WHERE = {
     "RenderOptions": "render",
     "Renderer": "render",
     "frames": "sources",
+    "numbered_frames": "sources",
+    "VideoWarning": "capture",
     "track_dots": "sources",
     "write_video": "video",
     "TagDetection": "tags",
