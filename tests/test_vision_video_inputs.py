@@ -184,10 +184,10 @@ def test_tag_feature_source_reads_image_paths_and_refuses_junk(tmp_path: Path) -
 
 
 def test_tag_feature_source_keeps_the_number_of_a_damaged_frame(tmp_path: Path) -> None:
+    from redservo.camera import Camera
     from redservo.features import PointFeature
     from redservo.scene import Tag
     from redservo.task import TaskTerm, VisualTask
-    from redservo.camera import Camera
     from redservo.vision import TagFeatureSource
 
     tag = Tag("tag", size=0.1, tag_id=7)
