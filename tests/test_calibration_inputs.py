@@ -115,8 +115,12 @@ def test_parallel_views_and_a_small_pattern_are_warned_about(
 
 
 def test_too_small_and_too_large_images_are_refused(
-    views: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    views: list[str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    monkeypatch.chdir(tmp_path)  # the default --out camera.yaml is never written here
     tiny = tmp_path / "tiny.png"
     cv2.imwrite(str(tiny), np.zeros((1, 1), np.uint8))
     assert main(["calibrate", *views[:3], str(tiny), *BOARD, "-q"]) == 2
