@@ -30,6 +30,7 @@ __all__ = [
     "cmd_reproduce",
     "cmd_run",
     "cmd_warmup",
+    "law_hint_line",
     "paper_note",
 ]
 
@@ -66,6 +67,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     note = paper_note(sc, result.summary)
     if note:
         print(note, file=sys.stderr)
+    hint = law_hint_line(exp, result.summary, args.scenario, args.set or [])
+    if hint:
+        print(hint, file=sys.stderr)
     if args.video:
         from redservo.vision.runvideo import run_video
 
@@ -98,6 +102,20 @@ def paper_note(sc: Any, summary: Any) -> str | None:
         f"changed the command at {acted} step(s), so this outcome need not be the paper's; the "
         f"paper's exact law: redservo reproduce --only {','.join(ids)}"
     )
+
+
+def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str | None:
+    """:func:`redservo.advice.law_hint` for a run that failed at a limit, with whether its
+    goal is reachable within the success margin (the campaigns' inverse-kinematics search,
+    run only then); None for any other run."""
+    from redservo.advice import failed_at_a_limit, law_hint
+
+    if not failed_at_a_limit(summary):
+        return None
+    from redservo.campaign.reach import reachable
+
+    method = exp.scenario.method
+    return law_hint(summary, method, scenario, sets, reachable=reachable(exp))
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
