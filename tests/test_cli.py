@@ -518,3 +518,36 @@ def test_every_command_that_writes_takes_out(capsys: pytest.CaptureFixture[str])
     for name, parser in sub.choices.items():
         flags = {s for a in parser._actions for s in a.option_strings}
         assert ("--out" in flags) != (name in silent), name
+
+
+# -- issue 33: Ctrl-C in a campaign says how to resume; the rerun says what it reused -------
+
+
+def test_an_interrupted_campaign_says_rerunning_resumes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import redservo.campaign
+
+    def interrupted(*_args: object, **_kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(redservo.campaign, "run_campaign", interrupted)
+    out = tmp_path / "c"
+    argv = ["campaign", "afma6-gaze-demo", "--samples", "2", "--out", str(out), "-q"]
+    assert main(argv) == 130
+    assert capsys.readouterr().err == (
+        f"redservo: interrupted; the runs finished so far are stored in {out / 'samples.csv'}: "
+        "rerun the same command to resume (it reuses them and computes only the missing runs)\n"
+    )
+
+
+def test_a_resumed_campaign_says_how_many_runs_it_reused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "c"
+    common = ["campaign", "afma6-gaze-demo", "--methods", "gpm", "--out", str(out), "-q"]
+    assert main([*common, "--samples", "1", "--no-plot"]) == 0
+    assert "reused" not in capsys.readouterr().out  # nothing stored before
+    assert main([*common, "--samples", "3", "--no-plot"]) == 0
+    said = f"reused 1 stored run(s) of {out / 'samples.csv'}, computed 2"
+    assert said in capsys.readouterr().out.splitlines()

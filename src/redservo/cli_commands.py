@@ -30,6 +30,7 @@ __all__ = [
     "cmd_reproduce",
     "cmd_run",
     "cmd_warmup",
+    "interrupted_campaign_line",
     "law_hint_line",
     "paper_note",
 ]
@@ -193,27 +194,47 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     from redservo.scenario import apply_overrides
 
     default_out = Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"
+    out = Path(args.out or default_out)
     defn = load_campaign(args.scenario)
     if args.set:  # on the base scenario, after the campaign's own overrides
         defn = replace(defn, scenario=apply_overrides(defn.scenario, list(args.set)))
-    with figures(args):
-        result = run_campaign(
-            defn,
-            methods=args.methods,
-            samples=args.samples,
-            seed=args.seed,
-            workers=args.workers,
-            out=Path(args.out or default_out),
-            progress=not args.quiet,
-            wait=args.wait,
-            repair=args.repair,
-            scheduler=args.scheduler,
-        )
+    try:
+        with figures(args):
+            result = run_campaign(
+                defn,
+                methods=args.methods,
+                samples=args.samples,
+                seed=args.seed,
+                workers=args.workers,
+                out=out,
+                progress=not args.quiet,
+                wait=args.wait,
+                repair=args.repair,
+                scheduler=args.scheduler,
+            )
+    except KeyboardInterrupt:
+        print(interrupted_campaign_line(out), file=sys.stderr)
+        return 130
     bundle_campaign_files(result.out, defn)
     print(result.markdown)
+    reused = len(result.rows) - result.computed
+    if reused:
+        print(
+            f"reused {reused} stored run(s) of {result.out / 'samples.csv'}, computed "
+            f"{result.computed}"
+        )
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
     print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0
+
+
+def interrupted_campaign_line(out: Path) -> str:
+    """What Ctrl-C in ``redservo campaign`` says: the finished runs are kept and the same
+    command resumes (it then says how many stored runs it reused)."""
+    return (
+        f"redservo: interrupted; the runs finished so far are stored in {out / 'samples.csv'}: "
+        "rerun the same command to resume (it reuses them and computes only the missing runs)"
+    )
 
 
 def bundle_campaign_files(out: Path | None, defn: Any) -> None:
