@@ -551,3 +551,27 @@ def test_a_resumed_campaign_says_how_many_runs_it_reused(
     assert main([*common, "--samples", "3", "--no-plot"]) == 0
     said = f"reused 1 stored run(s) of {out / 'samples.csv'}, computed 2"
     assert said in capsys.readouterr().out.splitlines()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["compare", "afma6-gaze-demo", "--methods", "gpm,wlnn"],
+        ["campaign", "afma6-gaze-demo", "--methods", "wlnn", "--samples", "1"],
+        ["run", "afma6-gaze-demo", "--method", "wlnn"],
+    ],
+)
+def test_an_unknown_method_gets_a_did_you_mean(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([*argv, "--out", str(tmp_path / "o"), "-q", "--no-plot"]) == 2
+    line = _one_error_line(capsys)
+    assert "unknown method 'wlnn'" in line and line.endswith("(did you mean 'wln'?)"), line
+
+
+def test_an_unknown_scenario_name_gets_a_did_you_mean(capsys: pytest.CaptureFixture[str]) -> None:
+    for name in ("cm01-gaz", "shipped:cm01-gaz"):
+        assert main(["run", name, "-q", "--no-plot"]) == 2
+        line = _one_error_line(capsys)
+        assert f"unknown scenario {name!r}" in line, line
+        assert line.endswith("(did you mean 'cm01-gaze'?)"), line

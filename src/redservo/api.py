@@ -183,18 +183,30 @@ def compare(
     >>> {m: outcome_text(r.summary) for m, r in results.items()}
     {'classical': 'converged — success', 'gpm': 'converged — success'}
     """
-    from redservo.redundancy import law_class
-
     names = [methods] if isinstance(methods, str) else list(methods)
     if not names:
         raise ConfigurationError("methods: give at least one method name", argument="methods")
-    for m in names:
-        law_class(m)  # unknown names fail before anything runs
+    check_methods(names)  # unknown names fail before anything runs
     exp = _experiment(scenario, overrides)
     results = {m: exp.run(method=m, **options) for m in names}
     if out is not None:
         write_comparison(Path(out), exp.scenario.name, results)
     return results
+
+
+def check_methods(names: Sequence[str]) -> None:
+    """Raise :class:`~redservo.errors.UnknownNameError` for the first name that is no
+    registered law, in one line with the known names and the closest one ("did you mean")."""
+    from redservo.errors import UnknownNameError
+    from redservo.redundancy import law_class
+    from redservo.redundancy.base import registered_methods
+    from redservo.schema.base import unknown_name
+
+    for m in names:
+        try:
+            law_class(m)
+        except UnknownNameError:
+            raise UnknownNameError(unknown_name("method", m, list(registered_methods()))) from None
 
 
 def write_comparison(out: Path, name: str, results: Mapping[str, SimulationResult]) -> None:

@@ -121,8 +121,8 @@ def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """``redservo compare``: several methods on one scenario, a table and figures."""
+    from redservo.api import check_methods
     from redservo.experiment import build
-    from redservo.redundancy import law_class
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario(args.scenario)
@@ -131,8 +131,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     methods: list[str] = args.methods
     if not methods:  # pragma: no cover - the parser's method_list never gives an empty list
         raise UsageError("--methods: give at least one method name")
-    for m in methods:
-        law_class(m)  # unknown names fail before anything runs
+    check_methods(methods)  # unknown names fail before anything runs, with "did you mean"
     exp = build(sc)
     out = Path(args.out or Path("runs") / f"{sc.name}-compare")
     results = {}
