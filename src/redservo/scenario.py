@@ -222,7 +222,7 @@ def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, pre
     if not isinstance(robot, dict) or not isinstance(robot.get("urdf"), str):
         return
     urdf: str = robot["urdf"]
-    if "/" not in urdf and "\\" not in urdf and not urdf.endswith(".urdf"):
+    if "/" not in urdf and "\\" not in urdf and not urdf.endswith((".urdf", ".xml")):
         from redservo.robots.urdf import SHIPPED_URDFS
         from redservo.schema.base import unknown_name
 
