@@ -9,7 +9,14 @@ from pathlib import Path
 import pytest
 
 import redservo
-from redservo.advice import APPROACHES, SHIELD_RUNS, alternatives, failed_at_a_limit, law_hint
+from redservo.advice import (
+    APPROACHES,
+    SHIELD_RUNS,
+    alternatives,
+    compare_hint,
+    failed_at_a_limit,
+    law_hint,
+)
 from redservo.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,9 +80,22 @@ def test_an_unreachable_goal_is_said_instead_of_laws() -> None:
     assert line is not None and "no law can succeed here" in line and "--methods" not in line
 
 
-def test_a_urdf_run_that_rides_the_shield_suggests_laws_and_the_command(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_compare_suggests_only_the_laws_it_did_not_run() -> None:
+    ok = {"outcome": "converged", "success": True}
+    rode = {"outcome": "converged", "success": False, "shield_activations": 9}
+    line = compare_hint({"iterative-smooth": rode, "qp": ok}, "s.toml")
+    assert line is not None and line.startswith("hint: iterative-smooth failed at a limit;")
+    assert ": gpm-auto, wln, sns, predictive; try them: " in line
+    assert line.endswith(
+        "redservo compare s.toml --methods iterative-smooth,qp,gpm-auto,wln,sns,predictive "
+        "(docs/choosing-a-law.md)"
+    )
+    assert compare_hint({"qp": ok}, "s.toml") is None
+    everything = {m: rode for m in redservo.METHODS}
+    assert compare_hint(everything, "s.toml") is None  # nothing left to suggest
+
+
+def _near_limit(tmp_path: Path) -> Path:
     """The Panda from its URDF, joint 3 started 2.4 % of its range off its lower limit: the
     scenario's law (iterative-smooth) rides the shield (315 steps) and is no success."""
     pytest.importorskip("pinocchio", reason="the URDF scenarios need redservo[urdf] (pin)")
@@ -84,6 +104,29 @@ def test_a_urdf_run_that_rides_the_shield_suggests_laws_and_the_command(
     assert start in text
     path = tmp_path / "near.toml"
     path.write_text(text.replace(start, start.replace("-2.8", "-3.0")))
+    return path
+
+
+def test_a_urdf_compare_where_the_laws_ride_the_shield_suggests_the_others(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _near_limit(tmp_path)
+    argv = ["compare", str(path), "--methods", "iterative-smooth,gpm", "--no-plot", "-q"]
+    assert main([*argv, "--out", str(tmp_path / "c")]) == 0
+    hints = [line for line in capsys.readouterr().err.splitlines() if line.startswith("hint:")]
+    assert hints == [
+        "hint: iterative-smooth, gpm failed at a limit; laws not compared here that keep off the "
+        "limits another way and needed the shield in fewer campaign runs (docs/results.md): "
+        f"gpm-auto, iterative, wln, sns, qp, predictive; try them: redservo compare {path} "
+        "--methods iterative-smooth,gpm,gpm-auto,iterative,wln,sns,qp,predictive "
+        "(docs/choosing-a-law.md)"
+    ]
+
+
+def test_a_urdf_run_that_rides_the_shield_suggests_laws_and_the_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _near_limit(tmp_path)
     assert main(["run", str(path), "--no-plot", "-q", "--out", str(tmp_path / "o")]) == 0
     captured = capsys.readouterr()
     assert (

@@ -20,7 +20,14 @@ import shlex
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["APPROACHES", "SHIELD_RUNS", "alternatives", "failed_at_a_limit", "law_hint"]
+__all__ = [
+    "APPROACHES",
+    "SHIELD_RUNS",
+    "alternatives",
+    "compare_hint",
+    "failed_at_a_limit",
+    "law_hint",
+]
 
 APPROACHES: dict[str, str] = {
     "classical": "none",
@@ -140,3 +147,42 @@ def law_hint(
         f"the shield in fewer campaign runs (docs/results.md): {shares}; try them: "
         f"{shlex.join(command)} (docs/choosing-a-law.md)"
     )
+
+
+def compare_hint(
+    summaries: Mapping[str, Mapping[str, Any]],
+    scenario: str,
+    sets: Sequence[str] = (),
+    *,
+    reachable: bool | None = None,
+) -> str | None:
+    """One line after ``redservo compare`` when some of its runs failed at a limit: the
+    :func:`alternatives` of those laws that were not compared yet, with the command that adds
+    them; None when no run failed so, or every alternative was compared already."""
+    failed = [m for m, s in summaries.items() if failed_at_a_limit(s)]
+    if not failed:
+        return None
+    if reachable is False:
+        return (
+            f"hint: {', '.join(failed)} failed at a limit, and no configuration with every joint "
+            "inside the success margin reaches the goal (inverse-kinematics search): no law can "
+            "succeed here; move the target or the desired pose, or start elsewhere "
+            "(docs/choosing-a-law.md)"
+        )
+    new = [m for m in _in_order({o for m in failed for o in alternatives(m)}) if m not in summaries]
+    if not new:
+        return None
+    command = ["redservo", "compare", scenario, "--methods", ",".join([*summaries, *new])]
+    for s in sets:
+        command += ["--set", s]
+    return (
+        f"hint: {', '.join(failed)} failed at a limit; laws not compared here that keep off the "
+        f"limits another way and needed the shield in fewer campaign runs (docs/results.md): "
+        f"{', '.join(new)}; try them: {shlex.join(command)} (docs/choosing-a-law.md)"
+    )
+
+
+def _in_order(names: set[str]) -> list[str]:
+    from redservo.redundancy import METHODS
+
+    return [m for m in METHODS if m in names]

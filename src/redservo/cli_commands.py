@@ -119,6 +119,19 @@ def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str
     return law_hint(summary, method, scenario, sets, reachable=reachable(exp))
 
 
+def compare_hint_line(exp: Any, summaries: dict[str, Any], args: argparse.Namespace) -> str | None:
+    """:func:`redservo.advice.compare_hint` when a compared run failed at a limit (the goal's
+    reachability searched only then); None otherwise."""
+    from redservo.advice import compare_hint, failed_at_a_limit
+
+    if not any(failed_at_a_limit(s) for s in summaries.values()):
+        return None
+    from redservo.campaign.reach import reachable
+
+    sets = list(args.set or [])
+    return compare_hint(summaries, args.scenario, sets, reachable=reachable(exp))
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
     """``redservo compare``: several methods on one scenario, a table and figures."""
     from redservo.api import check_methods
@@ -147,6 +160,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from redservo.api import write_comparison
 
     write_comparison(out, sc.name, results)
+    hint = compare_hint_line(exp, {m: r.summary for m, r in results.items()}, args)
+    if hint:
+        print(hint, file=sys.stderr)
     figs = draw_figures(args, lambda: _plots().compare_figures(results, exp, out))
     print(
         f"wrote {out}/compare.md, compare.json, one run directory per method"
