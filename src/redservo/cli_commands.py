@@ -235,7 +235,7 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     reused = len(result.rows) - result.computed
     if reused:
         print(
-            f"reused {reused} stored run(s) of {result.out / 'samples.csv'}, computed "
+            f"reused {reused} stored run(s) of {out / 'samples.csv'}, computed "
             f"{result.computed}"
         )
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
