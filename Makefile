@@ -25,25 +25,40 @@ $(TSTAMP): $(BIN)/python pyproject.toml
 	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP) $(TSTAMP)
 
-# The viewer's test takes a screenshot with Debian's Chromium: installed when missing and
-# running as root (CI); otherwise that test is skipped with a message.
+# System packages, installed with apt-get when missing and running as root (a fresh machine, CI),
+# each announced by one line that says what and how to skip it; without them the tests that
+# need them are skipped with a message. Skip: make test CHROMIUM_INSTALL=0 EGL_INSTALL=0 (or
+# the same names in the environment). APT_GET: the installer (a stand-in in the Makefile's test).
+CHROMIUM_INSTALL ?= 1
+EGL_INSTALL ?= 1
+APT_GET ?= apt-get
+
+# The viewer's test takes a screenshot with Debian's Chromium (the chromium package).
 chromium:
-	@if [ ! -x $(CHROMIUM) ] && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-		echo "installing chromium (apt-get) for the viewer's browser test"; \
-		apt-get update -qq >/dev/null && \
-		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null 2>&1 || \
+	@if [ -x $(CHROMIUM) ]; then :; \
+	elif [ "$(CHROMIUM_INSTALL)" = 0 ]; then \
+		echo "chromium: not installed (CHROMIUM_INSTALL=0): the viewer's browser test will be skipped"; \
+	elif [ "$$(id -u)" != 0 ] || ! command -v $(APT_GET) >/dev/null; then \
+		echo "chromium: not installed (needs root and apt-get): the viewer's browser test will be skipped"; \
+	else \
+		echo "== installing Debian's chromium with apt-get as root, for the viewer's browser test (skip: make test CHROMIUM_INSTALL=0)"; \
+		$(APT_GET) update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive $(APT_GET) install -y -qq chromium >/dev/null 2>&1 || \
 		echo "chromium not installed: the viewer's browser test will be skipped"; \
 	fi
 
 # MuJoCo renders offscreen through EGL (MUJOCO_GL=egl, docs/physics.md): Debian's libegl1 (the
-# loader), libegl-mesa0 (Mesa's EGL) and libgl1-mesa-dri (its software rasterizer) are
-# installed when libEGL is missing and running as root; otherwise the rendering tests skip.
+# loader), libegl-mesa0 (Mesa's EGL) and libgl1-mesa-dri (its software rasterizer).
 egl:
-	@if ! ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' && [ "$$(id -u)" = 0 ] && \
-		command -v apt-get >/dev/null; then \
-		echo "installing libegl1 libegl-mesa0 libgl1-mesa-dri (apt-get) for MuJoCo's offscreen rendering"; \
-		apt-get update -qq >/dev/null && \
-		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libegl1 libegl-mesa0 \
+	@if ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0'; then :; \
+	elif [ "$(EGL_INSTALL)" = 0 ]; then \
+		echo "egl: not installed (EGL_INSTALL=0): the MuJoCo rendering tests will be skipped"; \
+	elif [ "$$(id -u)" != 0 ] || ! command -v $(APT_GET) >/dev/null; then \
+		echo "egl: not installed (needs root and apt-get): the MuJoCo rendering tests will be skipped"; \
+	else \
+		echo "== installing Debian's libegl1 libegl-mesa0 libgl1-mesa-dri with apt-get as root, for MuJoCo's offscreen rendering (skip: make test EGL_INSTALL=0)"; \
+		$(APT_GET) update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive $(APT_GET) install -y -qq libegl1 libegl-mesa0 \
 			libgl1-mesa-dri >/dev/null 2>&1 || \
 		echo "EGL not installed: the MuJoCo rendering tests will be skipped"; \
 	fi
@@ -54,6 +69,7 @@ demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
 ## make test: create the environment, install, lint (ruff), type-check (mypy) and run the tests
+## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint typecheck pytest
 
 lint: $(TSTAMP)

@@ -30,6 +30,7 @@ from redservo.hardware import (
     SimulatedRobot,
     VirtualClock,
 )
+from redservo.records import outcome_text
 from redservo.scenario import load_scenario
 
 
@@ -87,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.perf_counter() - t0
 
     s = result.summary
-    print(f"outcome: {result.outcome} ({result.reason})")
+    print(f"outcome: {outcome_text(s)} ({result.reason})")
     print(f"iterations: {result.iterations}, servo time {result.iterations * period:.2f} s, "
           f"wall time {wall:.2f} s")  # fmt: skip
     print(f"final |e1|: {s['final_error_norm']:.2e}, min margin to a limit: {s['min_margin']:.3f}")

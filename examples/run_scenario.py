@@ -11,6 +11,7 @@ import argparse
 import numpy as np
 
 import redservo
+from redservo.records import outcome_text
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -28,7 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     options = {"max_iterations": 30} if args.quick else {}
     result = redservo.run(sc, out=args.out, **options)
     s = result.summary
-    print(f"  {s.outcome} after {s.iterations} iterations, final |e| = {s.final_error_norm:.2e}")
+    print(f"  {outcome_text(s)}")  # the outcome and whether it was a success (why not, if not)
+    print(f"  {s.iterations} iterations, final |e| = {s.final_error_norm:.2e}")
     print(f"  closest approach to a joint limit: {s.min_margin:.1%} of the range")
     # The log holds one row per iteration: q (N, n), e, camera_twist, flags, ...
     q = result.log.q

@@ -83,8 +83,10 @@ def test_one_joint_numbering_everywhere(tmp_path: Path, capsys: pytest.CaptureFi
 
     name = Afma6().joint_names[hit["axis"]]
     console = capsys.readouterr().out
-    assert f"(joint {hit['axis']} {name!r} at iteration {hit['iteration']})" in console
-    assert f"(joint {hit['axis']}, it. {hit['iteration']})" in (out / "compare.md").read_text()
+    said = f"no success: joint {hit['axis']} {name!r} hit its limit at iteration {hit['iteration']}"
+    assert said in console
+    table = (out / "compare.md").read_text()
+    assert f"no success: joint {hit['axis']} hit its limit at iteration {hit['iteration']}" in table
     header = (out / "classical" / "log.csv").read_text().split("\n", 1)[0].split(",")
     assert "q[0]" in header and "q[6]" not in header  # 6 joints: q[0] ... q[5]
 
@@ -252,7 +254,9 @@ def test_run_prints_one_warning_per_flag(
     want = flag_warnings(summary)
     assert want, "the classical law needs the shield on this scenario"
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"warning: {line}" for line in want]
+    hints = [line for line in err if line.startswith("hint: classical needed the position shield")]
+    assert len(hints) == 1, err  # the one line that suggests other laws (tests/test_advice.py)
+    assert [line for line in err if line not in hints] == [f"warning: {line}" for line in want]
 
 
 # -- issue 14: the commands on saved results, and the flags every command shares ----------
@@ -514,3 +518,60 @@ def test_every_command_that_writes_takes_out(capsys: pytest.CaptureFixture[str])
     for name, parser in sub.choices.items():
         flags = {s for a in parser._actions for s in a.option_strings}
         assert ("--out" in flags) != (name in silent), name
+
+
+# -- issue 33: Ctrl-C in a campaign says how to resume; the rerun says what it reused -------
+
+
+def test_an_interrupted_campaign_says_rerunning_resumes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import redservo.campaign
+
+    def interrupted(*_args: object, **_kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(redservo.campaign, "run_campaign", interrupted)
+    out = tmp_path / "c"
+    argv = ["campaign", "afma6-gaze-demo", "--samples", "2", "--out", str(out), "-q"]
+    assert main(argv) == 130
+    assert capsys.readouterr().err == (
+        f"redservo: interrupted; the runs finished so far are stored in {out / 'samples.csv'}: "
+        "rerun the same command to resume (it reuses them and computes only the missing runs)\n"
+    )
+
+
+def test_a_resumed_campaign_says_how_many_runs_it_reused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "c"
+    common = ["campaign", "afma6-gaze-demo", "--methods", "gpm", "--out", str(out), "-q"]
+    assert main([*common, "--samples", "1", "--no-plot"]) == 0
+    assert "reused" not in capsys.readouterr().out  # nothing stored before
+    assert main([*common, "--samples", "3", "--no-plot"]) == 0
+    said = f"reused 1 stored run(s) of {out / 'samples.csv'}, computed 2"
+    assert said in capsys.readouterr().out.splitlines()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["compare", "afma6-gaze-demo", "--methods", "gpm,wlnn"],
+        ["campaign", "afma6-gaze-demo", "--methods", "wlnn", "--samples", "1"],
+        ["run", "afma6-gaze-demo", "--method", "wlnn"],
+    ],
+)
+def test_an_unknown_method_gets_a_did_you_mean(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([*argv, "--out", str(tmp_path / "o"), "-q", "--no-plot"]) == 2
+    line = _one_error_line(capsys)
+    assert "unknown method 'wlnn'" in line and line.endswith("(did you mean 'wln'?)"), line
+
+
+def test_an_unknown_scenario_name_gets_a_did_you_mean(capsys: pytest.CaptureFixture[str]) -> None:
+    for name in ("cm01-gaz", "shipped:cm01-gaz"):
+        assert main(["run", name, "-q", "--no-plot"]) == 2
+        line = _one_error_line(capsys)
+        assert f"unknown scenario {name!r}" in line, line
+        assert line.endswith("(did you mean 'cm01-gaze'?)"), line

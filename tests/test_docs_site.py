@@ -14,6 +14,7 @@ import ast
 import importlib.util
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -202,3 +203,36 @@ def test_make_demo_says_when_a_step_is_quiet_for_long(capsys: pytest.CaptureFixt
         assert watch.said.wait(60.0)  # the watch's own thread sets it once it has spoken
     assert "… still working on redservo quiet (" in capsys.readouterr().err
     assert sys.stdout is not watch and "Tap" not in type(sys.stderr).__name__
+
+
+def _make(*args: str) -> str:
+    done = subprocess.run(
+        ["make", "-s", "-C", str(ROOT), *args], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_make_says_which_system_packages_it_installs_and_how_to_skip(tmp_path: Path) -> None:
+    """make test installs Chromium and EGL with apt-get only as root, saying what and how to
+    skip; CHROMIUM_INSTALL=0 / EGL_INSTALL=0 skip (a stand-in apt-get records the calls)."""
+    log = tmp_path / "apt.log"
+    fake = tmp_path / "apt-get"
+    fake.write_text(f'#!/bin/sh\necho "$@" >> {log}\n')
+    fake.chmod(0o755)
+    missing = ["CHROMIUM=/nonexistent/chromium", f"APT_GET={fake}"]
+    said = _make("chromium", *missing, "CHROMIUM_INSTALL=0")
+    assert said == (
+        "chromium: not installed (CHROMIUM_INSTALL=0): the viewer's browser test will be skipped\n"
+    )
+    assert not log.exists()
+    if os.geteuid() != 0:
+        assert "needs root and apt-get" in _make("chromium", *missing)
+        return
+    said = _make("chromium", *missing)
+    assert said == (
+        "== installing Debian's chromium with apt-get as root, for the viewer's browser test "
+        "(skip: make test CHROMIUM_INSTALL=0)\n"
+    )
+    assert log.read_text().splitlines() == ["update -qq", "install -y -qq chromium"]

@@ -449,3 +449,48 @@ def test_urdf_robot_from_a_shipped_file_and_a_relative_path(tmp_path: Path) -> N
     data["robot"]["urdf"] = "pandda"
     with pytest.raises(ScenarioError, match="did you mean 'panda'"):
         parse_scenario(data, "p.toml")
+
+
+# -- issue 33: shipped:NAME as input, a folder or file named like a shipped scenario --------
+
+
+def test_the_shipped_prefix_messages_print_is_accepted_as_input() -> None:
+    from redservo.campaign import load_campaign
+
+    sc = load_scenario("shipped:cm01-gaze")
+    assert sc.source == "shipped:cm01-gaze" and sc.data == load_scenario("cm01-gaze").data
+    for name in ("shipped:campaigns/cm01-gaze", "shipped:cm01-gaze"):
+        assert load_campaign(name).source == "shipped:campaigns/cm01-gaze"
+    with pytest.raises(
+        ScenarioError, match=r"unknown scenario 'shipped:cm01-gaz'.*did you mean 'cm01-gaze'"
+    ):
+        load_scenario("shipped:cm01-gaz")
+
+
+def test_a_folder_named_like_a_shipped_scenario_does_not_shadow_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cm01-gaze").mkdir()  # e.g. redservo run cm01-gaze --out cm01-gaze
+    assert load_scenario("cm01-gaze").source == "shipped:cm01-gaze"
+    assert capsys.readouterr().err == (
+        "note: 'cm01-gaze' is a folder here and a shipped scenario: using the shipped scenario "
+        "(shipped:cm01-gaze); for a file in the folder give its path, e.g. cm01-gaze/NAME.toml\n"
+    )
+
+
+def test_a_file_named_like_a_shipped_scenario_is_ambiguous(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cm01-gaze").write_text(
+        (ROOT / "src/redservo/scenarios/afma6-gaze-demo.toml").read_text()
+    )
+    with pytest.raises(ScenarioError) as err:
+        load_scenario("cm01-gaze")
+    assert str(err.value) == (
+        "'cm01-gaze' is both a file here and a shipped scenario: give ./cm01-gaze for the file "
+        "or shipped:cm01-gaze for the shipped scenario"
+    )
+    assert load_scenario("./cm01-gaze").source == "cm01-gaze"  # the file
+    assert load_scenario("shipped:cm01-gaze").source == "shipped:cm01-gaze"

@@ -9,8 +9,9 @@ Start here (:mod:`redservo.api`): :func:`load_scenario`, :func:`run`, :func:`com
 core for a loop of your own; :func:`make_law` builds a law by name (``METHODS``).
 
 >>> import redservo
->>> redservo.run("afma6-gaze-demo").outcome
-'converged'
+>>> result = redservo.run("afma6-gaze-demo")
+>>> result.outcome, result.summary.success   # converged, and safe (docs/safety.md)
+('converged', True)
 """
 
 from __future__ import annotations

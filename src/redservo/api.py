@@ -12,6 +12,12 @@ iterations numbered from 0.
 >>> result = redservo.run("afma6-gaze-demo")
 >>> result.outcome, result.summary.success
 ('converged', True)
+>>> from redservo.records import outcome_text   # what the console and compare.md show
+>>> outcome_text(result.summary)
+'converged — success'
+
+"converged" alone does not say the run was safe: a run that the position shield had to rescue
+also converges, and is no success (:func:`redservo.records.verdict` says why not).
 """
 
 from __future__ import annotations
@@ -120,7 +126,9 @@ def run(
     Returns:
         The :class:`~redservo.simulation.SimulationResult`: ``outcome``, ``summary`` (typed:
         ``success``, ``iterations``, ``final_error_norm``, ...) and ``log`` (arrays per
-        iteration: ``q`` (N, n), ``e``, ``camera_twist``, ...).
+        iteration: ``q`` (N, n), ``e``, ``camera_twist``, ...). Show the outcome with its
+        success verdict: :func:`redservo.records.outcome_text` (``"converged — no success:
+        the shield acted at 12 step(s)"``).
 
     Raises:
         ScenarioError: an invalid scenario or override.
@@ -130,6 +138,9 @@ def run(
     >>> r = redservo.run("afma6-gaze-demo", method="gpm", max_iterations=20)
     >>> r.outcome, r.summary.iterations, r.log.q.shape
     ('max_iterations', 20, (20, 6))
+    >>> from redservo.records import verdict
+    >>> verdict(r.summary)
+    'no success: iteration cap reached (20 iterations) before convergence'
     """
     exp = _experiment(scenario, overrides)
     result = exp.run(method=method, progress=progress, **options)
@@ -168,21 +179,34 @@ def compare(
 
     >>> import redservo
     >>> results = redservo.compare("afma6-gaze-demo", ["classical", "gpm"])
-    >>> {m: r.outcome for m, r in results.items()}
-    {'classical': 'converged', 'gpm': 'converged'}
+    >>> from redservo.records import outcome_text
+    >>> {m: outcome_text(r.summary) for m, r in results.items()}
+    {'classical': 'converged — success', 'gpm': 'converged — success'}
     """
-    from redservo.redundancy import law_class
-
     names = [methods] if isinstance(methods, str) else list(methods)
     if not names:
         raise ConfigurationError("methods: give at least one method name", argument="methods")
-    for m in names:
-        law_class(m)  # unknown names fail before anything runs
+    check_methods(names)  # unknown names fail before anything runs
     exp = _experiment(scenario, overrides)
     results = {m: exp.run(method=m, **options) for m in names}
     if out is not None:
         write_comparison(Path(out), exp.scenario.name, results)
     return results
+
+
+def check_methods(names: Sequence[str]) -> None:
+    """Raise :class:`~redservo.errors.UnknownNameError` for the first name that is no
+    registered law, in one line with the known names and the closest one ("did you mean")."""
+    from redservo.errors import UnknownNameError
+    from redservo.redundancy import law_class
+    from redservo.redundancy.base import registered_methods
+    from redservo.schema.base import unknown_name
+
+    for m in names:
+        try:
+            law_class(m)
+        except UnknownNameError:
+            raise UnknownNameError(unknown_name("method", m, list(registered_methods()))) from None
 
 
 def write_comparison(out: Path, name: str, results: Mapping[str, SimulationResult]) -> None:

@@ -30,6 +30,8 @@ __all__ = [
     "cmd_reproduce",
     "cmd_run",
     "cmd_warmup",
+    "interrupted_campaign_line",
+    "law_hint_line",
     "paper_note",
 ]
 
@@ -66,6 +68,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     note = paper_note(sc, result.summary)
     if note:
         print(note, file=sys.stderr)
+    hint = law_hint_line(exp, result.summary, args.scenario, args.set or [])
+    if hint:
+        print(hint, file=sys.stderr)
     if args.video:
         from redservo.vision.runvideo import run_video
 
@@ -100,10 +105,37 @@ def paper_note(sc: Any, summary: Any) -> str | None:
     )
 
 
+def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str | None:
+    """:func:`redservo.advice.law_hint` for a run that failed at a limit, with whether its
+    goal is reachable within the success margin (the campaigns' inverse-kinematics search,
+    run only then); None for any other run."""
+    from redservo.advice import failed_at_a_limit, law_hint
+
+    if not failed_at_a_limit(summary):
+        return None
+    from redservo.campaign.reach import reachable
+
+    method = exp.scenario.method
+    return law_hint(summary, method, scenario, sets, reachable=reachable(exp))
+
+
+def compare_hint_line(exp: Any, summaries: dict[str, Any], args: argparse.Namespace) -> str | None:
+    """:func:`redservo.advice.compare_hint` when a compared run failed at a limit (the goal's
+    reachability searched only then); None otherwise."""
+    from redservo.advice import compare_hint, failed_at_a_limit
+
+    if not any(failed_at_a_limit(s) for s in summaries.values()):
+        return None
+    from redservo.campaign.reach import reachable
+
+    sets = list(args.set or [])
+    return compare_hint(summaries, args.scenario, sets, reachable=reachable(exp))
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
     """``redservo compare``: several methods on one scenario, a table and figures."""
+    from redservo.api import check_methods
     from redservo.experiment import build
-    from redservo.redundancy import law_class
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario(args.scenario)
@@ -112,8 +144,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     methods: list[str] = args.methods
     if not methods:  # pragma: no cover - the parser's method_list never gives an empty list
         raise UsageError("--methods: give at least one method name")
-    for m in methods:
-        law_class(m)  # unknown names fail before anything runs
+    check_methods(methods)  # unknown names fail before anything runs, with "did you mean"
     exp = build(sc)
     out = Path(args.out or Path("runs") / f"{sc.name}-compare")
     results = {}
@@ -129,6 +160,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from redservo.api import write_comparison
 
     write_comparison(out, sc.name, results)
+    hint = compare_hint_line(exp, {m: r.summary for m, r in results.items()}, args)
+    if hint:
+        print(hint, file=sys.stderr)
     figs = draw_figures(args, lambda: _plots().compare_figures(results, exp, out))
     print(
         f"wrote {out}/compare.md, compare.json, one run directory per method"
@@ -175,27 +209,47 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     from redservo.scenario import apply_overrides
 
     default_out = Path("runs") / f"campaign-{Path(args.scenario).stem}-seed{args.seed}"
+    out = Path(args.out or default_out)
     defn = load_campaign(args.scenario)
     if args.set:  # on the base scenario, after the campaign's own overrides
         defn = replace(defn, scenario=apply_overrides(defn.scenario, list(args.set)))
-    with figures(args):
-        result = run_campaign(
-            defn,
-            methods=args.methods,
-            samples=args.samples,
-            seed=args.seed,
-            workers=args.workers,
-            out=Path(args.out or default_out),
-            progress=not args.quiet,
-            wait=args.wait,
-            repair=args.repair,
-            scheduler=args.scheduler,
-        )
+    try:
+        with figures(args):
+            result = run_campaign(
+                defn,
+                methods=args.methods,
+                samples=args.samples,
+                seed=args.seed,
+                workers=args.workers,
+                out=out,
+                progress=not args.quiet,
+                wait=args.wait,
+                repair=args.repair,
+                scheduler=args.scheduler,
+            )
+    except KeyboardInterrupt:
+        print(interrupted_campaign_line(out), file=sys.stderr)
+        return 130
     bundle_campaign_files(result.out, defn)
     print(result.markdown)
+    reused = len(result.rows) - result.computed
+    if reused:
+        print(
+            f"reused {reused} stored run(s) of {out / 'samples.csv'}, computed "
+            f"{result.computed}"
+        )
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
     print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0
+
+
+def interrupted_campaign_line(out: Path) -> str:
+    """What Ctrl-C in ``redservo campaign`` says: the finished runs are kept and the same
+    command resumes (it then says how many stored runs it reused)."""
+    return (
+        f"redservo: interrupted; the runs finished so far are stored in {out / 'samples.csv'}: "
+        "rerun the same command to resume (it reuses them and computes only the missing runs)"
+    )
 
 
 def bundle_campaign_files(out: Path | None, defn: Any) -> None:

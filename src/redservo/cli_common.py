@@ -138,32 +138,19 @@ def progress(
 
 
 def summary_line(name: str, summary: Mapping[str, Any], joints: Sequence[str] = ()) -> str:
-    """One line per run; joints and iterations numbered from 0 (README, Conventions)."""
-    hit = summary["limit_hit"]
-    hit_s = ""
-    if hit:
-        j = int(hit["axis"])
-        label = f" {joints[j]!r}" if j < len(joints) else ""
-        hit_s = f" (joint {j}{label} at iteration {hit['iteration']})"
+    """One line per run: the outcome and the success verdict (why not, when not), then the
+    numbers; joints and iterations numbered from 0 (README, Conventions)."""
+    from redservo.records.verdict import outcome_text
+
     cam = summary["max_camera_speed"]
+    ratio = summary.get("peak_velocity_ratio")
     return (
-        f"{name}: {summary['outcome']}{hit_s} after {summary['iterations']} iterations, "
+        f"{name}: {outcome_text(summary, joints)}; {summary['iterations']} iterations, "
         f"final |e| = {summary['final_error_norm']:.3g}, min margin = {summary['min_margin']:.3f}, "
         f"max camera speed = {cam['translation']:.3g} m/s / {cam['rotation']:.3g} rad/s, "
-        f"discontinuity = {summary['discontinuity']:.3g}" + _safety_text(summary)
+        f"discontinuity = {summary['discontinuity']:.3g}"
+        + (f", peak |q̇|/limit = {ratio:.2f}" if ratio is not None else "")
     )
-
-
-def _safety_text(summary: Mapping[str, Any]) -> str:
-    """The safety part of the summary line (docs/safety.md): rates, success, shield."""
-    if "success" not in summary:
-        return ""
-    ratio = summary.get("peak_velocity_ratio")
-    text = f", peak |q̇|/limit = {ratio:.2f}" if ratio is not None else ""
-    text += f", {'success' if summary['success'] else 'no success'}"
-    if summary.get("shield_activations"):
-        text += f" (the shield acted at {summary['shield_activations']} step(s))"
-    return text
 
 
 def engine_note(result: Any, prefix: str = "") -> None:

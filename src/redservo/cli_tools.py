@@ -148,9 +148,11 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     print(summary_line(f"sample {args.sample} [{args.method}]", r.result.summary))
     warn(r.result.summary)
     if r.matches is False:
+        from redservo.records.verdict import outcome_text
+
         row = r.row or {}
         print(
-            f"warning: the stored row says {row.get('outcome')} after {row.get('iterations')} "
+            f"warning: the stored row says {outcome_text(row)} after {row.get('iterations')} "
             "iterations: the campaign was run with another redservo version or settings",
             file=sys.stderr,
         )

@@ -15,23 +15,25 @@ def _f(v: Any, fmt: str = ".3g") -> str:
 def summary_table(rows: Mapping[str, Mapping[str, Any]]) -> str:
     """Return a markdown table, one row per method, of the simulator summaries.
 
-    Columns: outcome (with the joint, 0-based, and iteration of a limit hit),
-    iterations, minimum margin (fraction of the range), maximum joint speed
-    (largest over axes, rad/s or m/s), maximum camera translation speed (m/s),
-    maximum camera rotation speed (rad/s), discontinuity (max ‖Δq̇‖ per step).
+    Columns: outcome and success verdict (:func:`redservo.records.outcome_text`: why a run
+    is no success, with the joint, 0-based, and iteration of a limit hit), iterations,
+    minimum margin (fraction of the range), maximum joint speed (largest over axes, rad/s or
+    m/s), maximum camera translation speed (m/s), maximum camera rotation speed (rad/s),
+    discontinuity (max ‖Δq̇‖ per step).
     """
+    from redservo.records.verdict import outcome_text
+
     head = (
-        "| method | outcome | iterations | min margin | max joint speed | "
+        "| method | outcome and verdict | iterations | min margin | max joint speed | "
         "max cam. transl. (m/s) | max cam. rot. (rad/s) | discontinuity |\n"
         "|---|---|---:|---:|---:|---:|---:|---:|\n"
     )
     lines = []
     for name, s in rows.items():
-        hit = s.get("limit_hit")
-        outcome = s["outcome"] + (f" (joint {hit['axis']}, it. {hit['iteration']})" if hit else "")
+        said = outcome_text(s)
         cam = s["max_camera_speed"]
         lines.append(
-            f"| {name} | {outcome} | {s['iterations']} | {_f(s['min_margin'], '.3f')} | "
+            f"| {name} | {said} | {s['iterations']} | {_f(s['min_margin'], '.3f')} | "
             f"{_f(max(s['max_joint_speed'] or [0.0]))} | {_f(cam['translation'])} | "
             f"{_f(cam['rotation'])} | {_f(s['discontinuity'])} |"
         )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import re
+import sys
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -145,26 +146,64 @@ def read_toml(path: Path | Any, source: str) -> dict[str, Any]:
 def locate(name_or_path: str | Path, folder: str, what: str) -> tuple[Path | Any, str, Path | None]:
     """Find a file by path or shipped name: ``(file, source, base_dir)``.
 
+    ``shipped:NAME`` (what the messages print as the source; for campaigns also
+    ``shipped:campaigns/NAME``) always names the shipped file. A bare name (no ``.toml``, no
+    folder) that is a shipped name *and* exists here is decided so (docs/scenarios.md, "By
+    name or by path"): a folder of that name (a run directory, say) is never a scenario, so
+    the shipped one is used, with a ``note:`` on stderr saying so and how to pick a file in
+    the folder; a *file* of that name is refused as ambiguous, the message naming both
+    spellings (``./NAME`` for the file, ``shipped:NAME`` for the shipped one).
+
     Raises:
-        ScenarioError: not a file and not a shipped name (the message lists them).
+        ScenarioError: not a file and not a shipped name (the message lists them, with the
+            closest one), or an ambiguous bare name.
     """
+    prefix = "shipped:" if folder == "scenarios" else f"shipped:{folder.split('/')[-1]}/"
+    text = str(name_or_path)
+    if isinstance(name_or_path, str):
+        for head in (prefix, "shipped:"):
+            if text.startswith(head):
+                return _shipped(text[len(head) :], folder, what, prefix, spelled=text)
     path = Path(name_or_path)
+    bare = isinstance(name_or_path, str) and path.suffix != ".toml" and "/" not in text
+    if bare and path.exists() and _shipped_file(folder, text).is_file():
+        if path.is_file():
+            raise ScenarioError(
+                f"{text!r} is both a file here and a shipped {what}: give ./{text} for the "
+                f"file or {prefix}{text} for the shipped {what}"
+            )
+        print(
+            f"note: {text!r} is a folder here and a shipped {what}: using the shipped {what} "
+            f"({prefix}{text}); for a file in the folder give its path, e.g. {text}/NAME.toml",
+            file=sys.stderr,
+        )
+        return _shipped(text, folder, what, prefix, spelled=text)
     if path.suffix == ".toml" or path.exists() or len(path.parts) > 1:
         if not path.is_file():
             reason = "is a directory" if path.is_dir() else "does not exist"
             raise ScenarioError(f"{path}: no such {what} file ({reason})")
         return path, str(path), path.parent
-    res = resources.files("redservo").joinpath(*folder.split("/"), f"{name_or_path}.toml")
-    if not res.is_file():
+    return _shipped(text, folder, what, prefix, spelled=text)
+
+
+def _shipped_file(folder: str, name: str) -> Any:
+    return resources.files("redservo").joinpath(*folder.split("/"), f"{name}.toml")
+
+
+def _shipped(
+    name: str, folder: str, what: str, prefix: str, *, spelled: str
+) -> tuple[Any, str, None]:
+    """The shipped file ``name`` of ``folder`` (see :func:`locate`)."""
+    res = _shipped_file(folder, name)
+    if not name or "/" in name or not res.is_file():
         from redservo.schema.base import did_you_mean
 
         names = list(shipped_descriptions(folder))
         raise ScenarioError(
-            f"unknown {what} {str(name_or_path)!r}: not a file and not a shipped {what}; "
-            f"shipped {what}s: {', '.join(names) or '(none)'}{did_you_mean(name_or_path, names)}"
+            f"unknown {what} {spelled!r}: not a file and not a shipped {what}; "
+            f"shipped {what}s: {', '.join(names) or '(none)'}{did_you_mean(name, names)}"
         )
-    prefix = "shipped:" if folder == "scenarios" else f"shipped:{folder.split('/')[-1]}/"
-    return res, f"{prefix}{name_or_path}", None
+    return res, f"{prefix}{name}", None
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
@@ -183,7 +222,7 @@ def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, pre
     if not isinstance(robot, dict) or not isinstance(robot.get("urdf"), str):
         return
     urdf: str = robot["urdf"]
-    if "/" not in urdf and "\\" not in urdf and not urdf.endswith(".urdf"):
+    if "/" not in urdf and "\\" not in urdf and not urdf.endswith((".urdf", ".xml")):
         from redservo.robots.urdf import SHIPPED_URDFS
         from redservo.schema.base import unknown_name
 

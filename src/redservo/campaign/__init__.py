@@ -236,7 +236,9 @@ def run_campaign(
     names = tuple(methods) if methods is not None else defn.methods
     for m in names:
         if m not in METHODS:
-            raise UnknownNameError(f"unknown method {m!r}; allowed: {', '.join(METHODS)}")
+            from redservo.schema.base import unknown_name
+
+            raise UnknownNameError(unknown_name("method", m, METHODS))  # with "did you mean"
     if not names or len(set(names)) != len(names):
         raise ConfigurationError(f"methods must be a non-empty list without repeats, got {names}")
     n = defn.samples if samples is None else int(samples)

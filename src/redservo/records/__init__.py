@@ -10,7 +10,9 @@ simulator (tests/test_layers.py).
   control step (time in s, joints in rad or m, commands in rad/s or m/s, features, errors,
   diagnostics and flags);
 * :class:`RunSummary` and :func:`summarize` (:mod:`redservo.records.summary`): the outcome,
-  what counts as a success, the rate and margin statistics and the flag counts.
+  what counts as a success, the rate and margin statistics and the flag counts;
+* :func:`verdict` / :func:`outcome_text` (:mod:`redservo.records.verdict`): the success verdict
+  in words (why a run is no success), what every place that shows an outcome prints.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from redservo.records.summary import (
     flag_warnings,
     summarize,
 )
+from redservo.records.verdict import failure_reasons, outcome_text, verdict
 
 __all__ = [
     "FLAG_COLUMNS",
@@ -33,6 +36,9 @@ __all__ = [
     "Outcome",
     "RunSummary",
     "SimulationLog",
+    "failure_reasons",
     "flag_warnings",
+    "outcome_text",
     "summarize",
+    "verdict",
 ]

@@ -210,6 +210,13 @@ def read_urdf(path: str | os.PathLike[str]) -> URDFTree:
     except ET.ParseError as exc:
         line, col = exc.position
         raise _fail(source, f"not well-formed XML at line {line}, column {col + 1}") from None
+    if root.tag == "mujoco":
+        raise _fail(
+            source,
+            "an MJCF (MuJoCo) model, not a URDF (root <mujoco>, expected <robot>): redservo "
+            "reads robots from URDF; an MJCF arm can be read into a ChainRobot in Python "
+            '(docs/robots.md, "MJCF models")',
+        )
     if root.tag != "robot":
         raise _fail(source, f"the root element is <{root.tag}>, expected <robot>")
     links: list[str] = []

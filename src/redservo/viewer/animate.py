@@ -14,6 +14,7 @@ and without an MP4 encoder the error says to write a ``.gif``.
 from __future__ import annotations
 
 import sys
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -137,6 +138,7 @@ def _frames(
     pb: Playback, ks: list[int], dpi: int, progress: Progress | None = None
 ) -> list[NDArray[np.uint8]]:
     from redservo.figstyle import _plt
+    from redservo.records.verdict import outcome_text
     from redservo.viewer.image import camera_image
 
     plt = _plt()
@@ -145,7 +147,8 @@ def _frames(
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     axi = fig.add_subplot(grid[0, 1])
     axj = fig.add_subplot(grid[1, 1])
-    fig.suptitle(f"{pb.run.name} [{pb.run.method}]: {pb.run.outcome}", fontsize=_FONT["suptitle"])
+    title = f"{pb.run.name} [{pb.run.method}]: {outcome_text(pb.run.summary, pb.joint_names)}"
+    fig.suptitle(textwrap.fill(title, 110), fontsize=_FONT["suptitle"])  # the verdict may be long
     scene = _Scene3D(ax3, pb, _limits(pb, ks))
     t, qn, edge = pb.t, pb.qn, 1 - 2 * pb.rho
     for y in (edge, -edge):

@@ -244,12 +244,13 @@ def _mark_drawn_pages(s: ViewerSession) -> None:
 
 
 def _build_gui(s: ViewerSession) -> None:
+    from redservo.records.verdict import outcome_text
     from redservo.viewer.image import camera_image
 
     server, pb, h = s.server, s.playback, s.handles
     summ = pb.run.summary
     server.gui.add_markdown(
-        f"### {pb.run.name} [{pb.run.method}]\n{summ.get('outcome', '')} after "
+        f"### {pb.run.name} [{pb.run.method}]\n{outcome_text(summ, pb.joint_names)}; "
         f"{summ.get('iterations', len(pb))} iterations; min margin "
         f"{summ.get('min_margin', float('nan')):.3f}"
     )
