@@ -18,6 +18,7 @@ from redservo import load_run
 from redservo.cli import main
 from redservo.errors import ScenarioError
 from redservo.robots.urdf import shipped_urdf
+from redservo.runfiles import RunFileWarning
 from redservo.scenario import load_scenario
 
 pytest.importorskip("pinocchio")
@@ -81,7 +82,8 @@ def test_a_moved_run_works_without_its_original_files(
 ) -> None:
     scenario = _user_files(tmp_path / "user")
     run = tmp_path / "run"
-    assert main(["run", str(scenario), "--out", str(run), "-q", "--no-plot"]) == 0
+    with pytest.warns(RunFileWarning, match="elsewhere.stl"):
+        assert main(["run", str(scenario), "--out", str(run), "-q", "--no-plot"]) == 0
     # The URDF and its meshes are in the run, named relatively; the missing mesh is listed.
     import tomllib
 
@@ -91,8 +93,10 @@ def test_a_moved_run_works_without_its_original_files(
     assert "files/panda.urdf" in copied["copied"] and "files/meshes/link0.stl" in copied["copied"]
     assert any("gone.stl" in m for m in copied["missing"])
     urdf_copy = (run / "files" / "panda.urdf").read_text()
-    assert "package://" not in urdf_copy and str(tmp_path) not in urdf_copy
-    assert (run / "files" / "meshes" / "elsewhere.stl").is_file()
+    assert "package://" not in urdf_copy
+    # A mesh outside the robot's folder is not copied into a run made to be shared.
+    assert not (run / "files" / "meshes" / "elsewhere.stl").exists()
+    assert any("elsewhere.stl" in m and "outside" in m for m in copied["refused"])
 
     moved = tmp_path / "far" / "away"
     shutil.move(str(run), moved)
@@ -157,7 +161,9 @@ def test_a_moved_campaign_replays_without_its_original_files(
     )
     out = tmp_path / "camp"
     args = ["campaign", str(campaign), "--out", str(out), "--workers", "1", "-q", "--no-plot"]
-    if main(args) != 0:
+    with pytest.warns(RunFileWarning, match="elsewhere.stl"):
+        code = main(args)
+    if code != 0:
         pytest.fail(capsys.readouterr().err)
     assert (out / "files" / "panda.urdf").is_file()
     moved = tmp_path / "moved"

@@ -10,7 +10,13 @@ self-contained: moved to another folder or machine, ``redservo run DIR/scenario.
   the folders above the URDF and in ``ROS_PACKAGE_PATH``); a mesh outside the URDF's folder
   is copied into ``files/meshes/`` and its reference in the copy rewritten to that relative
   path (the original file is never changed); a mesh that cannot be found is listed, not
-  skipped silently;
+  skipped silently. Run directories are made to be shared, so a mesh is copied only when it
+  is one (:data:`MESH_SUFFIXES`, its first bytes those of that format, at most
+  :data:`MAX_MESH_BYTES`) and lies, links resolved, inside the robot's own folder: the
+  nearest folder above the URDF holding a ROS ``package.xml`` (else the URDF's folder), or
+  the package a ``package://`` reference names. Any other reference (``/etc/passwd``,
+  ``../../../etc/hostname``, a link out of the folder) is refused: listed under
+  ``"refused"`` with the reason, warned about (:class:`RunFileWarning`), never copied;
 * ``camera.file`` (an intrinsics file);
 
 and rewrites those keys of the resolved scenario table to the copies' paths relative to
@@ -21,17 +27,87 @@ from __future__ import annotations
 
 import os
 import shutil
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FILE_KEYS", "bundle_files", "relocate"]
+__all__ = [
+    "FILE_KEYS",
+    "MAX_MESH_BYTES",
+    "MESH_SUFFIXES",
+    "RunFileWarning",
+    "bundle_files",
+    "relocate",
+]
 
 FILE_KEYS = (("robot", "urdf"), ("camera", "file"))
 """The scenario keys that name a file (table, key)."""
 
 FOLDER = "files"
 """The run directory's folder of copied files."""
+
+MESH_SUFFIXES = (".stl", ".dae", ".obj", ".ply", ".glb", ".gltf")
+"""The mesh formats a URDF's ``<mesh filename>`` may name and a run directory may hold."""
+
+MAX_MESH_BYTES = 200 * 1024 * 1024
+"""The largest mesh file copied into a run directory (bytes)."""
+
+
+class RunFileWarning(UserWarning):
+    """A file a scenario references was not copied into the run directory (refused)."""
+
+
+def _looks_like(path: Path) -> bool:
+    """Whether the first bytes of ``path`` are those of the mesh format its suffix names (a
+    binary STL has no magic: its size must be 84 + 50 per triangle)."""
+    suffix = path.suffix.lower()
+    with path.open("rb") as f:
+        head = f.read(512)
+    text = head.lstrip(b"\xef\xbb\xbf \t\r\n").lower()
+    if suffix == ".stl":
+        size = path.stat().st_size
+        count = int.from_bytes(head[80:84], "little") if len(head) >= 84 else -1
+        return text.startswith(b"solid") or size == 84 + 50 * count
+    if suffix == ".dae":
+        return text.startswith(b"<?xml") or text.startswith(b"<collada")
+    if suffix == ".ply":
+        return head.startswith(b"ply")
+    if suffix == ".glb":
+        return head.startswith(b"glTF")
+    if suffix == ".gltf":
+        return text.startswith(b"{")
+    # OBJ: text whose first statements are comments or OBJ keywords
+    if b"\0" in head:
+        return False
+    words = (b"#", b"v ", b"vn", b"vt", b"f ", b"o ", b"g ", b"s ", b"mtllib", b"usemtl", b"l ")
+    lines = [ln.strip() for ln in head.splitlines()[:-1] if ln.strip()]
+    return bool(lines) and all(ln.startswith(words) for ln in lines)
+
+
+def _robot_root(urdf_dir: Path) -> Path:
+    """The robot's own folder: the nearest folder at or above ``urdf_dir`` that holds a ROS
+    ``package.xml`` (a URDF in ``PKG/urdf/`` names ``../meshes/...``), else ``urdf_dir``."""
+    for folder in (urdf_dir, *urdf_dir.parents):
+        if (folder / "package.xml").is_file():
+            return folder
+    return urdf_dir
+
+
+def _refusal(found: Path, root: Path) -> str | None:
+    """Why the mesh file ``found`` may not be copied out of the robot folder ``root``, or
+    None when it may (module docstring)."""
+    real = found.resolve()
+    if not real.is_relative_to(root.resolve()):
+        return f"it lies outside the robot's folder {root} (links resolved: {real})"
+    if real.suffix.lower() not in MESH_SUFFIXES:
+        return f"only mesh files are copied ({', '.join(MESH_SUFFIXES)})"
+    size = real.stat().st_size
+    if size > MAX_MESH_BYTES:
+        return f"it has {size} bytes, more than the {MAX_MESH_BYTES} a mesh may have"
+    if not _looks_like(real):
+        return f"its content is not that of a {real.suffix.lower()} mesh"
+    return None
 
 
 def _is_shipped_urdf(value: str) -> bool:
@@ -56,20 +132,22 @@ def _copy(src: Path, dst: Path) -> None:
     shutil.copyfile(src, dst)
 
 
-def _find_mesh(ref: str, urdf_dir: Path) -> Path | None:
-    """The file a URDF ``<mesh filename>`` names, or None when it cannot be found."""
+def _find_mesh(ref: str, urdf_dir: Path) -> tuple[Path, Path] | None:
+    """The file a URDF ``<mesh filename>`` names and the robot folder it must lie in (the
+    package a ``package://`` reference names, else :func:`_robot_root`), or None when it
+    cannot be found."""
     if ref.startswith("package://"):
         pkg, _, rest = ref[len("package://") :].partition("/")
         roots = [*urdf_dir.parents, urdf_dir]
         roots += [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
         for root in roots:
-            for candidate in (root / pkg / rest, root / rest if root.name == pkg else None):
-                if candidate is not None and candidate.is_file():
-                    return candidate
+            for package in (root / pkg, root if root.name == pkg else None):
+                if package is not None and (package / rest).is_file():
+                    return package / rest, package
         return None
     path = Path(ref[len("file://") :] if ref.startswith("file://") else ref)
     path = path if path.is_absolute() else urdf_dir / path
-    return path if path.is_file() else None
+    return (path, _robot_root(urdf_dir)) if path.is_file() else None
 
 
 def _urdf(src: Path, dest: Path, taken: set[Path], report: dict[str, list[str]]) -> None:
@@ -81,9 +159,19 @@ def _urdf(src: Path, dest: Path, taken: set[Path], report: dict[str, list[str]])
         refs = set()
     refs.discard("None")
     for ref in sorted(refs):
-        found = _find_mesh(ref, src.parent)
-        if found is None:
+        where = _find_mesh(ref, src.parent)
+        if where is None:
             report["missing"].append(f"{src.name}: mesh {ref}")
+            continue
+        found, root = where
+        why = _refusal(found, root)
+        if why is not None:
+            report["refused"].append(f"{src.name}: mesh {ref}: {why}")
+            warnings.warn(
+                f"{src}: <mesh filename={ref!r}> not copied into the run directory: {why}",
+                RunFileWarning,
+                stacklevel=2,
+            )
             continue
         try:
             rel = found.resolve().relative_to(src.parent.resolve())
@@ -111,10 +199,11 @@ def bundle_files(out: Path, table: dict[str, Any]) -> dict[str, list[str]]:
     ``out/files/`` and point its keys at the copies (module docstring).
 
     Returns:
-        ``{"copied": [...], "missing": [...]}``: the files written (relative to ``out``) and
-        the references that could not be found (e.g. a mesh).
+        ``{"copied": [...], "missing": [...], "refused": [...]}``: the files written
+        (relative to ``out``), the references that could not be found (e.g. a mesh) and the
+        meshes refused, with the reason (module docstring).
     """
-    report: dict[str, list[str]] = {"copied": [], "missing": []}
+    report: dict[str, list[str]] = {"copied": [], "missing": [], "refused": []}
     taken: set[Path] = set()
     for section, key in FILE_KEYS:
         sub = table.get(section)
