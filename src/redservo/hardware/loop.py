@@ -12,7 +12,8 @@ Each iteration, at times ``t0 + k T`` of the loop's monotonic ``clock``:
    (``on_missing="hold"``) or asks for zero (``"zero"``). An objective that ends the run
    (e.g. ``occluded``) stops the arm with the outcome ``objective_stop``;
 3. the guard (:func:`~redservo.hardware.guard_command`) makes the command finite and within
-   ``qdot_max``, ``qddot_max`` and the safe position range;
+   ``qdot_max``, ``qddot_max`` and the safe position range over the longest time it may stay
+   in force, ``supervision.max_hold`` (:mod:`redservo.hardware.supervision`);
 4. ``robot.send_velocity(q̇)``, then sleep until the next tick.
 
 **Clock contract** (:mod:`redservo.hardware.clock`): the stamps ``t`` of the joint readings
@@ -32,14 +33,16 @@ by the robot, the source, the task, an objective or the law stops the robot and 
 with a note naming the stage and the iteration (``SystemExit`` and other ``BaseException``
 too, always re-raised); the partial log is kept in :attr:`ServoLoop.last_result` in every
 case; Ctrl-C stops the robot and returns ``interrupted``; a late iteration is counted as an
-overrun and the next one starts at once (missed ticks are not caught up in a burst).
+overrun and the next one starts at once (missed ticks are not caught up in a burst); a
+command is never left in force longer than ``max_hold`` while the loop runs, and
+``max_overruns`` overruns in a row end the run (``late``); joints that do not move as
+commanded, or a frozen encoder, end it (``not_following``).
 
 Units: seconds, metres, radians; ``λ`` in 1/s.
 """
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -62,6 +65,7 @@ from redservo.hardware.recorder import (
     ServoResult,
     servo_result,
 )
+from redservo.hardware.settings import check_servo_control, check_timing
 from redservo.hardware.supervision import FollowWatch, Supervision
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
@@ -75,11 +79,6 @@ __all__ = ["ServoLoop"]
 def _law_replaced_non_finite(d: Diagnostics | None) -> bool:
     """True when a :class:`~redservo.Law` reported that it replaced a NaN/inf command."""
     return d is not None and d.has(Flag.NON_FINITE_REPLACED)
-
-
-def _positive(value: float | None, name: str, unit: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0.0):
-        raise ConfigurationError(f"{name} must be a positive number ({unit}), got {value!r}")
 
 
 class ServoLoop:
@@ -161,14 +160,14 @@ class ServoLoop:
         sleep: Callable[[float], None] = time.sleep,
         supervision: Supervision | None = None,
     ) -> None:
-        _check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
+        check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
             raise ConfigurationError(f"max_iterations must be >= 1, got {max_iterations!r}")
         if on_missing not in ("hold", "zero"):
             raise ConfigurationError(f"on_missing must be 'hold' or 'zero', got {on_missing!r}")
         if limits.n != model_robot.n:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
-        _check_servo_control(objectives, feedforward)
+        check_servo_control(objectives, feedforward)
         self.controller = Controller(
             model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
             feedforward=feedforward,
@@ -411,48 +410,3 @@ class ServoLoop:
             return step
         finally:
             run.stage = ctrl.stage  # named in the note of an exception
-
-
-def _check_timing(
-    period: float,
-    watchdog_timeout: float,
-    clock_tolerance: float,
-    duration: float | None,
-    tolerance: float,
-    lam: Any,
-) -> None:
-    """Check the loop's period, timeouts and gain (:class:`ServoLoop`'s ``Raises``)."""
-    _positive(period, "period", "s")
-    _positive(watchdog_timeout, "watchdog_timeout", "s")
-    _positive(duration, "duration", "s")
-    _positive(tolerance, "tolerance", "task units")
-    if isinstance(lam, int | float):
-        _positive(float(lam), "lam", "1/s")
-    if watchdog_timeout < period:
-        raise ConfigurationError(
-            f"watchdog_timeout ({watchdog_timeout!r} s) must be at least the period ({period!r} s)"
-        )
-    if not (math.isfinite(clock_tolerance) and 0.0 <= clock_tolerance < watchdog_timeout):
-        raise ConfigurationError(
-            f"clock_tolerance must be >= 0 s and below watchdog_timeout "
-            f"({watchdog_timeout!r} s), got {clock_tolerance!r}",
-            argument="clock_tolerance",
-        )
-
-
-def _check_servo_control(objectives: Sequence[Objective], feedforward: str) -> None:
-    """The servo loop has no scene: no ``"known"`` feed-forward, no objective needing it."""
-    if feedforward not in ("none", "estimated"):
-        raise ConfigurationError(
-            f"feedforward must be 'none' or 'estimated' in the servo loop, got {feedforward!r}"
-            + (" ('known' needs the scene's motion, which only the simulator has)"
-               if feedforward == "known" else ""),
-            argument="feedforward",
-        )  # fmt: skip
-    for i, obj in enumerate(objectives):
-        if getattr(obj, "needs_scene", False):
-            raise ConfigurationError(
-                f"objectives[{i}] ({type(obj).__name__}) needs the scene, which the servo loop "
-                "does not have: give it one (e.g. OcclusionAvoidance(occlusion, scene=...))",
-                argument=f"objectives[{i}]",
-            )
