@@ -27,6 +27,7 @@ from redservo.hardware import (
     RobotInterface,
     ServoLoop,
     SimulatedRobot,
+    Supervision,
     VirtualClock,
     guard_command,
 )
@@ -449,7 +450,21 @@ def test_the_loop_counts_every_acceleration_the_guard_exceeds() -> None:
     clock, robot, sim, src, task = _setup()
     limits = robot.limits().replace(margin_abs=0.05)
     spy = Spy(sim)
-    res = _loop(spy, src, robot, task, clock, law=push, limits=limits, max_iterations=150).run()
+    # Planning over one period (max_hold = T) the guard clips at the bound; over the default
+    # max_hold (the watchdog timeout) it brakes gradually and exceeds nothing.
+    one_period = Supervision(max_hold=T)
+    loop = _loop(
+        spy,
+        src,
+        robot,
+        task,
+        clock,
+        law=push,
+        limits=limits,
+        supervision=one_period,
+        max_iterations=150,
+    )
+    res = loop.run()
     assert res.outcome == "max_iterations" and spy.stops == 1
     assert sim.fault is None and np.max(res.log.q[:, 0]) <= limits.safe_max[0] + 1e-12
     steps = np.abs(np.diff(np.vstack([np.zeros((1, 6)), res.log.qdot]), axis=0))

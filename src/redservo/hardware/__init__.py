@@ -4,6 +4,7 @@
   and camera (docs/real-robot.md);
 * :class:`ServoLoop`: the loop (fixed period, watchdog, guard, clean stops), writing the
   simulator's log format;
+* :class:`Supervision`: the late-loop and not-following thresholds of the loop;
 * :class:`ClockFault`: a time stamp that broke the loop's clock contract (every stamp on
   the loop's monotonic clock: :mod:`redservo.hardware.clock`);
 * :class:`ActuatorModel`, :class:`SimulatedRobot`, :class:`IdealFeatureSource`,
@@ -20,6 +21,7 @@ from redservo.hardware.loop import ServoLoop
 from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
 from redservo.hardware.recorder import SERVO_OUTCOMES, ServoOutcome, ServoResult
 from redservo.hardware.simulated import IdealFeatureSource, SimulatedRobot, VirtualClock
+from redservo.hardware.supervision import Supervision
 
 __all__ = [
     "ACTUATOR_KEYS",
@@ -35,6 +37,7 @@ __all__ = [
     "ServoOutcome",
     "ServoResult",
     "SimulatedRobot",
+    "Supervision",
     "VirtualClock",
     "guard_command",
 ]

@@ -11,8 +11,11 @@ last line of defence against a law that does not (a custom one, a bug, a NaN). I
    uniformly. The result is a convex combination of the previous and the new command,
    so when both respect ``q̇max`` it does too.
 4. **Position**: no joint may be commanded to move beyond its safe range
-   ``[q̄_min + margin, q̄_max - margin]`` within one period: an outward velocity is reduced
-   to land on the bound (0 if the joint is already there or beyond). This clips joints
+   ``[q̄_min + margin, q̄_max - margin]`` within the time the command may stay in force,
+   ``T_hold`` (``hold``; the servo loop passes its ``max_hold``, by default its watchdog
+   timeout, not the nominal period: a late loop holds a command longer than planned):
+   ``q_i + q̇_i T_hold`` must stay in the safe range, so an outward velocity is reduced to
+   ``(bound - q_i) / T_hold`` (0 if the joint is already there or beyond). This clips joints
    individually (the direction changes): it is a last resort, not a control strategy.
    Staying inside the range comes first: this clip may change the command by more than
    ``q̈max T``. Every such excess is reported (``acceleration_exceeded``: the joints whose
@@ -69,6 +72,7 @@ def guard_command(
     qdot_prev: FloatArray,
     limits: JointLimits,
     period: float,
+    hold: float | None = None,
 ) -> tuple[FloatArray, GuardReport]:
     """Return the command to send and what was changed (see the module docstring).
 
@@ -77,7 +81,9 @@ def guard_command(
         q: (n,) measured joint positions (m or rad).
         qdot_prev: (n,) the command sent last period (zeros at start).
         limits: Position limits, and the optional ``qdot_max``, ``qddot_max`` and margin.
-        period: Control period T (s).
+        period: Control period T (s): the acceleration bound is ``q̈max T``.
+        hold: Longest time (s) the command may stay in force, ``T_hold >= T``; the position
+            step plans over it (None: one period).
     """
     cmd = np.array(qdot, dtype=float)
     qddot_max = getattr(limits, "qddot_max", None)
@@ -101,8 +107,9 @@ def guard_command(
             cmd = qdot_prev + delta * a_scale
     lo = getattr(limits, "safe_min", limits.q_min)
     hi = getattr(limits, "safe_max", limits.q_max)
-    up = np.maximum((hi - q) / period, 0.0)
-    down = np.minimum((lo - q) / period, 0.0)
+    horizon = period if hold is None else max(float(hold), period)
+    up = np.maximum((hi - q) / horizon, 0.0)
+    down = np.minimum((lo - q) / horizon, 0.0)
     clipped = np.flatnonzero((cmd > up) | (cmd < down))
     if clipped.size:
         cmd = np.clip(cmd, down, up)

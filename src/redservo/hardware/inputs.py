@@ -19,6 +19,7 @@ from redservo.errors import ShapeError
 from redservo.hardware.clock import ClockFault, StampWatch
 from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
 from redservo.hardware.recorder import LoopRecorder, ServoOutcome
+from redservo.hardware.supervision import FollowWatch
 from redservo.redundancy.base import Diagnostics
 from redservo.task import TaskState, VisualTask
 
@@ -52,6 +53,12 @@ class RunState:
     counters: dict[str, int] = field(default_factory=lambda: dict.fromkeys(COUNTERS, 0))
     cycle: list[float] = field(default_factory=list)
     """Compute time of each iteration (s)."""
+    follow: FollowWatch | None = None
+    """The following and frozen-encoder checks."""
+    sent_at: float | None = None
+    """Loop time of the last command sent (s), None before the first."""
+    late: int = 0
+    """Consecutive overruns."""
 
 
 class EndRun(Exception):

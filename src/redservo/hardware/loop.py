@@ -12,7 +12,8 @@ Each iteration, at times ``t0 + k T`` of the loop's monotonic ``clock``:
    (``on_missing="hold"``) or asks for zero (``"zero"``). An objective that ends the run
    (e.g. ``occluded``) stops the arm with the outcome ``objective_stop``;
 3. the guard (:func:`~redservo.hardware.guard_command`) makes the command finite and within
-   ``qdot_max``, ``qddot_max`` and the safe position range;
+   ``qdot_max``, ``qddot_max`` and the safe position range over the longest time it may stay
+   in force, ``supervision.max_hold`` (:mod:`redservo.hardware.supervision`);
 4. ``robot.send_velocity(q̇)``, then sleep until the next tick.
 
 **Clock contract** (:mod:`redservo.hardware.clock`): the stamps ``t`` of the joint readings
@@ -32,14 +33,16 @@ by the robot, the source, the task, an objective or the law stops the robot and 
 with a note naming the stage and the iteration (``SystemExit`` and other ``BaseException``
 too, always re-raised); the partial log is kept in :attr:`ServoLoop.last_result` in every
 case; Ctrl-C stops the robot and returns ``interrupted``; a late iteration is counted as an
-overrun and the next one starts at once (missed ticks are not caught up in a burst).
+overrun and the next one starts at once (missed ticks are not caught up in a burst); a
+command is never left in force longer than ``max_hold`` while the loop runs, and
+``max_overruns`` overruns in a row end the run (``late``); joints that do not move as
+commanded, or a frozen encoder, end it (``not_following``).
 
 Units: seconds, metres, radians; ``λ`` in 1/s.
 """
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -62,6 +65,8 @@ from redservo.hardware.recorder import (
     ServoResult,
     servo_result,
 )
+from redservo.hardware.settings import check_servo_control, check_timing
+from redservo.hardware.supervision import FollowWatch, Supervision
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
@@ -74,11 +79,6 @@ __all__ = ["ServoLoop"]
 def _law_replaced_non_finite(d: Diagnostics | None) -> bool:
     """True when a :class:`~redservo.Law` reported that it replaced a NaN/inf command."""
     return d is not None and d.has(Flag.NON_FINITE_REPLACED)
-
-
-def _positive(value: float | None, name: str, unit: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0.0):
-        raise ConfigurationError(f"{name} must be a positive number ({unit}), got {value!r}")
 
 
 class ServoLoop:
@@ -122,9 +122,14 @@ class ServoLoop:
         clock: Monotonic clock (s), the clock of every time stamp; inject a
             :class:`~redservo.hardware.VirtualClock` in tests.
         sleep: Sleep function (s); the virtual clock's ``sleep`` in tests.
+        supervision: The late-loop and not-following thresholds
+            (:class:`~redservo.hardware.Supervision`; default ``Supervision()``: a command
+            held at most ``watchdog_timeout``, 5 consecutive overruns, a 1 s following
+            window, 5 identical readings for a frozen encoder).
 
     Raises:
-        ConfigurationError: a period, gain, timeout, tolerance or limit is out of range,
+        ConfigurationError: a period, gain, timeout, tolerance, limit or supervision
+            threshold is out of range,
             ``on_missing`` is not ``"hold"`` or ``"zero"``, ``feedforward`` is not ``"none"``
             or ``"estimated"``, an objective needs the scene, or the law cannot take what the
             objectives or the feed-forward need (the error's ``argument`` names which).
@@ -153,31 +158,16 @@ class ServoLoop:
         on_missing: Literal["hold", "zero"] = "hold",
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        supervision: Supervision | None = None,
     ) -> None:
-        _positive(period, "period", "s")
-        _positive(watchdog_timeout, "watchdog_timeout", "s")
-        _positive(duration, "duration", "s")
-        _positive(tolerance, "tolerance", "task units")
-        if isinstance(lam, int | float):
-            _positive(float(lam), "lam", "1/s")
-        if watchdog_timeout < period:
-            raise ConfigurationError(
-                f"watchdog_timeout ({watchdog_timeout!r} s) must be at least the period "
-                f"({period!r} s)"
-            )
-        if not (math.isfinite(clock_tolerance) and 0.0 <= clock_tolerance < watchdog_timeout):
-            raise ConfigurationError(
-                f"clock_tolerance must be >= 0 s and below watchdog_timeout "
-                f"({watchdog_timeout!r} s), got {clock_tolerance!r}",
-                argument="clock_tolerance",
-            )
+        check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
             raise ConfigurationError(f"max_iterations must be >= 1, got {max_iterations!r}")
         if on_missing not in ("hold", "zero"):
             raise ConfigurationError(f"on_missing must be 'hold' or 'zero', got {on_missing!r}")
         if limits.n != model_robot.n:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
-        _check_servo_control(objectives, feedforward)
+        check_servo_control(objectives, feedforward)
         self.controller = Controller(
             model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
             feedforward=feedforward,
@@ -200,6 +190,8 @@ class ServoLoop:
         self.on_missing = on_missing
         self.clock = clock
         self.sleep = sleep
+        self.supervision = (supervision or Supervision()).resolved(self.period, watchdog_timeout)
+        """The timing and following thresholds, ``max_hold`` resolved."""
         self.passes_qdot_prev = "qdot_prev" in self.controller.accepts
         self.last_result: ServoResult | None = None
         self._stop_request = threading.Event()
@@ -274,7 +266,9 @@ class ServoLoop:
             StampWatch, tolerance=self.clock_tolerance, timeout=self.watchdog_timeout, t0=t0
         )
         recorder = LoopRecorder(n, self.task.k, self.task.m)
-        return RunState(t0, t0, np.zeros(n), recorder, watch("joints"), watch("measurement"))
+        run = RunState(t0, t0, np.zeros(n), recorder, watch("joints"), watch("measurement"))
+        run.follow = FollowWatch(self.supervision)
+        return run
 
     def _stop_robot(self, end: RunEnd) -> None:
         """Call ``robot.stop()`` once; what it raises ends the run as an error of its own."""
@@ -303,18 +297,32 @@ class ServoLoop:
             if done is not None:
                 return done
             end = start + run.cycle[-1]
+            late = self._late(run, end, "after")
+            if late is not None:
+                return late
             run.k += 1
             run.next_tick += self.period
             if end > run.next_tick:
                 run.counters["overruns"] += 1
+                run.late += 1
+                if run.late >= self.supervision.max_overruns:
+                    return "late", (
+                        f"{run.late} consecutive overruns (max_overruns "
+                        f"{self.supervision.max_overruns}) at iteration {run.k - 1}"
+                    )
                 run.next_tick = end  # start at once; the schedule restarts from here
             else:
+                run.late = 0
                 run.stage = "sleep"
                 self.sleep(run.next_tick - end)
 
     def _iteration(self, run: RunState) -> tuple[ServoOutcome, str] | None:
         """One iteration; return (outcome, reason) to end the run, None to continue."""
         q, now = read_joints(run, self.robot, self.clock, self.model_robot.n)
+        if run.joints.fresh_arrival == now and run.follow is not None:
+            fault = run.follow.observe(q, now)
+            if fault is not None:
+                return "not_following", f"{fault} at iteration {run.k}"
         fresh = measure(run, self.source, self.clock, self.task, now)
         run.stage = "model_robot.jacobian"
         J = self.model_robot.jacobian(q, check_limits=False)
@@ -327,8 +335,7 @@ class ServoLoop:
                 )
             qdot, run.diag = step.qdot, step.diagnostics
         elif run.state is None:  # nothing measured, or no fresh joint reading, yet: keep still
-            run.stage = "robot.send_velocity"
-            self.robot.send_velocity(np.zeros_like(q))
+            self._deliver(run, np.zeros_like(q))
             return None
         else:
             qdot = run.prev if self.on_missing == "hold" else np.zeros_like(q)
@@ -339,9 +346,14 @@ class ServoLoop:
     ) -> tuple[ServoOutcome, str] | None:
         """Guard, log and send the command (or end the run: non-finite, converged)."""
         run.stage = "guard"
+        late = self._late(run, self.clock(), "before")
+        if late is not None:
+            return late
+        # Where the command in force has taken the joints since the read (the law's time).
+        q_send = q + run.prev * max(self.clock() - now, 0.0)
         cmd, report = guard_command(
-            np.asarray(qdot, dtype=float), q=q, qdot_prev=run.prev, limits=self.limits,
-            period=self.period,
+            np.asarray(qdot, dtype=float), q=q_send, qdot_prev=run.prev, limits=self.limits,
+            period=self.period, hold=self.supervision.max_hold,
         )  # fmt: skip
         run.counters["guarded"] += int(report.changed)
         run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
@@ -362,9 +374,29 @@ class ServoLoop:
             return "error", f"the law returned a non-finite command at iteration {run.k}"
         if fresh and self.stop_at_convergence and np.linalg.norm(run.state.e1) < self.tolerance:
             return "converged", f"‖e1‖ < {self.tolerance:g} at iteration {run.k}"
-        self.robot.send_velocity(cmd)
         run.prev = cmd
+        self._deliver(run, cmd)
         return None
+
+    def _deliver(self, run: RunState, cmd: FloatArray) -> None:
+        """Send ``cmd`` (n,) and note when: it is in force from now on."""
+        run.stage = "robot.send_velocity"
+        run.sent_at = self.clock()
+        if run.follow is not None:
+            run.follow.commanded(cmd, run.sent_at)
+        self.robot.send_velocity(cmd)
+
+    def _late(self, run: RunState, t: float, when: str) -> tuple[ServoOutcome, str] | None:
+        """End the run when the command in force at loop time ``t`` (s) has been so for more
+        than ``max_hold`` (:mod:`redservo.hardware.supervision`)."""
+        hold = self.supervision.max_hold
+        assert hold is not None
+        if run.sent_at is None or t - run.sent_at <= hold + 1e-9:
+            return None
+        return "late", (
+            f"the command sent {t - run.sent_at:.3f} s ago was still in force {when} iteration "
+            f"{run.k} (max_hold {hold:g} s): the loop ran late"
+        )
 
     def _control(self, run: RunState, q: FloatArray, J: FloatArray) -> ControlStep:
         """The controller's step on the fresh measurement ``run.last``, at its stamp's time."""
@@ -378,21 +410,3 @@ class ServoLoop:
             return step
         finally:
             run.stage = ctrl.stage  # named in the note of an exception
-
-
-def _check_servo_control(objectives: Sequence[Objective], feedforward: str) -> None:
-    """The servo loop has no scene: no ``"known"`` feed-forward, no objective needing it."""
-    if feedforward not in ("none", "estimated"):
-        raise ConfigurationError(
-            f"feedforward must be 'none' or 'estimated' in the servo loop, got {feedforward!r}"
-            + (" ('known' needs the scene's motion, which only the simulator has)"
-               if feedforward == "known" else ""),
-            argument="feedforward",
-        )  # fmt: skip
-    for i, obj in enumerate(objectives):
-        if getattr(obj, "needs_scene", False):
-            raise ConfigurationError(
-                f"objectives[{i}] ({type(obj).__name__}) needs the scene, which the servo loop "
-                "does not have: give it one (e.g. OcclusionAvoidance(occlusion, scene=...))",
-                argument=f"objectives[{i}]",
-            )

@@ -37,6 +37,8 @@ ServoOutcome = Literal[
     "stopped",
     "stale_measurement",
     "clock_fault",
+    "late",
+    "not_following",
     "objective_stop",
     "error",
     "interrupted",
@@ -47,6 +49,8 @@ SERVO_OUTCOMES: tuple[ServoOutcome, ...] = (
     "stopped",
     "stale_measurement",
     "clock_fault",
+    "late",
+    "not_following",
     "objective_stop",
     "error",
     "interrupted",
@@ -62,7 +66,9 @@ class ServoResult:
     """``converged`` (``‖e1‖ < tolerance``), ``stopped``
     (:meth:`~redservo.hardware.ServoLoop.request_stop`), ``stale_measurement`` (watchdog),
     ``clock_fault`` (a time stamp broke the clock contract: :mod:`redservo.hardware.clock`),
-    ``objective_stop`` (an objective ended the run, e.g. ``occluded``: the reason says which
+    ``late`` (a command would have stayed in force longer than ``max_hold``, or too many
+    consecutive overruns: :mod:`redservo.hardware.supervision`), ``not_following`` (the
+    joints do not move as commanded, or the encoder is frozen), ``objective_stop`` (an objective ended the run, e.g. ``occluded``: the reason says which
     outcome), ``error`` (an exception, or a non-finite command), ``interrupted`` (Ctrl-C, or a
     ``BaseException`` such as ``SystemExit``, which is re-raised) or ``max_iterations``
     (``max_iterations`` or ``duration``)."""
