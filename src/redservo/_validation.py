@@ -30,7 +30,7 @@ _KIND_NAMES = {
 }
 
 
-def _is_number(x: object) -> bool:
+def is_number(x: object) -> bool:
     """A real number that is not a boolean (``numbers.Real``: int, float, numpy scalars)."""
     return isinstance(x, numbers.Real) and not isinstance(x, bool | np.bool_)
 
@@ -47,7 +47,7 @@ def _to_float(value: ArrayLike, name: str) -> FloatArray:
     try:
         raw = np.asarray(value)
         kind = raw.dtype.kind
-        if kind == "O" and all(_is_number(x) for x in raw.flat):
+        if kind == "O" and all(is_number(x) for x in raw.flat):
             raw = np.asarray(value, dtype=float)  # e.g. Python ints too large for int64
             kind = "f"
     except (TypeError, ValueError):
@@ -62,6 +62,21 @@ def _to_float(value: ArrayLike, name: str) -> FloatArray:
             argument=name,
         )
     return np.asarray(raw, dtype=np.float64)
+
+
+def as_time(value: object, name: str) -> float:
+    """Return ``value`` as a finite time stamp (s), raising :class:`ShapeError` otherwise.
+
+    Only real numbers are stamps: a string (``"1.0"``), a boolean (``True``), NaN or inf is
+    refused, never converted, so that a mistyped stamp is reported instead of taken as time.
+    """
+    if not is_number(value) or not np.isfinite(float(value)):  # type: ignore[arg-type]
+        raise ShapeError(
+            f"{name} must be a finite number of seconds, got {value!r}"
+            f" ({type(value).__name__})",
+            argument=name,
+        )
+    return float(value)  # type: ignore[arg-type]
 
 
 def as_vector(value: ArrayLike, name: str, size: int | None = None) -> FloatArray:

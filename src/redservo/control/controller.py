@@ -16,7 +16,11 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
    motion (the simulator's :class:`SceneContext`);
 4. **law**: the command within the velocity/acceleration limits and (shield on) the
    position limits; any callable taking the law's keywords works (``de1_dt``, ``secondary``
-   and ``qdot_prev`` are passed when it accepts them);
+   and ``qdot_prev`` are passed when it accepts them). A user's own law gets the servo
+   loop's final guard on its output (:mod:`redservo.control.law_output`): a result without
+   an (n,) ``qdot`` is one clear error, and a NaN, a command over the velocity or
+   acceleration limits or (unless the law has ``shield = False``) past the safe range is
+   corrected and flagged as a shipped law's safety layer does;
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
    (direction kept) so that no joint exceeds it, as a drive's saturation would.
 
@@ -39,10 +43,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_matrix, as_vector
+from redservo._validation import FloatArray, as_matrix, as_time, as_vector
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
+from redservo.control.law_output import guarded_output, law_output
 from redservo.control.objectives import Objective, ObjectiveContext
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError, ShapeError
@@ -121,13 +126,16 @@ class Controller:
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
         self._python = python_parts(self)
+        self._own_law = any(part.startswith("law ") for part in self._python)
+        """The law is a user's own: its output goes through the final guard."""
         self.engine_reason = (
             "written in Python: " + ", ".join(self._python) if self._python else why
         )
         """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self.stage = "task"
         """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
-        ``"feed-forward"``, ``"law"`` or ``"saturation"`` (a loop names it in its errors)."""
+        ``"feed-forward"``, ``"law"``, ``"guard"`` or ``"saturation"`` (a loop names it in
+        its errors)."""
 
     @property
     def engine(self) -> str:
@@ -179,7 +187,8 @@ class Controller:
         Args:
             q: (n,) measured joint positions (m or rad), within ``limits``.
             measurement: The features ``s`` (k,) and their inverse-depth parameters per term.
-            t: Time of the measurement (s) since the start of the run.
+            t: Time of the measurement (s) since the start of the run: a finite number (a
+                string or a boolean is refused).
             qdot_prev: (n,) the command applied since the previous step (rad/s or m/s): the
                 law's acceleration limits and the estimated feed-forward use it; None (e.g.
                 a first call with unknown motion) leaves both out. Zeros for a robot at rest.
@@ -192,11 +201,14 @@ class Controller:
 
         Raises:
             GeometryError: a feature cannot be evaluated (the task's own check).
-            ShapeError: ``q``, ``J`` or the measurement do not fit the robot and task.
+            ShapeError: ``q``, ``J``, ``t`` or the measurement do not fit the robot and task
+                (a None measurement included), or a user's own law returned no (n,)
+                ``qdot``.
             ConfigurationError: ``"known"`` feed-forward without a context, or an objective
                 that needs the scene without one.
         """
         qa = as_vector(q, "q", self.robot.n)
+        t = as_time(t, "t")
         if self._compiled is not None:
             done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
             if done is not None:
@@ -257,7 +269,13 @@ class Controller:
 
     def _measured_s(self, measurement: Features) -> FloatArray:
         """The measurement's ``s`` (k,), its shape and its inverse depths' count checked."""
-        s = np.asarray(measurement.s, dtype=float)
+        if not (hasattr(measurement, "s") and hasattr(measurement, "inv_depth")):
+            raise ShapeError(
+                f"measurement must have .s ({self.task.k},) and .inv_depth (one entry per task "
+                f"term), e.g. redservo.control.Measurement; got {type(measurement).__name__}",
+                argument="measurement",
+            )
+        s = as_vector(measurement.s, "measurement.s")
         if s.shape != (self.task.k,):
             raise ShapeError(
                 f"measurement.s must have shape ({self.task.k},), got {s.shape}",
@@ -283,6 +301,7 @@ class Controller:
     ) -> ControlStep:
         """Objectives, feed-forward, law and saturation on an evaluated task ``state``
         (arguments as in :meth:`step`)."""
+        t = as_time(t, "t")
         prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
         secondary: FloatArray | None = None
         if self.objectives:
@@ -302,11 +321,25 @@ class Controller:
         if self._observe is not None:
             self._observe(self.robot, self.task, state)
         res = self.law(**self._law_kwargs(state, q, de1_dt, secondary, prev))
+        if self._own_law:
+            self.stage = "guard"
+            qdot, diag = law_output(res, self.law, self.robot.n)
+            qdot, diag, _ = guarded_output(
+                qdot,
+                diag,
+                q=q,
+                qdot_prev=prev,
+                limits=self.limits,
+                dt=self.dt,
+                shield=bool(getattr(self.law, "shield", True)),
+            )
+        else:
+            qdot, diag = res.qdot, res.diagnostics
         self.stage = "saturation"
-        qdot, saturated = self._saturate(res.qdot)
+        qdot, saturated = self._saturate(qdot)
         if self._estimator is not None:
             self._estimator.record(state, t)
-        return ControlStep(qdot, state, res.diagnostics, secondary, de1_dt, None, saturated)
+        return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins

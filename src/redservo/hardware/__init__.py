@@ -14,9 +14,9 @@
 
 from __future__ import annotations
 
+from redservo.control.guard import GuardReport, guard_command
 from redservo.hardware.actuators import ACTUATOR_KEYS, ActuatorModel
 from redservo.hardware.clock import ClockFault
-from redservo.hardware.guard import GuardReport, guard_command
 from redservo.hardware.loop import ServoLoop
 from redservo.hardware.protocols import FeatureMeasurement, FeatureSource, RobotInterface
 from redservo.hardware.recorder import SERVO_OUTCOMES, ServoOutcome, ServoResult

@@ -29,6 +29,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
+from redservo._validation import is_number
+
 __all__ = ["ClockFault", "FaultKind", "StampSource", "StampWatch"]
 
 StampSource = Literal["joints", "measurement"]
@@ -113,9 +115,9 @@ class StampWatch:
             reading is fresh (new and at most ``timeout`` old), False when it is not (a
             repeated stamp, or a new one already too old).
         """
-        try:
+        if is_number(stamp):  # only real numbers are stamps: "1.0" or True is a fault
             t, given = float(stamp), ""  # type: ignore[arg-type]
-        except (TypeError, ValueError):
+        else:
             t, given = math.nan, repr(stamp)[:80]
         if not math.isfinite(t):
             return ClockFault(self.source, "non_finite", t, math.nan, self.tolerance, given)

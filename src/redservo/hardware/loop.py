@@ -53,9 +53,9 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.control import Controller, ControlStep, Objective
+from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
-from redservo.hardware.guard import guard_command
 from redservo.hardware.inputs import EndRun, RunState, measure, read_joints
 from redservo.hardware.protocols import FeatureSource, RobotInterface
 from redservo.hardware.recorder import (

@@ -1,7 +1,11 @@
-"""The servo loop's last check on a joint-velocity command before it is sent.
+"""The last check on a joint-velocity command before it is sent.
 
-The control laws already honour the limits (docs/safety.md); this guard is the
-last line of defence against a law that does not (a custom one, a bug, a NaN). In order:
+The shipped control laws already honour the limits in their own safety layer
+(docs/safety.md); this guard is the last line of defence against a law that does not (a
+custom one, a bug, a NaN). The servo loop applies it to every command it sends
+(:class:`~redservo.hardware.ServoLoop`), and :class:`~redservo.control.Controller` to the
+output of every law that is not a shipped one, so that a user driving the Controller
+directly gets the same guarantees. In order:
 
 1. **Finite**: a command holding NaN or inf is replaced by zeros and flagged; the loop
    then stops the robot.
@@ -73,6 +77,7 @@ def guard_command(
     limits: JointLimits,
     period: float,
     hold: float | None = None,
+    position: bool = True,
 ) -> tuple[FloatArray, GuardReport]:
     """Return the command to send and what was changed (see the module docstring).
 
@@ -84,6 +89,8 @@ def guard_command(
         period: Control period T (s): the acceleration bound is ``q̈max T``.
         hold: Longest time (s) the command may stay in force, ``T_hold >= T``; the position
             step plans over it (None: one period).
+        position: Apply step 4 (the position limits); False for a law whose position
+            shield the user switched off (``shield = False``).
     """
     cmd = np.array(qdot, dtype=float)
     qddot_max = getattr(limits, "qddot_max", None)
@@ -95,7 +102,8 @@ def guard_command(
     v_scale = a_scale = 1.0
     qdot_max = getattr(limits, "qdot_max", None)
     if qdot_max is not None:
-        ratio = float(np.max(np.abs(cmd) / qdot_max))
+        with np.errstate(over="ignore"):  # a finite 1e308 overflows to ratio inf: scale 0
+            ratio = float(np.max(np.abs(cmd) / qdot_max))
         if ratio > 1.0:
             v_scale = 1.0 / ratio
             cmd *= v_scale
@@ -105,6 +113,9 @@ def guard_command(
         if ratio > 1.0:
             a_scale = 1.0 / ratio
             cmd = qdot_prev + delta * a_scale
+    if not position:
+        exceeded = _exceeded(cmd, qdot_prev, qddot_max, period)
+        return cmd, GuardReport(False, v_scale, a_scale, (), exceeded)
     lo = getattr(limits, "safe_min", limits.q_min)
     hi = getattr(limits, "safe_max", limits.q_max)
     horizon = period if hold is None else max(float(hold), period)
