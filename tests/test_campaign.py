@@ -472,12 +472,21 @@ def test_resume_removes_duplicates_and_torn_rows(
     assert "removed 1 torn, 4 duplicate" in err and "kept 4 row(s)" in err
 
 
+def _resealed(line: str, fingerprint: str) -> str:
+    """A row line whose fields were changed, with the check its writer would have given it."""
+    from redservo.campaign.rowfile import _check
+
+    body = line.rstrip("\n").rpartition(",")[0]
+    return f"{body},{_check(fingerprint, body)}\n"
+
+
 def test_an_error_row_is_replaced_by_a_finished_one(tmp_path: Path) -> None:
     d, out = quick(), tmp_path / "c"
     run_campaign(d, samples=1, seed=0, workers=1, out=out, progress=False)
     csv = out / "samples.csv"
     header, *rows = csv.read_text().splitlines(keepends=True)
     broken = rows[0].replace(",converged,", ",error,").replace(",max_iterations,", ",error,")
+    broken = _resealed(broken, d.fingerprint(0))  # as a worker that failed would have written it
     csv.write_text(header + broken + "".join(rows))  # an error row first, then the real one
     res = run_campaign(d, samples=1, seed=0, workers=1, out=out, progress=False)
     assert res.computed == 0 and all(r["outcome"] != "error" for r in res.rows)
@@ -558,7 +567,10 @@ def test_parquet_next_to_the_csv(tmp_path: Path) -> None:
     assert schema.field("limit_axis").nullable and str(schema.field("method").type) == "string"
     assert schema.metadata[b"fingerprint"].decode() == res.to_dict()["fingerprint"]
     frame, csv = table.to_pandas(), pd.read_csv(tmp_path / "samples.csv")
-    assert list(frame.columns) == list(csv.columns) and len(frame) == len(csv) == 4
+    # The CSV's last column is each row's check (rowfile.SEAL_COLUMN); the Parquet mirror,
+    # written from the checked rows, carries the fingerprint in its metadata instead.
+    assert list(csv.columns)[-1] == "row_check"
+    assert list(frame.columns) == list(csv.columns)[:-1] and len(frame) == len(csv) == 4
     assert np.allclose(frame["q0_x"], csv["q0_x"])
 
 

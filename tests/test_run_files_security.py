@@ -89,6 +89,18 @@ def test_a_file_that_is_no_mesh_is_refused(
     assert f"files/meshes/{name}" not in _copied_files(out) and len(report["refused"]) == 1
 
 
+def test_a_description_folder_without_package_xml_is_the_robot_folder(tmp_path: Path) -> None:
+    """``myrobot/urdf/robot.urdf`` naming ``../meshes/part.stl`` (no package.xml): copied;
+    ``../../elsewhere.stl`` still refused."""
+    urdf = _robot(tmp_path / "user", ["../meshes/base.stl", "../../elsewhere.stl"], package=True)
+    (urdf.parent.parent / "package.xml").unlink()
+    (tmp_path / "user" / "elsewhere.stl").write_bytes(_STL)
+    out = tmp_path / "run"
+    with pytest.warns(RunFileWarning, match="outside the robot's folder"):
+        report = bundle_files(out, {"robot": {"urdf": str(urdf)}})
+    assert "files/meshes/base.stl" in _copied_files(out) and len(report["refused"]) == 1
+
+
 def test_meshes_of_the_robot_package_are_copied(tmp_path: Path) -> None:
     """A ROS package's layout (``PKG/urdf/robot.urdf`` naming ``../meshes`` and
     ``package://PKG/meshes``), and the real formats' headers, are accepted."""

@@ -13,8 +13,9 @@ self-contained: moved to another folder or machine, ``redservo run DIR/scenario.
   skipped silently. Run directories are made to be shared, so a mesh is copied only when it
   is one (:data:`MESH_SUFFIXES`, its first bytes those of that format, at most
   :data:`MAX_MESH_BYTES`) and lies, links resolved, inside the robot's own folder: the
-  nearest folder above the URDF holding a ROS ``package.xml`` (else the URDF's folder), or
-  the package a ``package://`` reference names. Any other reference (``/etc/passwd``,
+  nearest folder above the URDF holding a ROS ``package.xml``, else the parent of a URDF
+  folder named ``urdf`` (``PKG/urdf/robot.urdf``), else the URDF's folder; or the package a
+  ``package://`` reference names. Any other reference (``/etc/passwd``,
   ``../../../etc/hostname``, a link out of the folder) is refused: listed under
   ``"refused"`` with the reason, warned about (:class:`RunFileWarning`), never copied;
 * ``camera.file`` (an intrinsics file);
@@ -87,11 +88,12 @@ def _looks_like(path: Path) -> bool:
 
 def _robot_root(urdf_dir: Path) -> Path:
     """The robot's own folder: the nearest folder at or above ``urdf_dir`` that holds a ROS
-    ``package.xml`` (a URDF in ``PKG/urdf/`` names ``../meshes/...``), else ``urdf_dir``."""
+    ``package.xml``; else, for a URDF in a folder named ``urdf`` (a description package's
+    ``PKG/urdf/`` naming ``../meshes/...``), that folder's parent; else ``urdf_dir``."""
     for folder in (urdf_dir, *urdf_dir.parents):
         if (folder / "package.xml").is_file():
             return folder
-    return urdf_dir
+    return urdf_dir.parent if urdf_dir.name == "urdf" else urdf_dir
 
 
 def _refusal(found: Path, root: Path) -> str | None:

@@ -276,7 +276,9 @@ def _view(rowfile: RowFile, index: dict[tuple[int, str], int], table: RunTable) 
         dtype=np.int64,
         count=samples.size,
     )
-    return RowView(rowfile.path, rowfile.columns, offsets, samples, methods, table.methods)
+    return RowView(
+        rowfile.path, rowfile.columns, offsets, samples, methods, table.methods, rowfile.seal
+    )
 
 
 def _report(

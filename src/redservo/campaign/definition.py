@@ -31,8 +31,9 @@ from redservo.schema.base import unknown_name
 from redservo.schema.campaign import CampaignSpec
 from redservo.schema.explain import validate
 
-FORMAT_VERSION = 3
-"""Version of the sampling algorithm and the row format, part of the fingerprint."""
+FORMAT_VERSION = 4
+"""Version of the sampling algorithm and the row format, part of the fingerprint (4: each
+row of ``samples.csv`` sealed with its check, :mod:`redservo.campaign.rowfile`)."""
 
 Range = tuple[float, float]
 
@@ -103,6 +104,21 @@ class _Nominal(NamedTuple):
     fkine: Callable[[FloatArray], FloatArray]
 
 
+def fingerprint_of(definition: Mapping[str, Any], scenario: Mapping[str, Any], seed: int) -> str:
+    """SHA-256 (hex) of a campaign's definition table (without ``methods``, ``samples`` and
+    ``description``), its base scenario, the seed and :data:`FORMAT_VERSION`: what
+    :meth:`CampaignDefinition.fingerprint` returns, and what ``definition.json``'s own
+    content must give (an edited ``definition.json`` no longer does)."""
+    table = {k: v for k, v in definition.items() if k not in ("methods", "samples", "description")}
+    blob = json.dumps(
+        {"format": FORMAT_VERSION, "seed": int(seed), "definition": table, "scenario": scenario},
+        sort_keys=True,
+        separators=(",", ":"),
+        default=str,
+    )
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
 @dataclass(frozen=True, eq=False)
 class CampaignDefinition:
     """A parsed, validated campaign definition (see the module docstring for the format).
@@ -137,21 +153,7 @@ class CampaignDefinition:
 
     def fingerprint(self, seed: int) -> str:
         """SHA-256 (hex) of what the rows depend on: definition, base scenario, seed, format."""
-        table = {
-            k: v for k, v in self.data.items() if k not in ("methods", "samples", "description")
-        }
-        blob = json.dumps(
-            {
-                "format": FORMAT_VERSION,
-                "seed": int(seed),
-                "definition": table,
-                "scenario": self.scenario.data,
-            },
-            sort_keys=True,
-            separators=(",", ":"),
-            default=str,
-        )
-        return hashlib.sha256(blob.encode()).hexdigest()
+        return fingerprint_of(self.data, self.scenario.data, seed)
 
     @cached_property
     def nominal(self) -> _Nominal:

@@ -6,11 +6,19 @@ when there is no output directory) and only its byte offset is kept; the statist
 their columns in :class:`~redservo.campaign.table.RunTable`. :class:`RowView` is
 ``CampaignResult.rows``: a sequence of row dicts that reads each row back from the file
 when asked (so the rows read back are those of the file, bit for bit).
+
+**Sealed rows.** A campaign's ``samples.csv`` is shared and resumed, so each of its lines
+ends with one more field, ``row_check`` (:data:`SEAL_COLUMN`): the first 16 hex digits of the
+SHA-256 of the campaign's fingerprint and the line's other fields. A row edited by hand (a
+flipped ``success``, a foreign sample or method pasted in) no longer matches its check and is
+refused on resume (:mod:`redservo.campaign.storage`). It is a check against accidental and
+naive edits, not an authentication: the fingerprint is in ``definition.json``.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import os
 import shutil
@@ -27,12 +35,38 @@ from redservo.errors import ConfigurationError
 
 Columns = Sequence[tuple[str, str]]
 
+SEAL_COLUMN = "row_check"
+"""The last column of a sealed row file (module docstring)."""
 
-def format_line(columns: Columns, row: Mapping[str, Any]) -> str:
-    """One CSV line (with its newline) of a row, in ``columns`` order."""
+
+def _check(seal: str, body: str) -> str:
+    """The check of a line's fields ``body`` (without its newline) under ``seal``."""
+    return hashlib.sha256(f"{seal}\n{body}".encode()).hexdigest()[:16]
+
+
+def format_line(columns: Columns, row: Mapping[str, Any], seal: str | None = None) -> str:
+    """One CSV line (with its newline) of a row, in ``columns`` order; with ``seal`` (the
+    campaign's fingerprint), its check as one more field (module docstring)."""
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerow([_format(row.get(c), k) for c, k in columns])
-    return buf.getvalue()
+    line = buf.getvalue()
+    if seal is None:
+        return line
+    return f"{line[:-1]},{_check(seal, line[:-1])}\n"
+
+
+def _body(line: bytes) -> tuple[bytes, bytes]:
+    """A sealed line's fields before its check, and the check (a hex field: no quoting)."""
+    body, _, check = line.rstrip(b"\r\n").rpartition(b",")
+    return body, check
+
+
+def seal_holds(line: bytes, seal: str) -> bool:
+    """Whether a sealed line's check is that of its fields (module docstring)."""
+    body, check = _body(line)
+    return check.decode("ascii", errors="replace") == _check(
+        seal, body.decode("utf-8", errors="replace")
+    )
 
 
 def parse_fields(columns: Columns, fields: list[str]) -> dict[str, Any] | None:
@@ -46,8 +80,11 @@ def parse_fields(columns: Columns, fields: list[str]) -> dict[str, Any] | None:
     return row if row["sample"] >= 0 and row["method"] else None
 
 
-def parse_line(columns: Columns, line: bytes) -> dict[str, Any] | None:
-    """The row of one line of the file (bytes, with or without its newline), or None."""
+def parse_line(columns: Columns, line: bytes, seal: str | None = None) -> dict[str, Any] | None:
+    """The row of one line of the file (bytes, with or without its newline), or None; a
+    sealed line (``seal`` given) without its check field (:func:`seal_holds` checks it)."""
+    if seal is not None:
+        line = _body(line)[0]
     records = list(csv.reader(io.StringIO(line.decode("utf-8", errors="replace"))))
     return parse_fields(columns, records[0]) if len(records) == 1 else None
 
@@ -59,12 +96,16 @@ class RowFile:
         path: The file.
         columns: ``(column, type)`` pairs (:func:`redservo.campaign.rows._columns`).
         durable: ``fsync`` after every batch (the campaign's ``samples.csv``).
+        seal: The campaign's fingerprint: each line ends with its check (module docstring).
     """
 
-    def __init__(self, path: Path, columns: Columns, *, durable: bool = True) -> None:
+    def __init__(
+        self, path: Path, columns: Columns, *, durable: bool = True, seal: str | None = None
+    ) -> None:
         self.path = path
         self.columns = list(columns)
         self.durable = durable
+        self.seal = seal
         self._fd: int | None = os.open(path, os.O_WRONLY | os.O_APPEND)
         self.size = os.fstat(self._fd).st_size
 
@@ -73,7 +114,7 @@ class RowFile:
         the byte offset of each row's line."""
         if self._fd is None:
             raise ConfigurationError(f"the row file {self.path} is closed")
-        lines = [format_line(self.columns, r).encode() for r in rows]
+        lines = [format_line(self.columns, r, self.seal).encode() for r in rows]
         offsets = []
         for line in lines:
             offsets.append(self.size)
@@ -121,6 +162,7 @@ class RowView(Sequence[dict[str, Any]]):
         samples: Sample number of each row.
         methods: Method of each row (index into ``names``).
         names: The methods.
+        seal: The file's seal (sealed lines), or None.
     """
 
     def __init__(
@@ -131,8 +173,10 @@ class RowView(Sequence[dict[str, Any]]):
         samples: np.ndarray,
         methods: np.ndarray,
         names: Sequence[str],
+        seal: str | None = None,
     ) -> None:
         self.path = path
+        self.seal = seal
         self.columns = list(columns)
         self._offsets = np.asarray(offsets, dtype=np.int64)
         self._samples = np.asarray(samples, dtype=np.int32)
@@ -144,7 +188,7 @@ class RowView(Sequence[dict[str, Any]]):
 
     def _read(self, fh: Any, k: int) -> dict[str, Any]:
         fh.seek(int(self._offsets[k]))
-        row = parse_line(self.columns, fh.readline())
+        row = parse_line(self.columns, fh.readline(), self.seal)
         want = (int(self._samples[k]), self._names[int(self._methods[k])])
         if row is None or (row["sample"], row["method"]) != want:
             raise ConfigurationError(

@@ -11,6 +11,12 @@ The store (docs/campaigns.md, "Storage") keeps one row per (sample, method):
   ``error`` row) and the file is rewritten atomically (temporary file, ``fsync``, rename);
 * a damaged ``definition.json`` or header says what is damaged; ``repair=True`` rebuilds
   them, keeping the rows whose sample parameters match this definition and seed;
+* tampering is refused, not resumed: a ``definition.json`` whose content no longer gives
+  its fingerprint (edited by hand), and rows whose check (:data:`~redservo.campaign.rowfile.
+  SEAL_COLUMN`, each line sealed with the fingerprint) does not match their fields or whose
+  method is no method of redservo (a flipped ``success``, a foreign sample or method pasted
+  in) are a damage that ``repair=True`` removes (the rows are then computed again); they
+  never reach the tables or ``samples.parquet``;
 * ``samples.parquet`` (extra ``redservo[parquet]``) mirrors the CSV with a typed schema.
 
 The columns are those of :mod:`redservo.campaign.rows`.
@@ -27,9 +33,9 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from redservo.campaign.definition import FORMAT_VERSION, CampaignDefinition
+from redservo.campaign.definition import FORMAT_VERSION, CampaignDefinition, fingerprint_of
 from redservo.campaign.lock import DirectoryLock
-from redservo.campaign.rowfile import RowFile, format_line, parse_line
+from redservo.campaign.rowfile import SEAL_COLUMN, RowFile, format_line, parse_line, seal_holds
 from redservo.campaign.rows import (
     _columns,
     _error_columns,
@@ -49,6 +55,13 @@ PARQUET_BATCH = 1024
 """Rows per row group of ``samples.parquet`` (written one group at a time)."""
 
 Key = tuple[int, str]
+
+
+def _methods() -> tuple[str, ...]:
+    """The methods a row may name (every registered law)."""
+    from redservo.redundancy import METHODS
+
+    return METHODS
 
 
 def _stderr(message: str) -> None:
@@ -99,7 +112,9 @@ class _Store:
     ) -> None:
         self.out = out
         self.columns = _columns(defn.nominal.joint_names)
-        self.names = [c for c, _ in self.columns]
+        self.names = [*(c for c, _ in self.columns), SEAL_COLUMN]
+        self.seal = defn.fingerprint(seed)
+        """Each line of ``samples.csv`` ends with its check under this fingerprint."""
         self.csv = out / "samples.csv"
         self.meta_path = out / "definition.json"
         self.notify = notify
@@ -112,7 +127,7 @@ class _Store:
             """Byte offset of the row of each (sample, method) in ``samples.csv``, in the
             order the pairs first appear in the file; no row is kept in memory."""
             self.errors &= self.index.keys()
-            self.file = RowFile(self.csv, self.columns)
+            self.file = RowFile(self.csv, self.columns, seal=self.seal)
         except BaseException:
             self.lock.release()
             raise
@@ -142,6 +157,15 @@ class _Store:
         if not isinstance(meta, dict) or not isinstance(meta.get("fingerprint"), str):
             return f"{self.meta_path} is damaged (no 'fingerprint' entry)"
         if meta["fingerprint"] == fp:
+            try:
+                own = fingerprint_of(meta["definition"], meta["scenario"], meta["seed"])
+            except (KeyError, TypeError, ValueError, AttributeError):
+                own = None
+            if own != fp:
+                return (
+                    f"{self.meta_path} was edited (its definition, scenario or seed no longer "
+                    f"give its fingerprint {fp[:12]})"
+                )
             return None
         if meta.get("format") != FORMAT_VERSION:
             raise ConfigurationError(
@@ -167,7 +191,8 @@ class _Store:
             _write_atomic(self.csv, (",".join(self.names) + "\n").encode())
             return {}
         header_problem, index, dropped = self._read()
-        problems = [p for p in (meta_problem, header_problem) if p]
+        tampered = self._tamper_problem(dropped["tampered"])
+        problems = [p for p in (meta_problem, header_problem, tampered) if p]
         if problems and not repair:
             raise self._damaged("; ".join(problems))
         if meta_problem is not None:
@@ -182,6 +207,14 @@ class _Store:
         if meta_problem is not None:
             _write_atomic(self.meta_path, self._json(self._meta(defn, seed)))
         return index
+
+    def _tamper_problem(self, count: int) -> str | None:
+        if not count:
+            return None
+        return (
+            f"{count} row(s) of {self.csv} fail their check (edited by hand, or not written "
+            f"for this campaign; e.g. line {self.first_tampered})"
+        )
 
     def _damaged(self, problem: str) -> ConfigurationError:
         return ConfigurationError(
@@ -233,15 +266,21 @@ class _Store:
         whole = first.endswith(b"\n")
         header = next(csv.reader(io.StringIO(first.decode("utf-8", errors="replace"))), [])
         problem = self._header_problem(header if whole else [])
-        dropped = {"torn": int(not whole and bool(first)), "unreadable": 0, "duplicate": 0}
+        dropped = {"torn": int(not whole and bool(first))}
+        dropped |= {"unreadable": 0, "duplicate": 0, "tampered": 0}
         index: dict[Key, int] = {}
-        for offset, line in self._lines() if whole else ():
+        self.first_tampered = 0
+        for number, (offset, line) in enumerate(self._lines() if whole else (), start=2):
             if not line.endswith(b"\n"):
                 dropped["torn"] = 1
                 break
-            row = parse_line(self.columns, line)
+            row = parse_line(self.columns, line, self.seal)
             if row is None:
                 dropped["unreadable"] += 1
+                continue
+            if not seal_holds(line, self.seal) or row["method"] not in _methods():
+                dropped["tampered"] += 1
+                self.first_tampered = self.first_tampered or number
                 continue
             key = (row["sample"], sys.intern(row["method"]))
             error = row["outcome"] == "error"
@@ -260,7 +299,7 @@ class _Store:
         """The row whose line starts at byte ``offset`` of ``samples.csv``."""
         with open(self.csv, "rb") as fh:
             fh.seek(offset)
-            row = parse_line(self.columns, fh.readline())
+            row = parse_line(self.columns, fh.readline(), self.seal)
         assert row is not None, f"no row at byte {offset} of {self.csv}"
         return row
 
@@ -269,7 +308,7 @@ class _Store:
         wanted = set(self.index.values())
         for offset, line in self._lines():
             if offset in wanted:
-                row = parse_line(self.columns, line)
+                row = parse_line(self.columns, line, self.seal)
                 assert row is not None
                 yield row
 
@@ -299,7 +338,7 @@ class _Store:
     # -- writing -------------------------------------------------------------------------
 
     def _line(self, row: Mapping[str, Any]) -> str:
-        return format_line(self.columns, row)
+        return format_line(self.columns, row, self.seal)
 
     def _rewrite(self, index: dict[Key, int]) -> dict[Key, int]:
         """Rewrite ``samples.csv`` atomically with the rows of ``index`` (in its order), one
@@ -324,7 +363,7 @@ class _Store:
 
     def normalize(self, row: Mapping[str, Any]) -> dict[str, Any]:
         """The row as it reads back from the file (so fresh and reused rows are identical)."""
-        parsed = parse_line(self.columns, self._line(row).encode())
+        parsed = parse_line(self.columns, self._line(row).encode(), self.seal)
         assert parsed is not None
         return parsed
 
@@ -377,7 +416,7 @@ class _Store:
         with open(self.csv, "rb") as fh:
             for offset in self.index.values():
                 fh.seek(offset)
-                row = parse_line(self.columns, fh.readline())
+                row = parse_line(self.columns, fh.readline(), self.seal)
                 assert row is not None
                 yield row
 
