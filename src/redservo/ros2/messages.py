@@ -156,6 +156,10 @@ def time_to_seconds(stamp: Time) -> float:
 
 def seconds_to_time(seconds: float) -> Time:
     """Seconds since the epoch as a ``Time`` (``nanosec`` in [0, 1e9), rounded to 1 ns)."""
-    total = round(seconds * 1e9) if math.isfinite(seconds) else 0
-    sec, nanosec = divmod(total, 1_000_000_000)
+    if not math.isfinite(seconds):
+        return Time(0, 0)
+    sec = math.floor(seconds)
+    nanosec = round((seconds - sec) * 1e9)  # the fraction alone: no loss at epoch magnitudes
+    if nanosec >= 1_000_000_000:
+        sec, nanosec = sec + 1, nanosec - 1_000_000_000
     return Time(int(sec), int(nanosec))
