@@ -1,3 +1,4 @@
+# mypy: disable-error-code="type-arg,valid-type,assignment"
 """The ROS 2 messages redservo reads and publishes, as Cyclone DDS IDL types.
 
 Each class serializes to the same CDR bytes as ROS 2 (Humble and Jazzy) does for the
@@ -15,9 +16,16 @@ clock; ``JointState``: rad or m, rad/s or m/s, N·m or N; ``CameraInfo``: pixels
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, int32, uint8, uint32
+
+if TYPE_CHECKING:  # cyclonedds' annotation types are not generic for mypy
+    sequence = list
+    float64 = float
+else:
+    from cyclonedds.idl.types import float64, sequence
 
 from redservo.ros2.naming import dds_type_name
 
