@@ -118,7 +118,7 @@ class _Reader:
             try:
                 return validate_topic(raw, key)
             except ConfigurationError as exc:
-                raise self.error(key, str(exc).split(": ", 1)[-1]) from None
+                raise self.error(key, str(exc)) from None
         if key == "robot.joints":
             from redservo.ros2.robot import check_joint_names
 
