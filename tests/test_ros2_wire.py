@@ -52,7 +52,7 @@ def random_message(cls: type, rng: np.random.Generator) -> Any:
     if cls is m.Float64MultiArray:
         return m.Float64MultiArray(random_message(m.MultiArrayLayout, rng), _floats(rng))
     if cls is m.Image:
-        data = [int(v) for v in rng.integers(0, 256, int(rng.integers(0, 50)))]
+        data = rng.integers(0, 256, int(rng.integers(0, 50))).astype(np.uint8).tobytes()
         return m.Image(
             random_message(m.Header, rng),
             u32(),
@@ -86,13 +86,15 @@ def to_rosbags(msg: Any, store: Any) -> Any:
     values: dict[str, Any] = {}
     for f in dataclasses.fields(msg):
         v = getattr(msg, f.name)
-        if type(v) in ROS_NAME:
+        if isinstance(v, bytes):
+            v = np.frombuffer(v, dtype=np.uint8)
+        elif type(v) in ROS_NAME:
             v = to_rosbags(v, store)
         elif isinstance(v, list) and (not v or not isinstance(v[0], str)):
             if v and type(v[0]) in ROS_NAME:
                 v = [to_rosbags(x, store) for x in v]
             else:
-                v = np.array(v, dtype=np.uint8 if isinstance(msg, m.Image) else np.float64)
+                v = np.array(v, dtype=np.float64)
         values[f.name] = v
     return ros_cls(**values)
 
