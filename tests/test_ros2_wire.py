@@ -136,3 +136,9 @@ def test_stamp_conversion_round_trips() -> None:
     assert (t.sec, t.nanosec) == (1_700_000_000, 250_000_000)
     assert m.time_to_seconds(t) == 1_700_000_000.25
     assert m.seconds_to_time(-0.5) == m.Time(-1, 500_000_000)
+
+
+def test_image_pixels_travel_as_bytes() -> None:
+    img = m.Image(encoding="mono8", height=1, width=3, step=3, data=b"\x01\x02\x03")
+    back = m.Image.deserialize(img.serialize())
+    assert isinstance(back.data, bytes) and back == img

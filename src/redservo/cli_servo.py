@@ -61,6 +61,10 @@ def register(sub: Any, common: argparse.ArgumentParser) -> None:
     a.add_argument("--rate", type=float, default=250.0, help="joint-state rate (Hz)")
     a.add_argument("--command-timeout", type=float, default=0.1, help="stop after (s)")
     a.add_argument("--duration", type=float, help="serve this long (s; default: until stopped)")
+    a.add_argument("--camera", action="store_true", help="publish the rendered camera view")
+    a.add_argument("--image", default="/camera/image_raw", help="Image topic")
+    a.add_argument("--camera-info", default="/camera/camera_info", help="CameraInfo topic")
+    a.add_argument("--image-rate", type=float, default=10.0, help="camera frame rate (Hz)")
     a.add_argument("--stats", metavar="FILE", help="write what the arm saw (JSON) at the end")
     a.set_defaults(func=_cmd_sim_arm)
 
@@ -130,6 +134,17 @@ def _cmd_sim_arm(args: argparse.Namespace) -> int:
         rate=args.rate,
         command_timeout=args.command_timeout,
     )
+    if args.camera:
+        from redservo.ros2.sim_camera import SimCamera
+
+        arm.camera = SimCamera(
+            exp,
+            node,
+            arm.stamps,
+            image=args.image,
+            camera_info=args.camera_info,
+            rate=args.image_rate,
+        )
     signal.signal(signal.SIGTERM, lambda *_: arm.stop_event.set())
     print(
         f"sim-arm: {exp.scenario.name} on domain {args.domain_id} ({args.network}): "

@@ -13,7 +13,11 @@
     start_tolerance = 0.05                # rad: max |q - the scenario's q0| at the start
     publish_rate = 0.0                    # Hz of the rate bridge (0: one command per period)
     [camera]
-    driver = "simulated"                  # features from the scenario and the measured joints
+    driver = "simulated"                  # simulated (features from the scenario and the
+                                          # measured joints) | ros2 (Image + CameraInfo)
+    image = "/camera/image_raw"           # ros2: Image topic
+    camera_info = "/camera/camera_info"   # ros2: CameraInfo topic
+    dot_threshold = 55.0                  # ros2: gray level of the dots' ink (0-255)
     [loop]
     watchdog_timeout = 0.2                # s
     period = 0.04                         # s (default: the scenario's control.dt)
@@ -58,6 +62,9 @@ class CameraSpec:
     """``[camera]``."""
 
     driver: str = "simulated"
+    image: str = "/camera/image_raw"
+    camera_info: str = "/camera/camera_info"
+    dot_threshold: float = 55.0
 
 
 @dataclass
@@ -83,7 +90,7 @@ class HardwareSpec:
 _CHOICES = {
     "robot.driver": ("ros2", "mujoco"),
     "robot.network": ("loopback", "system"),
-    "camera.driver": ("simulated",),
+    "camera.driver": ("simulated", "ros2"),
 }
 _POSITIVE = {
     "robot.wait",
@@ -93,7 +100,6 @@ _POSITIVE = {
     "loop.duration",
 }
 _NOT_HERE = {
-    "ros2": "the ROS 2 image source is not built yet (docs/real-robot.md)",
     "device": "not through `redservo servo` yet",
     "video": "not through `redservo servo` yet",
 }
@@ -114,7 +120,7 @@ class _Reader:
                 )
                 raise self.error(key, f"must be one of {list(_CHOICES[key])}, got {raw!r}{extra}")
             return raw
-        if key in ("robot.joint_states", "robot.command"):
+        if key in ("robot.joint_states", "robot.command", "camera.image", "camera.camera_info"):
             try:
                 return validate_topic(raw, key)
             except ConfigurationError as exc:
@@ -167,6 +173,8 @@ def load_hardware(path: str | Path) -> HardwareSpec:
                 allowed = sorted(target.__dataclass_fields__)
                 raise reader.error(full, f"unknown key; allowed in [{name}]: {allowed}")
             setattr(target, key, reader.value(full, raw, getattr(target, key)))
+    if spec.camera.driver == "ros2" and spec.robot.driver != "ros2":
+        raise reader.error("camera.driver", "'ros2' needs robot.driver = 'ros2'")
     if spec.loop.clock_tolerance >= spec.loop.watchdog_timeout:
         raise reader.error("loop.clock_tolerance", "must be below loop.watchdog_timeout")
     return spec

@@ -19,13 +19,17 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, int32, uint8, uint32
+from cyclonedds.idl.types import int32, uint8, uint32
 
 if TYPE_CHECKING:  # cyclonedds' annotation types are not generic for mypy
     sequence = list
+    array = list
     float64 = float
+    octets = bytes
 else:
-    from cyclonedds.idl.types import float64, sequence
+    from cyclonedds.idl.types import array, float64, sequence
+
+    octets = sequence[uint8]  # read and written as bytes: _bytes_field
 
 from redservo.ros2.naming import dds_type_name
 
@@ -108,8 +112,8 @@ class Image(IdlStruct, typename=dds_type_name("sensor_msgs/msg/Image")):
     encoding: str = ""
     is_bigendian: uint8 = 0
     step: uint32 = 0
-    data: bytes = b""
-    """The pixels (``sequence<uint8>`` on the wire; ``bytes`` here: 30x faster than a list)."""
+    data: octets = field(default_factory=bytes)
+    """The pixels: ``bytes`` (:func:`_bytes_field`)."""
 
 
 @dataclass
@@ -121,6 +125,26 @@ class RegionOfInterest(IdlStruct, typename=dds_type_name("sensor_msgs/msg/Region
     height: uint32 = 0
     width: uint32 = 0
     do_rectify: bool = False
+
+
+def _bytes_field(cls: type[IdlStruct], name: str) -> None:
+    """Read and write ``cls.name`` (a ``sequence<uint8>``) as ``bytes``, not a list of ints.
+
+    Same CDR bytes (a uint32 length then the octets) and the same XTypes type (built from
+    the annotation), but a 640 x 480 rgb8 image serializes in ~3 ms instead of ~70 ms.
+    Uses cyclonedds' internal machines (checked by tests/test_ros2_wire.py); when they are
+    not where expected, the field stays a list of ints (slower, equally correct).
+    """
+    from cyclonedds.idl._machinery import BytesMachine
+
+    idl = getattr(cls, "__idl__", None)
+    try:
+        idl.populate()  # type: ignore[union-attr]
+        for machine in (idl.v1_machine, idl.v2_machine):  # type: ignore[union-attr]
+            if name in machine.members_machines:
+                machine.members_machines[name] = BytesMachine()
+    except AttributeError:  # pragma: no cover - another cyclonedds layout
+        return
 
 
 def _zeros(n: int) -> list[float]:
@@ -143,6 +167,8 @@ class CameraInfo(IdlStruct, typename=dds_type_name("sensor_msgs/msg/CameraInfo")
     binning_y: uint32 = 0
     roi: RegionOfInterest = field(default_factory=RegionOfInterest)
 
+
+_bytes_field(Image, "data")
 
 MESSAGE_TYPES: dict[str, type[IdlStruct]] = {
     "builtin_interfaces/msg/Time": Time,

@@ -140,6 +140,22 @@ def _connect(exp: Experiment, spec: HardwareSpec, period: float) -> tuple[Any, l
     return robot, joints
 
 
+def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
+    """The feature source ``[camera]`` asks for (checked: ``CameraInfo`` arrives)."""
+    pose = JointPose(hw, exp.robot, time.monotonic())
+    if spec.camera.driver == "simulated":
+        return IdealFeatureSource(exp.task, exp.scene, pose)  # type: ignore[arg-type]
+    from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
+
+    cam = spec.camera
+    camera = wait_for_camera(hw.node, cam.camera_info, spec.robot.wait)
+    source = Ros2ImageSource(
+        hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
+    )
+    source.first_measurement(spec.robot.wait)  # the target is seen before any command
+    return source
+
+
 def servo_on_hardware(
     exp: Experiment,
     spec: HardwareSpec,
@@ -185,7 +201,7 @@ def servo_on_hardware(
         if confirm is not None and not confirm(what):
             return None, {}
         robot = DryRunRobot(hw) if dry_run else hw
-        source = IdealFeatureSource(exp.task, exp.scene, JointPose(hw, exp.robot, time.monotonic()))  # type: ignore[arg-type]
+        source = _source(exp, spec, hw)
         opts = exp.options
         loop = ServoLoop(
             robot,

@@ -84,8 +84,8 @@ class RehearsalArm:
         command: Topic of the velocity commands.
         rate: Joint-state rate (Hz), also the physics update rate, in [10, 1000].
         command_timeout: Command zero when no command arrived for this long (s), > 0.
-        camera: Publish the rendered image and its camera info (:mod:`redservo.ros2.images`).
-        image_rate: Image rate (Hz), > 0.
+        camera: A :class:`~redservo.ros2.sim_camera.SimCamera` to publish the arm's rendered
+            view (None: no camera).
 
     Raises:
         ConfigurationError: a rate, timeout, topic or joint list is out of range.
@@ -179,6 +179,15 @@ class RehearsalArm:
 
     def run(self, duration: float | None = None) -> ArmStats:
         """Serve until :attr:`stop_event` is set or ``duration`` (s) elapsed."""
+        if self.camera is not None:
+            self.camera.start()
+        try:
+            return self._serve(duration)
+        finally:
+            if self.camera is not None:
+                self.camera.stop()
+
+    def _serve(self, duration: float | None) -> ArmStats:
         period, step = 1.0 / self.rate, self.arm.timestep
         t_sim = start = time.monotonic()
         next_tick = start
@@ -197,7 +206,7 @@ class RehearsalArm:
                 t_sim += steps * step
             self._publish(t_sim)
             if self.camera is not None:
-                self.camera.maybe_publish(self.arm, t_sim, t_sim - start)
+                self.camera.update(self.arm.q, t_sim, t_sim - start)
             next_tick = max(next_tick + period, time.monotonic())
             self.stop_event.wait(max(next_tick - time.monotonic(), 0.0))
         self.stats.last_command = [float(x) for x in self._qdot]
