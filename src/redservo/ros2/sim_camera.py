@@ -76,6 +76,12 @@ class SimCamera:
             self._state = (np.array(q), t_mono, t_scene)
 
     def _serve(self) -> None:
+        try:
+            self._frames()
+        finally:
+            self.view.close()  # in the thread that made the OpenGL context
+
+    def _frames(self) -> None:
         next_frame = time.monotonic()
         while not self._stop.wait(max(next_frame - time.monotonic(), 0.0)):
             next_frame = max(next_frame + self.period, time.monotonic())
@@ -101,4 +107,3 @@ class SimCamera:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
-        self.view.close()
