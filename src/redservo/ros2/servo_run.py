@@ -200,7 +200,17 @@ def servo_on_hardware(
         )
         if confirm is not None and not confirm(what):
             return None, {}
-        robot = DryRunRobot(hw) if dry_run else hw
+        robot: Any = DryRunRobot(hw) if dry_run else hw
+        if spec.robot.publish_rate > 0.0 and not dry_run:
+            from redservo.ros2.bridge import RateBridge
+
+            robot = RateBridge(
+                hw,
+                exp.robot.n,
+                rate=spec.robot.publish_rate,
+                qddot_max=limits.qddot_max,
+                hold_timeout=spec.loop.watchdog_timeout,
+            )
         source = _source(exp, spec, hw)
         opts = exp.options
         loop = ServoLoop(
