@@ -179,3 +179,14 @@ def test_a_dry_run_sends_nothing(tmp_path: Path, arm: Any) -> None:
     assert summary["iterations"] >= 10
     stats = _stop(*arm)
     assert stats["commands"] == 0 and stats["timeouts"] == 0
+
+
+def test_the_rate_bridge_publishes_faster_than_the_loop(tmp_path: Path, arm: Any) -> None:
+    out = tmp_path / "run"
+    f = hardware(tmp_path, "publish_rate = 200.0\n[loop]\nduration = 2.0\n")
+    code = main(["servo", "panda-4points", "--hardware", str(f), "--yes", "--out", str(out)])
+    assert code == 0
+    iterations = json.loads((out / "summary.json").read_text())["iterations"]
+    stats = _stop(*arm)
+    assert stats["commands"] > 2 * iterations and stats["refused"] == 0
+    assert stats["last_command"] == [0.0] * 7
