@@ -190,3 +190,24 @@ def test_the_rate_bridge_publishes_faster_than_the_loop(tmp_path: Path, arm: Any
     stats = _stop(*arm)
     assert stats["commands"] > 2 * iterations and stats["refused"] == 0
     assert stats["last_command"] == [0.0] * 7
+
+
+def test_a_speed_scale_out_of_range_is_one_line(tmp_path: Path, capsys: Any) -> None:
+    f = hardware(tmp_path)
+    assert main(["servo", "panda-4points", "--hardware", str(f), "--speed-scale", "1.5"]) == 2
+    assert "--speed-scale must be in (0, 1], got 1.5" in capsys.readouterr().err
+
+
+def test_not_confirmed_sends_nothing(tmp_path: Path, arm: Any, monkeypatch: Any) -> None:
+    monkeypatch.setattr("builtins.input", lambda: "n")
+    f = hardware(tmp_path)
+    assert main(["servo", "panda-4points", "--hardware", str(f)]) == 1
+    assert _stop(*arm)["commands"] == 0
+
+
+def test_the_in_process_mujoco_driver_runs_the_same_loop(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    f = tmp_path / "hw.toml"
+    f.write_text('[robot]\ndriver = "mujoco"\n[loop]\nduration = 1.0\n')
+    assert main(["servo", "panda-4points", "--hardware", str(f), "--yes", "--out", str(out)]) == 0
+    assert json.loads((out / "summary.json").read_text())["iterations"] >= 10

@@ -156,6 +156,46 @@ def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
     return source
 
 
+def _servo_loop(
+    exp: Experiment,
+    spec: HardwareSpec,
+    hw: Any,
+    source: Any,
+    limits: Any,
+    period: float,
+    dry_run: bool,
+) -> ServoLoop:
+    """The loop on ``hw`` (recording only when ``dry_run``; through the rate bridge when
+    ``robot.publish_rate`` is set)."""
+    robot: Any = DryRunRobot(hw) if dry_run else hw
+    if spec.robot.publish_rate > 0.0 and not dry_run:
+        from redservo.ros2.bridge import RateBridge
+
+        robot = RateBridge(
+            hw,
+            exp.robot.n,
+            rate=spec.robot.publish_rate,
+            qddot_max=limits.qddot_max,
+            hold_timeout=spec.loop.watchdog_timeout,
+        )
+    opts = exp.options
+    return ServoLoop(
+        robot,
+        source,
+        exp.robot,
+        exp.task,
+        exp.law,
+        limits,
+        period=period,
+        lam=opts.lam,
+        watchdog_timeout=spec.loop.watchdog_timeout,
+        clock_tolerance=spec.loop.clock_tolerance,
+        tolerance=opts.tolerance,
+        max_iterations=None if spec.loop.duration else opts.max_iterations,
+        duration=spec.loop.duration,
+    )
+
+
 def servo_on_hardware(
     exp: Experiment,
     spec: HardwareSpec,
@@ -193,6 +233,7 @@ def servo_on_hardware(
     try:
         _, q = hw.read_joints()
         check_start(exp, np.asarray(q, dtype=float), spec, joints)
+        source = _source(exp, spec, hw)  # the camera is checked before the question too
         what = (
             f"{exp.scenario.name} on {spec.robot.driver} ({spec.robot.command}, domain "
             f"{spec.robot.domain_id}), {'DRY RUN' if dry_run else 'commands WILL be sent'}, "
@@ -200,34 +241,7 @@ def servo_on_hardware(
         )
         if confirm is not None and not confirm(what):
             return None, {}
-        robot: Any = DryRunRobot(hw) if dry_run else hw
-        if spec.robot.publish_rate > 0.0 and not dry_run:
-            from redservo.ros2.bridge import RateBridge
-
-            robot = RateBridge(
-                hw,
-                exp.robot.n,
-                rate=spec.robot.publish_rate,
-                qddot_max=limits.qddot_max,
-                hold_timeout=spec.loop.watchdog_timeout,
-            )
-        source = _source(exp, spec, hw)
-        opts = exp.options
-        loop = ServoLoop(
-            robot,
-            source,
-            exp.robot,
-            exp.task,
-            exp.law,
-            limits,
-            period=period,
-            lam=opts.lam,
-            watchdog_timeout=spec.loop.watchdog_timeout,
-            clock_tolerance=spec.loop.clock_tolerance,
-            tolerance=opts.tolerance,
-            max_iterations=None if spec.loop.duration else opts.max_iterations,
-            duration=spec.loop.duration,
-        )
+        loop = _servo_loop(exp, spec, hw, source, limits, period, dry_run)
         with _sigterm_as_interrupt():
             result = loop.run(raise_errors=False)
         # what write_run_files records of the controller (as a simulation result has it)
