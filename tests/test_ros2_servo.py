@@ -81,7 +81,7 @@ def arm(tmp_path: Path) -> Any:
         str(DOMAIN),
         "--duration",
         "120",
-        "--stats",
+        "--out",
         str(stats),
         "--command-timeout",
         "0.1",
@@ -211,3 +211,31 @@ def test_the_in_process_mujoco_driver_runs_the_same_loop(tmp_path: Path) -> None
     f.write_text('[robot]\ndriver = "mujoco"\n[loop]\nduration = 1.0\n')
     assert main(["servo", "panda-4points", "--hardware", str(f), "--yes", "--out", str(out)]) == 0
     assert json.loads((out / "summary.json").read_text())["iterations"] >= 10
+
+
+@pytest.mark.parametrize("command", ["servo", "sim-arm"])
+def test_help_documents_the_commands(command: str, capsys: Any) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0 and "usage: redservo " + command in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("argv", "expect"),
+    [
+        (["--joints", "a,a,b,c,d,e,f"], "--joints names ['a'] more than once"),
+        (["--rate", "5"], "rate must be 10-1000 Hz"),
+        (["--command", "/bad topic"], "command = '/bad topic' is not a fully qualified"),
+        (["--domain-id", "999"], "domain_id must be 0-232"),
+    ],
+)
+def test_sim_arm_bad_options_are_one_line(argv: list[str], expect: str, capsys: Any) -> None:
+    assert main(["sim-arm", "panda-4points", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and expect in err, err
+
+
+def test_a_missing_hardware_file_is_one_line(tmp_path: Path, capsys: Any) -> None:
+    f = tmp_path / "nope.toml"
+    assert main(["servo", "panda-4points", "--hardware", str(f)]) == 2
+    assert f"{f}: cannot read the hardware file" in capsys.readouterr().err

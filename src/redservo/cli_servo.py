@@ -4,7 +4,7 @@
                    [--speed-scale s] [--set key=value ...]
     redservo sim-arm SCENARIO [--domain-id N] [--network loopback|system] [--joints a,b,...]
                      [--joint-states TOPIC] [--command TOPIC] [--rate HZ]
-                     [--command-timeout S] [--duration S] [--stats FILE]
+                     [--command-timeout S] [--duration S] [--camera] [--out FILE]
 
 Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`).
 Exit codes as every command (2: bad input, one line); ``servo`` returns 1 when the run
@@ -65,7 +65,7 @@ def register(sub: Any, common: argparse.ArgumentParser) -> None:
     a.add_argument("--image", default="/camera/image_raw", help="Image topic")
     a.add_argument("--camera-info", default="/camera/camera_info", help="CameraInfo topic")
     a.add_argument("--image-rate", type=float, default=10.0, help="camera frame rate (Hz)")
-    a.add_argument("--stats", metavar="FILE", help="write what the arm saw (JSON) at the end")
+    a.add_argument("--out", metavar="FILE", help="write what the arm saw (JSON) at the end")
     a.set_defaults(func=_cmd_sim_arm)
 
 
@@ -156,6 +156,6 @@ def _cmd_sim_arm(args: argparse.Namespace) -> int:
         stats = arm.run(args.duration)
     except KeyboardInterrupt:
         stats = arm.stats
-    if args.stats:
-        Path(args.stats).write_text(json.dumps(stats.to_dict(), indent=2) + "\n")
+    if args.out:
+        Path(args.out).write_text(json.dumps(stats.to_dict(), indent=2) + "\n")
     return 0

@@ -40,7 +40,7 @@ _MAX_CATCH_UP = 0.05  # s of physics per cycle at most; beyond, real time is dro
 
 @dataclass
 class ArmStats:
-    """What the rehearsal arm saw (the ``--stats`` file)."""
+    """What the rehearsal arm saw (``redservo sim-arm --out FILE``)."""
 
     commands: int = 0
     refused: int = 0
