@@ -107,3 +107,21 @@ def test_panda_converges_on_the_rehearsal_arms_rendered_camera(tmp_path: Path) -
     finally:
         arm.send_signal(signal.SIGTERM)
         assert arm.wait(timeout=30) == 0
+
+
+def test_an_image_of_another_size_than_its_camera_info_stops_the_arm() -> None:
+    import time
+
+    from redservo.ros2.image_source import Ros2ImageSource
+    from redservo.ros2.stamps import EpochStamps
+    from redservo.ros2.transport import Ros2Node
+
+    node = Ros2Node(20 + os.getpid() % 80)
+    writer = node.writer(TOPIC, Image)
+    source = Ros2ImageSource(node, TOPIC, Camera(), None, None, None, EpochStamps())  # type: ignore[arg-type]
+    deadline = time.monotonic() + 10.0
+    with pytest.raises(MessageError, match=f"Image on {TOPIC} is 4 x 2 pixels; its CameraInfo"):
+        while time.monotonic() < deadline:
+            writer.write(_image("mono8", np.zeros((2, 4), np.uint8)))
+            source.measure(0.0)
+            time.sleep(0.05)
