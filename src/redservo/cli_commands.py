@@ -234,10 +234,7 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     print(result.markdown)
     reused = len(result.rows) - result.computed
     if reused:
-        print(
-            f"reused {reused} stored run(s) of {out / 'samples.csv'}, computed "
-            f"{result.computed}"
-        )
+        print(f"reused {reused} stored run(s) of {out / 'samples.csv'}, computed {result.computed}")
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
     print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0

@@ -32,6 +32,7 @@ __all__ = [
 ]
 
 EXTRAS = {
+    "cyclonedds": "ros2",
     "matplotlib": "plot",
     "tqdm": "progress",
     "qpsolvers": "qp",

@@ -54,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
     from redservo.cli_calibrate import register as register_calibrate
 
     register_calibrate(sub, common)
+    from redservo.cli_servo import register as register_servo
+
+    register_servo(sub, common)
     return p
 
 
