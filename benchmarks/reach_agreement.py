@@ -34,8 +34,9 @@ class Agreement(NamedTuple):
     cpu_second: float
 
 
-def agreement(campaign: str, samples: int, seed: int) -> Agreement:
-    """Both verdicts on the first ``samples`` samples of ``campaign`` drawn with ``seed``."""
+def agreement(campaign: str, samples: int, seed: int, *, progress: bool = False) -> Agreement:
+    """Both verdicts on the first ``samples`` samples of ``campaign`` drawn with ``seed``
+    (``progress``: print each sample's verdicts and CPU seconds as it goes)."""
     from redservo.campaign.definition import load_campaign
     from redservo.campaign.reach import reachable
     from redservo.campaign.reach_check import reachable_independent
@@ -53,6 +54,8 @@ def agreement(campaign: str, samples: int, seed: int) -> Agreement:
         out.second.append(reachable_independent(exp))
         t2 = time.process_time()
         c1, c2 = c1 + t1 - t0, c2 + t2 - t1
+        if progress:
+            print(i, out.first[-1], out.second[-1], f"{t1 - t0:.2f} {t2 - t1:.2f}", flush=True)
     return out._replace(cpu_first=c1, cpu_second=c2)
 
 
@@ -64,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--samples", type=int, default=200)
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
-    r = agreement(a.campaign, a.samples, a.seed)
+    r = agreement(a.campaign, a.samples, a.seed, progress=True)
     n = len(r.samples)
     both = sum(x is not None and y is not None and x == y for x, y in zip(r.first, r.second))
     diff = disagreements(r.samples, r.first, r.second)

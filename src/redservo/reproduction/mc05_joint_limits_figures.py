@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -125,6 +126,11 @@ def _mark_stop(
     )
 
 
+def _last_error(log: Any, i: int) -> float:
+    """The last value of feature error ``i`` of a run's log."""
+    return float(log.e[-1, i])
+
+
 def _legend_outside(ax: Any, *, below: bool = False) -> None:
     """The legend of ``ax`` outside its data region (below it, or to its right), 8 pt."""
     if below:
@@ -182,7 +188,7 @@ def _fig4(runs: Runs, out: Path) -> Path:
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_title(f"{FEATURES[i]} − {FEATURES[i]}*", fontsize=9)
         # the × on every panel, the text once
-        _mark_stop(ax, runs, lambda log, i=i: log.e[-1, i], "classical", text=i == 0)
+        _mark_stop(ax, runs, partial(_last_error, i=i), "classical", text=i == 0)
     _legend_outside(axs[0, -1])
     for ax in axs[1]:
         ax.set_xlabel("t (s)")
