@@ -235,6 +235,13 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     reused = len(result.rows) - result.computed
     if reused:
         print(f"reused {reused} stored run(s) of {out / 'samples.csv'}, computed {result.computed}")
+    if getattr(args, "check_reach", False):
+        from redservo.campaign.reach_report import check_campaign, reach_markdown, write_reach_check
+
+        check = check_campaign(defn, args.seed, result.rows)
+        if result.out is not None:
+            write_reach_check(result.out, check)
+        print(reach_markdown(check))
     drawn = f" and {len(result.figures)} figure(s)" if result.figures else ""
     print(f"wrote {result.out}/samples.csv, samples.parquet, campaign.md, campaign.json{drawn}")
     return 0

@@ -187,6 +187,12 @@ def _add_campaign(sub: Any, common: argparse.ArgumentParser) -> None:
         default=None,
         help="parallel processes (default: all cores)",
     )
+    cp.add_argument(
+        "--check-reach",
+        action="store_true",
+        help="judge each sample's reachability again with an independent method and list the "
+        "disagreements in campaign.md/campaign.json (about 1 CPU s per sample, in this process)",
+    )
     _add_campaign_storage(cp)
     cp.set_defaults(func=cmd.cmd_campaign, compiles=True)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -70,37 +71,99 @@ def _velocity_grid(
     return save(fig, path)
 
 
+_LINE_STYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)))
+_MARKERS = ("o", "s", "^", "D", "v")
+
+
+def _axes_style(index: int, count: int) -> dict[str, object]:
+    """Line style of the ``index``-th of ``count`` runs: its own dashes and markers, the
+    first runs thickest and drawn underneath, so that a run hidden under another shows."""
+    return {
+        "lw": 1.0 + 1.2 * (count - 1 - index) / max(count - 1, 1),
+        "ls": _LINE_STYLES[index % len(_LINE_STYLES)],
+        "marker": _MARKERS[index % len(_MARKERS)],
+        "markevery": (0.04 * index, 0.2),
+        "ms": 4,
+        "mfc": "none",
+        "zorder": 2 + index,
+    }
+
+
+def _run_end(ax: Any, r: Any, j: int, color: str) -> tuple[float, float] | None:
+    """Mark where a run that hit a joint limit ended on the axis ``j`` panel: ``×`` when ``j``
+    is the axis that hit (returns that point), a ``|`` (run ends) otherwise (returns None)."""
+    k, y = len(r.log) - 1, float(r.log.q_normalized[-1, j])
+    axis = int(r.summary["limit_hit"]["axis"])
+    if axis == j:
+        ax.plot(k, y, "x", color=color, ms=9, mew=2, zorder=10, label="× this axis at its limit")
+        return float(k), y
+    label = f"| run ends (axis {axis + 1} at its limit)"
+    ax.plot(k, y, "|", color=color, ms=12, mew=2, zorder=10, label=label)
+    return None
+
+
+def _annotate_ends(ax: Any, ends: list[tuple[float, float]], j: int, who: list[str]) -> None:
+    """One "run ends: axis j at its limit (runs)" next to the last ``×`` of the panel."""
+    if not ends:
+        return
+    x, y = max(ends)
+    ax.annotate(
+        f"run ends: axis {j + 1} at its limit ({', '.join(who)})",
+        (x, y),
+        xytext=(10, -16 if y > 0 else 12),
+        textcoords="offset points",
+        fontsize=8,
+        bbox={"fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.9},
+        zorder=11,
+    )
+
+
 def _axes_figure(runs: Runs, labels: Sequence[str], path: Path, title: str) -> Path:
     """Normalized axes 1 and 5 of several runs, zoomed on the side of the limits they approach.
 
-    The real limits (±1, solid) and the thresholds (±(1 - 2ρ), dashed) are drawn; a
-    cross marks the iteration at which a run hit a joint limit.
+    The real limits (±1, solid) and the thresholds (±(1 - 2ρ), dashed) are drawn; a run that
+    hit a joint limit ends with a ``×`` and "run ends: axis k at its limit" on the panel of
+    the axis that hit, a ``|`` on the other panel. The legend is outside, to the right.
     """
     from redservo.figstyle import _plt, save
 
     plt = _plt()
     thr = threshold(runs.base.limits.rho)
-    fig, axs = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True)
+    fig, axs = plt.subplots(2, 1, figsize=(8.5, 6.0), sharex=True)
     for ax, j in zip(axs, (0, 4), strict=True):
         data = np.concatenate([runs[label].log.q_normalized[:, j] for label in labels])
         lo, hi = float(data.min()), float(data.max())
-        for label in labels:
+        ends: list[tuple[float, float]] = []
+        who: list[str] = []
+        for i, label in enumerate(labels):
             r = runs[label]
-            (line,) = ax.plot(r.log.q_normalized[:, j], lw=1.2, label=label)
-            if r.outcome == "joint_limit":
-                ax.plot(len(r.log) - 1, r.log.q_normalized[-1, j], "x", color=line.get_color())
+            style = _axes_style(i, len(labels))
+            (line,) = ax.plot(r.log.q_normalized[:, j], label=label, **style)
+            if r.outcome == "joint_limit" and r.summary["limit_hit"] is not None:
+                end = _run_end(ax, r, j, line.get_color())
+                if end is not None:
+                    ends.append(end)
+                    who.append(label)
+        _annotate_ends(ax, ends, j, who)
         marks = [y for y in (-1.0, -thr, thr, 1.0) if lo - 0.25 <= y <= hi + 0.25]
         for y in marks:
             ax.axhline(
                 y, color="k" if abs(y) == 1.0 else "0.5", lw=0.8, ls="-" if abs(y) == 1.0 else "--"
             )
         ax.set_ylim(min([lo, *marks]) - 0.02, max([hi, *marks]) + 0.02)
-        ax.set_ylabel(f"q{j + 1} (normalized)")
-    axs[0].legend(fontsize=7, loc="best")
+        ax.set_ylabel(f"q{j + 1} (normalized, limits ±1)")
+        handles, names = ax.get_legend_handles_labels()
+        keep = dict(zip(names, handles, strict=True))  # one entry per label
+        ax.legend(
+            keep.values(),
+            keep.keys(),
+            fontsize=8,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            borderaxespad=0.0,
+        )
     axs[-1].set_xlabel("iteration")
-    axs[0].set_title(
-        title + f"\n(thresholds ±{thr:g} dashed, limits ±1 solid, x = limit hit)", fontsize=9
-    )
+    axs[0].set_title(title + f"\n(thresholds ±{thr:g} dashed, limits ±1 solid)", fontsize=9)
     return save(fig, path)
 
 

@@ -97,8 +97,11 @@ def group_speed_shares(
     return {name: float(v[lo:hi, list(idx)].max(axis=1).mean()) for name, idx in groups.items()}
 
 
-def group_panel(ax: Any, t: FloatArray, qn: FloatArray, group: str, names: Sequence[str]) -> None:
-    """Plot the normalized joints of one group, with the thresholds (±0.8) and limits (±1)."""
+def group_panel(
+    ax: Any, t: FloatArray, qn: FloatArray, group: str, names: Sequence[str], *, legend: bool = True
+) -> None:
+    """Plot the normalized joints of one group, with the thresholds (±0.8) and limits (±1);
+    ``legend=False``: the caller places the legend (after drawing the rest)."""
     for j in JOINT_GROUPS[group]:
         ax.plot(t, qn[:, j], lw=1.2, label=names[j])
     for y in (0.8, -0.8):
@@ -107,6 +110,8 @@ def group_panel(ax: Any, t: FloatArray, qn: FloatArray, group: str, names: Seque
         ax.axhline(y, color="k", lw=0.8)
     ax.set_ylim(-1.08, 1.08)
     ax.set_ylabel(group, fontsize=9)
+    if not legend:
+        return
     from redservo.figstyle import place_legend
 
     place_legend(ax, fontsize=6, ncol=3)  # in a corner free of data, else outside

@@ -225,6 +225,22 @@ def _plt() -> Any:
     return plt()
 
 
+def _group_legend(ax: Any, joints: int) -> None:
+    """The legend of a Fig. 18 row, right of the axes, 8 pt: the group's joints, then what
+    the dotted and dash-dotted lines mean (in both columns)."""
+    from matplotlib.lines import Line2D
+
+    handles = [
+        *ax.get_lines()[:joints],
+        Line2D([], [], ls=":", color="0.3", lw=1.0, label="classical, until its limit hit"),
+        Line2D([], [], ls="-.", color="tab:green", lw=0.9, label="activation"),
+        Line2D([], [], ls="-.", color="tab:red", lw=0.9, label="first constrained"),
+    ]
+    ax.legend(
+        handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0
+    )
+
+
 def figures(runs: Runs, out: Path) -> list[Path]:
     """Draw CM01 Fig. 18 and the tracking error into ``out``."""
     from redservo.figstyle import save
@@ -239,7 +255,7 @@ def figures(runs: Runs, out: Path) -> list[Path]:
         cl = runs["classical"].log
         for row, group in enumerate(GROUP_ORDER):
             ax = axs[row, col]
-            group_panel(ax, log.t, log.q_normalized, group, names)
+            group_panel(ax, log.t, log.q_normalized, group, names, legend=False)
             for j in JOINT_GROUPS[group]:
                 ax.plot(cl.t, cl.q_normalized[:, j], ":", color="0.3", lw=1.0)
             k = info["activation"].get(group)
@@ -248,11 +264,9 @@ def figures(runs: Runs, out: Path) -> list[Path]:
             kc = info["constrained"].get(group)
             if kc is not None:
                 ax.axvline(log.t[kc], color="tab:red", lw=0.9, ls="-.")
-        axs[0, col].set_title(
-            f"{label} (dotted: classical until its limit hit; green: activation, red: first "
-            "constrained)",
-            fontsize=8,
-        )
+            if col == len(laws) - 1:  # one legend per group, right of the figure, off the data
+                _group_legend(ax, len(JOINT_GROUPS[group]))
+        axs[0, col].set_title(label, fontsize=10)
         axs[-1, col].set_xlabel("time (s)")
     fig.suptitle(
         "CM01 Fig. 18 — humanoid tracking a point: normalized joint positions per group "

@@ -12,7 +12,9 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,17 +50,16 @@ def _fig2(runs: Runs, out: Path, plane: tuple[int, int]) -> Path:
     for label, (color, ls) in styles.items():
         q = runs[label].log.q
         ax.plot(q[:, a], q[:, b], color=color, ls=ls, lw=1.6, label=label)
-        ax.plot(q[-1, a], q[-1, b], "x" if label == "classical" else "s", color=color, ms=7)
+        ax.plot(q[-1, a], q[-1, b], **_end_marker(runs, label, color))
     q0 = runs["classical"].log.q[0]
     ax.plot(q0[a], q0[b], "o", color="k", ms=5, label="start")
-    names = exp.robot.joint_names
-    ax.set_xlabel(f"q{a + 1} = {names[a]}")
-    ax.set_ylabel(f"q{b + 1} = {names[b]}")
+    ax.set_xlabel(_joint_label(exp.robot, a))
+    ax.set_ylabel(_joint_label(exp.robot, b))
     ax.set_title(
         f"MC05 Fig. 2: joint plane (q{a + 1}, q{b + 1}); limits (black), thresholds (dashed)",
         fontsize=9,
     )
-    ax.legend(fontsize=7, loc="best")
+    _legend_outside(ax, below=True)
     allq = np.vstack([runs[label].log.q[:, [a, b]] for label in styles])
     span = np.ptp(allq, axis=0).max()
     c = 0.5 * (allq.min(axis=0) + allq.max(axis=0))
@@ -75,11 +76,67 @@ def _fig2(runs: Runs, out: Path, plane: tuple[int, int]) -> Path:
         bx.axhline(y, color="k", lw=0.8)
     for y in (1 - 2 * lim.rho, -(1 - 2 * lim.rho)):
         bx.axhline(y, color="0.5", lw=0.8, ls="--")
+    _mark_stop(bx, runs, lambda log: lim.normalized(log.q)[-1, j], "classical")
     bx.set_xlabel("t (s)")
-    bx.set_ylabel(f"q{j + 1} (normalized)")
+    bx.set_ylabel(f"q{j + 1} (normalized: limits ±1, no unit)")
     bx.set_title(f"axis {j + 1} (the one classical hits) vs time", fontsize=9)
-    bx.legend(fontsize=7)
+    _legend_outside(bx, below=True)
     return save(fig, out / "fig2_joint_trajectories.png")
+
+
+def _joint_label(robot: Any, j: int) -> str:
+    """``"q1 = x (m)"``: the joint's number, name and unit (m prismatic, rad revolute)."""
+    unit = "m" if robot.joint_types[j] == "prismatic" else "rad"
+    return f"q{j + 1} = {robot.joint_names[j]} ({unit})"
+
+
+def _end_marker(runs: Runs, label: str, color: str) -> dict[str, Any]:
+    """Keyword arguments of ``plot`` for the end of a run in the joint plane: ``×`` for a run
+    stopped at a joint limit, a square for a run that ended otherwise; labelled for the legend."""
+    hit = runs[label].summary["limit_hit"]
+    if hit is not None:
+        text = f"{label} stopped: q{int(hit['axis']) + 1} at its limit"
+        return {"marker": "x", "ms": 9, "mew": 2, "color": color, "ls": "none", "label": text}
+    return {"marker": "s", "ms": 6, "color": color, "ls": "none", "label": f"{label}: end"}
+
+
+def _mark_stop(
+    ax: Any, runs: Runs, value: Callable[[Any], float], label: str, *, text: bool = True
+) -> None:
+    """``×`` and "joint q_i at its limit, run stopped" where run ``label`` (drawn in the
+    classical runs' colour) stopped at a limit (nothing when it did not); ``value(log)``: the
+    y of its last point on this panel."""
+    hit = runs[label].summary["limit_hit"]
+    if hit is None:
+        return
+    log = runs[label].log
+    t, y = float(log.t[-1]), float(value(log))
+    color = "tab:green"  # the classical runs' colour
+    ax.plot(t, y, "x", color=color, ms=8, mew=2, zorder=10)
+    if not text:
+        return
+    ax.annotate(
+        f"{label}: joint q{int(hit['axis']) + 1} at its limit, run stopped",
+        (t, y),
+        xytext=(10, 6),
+        textcoords="offset points",
+        fontsize=8,
+        color=color,
+        arrowprops={"arrowstyle": "-", "color": color, "lw": 0.6},
+    )
+
+
+def _last_error(log: Any, i: int) -> float:
+    """The last value of feature error ``i`` of a run's log."""
+    return float(log.e[-1, i])
+
+
+def _legend_outside(ax: Any, *, below: bool = False) -> None:
+    """The legend of ``ax`` outside its data region (below it, or to its right), 8 pt."""
+    if below:
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
+    else:
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
 def _hit_axis(runs: Runs) -> int:
@@ -130,7 +187,9 @@ def _fig4(runs: Runs, out: Path) -> Path:
             ax.plot(log.t, log.e[:, i], color=color, ls=ls, lw=1.3, label=label)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_title(f"{FEATURES[i]} − {FEATURES[i]}*", fontsize=9)
-    axs[0, 0].legend(fontsize=7)
+        # the × on every panel, the text once
+        _mark_stop(ax, runs, partial(_last_error, i=i), "classical", text=i == 0)
+    _legend_outside(axs[0, -1])
     for ax in axs[1]:
         ax.set_xlabel("t (s)")
     fig.suptitle("MC05 Fig. 4: feature errors (directional vs classical, with and without limits)")
