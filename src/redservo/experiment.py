@@ -19,6 +19,8 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.collision.shapes import Obstacle
+from redservo.collision.start import check_clear
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
@@ -54,6 +56,8 @@ class Experiment:
     camera: Camera
     sensor: Sensor | None = None
     actuator: Actuator | None = None
+    obstacles: tuple[Obstacle, ...] = ()
+    """``[[obstacles]]`` (:mod:`redservo.collision`), world frame."""
 
     def run(
         self,
@@ -368,6 +372,8 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = _sensor(sc, spec, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
+    exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
+    check_clear(sc, robot, q0, exp.obstacles)
     if spec.simulator is not None and spec.simulator.kind == "mujoco":
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 
