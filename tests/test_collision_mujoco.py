@@ -75,9 +75,14 @@ def test_scenario_obstacles_reach_the_mujoco_arm() -> None:
     data = copy.deepcopy(load_scenario("panda-mujoco-4points").data)
     data["simulator"]["camera"] = "ideal"
     data["obstacles"] = [
-        {"name": "post", "shape": "cylinder", "radius": 0.02, "length": 0.5,
-         "pose": {"translation": [0.7, 0.4, 0.25]}},
-    ]  # fmt: off
+        {
+            "name": "post",
+            "shape": "cylinder",
+            "radius": 0.02,
+            "length": 0.5,
+            "pose": {"translation": [0.7, 0.4, 0.25]},
+        },
+    ]
     exp = build(parse_scenario(data, "obstacles.toml"))
     assert isinstance(exp.actuator, MujocoActuator)
     assert exp.actuator.arm.model.geom("obs:post").size[1] == pytest.approx(0.25)
