@@ -80,7 +80,7 @@ def test_capsule_box_matches_coal() -> None:
 
 def test_capsule_inside_a_box_by_hand() -> None:
     M = np.eye(4)
-    d, wa, wb = _K.capsule_box(
+    d, _wa, wb = _K.capsule_box(
         np.array([0.0, 0.0, -0.1]), np.array([0.0, 0.0, 0.1]), 0.05, M, np.array([0.3, 0.2, 0.5])
     )
     assert d == pytest.approx(-0.25)  # the nearest face is y = ±0.2: depth 0.2 + radius
