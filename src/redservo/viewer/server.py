@@ -34,6 +34,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.figstyle import role_rgb
+from redservo.viewer.obstacles import add_obstacles, place_obstacles
 from redservo.viewer.playback import Frame, limit_color
 from redservo.viewer.surfaces import add_objects, add_visuals, place, robot_visuals
 
@@ -135,6 +136,7 @@ def _update(s: ViewerSession, fr: Frame) -> None:
         h["camera"].image = img
         h["image"].image = img
         place(h["surfaces"], fr)
+        place_obstacles(h["obstacles"], fr.t)
         h["time"].content = (
             f"**iteration {fr.k}** of {len(s.playback) - 1}, t = {fr.t:.2f} s, "
             f"‖e1‖ = {s.playback.run.arrays['error_norm'][fr.k]:.3g}"
@@ -198,6 +200,7 @@ def _build_scene(s: ViewerSession) -> None:
     h["surfaces"] = add_visuals(server, visuals, first) + add_objects(
         server, pb, first, TARGET_COLOR, scale
     )
+    h["obstacles"] = add_obstacles(server, pb.exp.obstacles, first.t)
     centre = allp.mean(axis=0)
     server.initial_camera.look_at = centre
     server.initial_camera.position = centre + np.array([1.1, -1.3, 0.8]) * scale
