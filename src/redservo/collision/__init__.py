@@ -4,6 +4,7 @@
 * :mod:`~redservo.collision.robot`: the built-in robots' capsules, link-point Jacobians.
 * :mod:`~redservo.collision.pairs`: self-collision pairs and their exclusions.
 * :mod:`~redservo.collision.query`: :func:`distances`, the user-facing query.
+* :mod:`~redservo.collision.urdf`: a URDF's ``<collision>`` elements as coal geometries.
 
 Distances come from `coal` (installed with Pinocchio 3); docs/collision.md. The control
 laws do not use them yet.
@@ -13,6 +14,7 @@ from redservo.collision.pairs import self_pairs
 from redservo.collision.query import DistanceRecord, distances
 from redservo.collision.robot import LinkCapsule, link_capsules
 from redservo.collision.shapes import SHAPES, Obstacle, Shape
+from redservo.collision.urdf import UrdfCollision, urdf_collisions
 
 __all__ = [
     "SHAPES",
@@ -20,7 +22,9 @@ __all__ = [
     "LinkCapsule",
     "Obstacle",
     "Shape",
+    "UrdfCollision",
     "distances",
     "link_capsules",
     "self_pairs",
+    "urdf_collisions",
 ]
