@@ -248,3 +248,13 @@ def test_robot_without_a_model_is_a_configuration_error() -> None:
     robot = URDFRobot(shipped_urdf("panda"), camera_link="panda_link8")
     with pytest.raises(ConfigurationError, match="no built-in collision model"):
         distances(robot, np.zeros(robot.n), _obstacles())
+
+
+def test_obstacles_with_a_urdf_robot_warn_that_they_are_not_checked() -> None:
+    pytest.importorskip("pinocchio", reason="URDF robots need Pinocchio (redservo[urdf])")
+    text = resources.files("redservo.scenarios").joinpath("panda-urdf-4points.toml").read_text()
+    data = tomllib.loads(text)
+    data["obstacles"] = [{"name": "table", "shape": "plane", "pose": {"translation": [0, 0, -1]}}]
+    with pytest.warns(UserWarning, match="obstacles are not checked against the robot"):
+        exp = build(parse_scenario(data, "urdf.toml"))
+    assert [o.name for o in exp.obstacles] == ["table"]
