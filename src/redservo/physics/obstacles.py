@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from redservo.collision.shapes import Obstacle, Shape
 from redservo.physics.mjcf import _vec, xml_pose
 
@@ -27,11 +29,11 @@ def obstacle_geom(name: str, shape: Shape) -> str:
     """The ``<geom>`` of ``shape`` in its own frame, named ``obs:NAME``."""
     kind = shape.kind
     if kind == "sphere":
-        size = _vec([shape.radius])
+        size = _vec(np.array([shape.radius]))
     elif kind == "box":
-        size = _vec([0.5 * s for s in shape.size])
+        size = _vec(0.5 * np.array(shape.size))
     elif kind in ("capsule", "cylinder"):
-        size = _vec([shape.radius, 0.5 * shape.length])
+        size = _vec(np.array([shape.radius, 0.5 * shape.length]))
     else:
         size = "0 0 1"
     return f'<geom name="obs:{name}" type="{kind}" size="{size}" rgba="{OBSTACLE_RGBA}"/>'

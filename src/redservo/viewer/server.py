@@ -200,7 +200,6 @@ def _build_scene(s: ViewerSession) -> None:
     h["surfaces"] = add_visuals(server, visuals, first) + add_objects(
         server, pb, first, TARGET_COLOR, scale
     )
-    h["obstacles"] = add_obstacles(server, pb.exp.obstacles, first.t)
     centre = allp.mean(axis=0)
     server.initial_camera.look_at = centre
     server.initial_camera.position = centre + np.array([1.1, -1.3, 0.8]) * scale
@@ -314,6 +313,7 @@ def serve(
     session = ViewerSession(server, playback, playback.frames(max_frames), f"http://{host}:{port}")
     try:
         _build_scene(session)
+        session.handles["obstacles"] = add_obstacles(server, playback.exp.obstacles, 0.0)
         _build_gui(session)
         session.show(0)
         _mark_drawn_pages(session)
