@@ -19,6 +19,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
@@ -28,7 +29,7 @@ from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.robots import Robot
 from redservo.scenario import Scenario
-from redservo.scene import Scene
+from redservo.scene import Scene, Static
 from redservo.schema.scenario import ScenarioSpec
 from redservo.sensors import Sensor
 from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, simulate
@@ -54,6 +55,7 @@ class Experiment:
     camera: Camera
     sensor: Sensor | None = None
     actuator: Actuator | None = None
+    obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] (redservo.collision), world frame
 
     def run(
         self,
@@ -218,7 +220,7 @@ def _scene(sc: Scenario, spec: ScenarioSpec, robot: Robot, q0: FloatArray) -> Sc
         else:
             wMo0 = o.pose.matrix() if o.pose is not None else np.eye(4)
         try:
-            traj = o.motion.trajectory(wMo0) if o.motion is not None else _static(wMo0)
+            traj = o.motion.trajectory(wMo0) if o.motion is not None else Static(wMo0)
         except RedservoError as exc:
             raise sc.error(f"objects[{i}].motion", str(exc)) from None
         try:
@@ -226,12 +228,6 @@ def _scene(sc: Scenario, spec: ScenarioSpec, robot: Robot, q0: FloatArray) -> Sc
         except RedservoError as exc:
             raise sc.error(f"objects[{i}]", str(exc)) from None
     return Scene(objects)
-
-
-def _static(wMo0: FloatArray) -> Any:
-    from redservo.scene import Static
-
-    return Static(wMo0)
 
 
 def _task(sc: Scenario, spec: ScenarioSpec, scene: Scene) -> VisualTask:
@@ -368,6 +364,7 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = _sensor(sc, spec, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
+    exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
     if spec.simulator is not None and spec.simulator.kind == "mujoco":
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from redservo.collision.start import check_clear
 from redservo.errors import RedservoError
 from redservo.scenario import Scenario
 from redservo.schema.scenario import ScenarioSpec
@@ -22,7 +23,9 @@ __all__ = ["check_start"]
 
 
 def check_start(sc: Scenario, spec: ScenarioSpec, exp: Experiment) -> None:
-    """Every observed object is valid, in front of the camera and in the image at the start."""
+    """Every observed object is valid, in front of the camera and in the image at the start,
+    and no obstacle touches the robot."""
+    check_clear(sc, exp.robot, exp.q0, exp.obstacles)
     bMc = exp.robot.fkine(exp.q0)
     index = {o.name: i for i, o in enumerate(spec.objects)}
     for term in exp.task.terms:

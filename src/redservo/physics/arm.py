@@ -25,6 +25,7 @@ Units: metres, radians, seconds (joint velocities rad/s or m/s).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -32,10 +33,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray, as_vector
 from redservo.camera import Camera
+from redservo.collision.shapes import Obstacle
 from redservo.errors import ConfigurationError
 from redservo.physics._mj import require_mujoco
 from redservo.physics.lens import LensWarp
 from redservo.physics.mjcf import Chain, _vec, camera_xml, chain_of, robot_bodies, xml_pose
+from redservo.physics.obstacles import obstacle_bodies, set_obstacle_poses
 from redservo.physics.scenes import scene_bodies, set_poses
 from redservo.robots.base import Robot
 from redservo.robots.eye_to_hand import EyeToHandRobot
@@ -124,6 +127,7 @@ class MujocoArm:
         tracking_time: Time constant of the velocity servo (s), > 0.
         shadows: Let the light cast shadows.
         draw_arm: Draw the arm's bodies in the camera image (False: only the objects).
+        obstacles: ``[[obstacles]]`` drawn as geoms at ``wMo(t)`` (world frame).
 
     Raises:
         ConfigurationError: a step or time constant out of range, or an unusable robot.
@@ -140,6 +144,7 @@ class MujocoArm:
         tracking_time: float = 0.02,
         shadows: bool = True,
         draw_arm: bool = True,
+        obstacles: Sequence[Obstacle] = (),
     ) -> None:
         if not (math.isfinite(timestep) and MIN_TIMESTEP <= timestep <= 1.0):
             raise ConfigurationError(
@@ -154,6 +159,8 @@ class MujocoArm:
         self.mj = require_mujoco()
         self.robot = robot
         self.scene = scene
+        self.obstacles = tuple(obstacles)
+        """``[[obstacles]]``: mocap bodies ``obs:NAME`` (:mod:`redservo.physics.obstacles`)."""
         self.camera = camera or Camera()
         self._lens = LensWarp(self.camera) if self.camera.distorted else None
         self._pinhole = self.camera if self._lens is None else self._lens.pinhole
@@ -229,7 +236,7 @@ class MujocoArm:
             'diffuse="0.5 0.5 0.48" specular="0.1 0.1 0.1" '
             f'cutoff="60" castshadow="{str(shadows).lower()}"/>'
             f'<body name="base" {xml_pose(wMb)}>'
-            f"{arm}</body>{objects}</worldbody>"
+            f"{arm}</body>{objects}{obstacle_bodies(self.obstacles)}</worldbody>"
             f"<actuator>{actuators}</actuator></mujoco>"
         )
         if self.world_camera is not None:
@@ -354,6 +361,9 @@ class MujocoArm:
         mj, m, d = self.mj, self.model, self.data
         if self.scene is not None and self.drawn and self._effector is None:
             set_poses(m, d, self.scene, self.drawn, t)
+            mj.mj_kinematics(m, d)
+        if self.obstacles:
+            set_obstacle_poses(m, d, self.obstacles, t)
             mj.mj_kinematics(m, d)
         if self._renderer is None:
             self._renderer = mj.Renderer(m, self._pinhole.height, self._pinhole.width)

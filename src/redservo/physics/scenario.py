@@ -64,6 +64,7 @@ def attach_mujoco(exp: Experiment) -> None:
             tracking_time=sim.tracking_time,
             shadows=sim.shadows,
             draw_arm=sim.draw_arm,
+            obstacles=exp.obstacles,
         )
     except RedservoError as exc:
         raise sc.error("simulator", str(exc)) from None

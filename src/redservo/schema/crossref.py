@@ -103,8 +103,20 @@ def _occlusion(spec: ScenarioSpec, objects: dict[str, ObjectSpec]) -> None:
             )
 
 
+def _obstacle_names(spec: ScenarioSpec) -> None:
+    seen: set[str] = set()
+    for i, ob in enumerate(spec.obstacles):
+        if ob.name in seen:
+            fail(
+                f"duplicate obstacle name {ob.name!r} (names must be unique)",
+                f"obstacles[{i}].name",
+            )
+        seen.add(ob.name)
+
+
 def check_references(spec: ScenarioSpec) -> None:
     """Raise a validation error (key relative to the file) for the first broken reference."""
+    _obstacle_names(spec)
     objects = _objects(spec)
     size = _features(spec, objects)
     _task(spec, size)

@@ -129,6 +129,7 @@ def scenario_reference() -> str:
     from redservo.schema import features as sf
     from redservo.schema import scenario as s
     from redservo.schema import scene as sc
+    from redservo.schema.obstacles import ObstacleSpec
 
     model: type[BaseModel]
     parts = [
@@ -151,6 +152,7 @@ def scenario_reference() -> str:
         )
     for kind, model in sc.MOTION_KINDS.items():
         parts.append(_section(f'`[objects.motion]` with `kind = "{kind}"`', model, skip=("kind",)))
+    parts.append(_section("`[[obstacles]]` (motion: as `[objects.motion]`)", ObstacleSpec))
     parts.append(_section("`[[features]]`: keys of every kind", sf.FeatureSpec, skip=("kind",)))
     for kind, fmodel in sf.FEATURE_KINDS.items():
         title = f'`[[features]]` with `kind = "{kind}"`'

@@ -25,6 +25,7 @@ from redservo.schema.base import (
 )
 from redservo.schema.camera import CameraSpec
 from redservo.schema.features import AnyFeature
+from redservo.schema.obstacles import ObstacleSpec
 from redservo.schema.scene import AnyObject, Pose
 from redservo.schema.simulator import SimulatorSpec
 from redservo.task import DepthMode
@@ -363,6 +364,7 @@ class ScenarioSpec(Table):
         default_factory=lambda: CameraSpec.model_validate({}), description="the camera"
     )
     objects: list[AnyObject] = Field(min_length=1, max_length=1000, description="the scene")
+    obstacles: list[ObstacleSpec] = Field([], max_length=1000, description="not to be touched")
     features: list[AnyFeature] = Field(
         min_length=1, max_length=1000, description="stacked in order"
     )

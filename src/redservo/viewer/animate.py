@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from redservo.errors import ConfigurationError
 from redservo.figstyle import ROLE_COLORS
+from redservo.viewer.obstacles import posed_outline
 from redservo.viewer.playback import Frame, limit_color
 from redservo.vision.video import Progress, _write_mp4, write_gif
 
@@ -33,6 +34,7 @@ __all__ = ["write_animation"]
 
 _LINK = "#8E44AD"  # the viewer's LINK_COLOR
 _TARGET = ROLE_COLORS["target"]
+_OBSTACLE = "#D9731A"  # the viewer's OBSTACLE_COLOR
 _FONT = {"suptitle": 15, "title": 13, "label": 12, "tick": 10, "legend": 10}
 """Font sizes (points) of the frames: readable in a GIF shown at its size (1280 x 560 px)."""
 _SIZE = (12.8, 5.6)
@@ -77,6 +79,7 @@ class _Scene3D:
                 )
             else:
                 self.objects.append(ax.plot([], [], [], color=_TARGET, lw=3)[0])
+        self.obstacles = [ax.plot([], [], [], color=_OBSTACLE, lw=1.2)[0] for _ in pb.exp.obstacles]
         ax.set(xlim=lims[0], ylim=lims[1], zlim=lims[2])
         ax.set_box_aspect(np.ptp(lims, axis=1))
         for name, axis in zip("xyz", (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
@@ -109,6 +112,9 @@ class _Scene3D:
                 artist._offsets3d = ([geo[0][0]], [geo[0][1]], [geo[0][2]])
             else:
                 artist.set_data_3d(geo[0][:, 0], geo[0][:, 1], geo[0][:, 2])
+        for line, ob in zip(self.obstacles, self.pb.exp.obstacles):
+            o = posed_outline(ob, fr.t)
+            line.set_data_3d(o[:, 0], o[:, 1], o[:, 2])
         self.ax.set_title(f"t = {fr.t:.2f} s (iteration {fr.k})", fontsize=_FONT["title"])
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.figstyle import role_rgb
+from redservo.viewer.obstacles import add_obstacles, place_obstacles
 from redservo.viewer.playback import Frame, limit_color
 from redservo.viewer.surfaces import add_objects, add_visuals, place, robot_visuals
 
@@ -135,6 +136,7 @@ def _update(s: ViewerSession, fr: Frame) -> None:
         h["camera"].image = img
         h["image"].image = img
         place(h["surfaces"], fr)
+        place_obstacles(h["obstacles"], fr.t)
         h["time"].content = (
             f"**iteration {fr.k}** of {len(s.playback) - 1}, t = {fr.t:.2f} s, "
             f"‖e1‖ = {s.playback.run.arrays['error_norm'][fr.k]:.3g}"
@@ -311,6 +313,7 @@ def serve(
     session = ViewerSession(server, playback, playback.frames(max_frames), f"http://{host}:{port}")
     try:
         _build_scene(session)
+        session.handles["obstacles"] = add_obstacles(server, playback.exp.obstacles, 0.0)
         _build_gui(session)
         session.show(0)
         _mark_drawn_pages(session)

@@ -1,0 +1,153 @@
+"""Compiled signed distances between primitive pairs, for the campaign loop.
+
+Every robot link is a capsule (a segment ``a0 a1`` and a radius, m; a sphere is a capsule
+whose segment has zero length), so the pairs are capsule against capsule, plane and box.
+Each kernel returns ``(d, wa, wb)``: the signed distance (m, negative when the shapes
+overlap: minus the penetration depth) and the witness points on the capsule (``wa``) and on
+the other shape (``wb``), world frame. :func:`redservo.collision.distances` (coal) is the
+reference these are tested against (tests/test_collision_kernels.py).
+
+* capsule/capsule: the closest points of two segments (Ericson, *Real-Time Collision
+  Detection*, §5.1.9), exact;
+* capsule/plane: the lower end of the segment, exact;
+* capsule/box: the signed distance of a point to a box is convex, hence so is its value
+  along the segment: a golden-section search of the segment parameter (:data:`GOLDEN_ITERATIONS`
+  steps, interval below 1e-16 of the segment), then the point's distance, exact for it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redservo.kernels._jit import kernel
+
+__all__ = ["GOLDEN_ITERATIONS", "capsule_box", "capsule_capsule", "capsule_plane", "segments"]
+
+GOLDEN_ITERATIONS = 90
+_EPS = 1e-300
+
+
+@kernel
+def _clamp01(x: float) -> float:
+    return min(max(x, 0.0), 1.0)
+
+
+@kernel
+def segments(p1: Any, q1: Any, p2: Any, q2: Any) -> Any:
+    """``(s, t)``: parameters of the closest points ``p1 + s (q1 − p1)``, ``p2 + t (q2 − p2)``."""
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = np.dot(d1, d1)
+    e = np.dot(d2, d2)
+    f = np.dot(d2, r)
+    if a <= 1e-24 and e <= 1e-24:
+        return 0.0, 0.0
+    if a <= 1e-24:
+        return 0.0, _clamp01(f / e)
+    c = np.dot(d1, r)
+    if e <= 1e-24:
+        return _clamp01(-c / a), 0.0
+    b = np.dot(d1, d2)
+    denom = a * e - b * b
+    s = _clamp01((b * f - c * e) / denom) if denom > 1e-24 * a * e else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        return _clamp01(-c / a), 0.0
+    if t > 1.0:
+        return _clamp01((b - c) / a), 1.0
+    return s, t
+
+
+@kernel
+def _fallback_normal(d: Any) -> Any:
+    """A unit vector normal to ``d`` (or x when ``d`` is zero), for coincident points."""
+    n = np.array([1.0, 0.0, 0.0])
+    if abs(d[0]) > 0.9 * np.sqrt(np.dot(d, d)) and np.dot(d, d) > 0.0:
+        n = np.array([0.0, 1.0, 0.0])
+    n = n - (np.dot(n, d) / max(np.dot(d, d), _EPS)) * d
+    return n / np.sqrt(np.dot(n, n))
+
+
+@kernel
+def capsule_capsule(a0: Any, a1: Any, ra: float, b0: Any, b1: Any, rb: float) -> Any:
+    """Capsule ``(a0, a1, ra)`` against capsule ``(b0, b1, rb)`` (module docstring)."""
+    s, t = segments(a0, a1, b0, b1)
+    ca = a0 + s * (a1 - a0)
+    cb = b0 + t * (b1 - b0)
+    v = cb - ca
+    dist = np.sqrt(np.dot(v, v))
+    n = v / dist if dist > 1e-15 else _fallback_normal(a1 - a0)
+    return dist - ra - rb, ca + ra * n, cb - rb * n
+
+
+@kernel
+def capsule_plane(a0: Any, a1: Any, r: float, point: Any, normal: Any) -> Any:
+    """Capsule against the half-space below the plane through ``point`` with unit ``normal``."""
+    h0 = np.dot(a0 - point, normal)
+    h1 = np.dot(a1 - point, normal)
+    c = a0 if h0 <= h1 else a1
+    h = min(h0, h1)
+    return h - r, c - r * normal, c - h * normal
+
+
+@kernel
+def _point_box(p: Any, R: Any, t: Any, half: Any) -> Any:
+    """Signed distance (m) of ``p`` to the box ``(R, t, half extents)`` and its nearest point."""
+    local = R.T @ (p - t)
+    inside = True
+    for k in range(3):
+        if abs(local[k]) > half[k]:
+            inside = False
+    near = np.empty(3)
+    if not inside:
+        for k in range(3):
+            near[k] = min(max(local[k], -half[k]), half[k])
+        v = local - near
+        return np.sqrt(np.dot(v, v)), R @ near + t
+    best = 0
+    depth = half[0] - abs(local[0])
+    for k in range(1, 3):
+        if half[k] - abs(local[k]) < depth:
+            depth = half[k] - abs(local[k])
+            best = k
+    near[:] = local
+    near[best] = half[best] if local[best] >= 0.0 else -half[best]
+    return -depth, R @ near + t
+
+
+@kernel
+def capsule_box(a0: Any, a1: Any, r: float, M: Any, half: Any) -> Any:
+    """Capsule against the box of pose ``M`` (4x4) and half extents ``half`` (3,)."""
+    R = np.ascontiguousarray(M[:3, :3])
+    t = np.ascontiguousarray(M[:3, 3])
+    g = 0.5 * (np.sqrt(5.0) - 1.0)
+    lo, hi = 0.0, 1.0
+    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
+    f1 = _point_box(a0 + x1 * (a1 - a0), R, t, half)[0]
+    f2 = _point_box(a0 + x2 * (a1 - a0), R, t, half)[0]
+    for _ in range(GOLDEN_ITERATIONS):
+        if f1 <= f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - g * (hi - lo)
+            f1 = _point_box(a0 + x1 * (a1 - a0), R, t, half)[0]
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + g * (hi - lo)
+            f2 = _point_box(a0 + x2 * (a1 - a0), R, t, half)[0]
+    best_s, best_f = 0.5 * (lo + hi), 0.0
+    best_f = _point_box(a0 + best_s * (a1 - a0), R, t, half)[0]
+    for s in (0.0, 1.0):  # the minimum may sit on an end
+        f = _point_box(a0 + s * (a1 - a0), R, t, half)[0]
+        if f < best_f:
+            best_s, best_f = s, f
+    c = a0 + best_s * (a1 - a0)
+    d, near = _point_box(c, R, t, half)
+    v = near - c
+    norm = np.sqrt(np.dot(v, v))
+    n = v / norm if norm > 1e-15 else _fallback_normal(a1 - a0)
+    if d < 0.0:
+        n = -n  # inside: the nearest face is away from the outward direction
+    return d - r, c + r * n, near
