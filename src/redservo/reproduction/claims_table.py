@@ -123,7 +123,15 @@ def doc_block(rob: Mapping[str, Any], command: str) -> list[str]:
         f"Generated from `{command}` (seed {rob['seed']}, {n} perturbed set-ups per factor, "
         f"{unf} unfiltered set-ups per experiment, {rob['workers']} workers, "
         f"{rob['seconds']:.0f} s) by `python -m redservo.reproduction.claims_table "
-        "out/report.json --doc docs/results.md`.",
+        "out/report.json --doc docs/results.md`. Factors swept: "
+        + ", ".join(f for f in rob.get("factors", []) if f != UNFILTERED)
+        + (
+            "; the image factors (noise, blur, focal length) were not swept: *all* perturbs "
+            "the others together, with the ideal sensor"
+            if not rob.get("pixel_noise", True)
+            else ""
+        )
+        + ".",
         "",
         "**Paper claims**",
         "",
