@@ -75,7 +75,10 @@ def _values(setups: Sequence[Mapping[str, Any]], factor: str) -> list[float] | N
     get = _VALUES[factor][0]
     out = []
     for s in setups:
-        v = get(s["perturbation"]) if s.get("perturbation") else None
+        try:
+            v = get(s["perturbation"]) if s.get("perturbation") else None
+        except (KeyError, TypeError, ValueError):  # a set-up that does not draw this factor
+            v = None
         if v is None:
             return None
         out.append(float(v))
