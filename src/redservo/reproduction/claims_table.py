@@ -12,7 +12,7 @@ regenerated from one full run::
 --unfiltered 20 --out out-unfiltered``, then ``... out/report.json --unfiltered
 out-unfiltered/report.json --doc docs/results.md``), which replaces the block between ``BEGIN``/``END`` markers (:data:`BEGIN`, :data:`END`) of the
 document. ``--trim FILE`` writes the part of ``report.json`` the tables are made from (the
-checks, and the set-ups of the all-factors and unfiltered columns), small enough to commit:
+checks, and the all-factors set-ups), small enough to commit:
 the tests compare the docs' block with what it generates.
 """
 
@@ -171,10 +171,10 @@ def load_robustness(path: Path) -> dict[str, Any]:
 
 
 def trim(report: Mapping[str, Any]) -> dict[str, Any]:
-    """What the tables need of a ``report.json``: the command and the sweep's checks and
-    its all-factors and unfiltered set-ups."""
+    """What the tables need of a ``report.json``: the command, the sweep's checks and its
+    all-factors set-ups (what the failures share is computed from those)."""
     rob = dict(report["robustness"])
-    rob["setups"] = [s for s in rob["setups"] if s["factor"] in ("all", UNFILTERED)]
+    rob["setups"] = [s for s in rob["setups"] if s["factor"] == "all"]
     return {"command": report.get("command", ""), "robustness": rob}
 
 
@@ -237,7 +237,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             print("\n".join(block))
         if args.trim is not None:
-            args.trim.write_text(json.dumps(trim(report), indent=1, ensure_ascii=False) + "\n")
+            text = json.dumps(trim(report), separators=(",", ":"), ensure_ascii=False)
+            args.trim.write_text(text + "\n")
     except (ConfigurationError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
