@@ -53,7 +53,7 @@ def test_every_claim_that_must_hold_holds(claims: dict[str, Claim]) -> None:
 
 def test_claims_and_checks_are_separated(claims: dict[str, Claim]) -> None:
     kinds = {name: c.kind for name, c in claims.items()}
-    assert sum(k == PAPER for k in kinds.values()) == 13
+    assert sum(k == PAPER for k in kinds.values()) == 11
     for by_construction in (
         "classical-hits-axis-1",  # a set-up check
         "gpm-auto-early-transient",  # alpha grows with the error norm: any run passes
@@ -63,9 +63,10 @@ def test_claims_and_checks_are_separated(claims: dict[str, Claim]) -> None:
         "equal-convergence-ideal-robot",
         "exponential-decay",
         "robot-dynamics-smooth-jumps",
+        "huge-alpha-velocity-peaks",  # v ∝ α
+        "smooth-faster-imperfect-robot",  # only through our saturation
     ):
         assert kinds[by_construction] == IMPL
-    assert kinds["smooth-faster-imperfect-robot"] == PAPER
 
 
 def test_known_differences_are_reported_with_a_reason(claims: dict[str, Claim]) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from redservo.errors import ScenarioError
+from redservo.records.summary import SUCCESS_MARGIN
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs, run_experiment
 from redservo.reproduction.checks import IMPL, PAPER
@@ -91,9 +92,13 @@ def test_registered() -> None:
 def test_sphere_claims(sphere: Runs) -> None:
     claims = {c.name: c for c in SPECS["cm01-humanoid-sphere"].claims(sphere)}
     assert len(claims) == 5
-    assert all(c.reproduced for c in claims.values()), [
-        (c.name, c.evidence) for c in claims.values() if not c.reproduced
-    ]
+    # "No joint limit reached" needs every joint the success margin (1 % of its range) from
+    # its limits: a run that ends nearer fails it, whatever its outcome (issue 34).
+    failed = {name: c.evidence for name, c in claims.items() if not c.reproduced}
+    assert "positioned-no-limit" in failed  # the quick run ends nearer than 1 % to a limit
+    for ev in failed.values():
+        margins = [v for k, v in ev.items() if k.endswith("min margin")]
+        assert min(margins) < SUCCESS_MARGIN, ev
     assert claims["eq27-printed-converges"].kind == PAPER
     assert claims["classical-reaches-a-limit"].kind == IMPL  # a property of our set-up
     # Eq. 27's area entry is about half the exact one: the area converges ~2(1 + R²) faster.
@@ -126,8 +131,11 @@ def test_fig16_is_labelled_as_our_geometry(tmp_path: Path) -> None:
 def test_tracking_claims(tracking: Runs) -> None:
     claims = SPECS["cm01-humanoid-tracking"].claims(tracking)
     assert len(claims) == 5
-    failed = [(c.claim, c.evidence) for c in claims if not c.reproduced]
-    assert not failed, failed
+    for c in claims:  # only "no limit reached" may fail, and only through the margin
+        if not c.reproduced:
+            assert c.name == "tracks-to-the-end", (c.name, c.evidence)
+            margins = [v for k, v in c.evidence.items() if k.endswith("min margin")]
+            assert min(margins) < SUCCESS_MARGIN, c.evidence
     assert [c.kind for c in claims].count(PAPER) == 3  # the tracking error is not CM01's
 
 

@@ -220,5 +220,6 @@ def test_the_report_names_the_breaking_factor_and_whose_fragility() -> None:
     rob = Robustness(20, 0, False, False, 1, 1.0, checks, setups, ("start", "depth", "all"))
     md = "\n".join(robustness_section(rob, [(CHEAP, "the slice is narrow"), ("other", "x")]))
     assert "| start | depth | all | category |" in md and "**5/20**" in md
-    assert "fragile, all factors 6/20" in md and "broken by start (5/20)" in md
+    assert "— all factors 6/20 (30 %, 95 % CI 15 %–52 %), fragile;" in md  # numbers first
+    assert "broken by start (5/20)" in md
     assert "**`mc05-joint-limits`.** the slice is narrow" in md and "**`other`.**" not in md

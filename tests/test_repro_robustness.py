@@ -135,8 +135,10 @@ def test_categories_and_wilson_intervals() -> None:
 
 
 def test_bad_sweep_arguments() -> None:
-    with pytest.raises(ValueError, match="n must be"):
+    with pytest.raises(ValueError, match="n and unfiltered must be"):
         run_robustness([experiments()[CHEAP]], 0)
+    with pytest.raises(ValueError, match="n and unfiltered must be"):
+        run_robustness([experiments()[CHEAP]], 1, unfiltered=-1)
     with pytest.raises(ValueError, match="workers"):
         run_robustness([experiments()[CHEAP]], 1, workers=0)
 

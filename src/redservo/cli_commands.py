@@ -196,6 +196,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             workers=args.workers,
             pixel_noise=False if args.no_pixel_noise else None,
             sensor=args.sensor,
+            unfiltered=args.unfiltered,
         )
     print("\n".join(console_summary(report, Path(args.out))))
     return 0

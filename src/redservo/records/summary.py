@@ -20,9 +20,11 @@ from redservo.redundancy.flags import FLAGS, Flag
 
 __all__ = [
     "OUTCOMES",
+    "SUCCESS_MARGIN",
     "FlagCount",
     "Outcome",
     "RunSummary",
+    "clear_of_limits",
     "flag_warnings",
     "summarize",
 ]
@@ -38,9 +40,20 @@ OUTCOMES: tuple[Outcome, ...] = (
     "occluded",
     "feature_lost",
 )
+SUCCESS_MARGIN = 0.01
+"""Smallest distance of every joint to its real limits, fraction of the joint's range, for a run
+to count as a success (and for a reproduction check to say "no joint limit reached")."""
 _MARGIN_ATOL = 1e-9
 """A joint parked exactly on its margin (``sns``, ``qp``) has met it: the fraction computed back
 from the position may differ from it by roundoff."""
+
+
+def clear_of_limits(margin: float, required: float = SUCCESS_MARGIN) -> bool:
+    """Whether a run's smallest margin (fraction of the range) meets ``required`` (a joint
+    parked exactly on it, to roundoff, does)."""
+    return bool(margin >= required - _MARGIN_ATOL)
+
+
 _ACCEL_RTOL = 1e-9
 """Relative slack on ``|Δq̇| <= q̈_max dt`` (the subtraction of two commands rounds)."""
 
@@ -140,7 +153,7 @@ def summarize(
     limit_hit: dict[str, int] | None,
     *,
     dt: float | None = None,
-    min_margin: float = 0.01,
+    min_margin: float = SUCCESS_MARGIN,
 ) -> RunSummary:
     """Return the typed run summary (module docstring for ``success``).
 
@@ -174,7 +187,7 @@ def summarize(
     shield = flags[Flag.SHIELD_ACTED.label].count if Flag.SHIELD_ACTED.label in flags else 0
     success = (
         outcome == "converged"
-        and margin >= min_margin - _MARGIN_ATOL
+        and clear_of_limits(margin, min_margin)
         and v_viol == 0
         and a_viol == 0
         and shield == 0

@@ -66,23 +66,26 @@ def _select(only: str | None) -> dict[str, ExperimentSpec]:
     return {w: specs[w] for w in wanted}
 
 
-def _command(only: str | None, fast: bool, robustness: int, seed: int) -> str:
+def _command(only: str | None, fast: bool, robustness: int, seed: int, unfiltered: int = 0) -> str:
     parts = ["redservo reproduce"]
     if only:
         parts.append(f"--only {only}")
     if fast:
         parts.append("--fast")
     if robustness:
-        parts.append(f"--robustness {robustness}" + (f" --seed {seed}" if seed else ""))
+        parts.append(f"--robustness {robustness}")
+    if unfiltered:
+        parts.append(f"--unfiltered {unfiltered}")
+    if seed and (robustness or unfiltered):
+        parts.append(f"--seed {seed}")
     return " ".join(parts)
 
 
-def _check(robustness: int, workers: int | None, sensor: str) -> None:
+def _check(robustness: int, workers: int | None, sensor: str, unfiltered: int = 0) -> None:
     """The options of :func:`reproduce` that no type checks."""
-    if robustness < 0:
-        raise ConfigurationError(
-            f"robustness must be >= 0 set-ups, got {robustness}", argument="robustness"
-        )
+    for name, value in (("robustness", robustness), ("unfiltered", unfiltered)):
+        if value < 0:
+            raise ConfigurationError(f"{name} must be >= 0 set-ups, got {value}", argument=name)
     if workers is not None and workers < 1:
         raise ConfigurationError(f"workers must be >= 1, got {workers}", argument="workers")
     if sensor not in ("ideal", "image"):
@@ -103,6 +106,7 @@ def reproduce(
     workers: int | None = None,
     pixel_noise: bool | None = None,
     sensor: str = "ideal",
+    unfiltered: int = 0,
 ) -> dict[str, Any]:
     """Run the experiments, write figures, ``report.md`` and ``report.json`` into ``out``.
 
@@ -123,19 +127,22 @@ def reproduce(
             cross-comparison included) with its features measured in a realistic rendered
             image (:data:`redservo.reproduction.imaging.REALISTIC`), and report per claim
             whether it still holds (needs ``redservo[vision]``).
+        unfiltered: Also run every experiment on this many set-ups drawn without the
+            phenomenon filter that chose the nominal one
+            (:mod:`redservo.reproduction.unfiltered`; 0: none).
 
     Returns:
         The report as a dict (the content of ``report.json``).
 
     Raises:
         UnknownNameError: ``only`` names an unknown experiment.
-        ConfigurationError: ``robustness`` or ``workers`` is negative or zero where it
-            must be positive.
+        ConfigurationError: ``robustness``, ``unfiltered`` or ``workers`` is negative or zero
+            where it must be positive.
     """
     from redservo.reproduction.report import ExperimentResult, markdown, to_json
     from redservo.reproduction.robustness import run_robustness
 
-    _check(robustness, workers, sensor)
+    _check(robustness, workers, sensor, unfiltered)
     specs = _select(only)
     sink = log or ((lambda msg: print(msg, file=sys.stderr)) if progress else None)
     out.mkdir(parents=True, exist_ok=True)
@@ -148,7 +155,7 @@ def reproduce(
             r.save(exp_dir / "runs" / _slug(label), extra={"label": label})
         results.append(ExperimentResult(spec, runs, spec.claims(runs), figs))
     rob = None
-    if robustness:
+    if robustness or unfiltered:
         nominal = {(e.spec.id, c.name): bool(c.reproduced) for e in results for c in e.claims}
         rob = run_robustness(
             list(specs.values()),
@@ -159,11 +166,14 @@ def reproduce(
             pixel_noise=pixel_noise,
             nominal=nominal,
             progress=sink,
+            unfiltered=unfiltered,
         )
     image = _through_images(results, fast, sink) if sensor == "image" else None
-    command = _command(only, fast, robustness, seed) + (" --sensor image" if image else "")
+    command = _command(only, fast, robustness, seed, unfiltered)
+    command += " --sensor image" if image else ""
     (out / "report.md").write_text(markdown(results, rob, out, command=command, image=image))
     report = to_json(results, rob, out, fast=fast, image=image)
+    report["command"] = command
     (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
     return report
 

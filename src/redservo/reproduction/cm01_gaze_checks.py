@@ -124,9 +124,10 @@ def _larger_alpha(runs: Runs) -> Verdict:
 
 @check(
     "huge-alpha-velocity-peaks",
-    PAPER,
+    IMPL,
     f"A very large α ({ALPHA_HUGE:g}) gives large camera velocity peaks (CM01: translation "
-    "velocities of nearly 1 m/s)",
+    "velocities of nearly 1 m/s); an implementation check, not a reproduction: gpm's "
+    "secondary velocity is proportional to α, so it follows from the law",
     "CM01 §V-A2, Fig. 10b",
 )
 def _huge_speed(runs: Runs) -> Verdict:

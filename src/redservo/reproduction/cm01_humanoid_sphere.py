@@ -34,6 +34,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.experiment import Experiment
 from redservo.features.sphere import sphere_paper_interaction
+from redservo.records.summary import SUCCESS_MARGIN
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec
 from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar
 from redservo.reproduction.cm01_humanoid import (
@@ -117,6 +118,8 @@ def _positioned(runs: Runs) -> Verdict:
         "iterative-smooth iterations": sm.summary["iterations"],
         "iterative-smooth min margin": sm.summary["min_margin"],
         "iterative": it.outcome,
+        "iterative min margin": it.summary["min_margin"],
+        "required margin": SUCCESS_MARGIN,
         "joints in band at start": [names[j] for j in np.flatnonzero(exp.limits.in_band(exp.q0))],
         "joints constrained (iterative-smooth)": constrained,
     }
@@ -194,6 +197,7 @@ def _printed_rate(runs: Runs) -> Verdict:
 def _current_rate(runs: Runs) -> Verdict:
     rel, ev = _rates(runs, EQ27_CURRENT)
     ev["outcome"] = runs[EQ27_CURRENT].outcome
+    ev["min margin"] = runs[EQ27_CURRENT].summary["min_margin"]
     ok = succeeded(runs[EQ27_CURRENT]) and bool(
         np.isfinite(rel) and abs(rel - 1.0) <= RATE_TOLERANCE
     )

@@ -1,8 +1,9 @@
 """What breaks the MC05 results that are not robust, and whose fragility it is.
 
-The numbers come from ``redservo reproduce --only mc05-joint-limits,mc05-occlusion
---robustness 20`` (seed 0, every factor alone and all together, 360 set-ups) and from re-running
-single failing set-ups with another gain (stated where used). The report prints these notes
+The rates, intervals and what the failures share are printed by the sweep itself
+(:mod:`redservo.reproduction.robustness_interactions`); these notes add what re-running single
+failing set-ups (with another gain, another detector) found, with the command that measured
+it. The report prints these notes
 under the robustness tables (:attr:`~redservo.reproduction.base.ExperimentSpec.fragility`).
 """
 
@@ -11,14 +12,12 @@ from __future__ import annotations
 __all__ = ["JOINT_LIMITS", "OCCLUSION"]
 
 JOINT_LIMITS = (
-    "Measured with `redservo reproduce --only mc05-joint-limits,mc05-occlusion --robustness 20` "
-    "(seed 0). *Directional succeeds* holds in 11/20 set-ups with all factors together (10/20 "
-    "once the image sensor tracked the dots in the image: all #15 then stops at a joint "
-    "limit at iteration 15 with no dot lost, its rotation invariant r2 moving by ±0.01 "
-    "between frames at σ = 5.2 with either detector); no "
-    "single factor breaks it (target turn 15/20, target shift 17/20, depth 18/20; start, "
-    "period, noise, blur and focal length 20/20), and 8 of the 9 failures with all factors "
-    "share their index with a single-factor failure. Two failure modes, found by re-running "
+    "The counts, intervals and the factors the failures share are computed by the sweep "
+    "(above: *What its failures share*, from the all-factors set-ups). What re-running single "
+    "set-ups adds (`redservo reproduce --only mc05-joint-limits,mc05-occlusion --robustness "
+    "20`, seed 0, before the dots were tracked in the image; 8 of the 9 all-factors "
+    "failures then shared their index with a single-factor failure). Two failure modes, "
+    "found by re-running "
     "the ten single-factor failures: **(1)** in five (target shift #2, #8; target turn #7, "
     "#10, #11) the very first command of directional crosses the limit of x within one 40 ms "
     "period, before any avoidance can act (classical does the same in the two set-ups "
@@ -40,11 +39,12 @@ JOINT_LIMITS = (
 """``mc05-joint-limits``: directional success and the acceleration of an."""
 
 OCCLUSION = (
-    "Measured with `redservo reproduce --only mc05-occlusion --robustness 20` (seed 0, the "
-    "draws of `--only mc05-joint-limits,mc05-occlusion`). *The occlusion is avoided and the "
-    "task completes* holds in 12/20 set-ups with all factors together; alone, the target, "
+    "The counts, intervals and the factors the failures share are computed by the sweep "
+    "(above: *What its failures share*; the single-factor threshold below does not explain "
+    "the all-factors failures that share something else). Single factors, measured "
+    "with `redservo reproduce --only mc05-occlusion --robustness 20` (seed 0): the target, "
     "start, period, pixel noise (σ up to 10 gray levels), blur (σ up to 2 px) and focal "
-    "length (±5 %) never break it (20/20 each). One factor does, above a sharp threshold. "
+    "length (±5 %) alone never break it (20/20 each). One factor does, above a sharp threshold. "
     "**Depth error** (16/20): every depth factor in ×0.77-×2.0 holds (16/16), every one in "
     "×0.53-×0.67 fails (4/4); re-run, depth ×0.53 ends `max_iterations`: not occluded, but "
     "the task has not converged by the end of the run. MC05 does not give its depth "

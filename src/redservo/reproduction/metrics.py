@@ -12,11 +12,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
+from redservo.records.summary import SUCCESS_MARGIN
+from redservo.records.summary import clear_of_limits as _clear
 from redservo.simulation import SimulationLog, SimulationResult
 
 __all__ = [
     "actual_velocity",
     "band_excess",
+    "clear_of_limits",
     "decay_fit",
     "decay_rate",
     "first",
@@ -61,9 +64,17 @@ def hit(r: SimulationResult) -> tuple[int | None, int | None]:
     return (h["axis"] + 1, h["iteration"]) if h else (None, None)
 
 
+def clear_of_limits(r: SimulationResult) -> bool:
+    """Every joint stayed at least the project's success margin
+    (:data:`~redservo.records.summary.SUCCESS_MARGIN`, 1 % of its range) from its real limits
+    all along the run: what "no joint limit reached" means in every check."""
+    return _clear(float(r.summary["min_margin"]), SUCCESS_MARGIN)
+
+
 def succeeded(r: SimulationResult) -> bool:
-    """The run converged (``‖e1‖ < tolerance``, no limit crossed, target in view)."""
-    return r.outcome == "converged"
+    """The run converged (``‖e1‖ < tolerance``, target in view) with every joint clear of its
+    limits by the success margin (:func:`clear_of_limits`)."""
+    return r.outcome == "converged" and clear_of_limits(r)
 
 
 def translation_speed(r: SimulationResult) -> float:

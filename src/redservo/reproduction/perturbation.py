@@ -142,6 +142,9 @@ class Perturbation:
         factor: The factor perturbed (:data:`FACTORS`; ``"all"``: every one).
         blur_px: Image blur std (pixels).
         focal_scale: True focal lengths / assumed ones.
+        start_scale: Multipliers of the start's half-widths (revolute, prismatic): 1 in the
+            perturbed sweep, more for the unfiltered set-ups
+            (:mod:`redservo.reproduction.unfiltered`).
     """
 
     experiment: str
@@ -157,6 +160,7 @@ class Perturbation:
     factor: str = "all"
     blur_px: float = 0.0
     focal_scale: float = 1.0
+    start_scale: tuple[float, float] = (1.0, 1.0)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -187,9 +191,10 @@ class Perturbation:
 
         exp = build(base)
         lim, robot = exp.limits, exp.robot
+        turn, slide = self.start_scale
         half = np.array(
             [
-                START_SHIFT if kind == "prismatic" else math.radians(START_TURN_DEG)
+                slide * START_SHIFT if kind == "prismatic" else turn * math.radians(START_TURN_DEG)
                 for kind in robot.joint_types
             ]
         )

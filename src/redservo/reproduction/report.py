@@ -17,6 +17,7 @@ from typing import Any
 
 from redservo.reproduction.base import ExperimentSpec, Runs
 from redservo.reproduction.checks import IMPL, PAPER, Claim
+from redservo.reproduction.claims_table import claim_lines
 from redservo.reproduction.imaging import REALISTIC
 from redservo.reproduction.report_robustness import pct, robust_text, robustness_section
 from redservo.reproduction.robustness_tally import CATEGORIES, ROBUST_LEVEL, Robustness
@@ -89,11 +90,22 @@ def _headline(results: Sequence[ExperimentResult], rob: Robustness | None) -> li
     if rob is not None:
         cats = rob.by_category(PAPER)
         lines += [
-            f"**Robustness** over {rob.n} perturbed set-ups per experiment and factor: "
-            f"{len(cats['robust'])} paper-claim checks robust (95 % Wilson lower bound ≥ "
-            f"{pct(ROBUST_LEVEL)} with all factors together), {len(cats['inconclusive'])} "
-            f"inconclusive, {len(cats['fragile'])} fragile (upper bound < {pct(ROBUST_LEVEL)}), "
-            f"{len(cats['not reproduced'])} not reproduced (see [Robustness](#robustness)).",
+            f"**Robustness**, per paper-claim check: the set-ups of {rob.n} perturbed with all "
+            "factors together where it holds, its 95 % Wilson interval, then its category "
+            f"(robust: lower bound ≥ {pct(ROBUST_LEVEL)}; fragile: upper bound < "
+            f"{pct(ROBUST_LEVEL)}; inconclusive in between; see [Robustness](#robustness))"
+            + (
+                f", and its rate over {rob.unfiltered} set-ups drawn without the phenomenon "
+                "filter that chose the nominal one"
+                if rob.unfiltered
+                else ""
+            )
+            + ":",
+            "",
+            *[f"- {line}" for line in claim_lines(rob.to_dict())],
+            "",
+            f"In all: {len(cats['robust'])} robust, {len(cats['inconclusive'])} inconclusive, "
+            f"{len(cats['fragile'])} fragile, {len(cats['not reproduced'])} not reproduced.",
             "",
         ]
     return lines
@@ -123,7 +135,7 @@ def _summary_table(
                 row += f" {_image_text(image.get((e.spec.id, c.name)))} |"
             if rob is not None:
                 r = rob.get(e.spec.id, c.name)
-                row += f" {r.category + ': ' + robust_text(r) if r else '—'} |"
+                row += f" {robust_text(r) + ' — ' + r.category if r else '—'} |"
             lines.append(row)
     return [*lines, ""]
 
@@ -142,7 +154,7 @@ def _claim_line(c: Claim, rob: Robustness | None, exp_id: str, image: ImageVerdi
     if rob is not None:
         r = rob.get(exp_id, c.name)
         if r is not None:
-            line += f" Robustness: {r.category}, {robust_text(r)}."
+            line += f" Robustness: {robust_text(r)}, {r.category}."
     line += f" Evidence: {ev}."
     return line + (f" {c.note}" if c.note else "")
 
@@ -271,7 +283,8 @@ def to_json(
 
 def console_summary(report: dict[str, Any], out: Path) -> list[str]:
     """Lines for the terminal: the headline, every paper claim not reproduced, with a
-    robustness sweep every paper claim that is not robust, and where the report is."""
+    robustness sweep every paper claim's k/N and 95 % interval before its category, and
+    where the report is."""
     ps, pc, ic = report["paper_statements"], report["paper_claims"], report["implementation_checks"]
     lines = [
         f"reproduced {ps['reproduced']}/{ps['total']} distinct paper statements "
@@ -291,19 +304,10 @@ def console_summary(report: dict[str, Any], out: Path) -> list[str]:
         cats = {k: [c for c in paper if c["category"] == k] for k in CATEGORIES}
         lines.append(
             f"robustness over {rob['n']} perturbed set-ups per experiment and factor "
-            f"({rob['seconds']:.0f} s, {rob['workers']} worker(s)): "
-            + ", ".join(f"{len(v)} {k}" for k, v in cats.items())
+            f"({rob['seconds']:.0f} s, {rob['workers']} worker(s)); per paper claim, set-ups "
+            "where it holds with all factors (95 % Wilson interval), then its category:"
         )
-        weak = [c for c in paper if c["category"] != "robust"]
-        if weak:
-            lines.append(f"not robust ({len(weak)}):")
-            for c in weak:
-                broken = c["broken_by"] or ([c["weakest_factor"]] if c["weakest_factor"] else [])
-                lines.append(
-                    f"  - [{c['experiment']}] {' '.join(str(c['claim']).split())} — "
-                    f"{c['category']}, holds in {c['holds']}/{c['n']}"
-                    + (f"; broken by {', '.join(broken)}" if c["broken_by"] else "")
-                    + (f"; weakest: {broken[0]}" if broken and not c["broken_by"] else "")
-                )
+        lines += [f"  - {line}" for line in claim_lines(rob)]
+        lines.append("in all: " + ", ".join(f"{len(v)} {k}" for k, v in cats.items()))
     lines.append(f"details, evidence and figures: {out / 'report.md'} (and report.json)")
     return lines

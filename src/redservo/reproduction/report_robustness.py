@@ -18,7 +18,12 @@ from redservo.reproduction.perturbation import (
     TARGET_SHIFT,
     TARGET_TURN_DEG,
 )
+from redservo.reproduction.robustness_interactions import interaction_text
 from redservo.reproduction.robustness_tally import ROBUST_LEVEL, CheckRobustness, Robustness
+from redservo.reproduction.unfiltered import START_SHIFT as UNF_SHIFT
+from redservo.reproduction.unfiltered import START_TURN_DEG as UNF_TURN
+from redservo.reproduction.unfiltered import TARGET_SHIFT as UNF_TARGET
+from redservo.reproduction.unfiltered import TARGET_TURN_DEG as UNF_TARGET_TURN
 
 __all__ = ["factor_text", "pct", "robust_text", "robustness_section"]
 
@@ -117,6 +122,16 @@ def robustness_section(rob: Robustness, notes: Sequence[tuple[str, str]] = ()) -
         "`src/redservo/reproduction/perturbation.py`.",
         "",
     ]
+    if rob.unfiltered:
+        lines += [
+            f"The column *unfiltered* counts {rob.unfiltered} set-ups per experiment drawn "
+            "without the filter that chose the nominal set-up for the papers' phenomena (start "
+            f"±{UNF_TURN:g}° per revolute, ±{UNF_SHIFT * 100:g} cm per prismatic joint, "
+            f"targets ±{UNF_TARGET * 100:g} cm and ±{UNF_TARGET_TURN:g}°, ideal sensor, "
+            "nominal period and depth; `src/redservo/reproduction/unfiltered.py`): a claim that "
+            "holds nominally but rarely there was partly selected into the reproduction.",
+            "",
+        ]
     failed = [s for s in rob.setups if s.error]
     if failed:
         lines += [f"{len(failed)} set-up(s) could not be run (counted as failures):", ""]
@@ -127,9 +142,13 @@ def robustness_section(rob: Robustness, notes: Sequence[tuple[str, str]] = ()) -
     lines += ["### Paper claims that are not robust, and what breaks them", ""]
     weak = [c for c in rob.checks if c.kind == PAPER and c.category != "robust"]
     for r in weak:
+        rows = [
+            s.__dict__ for s in rob.setups if s.experiment == r.experiment and s.factor == "all"
+        ]
+        shared = interaction_text(rows, r.name)
         lines.append(
-            f"- `{r.experiment}` {r.text} — {r.category}, all factors {robust_text(r)}; "
-            f"{factor_text(r)}."
+            f"- `{r.experiment}` {r.text} — all factors {robust_text(r)}, {r.category}; "
+            f"{factor_text(r)}." + (f" What its failures share: {shared}" if shared else "")
         )
     if not weak:
         lines.append("Every paper claim is robust.")

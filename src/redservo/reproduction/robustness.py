@@ -56,6 +56,8 @@ from redservo.reproduction.robustness_tally import (
     aggregate,
     categorize,
 )
+from redservo.reproduction.unfiltered import FACTOR as UNFILTERED
+from redservo.reproduction.unfiltered import draw_unfiltered
 
 __all__ = [
     "CATEGORIES",
@@ -98,14 +100,18 @@ def run_setup(
     t0 = time.perf_counter()
     last = ""
     for attempt in range(MAX_ATTEMPTS):
-        p = draw_perturbation(
-            spec_id,
-            index,
-            seed=seed,
-            attempt=attempt,
-            periods=PERIODS if periods else None,
-            pixel_noise=pixel_noise,
-            factor=factor,
+        p = (
+            draw_unfiltered(spec_id, index, seed=seed, attempt=attempt)
+            if factor == UNFILTERED
+            else draw_perturbation(
+                spec_id,
+                index,
+                seed=seed,
+                attempt=attempt,
+                periods=PERIODS if periods else None,
+                pixel_noise=pixel_noise,
+                factor=factor,
+            )
         )
         try:
             runs = run_experiment(spec, fast=fast, perturbation=p)
@@ -134,12 +140,15 @@ def run_robustness(
     nominal: Mapping[tuple[str, str], bool] | None = None,
     progress: Callable[[str], None] | None = None,
     factors: Sequence[str] | None = None,
+    unfiltered: int = 0,
 ) -> Robustness:
-    """Run every experiment of ``specs`` on ``n`` perturbed set-ups per factor (module docstring).
+    """Run every experiment of ``specs`` on ``n`` perturbed set-ups per factor (module docstring)
+    and on ``unfiltered`` set-ups drawn without the phenomenon filter
+    (:mod:`redservo.reproduction.unfiltered`; the factor ``"unfiltered"`` of the tallies).
 
     Args:
         specs: The experiments (those without checks are skipped).
-        n: Set-ups per experiment and factor (>= 1).
+        n: Set-ups per experiment and factor (>= 1; 0 with ``unfiltered`` > 0: those only).
         seed: Seed of the draws.
         fast: Use the quick experiments; the period is then not perturbed (each keeps
             its quick period).
@@ -149,22 +158,29 @@ def run_robustness(
         nominal: ``{(experiment id, check name): verdict}`` on the nominal set-up.
         progress: Called with one line per finished set-up.
         factors: The factors to sweep (default: every one available, :func:`factors_for`).
+        unfiltered: Unfiltered set-ups per experiment (>= 0).
 
     Raises:
-        ValueError: ``n < 1``, ``workers < 1`` or an unknown or unavailable factor.
+        ValueError: ``n < 0``, ``unfiltered < 0``, both 0, ``workers < 1`` or an unknown or
+            unavailable factor.
     """
-    if n < 1:
-        raise ValueError(f"n must be >= 1 set-up, got {n}")
+    if n < 0 or unfiltered < 0 or n + unfiltered < 1:
+        raise ValueError(
+            f"n and unfiltered must be >= 0 set-ups, one of them >= 1, got {n} and {unfiltered}"
+        )
     nworkers = (os.cpu_count() or 1) if workers is None else int(workers)
     if nworkers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     noise = image_sensor_available() if pixel_noise is None else bool(pixel_noise)
-    chosen = _chosen(factors, fast, noise)
+    chosen = _chosen(factors, fast, noise) if n else ()
     todo = [spec for spec in specs if spec.checks]
+    count = dict.fromkeys(chosen, n)
+    if unfiltered:
+        chosen, count[UNFILTERED] = (*chosen, UNFILTERED), unfiltered
     tasks = [
         (spec.id, i, seed, fast, noise, not fast, f)
         for f in chosen
-        for i in range(n)
+        for i in range(count[f])
         for spec in todo
     ]
     t0 = time.perf_counter()
@@ -195,6 +211,7 @@ def run_robustness(
         checks,
         sorted(results, key=lambda r: (chosen.index(r.factor), order.index(r.experiment), r.index)),
         chosen,
+        unfiltered,
     )
 
 

@@ -12,6 +12,7 @@ from redservo.campaign.stats import wilson_interval
 from redservo.reproduction.base import ExperimentSpec
 from redservo.reproduction.checks import Kind
 from redservo.reproduction.perturbation import FACTORS
+from redservo.reproduction.unfiltered import FACTOR as UNFILTERED
 
 __all__ = [
     "CATEGORIES",
@@ -25,6 +26,8 @@ __all__ = [
 
 ROBUST_LEVEL = 0.7
 """The level the 95 % Wilson interval is compared with (module docstring)."""
+COMBINED = ("all", UNFILTERED)
+"""Columns that are not a single factor (never named as the one that breaks a claim)."""
 Category = Literal["robust", "inconclusive", "fragile", "not reproduced"]
 CATEGORIES: tuple[Category, ...] = ("robust", "inconclusive", "fragile", "not reproduced")
 
@@ -117,13 +120,13 @@ class CheckRobustness:
         return [
             f
             for f, (_, n) in self.by_factor.items()
-            if f != "all" and n and self.interval_of(f)[1] < ROBUST_LEVEL
+            if f not in COMBINED and n and self.interval_of(f)[1] < ROBUST_LEVEL
         ]
 
     @property
     def weakest(self) -> str | None:
         """The single factor it holds least often under (None if it always holds)."""
-        rates = {f: k / n for f, (k, n) in self.by_factor.items() if f != "all" and n}
+        rates = {f: k / n for f, (k, n) in self.by_factor.items() if f not in COMBINED and n}
         if not rates or min(rates.values()) >= 1.0:
             return None
         return min(rates, key=lambda f: rates[f])
@@ -164,7 +167,8 @@ class Robustness:
         seconds: Wall time of the sweep.
         checks: One entry per check of every experiment, in report order.
         setups: Every set-up run.
-        factors: The factors swept, in report order.
+        factors: The factors swept, in report order (``"unfiltered"`` last when drawn).
+        unfiltered: Unfiltered set-ups per experiment (:mod:`redservo.reproduction.unfiltered`).
     """
 
     n: int
@@ -176,6 +180,7 @@ class Robustness:
     checks: list[CheckRobustness]
     setups: list[SetupResult]
     factors: tuple[str, ...] = FACTORS
+    unfiltered: int = 0
 
     def by_category(self, kind: Kind | None = None) -> dict[Category, list[CheckRobustness]]:
         """``{category: [checks]}`` (only ``kind`` when given), in report order."""
@@ -200,6 +205,7 @@ class Robustness:
             "workers": self.workers,
             "seconds": self.seconds,
             "factors": list(self.factors),
+            "unfiltered": self.unfiltered,
             "robust_level": ROBUST_LEVEL,
             "checks": [c.to_dict() for c in self.checks],
             "setups": [s.__dict__ for s in self.setups],
