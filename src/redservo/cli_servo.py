@@ -21,6 +21,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from redservo.records.verdict import outcome_text
+
 __all__ = ["register"]
 
 _OK = ("converged", "max_iterations", "duration", "stopped")
@@ -107,10 +109,11 @@ def _cmd_servo(args: argparse.Namespace) -> int:
     out = save_run(
         result, exp, Path(args.out or Path("runs") / f"{exp.scenario.name}-servo"), timing
     )
+    summary = dict(result.summary, outcome=result.outcome)
     jit = timing.get("jitter_p99")
     print(
-        f"{exp.scenario.name} [servo{' dry run' if args.dry_run else ''}]: {result.outcome} "
-        f"after {result.summary.get('iterations')} iterations; jitter p99 "
+        f"{exp.scenario.name} [servo{' dry run' if args.dry_run else ''}]: "
+        f"{outcome_text(summary)} after {result.summary.get('iterations')} iterations; jitter p99 "
         f"{'-' if jit is None else f'{jit * 1e3:.2f} ms'}; {result.summary.get('reason', '')}"
     )
     print(f"run directory: {out}", file=sys.stderr)

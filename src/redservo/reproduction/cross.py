@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from redservo.records.verdict import outcome_text
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec
 from redservo.reproduction.mc05_optical_axis import OPTICAL_AXIS_OVERRIDES
 from redservo.simulation import SimulationResult
@@ -99,7 +100,7 @@ def _cell(r: SimulationResult) -> str:
     hit = s.get("limit_hit")
     if hit:
         return f"**limit** (axis {hit['axis'] + 1}, it. {hit['iteration']})"
-    return f"**{r.outcome}** (it. {s['iterations']})"
+    return f"**{outcome_text(s)}** (it. {s['iterations']})"
 
 
 def table(runs: Runs) -> str:

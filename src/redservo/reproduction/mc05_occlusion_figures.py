@@ -10,10 +10,12 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
+from redservo.records.verdict import outcome_text
 from redservo.reproduction.base import Runs
 from redservo.reproduction.mc05 import (
     FEATURES,
@@ -89,7 +91,7 @@ def _fig6(runs: Runs, out: Path) -> Path:
                 ax.text(
                     0.5,
                     0.5,
-                    f"stopped:\n{res.outcome}",
+                    "stopped:\n" + textwrap.fill(outcome_text(res.summary), 22),
                     ha="center",
                     va="center",
                     transform=ax.transAxes,
