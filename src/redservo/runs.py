@@ -210,7 +210,9 @@ def load_run(path: str | Path) -> Run:
 
     Raises:
         ConfigurationError: ``path`` is not a run directory (the message says what it
-            holds instead, e.g. a comparison: then give one of its method directories).
+            holds instead, e.g. a comparison: then give one of its method directories), or
+            its ``log.npz`` is damaged or disagrees with itself, ``summary.json`` or the joint
+            names (:mod:`redservo.records.logcheck`; the message names the file and key).
     """
     p = Path(path)
     if p.is_file():
@@ -220,17 +222,17 @@ def load_run(path: str | Path) -> Run:
         hint = f"; runs inside: {', '.join(inside[:6])}" if inside else ""
         what = "does not exist" if not p.exists() else "has no summary.json and log.npz"
         raise ConfigurationError(f"{p}: not a run directory ({what}){hint}", argument="path")
-    try:
-        with np.load(p / "log.npz", allow_pickle=False) as npz:
-            raw = {k: np.asarray(npz[k]) for k in npz.files}
-    except (OSError, ValueError) as exc:
-        raise ConfigurationError(f"{p / 'log.npz'}: damaged ({exc})", argument="path") from None
+    from redservo.records.logcheck import check_log, read_log
+
+    raw = read_log(p / "log.npz")
     names = tuple(str(s) for s in raw.pop("joint_names", np.array([])).tolist())
     features = tuple(str(s) for s in raw.pop("feature_names", np.array([])).tolist())
     raw.pop("flag_names", None)
+    summary = _json(p / "summary.json")
+    check_log(p / "log.npz", raw, summary, len(names))
     return Run(
         path=p,
-        summary=_json(p / "summary.json"),
+        summary=summary,
         arrays={k: v.astype(float) for k, v in raw.items()},
         joint_names=names,
         feature_names=features,
