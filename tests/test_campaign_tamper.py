@@ -107,3 +107,16 @@ def test_the_command_line_says_it_in_one_line(
     assert main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "fail their check" in err[0] and "Traceback" not in err[0]
+
+
+def test_replay_refuses_an_edited_definition_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = _campaign(tmp_path)
+    meta = json.loads((out / "definition.json").read_text())
+    meta["scenario"].setdefault("simulation", {})["max_iterations"] = 5
+    (out / "definition.json").write_text(json.dumps(meta, indent=2))
+    capsys.readouterr()
+    code = main(["replay", str(out), "--sample", "0", "--method", "gpm", "-q", "--no-plot"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "was edited" in err[0]

@@ -44,6 +44,7 @@ class Replay:
 def _definition(campaign_dir: Path) -> tuple[Any, int]:
     """The campaign definition and seed stored in ``definition.json``."""
     from redservo.campaign import parse_campaign
+    from redservo.campaign.definition import fingerprint_of
     from redservo.runfiles import relocate
     from redservo.tomlwriter import dumps
 
@@ -55,6 +56,17 @@ def _definition(campaign_dir: Path) -> tuple[Any, int]:
             argument="path",
         )
     meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    try:
+        own = fingerprint_of(meta["definition"], meta["scenario"], meta["seed"])
+    except (KeyError, TypeError, ValueError, AttributeError):
+        own = None
+    if own is None or own != meta.get("fingerprint"):
+        raise ConfigurationError(
+            f"{meta_path} was edited (its definition, scenario or seed no longer give its "
+            "fingerprint): the rows were not computed with what it says; rerun the campaign "
+            "with --repair to rewrite it from the campaign's definition",
+            argument="path",
+        )
     table = {k: v for k, v in meta["definition"].items() if k != "overrides"}
     scenario = meta["scenario"]
     relocate(scenario, campaign_dir)  # a moved campaign: its copies of the files
