@@ -33,8 +33,9 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from redservo.campaign.definition import FORMAT_VERSION, CampaignDefinition, fingerprint_of
+from redservo.campaign.definition import FORMAT_VERSION, CampaignDefinition
 from redservo.campaign.lock import DirectoryLock
+from redservo.campaign.meta import meta_problem
 from redservo.campaign.rowfile import SEAL_COLUMN, RowFile, format_line, parse_line, seal_holds
 from redservo.campaign.rows import (
     _columns,
@@ -145,41 +146,9 @@ class _Store:
         }
 
     def _meta_problem(self, fp: str, seed: int, source: str) -> str | None:
-        """What is wrong with ``definition.json`` (None: it matches); refuses another campaign."""
-        if not self.meta_path.exists():
-            return f"{self.meta_path} is missing" if self.csv.exists() else None
-        try:
-            meta = json.loads(self.meta_path.read_bytes().decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            return f"{self.meta_path} is damaged (not valid JSON: {exc})"
-        except OSError as exc:
-            return f"{self.meta_path} cannot be read ({exc.strerror})"
-        if not isinstance(meta, dict) or not isinstance(meta.get("fingerprint"), str):
-            return f"{self.meta_path} is damaged (no 'fingerprint' entry)"
-        if meta["fingerprint"] == fp:
-            try:
-                own = fingerprint_of(meta["definition"], meta["scenario"], meta["seed"])
-            except (KeyError, TypeError, ValueError, AttributeError):
-                own = None
-            if own != fp:
-                return (
-                    f"{self.meta_path} was edited (its definition, scenario or seed no longer "
-                    f"give its fingerprint {fp[:12]})"
-                )
-            return None
-        if meta.get("format") != FORMAT_VERSION:
-            raise ConfigurationError(
-                f"{self.out} holds a campaign in row format {meta.get('format')!r}; this "
-                f"redservo writes format {FORMAT_VERSION} (e.g. 0-based limit_axis since "
-                "format 3): use another output directory, or delete it to start over",
-                argument="out",
-            )
-        raise ConfigurationError(
-            f"{self.out} holds a campaign with another definition or seed (fingerprint "
-            f"{meta['fingerprint'][:12]} != {fp[:12]} for {source} with seed {seed}); "
-            "use another output directory, or delete it to start over",
-            argument="out",
-        )
+        """What is wrong with ``definition.json`` (None: it matches); refuses another campaign
+        (:func:`redservo.campaign.meta.meta_problem`)."""
+        return meta_problem(self.meta_path, self.csv.exists(), self.out, fp, seed, source)
 
     def _open(self, defn: CampaignDefinition, seed: int, repair: bool) -> dict[Key, int]:
         self.out.mkdir(parents=True, exist_ok=True)
@@ -387,29 +356,10 @@ class _Store:
     def write_parquet(self, fingerprint: str, batch: int = PARQUET_BATCH) -> Path | None:
         """Write ``samples.parquet`` (typed schema) from the rows of the index, in its order,
         ``batch`` rows at a time (one row group each); None when pyarrow is not installed."""
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-        except ImportError:
-            return None
-        types = {"int": pa.int64(), "int?": pa.int64(), "float": pa.float64(), "bool": pa.bool_()}
-        schema = pa.schema(
-            [pa.field(c, types.get(k, pa.string()), nullable=k == "int?") for c, k in self.columns],
-            metadata={"fingerprint": fingerprint, "format": str(FORMAT_VERSION)},
-        )
+        from redservo.campaign.parquet import write_rows
+
         path = self.out / "samples.parquet"
-        tmp = path.with_name(path.name + ".tmp")
-        chunks: list[dict[str, Any]] = []
-        with pq.ParquetWriter(tmp, schema) as writer:
-            for row in self._rows_in_index_order():
-                chunks.append(row)
-                if len(chunks) == batch:
-                    writer.write_table(pa.Table.from_pylist(chunks, schema=schema))
-                    chunks = []
-            if chunks or not self.index:
-                writer.write_table(pa.Table.from_pylist(chunks, schema=schema))
-        os.replace(tmp, path)
-        return path
+        return write_rows(path, self.columns, self._rows_in_index_order(), fingerprint, batch)
 
     def _rows_in_index_order(self) -> Iterator[dict[str, Any]]:
         """The rows of the index in its order, read with one open file."""
