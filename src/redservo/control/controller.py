@@ -52,7 +52,7 @@ from redservo.control.objectives import Objective, ObjectiveContext
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.limits import JointLimits
-from redservo.redundancy.base import LawResult
+from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
@@ -242,6 +242,8 @@ class Controller:
         qdot, state, diag = res
         self.stage = "saturation"
         qdot, saturated = self._saturate(qdot)
+        if saturated:
+            qdot, diag = self._guard_saturated(qdot, diag, q, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -281,10 +283,12 @@ class Controller:
                 f"measurement.s must have shape ({self.task.k},), got {s.shape}",
                 argument="measurement.s",
             )
-        if len(measurement.inv_depth) != len(self.task.terms):
+        if not hasattr(measurement.inv_depth, "__len__") or len(measurement.inv_depth) != len(
+            self.task.terms
+        ):
             raise ShapeError(
-                f"measurement.inv_depth has {len(measurement.inv_depth)} entries; the task "
-                f"has {len(self.task.terms)} terms",
+                f"measurement.inv_depth must hold one entry per task term "
+                f"({len(self.task.terms)}), got {measurement.inv_depth!r:.80}",
                 argument="measurement.inv_depth",
             )
         return s
@@ -337,9 +341,24 @@ class Controller:
             qdot, diag = res.qdot, res.diagnostics
         self.stage = "saturation"
         qdot, saturated = self._saturate(qdot)
+        if saturated:
+            qdot, diag = self._guard_saturated(qdot, diag, q, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
+
+    def _guard_saturated(
+        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, prev: FloatArray | None
+    ) -> tuple[FloatArray, Diagnostics]:
+        """The final guard again on a command the output saturation scaled: a uniform
+        scaling towards zero keeps the velocity and position limits but may break
+        ``qddot_max`` against ``prev`` (the guard then limits the change, flagged)."""
+        self.stage = "guard"
+        shield = bool(getattr(self.law, "shield", True))
+        qdot, diag, _ = guarded_output(
+            qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
+        )
+        return qdot, diag
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins

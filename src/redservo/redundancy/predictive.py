@@ -61,9 +61,9 @@ from redservo.redundancy.base import (
     register,
 )
 from redservo.redundancy.bls import daqp_once
-from redservo.redundancy.flags import FLAGS, Flag
-from redservo.redundancy.messages import events
+from redservo.redundancy.flags import FLAGS
 from redservo.redundancy.options import Option
+from redservo.redundancy.predictive_budget import Deadline, fallback_result
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
@@ -185,6 +185,8 @@ class Predictive(Law):
         self._goal: FloatArray | None = None
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
         self._calls = 0
+        self.clock: Callable[[], float] = time.perf_counter
+        """The clock of ``time_budget`` (s, monotonic): a test sets a fake one."""
         self._obs: Callable[[FloatArray], Model | None] | None = None
         self._moments: MomentModel | None = None
         self.last_start: FloatArray | None = None
@@ -247,17 +249,21 @@ class Predictive(Law):
     # -- one step ------------------------------------------------------------------------------
 
     def compute(self, x: LawInputs) -> LawResult:
-        t0 = time.perf_counter()  # the time budget covers the model, the goal and the solve
+        dl = Deadline(self.time_budget, self.clock)  # covers the model, the goal and the solve
+        # With a budget, the fallback first: a step whose deadline passes returns it at once.
+        safe = None if dl.budget is None else self._fallback.compute(x)
         obs, self._obs = self._obs, None
         hz = self._hz
         start = self.last_start = self._start(x, x.q.shape[0])
-        model = None if obs is None else obs(x.q)
-        if model is not None and self.goal_weight > 0:
-            self._update_goal(model, x, t0)
+        model = None if obs is None or dl.passed() else obs(x.q)
+        if model is not None and self.goal_weight > 0 and not dl.passed():
+            self._update_goal(model, x, dl)
         self._calls += 1
         self.last_model = model
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
+            if dl.passed():
+                break
             with np.errstate(all="ignore"):
                 qp = self._qp(x, U, model)
             if qp is None or not all(np.all(np.isfinite(a)) for a in (qp.H, qp.f, qp.A)):
@@ -266,11 +272,12 @@ class Predictive(Law):
             U, why, value, iters = self._solve(qp, U)
             if why:
                 break
-        elapsed = time.perf_counter() - t0
-        if not why and self.time_budget is not None and elapsed > self.time_budget:
+        elapsed = dl.elapsed()
+        by_budget = not why and dl.passed()
+        if by_budget:
             why, value = fb.SOLVER_ITERATIONS, elapsed
         if why:
-            return self._fall_back(x, why, value, elapsed)
+            return self._fall_back(x, why, value, by_budget, safe)
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
@@ -294,11 +301,11 @@ class Predictive(Law):
         lim = x.limits
         return np.maximum(self.margin * (lim.q_max - lim.q_min), lim.margin_abs)
 
-    def _update_goal(self, model: Model, x: LawInputs, t0: float) -> None:
+    def _update_goal(self, model: Model, x: LawInputs, dl: Deadline) -> None:
         """Start the joint-goal search every ``replan`` periods (docs/predictive.md, "Joint
         goal"; :class:`~redservo.redundancy.predictive_goal.GoalSearch`, within the limits less
         the band) and advance it: to its end without ``time_budget``, else until half of it
-        has passed since the step began (``t0``), the search going on in the next periods;
+        has passed since the step began (``dl``), the search going on in the next periods;
         the previous goal is kept when it is still the better one."""
         band = self._band(x)
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
@@ -306,11 +313,9 @@ class Predictive(Law):
             self._search.start(model, x.q, lo, hi, x.limits.q_max - x.limits.q_min)
         if not self._search.running:
             return
-        budget = self.time_budget
-        deadline = None if budget is None else t0 + 0.5 * budget
         try:
             with np.errstate(all="ignore"):
-                done, found = self._search.advance(deadline)
+                done, found = self._search.advance(dl.at(0.5), dl.clock)
         except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
             self._search.reset()
             return
@@ -369,26 +374,14 @@ class Predictive(Law):
         U = np.clip(y, qp.lo, qp.hi).reshape(start.shape)
         return U, 0, 0.0, iters
 
-    def _fall_back(self, x: LawInputs, why: int, value: float, elapsed: float) -> LawResult:
-        """The ``qp`` law's command, with the flag that caused it and ``solver-fallback``."""
+    def _fall_back(
+        self, x: LawInputs, why: int, value: float, by_budget: bool, safe: LawResult | None
+    ) -> LawResult:
+        """The ``qp`` law's command (``safe`` when already computed), with the flag that
+        caused it and ``solver-fallback``."""
         self._U = None
         self.last_plan = None
-        res = self._fallback.compute(x)
-        vals = np.zeros(fb.N_FLAGS)
-        src = np.zeros(fb.N_FLAGS, dtype=np.int64)
-        vals[why] = value
-        src[why] = fb.BY_TIME_BUDGET if (why == fb.SOLVER_ITERATIONS and value == elapsed) else 1
-        vals[fb.SOLVER_FALLBACK], src[fb.SOLVER_FALLBACK] = 1.0, fb.ONLY
-        mask = (1 << why) | (1 << fb.SOLVER_FALLBACK)
-        ev = events(
-            mask, vals, src, horizon=self._hz.N, fallback="qp",
-            solver="predictive solve failed, qp law's command used",
-        )  # fmt: skip
-        d = res.diagnostics
-        merged = Diagnostics(
-            method=self.name, task_rank=d.task_rank, rank_deficient=d.rank_deficient,
-            critical=d.critical, overconstrained=d.overconstrained,
-            events=(*ev, *(e for e in d.events if e.flag is not Flag.SOLVER_FALLBACK)),
-            info=d.info,
-        )  # fmt: skip
-        return LawResult(res.qdot, merged)
+        res = self._fallback.compute(x) if safe is None else safe
+        return fallback_result(
+            res, why, value, by_budget=by_budget, name=self.name, horizon=self._hz.N
+        )

@@ -23,7 +23,7 @@ may be the goal (:func:`joint_goal`). Units: metres, radians, normalized image c
 from __future__ import annotations
 
 import time
-from collections.abc import Generator
+from collections.abc import Callable, Generator
 from typing import cast
 
 import numpy as np
@@ -120,8 +120,10 @@ class GoalSearch:
         seeds += [gen.uniform(lo, hi) for _ in range(self.random_seeds)]
         self._steps = search_steps(model, q, seeds, lo, hi)
 
-    def advance(self, deadline: float | None) -> tuple[bool, tuple[float, FloatArray] | None]:
-        """``(done, result)``: run the search until it ends or ``time.perf_counter()`` passes
+    def advance(
+        self, deadline: float | None, clock: Callable[[], float] = time.perf_counter
+    ) -> tuple[bool, tuple[float, FloatArray] | None]:
+        """``(done, result)``: run the search until it ends or ``clock()`` (s) passes
         ``deadline`` (None: to the end); one seed at least per call (a seed's inverse
         kinematics takes up to a few milliseconds)."""
         if self._steps is None:
@@ -129,7 +131,7 @@ class GoalSearch:
         try:
             while True:
                 next(self._steps)
-                if deadline is not None and time.perf_counter() > deadline:
+                if deadline is not None and clock() > deadline:
                     return False, None
         except StopIteration as stop:
             self._steps = None

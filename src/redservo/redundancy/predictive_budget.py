@@ -1,0 +1,73 @@
+"""The predictive law's time budget and its fallback (docs/predictive.md, "Time budget").
+
+With ``time_budget`` set, a step is *anytime*: the fallback (the ``qp`` law's command) is
+computed first, then the model, the joint-goal search and each SQP iteration run only
+while the budget lasts (the deadline is checked between them); a step whose deadline
+passes returns the fallback already at hand, with ``solver-iterations`` (by the time
+budget) and ``solver-fallback``. Only the QP solve under way when the deadline passes can
+run past it (daqp cannot be interrupted). The clock is injectable (:attr:`Deadline.clock`)
+so that tests use a fake time.
+
+Units: seconds.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from redservo.kernels import flagbits as fb
+from redservo.redundancy.base import Diagnostics, LawResult
+from redservo.redundancy.flags import Flag
+from redservo.redundancy.messages import events
+
+__all__ = ["Deadline", "fallback_result"]
+
+
+class Deadline:
+    """The deadline of one step: ``budget`` seconds (None: no deadline) after ``clock()``
+    at construction (``clock``: seconds, monotonic; default :func:`time.perf_counter`)."""
+
+    def __init__(self, budget: float | None, clock: Callable[[], float] = time.perf_counter):
+        self.clock = clock
+        self.budget = budget
+        self.t0 = clock()
+
+    def elapsed(self) -> float:
+        """Seconds since the step began."""
+        return self.clock() - self.t0
+
+    def at(self, fraction: float = 1.0) -> float | None:
+        """The clock's reading when ``fraction`` of the budget has passed (None: none)."""
+        return None if self.budget is None else self.t0 + fraction * self.budget
+
+    def passed(self) -> bool:
+        """The whole budget has passed (never without a budget)."""
+        return self.budget is not None and self.elapsed() > self.budget
+
+
+def fallback_result(
+    res: LawResult, why: int, value: float, *, by_budget: bool, name: str, horizon: int
+) -> LawResult:
+    """The fallback law's result ``res`` as the predictive law's, with the flag bit ``why``
+    (``value`` attached; ``by_budget``: the time budget caused it) and ``solver-fallback``."""
+    vals = np.zeros(fb.N_FLAGS)
+    src = np.zeros(fb.N_FLAGS, dtype=np.int64)
+    vals[why] = value
+    src[why] = fb.BY_TIME_BUDGET if by_budget else 1
+    vals[fb.SOLVER_FALLBACK], src[fb.SOLVER_FALLBACK] = 1.0, fb.ONLY
+    mask = (1 << why) | (1 << fb.SOLVER_FALLBACK)
+    ev = events(
+        mask, vals, src, horizon=horizon, fallback="qp",
+        solver="predictive solve failed, qp law's command used",
+    )  # fmt: skip
+    d = res.diagnostics
+    merged = Diagnostics(
+        method=name, task_rank=d.task_rank, rank_deficient=d.rank_deficient,
+        critical=d.critical, overconstrained=d.overconstrained,
+        events=(*ev, *(e for e in d.events if e.flag is not Flag.SOLVER_FALLBACK)),
+        info=d.info,
+    )  # fmt: skip
+    return LawResult(res.qdot, merged)
