@@ -72,8 +72,7 @@ def as_time(value: object, name: str) -> float:
     """
     if not is_number(value) or not np.isfinite(float(value)):  # type: ignore[arg-type]
         raise ShapeError(
-            f"{name} must be a finite number of seconds, got {value!r}"
-            f" ({type(value).__name__})",
+            f"{name} must be a finite number of seconds, got {value!r} ({type(value).__name__})",
             argument=name,
         )
     return float(value)  # type: ignore[arg-type]
