@@ -51,6 +51,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.kernels import flagbits as fb
+from redservo.limits import JointLimits
 from redservo.redundancy.base import (
     RCOND,
     Diagnostics,
@@ -63,7 +64,7 @@ from redservo.redundancy.base import (
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.flags import FLAGS
 from redservo.redundancy.options import Option
-from redservo.redundancy.predictive_budget import Deadline, fallback_result
+from redservo.redundancy.predictive_budget import Deadline, fallback_result, warm_up
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
@@ -217,6 +218,13 @@ class Predictive(Law):
         self._moments = None
         self._calls = 0
         self.last_start = self.last_plan = None
+
+    def warm_up(self, limits: JointLimits, m: int, dt: float) -> None:
+        """Pay a first call's one-time costs outside any time budget, then :meth:`reset`
+        (:func:`~redservo.redundancy.predictive_budget.warm_up`); a servo loop calls it
+        before its first period."""
+        warm_up(self, limits, m, dt)
+        self.reset()
 
     def bind_camera(self, camera: Camera) -> None:
         """Use ``camera``'s image for the visibility constraints (default :class:`Camera`)."""
