@@ -57,7 +57,7 @@ def _runtime_value(module: str, name: str) -> str | None:
     """``repr`` of ``module.name`` when it is a small plain value (None otherwise)."""
     try:
         value = getattr(importlib.import_module(module), name)
-    except Exception:  # noqa: BLE001 - an unimportable module keeps its source expression
+    except Exception:  # an unimportable module keeps its source expression
         return None
     text = repr(value)
     return text if isinstance(value, _SHOWN) and len(text) <= 400 else None
