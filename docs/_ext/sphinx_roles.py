@@ -50,7 +50,8 @@ def fence_doctests(text: str) -> str:
     return "\n".join(out)
 
 
-_SHOWN = (str, int, float, bool, tuple, list, frozenset)
+_SHOWN = (str, int, float, bool, tuple, list, frozenset, dict)
+_COMPUTED = ("ExprCall", "ExprListComp", "ExprDictComp", "ExprBinOp", "ExprGeneratorExp")
 
 
 def _runtime_value(module: str, name: str) -> str | None:
@@ -60,7 +61,7 @@ def _runtime_value(module: str, name: str) -> str | None:
     except Exception:  # an unimportable module keeps its source expression
         return None
     text = repr(value)
-    return text if isinstance(value, _SHOWN) and len(text) <= 400 else None
+    return text if isinstance(value, _SHOWN) and len(text) <= 3000 else None
 
 
 class SphinxRoles(griffe.Extension):
@@ -75,12 +76,7 @@ class SphinxRoles(griffe.Extension):
         value = attr.value
         if not attr.parent or not attr.parent.is_module or value is None or isinstance(value, str):
             return
-        if type(value).__name__ not in (
-            "ExprCall",
-            "ExprListComp",
-            "ExprBinOp",
-            "ExprGeneratorExp",
-        ):
+        if type(value).__name__ not in _COMPUTED:
             return
         shown = _runtime_value(attr.parent.path, attr.name)
         if shown is not None:
