@@ -119,5 +119,5 @@ def test_a_servo_run_without_its_scenario_says_why(tmp_path: Path) -> None:
         json.dumps({"outcome": "converged", "max_cycle_time": 0.001})
     )
     np.savez(tmp_path / "log.npz", t=np.zeros(2))
-    with pytest.raises(ConfigurationError, match="servo-loop run .* scenario.toml to view it"):
+    with pytest.raises(ConfigurationError, match=r"servo-loop run .* scenario\.toml to view it"):
         load_run(tmp_path).scenario
