@@ -94,6 +94,11 @@ def _steps(out: Path) -> list[list[str]]:
     ]
 
 
+def label(i: int, n: int, step: list[str]) -> str:
+    """How the heartbeat lines name step ``i`` of ``n``: ``step 2/5 (redservo reproduce)``."""
+    return f"step {i}/{n} (redservo {step[0]})"
+
+
 def _count(root: Path, pattern: str) -> int:
     return sum(1 for _ in root.rglob(pattern))
 
@@ -119,9 +124,10 @@ def run() -> int:
     parser.add_argument("--out", default="out", help="output directory (default out/)")
     args = parser.parse_args()
     out = Path(args.out)
-    for step in _steps(out):
-        print(f"$ redservo {' '.join(step)}", flush=True)
-        with Watch(f"redservo {step[0]}"):
+    steps = _steps(out)
+    for i, step in enumerate(steps, 1):
+        print(f"[{i}/{len(steps)}] $ redservo {' '.join(step)}", flush=True)
+        with Watch(label(i, len(steps), step)):
             code = main(step)
         if code:
             return code

@@ -15,7 +15,8 @@ Commands that write figures take ``--format png,pdf,svg`` and ``--no-plot``; ``-
 prints the version. The parser is :mod:`redservo.cli_parser`, the commands
 :mod:`redservo.cli_commands` and :mod:`redservo.cli_tools`, what they share
 :mod:`redservo.cli_common`. The first command that compiles the numba kernels says so in
-one line on stderr (``redservo warmup`` compiles them all ahead, :mod:`redservo.warmup`).
+one line on stderr, then its progress every 10 s while it compiles
+(:mod:`redservo.compile_progress`; ``redservo warmup`` compiles them all ahead).
 
 Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not an error);
 2 on bad input (unknown scenario, method or key, malformed or absurd file, bad option, a
@@ -77,7 +78,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if getattr(args, "compiles", False):
             from redservo.warmup import announce_compilation
 
-            announce_compilation()
+            name = getattr(args.func, "__name__", "run")
+            announce_compilation(name.removeprefix("_").removeprefix("cmd_"))
         code = int(args.func(args))
         sys.stdout.flush()  # a closed pipe is seen here, not in Python's flush at exit
         return code

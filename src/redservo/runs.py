@@ -131,6 +131,14 @@ class Run:
         """
         from redservo.scenario import load_scenario
 
+        if self.scenario_path is None and "max_cycle_time" in self.summary:
+            raise ConfigurationError(
+                f"{self.path}: a servo-loop run (ServoResult.save: a rehearsal or a real arm) "
+                "holds its log but not the scenario it was built from, so there is no robot, "
+                "scene or camera to draw; copy that scenario's .toml into the directory as "
+                "scenario.toml to view it",
+                argument="path",
+            )
         if self.scenario_path is None:
             raise ConfigurationError(
                 f"{self.path}: no scenario.toml (the run was saved without its scenario, "

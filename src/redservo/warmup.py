@@ -26,6 +26,8 @@ from typing import IO, Any, NamedTuple, cast
 
 import numpy as np
 
+from redservo.compile_progress import Progress, kernel_name
+
 __all__ = [
     "COLD_SECONDS",
     "GROUPS",
@@ -76,21 +78,32 @@ class _Flag:
 
 class CompileCounter:
     """A numba event listener counting compilations (cache misses), optionally printing
-    :data:`NOTICE` to ``stream`` (default: ``sys.stderr`` at the time) on the first."""
+    :data:`NOTICE` to ``stream`` (default: ``sys.stderr`` at the time) on the first, and
+    telling ``progress`` (which prints how far along the compilations are every 10 s)."""
 
-    def __init__(self, *, notice: bool = False, stream: IO[str] | None = None) -> None:
+    def __init__(
+        self,
+        *,
+        notice: bool = False,
+        stream: IO[str] | None = None,
+        progress: Progress | None = None,
+    ) -> None:
         self.count = 0
         self._notice = _Flag() if notice else None
         self._stream = stream
+        self.progress = progress
 
     def on_start(self, event: Any) -> None:
         self.count += 1
         if self._notice is not None and self._notice.test_and_set():
             stream = self._stream or sys.stderr
             print(NOTICE, file=stream, flush=True)
+        if self.progress is not None:
+            self.progress.on_start(kernel_name(event))
 
     def on_end(self, event: Any) -> None:
-        pass
+        if self.progress is not None:
+            self.progress.on_end()
 
     def install(self) -> bool:
         """Listen to numba's compilations; False (nothing done) when the kernels are not
@@ -124,12 +137,13 @@ class CompileCounter:
 _ANNOUNCER: list[CompileCounter] = []
 
 
-def announce_compilation() -> None:
+def announce_compilation(group: str = "run") -> None:
     """Print :data:`NOTICE` once on stderr when a kernel is first compiled in this process
-    (or a worker it forks); nothing when the cache is warm or numba is off. Idempotent."""
+    (or a worker it forks), then the progress of the compilations of ``group`` (the command)
+    every 10 s while they go on; nothing when the cache is warm or numba is off. Idempotent."""
     if _ANNOUNCER:
         return
-    counter = CompileCounter(notice=True)
+    counter = CompileCounter(notice=True, progress=Progress(group))
     counter.install()
     _ANNOUNCER.append(counter)
 
@@ -279,7 +293,7 @@ def warmup(
         if not quiet:
             print(text, file=out, flush=True)
 
-    counter = CompileCounter()
+    counter = CompileCounter(progress=None if quiet else Progress("warmup", stream=out))
     numba = counter.install()
     if not numba:
         say("warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
@@ -289,6 +303,8 @@ def warmup(
     try:
         for i, group in enumerate(groups):
             say(f"warmup [{i + 1}/{len(groups)}] {group.name}: {group.what} ...")
+            if counter.progress is not None:
+                counter.progress.set_group(group.name)
             before, t0 = counter.count, time.perf_counter()
             group.run(_prefixed(say, f"  {group.name}: "))
             seconds[group.name] = time.perf_counter() - t0

@@ -268,6 +268,8 @@ class URDFRobot(ChainRobot):
         self.locked_q: dict[str, float] = locked
         self.urdf_joint_types: tuple[str, ...] = tuple(j.kind for j in servo)
         self.link_names: tuple[str, ...] = tree.links
+        self.chain_links: tuple[str, ...] = (base, *(j.child for j in path_joints))
+        """The links from ``base_link`` to ``camera_link``, in order (what carries the camera)."""
         self._model = self._build_model(pin, tree, locked)
         self._setup()
 

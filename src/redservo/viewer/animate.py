@@ -89,7 +89,8 @@ class _Scene3D:
             a.set_major_locator(_locator(4))
 
     def update(self, fr: Frame) -> None:
-        pts = np.array([T[:3, 3] for T in fr.links.values()] + [fr.bMc[:3, 3]])
+        chain = arm_chain(self.pb.exp.robot, fr.links)
+        pts = np.array([T[:3, 3] for T in chain] + [fr.bMc[:3, 3]])
         self.links.set_data_3d(pts[:, 0], pts[:, 1], pts[:, 2])
         colors = []
         for line, (p, d, _), lvl in zip(self.axes, fr.axes, fr.levels):
@@ -118,6 +119,17 @@ class _Scene3D:
         self.ax.set_title(f"t = {fr.t:.2f} s (iteration {fr.k})", fontsize=_FONT["title"])
 
 
+def arm_chain(robot: Any, links: dict[str, NDArray[np.float64]]) -> list[NDArray[np.float64]]:
+    """The link poses the 3-D panel joins with sticks: for a URDF robot the chain from its
+    base to the link carrying the camera (``chain_links``; wheels, casters, antennas and any
+    other branch of the kinematic tree are left out), otherwise every link (the DH and
+    Afma6 models only list their chain), base to tip."""
+    names = getattr(robot, "chain_links", None)
+    if not names:
+        return list(links.values())
+    return [links[n] for n in names if n in links]
+
+
 def _locator(n: int) -> Any:
     from matplotlib.ticker import MaxNLocator
 
@@ -128,7 +140,7 @@ def _limits(pb: Playback, ks: list[int]) -> NDArray[np.float64]:
     pts = []
     for k in [*ks[:: max(1, len(ks) // 20)], ks[-1]]:
         fr = pb.frame(k)
-        pts += [T[:3, 3] for T in fr.links.values()] + [fr.bMc[:3, 3]]
+        pts += [T[:3, 3] for T in arm_chain(pb.exp.robot, fr.links)] + [fr.bMc[:3, 3]]
         for _, kind, geo in fr.objects:
             pts += (
                 list(geo.reshape(-1, 3))

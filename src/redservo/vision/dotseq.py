@@ -1,4 +1,4 @@
-"""Generated dot sequences with exact truth: the failure modes of real dot tracking (issue 19).
+"""Generated dot sequences with exact truth: the failure modes of real dot tracking.
 
 :func:`dot_sequence` draws a 4-dot target moving over a scene, frame by frame,
 with the exact centre of every dot (pixels, centre convention of
