@@ -62,16 +62,23 @@ def fallback_result(
     vals[fb.SOLVER_FALLBACK], src[fb.SOLVER_FALLBACK] = 1.0, fb.ONLY
     mask = (1 << why) | (1 << fb.SOLVER_FALLBACK)
     ev = events(
-        mask, vals, src, horizon=horizon, fallback="qp",
+        mask,
+        vals,
+        src,
+        horizon=horizon,
+        fallback="qp",
         solver="predictive solve failed, qp law's command used",
-    )  # fmt: skip
+    )
     d = res.diagnostics
     merged = Diagnostics(
-        method=name, task_rank=d.task_rank, rank_deficient=d.rank_deficient,
-        critical=d.critical, overconstrained=d.overconstrained,
+        method=name,
+        task_rank=d.task_rank,
+        rank_deficient=d.rank_deficient,
+        critical=d.critical,
+        overconstrained=d.overconstrained,
         events=(*ev, *(e for e in d.events if e.flag is not Flag.SOLVER_FALLBACK)),
         info=d.info,
-    )  # fmt: skip
+    )
     return LawResult(res.qdot, merged)
 
 
