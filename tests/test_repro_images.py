@@ -42,6 +42,6 @@ def test_reproduce_through_images_reports_every_claim(tmp_path) -> None:
     # fixed known-levels threshold the directional run ended feature_lost at iteration 18 and
     # all three failed.
     paper = [c for c in claims if c["kind"] == "paper claim"]
-    assert len(paper) == 3
+    assert len(paper) == 2  # "some features are accelerated" is an implementation check now
     for c in paper:
         assert images[f"mc05-occlusion/{c['name']}"] == c["reproduced"] is True, c["name"]

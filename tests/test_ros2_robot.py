@@ -24,6 +24,7 @@ from redservo.hardware import (
     FeatureMeasurement,
     ServoLoop,
     SimulatedRobot,
+    Supervision,
     VirtualClock,
 )
 from redservo.robots import Afma6
@@ -122,9 +123,13 @@ def test_a_dead_publisher_ends_the_loop_stale_and_stops_the_arm(
     node: Ros2Node, tmp_path: Path
 ) -> None:
     proc, out = peer(tmp_path, "--duration", "1.5")
+    # The peer publishes fixed joint states and executes no command: the loop's following
+    # check would end the run first (not_following, after its 1 s window); this test is about
+    # the publisher dying, so that check is given a window longer than the run.
+    patient = Supervision(follow_window=30.0, frozen_cycles=10_000)
     with Ros2Robot(node, JOINTS) as robot:
         robot.wait_for_joints(20.0)
-        result = _loop(robot).run()
+        result = _loop(robot, supervision=patient).run()
     finish(proc, out)
     assert result.outcome == "stale_measurement"
     assert "no fresh joint readings" in result.summary["reason"]

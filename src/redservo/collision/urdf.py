@@ -63,14 +63,14 @@ def _origin(el: ET.Element | None, what: str) -> FloatArray:
 def _mesh(shape: ET.Element, urdf: Path, what: str) -> tuple[Any, str]:
     import coal
 
-    from redservo.runfiles import _refusal, _robot_root
-    from redservo.viewer.meshes import _package_candidates
+    from redservo.runfiles import _find_mesh, _refusal
 
     name = shape.get("filename", "")
-    found = next((p for p in _package_candidates(name, urdf.parent) if p.is_file()), None)
-    if found is None:
+    where = _find_mesh(name, urdf.parent)  # the run files' resolution: one rule for both
+    if where is None:
         raise GeometryError(f"{what}: mesh file {name!r} not found (relative to {urdf.parent})")
-    why = _refusal(found, _robot_root(urdf.parent))
+    found, root = where
+    why = _refusal(found, root)
     if why is not None:
         raise GeometryError(f"{what}: mesh file {found} is refused: {why}")
     scale = _floats(shape.get("scale"), 3, f"{what} <mesh scale>", 1.0)
