@@ -215,7 +215,7 @@ class Controller:
                 return done
         Ja = self.jacobian(qa, J)
         state = self.evaluate(measurement, Ja)
-        return self.command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+        return self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
 
     def _compiled_step(
         self,
@@ -243,7 +243,8 @@ class Controller:
         self.stage = "saturation"
         qdot, saturated = self._saturate(qdot)
         if saturated:
-            qdot, diag = self._guard_saturated(qdot, diag, q, prev)
+            self.stage = "guard"
+            qdot, diag = self._final_guard(qdot, diag, q, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -305,7 +306,19 @@ class Controller:
     ) -> ControlStep:
         """Objectives, feed-forward, law and saturation on an evaluated task ``state``
         (arguments as in :meth:`step`)."""
-        t = as_time(t, "t")
+        return self._command(q, state, as_time(t, "t"), qdot_prev=qdot_prev, J=J, context=context)
+
+    def _command(
+        self,
+        q: FloatArray,
+        state: TaskState,
+        t: float,
+        *,
+        qdot_prev: ArrayLike | None,
+        J: FloatArray | None = None,
+        context: SceneContext | None = None,
+    ) -> ControlStep:
+        """:meth:`command` with ``t`` already checked (by :meth:`step` or :meth:`command`)."""
         prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
         secondary: FloatArray | None = None
         if self.objectives:
@@ -327,33 +340,26 @@ class Controller:
         res = self.law(**self._law_kwargs(state, q, de1_dt, secondary, prev))
         if self._own_law:
             self.stage = "guard"
-            qdot, diag = law_output(res, self.law, self.robot.n)
-            qdot, diag, _ = guarded_output(
-                qdot,
-                diag,
-                q=q,
-                qdot_prev=prev,
-                limits=self.limits,
-                dt=self.dt,
-                shield=bool(getattr(self.law, "shield", True)),
-            )
+            qdot, diag = self._final_guard(*law_output(res, self.law, self.robot.n), q, prev)
         else:
             qdot, diag = res.qdot, res.diagnostics
         self.stage = "saturation"
         qdot, saturated = self._saturate(qdot)
         if saturated:
-            qdot, diag = self._guard_saturated(qdot, diag, q, prev)
+            self.stage = "guard"
+            qdot, diag = self._final_guard(qdot, diag, q, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
 
-    def _guard_saturated(
+    def _final_guard(
         self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, prev: FloatArray | None
     ) -> tuple[FloatArray, Diagnostics]:
-        """The final guard again on a command the output saturation scaled: a uniform
-        scaling towards zero keeps the velocity and position limits but may break
-        ``qddot_max`` against ``prev`` (the guard then limits the change, flagged)."""
-        self.stage = "guard"
+        """The servo loop's final guard (:func:`~redservo.control.law_output.guarded_output`)
+        on a user's own law's output, and again on any command the output saturation scaled
+        (a uniform scaling towards zero keeps the velocity and position limits but may break
+        ``qddot_max`` against ``prev``); the position step unless the law has
+        ``shield = False``."""
         shield = bool(getattr(self.law, "shield", True))
         qdot, diag, _ = guarded_output(
             qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
