@@ -315,8 +315,8 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
 
     from redservo import make_law
     from redservo.campaign.fastloop import _flag_bits, _law_args
-    from redservo.campaign.loop_kernel import ABORT_INFEASIBLE, _law
     from redservo.errors import InfeasibleError
+    from redservo.kernels.sensed import ABORT_INFEASIBLE, law_bits
     from redservo.kernels.step import LAW_IDS
     from redservo.packs import limits_pack
     from redservo.robots import make_robot
@@ -335,7 +335,7 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
                     J1, e1, q, prev, lam, dt = _random_step(rng, lim)
                     sim = (lam, dt, 1e-3, True, np.ones(lim.n), False)
                     z = np.zeros(lim.n)
-                    qd, bits, _, abort = _law(
+                    qd, bits, _, abort = law_bits(
                         J1, e1, e1, False, q, prev, z, False, args, limits, sim
                     )
                     try:

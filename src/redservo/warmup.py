@@ -296,8 +296,10 @@ def warmup(
     counter = CompileCounter(progress=None if quiet else Progress("warmup", stream=out))
     numba = counter.install()
     if not numba:
-        say("warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
-            "compile; running the groups on the plain-Python path as a check")  # fmt: skip
+        say(
+            "warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
+            "compile; running the groups on the plain-Python path as a check"
+        )
     seconds: dict[str, float] = {}
     compiled: dict[str, int] = {}
     try:

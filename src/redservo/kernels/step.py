@@ -1,6 +1,6 @@
 """One law call and its safety layer in compiled code, the law chosen by an id.
 
-:func:`law_step` (with the task kernels of :mod:`redservo.kernels.tasks`) is what a batched
+:func:`law_step` (driven by the step kernel, :mod:`redservo.kernels.control`) is what a batched
 closed loop calls for each sample (the simulator's ``simulate`` runs the same kernels one
 object at a time). A law is selected by its id
 (:data:`LAW_IDS`) and its options are packed by
@@ -74,7 +74,15 @@ from redservo.kernels.projection import large_projection
 from redservo.kernels.safety import apply_safety
 from redservo.kernels.sns import sns
 
-__all__ = ["I_SNS_BAD", "LAW_IDS", "law_events", "law_step", "sout_events", "step_events"]
+__all__ = [
+    "I_SNS_BAD",
+    "LAW_IDS",
+    "law_events",
+    "law_raw",
+    "law_step",
+    "sout_events",
+    "step_events",
+]
 
 LAW_IDS: dict[str, int] = {
     "classical": 0,
@@ -117,9 +125,22 @@ def _raw_law(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, e: Any, q: Any
         smooth, levels = iopt[I_SMOOTH] != 0, iopt[I_LEVELS]
         con_rcond, con_filter = fopt[F_CON_RCOND], fopt[F_CON_FILTER]
         return iterative(
-            J1, e, q, lp, lam, dt, sec, has_sec, smooth, fopt[F_GAIN], levels, rc, rb,
-            con_rcond, con_filter,
-        )  # fmt: skip
+            J1,
+            e,
+            q,
+            lp,
+            lam,
+            dt,
+            sec,
+            has_sec,
+            smooth,
+            fopt[F_GAIN],
+            levels,
+            rc,
+            rb,
+            con_rcond,
+            con_filter,
+        )
     if law_id == 7:
         kappa, force, mu = fopt[F_KAPPA], iopt[I_JOINT_FORCE] != 0, fopt[F_DIR_MARGIN]
         return directional(
@@ -131,9 +152,24 @@ def _raw_law(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, e: Any, q: Any
     if law_id == 9:
         return _sns(law, limits, gains, J1, e, q, io)
     return large_projection(
-        J1, e1, e, q, lp, lam, sec, has_sec, fopt[F_E0], fopt[F_E1], iopt[I_PROJECTOR],
-        fopt[F_RHO], fopt[F_RHO1], fopt[F_LAMBDA_TUNE], rc, rb, fopt[F_P_FILTER],
-    )  # fmt: skip
+        J1,
+        e1,
+        e,
+        q,
+        lp,
+        lam,
+        sec,
+        has_sec,
+        fopt[F_E0],
+        fopt[F_E1],
+        iopt[I_PROJECTOR],
+        fopt[F_RHO],
+        fopt[F_RHO1],
+        fopt[F_LAMBDA_TUNE],
+        rc,
+        rb,
+        fopt[F_P_FILTER],
+    )
 
 
 @kernel
@@ -145,10 +181,26 @@ def _sns(law: Any, limits: Any, gains: Any, J1: Any, e: Any, q: Any, io: Any) ->
     lam, dt = gains
     _, _, sec, has_sec, prev, has_prev, _, _ = io
     out = sns(
-        J1, e, q, lp, has_v, has_a, lam, dt, prev, has_prev, sec, has_sec, vopt[V_VMAX],
-        iopt[I_HAS_V] != 0, vopt[V_AMAX], iopt[I_HAS_A] != 0, fopt[F_SNS_MARGIN],
-        fopt[F_RCOND], iopt[I_SHIELD] != 0,
-    )  # fmt: skip
+        J1,
+        e,
+        q,
+        lp,
+        has_v,
+        has_a,
+        lam,
+        dt,
+        prev,
+        has_prev,
+        sec,
+        has_sec,
+        vopt[V_VMAX],
+        iopt[I_HAS_V] != 0,
+        vopt[V_AMAX],
+        iopt[I_HAS_A] != 0,
+        fopt[F_SNS_MARGIN],
+        fopt[F_RCOND],
+        iopt[I_SHIELD] != 0,
+    )
     n = q.shape[0]
     qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
     for i in range(n):
@@ -175,6 +227,36 @@ def _given(x: Any, n: int) -> Any:
 
 
 @kernel
+def _prepared(gains: Any, e1: Any, q: Any, inputs: Any) -> Any:
+    """``(e, io)``: the effective error ``e = e1 + ff/λ`` (CM01 eq. 2) and the optional
+    inputs ``(ff, sec, prev, hist)`` (empty when absent) with their flags, as the law
+    kernels take them."""
+    n = q.shape[0]
+    m = e1.shape[0]
+    ff_in, sec_in, prev_in, hist_in = inputs
+    ff, has_ff = _given(ff_in, m)
+    sec, has_sec = _given(sec_in, n)
+    prev, has_prev = _given(prev_in, n)
+    hist, has_hist = _given(hist_in, n)
+    lam = gains[0]
+    e = np.empty(m)
+    for i in range(m):
+        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # effective error, CM01 eq. 2
+    return e, (ff, has_ff, sec, has_sec, prev, has_prev, hist, has_hist)
+
+
+@kernel
+def law_raw(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, q: Any, inputs: Any) -> Any:
+    """The law's raw command, before the safety layer, and its events (arguments as
+    :func:`law_step`): ``(q̇, iout, fout, axes, axf, vec, mask, vals, src)``; what a law
+    object's :meth:`~redservo.redundancy.Law.compute` returns for secondary-first scaling."""
+    e, io = _prepared(gains, e1, q, inputs)
+    qdot, iout, fout, axes, axf, vec = _raw_law(law, limits, gains, J1, e1, e, q, io)
+    mask, vals, src = law_events(law[0], law[1], e1.shape[0], iout, fout, axes, axf, vec)
+    return qdot, iout, fout, axes, axf, vec, mask, vals, src
+
+
+@kernel
 def law_step(
     law: Any,
     limits: Any,
@@ -190,20 +272,11 @@ def law_step(
     ``gains`` ``(λ, dt)``; ``inputs`` ``(ff, sec, prev, hist)``: the feed-forward (m,), the
     secondary command (n,), the previous command (n,) and ``wln``'s history (n,), each an
     empty array when absent."""
-    n = q.shape[0]
-    m = e1.shape[0]
-    ff_in, sec_in, prev_in, hist_in = inputs
-    ff, has_ff = _given(ff_in, m)
-    sec, has_sec = _given(sec_in, n)
-    prev, has_prev = _given(prev_in, n)
-    hist, has_hist = _given(hist_in, n)
     lam, dt = gains
     _, fopt, iopt, _ = law
     lp, has_v, has_a = limits
-    e = np.empty(m)
-    for i in range(m):
-        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # effective error, CM01 eq. 2
-    io = (ff, has_ff, sec, has_sec, prev, has_prev, hist, has_hist)
+    e, io = _prepared(gains, e1, q, inputs)
+    _, _, sec, _, prev, has_prev, _, _ = io
     qdot, iout, fout, axes, axf, vec = _raw_law(law, limits, gains, J1, e1, e, q, io)
     task = qdot
     first = iopt[I_FIRST] != 0
@@ -269,9 +342,16 @@ def sout_events(sout: Any) -> Any:
     """``(mask, vals, src)`` of the safety layer from the numbers ``sout`` of
     :func:`law_step`."""
     return safety_events(
-        int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
-        sout[7] != 0, sout[9],
-    )  # fmt: skip
+        int(sout[0]),
+        sout[1],
+        sout[2] != 0,
+        sout[3] != 0,
+        sout[4],
+        sout[5] != 0,
+        sout[6],
+        sout[7] != 0,
+        sout[9],
+    )
 
 
 @kernel

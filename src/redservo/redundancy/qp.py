@@ -233,9 +233,26 @@ class BoundedLeastSquares(Law):
         v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.qp_setup(
-            k.J1, k.e, k.q, k.lp, k.has_v, k.has_a, x.dt, prev, has_prev, k.sec, k.has_sec,
-            x.lam, self.k_p, self.margin, v, has_v, self.rcond, self.eps, self.shield,
-        )  # fmt: skip
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            k.has_v,
+            k.has_a,
+            x.dt,
+            prev,
+            has_prev,
+            k.sec,
+            k.has_sec,
+            x.lam,
+            self.k_p,
+            self.margin,
+            v,
+            has_v,
+            self.rcond,
+            self.eps,
+            self.shield,
+        )
         qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
@@ -297,8 +314,13 @@ class BoundedLeastSquares(Law):
             )
             return fixed, "daqp + active-set polish" if polished else "daqp", active, float(resid)
         sol, used = solve_bounded_least_squares(
-            k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary,
+            k.J1,
+            xdot,
+            lo,
+            hi,
+            eps=eps_abs,
+            z=x.secondary,
             solver=self._resolve_backend(),
-        )  # fmt: skip
+        )
         fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
         return fixed, used, active, float(resid)

@@ -314,9 +314,26 @@ class SaturationInNullSpace(Law):
         a, has_a = optional(None if self.a_max is None else _per_joint(self.a_max, n, "a_max"), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.sns(
-            k.J1, k.e, k.q, k.lp, k.has_v, k.has_a, x.lam, x.dt, prev, has_prev, k.sec,
-            k.has_sec, v, has_v, a, has_a, self.margin, self.rcond, self.shield,
-        )  # fmt: skip
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            k.has_v,
+            k.has_a,
+            x.lam,
+            x.dt,
+            prev,
+            has_prev,
+            k.sec,
+            k.has_sec,
+            v,
+            has_v,
+            a,
+            has_a,
+            self.margin,
+            self.rcond,
+            self.shield,
+        )
         (
             qdot,
             scale,

@@ -44,6 +44,7 @@ from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
+from redservo.robots.pack import AFMA6, RobotPack, robot_pack
 from redservo.spatial import make_transform
 
 __all__ = ["AFMA6_JOINT_LIMITS", "AFMA6_QDDOT_MAX", "AFMA6_QDOT_MAX", "AFMA6_TOOLS", "Afma6"]
@@ -172,6 +173,12 @@ class Afma6(Robot):
         """Return ``J(q) = cVe eJe`` (6, 6): the same kernel product as :meth:`kinematics`."""
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         return np.asarray(_K.matmul(self._cVe, _K.afma6_jacobe(qa, COUPLING, OFFSET)))
+
+    def kernel_pack(self) -> RobotPack | None:
+        """The Afma6 as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
+        if type(self).kinematics is not Afma6.kinematics:
+            return None
+        return robot_pack(AFMA6, 6, self._eMc, self._cVe, coupling=COUPLING, offset=OFFSET)
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

@@ -35,6 +35,7 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import check_q_named
+from redservo.robots.pack import CHAIN, RobotPack, robot_pack
 
 __all__ = ["ChainPack", "ChainRobot", "chain_pack"]
 
@@ -204,6 +205,13 @@ class ChainRobot(Robot):
         """Return ``J(q) = cVe eJe`` (6, n): the same kernel product as :meth:`kinematics`."""
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         return np.asarray(_KIN.matmul(self._cVe, self.jacobe(qa)))
+
+    def kernel_pack(self) -> RobotPack | None:
+        """The chain as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
+        if type(self).kinematics is not ChainRobot.kinematics:
+            return None
+        pack = self._chain_pack
+        return robot_pack(CHAIN, self.n, self._eMc, self._cVe, chain=(pack.frames, pack.joints))
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True
