@@ -47,6 +47,7 @@ from redservo._validation import FloatArray, as_matrix, as_time, as_vector
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
+from redservo.control.image_motion import ImageMotionLimit, limit_image_motion, point_rows
 from redservo.control.law_output import guarded_output, law_output
 from redservo.control.objectives import Objective, ObjectiveContext
 from redservo.control.steps import ControlStep, Features, SceneContext
@@ -80,6 +81,10 @@ class Controller:
         depth_scale: The depth the controller uses is ``Ẑ = depth_scale · Z`` (> 0).
         qdot_saturation: Output saturation after the law (rad/s or m/s, a number or (n,)):
             the command is scaled down uniformly so that no joint exceeds it. None: none.
+        image_motion: The camera-motion limit (:class:`ImageMotionLimit`): the command is
+            scaled down uniformly so that no image point moves further between two frames
+            (or smears more during the exposure) than it allows; the final guard then keeps
+            the acceleration limits. None: none.
         engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
             ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
             the reference).
@@ -104,6 +109,7 @@ class Controller:
         feedforward: Feedforward = "none",
         depth_scale: float = 1.0,
         qdot_saturation: float | ArrayLike | None = None,
+        image_motion: ImageMotionLimit | None = None,
         engine: Literal["auto", "compiled", "python"] = "auto",
     ) -> None:
         objs = tuple(objectives)
@@ -122,6 +128,14 @@ class Controller:
         self.feedforward: Feedforward = feedforward
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
+        if image_motion is not None and not isinstance(image_motion, ImageMotionLimit):
+            raise ConfigurationError(
+                f"image_motion must be an ImageMotionLimit or None, got {image_motion!r}",
+                argument="image_motion",
+            )
+        self.image_motion = image_motion
+        """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
+        self._motion_rows = point_rows(task) if image_motion is not None else ()
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
@@ -240,11 +254,7 @@ class Controller:
         if res is None:
             return None
         qdot, state, diag = res
-        self.stage = "saturation"
-        qdot, saturated = self._saturate(qdot)
-        if saturated:
-            self.stage = "guard"
-            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag, saturated = self._shape(qdot, diag, state, q, Ja, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -343,11 +353,7 @@ class Controller:
             qdot, diag = self._final_guard(*law_output(res, self.law, self.robot.n), q, prev)
         else:
             qdot, diag = res.qdot, res.diagnostics
-        self.stage = "saturation"
-        qdot, saturated = self._saturate(qdot)
-        if saturated:
-            self.stage = "guard"
-            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag, saturated = self._shape(qdot, diag, state, q, J, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
@@ -420,6 +426,31 @@ class Controller:
             if name in self.accepts:
                 kw[name] = value
         return kw
+
+    def _shape(
+        self,
+        qdot: FloatArray,
+        diag: Diagnostics,
+        state: TaskState,
+        q: FloatArray,
+        J: FloatArray | None,
+        prev: FloatArray | None,
+    ) -> tuple[FloatArray, Diagnostics, bool]:
+        """The output saturation and the camera-motion limit (each a uniform scaling towards
+        zero), then the final guard on a command either scaled: ``(q̇, diagnostics,
+        saturated)``."""
+        self.stage = "saturation"
+        qdot, saturated = self._saturate(qdot)
+        limited = False
+        if self.image_motion is not None:
+            Ja = self.jacobian(q) if J is None else J
+            qdot, diag, limited = limit_image_motion(
+                qdot, diag, state.L, Ja, self._motion_rows, self.image_motion
+            )
+        if saturated or limited:
+            self.stage = "guard"
+            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        return qdot, diag, saturated
 
     def _saturate(self, qdot: FloatArray) -> tuple[FloatArray, bool]:
         if self.qdot_saturation is None:

@@ -121,6 +121,36 @@ def law_core(q: Any, J1: Any, e1: Any, law: Any, limits: Any, gains: Any, inputs
 
 
 @kernel
+def _put_law(buf: Any, out: Any, lev: Any, sev: Any) -> int:
+    """Write :func:`law_core`'s outputs into ``buf`` in the order of :func:`control_layout`
+    (``qdot`` to ``ssrc``); return the next index."""
+    qdot, iout, fout, axes, axf, _, sout = out
+    at = 0
+    for x in (qdot, iout.astype(np.float64), fout, sout):
+        at = _put(buf, at, x)
+    at = _put(buf, at, axes.astype(np.float64))
+    at = _put(buf, at, axf)
+    for x in (lev[1], lev[2].astype(np.float64), sev[1], sev[2].astype(np.float64)):
+        at = _put(buf, at, x)
+    return at
+
+
+@kernel
+def law_into(
+    q: Any, J1: Any, e1: Any, law: Any, limits: Any, gains: Any, inputs: Any, buf: Any
+) -> Any:
+    """:func:`law_core` with its outputs written into ``buf`` (the first parts of
+    :func:`control_layout`, ``qdot`` to ``ssrc``): ``(law mask, safety mask, vec)``, or a law
+    mask of -1 when an input fails the check. What a law object's call runs (one boxed
+    buffer instead of thirteen arrays)."""
+    ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, inputs)
+    if not ok:
+        return -1, 0, e1[:0]
+    _put_law(buf, out, lev, sev)
+    return lev[0], sev[0], out[5]
+
+
+@kernel
 def control_step(
     q: Any, J: Any, e: Any, L: Any, C: Any, law: Any, limits: Any, gains: Any, inputs: Any
 ) -> Any:
@@ -157,19 +187,12 @@ def _measured(
     ok, e1, J1, out, lev, sev = control_step(q, J, e, L, C, law, limits, gains, full)
     if not ok:
         return -1, 0, e[:0]  # the object path raises the error naming the input
-    qdot, iout, fout, axes, axf, vec, sout = out
-    lmask, lvals, lsrc = lev
-    smask, svals, ssrc = sev
-    at = 0
-    for x in (qdot, iout.astype(np.float64), fout, sout):
-        at = _put(buf, at, x)
-    at = _put(buf, at, axes.astype(np.float64))
-    at = _put(buf, at, axf)
-    for x in (lvals, lsrc.astype(np.float64), svals, ssrc.astype(np.float64), e, e1):
+    at = _put_law(buf, out, lev, sev)
+    for x in (e, e1):
         at = _put(buf, at, x)
     at = _put(buf, at, J1)
     _put(buf, at, L)
-    return lmask, smask, vec
+    return lev[0], sev[0], out[5]
 
 
 @kernel

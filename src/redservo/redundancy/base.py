@@ -209,6 +209,13 @@ class Law(abc.ABC):
             (("i", I_FIRST), first),
         )
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        """Set an attribute; setting a public one (an option) drops the options packed for
+        the step kernel (:mod:`redservo.redundancy.kernel_call`), so they are packed anew."""
+        if not name.startswith("_"):
+            self.__dict__.pop("_kernel_pack", None)
+        object.__setattr__(self, name, value)
+
     @property
     def _kernel_step(self) -> bool:
         """True when this law's call runs through the step kernel

@@ -34,6 +34,10 @@ _KC = lazy("control")
 _KS = lazy("step")
 _EMPTY = np.zeros(0)
 _IDS: dict[type, int] = {}
+_SLICES: dict[int, tuple[int, tuple[slice, ...]]] = {}
+_PARTS = ("qdot", "iout", "fout", "sout", "axes", "axf", "lvals", "lsrc", "svals", "ssrc")
+_PACK = "_kernel_pack"
+"""Where a law keeps its packed options (:func:`_law_pack`)."""
 
 
 def kernel_id(cls: type) -> int:
@@ -57,15 +61,37 @@ def _given(x: FloatArray | None) -> FloatArray:
     return _EMPTY if x is None else np.ascontiguousarray(x, dtype=np.float64)
 
 
+def _law_pack(law: Law, n: int) -> tuple[Any, ...]:
+    """The law's options packed for ``n`` joints, kept on the law until one of its public
+    attributes is set (:meth:`redservo.redundancy.Law.__setattr__` drops it)."""
+    hit = law.__dict__.get(_PACK)
+    if hit is not None and hit[0] == n:
+        return hit[1]  # type: ignore[no-any-return]
+    o: LawOptions = pack_options(law, n, kernel_id(type(law)))
+    pack = (o.law_id, o.fopt, o.iopt, o.vopt)
+    law.__dict__[_PACK] = (n, pack)
+    return pack
+
+
 def _packs(law: Law, x: LawInputs) -> tuple[Any, ...]:
-    """``(J1, e1, q, law pack, limits pack, gains, inputs)`` of a law kernel call."""
+    """``(J1, e1, q, law pack, limits pack, inputs)`` of a law kernel call."""
     J1 = np.ascontiguousarray(x.J1)
-    o: LawOptions = pack_options(law, J1.shape[1], kernel_id(type(law)))
     lp = limits_pack(x.limits)
     inputs = (_given(x.de1_dt), _given(x.secondary), _given(x.qdot_prev), _EMPTY)
-    law_pack = (o.law_id, o.fopt, o.iopt, o.vopt)
     limits = (lp.rows, lp.has_v, lp.has_a)
+    law_pack = _law_pack(law, J1.shape[1])
     return J1, np.ascontiguousarray(x.e1), np.ascontiguousarray(x.q), law_pack, limits, inputs
+
+
+def _slices(n: int) -> tuple[int, tuple[slice, ...]]:
+    """The size and the parts ``qdot`` to ``ssrc`` of a law call's buffer for ``n`` joints
+    (:func:`redservo.kernels.control.control_layout`)."""
+    hit = _SLICES.get(n)
+    if hit is None:
+        layout = _KC.control_layout(n, 0, 0)
+        parts = [layout[k] for k in _PARTS]
+        hit = _SLICES[n] = (parts[-1][1], tuple(slice(*p) for p in parts))
+    return hit
 
 
 def kernel_call(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics] | None:
@@ -74,18 +100,26 @@ def kernel_call(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics] | None
     below 1e300; the caller then runs :meth:`~redservo.redundancy.Law.compute` and the safety
     layer of :mod:`redservo.redundancy.safety`)."""
     J1, e1, q, law_pack, limits, inputs = _packs(law, x)
-    gains = (x.lam, x.dt)
-    ok, out, lev, sev = _KC.law_core(q, J1, e1, law_pack, limits, gains, inputs)
-    if not ok:
+    size, parts = _slices(q.shape[0])
+    buf = np.empty(size)
+    lmask, smask, vec = _KC.law_into(q, J1, e1, law_pack, limits, (x.lam, x.dt), inputs, buf)
+    if lmask < 0:
         return None
-    qdot, iout, fout, axes, axf, vec, sout = out
-    smask, svals, ssrc = sev
+    qdot, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc = (buf[p] for p in parts)
     more: tuple[Event, ...] = ()
     if smask:
         more = safety_events(
-            smask, svals, ssrc, q, qdot, x.dt, x.limits, float(sout[6]), int(sout[10])
+            smask,
+            svals,
+            ssrc.astype(np.int64),
+            q,
+            qdot,
+            x.dt,
+            x.limits,
+            float(sout[6]),
+            int(sout[10]),
         )
-    lo = LawOutputs(iout, fout, axes, axf, vec, *lev)
+    lo = LawOutputs(iout.astype(np.int64), fout, axes, axf, vec, lmask, lvals, lsrc)
     return qdot, law.diagnose(J1.shape[0], lo, more)  # type: ignore[attr-defined]
 
 

@@ -1,0 +1,130 @@
+"""The camera-motion limit (redservo.control.image_motion): its scale never lets an image
+point move further between two frames than allowed, the Controller applies it on both its
+engines with a typed flag, and bad settings are one clear error."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from redservo import make_law
+from redservo.control import Controller, ImageMotionLimit, Measurement
+from redservo.control.image_motion import image_motion_scale
+from redservo.errors import ConfigurationError
+from redservo.redundancy.flags import Flag
+
+
+def test_the_scale_never_lets_a_point_exceed_the_limit() -> None:
+    """Fuzzed interaction matrices, Jacobians and commands: after the scaling, the fastest
+    point moves at most max_motion per frame and smears at most max_blur per exposure."""
+    rng = np.random.default_rng(3)
+    for trial in range(2000):
+        k2 = int(rng.integers(1, 6))
+        n = int(rng.integers(1, 10))
+        L = rng.normal(size=(2 * k2, 6)) * 10.0 ** rng.uniform(-2, 2)
+        J = rng.normal(size=(6, n))
+        qdot = rng.normal(size=n) * 10.0 ** rng.uniform(-4, 2)
+        lim = ImageMotionLimit(
+            max_motion=10.0 ** rng.uniform(-4, -1),
+            frame_period=10.0 ** rng.uniform(-3, -1),
+            max_blur=10.0 ** rng.uniform(-4, -1) if trial % 2 else math.inf,
+            exposure=10.0 ** rng.uniform(-4, -2) if trial % 3 else 0.0,
+        )
+        rows = np.arange(0, 2 * k2, 2)
+        scale, _ = image_motion_scale(L, J, qdot, rows, lim)
+        assert 0.0 < scale <= 1.0
+        sdot = L @ (J @ (scale * qdot))
+        speed = np.max(np.hypot(sdot[rows], sdot[rows + 1]))
+        assert speed * lim.frame_period <= lim.max_motion * (1 + 1e-12)
+        if lim.exposure > 0 and math.isfinite(lim.max_blur):
+            assert speed * lim.exposure <= lim.max_blur * (1 + 1e-12)
+        if scale < 1.0:  # no more scaling than needed
+            assert speed == pytest.approx(lim.max_speed, rel=1e-9)
+
+
+def test_from_camera_derives_the_bound_from_the_tracker_gate() -> None:
+    lim = ImageMotionLimit.from_camera(focal_px=800.0, gate_px=20.0, frame_period=1 / 30)
+    assert lim.max_motion == pytest.approx(0.5 * 20.0 / 800.0)
+    assert lim.max_speed == pytest.approx(lim.max_motion * 30)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "argument"),
+    [
+        ({"max_motion": -1.0, "frame_period": 0.03}, "max_motion"),
+        ({"max_motion": 0.01, "frame_period": math.nan}, "frame_period"),
+        ({"max_motion": 0.01, "frame_period": 0.03, "exposure": -0.001}, "exposure"),
+        ({"max_motion": 0.01, "frame_period": 0.03, "max_blur": 0.0}, "max_blur"),
+        ({"max_motion": True, "frame_period": 0.03}, "max_motion"),
+    ],
+)
+def test_bad_settings_are_one_clear_error(kwargs: dict[str, float], argument: str) -> None:
+    with pytest.raises(ConfigurationError) as err:
+        ImageMotionLimit(**kwargs)
+    assert err.value.argument == argument
+
+
+def test_from_camera_refuses_a_fraction_above_one() -> None:
+    with pytest.raises(ConfigurationError, match="fraction"):
+        ImageMotionLimit.from_camera(focal_px=800, gate_px=20, frame_period=0.03, fraction=2)
+
+
+def _setup() -> tuple[object, ...]:
+    from redservo.bench_cases import bench_cases
+
+    c = bench_cases(scaling=())[0]  # the Afma6 and four points
+    bMc, J = c.robot.kinematics(c.q)
+    meas = Measurement(*c.task.measure(c.scene, bMc, 0.0))
+    return c, J, meas
+
+
+@pytest.mark.parametrize("engine", ["auto", "python"])
+def test_the_controller_scales_a_fast_command_and_flags_it(engine: str) -> None:
+    """A high gain on the Afma6's four points: without the limit the points would move
+    further per frame than allowed; with it they do not, on the compiled and the Python
+    engine alike, and the diagnostics say so."""
+    c, J, meas = _setup()
+    lim = ImageMotionLimit(max_motion=1e-4, frame_period=1 / 30)
+    free = Controller(c.robot, c.task, make_law("classical"), c.limits, lam=5.0, dt=0.04)
+    held = Controller(
+        c.robot,
+        c.task,
+        make_law("classical"),
+        c.limits,
+        lam=5.0,
+        dt=0.04,
+        image_motion=lim,
+        engine=engine,
+    )
+    a = free.step(c.q, meas, 0.0, qdot_prev=None)
+    b = held.step(c.q, meas, 0.0, qdot_prev=None)
+    rows = np.arange(0, c.task.k, 2)
+    scale, _ = image_motion_scale(b.state.L, J, a.qdot, rows, lim)
+    assert scale < 1.0  # the unlimited command breaks the limit
+    np.testing.assert_allclose(b.qdot, scale * a.qdot, rtol=1e-12, atol=1e-15)
+    assert b.diagnostics is not None and b.diagnostics.has(Flag.CAMERA_MOTION_LIMITED)
+    assert b.diagnostics.value(Flag.CAMERA_MOTION_LIMITED) == pytest.approx(scale)
+    sdot = b.state.L @ (J @ b.qdot)
+    assert np.max(np.hypot(sdot[rows], sdot[rows + 1])) / 30 <= 1e-4 * (1 + 1e-9)
+
+
+def test_a_slow_command_is_left_alone() -> None:
+    c, _, meas = _setup()
+    lim = ImageMotionLimit(max_motion=10.0, frame_period=1 / 30)
+    free = Controller(c.robot, c.task, make_law("classical"), c.limits, lam=0.5, dt=0.04)
+    held = Controller(
+        c.robot, c.task, make_law("classical"), c.limits, lam=0.5, dt=0.04, image_motion=lim
+    )
+    a = free.step(c.q, meas, 0.0, qdot_prev=None)
+    b = held.step(c.q, meas, 0.0, qdot_prev=None)
+    assert np.array_equal(a.qdot, b.qdot)
+    assert b.diagnostics is not None and not b.diagnostics.has(Flag.CAMERA_MOTION_LIMITED)
+
+
+def test_the_controller_refuses_something_else_as_the_limit() -> None:
+    c, _, _ = _setup()
+    with pytest.raises(ConfigurationError) as err:
+        Controller(c.robot, c.task, make_law("classical"), lam=0.5, dt=0.04, image_motion=0.1)  # type: ignore[arg-type]
+    assert err.value.argument == "image_motion"
