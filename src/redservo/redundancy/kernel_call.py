@@ -66,7 +66,7 @@ def _law_pack(law: Law, n: int) -> tuple[Any, ...]:
     attributes is set (:meth:`redservo.redundancy.Law.__setattr__` drops it)."""
     hit = law.__dict__.get(_PACK)
     if hit is not None and hit[0] == n:
-        return hit[1]  # type: ignore[no-any-return]
+        return hit[1]
     o: LawOptions = pack_options(law, n, kernel_id(type(law)))
     pack = (o.law_id, o.fopt, o.iopt, o.vopt)
     law.__dict__[_PACK] = (n, pack)
