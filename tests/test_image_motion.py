@@ -128,3 +128,25 @@ def test_the_controller_refuses_something_else_as_the_limit() -> None:
     with pytest.raises(ConfigurationError) as err:
         Controller(c.robot, c.task, make_law("classical"), lam=0.5, dt=0.04, image_motion=0.1)  # type: ignore[arg-type]
     assert err.value.argument == "image_motion"
+
+
+def test_simulate_gives_the_limit_to_its_controller_and_campaigns_take_the_object_path() -> None:
+    """The option reaches the Controller that simulate drives; the compiled campaign loop
+    (which has no camera-motion limit) hands such runs to the object path with a reason."""
+    import dataclasses
+
+    from redservo.campaign.fastloop import experiment_reason
+    from redservo.experiment import build
+    from redservo.scenario import load_scenario
+    from redservo.simulation import SimulationOptions
+    from redservo.simulation.loop import simulation_controller
+
+    c, _, _ = _setup()
+    lim = ImageMotionLimit(max_motion=1e-3, frame_period=1 / 30)
+    opt = SimulationOptions(image_motion=lim)
+    ctl = simulation_controller(c.robot, c.task, make_law("classical"), opt)
+    assert ctl.image_motion is lim
+    exp = build(load_scenario("panda-4points"))
+    assert experiment_reason(exp) is None
+    limited = dataclasses.replace(exp, options=dataclasses.replace(exp.options, image_motion=lim))
+    assert experiment_reason(limited) == "camera-motion limit"

@@ -13,7 +13,7 @@ not covered:
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
-  gain;
+  gain, a camera-motion limit (the Controller applies it: the object path);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -107,6 +107,7 @@ def experiment_reason(exp: Experiment) -> str | None:
         (opt.eMc_model is not None, "hand-eye calibration error"),
         (opt.feedforward == "estimated", "feed-forward 'estimated'"),
         (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
+        (opt.image_motion is not None, "camera-motion limit"),
     )
     for failed, reason in checks:
         if failed:

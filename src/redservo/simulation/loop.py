@@ -135,7 +135,7 @@ def simulation_controller(
     (a copy; ``robot`` itself when there is no calibration error); its objectives are, in
     this order, ``secondary`` (a user function ``f(state, q, t)``), the occlusion avoidance
     of ``options.occlusion`` and ``objectives``; its gain, period, feed-forward, depth
-    factor and output saturation are the options'.
+    factor, output saturation and camera-motion limit are the options'.
 
     Args:
         robot: The true robot.
@@ -167,6 +167,7 @@ def simulation_controller(
         feedforward=options.feedforward,
         depth_scale=options.depth_scale,
         qdot_saturation=options.qdot_max,
+        image_motion=options.image_motion,
     )
 
 

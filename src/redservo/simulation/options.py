@@ -9,6 +9,7 @@ import numpy as np
 
 from redservo._validation import FloatArray, as_transform
 from redservo.control.feedforward import FEEDFORWARD_MODES, Feedforward
+from redservo.control.image_motion import ImageMotionLimit
 from redservo.control.objectives import Occlusion
 from redservo.errors import ConfigurationError
 from redservo.redundancy.gain import AdaptiveGain
@@ -41,6 +42,8 @@ class SimulationOptions:
         image_margin_px: A feature point closer than this to the image border counts as lost.
         check_image: Stop with ``target_lost`` when an object leaves the image.
         occlusion: Occlusion set-up (:class:`~redservo.control.Occlusion`), or None.
+        image_motion: The controller's camera-motion limit
+            (:class:`~redservo.control.ImageMotionLimit`), or None.
         stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
             tracking tasks: the run then lasts ``max_iterations`` and its outcome is
             ``converged`` when the final error is below the tolerance.
@@ -62,6 +65,7 @@ class SimulationOptions:
     check_image: bool = True
     occlusion: Occlusion | None = None
     stop_at_convergence: bool = True
+    image_motion: ImageMotionLimit | None = None
 
     @property
     def constant_lam(self) -> float:
