@@ -20,7 +20,7 @@ from collections import namedtuple
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,7 +40,10 @@ from redservo.task import TaskState, VisualTask
 
 __all__ = ["CompiledControl", "bind_controller"]
 
-_K = lazy("control")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import control as _K
+else:
+    _K = lazy("control")
 _NO_C = np.zeros((0, 0))
 _EMPTY = np.zeros(0)
 

@@ -15,7 +15,7 @@ adds ``qp``'s solver (daqp) between two kernels.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,8 +34,12 @@ from redservo.task import VisualTask
 
 __all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
-_KS = lazy("sensed")
-_KQ = lazy("qp")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import qp as _KQ
+    from redservo.kernels import sensed as _KS
+else:
+    _KS = lazy("sensed")
+    _KQ = lazy("qp")
 
 
 def _daqp() -> Any:

@@ -89,7 +89,7 @@ Decisions (docs/formulas.md §8; recorded for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -110,7 +110,10 @@ from redservo.redundancy.kio import (
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("directional")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import directional as _K
+else:
+    _K = lazy("directional")
 _I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
 """Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
 _NONE: FloatArray = np.zeros(0)

@@ -54,7 +54,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -90,7 +90,10 @@ secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|
 
 _NONE: FloatArray = np.zeros(0)
 """An output a law's kernel does not have."""
-_KL = lazy("linalg")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import linalg as _KL
+else:
+    _KL = lazy("linalg")
 
 
 def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:

@@ -96,7 +96,7 @@ Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -136,8 +136,12 @@ CONSTRAINT_FILTER = 1e-2
 """Absolute filter threshold of the robust constraint inverse (``robust=True``): each
 level's null-space motion is at most 100x its right-hand side."""
 
-_K = lazy("iterative")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import iterative as _K
+else:
+    _K = lazy("iterative")
+    _KE = lazy("events")
 _I_NCON, _I_NA, _F_MIN_SIGMA = 5, 6, 3
 """Outputs of :func:`redservo.kernels.iterative.iterative` (layout documented there)."""
 

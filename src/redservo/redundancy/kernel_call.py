@@ -30,8 +30,12 @@ if TYPE_CHECKING:
 
 __all__ = ["kernel_call", "kernel_compute", "kernel_id"]
 
-_KC = lazy("control")
-_KS = lazy("step")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import control as _KC
+    from redservo.kernels import step as _KS
+else:
+    _KC = lazy("control")
+    _KS = lazy("step")
 _EMPTY = np.zeros(0)
 _IDS: dict[type, int] = {}
 _SLICES: dict[int, tuple[int, tuple[slice, ...]]] = {}

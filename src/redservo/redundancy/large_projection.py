@@ -60,7 +60,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -92,7 +92,10 @@ from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("projection")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import projection as _K
+else:
+    _K = lazy("projection")
 _I_DEGENERATE = 5
 _MODES = {"switched": 0, "norm": 1, "classical": 2}
 _NONE: FloatArray = np.zeros(0)

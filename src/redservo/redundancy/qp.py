@@ -64,7 +64,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,8 +87,12 @@ from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("qp")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import qp as _K
+else:
+    _K = lazy("qp")
+    _KE = lazy("events")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 

@@ -57,7 +57,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,8 +74,12 @@ from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("sns")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import sns as _K
+else:
+    _K = lazy("sns")
+    _KE = lazy("events")
 
 __all__ = [
     "SNSSolution",

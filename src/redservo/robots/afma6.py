@@ -34,7 +34,7 @@ Choices (docs/formulas.md §11.2):
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Final
+from typing import TYPE_CHECKING, ClassVar, Final
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -57,7 +57,10 @@ AFMA6_QDDOT_MAX: Final = (1.0, 1.0, 1.0, 3.0, 3.0, 3.0)
 """Acceleration limits (m/s², rad/s²). A documented choice (no public datasheet): the
 gantry reaches its velocity limit in 0.2 s and the wrist in about 0.23 s."""
 
-_K = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import kinematics as _K
+else:
+    _K = lazy("kinematics")
 
 COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""

@@ -25,7 +25,7 @@ bytes of ``q``, and ``fkine(q)``/``jacobian(q)`` are bit for bit the two outputs
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -39,8 +39,12 @@ from redservo.robots.pack import CHAIN, RobotPack, robot_pack
 
 __all__ = ["ChainPack", "ChainRobot", "chain_pack"]
 
-_K = lazy("chain")
-_KIN = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import chain as _K
+    from redservo.kernels import kinematics as _KIN
+else:
+    _K = lazy("chain")
+    _KIN = lazy("kinematics")
 
 
 class ChainPack(NamedTuple):

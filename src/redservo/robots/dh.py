@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,7 +49,10 @@ DHConvention = Literal["standard", "modified"]
 
 _LIMIT_TOL = 1e-9  # allowed excess beyond a limit, joint units (same as JointLimits.check)
 
-_K = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import kinematics as _K
+else:
+    _K = lazy("kinematics")
 
 
 @dataclass(frozen=True, slots=True)
