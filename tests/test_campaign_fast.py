@@ -187,7 +187,7 @@ def test_waypoint_poses_are_those_of_the_scene() -> None:
     "sets",
     [
         (),
-        ("simulation.qdot_max=0.05", "simulation.depth_scale=1.3", "control.robust=false"),
+        ("simulation.qdot_saturation=0.05", "simulation.depth_scale=1.3", "control.robust=false"),
         ("control.shield=false", "simulation.check_image=false", "control.lam=1.5"),
     ],
 )

@@ -150,3 +150,28 @@ def test_simulate_gives_the_limit_to_its_controller_and_campaigns_take_the_objec
     assert experiment_reason(exp) is None
     limited = dataclasses.replace(exp, options=dataclasses.replace(exp.options, image_motion=lim))
     assert experiment_reason(limited) == "camera-motion limit"
+
+
+@pytest.mark.parametrize(
+    ("table", "old", "new"),
+    [
+        ("simulation", "qdot_max", "qdot_saturation"),
+        ("actuators", "qdot_max", "velocity_saturation"),
+        ("actuators", "qddot_max", "acceleration_saturation"),
+    ],
+)
+def test_qdot_max_means_one_thing_in_a_scenario_file(table: str, old: str, new: str) -> None:
+    """The output saturation and the drives' saturations have names of their own; the old
+    key is one error that names the new one, and the new key works."""
+    from redservo.errors import ScenarioError
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+
+    sc = load_scenario("panda-4points")
+    with pytest.raises(ScenarioError, match=f"{table}.{old}.*renamed: write {new}"):
+        apply_overrides(sc, [f"{table}.{old}=0.5"])
+    exp = build(apply_overrides(sc, [f"{table}.{new}=0.5"]))
+    if table == "simulation":
+        assert exp.options.qdot_max == 0.5
+    else:
+        assert exp.actuator is not None

@@ -267,10 +267,12 @@ def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> SimulationOption
     if ctl.gain is not None:
         lam = AdaptiveGain(ctl.gain.zero, ctl.gain.inf, ctl.gain.slope)
     qdot_max: float | tuple[float, ...] | None = None
-    if isinstance(sim.qdot_max, list):
-        qdot_max = tuple(_per_joint(sc, "simulation.qdot_max", sim.qdot_max, robot.n).tolist())
+    if isinstance(sim.qdot_saturation, list):
+        qdot_max = tuple(
+            _per_joint(sc, "simulation.qdot_saturation", sim.qdot_saturation, robot.n).tolist()
+        )
     else:
-        qdot_max = sim.qdot_max
+        qdot_max = sim.qdot_saturation
     occ = spec.occlusion
     try:
         return SimulationOptions(
@@ -314,10 +316,12 @@ def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
         return None
     from redservo.hardware.actuators import ActuatorModel
 
-    kwargs = a.model_dump()
-    for key, value in kwargs.items():
+    names = type(a).MODEL_KEYS
+    kwargs = {}
+    for key, value in a.model_dump().items():
         if isinstance(value, list):
-            kwargs[key] = _per_joint(sc, f"actuators.{key}", value, n)
+            value = _per_joint(sc, f"actuators.{key}", value, n)
+        kwargs[names.get(key, key)] = value
     try:
         return ActuatorModel(**kwargs)
     except RedservoError as exc:
