@@ -13,6 +13,7 @@ from redservo import make_law
 from redservo.control import Controller, ImageMotionLimit, Measurement
 from redservo.control.image_motion import image_motion_scale
 from redservo.errors import ConfigurationError
+from redservo.features import PointFeature
 from redservo.redundancy.flags import Flag
 
 
@@ -175,3 +176,50 @@ def test_qdot_max_means_one_thing_in_a_scenario_file(table: str, old: str, new: 
         assert exp.options.qdot_max == 0.5
     else:
         assert exp.actuator is not None
+
+
+def test_the_servo_loop_honours_the_limit() -> None:
+    """The servo loop drives the same Controller: with a tight limit its commands are scaled
+    and the log's flag column says so; the run still converges, more slowly."""
+    from redservo.hardware import (
+        ActuatorModel,
+        IdealFeatureSource,
+        ServoLoop,
+        SimulatedRobot,
+        VirtualClock,
+    )
+    from redservo.robots import Afma6
+    from redservo.scene import PointSet, Scene, Static
+    from redservo.spatial import make_transform
+    from redservo.task import TaskTerm, VisualTask
+
+    q0 = np.array([0.0, 0.0, -0.5, 0.0, 0.0, 0.0])
+    runs = {}
+    for name, lim in (("free", None), ("held", ImageMotionLimit(2e-4, 1 / 30))):
+        clock = VirtualClock(50.0)
+        robot = Afma6()
+        sim = SimulatedRobot(robot, ActuatorModel.ideal(), q0, clock, period=0.02)
+        wMo = robot.fkine(q0) @ make_transform(t=(0.08, -0.05, 0.6))
+        scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
+        task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
+        loop = ServoLoop(
+            sim,
+            IdealFeatureSource(task, scene, sim),
+            robot,
+            task,
+            make_law("classical"),
+            robot.limits(),
+            period=0.02,
+            lam=1.0,
+            clock=clock,
+            sleep=clock.sleep,
+            max_iterations=2000,
+            image_motion=lim,
+        )
+        runs[name] = loop.run()
+    free, held = runs["free"], runs["held"]
+    assert free.outcome == held.outcome == "converged"
+    flag = held.log.flag(Flag.CAMERA_MOTION_LIMITED)
+    assert np.isfinite(flag).any() and np.all(flag[np.isfinite(flag)] < 1.0)
+    assert not np.isfinite(free.log.flag(Flag.CAMERA_MOTION_LIMITED)).any()
+    assert len(held.log) > len(free.log)

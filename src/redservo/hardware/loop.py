@@ -52,7 +52,7 @@ from typing import Any, Literal
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.control import Controller, ControlStep, Objective
+from redservo.control import Controller, ControlStep, ImageMotionLimit, Objective
 from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
@@ -126,6 +126,9 @@ class ServoLoop:
             (:class:`~redservo.hardware.Supervision`; default ``Supervision()``: a command
             held at most ``watchdog_timeout``, 5 consecutive overruns, a 1 s following
             window, 5 identical readings for a frozen encoder).
+        image_motion: The camera-motion limit (:class:`~redservo.control.ImageMotionLimit`):
+            the Controller scales each command so that no image point moves further between
+            two of the camera's frames than the tracker follows. None: none.
 
     Raises:
         ConfigurationError: a period, gain, timeout, tolerance, limit or supervision
@@ -159,6 +162,7 @@ class ServoLoop:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         supervision: Supervision | None = None,
+        image_motion: ImageMotionLimit | None = None,
     ) -> None:
         check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
@@ -169,9 +173,16 @@ class ServoLoop:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
         check_servo_control(objectives, feedforward)
         self.controller = Controller(
-            model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
+            model_robot,
+            task,
+            law,
+            limits,
+            lam=lam,
+            dt=period,
+            objectives=objectives,
             feedforward=feedforward,
-        )  # fmt: skip
+            image_motion=image_motion,
+        )
         """The control core (task, objectives, feed-forward, law) the loop drives."""
         self.robot = robot_iface
         self.source = source
