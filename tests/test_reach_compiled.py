@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -125,3 +126,24 @@ def test_singular_damped_system_gives_up_the_seed() -> None:
     q = np.zeros(7)
     _, ok = projected_step(J, np.ones(6), q, q - 1.0, q + 1.0, 1e-3, 0.5)
     assert not ok
+
+
+def test_warm_up_compiles_both_stages(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``redservo warmup`` runs the pose and the feature stage once (one seed); a task
+    without a desired pose has no search."""
+    import redservo.kernels.reach as kernels
+
+    calls: list[str] = []
+    for name in ("pose_search", "feature_search"):
+        real = getattr(kernels, name)
+
+        def spy(*args: object, _real: Any = real, _name: str = name) -> Any:
+            calls.append(_name)
+            assert args[-4 if _name == "feature_search" else -3].shape[0] == 1  # type: ignore[attr-defined]
+            return _real(*args)
+
+        monkeypatch.setattr(kernels, name, spy)
+    reach.compile_search(_sample("mc05-joint-limits", "T"))
+    assert calls == ["pose_search", "feature_search"]
+    reach.compile_search(build(draw_sample(load_campaign("cm01-gaze"), 0, 0).scenario))
+    assert calls == ["pose_search", "feature_search"]

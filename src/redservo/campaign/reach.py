@@ -39,7 +39,14 @@ from redservo._validation import FloatArray
 from redservo.ik import Stall, projected_step, solve_ik
 from redservo.spatial import inverse
 
-__all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "reachable_column", "solve_ik"]
+__all__ = [
+    "RANDOM_SEEDS",
+    "compile_search",
+    "desired_camera_pose",
+    "reachable",
+    "reachable_column",
+    "solve_ik",
+]
 
 RANDOM_SEEDS = 60
 """Random seeds tried after the deterministic ones."""
@@ -112,6 +119,20 @@ def _compiled_search(
         scene = scene_args(exp)
         scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
         return bool(feature_search(robot, scene, task_args(exp), seeds, lo, hi, tol) >= 0)
+
+
+def compile_search(exp: Any) -> None:
+    """Compile (or load from the disk cache) the kernels of the search for ``exp``'s robot
+    and task (``redservo warmup``): both stages, from one seed, toward a pose 1 km away (the
+    pose stage fails at once, then the feature stage runs). Nothing when the task has no
+    desired pose (no search) or the search is not compiled for it."""
+    if desired_camera_pose(exp) is None:
+        return
+    lim = exp.limits
+    far = np.eye(4)
+    far[2, 3] = 1e3
+    seeds = np.array([np.clip(exp.q0, lim.q_min, lim.q_max)], dtype=float)
+    _compiled_search(exp, far, seeds, lim.q_min, lim.q_max, 0.5 * exp.options.tolerance)
 
 
 def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, tol: float) -> bool:
