@@ -42,8 +42,8 @@ _controller: Any = None
 
 
 def _libraries() -> Any:
-    """threadpoolctl's controller of the libraries loaded, the kernels' BLAS included (built
-    once, again if a library was loaded since)."""
+    """threadpoolctl's controller of the libraries loaded, built once after numpy's and
+    scipy's BLAS are (the kernels call scipy's: numba's ``np.dot`` and ``np.linalg``)."""
     global _controller
     import numpy  # noqa: F401  (its BLAS)
     import scipy.linalg.cython_blas  # noqa: F401  (the BLAS numba's kernels call)
