@@ -140,6 +140,14 @@ def run_job(job: Job) -> JobResult:
     Raises:
         ScenarioError: a sample has no valid start (the whole campaign stops, as before).
     """
+    from redservo.kernels.blas import one_blas_thread
+
+    with one_blas_thread():  # the compiled loop and search: one BLAS thread (kernels/blas.py)
+        return _run_samples(job)
+
+
+def _run_samples(job: Job) -> JobResult:
+    """:func:`run_job`'s runs (its BLAS pinned)."""
     from redservo.campaign.sampling import draw_sample
     from redservo.experiment import build
 

@@ -67,6 +67,7 @@ from redservo.hardware.recorder import (
 )
 from redservo.hardware.settings import check_servo_control, check_timing
 from redservo.hardware.supervision import FollowWatch, Supervision
+from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
@@ -240,7 +241,8 @@ class ServoLoop:
         run = self._new_run()
         end = RunEnd()
         try:
-            end.outcome, end.reason = self._loop(run)
+            with one_blas_thread():  # the compiled steps: one BLAS thread (kernels/blas.py)
+                end.outcome, end.reason = self._loop(run)
         except EndRun as stop:
             end.outcome, end.reason, end.clock_fault = stop.outcome, stop.reason, stop.fault
         except KeyboardInterrupt:

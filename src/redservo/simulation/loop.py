@@ -50,6 +50,7 @@ from redservo.control.objectives import (
     visible_points,
 )
 from redservo.errors import GeometryError
+from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy.base import Law
@@ -230,28 +231,29 @@ def simulate(
     outcome: Outcome = "max_iterations"
     limit_hit: dict[str, int] | None = None
     qdot_prev = np.zeros(robot.n)  # the robot starts at rest
-    for it in range(opt.max_iterations):
-        end, qdot = run.iteration(it, q, qdot_prev, buf)
-        if end is not None:
-            outcome = end
-            break
-        assert qdot is not None
-        if actuator is None:
-            q_next = q + qdot * opt.dt
-        else:
-            q_next, _ = actuator.step(q, qdot, opt.dt)
-        crossed = np.flatnonzero(
-            (q_next < lim.q_min - LIMIT_TOLERANCE) | (q_next > lim.q_max + LIMIT_TOLERANCE)
-        )
-        if crossed.size:
-            outcome = "joint_limit"
-            limit_hit = {"axis": int(crossed[0]), "iteration": it}
-            break
-        qdot_prev = qdot
-        # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
-        q = np.clip(q_next, lim.q_min, lim.q_max)
-        if progress is not None:
-            progress(it)
+    with one_blas_thread():  # the compiled steps: one BLAS thread (kernels/blas.py)
+        for it in range(opt.max_iterations):
+            end, qdot = run.iteration(it, q, qdot_prev, buf)
+            if end is not None:
+                outcome = end
+                break
+            assert qdot is not None
+            if actuator is None:
+                q_next = q + qdot * opt.dt
+            else:
+                q_next, _ = actuator.step(q, qdot, opt.dt)
+            crossed = np.flatnonzero(
+                (q_next < lim.q_min - LIMIT_TOLERANCE) | (q_next > lim.q_max + LIMIT_TOLERANCE)
+            )
+            if crossed.size:
+                outcome = "joint_limit"
+                limit_hit = {"axis": int(crossed[0]), "iteration": it}
+                break
+            qdot_prev = qdot
+            # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
+            q = np.clip(q_next, lim.q_min, lim.q_max)
+            if progress is not None:
+                progress(it)
     log = buf.to_log(robot.joint_names, task.names)
     summary = summarize(log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin)
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
