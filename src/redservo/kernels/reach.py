@@ -22,9 +22,10 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.chain import chain_kinematics
-from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics, matmul
+from redservo.kernels.control import task_rows
+from redservo.kernels.kinematics import matmul
 from redservo.kernels.loop_task import inverse, loop_task
+from redservo.kernels.robot import robot_kinematics
 
 __all__ = ["feature_search", "pose_search", "projected_step", "theta_u"]
 
@@ -32,18 +33,6 @@ POS_TOL, ROT_TOL = 1e-4, 1e-3
 """:data:`redservo.ik.POS_TOL` (m) and :data:`redservo.ik.ROT_TOL` (rad)."""
 STALL_ITERATIONS, STALL_GAIN = 40, 0.99
 """:data:`redservo.ik.STALL_ITERATIONS` and :data:`redservo.ik.STALL_GAIN`."""
-
-
-@kernel
-def kinematics(q: Any, robot: Any) -> Any:
-    """``(bMc, J)`` of a robot pack (kind 0 the Afma6, 1 a DH chain, 2 a chain of fixed
-    transforms)."""
-    kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames, joints = robot
-    if kind == 0:
-        return afma6_kinematics(q, eMc, cVe, coupling, offset)
-    if kind == 1:
-        return dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    return chain_kinematics(q, frames, joints, eMc, cVe)
 
 
 @kernel
@@ -135,7 +124,7 @@ def _pose_seed(
     q = np.minimum(np.maximum(seed.copy(), lo), hi)
     best, since = np.inf, 0
     for _ in range(iterations):
-        bMc, J = kinematics(q, robot)
+        bMc, J = robot_kinematics(q, robot)
         cMt = matmul(inverse(bMc), target)
         err = np.empty(6)
         err[:3] = cMt[:3, 3]
@@ -174,10 +163,11 @@ def _feature_seed(
     q = np.minimum(np.maximum(seed.copy(), lo), hi)
     best, since = np.inf, 0
     for _ in range(150):
-        bMc, J = kinematics(q, robot)
-        e1, J1, _, lost = loop_task(bMc, J, scene, task, 0.0)
+        bMc, J = robot_kinematics(q, robot)
+        e, L, _, lost = loop_task(bMc, scene, task, 0.0)
         if lost:  # a feature cannot be measured (GeometryError on the object path)
             return False
+        e1, J1 = task_rows(e, L, task[8], J)  # CM01 eq. 25, the step kernel's
         size = float(np.linalg.norm(e1))
         if size < tol:
             return True
