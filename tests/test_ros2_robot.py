@@ -100,7 +100,7 @@ def test_joint_states_map_to_the_model_order_and_commands_reach_the_other_proces
         t, q = robot.wait_for_joints(20.0)
         np.testing.assert_allclose(q, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])  # names were scrambled
         assert abs(time.monotonic() - t) < 1.0  # epoch stamp on the monotonic clock
-        time.sleep(0.5)  # let the command reader match
+        assert robot.wait_for_subscriber(20.0) >= 1  # the peer's command reader matched
         robot.send_velocity(np.arange(6) * 0.01)
         robot.stop()
     got = finish(proc, out)["received"]
@@ -178,6 +178,18 @@ def test_no_publisher_is_one_error_naming_the_topic(node: Ros2Node) -> None:
     with Ros2Robot(node, JOINTS, joint_states="/nobody/joint_states") as robot:
         with pytest.raises(MessageError, match="no JointState on /nobody/joint_states within"):
             robot.wait_for_joints(0.3)
+
+
+def test_nobody_on_the_command_topic_is_one_error_naming_it(node: Ros2Node, tmp_path: Path) -> None:
+    proc, out = peer(tmp_path, "--duration", "2", "--no-commands")
+    with Ros2Robot(node, JOINTS) as robot:
+        robot.wait_for_joints(20.0)  # the peer is there, but reads no command
+        with pytest.raises(MessageError, match="nobody subscribes to /forward_velocity_con") as e:
+            robot.wait_for_subscriber(0.3)
+        assert robot.commands == 0 and robot.subscribers() == 0
+    finish(proc, out)
+    assert e.value.argument == "/forward_velocity_controller/commands"
+    assert "controller loaded" in str(e.value) and "nothing was sent" in str(e.value)
 
 
 def test_bad_joint_lists_are_one_error_naming_the_key() -> None:

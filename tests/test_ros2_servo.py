@@ -71,6 +71,26 @@ def test_missing_joint_names_are_refused_before_anything_is_sent(
     )
 
 
+def test_servo_refuses_to_start_when_nobody_reads_the_commands(tmp_path: Path, capsys: Any) -> None:
+    names = ",".join(f"joint{i}" for i in range(1, 8))
+    out = tmp_path / "peer.json"
+    peer = [sys.executable, str(ROOT / "tests" / "ros2_peer.py"), str(DOMAIN), str(out)]
+    proc = subprocess.Popen([*peer, "--duration", "30", "--names", names, "--no-commands"], env=ENV)
+    f = tmp_path / "hw.toml"
+    joints = [f"joint{i}" for i in range(1, 8)]
+    f.write_text(
+        f"[robot]\ndomain_id = {DOMAIN}\nwait = 20.0\ncommand_wait = 0.3\njoints = {joints}\n"
+    )
+    try:
+        code = main(["servo", "panda-4points", "--hardware", str(f), "--yes"])
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "Traceback" not in err, err
+    assert "nobody subscribes to /forward_velocity_controller/commands within 0.3 s" in err
+
+
 @pytest.fixture
 def arm(tmp_path: Path) -> Any:
     """The rehearsal arm of panda-4points in its own process; yields (process, stats file)."""

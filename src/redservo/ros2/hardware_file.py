@@ -10,6 +10,7 @@
     domain_id = 0                         # ROS_DOMAIN_ID, 0-232
     network = "loopback"                  # loopback (this machine only) | system (CYCLONEDDS_URI)
     wait = 5.0                            # s to wait for the first JointState
+    command_wait = 2.0                    # s to wait for a reader of the command topic
     start_tolerance = 0.05                # rad: max |q - the scenario's q0| at the start
     publish_rate = 0.0                    # Hz of the rate bridge (0: one command per period)
     [camera]
@@ -53,6 +54,7 @@ class RobotSpec:
     domain_id: int = 0
     network: str = "loopback"
     wait: float = 5.0
+    command_wait: float = 2.0
     start_tolerance: float = 0.05
     publish_rate: float = 0.0
 
@@ -94,6 +96,7 @@ _CHOICES = {
 }
 _POSITIVE = {
     "robot.wait",
+    "robot.command_wait",
     "robot.start_tolerance",
     "loop.watchdog_timeout",
     "loop.period",

@@ -216,7 +216,8 @@ def servo_on_hardware(
     Raises:
         ConfigurationError: a bad ``speed_scale``, an arm outside its limits or far from the
             scenario's start (nothing is sent), or a bad hardware file value.
-        MessageError: no usable ``JointState`` arrived.
+        MessageError: no usable ``JointState`` arrived, or nobody subscribes to the command
+            topic within ``robot.command_wait`` (not checked in a dry run: nothing is sent).
     """
     from redservo.ros2.timing import timing_report
 
@@ -231,6 +232,8 @@ def servo_on_hardware(
     exp.run(max_iterations=2)  # compile (or load) the law's kernels before the real-time loop
     hw, joints = _connect(exp, spec, period)
     try:
+        if not dry_run and hasattr(hw, "wait_for_subscriber"):
+            hw.wait_for_subscriber(spec.robot.command_wait)  # the controller reads commands
         _, q = hw.read_joints()
         check_start(exp, np.asarray(q, dtype=float), spec, joints)
         source = _source(exp, spec, hw)  # the camera is checked before the question too
