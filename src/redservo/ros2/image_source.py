@@ -8,8 +8,10 @@ to look for the dots) is the model's at the measured joints. A dot target is dar
 light surface, found below ``dot_threshold`` gray levels (55: the rehearsal arm's rendered
 ink, :data:`redservo.physics.camera.DOT_THRESHOLD`).
 
-The measurement is stamped with the image's stamp on the loop's clock (``EpochStamps``); no
-new image returns the previous measurement (same stamp: "no new image yet"). An image of an
+Decoding and detection run on a worker thread (:mod:`redservo.ros2.tracking`), so a slow
+frame never delays the control loop; the measurement is stamped with the image's stamp on
+the loop's clock (``EpochStamps``); until a newer image is measured, :meth:`Ros2ImageSource.
+measure` returns the previous measurement (same stamp: "no new image yet"). An image of an
 unknown encoding or of another size than ``CameraInfo`` says is a
 :class:`~redservo.ros2.faults.MessageError` naming the topic (the loop stops the arm).
 
@@ -32,6 +34,7 @@ from redservo.ros2.images import camera_from_info, gray_image
 from redservo.ros2.messages import CameraInfo, Image
 from redservo.ros2.naming import validate_topic
 from redservo.ros2.stamps import EpochStamps
+from redservo.ros2.tracking import FrameWorker
 from redservo.ros2.transport import SENSOR_DATA, Ros2Node
 from redservo.scene import Scene
 from redservo.task import VisualTask
@@ -105,12 +108,16 @@ def wait_for_camera(node: Ros2Node, topic: str, timeout: float) -> Camera:
 class Ros2ImageSource:
     """The task's features in the newest ``Image`` of ``topic`` (module docstring).
 
+    Decoding and detection run on a worker thread (:class:`~redservo.ros2.tracking.
+    FrameWorker`); :meth:`measure` returns its latest measurement without waiting.
+
     Args:
         node: The DDS participant.
         topic: The ``Image`` topic.
         camera: The camera (:func:`wait_for_camera`); images must have its size.
         task, scene: The scenario's task and scene.
-        pose: Gives the camera pose ``bMc`` at the measured joints (``true_pose()``).
+        pose: Gives the camera pose ``bMc`` at the measured joints (``true_pose()``), called
+            on the worker's thread.
         stamps: Epoch to loop clock.
         dot_threshold: Gray level of the ink (0-255).
     """
@@ -127,14 +134,25 @@ class Ros2ImageSource:
         dot_threshold: float = DOT_THRESHOLD,
     ) -> None:
         self.topic = validate_topic(topic, "camera.image")
-        self._reader = node.reader(self.topic, Image, SENSOR_DATA)
         self.camera, self.task, self.scene, self.pose = camera, task, scene, pose
         self.stamps = stamps
         self.sensor = FrameSensor(camera, dot_threshold)
-        self._last: FeatureMeasurement | None = None
-        self.frames = 0
         self.reason = ""
-        """Why the last :meth:`measure` returned None ("" otherwise)."""
+        """Why the last frame gave no measurement ("" otherwise)."""
+        reader = node.reader(self.topic, Image, SENSOR_DATA)
+        self.worker: FrameWorker[FeatureMeasurement] = FrameWorker(
+            node._open(), reader, Image, self._track, name=f"redservo-tracking {self.topic}"
+        )
+
+    @property
+    def frames(self) -> int:
+        """Images measured so far."""
+        return self.worker.frames
+
+    @property
+    def skipped(self) -> int:
+        """Images not measured because a newer one had arrived (the tracker was busy)."""
+        return self.worker.skipped
 
     def first_measurement(self, timeout: float) -> FeatureMeasurement:
         """Wait up to ``timeout`` (s) for an image and measure it (before the first command).
@@ -157,18 +175,8 @@ class Ros2ImageSource:
             time.sleep(0.01)
         raise MessageError(f"no Image on {self.topic} within {timeout:g} s", argument=self.topic)
 
-    def _newest(self) -> Image | None:
-        newest = None
-        for msg in self._reader.take(N=16):
-            if isinstance(msg, Image):
-                newest = msg
-        return newest
-
-    def measure(self, t: float) -> FeatureMeasurement | None:
-        """The features of the newest image (the previous measurement when none is new)."""
-        msg = self._newest()
-        if msg is None:
-            return self._last
+    def _track(self, msg: Image) -> FeatureMeasurement | None:
+        """Decode and measure one image (on the worker's thread), stamped with its stamp."""
         gray = gray_image(msg, self.topic)
         if gray.shape != (self.camera.height, self.camera.width):
             raise MessageError(
@@ -178,11 +186,21 @@ class Ros2ImageSource:
             )
         assert isinstance(self.sensor.renderer, _Frame)
         self.sensor.renderer.frame = gray
-        self.frames += 1
         reading = self.sensor.read(self.task, self.scene, self.pose.true_pose(), 0.0)
         self.reason = reading.reason
         if reading.s is None:
             return None
         stamp = self.stamps.to_loop(msg.header.stamp)
-        self._last = FeatureMeasurement(reading.s, tuple(reading.inv_depth), stamp)
-        return self._last
+        return FeatureMeasurement(reading.s, tuple(reading.inv_depth), stamp)
+
+    def measure(self, t: float) -> FeatureMeasurement | None:
+        """The latest measurement (the same one again until a newer image is measured).
+
+        Raises:
+            MessageError: the tracker met an unusable image (it has stopped).
+        """
+        return self.worker.latest()
+
+    def close(self) -> None:
+        """Stop the tracker (safe to call twice)."""
+        self.worker.close()

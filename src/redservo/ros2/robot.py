@@ -173,6 +173,12 @@ class Ros2Robot:
         assert self._last is not None
         return self._last
 
+    def latest_joints(self) -> tuple[float, FloatArray] | None:
+        """The newest reading taken so far ``(t, q)``, None before the first; takes no message
+        (safe from another thread than the loop's: the tracker's)."""
+        last = self._last
+        return None if last is None else (last[0], last[1].copy())
+
     def read_joints(self) -> tuple[float, FloatArray]:
         """The newest joint reading ``(t, q)``: ``t`` on the loop's clock (s), ``q`` in the
         model's joint order. The same ``t`` again when nothing new arrived.

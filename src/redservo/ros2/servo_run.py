@@ -58,7 +58,11 @@ class JointPose:
         self.robot, self.model, self.t_start = robot, model, t_start
 
     def true_pose(self) -> FloatArray:
-        _, q = self.robot.read_joints()
+        """``bMc`` at the newest joint reading the loop took (takes no message when the robot
+        has ``latest_joints``: the tracker's thread calls this)."""
+        latest = getattr(self.robot, "latest_joints", None)
+        reading = latest() if latest is not None else None
+        _, q = reading if reading is not None else self.robot.read_joints()
         pose: FloatArray = self.model.fkine(q, check_limits=False)
         return pose
 
@@ -152,7 +156,11 @@ def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
     source = Ros2ImageSource(
         hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
     )
-    source.first_measurement(spec.robot.wait)  # the target is seen before any command
+    try:
+        source.first_measurement(spec.robot.wait)  # the target is seen before any command
+    except BaseException:
+        source.close()
+        raise
     return source
 
 
@@ -231,6 +239,7 @@ def servo_on_hardware(
     period = spec.loop.period or exp.options.dt
     exp.run(max_iterations=2)  # compile (or load) the law's kernels before the real-time loop
     hw, joints = _connect(exp, spec, period)
+    source = None
     try:
         if not dry_run and hasattr(hw, "wait_for_subscriber"):
             hw.wait_for_subscriber(spec.robot.command_wait)  # the controller reads commands
@@ -250,11 +259,12 @@ def servo_on_hardware(
         # what write_run_files records of the controller (as a simulation result has it)
         result.engine = loop.controller.engine  # type: ignore[attr-defined]
         result.engine_reason = loop.controller.engine_reason  # type: ignore[attr-defined]
-        return result, timing_report(result, period, hw)
+        return result, timing_report(result, period, hw, source)
     finally:
-        close = getattr(hw, "close", None)
-        if close is not None:
-            close()
+        for part in (source, hw):
+            close = getattr(part, "close", None)
+            if close is not None:
+                close()
 
 
 def save_run(result: ServoResult, exp: Experiment, out: Path, timing: dict[str, Any]) -> Path:
