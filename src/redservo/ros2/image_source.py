@@ -23,10 +23,6 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
-from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.hardware.protocols import FeatureMeasurement
 from redservo.ros2.faults import MessageError
@@ -38,55 +34,9 @@ from redservo.ros2.tracking import FrameWorker
 from redservo.ros2.transport import SENSOR_DATA, Ros2Node
 from redservo.scene import Scene
 from redservo.task import VisualTask
-from redservo.vision.dots import detect_dots
-from redservo.vision.render import Renderer
-from redservo.vision.sensor import ImageSensor
+from redservo.vision.frame_sensor import DOT_THRESHOLD, Frame, FrameSensor
 
-__all__ = ["FrameSensor", "Ros2ImageSource", "wait_for_camera"]
-
-DOT_THRESHOLD = 55.0
-"""Gray level below which a pixel is ink (the rehearsal arm's: :mod:`redservo.physics.camera`)."""
-
-
-class _Frame(Renderer):
-    """A renderer that returns the frame it was given (the newest camera image)."""
-
-    frame: NDArray[np.uint8] | None = None
-
-    def render(self, scene: Scene, bMc: FloatArray, t: float = 0.0) -> NDArray[np.uint8]:
-        assert self.frame is not None
-        return self.frame
-
-
-class FrameSensor(ImageSensor):
-    """The image sensor on given frames, dots as dark ink below ``dot_threshold``."""
-
-    def __init__(self, camera: Camera, dot_threshold: float = DOT_THRESHOLD) -> None:
-        super().__init__(camera)
-        self.renderer = _Frame(camera, self.renderer.options)
-        self.dot_threshold = float(dot_threshold)
-
-    def _read_dots(
-        self, image: Any, scene: Scene, bMc: FloatArray, t: float, first: bool, notes: list[str]
-    ) -> FloatArray:
-        if self._tracker is None:
-            return np.zeros((0, 2))
-        det = detect_dots(
-            image,
-            threshold=self.dot_threshold,
-            polarity="dark",
-            min_size_px=2.0,
-            max_size_px=0.25 * min(image.shape),
-            pad_px=2.5,
-        )
-        if first:
-            self._tracker.start(self._truth_uv(scene, bMc, t))
-        track = self._tracker.update(det.uv)
-        if track.n_blobs != self._tracker.n_dots:
-            notes.append(f"found {track.n_blobs} dot blob(s), expected {self._tracker.n_dots}")
-        self._detected = track.detected
-        self.dots_uv = track.uv
-        return self.renderer.optics.to_normalized(track.uv)
+__all__ = ["DOT_THRESHOLD", "FrameSensor", "Ros2ImageSource", "wait_for_camera"]
 
 
 def wait_for_camera(node: Ros2Node, topic: str, timeout: float) -> Camera:
@@ -184,7 +134,7 @@ class Ros2ImageSource:
                 f"CameraInfo says {self.camera.width} x {self.camera.height}",
                 argument=self.topic,
             )
-        assert isinstance(self.sensor.renderer, _Frame)
+        assert isinstance(self.sensor.renderer, Frame)
         self.sensor.renderer.frame = gray
         reading = self.sensor.read(self.task, self.scene, self.pose.true_pose(), 0.0)
         self.reason = reading.reason
