@@ -43,10 +43,12 @@ def hardware(tmp_path: Path, text: str = "", name: str = "hw.toml") -> Path:
         ('command = "/velocity controller/commands"', "robot.command", "fully qualified"),
         ('command = "forward/commands"', "robot.command", "fully qualified"),
         ("domain_id = 300", "robot.domain_id", "0-232"),
-        ('[camera]\ndriver = "device"', "camera.driver", "not through `redservo servo` yet"),
+        ('[camera]\ndriver = "device"', "camera.driver", "use driver = 'ros2'"),
         ('[robot]\ndriver = "mujoco"\n[camera]\ndriver = "ros2"', "camera.driver", "needs"),
         ('[camera]\nimage = "camera/image"', "camera.image", "fully qualified"),
         ("[loop]\nwatchdog_timeout = -1", "loop.watchdog_timeout", "> 0"),
+        ("[loop]\nrealtime_priority = 100", "loop.realtime_priority", "integer 0-99"),
+        ("[loop]\nspin = -0.001", "loop.spin", ">= 0"),
         ("[arm]\nx = 1", "arm", "unknown table"),
     ],
 )
@@ -132,6 +134,7 @@ def test_panda_4points_converges_through_dds_against_the_rehearsal_arm(
     assert code == 0 and summary["outcome"] == "converged", summary["reason"]
     timing = json.loads((out / "timing.json").read_text())
     assert timing["iterations"] == summary["iterations"] and timing["jitter_p99"] is not None
+    assert timing["scheduling"].startswith(("SCHED_FIFO 50", "SCHED_OTHER (SCHED_FIFO 50 refused"))
     assert (out / "scenario.toml").exists() and (out / "log.npz").exists()
     stats = _stop(*arm)
     assert stats["commands"] >= summary["iterations"] and stats["refused"] == 0

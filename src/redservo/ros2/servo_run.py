@@ -27,7 +27,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment
 from redservo.hardware import IdealFeatureSource, ServoLoop
+from redservo.hardware.realtime import quiet_interpreter, realtime_scheduling
 from redservo.hardware.recorder import ServoResult
+from redservo.hardware.waiting import HybridSleep
 from redservo.ros2.hardware_file import HardwareSpec
 
 __all__ = ["DryRunRobot", "JointPose", "check_start", "servo_on_hardware"]
@@ -147,15 +149,23 @@ def _connect(exp: Experiment, spec: HardwareSpec, period: float) -> tuple[Any, l
 def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
     """The feature source ``[camera]`` asks for (checked: ``CameraInfo`` arrives)."""
     pose = JointPose(hw, exp.robot, time.monotonic())
-    if spec.camera.driver == "simulated":
-        return IdealFeatureSource(exp.task, exp.scene, pose)  # type: ignore[arg-type]
-    from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
-
     cam = spec.camera
-    camera = wait_for_camera(hw.node, cam.camera_info, spec.robot.wait)
-    source = Ros2ImageSource(
-        hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
-    )
+    if cam.driver == "simulated":
+        return IdealFeatureSource(exp.task, exp.scene, pose)  # type: ignore[arg-type]
+    source: Any
+    if cam.driver == "video":
+        from redservo.hardware.video import VideoSource
+
+        source = VideoSource(
+            cam.file, exp.camera, exp.task, exp.scene, pose, dot_threshold=cam.dot_threshold
+        )
+    else:
+        from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
+
+        camera = wait_for_camera(hw.node, cam.camera_info, spec.robot.wait)
+        source = Ros2ImageSource(
+            hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
+        )
     try:
         source.first_measurement(spec.robot.wait)  # the target is seen before any command
     except BaseException:
@@ -201,6 +211,7 @@ def _servo_loop(
         tolerance=opts.tolerance,
         max_iterations=None if spec.loop.duration else opts.max_iterations,
         duration=spec.loop.duration,
+        sleep=HybridSleep(spec.loop.spin),
     )
 
 
@@ -254,12 +265,15 @@ def servo_on_hardware(
         if confirm is not None and not confirm(what):
             return None, {}
         loop = _servo_loop(exp, spec, hw, source, limits, period, dry_run)
-        with _sigterm_as_interrupt():
+        rt = realtime_scheduling(spec.loop.realtime_priority)
+        with _sigterm_as_interrupt(), quiet_interpreter(), rt as scheduling:
             result = loop.run(raise_errors=False)
         # what write_run_files records of the controller (as a simulation result has it)
         result.engine = loop.controller.engine  # type: ignore[attr-defined]
         result.engine_reason = loop.controller.engine_reason  # type: ignore[attr-defined]
-        return result, timing_report(result, period, hw, source)
+        timing = timing_report(result, period, hw, source)
+        timing["scheduling"] = scheduling
+        return result, timing
     finally:
         for part in (source, hw):
             close = getattr(part, "close", None)
