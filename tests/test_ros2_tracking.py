@@ -89,3 +89,50 @@ def test_a_slow_frame_never_delays_the_loop_and_the_newest_frame_wins(
         source.gate.set()
         source.close()
     assert not source.worker.alive
+
+
+class Pose:
+    """The camera pose the tracker is given (the model's at the measured joints)."""
+
+    def __init__(self, bMc: np.ndarray) -> None:
+        self.bMc = bMc
+
+    def true_pose(self) -> np.ndarray:
+        return self.bMc
+
+
+def test_an_apriltag_is_measured_through_the_ros_camera(node: Ros2Node, tmp_path: Path) -> None:
+    pytest.importorskip("cv2")
+    from redservo.experiment import build
+    from redservo.ros2.image_source import FrameSensor, wait_for_camera
+    from redservo.scenario import load_scenario
+    from redservo.vision.render import Renderer
+
+    exp = build(load_scenario("afma6-tag-2half-d"))
+    bMc = exp.robot.fkine(exp.q0)
+    gray = Renderer(exp.camera).render(exp.scene, bMc)  # the tag, as a camera sees it
+    cam = exp.camera
+    proc, _ = publish(
+        tmp_path,
+        np.repeat(gray[None, :, :, None], 3, axis=3),  # rgb8
+        *("--rate", "20", "--passes", "600", "--info"),
+        camera=[cam.px, cam.py, cam.u0, cam.v0, cam.width, cam.height],
+    )
+    try:
+        camera = wait_for_camera(node, "/camera/camera_info", 30.0)
+        assert camera == cam  # intrinsics through CameraInfo
+        source = Ros2ImageSource(node, TOPIC, camera, exp.task, exp.scene, Pose(bMc), EpochStamps())
+        try:
+            meas = source.first_measurement(30.0)
+        finally:
+            source.close()
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+    here = FrameSensor(cam)  # the same detection on the same pixels, in this process
+    here.renderer.frame = gray  # type: ignore[attr-defined]
+    ref = here.read(exp.task, exp.scene, bMc, 0.0)
+    assert ref.s is not None
+    np.testing.assert_array_equal(meas.s, ref.s)  # corner (x, y), log depth, θu: all 6
+    truth, _ = exp.task.measure(exp.scene, bMc, 0.0)
+    np.testing.assert_allclose(meas.s, truth, atol=0.02)  # and it is the tag's true pose
