@@ -4,7 +4,7 @@ epoch stamps (``frame_id``: the frame's index) and, with ``--info``, the ``Camer
 ``camera`` ([px, py, u0, v0, width, height]); writes the stamps it published to OUT.json.
 
     python tests/ros2_image_peer.py DOMAIN FRAMES.npz OUT.json [--rate Hz] [--passes k]
-        [--info] [--wait-reader]
+        [--info] [--wait-reader] [--camera /camera]
 
 ``--wait-reader``: publish only once a reader of the image topic matched.
 """
@@ -32,12 +32,13 @@ def main() -> None:
     p.add_argument("--passes", type=int, default=1)
     p.add_argument("--info", action="store_true")
     p.add_argument("--wait-reader", action="store_true")
+    p.add_argument("--camera", default="/camera", help="namespace of image_raw, camera_info")
     a = p.parse_args()
     data = np.load(a.frames)
     frames = data["frames"]
     node = Ros2Node(a.domain)
-    writer = node.writer("/camera/image_raw", Image, SENSOR_DATA)
-    info = node.writer("/camera/camera_info", CameraInfo, SENSOR_DATA) if a.info else None
+    writer = node.writer(f"{a.camera}/image_raw", Image, SENSOR_DATA)
+    info = node.writer(f"{a.camera}/camera_info", CameraInfo, SENSOR_DATA) if a.info else None
     while a.wait_reader and writer.get_publication_matched_status().current_count == 0:
         time.sleep(0.01)
     time.sleep(0.2)  # discovery settles both ways

@@ -80,8 +80,10 @@ def test_servo_refuses_to_start_when_nobody_reads_the_commands(tmp_path: Path, c
     proc = subprocess.Popen([*peer, "--duration", "30", "--names", names, "--no-commands"], env=ENV)
     f = tmp_path / "hw.toml"
     joints = [f"joint{i}" for i in range(1, 8)]
+    topic = f"/unread_{os.getpid()}/commands"  # read by no process, whoever shares the domain
     f.write_text(
         f"[robot]\ndomain_id = {DOMAIN}\nwait = 20.0\ncommand_wait = 0.3\njoints = {joints}\n"
+        f'command = "{topic}"\n'
     )
     try:
         code = main(["servo", "panda-4points", "--hardware", str(f), "--yes"])
@@ -90,7 +92,7 @@ def test_servo_refuses_to_start_when_nobody_reads_the_commands(tmp_path: Path, c
         proc.wait(timeout=30)
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.count("\n") == 0 and "Traceback" not in err, err
-    assert "nobody subscribes to /forward_velocity_controller/commands within 0.3 s" in err
+    assert f"nobody subscribes to {topic} within 0.3 s" in err
 
 
 @pytest.fixture

@@ -28,7 +28,8 @@ from redservo.ros2.transport import Ros2Node
 
 ROOT = Path(__file__).resolve().parents[1]
 DOMAIN = 200 + os.getpid() % 30  # 200-229: no other ros2 test file uses it
-TOPIC = "/camera/image_raw"
+CAMERA = f"/camera_{os.getpid()}"  # topics of this test process only, whoever shares the domain
+TOPIC = f"{CAMERA}/image_raw"
 
 
 def publish(tmp_path: Path, frames: np.ndarray, *args: str, **arrays: Any) -> Any:
@@ -37,7 +38,7 @@ def publish(tmp_path: Path, frames: np.ndarray, *args: str, **arrays: Any) -> An
     np.savez(npz, frames=frames, **arrays)
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     cmd = [sys.executable, str(ROOT / "tests" / "ros2_image_peer.py"), str(DOMAIN)]
-    return subprocess.Popen([*cmd, str(npz), str(out), *args], env=env), out
+    return subprocess.Popen([*cmd, str(npz), str(out), "--camera", CAMERA, *args], env=env), out
 
 
 def until(condition: Any, what: str, timeout: float = 30.0) -> None:
@@ -119,7 +120,7 @@ def test_an_apriltag_is_measured_through_the_ros_camera(node: Ros2Node, tmp_path
         camera=[cam.px, cam.py, cam.u0, cam.v0, cam.width, cam.height],
     )
     try:
-        camera = wait_for_camera(node, "/camera/camera_info", 30.0)
+        camera = wait_for_camera(node, f"{CAMERA}/camera_info", 30.0)
         assert camera == cam  # intrinsics through CameraInfo
         source = Ros2ImageSource(node, TOPIC, camera, exp.task, exp.scene, Pose(bMc), EpochStamps())
         try:
