@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
+import threading
 import warnings
 
 import pytest
@@ -36,6 +37,26 @@ def test_the_loop_thread_runs_fifo_when_allowed_and_says_so_otherwise() -> None:
     assert (os.sched_getscheduler(0), os.sched_getparam(0)) == before
     with realtime_scheduling(0) as got:
         assert got == "SCHED_OTHER (not asked)" and os.sched_getscheduler(0) == before[0]
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="no POSIX scheduling")
+def test_helper_threads_run_one_level_below_the_loop_and_are_restored() -> None:
+    done = threading.Event()
+    helper = threading.Thread(target=done.wait, args=(60.0,))
+    helper.start()
+    tid = helper.native_id
+    assert tid is not None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            with realtime_scheduling(7, [tid]) as got:
+                inside = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+        if got.startswith("SCHED_FIFO"):
+            assert got == "SCHED_FIFO 7 (helpers 6)" and inside == (os.SCHED_FIFO, 6)
+        assert os.sched_getscheduler(tid) == os.SCHED_OTHER
+    finally:
+        done.set()
+        helper.join()
 
 
 @pytest.mark.parametrize("bad", [-1, 100, 2.5, True, "50"])

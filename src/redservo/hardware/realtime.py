@@ -3,7 +3,8 @@ loop's period to hold on a busy machine.
 
 * :func:`realtime_scheduling`: the loop's thread under ``SCHED_FIFO`` at ``priority``
   (1-99; ros2_control's controller manager asks for 50), so no ordinary process delays its
-  wake-up. It needs the privilege (root, ``CAP_SYS_NICE`` or an ``rtprio`` limit in
+  wake-up; the helper threads it is given (the camera's tracker) one level below, so an
+  ordinary process cannot preempt them while they hold the GIL the loop waits for. It needs the privilege (root, ``CAP_SYS_NICE`` or an ``rtprio`` limit in
   ``/etc/security/limits.conf``, as the Franka and UR set-ups configure); refused, the
   loop runs under the ordinary policy and the context manager says so (``timing.json``'s
   ``scheduling``, and a :class:`RuntimeWarning`): never silently. Linux's real-time
@@ -24,7 +25,7 @@ import gc
 import os
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from redservo.errors import ConfigurationError
@@ -50,13 +51,22 @@ def quiet_interpreter(switch_interval: float = SWITCH_INTERVAL) -> Iterator[None
         gc.unfreeze()
 
 
+def _set(tid: int, policy: int, param: os.sched_param) -> None:
+    try:
+        os.sched_setscheduler(tid, policy, param)
+    except ProcessLookupError:  # a helper thread that has ended
+        pass
+
+
 @contextmanager
-def realtime_scheduling(priority: int) -> Iterator[str]:
-    """Run the calling thread under ``SCHED_FIFO`` at ``priority`` for the ``with`` block;
-    yield what was granted (e.g. ``"SCHED_FIFO 50"``, or why it is ``"SCHED_OTHER"``).
+def realtime_scheduling(priority: int, helpers: Sequence[int] = ()) -> Iterator[str]:
+    """Run the calling thread under ``SCHED_FIFO`` at ``priority`` and the threads
+    ``helpers`` at ``priority - 1`` (at least 1) for the ``with`` block; yield what was
+    granted (e.g. ``"SCHED_FIFO 50"``, or why it is ``"SCHED_OTHER"``).
 
     Args:
         priority: 1-99, or 0 not to ask.
+        helpers: Native thread ids (``threading.Thread.native_id``).
 
     Raises:
         ConfigurationError: ``priority`` is not an integer 0-99.
@@ -69,10 +79,14 @@ def realtime_scheduling(priority: int) -> Iterator[str]:
     if priority == 0 or not hasattr(os, "sched_setscheduler"):
         yield "SCHED_OTHER (not asked)" if priority == 0 else "SCHED_OTHER (not on this system)"
         return
-    old_policy, old_param = os.sched_getscheduler(0), os.sched_getparam(0)
+    tids = [0, *helpers]
+    old = [(os.sched_getscheduler(t), os.sched_getparam(t)) for t in tids]
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        for tid, prio in zip(tids, [priority] + [max(priority - 1, 1)] * len(helpers)):
+            _set(tid, os.SCHED_FIFO, os.sched_param(prio))
     except OSError as exc:
+        for tid, (policy, param) in zip(tids, old):
+            _set(tid, policy, param)
         why = f"SCHED_OTHER (SCHED_FIFO {priority} refused: {exc.strerror})"
         warnings.warn(
             f"the servo loop runs without real-time scheduling: {why}; its period may jitter "
@@ -83,6 +97,7 @@ def realtime_scheduling(priority: int) -> Iterator[str]:
         yield why
         return
     try:
-        yield f"SCHED_FIFO {priority}"
+        yield f"SCHED_FIFO {priority}" + (f" (helpers {max(priority - 1, 1)})" if helpers else "")
     finally:
-        os.sched_setscheduler(0, old_policy, old_param)
+        for tid, (policy, param) in zip(tids, old):
+            _set(tid, policy, param)

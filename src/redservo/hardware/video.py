@@ -117,6 +117,12 @@ class VideoSource:
             )
             self._thread.start()
 
+    @property
+    def threads(self) -> list[int]:
+        """Native ids of the source's threads (the player), for their scheduling."""
+        t = self._thread
+        return [t.native_id] if t is not None and t.native_id and t.is_alive() else []
+
     def _play(self, t0: float) -> None:
         cv2 = require_cv2()
         i = 0

@@ -104,6 +104,12 @@ class Ros2ImageSource:
         """Images not measured because a newer one had arrived (the tracker was busy)."""
         return self.worker.skipped
 
+    @property
+    def threads(self) -> list[int]:
+        """Native ids of the source's threads (the tracker), for their scheduling."""
+        tid = self.worker.native_id
+        return [] if tid is None or not self.worker.alive else [tid]
+
     def first_measurement(self, timeout: float) -> FeatureMeasurement:
         """Wait up to ``timeout`` (s) for an image and measure it (before the first command).
 

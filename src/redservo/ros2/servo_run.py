@@ -265,7 +265,7 @@ def servo_on_hardware(
         if confirm is not None and not confirm(what):
             return None, {}
         loop = _servo_loop(exp, spec, hw, source, limits, period, dry_run)
-        rt = realtime_scheduling(spec.loop.realtime_priority)
+        rt = realtime_scheduling(spec.loop.realtime_priority, getattr(source, "threads", []))
         with _sigterm_as_interrupt(), quiet_interpreter(), rt as scheduling:
             result = loop.run(raise_errors=False)
         # what write_run_files records of the controller (as a simulation result has it)

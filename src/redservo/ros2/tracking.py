@@ -123,6 +123,11 @@ class FrameWorker(Generic[T]):
             return self._value
 
     @property
+    def native_id(self) -> int | None:
+        """The worker's native thread id (for its scheduling)."""
+        return self._thread.native_id
+
+    @property
     def alive(self) -> bool:
         """True while the worker runs (False after an error or :meth:`close`)."""
         return self._thread.is_alive()
