@@ -51,9 +51,10 @@ def test_the_image_motion_limit_is_never_exceeded_on_fuzzed_states(seed: int) ->
         law.observe(exp.robot, exp.task, state)
         model = law._obs(q, None)
         raw = rng.uniform(-1.0, 1.0, q.shape) * lim_j.qdot_max
-        prev = scale_to_limit(model, q, raw, DT, MotionLimit.resolve(
+        own = MotionLimit.resolve(
             normalized=None, pixels=px, gate_px=None, frame_rate=rate, dt=DT, camera=law._camera
-        ))[0]  # fmt: skip
+        )
+        prev = scale_to_limit(model, q, raw, DT, own)[0]
         law.observe(exp.robot, exp.task, state)
         res = law(J1=state.J1, e1=state.e1, q=q, limits=lim_j, lam=0.5, dt=DT, qdot_prev=prev)
         lim = law.motion_limit(DT)
@@ -177,3 +178,67 @@ def test_the_servo_loop_gives_the_law_a_share_of_its_period_on_its_clock() -> No
 
     assert law.loop_budget == pytest.approx(LOOP_SHARE * T) and law.clock is clock
     assert law.time_budget is None  # the user's option is left as it was
+
+
+def test_the_target_pose_gives_the_model_the_true_depths() -> None:
+    """The image sensor's desired depths are off away from the goal: with model_depth
+    "pose" the model's points in the base frame are the true ones (the pose estimated from
+    the measured points and the target's own points); with the measured depths they are
+    not."""
+    from types import SimpleNamespace
+
+    exp, state = _panda_state()
+    wrong = SimpleNamespace(s=state.s, inv_depth=[np.asarray(d) * 0.6 for d in state.inv_depth])
+    truth = point_model(exp.robot, exp.task, state, exp.q0)
+    for depth, exact in (("pose", True), ("measured", False)):
+        law: Any = make_law("predictive", model_depth=depth)
+        law.observe(exp.robot, exp.task, wrong)
+        model = law._obs(exp.q0, None)
+        assert np.allclose(model.P_b, truth.P_b, atol=1e-6) is exact
+
+
+def test_points_pose_from_a_rigid_fit_and_a_warm_start() -> None:
+    from redservo.redundancy.predictive_pose import points_pose, rigid_fit
+    from redservo.spatial import exp_twist
+
+    rng = np.random.default_rng(3)
+    P_o = np.array([[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]])
+    for _ in range(20):
+        cMo = exp_twist(
+            np.r_[rng.normal(0, 0.05, 2), 0.5 + rng.uniform(0, 0.3), rng.normal(0, 0.3, 3)]
+        )
+        Pc = P_o @ cMo[:3, :3].T + cMo[:3, 3]
+        xy, iz = Pc[:, :2] / Pc[:, 2:3], 1.0 / Pc[:, 2]
+        got = points_pose(P_o, xy, iz * rng.uniform(0.6, 1.5), None)
+        assert got is not None and np.allclose(got, cMo, atol=1e-8)
+        assert np.allclose(points_pose(P_o, xy, iz, got), cMo, atol=1e-8)
+    assert np.allclose(rigid_fit(P_o, Pc), cMo, atol=1e-9)
+    assert points_pose(P_o[:2], xy[:2], iz[:2], None) is None  # two points: no pose
+
+
+class _Model:
+    """A model of one point whose prediction moves it by ``u[0]`` (normalized) a period."""
+
+    def __init__(self, s_now: float) -> None:
+        self.s_now = np.array([s_now, 0.0])
+
+    def predict(self, q: Any, U: np.ndarray, hz: Any, dt: float) -> Any:
+        from redservo.redundancy.predictive_model import Prediction
+
+        s = (self.s_now + np.array([U[0, 0], 0.0]))[None, :]
+        return Prediction(np.zeros((1, 1)), np.zeros((1, 1, 1)), s, np.zeros((1, 2, 1)))
+
+
+def test_the_limit_shrinks_when_the_points_move_faster_than_the_model_says() -> None:
+    from redservo.redundancy.predictive_camera import MotionGain
+
+    lim = MotionLimit(10.0, 600.0, 600.0)
+    gain, q, u = MotionGain(), np.zeros(1), np.array([0.01])  # 6 px predicted a period
+    s = 0.0
+    for _ in range(8):  # the camera moves them 3x as far: 18 px
+        out = gain.update(_Model(s), q, u, DT, lim)
+        s += 0.03
+    assert gain.gain == pytest.approx(3.0, rel=0.02)
+    assert out.limit_px == pytest.approx(10.0 / gain.gain)
+    gain.reset()
+    assert gain.update(_Model(0.0), q, u, DT, lim) is lim

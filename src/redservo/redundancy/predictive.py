@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -63,9 +62,14 @@ from redservo.redundancy.base import (
     register,
 )
 from redservo.redundancy.bls import daqp_once
-from redservo.redundancy.flags import FLAGS, Event, Flag
+from redservo.redundancy.flags import FLAGS
 from redservo.redundancy.predictive_budget import LOOP_SHARE, Deadline, fallback_result, warm_up
-from redservo.redundancy.predictive_camera import MotionLimit, motion_rows, scale_to_limit
+from redservo.redundancy.predictive_camera import (
+    MotionGain,
+    MotionLimit,
+    limited,
+    motion_rows,
+)
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
@@ -79,6 +83,7 @@ from redservo.redundancy.predictive_model import (
 )
 from redservo.redundancy.predictive_moments import MomentModel, moment_model
 from redservo.redundancy.predictive_options import OPTIONS
+from redservo.redundancy.predictive_pose import PosePoints
 from redservo.redundancy.safety import position_box
 
 __all__ = ["Predictive"]
@@ -118,6 +123,7 @@ class Predictive(Law):
     max_image_motion_px: float | None
     frame_rate: float | None
     latency: float
+    model_depth: str
 
     def _setup(self) -> None:
         from redservo.redundancy.base import make_law
@@ -135,6 +141,7 @@ class Predictive(Law):
         self.loop_budget: float | None = None
         """The servo loop's budget when ``time_budget`` is None (:meth:`bind_period`, s)."""
         self._seen = SeenJoints(self.latency)
+        self._gain = MotionGain()
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
@@ -144,6 +151,7 @@ class Predictive(Law):
         """The clock of ``time_budget`` (s, monotonic): a test sets a fake one."""
         self._obs: Callable[[FloatArray, FloatArray | None], Model | None] | None = None
         self._moments: MomentModel | None = None
+        self._pose = PosePoints()
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
         self.last_plan: FloatArray | None = None
@@ -170,7 +178,9 @@ class Predictive(Law):
         self._goal = None
         self._search.reset()
         self._seen.reset()
+        self._gain.reset()
         self._moments = None
+        self._pose.reset()
         self._calls = 0
         self._started = None
         self.last_start = self.last_plan = None
@@ -224,7 +234,10 @@ class Predictive(Law):
         if self.model != "global" or len({t.target for t in terms}) != 1:
             return
         if all(type(t.feature) is PointFeature for t in terms):
-            self._obs = lambda q, seen: point_model(robot, task, state, q, seen)
+            if self.model_depth == "pose":
+                self._obs = self._pose.builder(robot, task, state)
+            else:
+                self._obs = lambda q, seen: point_model(robot, task, state, q, seen)
         elif len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
             feature, prev = terms[0].feature, self._moments
 
@@ -252,6 +265,8 @@ class Predictive(Law):
         self._calls += 1
         self.last_model = model
         lim = None if model is None else self.motion_limit(x.dt)
+        if lim is not None and model is not None:
+            lim = self._gain.update(model, x.q, x.qdot_prev, x.dt, lim)
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
             if dl.passed():
@@ -269,7 +284,7 @@ class Predictive(Law):
         if by_budget:
             why, value = fb.SOLVER_ITERATIONS, elapsed
         if why:
-            return self._limited(self._fall_back(x, why, value, by_budget, safe), x, model, lim)
+            return limited(self._fall_back(x, why, value, by_budget, safe), x, model, lim)
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
@@ -278,27 +293,7 @@ class Predictive(Law):
         d = Diagnostics(
             method=self.name, task_rank=rank, rank_deficient=rank < x.J1.shape[0], info=info
         )
-        return self._limited(LawResult(np.ascontiguousarray(U[0]), d), x, model, lim)
-
-    def _limited(
-        self, res: LawResult, x: LawInputs, model: Model | None, lim: MotionLimit | None
-    ) -> LawResult:
-        """``res`` with its command scaled down so that no image point moves more than the
-        camera-motion limit ``lim`` in the first period under the nonlinear ``model``
-        (:func:`~redservo.redundancy.predictive_camera.scale_to_limit`), ``task-scaled``
-        raised with the scale factor; ``res`` itself when it already keeps within."""
-        if lim is None or model is None:
-            return res
-        u, alpha, motion = scale_to_limit(model, x.q, res.qdot, x.dt, lim)
-        if alpha >= 1.0:
-            return res
-        d = res.diagnostics
-        text = (
-            f"predictive: command scaled by {alpha:.3g} so that no image point moves more than "
-            f"{lim.limit_px:.3g} px in a period ({motion:.3g} px before; camera-motion limit)"
-        )
-        ev = (*d.events, Event(Flag.TASK_SCALED, alpha, text))
-        return LawResult(np.ascontiguousarray(u), replace(d, events=ev))
+        return limited(LawResult(np.ascontiguousarray(U[0]), d), x, model, lim)
 
     def _start(self, x: LawInputs, n: int) -> FloatArray:
         """The warm start ``Ū``: the previous solution shifted by one period (its last block

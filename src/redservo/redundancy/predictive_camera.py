@@ -25,14 +25,24 @@ Units: seconds, pixels, normalized image coordinates.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.redundancy.base import LawInputs, LawResult
+from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.predictive_model import Horizon, Prediction, horizon
 
-__all__ = ["GATE_FRACTION", "MotionLimit", "motion_rows", "scale_to_limit"]
+__all__ = [
+    "GATE_FRACTION",
+    "MotionGain",
+    "MotionLimit",
+    "limited",
+    "motion_rows",
+    "scale_to_limit",
+]
 
 GATE_FRACTION = 0.4
 """The default limit of a point's motion per frame, a fraction of the tracker's gate (< 1/2:
@@ -134,3 +144,65 @@ def scale_to_limit(
         else:
             hi = mid
     return lo * u, lo, motion
+
+
+class MotionGain:
+    """How much faster the points move than the model predicts: the model's depths may be
+    wrong (the image sensor's ``depth = "desired"`` or an estimate), and the image motion of
+    a translation scales with ``1/Z``. At each period the measured motion since the previous
+    period is compared with the motion the previous model predicted for the command actually
+    sent (``q̇_prev``, after the safety stage); their ratio (from 1 to :data:`MAX_GAIN`,
+    averaged over two periods) divides the limit, so that the measured motion, not only the
+    model's, keeps within it. Only motions above :data:`MIN_MOTION_PX` count (the image
+    noise)."""
+
+    def __init__(self) -> None:
+        self.gain = 1.0
+        """The current ratio (>= 1)."""
+        self._last: tuple[Any, FloatArray] | None = None
+
+    def reset(self) -> None:
+        """Forget the previous period (the ratio back to 1)."""
+        self.gain, self._last = 1.0, None
+
+    def update(
+        self, model: Any, q: FloatArray, qdot_prev: FloatArray | None, dt: float, lim: MotionLimit
+    ) -> MotionLimit:
+        """The limit of this period, ``lim`` divided by the ratio updated with the motion
+        from the previous period's points to ``model.s_now`` (the points now), and remember
+        this period's model and joints ``q``."""
+        last, self._last = self._last, (model, q)
+        if last is not None and qdot_prev is not None and model.s_now is not None:
+            predicted = _motion_px(last[0], last[1], qdot_prev, dt, lim)
+            if last[0].s_now is not None and MIN_MOTION_PX < predicted < math.inf:
+                measured = float(np.max(lim.pixels(model.s_now - last[0].s_now)))
+                ratio = min(MAX_GAIN, max(1.0, measured / predicted))
+                self.gain = max(1.0, 0.5 * (self.gain + ratio))
+        if self.gain <= 1.0:
+            return lim
+        return MotionLimit(lim.limit_px / self.gain, lim.px, lim.py)
+
+
+MAX_GAIN = 5.0
+"""The largest ratio of the measured over the predicted image motion (:class:`MotionGain`)."""
+MIN_MOTION_PX = 1.0
+"""Predicted motions below this (px) do not update the ratio (:class:`MotionGain`)."""
+
+
+def limited(res: LawResult, x: LawInputs, model: Any, lim: MotionLimit | None) -> LawResult:
+    """``res`` with its command scaled down so that no image point moves more than the
+    camera-motion limit ``lim`` in the first period under the nonlinear ``model``
+    (:func:`scale_to_limit`), ``task-scaled`` raised with the scale factor; ``res`` itself
+    when it already keeps within (or without a limit or a model)."""
+    if lim is None or model is None:
+        return res
+    u, alpha, motion = scale_to_limit(model, x.q, res.qdot, x.dt, lim)
+    if alpha >= 1.0:
+        return res
+    d = res.diagnostics
+    text = (
+        f"predictive: command scaled by {alpha:.3g} so that no image point moves more than "
+        f"{lim.limit_px:.3g} px in a period ({motion:.3g} px before; camera-motion limit)"
+    )
+    ev = (*d.events, Event(Flag.TASK_SCALED, alpha, text))
+    return LawResult(np.ascontiguousarray(u), replace(d, events=ev))

@@ -84,19 +84,26 @@ class PointModel(NamedTuple):
 
 
 def point_model(
-    robot: Robot, task: Any, state: Any, q: FloatArray, q_seen: FloatArray | None = None
+    robot: Robot,
+    task: Any,
+    state: Any,
+    q: FloatArray,
+    q_seen: FloatArray | None = None,
+    Pc: FloatArray | None = None,
 ) -> PointModel | None:
     """The :class:`PointModel` of a task of image points of one target from its evaluated
     ``state`` (``s``, ``inv_depth``) at ``q``: the measured points put in the base frame
     where the camera saw them, ``P_b = bMc(q_seen) (x/ζ, y/ζ, 1/ζ)`` (``q_seen``: the joints
     when the image was exposed, :class:`SeenJoints`; None: ``q``), ``s_now`` their projection
-    at ``q`` (the measurement brought to the present); None when a depth is not positive or
-    a point not finite."""
+    at ``q`` (the measurement brought to the present); ``Pc`` (p, 3): the points in the
+    camera frame then (m) when known otherwise (a pose estimate), instead of the measured
+    points at their depths; None when a depth is not positive or a point not finite."""
     xy = np.asarray(state.s, dtype=float).reshape(-1, 2)
     iz = np.array([float(np.asarray(d).reshape(-1)[0]) for d in state.inv_depth])
     if xy.shape[0] != iz.shape[0] or not np.all(iz > 0) or not np.all(np.isfinite(xy)):
         return None
-    Pc = np.c_[xy / iz[:, None], 1.0 / iz]
+    if Pc is None:
+        Pc = np.c_[xy / iz[:, None], 1.0 / iz]
     seen = robot.kinematics(q if q_seen is None else q_seen, check_limits=False)[0]
     bMc = seen if q_seen is None else robot.kinematics(q, check_limits=False)[0]
     s_star = np.asarray(task.s_star, dtype=float)

@@ -115,6 +115,14 @@ OPTIONS = (
         none=True,
     ),
     Option(
+        "model_depth",
+        "pose",
+        kind="choice",
+        choices=("pose", "measured"),
+        doc="depths of the point model: 'pose' (from the target's pose estimated from its "
+        "known points, the measured depths when that fails) or 'measured' (the sensor's)",
+    ),
+    Option(
         "latency",
         0.0,
         doc="age of a measurement when the law gets it (exposure to availability): the "
