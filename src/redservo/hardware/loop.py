@@ -235,6 +235,9 @@ class ServoLoop:
             position clip) and ``clock_fault`` (the offending stamp, or None).
         """
         self._stop_request.clear()
+        bind = getattr(self.controller.law, "bind_period", None)  # predictive's default budget
+        if callable(bind):  # a share of the period, on the loop's clock
+            bind(self.period, self.clock)
         warm_up = getattr(self.controller.law, "warm_up", None)  # e.g. predictive's first call
         if callable(warm_up):  # one-time costs paid before the first period, not inside it
             warm_up(self.controller.limits, self.task.m, self.period)

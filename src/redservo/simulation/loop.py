@@ -277,6 +277,9 @@ class _Run:
         bind = getattr(ctrl.law, "bind_camera", None)  # the predictive law's image bounds
         if bind is not None:
             bind(camera)
+        track = getattr(ctrl.law, "bind_tracker", None)  # and its camera-motion limit
+        if track is not None:
+            track(_tracking_gate(sensor))
         self.rng = np.random.default_rng(opt.seed)
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
@@ -322,3 +325,13 @@ class _Run:
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
             return "converged", None
         return None, qdot
+
+
+def _tracking_gate(sensor: Sensor) -> float | None:
+    """The gate (pixels) of ``sensor``'s dot tracker, None without one (the ideal sensor:
+    the image pipeline is not imported for it)."""
+    if not type(sensor).__module__.startswith("redservo.vision"):
+        return None
+    from redservo.vision.terms import tracking_gate_px
+
+    return tracking_gate_px(sensor)

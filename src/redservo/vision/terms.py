@@ -13,6 +13,7 @@ edges, learnt on the first frame.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -133,14 +134,28 @@ def _dot_sizes(opt: RenderOptions) -> tuple[float, float, float]:
     return max(2.0, R), 2.0 * R + 4.0 + 6.0 * opt.blur_px, max(2.5, 3.0 * opt.blur_px + 1.0)
 
 
+def dot_gate_px(opt: RenderOptions) -> float:
+    """The dot tracker's gate (pixels): the largest distance of a dot from its
+    constant-velocity prediction, ``25 + 3 blur_px``."""
+    return 25.0 + 3.0 * opt.blur_px
+
+
+def tracking_gate_px(sensor: Any) -> float | None:
+    """The gate (pixels, :func:`dot_gate_px`) of an image sensor's dot tracker, or None
+    for a sensor that tracks no dots in an image (the ideal sensor)."""
+    from redservo.vision.sensor import ImageSensor
+
+    return dot_gate_px(sensor.renderer.options) if isinstance(sensor, ImageSensor) else None
+
+
 def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageDotTracker:
     """The tracker of ``n_dots`` rendered dots: sizes from the render options, a motion of
-    up to ``25 + 3 blur_px`` pixels per frame after the constant-velocity prediction."""
+    up to :func:`dot_gate_px` pixels per frame after the constant-velocity prediction."""
     lo, hi, pad = _dot_sizes(opt)
     return ImageDotTracker(
         n_dots,
         polarity="bright" if opt.levels.point > opt.background else "dark",
-        max_jump_px=25.0 + 3.0 * opt.blur_px,
+        max_jump_px=dot_gate_px(opt),
         max_lost_frames=max_lost_frames,
         min_size_px=lo,
         max_size_px=hi,
