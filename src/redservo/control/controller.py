@@ -22,7 +22,11 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
    acceleration limits or (unless the law has ``shield = False``) past the safe range is
    corrected and flagged as a shipped law's safety layer does;
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
-   (direction kept) so that no joint exceeds it, as a drive's saturation would.
+   (direction kept) so that no joint exceeds it, as a drive's saturation would;
+6. **distance shield** (``collision``): the whole command scaled so that no collision pair
+   comes closer than ``d_safe`` within one period
+   (:func:`~redservo.control.avoidance.distance_shield`), flagged
+   ``distance-shield-acted``.
 
 **Engines** (:attr:`Controller.engine`). ``"compiled"``: the steps above run as one
 compiled call (:mod:`redservo.binding.control`) when the set-up allows it (a task of image
@@ -37,6 +41,7 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
@@ -44,6 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo.control.avoidance import Collision, check_collision, shield_command
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
@@ -83,6 +89,10 @@ class Controller:
         engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
             ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
             the reference).
+        collision: A :class:`~redservo.control.avoidance.Collision`: unless it is off
+            (``enabled`` or ``shield`` False), every command then passes the distance shield
+            (step 6 of the module docstring). Its repulsion is an objective of its own
+            (:class:`~redservo.control.avoidance.CollisionAvoidance`).
 
     Raises:
         ConfigurationError: an option is out of range, or the law cannot take what the
@@ -105,6 +115,7 @@ class Controller:
         depth_scale: float = 1.0,
         qdot_saturation: float | ArrayLike | None = None,
         engine: Literal["auto", "compiled", "python"] = "auto",
+        collision: Collision | None = None,
     ) -> None:
         objs = tuple(objectives)
         self.accepts = check_controller(
@@ -122,6 +133,8 @@ class Controller:
         self.feedforward: Feedforward = feedforward
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
+        self.collision = check_collision(collision, robot)
+        """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
@@ -245,6 +258,7 @@ class Controller:
         if saturated:
             self.stage = "guard"
             qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -348,6 +362,7 @@ class Controller:
         if saturated:
             self.stage = "guard"
             qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
@@ -364,6 +379,21 @@ class Controller:
         qdot, diag, _ = guarded_output(
             qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
         )
+        return qdot, diag
+
+    def _distance_guard(
+        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, t: float, prev: FloatArray | None
+    ) -> tuple[FloatArray, Diagnostics]:
+        """The distance shield (:func:`~redservo.control.avoidance.shield_command`), when on."""
+        c = self.collision
+        if c is None or not (c.enabled and c.shield and c.active):
+            return qdot, diag
+        self.stage = "guard"
+        qdot, events = shield_command(
+            c, self.robot, qdot, q, t, dt=self.dt, qdot_prev=prev, qddot_max=self.limits.qddot_max
+        )
+        if events:
+            diag = dataclasses.replace(diag, events=(*diag.events, *events))
         return qdot, diag
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:

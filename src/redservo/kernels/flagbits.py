@@ -35,8 +35,9 @@ __all__ = ["N_FLAGS"]
     POSITION_LIMIT_UNAVOIDABLE,
     HORIZON_INFEASIBLE,
     SOLVER_ITERATIONS,
-) = range(20)
-N_FLAGS = 20
+    DISTANCE_SHIELD,
+) = range(21)
+N_FLAGS = 21
 
 # -- sources (bits of src[flag]) -----------------------------------------------------------------
 ONLY = 1

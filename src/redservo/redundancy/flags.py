@@ -67,6 +67,9 @@ class Flag(enum.Enum):
     SOLVER_ITERATIONS = "solver-iterations"
     """``predictive``: the QP solver hit its iteration limit (or the solve its time budget);
     the fallback law's command was used [iterations, or the solve time in s]."""
+    DISTANCE_SHIELD = "distance-shield-acted"
+    """The distance shield (:mod:`redservo.control.avoidance`) scaled the command so that no
+    collision pair comes closer than ``d_safe`` within one period [the scale in [0, 1)]."""
 
     @property
     def label(self) -> str:

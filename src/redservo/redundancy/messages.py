@@ -105,6 +105,7 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         "{fallback} command used",
         fb.BY_TIME_BUDGET: "solve took {v:.3g} s, over the time budget: {fallback} command used",
     },
+    Flag.DISTANCE_SHIELD: {fb.ONLY: "distance shield scaled q̇ by {v:.3g}"},
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 
