@@ -277,7 +277,7 @@ def distance_shield(
     if not np.any(closing):
         return 1.0, -1
     room = np.where(rest >= d_safe, rest - d_safe, 0.0)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # a tiny rate: no bound (inf)
         bound = np.where(closing, room / (-dt * np.where(closing, rate, -1.0)), np.inf)
     k = int(np.argmin(bound))
     if bound[k] >= 1.0:
