@@ -239,3 +239,53 @@ def test_collision_for_a_robot_without_a_collision_model_names_the_key() -> None
     sc = parse_scenario(data, str(resources.files("redservo.scenarios") / "x.toml"))
     with pytest.raises(ScenarioError, match=r"key 'collision\.enabled'.*no built-in collision"):
         build(sc)
+
+
+# -------------------------------------------------------------------------------- campaign
+
+
+def test_obstacle_campaign_counts_collisions_per_method(tmp_path: Path) -> None:
+    import json
+
+    from redservo.campaign.stats import column_stats, stats_table
+
+    # The same samples without avoidance: the object path, the collisions counted apart.
+    argv = ["campaign", "panda-posts", "--samples", "3", "--methods", "gpm", "--workers", "1"]
+    argv += ["--set", "collision.enabled=false", "--no-plot", "-q"]
+    assert main([*argv, "--out", str(tmp_path / "off")]) == 0
+    stats = json.loads((tmp_path / "off" / "campaign.json").read_text())["stats"]["gpm"]
+    assert "collisions" in stats and stats["runs"] == 3
+    assert "| collisions |" in (tmp_path / "off" / "campaign.md").read_text()
+    # A collision is its own column, not an "error" among the other failures.
+    col = column_stats(
+        "m",
+        np.array([False, True]),
+        {"collision": 1, "converged": 1},
+        {
+            c: np.zeros(2)
+            for c in (
+                "iterations",
+                "max_joint_speed",
+                "max_cam_translation",
+                "max_cam_rotation",
+                "discontinuity",
+                "min_margin",
+                "peak_velocity_ratio",
+            )
+        },
+        shield_runs=0,
+        velocity_runs=0,
+        flag_runs=(),
+    )
+    assert (col.collisions, col.other_failures) == (1, 0)
+    assert "| 0 | 1 |" in stats_table([col])
+
+
+def test_a_campaign_run_with_obstacles_leaves_the_compiled_loop() -> None:
+    from redservo.campaign.task import NO_DISTANCES, _run_task, _Task
+
+    data = _post_data()
+    data["collision"]["enabled"] = False
+    row = _run_task(_Task(0, "gpm", data, "post.toml", None, {}, fast=True))
+    # The compiled loop measures no distance: it would have driven through the ball.
+    assert row["_path"] == NO_DISTANCES and row["outcome"] == "collision"
