@@ -34,6 +34,7 @@ Units: metres, seconds, radians.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -45,6 +46,7 @@ from redservo.collision.robot import LinkCapsule, link_capsules
 from redservo.collision.shapes import Obstacle
 from redservo.control.objectives import ObjectiveContext
 from redservo.errors import ConfigurationError
+from redservo.redundancy.base import Diagnostics
 from redservo.redundancy.flags import Event, Flag
 from redservo.robots.base import Robot
 from redservo.scene import Static
@@ -287,44 +289,36 @@ def distance_shield(
 
 
 def shield_command(
-    c: Collision,
+    c: Collision | None,
     robot: Robot,
     qdot: FloatArray,
+    diag: Diagnostics,
     q: FloatArray,
     t: float,
-    *,
     dt: float,
     qdot_prev: FloatArray | None,
     qddot_max: FloatArray | None,
-) -> tuple[FloatArray, list[Event]]:
-    """:func:`distance_shield` on ``qdot`` at ``(q, t)``: the command (scaled when it must
-    be) and the events to report: ``distance-shield-acted`` (its value the scale) and, when
-    the scaling breaks ``q̈_max dt`` against ``qdot_prev``, ``acceleration-exceeded`` (the
-    distance outranks the acceleration limit, as the position limits do)."""
+) -> tuple[FloatArray, Diagnostics]:
+    """:func:`distance_shield` on ``qdot`` (rad/s or m/s) at ``(q, t)`` with the period
+    ``dt`` (s), unless ``c`` is None or off: the command, scaled when it must be, and
+    ``diag`` with the events to report: ``distance-shield-acted`` (its value the scale) and,
+    when the scaling breaks ``q̈_max dt`` against ``qdot_prev``, ``acceleration-exceeded``
+    (the distance outranks the acceleration limit, as the position limits do)."""
+    if c is None or not (c.enabled and c.shield and c.active):
+        return qdot, diag
     pd = c.measure(robot, q, t)
     s, k = distance_shield(qdot, pd.d, pd.J, dt=dt, d_safe=c.d_safe, drift=pd.drift)
     if k < 0:
-        return qdot, []
+        return qdot, diag
     cmd = qdot * s
-    events = [
-        Event(
-            Flag.DISTANCE_SHIELD,
-            s,
-            f"command scaled by {s:.3g}: pair {pd.names[k]} at {pd.d[k] * 1000:.1f} mm "
-            f"would pass d_safe = {c.d_safe * 1000:.1f} mm",
-        )
-    ]
+    what = f"pair {pd.names[k]} at {pd.d[k] * 1000:.1f} mm would pass d_safe = {c.d_safe * 1000:.1f} mm"
+    events = [Event(Flag.DISTANCE_SHIELD, s, f"command scaled by {s:.3g}: {what}")]
     if qdot_prev is not None and qddot_max is not None:
         excess = np.abs(cmd - qdot_prev) / dt - qddot_max
         if np.any(excess > 1e-9 * qddot_max):
-            events.append(
-                Event(
-                    Flag.ACCELERATION_EXCEEDED,
-                    float(np.max(excess)),
-                    "the distance shield outranked the acceleration limit",
-                )
-            )
-    return cmd, events
+            why = "the distance shield outranked the acceleration limit"
+            events.append(Event(Flag.ACCELERATION_EXCEEDED, float(np.max(excess)), why))
+    return cmd, dataclasses.replace(diag, events=(*diag.events, *events))
 
 
 @dataclass

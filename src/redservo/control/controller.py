@@ -41,7 +41,6 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
@@ -385,16 +384,9 @@ class Controller:
         self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, t: float, prev: FloatArray | None
     ) -> tuple[FloatArray, Diagnostics]:
         """The distance shield (:func:`~redservo.control.avoidance.shield_command`), when on."""
-        c = self.collision
-        if c is None or not (c.enabled and c.shield and c.active):
-            return qdot, diag
         self.stage = "guard"
-        qdot, events = shield_command(
-            c, self.robot, qdot, q, t, dt=self.dt, qdot_prev=prev, qddot_max=self.limits.qddot_max
-        )
-        if events:
-            diag = dataclasses.replace(diag, events=(*diag.events, *events))
-        return qdot, diag
+        limits = self.limits.qddot_max
+        return shield_command(self.collision, self.robot, qdot, diag, q, t, self.dt, prev, limits)
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins

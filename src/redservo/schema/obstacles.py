@@ -112,7 +112,5 @@ class CollisionSpec(Table):
     @model_validator(mode="after")
     def _distances(self) -> CollisionSpec:
         if self.d_influence <= self.d_safe:
-            fail(
-                f"must be > d_safe = {self.d_safe:g} m, got {self.d_influence:g} m", "d_influence"
-            )
+            fail(f"must be > d_safe = {self.d_safe:g} m, got {self.d_influence:g} m", "d_influence")
         return self
