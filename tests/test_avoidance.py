@@ -289,3 +289,46 @@ def test_a_campaign_run_with_obstacles_leaves_the_compiled_loop() -> None:
     row = _run_task(_Task(0, "gpm", data, "post.toml", None, {}, fast=True))
     # The compiled loop measures no distance: it would have driven through the ball.
     assert row["_path"] == NO_DISTANCES and row["outcome"] == "collision"
+
+
+# ------------------------------------------------------------------------------ servo loop
+
+
+@pytest.mark.parametrize("avoid", [False, True])
+def test_servo_loop_keeps_d_safe_after_its_own_guard(avoid: bool) -> None:
+    """On the servo loop of a (simulated) arm the shield acts again after the loop's guard,
+    whose acceleration step would otherwise undo it; the repulsion is an objective."""
+    from redservo.hardware import (
+        ActuatorModel,
+        IdealFeatureSource,
+        ServoLoop,
+        SimulatedRobot,
+        VirtualClock,
+    )
+
+    exp = build(load_scenario("panda-post"))
+    coll = dataclasses.replace(exp.options.collision, avoid=avoid)
+    clock = VirtualClock()
+    dt = exp.options.dt
+    sim = SimulatedRobot(exp.robot, ActuatorModel.ideal(), exp.q0, clock, period=dt)
+    loop = ServoLoop(
+        sim,
+        IdealFeatureSource(exp.task, exp.scene, sim),
+        exp.robot,
+        exp.task,
+        exp.law,
+        exp.limits,
+        period=dt,
+        lam=0.5,
+        max_iterations=200,
+        clock=clock,
+        sleep=clock.sleep,
+        objectives=[CollisionAvoidance(coll)] if avoid else [],
+        collision=coll,
+    )
+    res = loop.run()
+    probe = Collision(coll.obstacles)
+    closest = min(probe.measure(exp.robot, q, 0.0).closest()[0] for q in res.log.q)
+    assert closest >= 0.02 - 1e-4
+    # The shield plans over max_hold (the watchdog's 0.5 s), so it acts with the repulsion too.
+    assert Flag.DISTANCE_SHIELD.label in res.summary["flags"]

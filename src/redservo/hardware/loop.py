@@ -53,6 +53,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.control import Controller, ControlStep, Objective
+from redservo.control.avoidance import Collision, shield_command
 from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
@@ -126,6 +127,10 @@ class ServoLoop:
             (:class:`~redservo.hardware.Supervision`; default ``Supervision()``: a command
             held at most ``watchdog_timeout``, 5 consecutive overruns, a 1 s following
             window, 5 identical readings for a frozen encoder).
+        collision: The distance shield's set-up (:class:`~redservo.control.avoidance.Collision`,
+            the obstacles' poses known): the controller's shield, then again after the guard
+            (over ``max_hold``), so the guard's acceleration step never undoes it. Its
+            repulsion is the objective ``CollisionAvoidance(collision)``.
 
     Raises:
         ConfigurationError: a period, gain, timeout, tolerance, limit or supervision
@@ -159,6 +164,7 @@ class ServoLoop:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         supervision: Supervision | None = None,
+        collision: Collision | None = None,
     ) -> None:
         check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
@@ -170,7 +176,7 @@ class ServoLoop:
         check_servo_control(objectives, feedforward)
         self.controller = Controller(
             model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
-            feedforward=feedforward,
+            feedforward=feedforward, collision=collision,
         )  # fmt: skip
         """The control core (task, objectives, feed-forward, law) the loop drives."""
         self.robot = robot_iface
@@ -361,6 +367,11 @@ class ServoLoop:
         run.counters["guarded"] += int(report.changed)
         run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
         assert run.state is not None and run.diag is not None
+        hold, qddot_max = self.supervision.max_hold or self.period, self.limits.qddot_max
+        coll, t = self.controller.collision, now - run.t0
+        cmd, run.diag = shield_command(
+            coll, self.model_robot, cmd, run.diag, q_send, t, hold, run.prev, qddot_max
+        )
         run.recorder.append(
             t=now - run.t0,
             q=q,
