@@ -23,7 +23,7 @@ from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
-from redservo.experiment_start import check_start
+from redservo.experiment_start import attach_collision, check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
@@ -369,6 +369,7 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     exp.sensor = _sensor(sc, spec, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
     exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
+    attach_collision(sc, exp)
     if spec.simulator is not None and spec.simulator.kind == "mujoco":
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 

@@ -13,7 +13,8 @@ not covered:
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
-  gain, a camera-motion limit (the Controller applies it: the object path);
+  gain, a camera-motion limit (the Controller applies it: the object path), obstacles
+  (distances and their shield are the Controller's);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -108,6 +109,7 @@ def experiment_reason(exp: Experiment) -> str | None:
         (opt.feedforward == "estimated", "feed-forward 'estimated'"),
         (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
         (opt.image_motion is not None, "camera-motion limit"),
+        (opt.collision is not None, "obstacles (the compiled loop measures no distance)"),
     )
     for failed, reason in checks:
         if failed:

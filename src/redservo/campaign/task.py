@@ -117,7 +117,9 @@ def _run_task(task: _Task) -> dict[str, Any]:
     try:
         exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
         summary, row["_path"] = None, ASKED
-        if task.fast:
+        if task.fast and exp.options.collision is not None:
+            row["_path"] = NO_DISTANCES  # the compiled loop measures no distance
+        elif task.fast:
             from redservo.campaign.fastloop import fast_run
 
             summary, row["_path"] = fast_run(exp, task.method, task.law_options)
@@ -206,6 +208,8 @@ def merge(results: Sequence[JobResult]) -> JobResult:
 
 ASKED = "fast=False asked for"
 """The ``_path`` note of a run the caller sent to the object path (no line is printed)."""
+NO_DISTANCES = "obstacles or self pairs (the compiled loop measures no distance)"
+"""The ``_path`` note of a run with a collision set-up (:mod:`redservo.control.avoidance`)."""
 
 
 def fallback_lines(paths: dict[tuple[str, str], int]) -> list[str]:

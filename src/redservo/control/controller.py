@@ -22,7 +22,11 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
    acceleration limits or (unless the law has ``shield = False``) past the safe range is
    corrected and flagged as a shipped law's safety layer does;
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
-   (direction kept) so that no joint exceeds it, as a drive's saturation would.
+   (direction kept) so that no joint exceeds it, as a drive's saturation would;
+6. **distance shield** (``collision``): the whole command scaled so that no collision pair
+   comes closer than ``d_safe`` within one period
+   (:func:`~redservo.control.avoidance.distance_shield`), flagged
+   ``distance-shield-acted``.
 
 **Engines** (:attr:`Controller.engine`). ``"compiled"``: the steps above run as one
 compiled call (:mod:`redservo.binding.control`) when the set-up allows it (a task of image
@@ -44,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo.control.avoidance import Collision, check_collision, shield_command
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
@@ -88,6 +93,10 @@ class Controller:
         engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
             ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
             the reference).
+        collision: A :class:`~redservo.control.avoidance.Collision`: unless it is off
+            (``enabled`` or ``shield`` False), every command then passes the distance shield
+            (step 6 of the module docstring). Its repulsion is an objective of its own
+            (:class:`~redservo.control.avoidance.CollisionAvoidance`).
 
     Raises:
         ConfigurationError: an option is out of range, or the law cannot take what the
@@ -111,6 +120,7 @@ class Controller:
         qdot_saturation: float | ArrayLike | None = None,
         image_motion: ImageMotionLimit | None = None,
         engine: Literal["auto", "compiled", "python"] = "auto",
+        collision: Collision | None = None,
     ) -> None:
         objs = tuple(objectives)
         self.accepts = check_controller(
@@ -136,6 +146,8 @@ class Controller:
         self.image_motion = image_motion
         """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
         self._motion_rows = point_rows(task) if image_motion is not None else ()
+        self.collision = check_collision(collision, robot)
+        """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
@@ -255,6 +267,7 @@ class Controller:
             return None
         qdot, state, diag = res
         qdot, diag, saturated = self._shape(qdot, diag, state, q, Ja, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -354,6 +367,7 @@ class Controller:
         else:
             qdot, diag = res.qdot, res.diagnostics
         qdot, diag, saturated = self._shape(qdot, diag, state, q, J, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
@@ -371,6 +385,14 @@ class Controller:
             qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
         )
         return qdot, diag
+
+    def _distance_guard(
+        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, t: float, prev: FloatArray | None
+    ) -> tuple[FloatArray, Diagnostics]:
+        """The distance shield (:func:`~redservo.control.avoidance.shield_command`), when on."""
+        self.stage = "guard"
+        limits = self.limits.qddot_max
+        return shield_command(self.collision, self.robot, qdot, diag, q, t, self.dt, prev, limits)
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins

@@ -53,6 +53,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.control import Controller, ControlStep, ImageMotionLimit, Objective
+from redservo.control.avoidance import Collision, shield_command
 from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
@@ -130,6 +131,10 @@ class ServoLoop:
         image_motion: The camera-motion limit (:class:`~redservo.control.ImageMotionLimit`):
             the Controller scales each command so that no image point moves further between
             two of the camera's frames than the tracker follows. None: none.
+        collision: The distance shield's set-up (:class:`~redservo.control.avoidance.Collision`,
+            the obstacles' poses known): the controller's shield, then again after the guard
+            (over ``max_hold``), so the guard's acceleration step never undoes it. Its
+            repulsion is the objective ``CollisionAvoidance(collision)``.
 
     Raises:
         ConfigurationError: a period, gain, timeout, tolerance, limit or supervision
@@ -164,6 +169,7 @@ class ServoLoop:
         sleep: Callable[[float], None] = time.sleep,
         supervision: Supervision | None = None,
         image_motion: ImageMotionLimit | None = None,
+        collision: Collision | None = None,
     ) -> None:
         check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
@@ -183,6 +189,7 @@ class ServoLoop:
             objectives=objectives,
             feedforward=feedforward,
             image_motion=image_motion,
+            collision=collision,
         )
         """The control core (task, objectives, feed-forward, law) the loop drives."""
         self.robot = robot_iface
@@ -377,6 +384,11 @@ class ServoLoop:
         run.counters["guarded"] += int(report.changed)
         run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
         assert run.state is not None and run.diag is not None
+        hold, qddot_max = self.supervision.max_hold or self.period, self.limits.qddot_max
+        coll, t = self.controller.collision, now - run.t0
+        cmd, run.diag = shield_command(
+            coll, self.model_robot, cmd, run.diag, q_send, t, hold, run.prev, qddot_max
+        )
         run.recorder.append(
             t=now - run.t0,
             q=q,

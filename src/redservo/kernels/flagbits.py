@@ -36,8 +36,9 @@ __all__ = ["N_FLAGS"]
     HORIZON_INFEASIBLE,
     SOLVER_ITERATIONS,
     CAMERA_MOTION_LIMITED,
-) = range(21)
-N_FLAGS = 21
+    DISTANCE_SHIELD,
+) = range(22)
+N_FLAGS = 22
 
 # -- sources (bits of src[flag]) -----------------------------------------------------------------
 ONLY = 1

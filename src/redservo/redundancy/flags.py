@@ -71,6 +71,9 @@ class Flag(enum.Enum):
     """The camera-motion limit (:class:`redservo.control.ImageMotionLimit`) scaled the command
     down so that no image point moves further between two frames than the tracker follows,
     nor smears more than the detector tolerates [the scale, in (0, 1)]."""
+    DISTANCE_SHIELD = "distance-shield-acted"
+    """The distance shield (:mod:`redservo.control.avoidance`) scaled the command so that no
+    collision pair comes closer than ``d_safe`` within one period [the scale in [0, 1)]."""
 
     @property
     def label(self) -> str:

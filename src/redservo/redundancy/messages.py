@@ -109,6 +109,7 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         fb.ONLY: "command scaled by {v:.3g}: the fastest image point would move {motion_px:.3g} px "
         "between two frames (limit {limit_px:.3g} px)",
     },
+    Flag.DISTANCE_SHIELD: {fb.ONLY: "distance shield scaled q̇ by {v:.3g}"},
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 

@@ -25,7 +25,7 @@ from redservo.schema.base import (
 )
 from redservo.schema.camera import CameraSpec
 from redservo.schema.features import AnyFeature
-from redservo.schema.obstacles import ObstacleSpec
+from redservo.schema.obstacles import CollisionSpec, ObstacleSpec, OcclusionSpec
 from redservo.schema.scene import AnyObject, Pose
 from redservo.schema.simulator import SimulatorSpec
 from redservo.task import DepthMode
@@ -290,16 +290,6 @@ class SimulationSpec(Table):
     )
 
 
-class OcclusionSpec(Table):
-    """An occluding sphere that may hide a points target (MC05 experiment 2)."""
-
-    occluder: str = Field(description="a sphere object")
-    target: str = Field(description="the points object it may hide")
-    beta: float = num(50.0, gt=0.0, le=1e6, description="β of V = exp(−β d²) (MC05 eq. 30)")
-    gain: float = num(1.0, ge=0.0, le=BIG, description="scale of the artificial force")
-    avoid: bool = Field(True, description="false: detect only")
-
-
 class SensorSpec(Table):
     """Where the features come from: exact (``ideal``) or detected in a rendered camera image
     (``image``: :class:`redservo.vision.ImageSensor`, extra ``redservo[vision]``,
@@ -393,6 +383,7 @@ class ScenarioSpec(Table):
         default_factory=lambda: SimulationSpec.model_validate({}), description="simulator options"
     )
     occlusion: OcclusionSpec | None = Field(None, description="an occluding sphere")
+    collision: CollisionSpec | None = Field(None, description="collision avoidance")
     sensor: SensorSpec = Field(
         default_factory=lambda: SensorSpec.model_validate({}),
         description="where the features come from",

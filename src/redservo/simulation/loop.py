@@ -23,7 +23,9 @@ run stops at that iteration with outcome ``joint_limit`` (the step is not
 applied), as a real robot's safety stop would. Other outcomes: ``converged`` (``‖e1‖ <
 tolerance``), ``max_iterations``, ``target_lost`` (a feature is invalid, behind the
 camera, or leaves the image), ``feature_lost`` (the image sensor lost a feature for too
-many frames) and ``occluded``. Every stateful part (law, sensor, actuator) is reset at
+many frames), ``occluded`` and ``collision`` (with ``options.collision`` measuring
+obstacles or self pairs: the smallest distance between a link and an obstacle or another
+link is logged at every step, and a distance <= 0 m ends the run). Every stateful part (law, sensor, actuator) is reset at
 the start of each run, so two identical runs give identical logs.
 
 Units: seconds, metres, radians; ``λ`` in 1/s.
@@ -43,6 +45,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.control import Controller, Measurement, SceneContext
+from redservo.control.avoidance import CollisionAvoidance
 from redservo.control.objectives import (
     CallableObjective,
     Objective,
@@ -156,6 +159,9 @@ def simulation_controller(
         objs.append(CallableObjective(secondary))
     if options.occlusion is not None:
         objs.append(OcclusionAvoidance(options.occlusion))
+    coll = options.collision
+    if coll is not None and coll.enabled and coll.avoid and coll.active:
+        objs.append(CollisionAvoidance(coll))
     objs.extend(objectives)
     return Controller(
         model,
@@ -169,6 +175,7 @@ def simulation_controller(
         depth_scale=options.depth_scale,
         qdot_saturation=options.qdot_max,
         image_motion=options.image_motion,
+        collision=coll,
     )
 
 
@@ -255,7 +262,9 @@ def simulate(
             if progress is not None:
                 progress(it)
     log = buf.to_log(robot.joint_names, task.names)
-    summary = summarize(log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin)
+    summary = summarize(
+        log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin, collision=run.contact
+    )
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
 
@@ -284,6 +293,20 @@ class _Run:
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
         self.true_model = ctrl.robot is robot and actuator is None
+        coll = opt.collision
+        self.collision = coll if coll is not None and coll.active else None
+        self.contact: dict[str, Any] | None = None
+        """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
+
+    def closest(self, it: int, q: FloatArray, t: float) -> tuple[float, str] | None:
+        """The smallest distance (m) and its pair at the true ``q``, None when not measured;
+        records the contact when the distance is <= 0."""
+        if self.collision is None:
+            return None
+        d, pair = self.collision.measure(self.robot, q, t).closest()
+        if d <= 0.0:
+            self.contact = {"pair": pair, "distance": d, "iteration": it}
+        return d, pair
 
     def iteration(
         self, it: int, q: FloatArray, qdot_prev: FloatArray, buf: LogBuffer
@@ -296,6 +319,9 @@ class _Run:
         q_meas = q if act is None else np.clip(act.encoder(q), lim.q_min, lim.q_max)
         bMc, J_true = self.robot.kinematics(q, check_limits=False)
         J = J_true if self.true_model else ctrl.robot.jacobian(q_meas, check_limits=False)
+        closest = self.closest(it, q, t)
+        if self.contact is not None:
+            return "collision", None
         reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
         if reading.s is None:
             return _lost_outcome(reading), None
@@ -320,7 +346,7 @@ class _Run:
             return cast(Outcome, step.stop), None
         assert step.diagnostics is not None
         state, qdot = step.state, step.qdot
-        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics)
+        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics, closest)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
             return "converged", None

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from redservo._validation import FloatArray, as_transform
+from redservo.control.avoidance import Collision
 from redservo.control.feedforward import FEEDFORWARD_MODES, Feedforward
 from redservo.control.image_motion import ImageMotionLimit
 from redservo.control.objectives import Occlusion
@@ -47,6 +48,11 @@ class SimulationOptions:
         stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
             tracking tasks: the run then lasts ``max_iterations`` and its outcome is
             ``converged`` when the final error is below the tolerance.
+        collision: Obstacles and collision avoidance
+            (:class:`~redservo.control.avoidance.Collision`), or None. With obstacles or
+            self pairs, every step's smallest distance is logged and a distance <= 0 ends
+            the run with outcome ``collision``; unless it is off, the controller avoids
+            (repulsive objective) and shields (distance shield).
     """
 
     lam: float | AdaptiveGain = 0.5
@@ -66,6 +72,7 @@ class SimulationOptions:
     occlusion: Occlusion | None = None
     stop_at_convergence: bool = True
     image_motion: ImageMotionLimit | None = None
+    collision: Collision | None = None
 
     @property
     def constant_lam(self) -> float:
@@ -102,6 +109,12 @@ class SimulationOptions:
             raise ConfigurationError(
                 f"feedforward must be 'none', 'known' or 'estimated', got {self.feedforward!r}",
                 argument="feedforward",
+            )
+        if self.collision is not None and not isinstance(self.collision, Collision):
+            raise ConfigurationError(
+                f"collision must be a redservo.control.avoidance.Collision or None, got "
+                f"{self.collision!r:.60}",
+                argument="collision",
             )
         if self.eMc_model is not None:
             object.__setattr__(self, "eMc_model", as_transform(self.eMc_model, "eMc_model"))
