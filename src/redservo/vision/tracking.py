@@ -50,8 +50,9 @@ prediction uses this frame's positions). The dot order never changes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -61,6 +62,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
+from redservo.vision.fastdot import window_blob
 from redservo.vision.optics import require_cv2
 
 __all__ = ["LOSS_REASONS", "ImageDotTracker"]
@@ -188,20 +190,33 @@ class ImageDotTracker:
                 self._accept(d, blob, adapt_area=True)
         return self._state(reasons)
 
-    def update(self, image: NDArray[np.uint8]) -> DotTrack:
-        """Track every dot into ``image`` (H, W) uint8; return the new state."""
+    def update(self, image: NDArray[np.uint8], shift: ArrayLike | None = None) -> DotTrack:
+        """Track every dot into ``image`` (H, W) uint8; return the new state.
+
+        Args:
+            image: The frame.
+            shift: (N, 2) image motion (pixels) of each dot since the last frame, predicted
+                by the caller (e.g. from the commanded camera twist and the interaction
+                matrix); it replaces the constant-velocity prediction, so that the search
+                window follows the predicted motion. A NaN row: no prediction for that dot.
+        """
         if not self._dots:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
         img = _check_image(image)
+        moves = self._moves(shift)
         reasons = [""] * self.n_dots
         taken: dict[int, tuple[FloatArray, float]] = {}
-        before = {i: replace(d) for i, d in enumerate(self._dots) if d.lost == 0}
+        before = {i: _copy(d) for i, d in enumerate(self._dots) if d.lost == 0}
         for i in before:
             d = self._dots[i]
-            pred = d.uv + d.vel
+            pred = d.uv + moves[i]
             base = self.max_jump_px + d.size + self.pad_px + 3.0
             gate = self.max_jump_px + d.size
-            blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
+            fast = window_blob(self, img, d, pred, gate, list(taken.values()))
+            if fast is not None:
+                blob, why, first = fast, "", True
+            else:
+                blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
             reasons[i] = self._finish(i, pred, blob, why, first, taken)
         refused = self._off_geometry(taken)
         for i in refused:
@@ -212,7 +227,7 @@ class ImageDotTracker:
         for i, d in enumerate(self._dots):
             if i in before and i not in refused:
                 continue
-            pred = d.uv + d.vel
+            pred = d.uv + moves[i]
             size = d.size if np.isfinite(d.size) else self.max_size_px
             base = self.max_jump_px + size + self.pad_px + 3.0
             half = min(base * (1.0 + self.window_growth * d.lost), float(max(img.shape)))
@@ -232,6 +247,18 @@ class ImageDotTracker:
         if all(d.lost == 0 for d in self._dots):
             self._ref = np.array([d.uv for d in self._dots])
         return self._state(reasons)
+
+    def _moves(self, shift: ArrayLike | None) -> FloatArray:
+        """Each dot's predicted motion (N, 2) in pixels: ``shift`` where given, else its velocity."""
+        vel = np.array([d.vel for d in self._dots])
+        if shift is None:
+            return vel
+        s = np.asarray(shift, dtype=float)
+        if s.shape != (self.n_dots, 2):
+            raise ShapeError(f"shift must have shape ({self.n_dots}, 2) pixels, got {s.shape}")
+        if np.isinf(s).any():
+            raise ConfigurationError("shift must be finite (NaN = no prediction), got inf")
+        return np.where(np.isnan(s).any(axis=1, keepdims=True), vel, s)
 
     def _off_geometry(self, taken: dict[int, tuple[FloatArray, float]]) -> list[int]:
         """Dots found this frame far from where the other found dots (>= 2) put them."""
@@ -282,18 +309,21 @@ class ImageDotTracker:
         """Every dot's position predicted from the found dots (similarity from the reference)."""
         if self._ref is None or not found:
             return None
-        ref = self._ref[:, 0] + 1j * self._ref[:, 1]
-        cur = np.array([self._dots[i].uv[0] + 1j * self._dots[i].uv[1] for i in found])
+        # plain complex arithmetic: a handful of dots, called several times per frame
+        ref = [complex(x, y) for x, y in self._ref.tolist()]
+        cur = [complex(*self._dots[i].uv.tolist()) for i in found]
         if len(found) == 1:
             a, b = 1.0 + 0j, cur[0] - ref[found[0]]
         else:
-            r0, c0 = ref[found].mean(), cur.mean()
-            dr = ref[found] - r0
-            a = complex(np.vdot(dr, cur - c0) / max(float(np.vdot(dr, dr).real), 1e-12))
+            r0, c0 = sum(ref[i] for i in found) / len(found), sum(cur) / len(found)
+            dr = [ref[i] - r0 for i in found]
+            num = sum(d.conjugate() * (c - c0) for d, c in zip(dr, cur))
+            a = num / max(sum(abs(d) ** 2 for d in dr), 1e-12)
             b = c0 - a * r0
-        z = a * ref + b
-        spread = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
-        return np.column_stack([z.real, z.imag]), spread
+        z = [a * r + b for r in ref]
+        mean = sum(z) / len(z)
+        spread = math.sqrt(sum(abs(v - mean) ** 2 for v in z) / len(z))
+        return np.array([[v.real, v.imag] for v in z]), spread
 
     def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> Iterator[float]:
         """The gray levels to try, in order (module docstring; Otsu computed only if reached)."""
@@ -390,6 +420,11 @@ class ImageDotTracker:
         lost = np.array([d.lost for d in self._dots], dtype=int)
         gone = tuple(int(i) for i in np.flatnonzero(lost > self.max_lost_frames))
         return DotTrack(uv, detected, lost, int(detected.sum()), gone, tuple(reasons))
+
+
+def _copy(d: _Dot) -> _Dot:
+    """A shallow copy of ``d`` (its arrays are replaced, never changed in place)."""
+    return _Dot(d.uv, d.vel, d.level, d.background, d.area, d.size, d.lost)
 
 
 def _check_image(image: Any) -> NDArray[np.uint8]:
