@@ -149,7 +149,7 @@ def test_compiled_shape_test_accepts_only_what_the_reference_accepts() -> None:
         else:
             cv2.circle(img, (20, 20), int(rng.integers(5, 12)), 255, -1)
             cv2.circle(img, (20, 20), int(rng.integers(1, 4)), 0, -1)  # a ring
-        n, labels = cv2.connectedComponents(img, connectivity=8)
+        _, labels = cv2.connectedComponents(img, connectivity=8)
         own = labels == 1 + int(np.argmax(np.bincount(labels.ravel())[1:]))
         ys, xs = np.nonzero(own)
         box = own[ys.min() - 1 : ys.max() + 2, xs.min() - 1 : xs.max() + 2]
@@ -158,3 +158,35 @@ def test_compiled_shape_test_accepts_only_what_the_reference_accepts() -> None:
             accepted += 1
             assert shape_reason(box[1:-1, 1:-1], DEFAULT_SHAPE) == "", k
     assert accepted >= 50  # the ellipses and discs
+
+
+@pytest.mark.parametrize("predict", [True, False])
+def test_the_image_sensor_follows_a_fast_camera_rotation(
+    predict: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The camera turns 0.1 rad in one frame (about 60 px of image motion): the sensor
+    # centres each dot's window on the motion its camera made, and keeps every dot.
+    from redservo.features import PointFeature
+    from redservo.task import TaskTerm, VisualTask
+    from redservo.vision import sensor as sensor_mod
+    from redservo.vision.sensor import ImageSensor
+
+    if not predict:  # what the constant-velocity guess alone does
+        monkeypatch.setattr(sensor_mod, "camera_shift", lambda *a: None)
+    T = make_transform(t=[0.0, 0.0, 0.8])
+    scene = Scene([PointSet("t", DOTS, trajectory=Static(T))])
+    terms = [TaskTerm(PointFeature(p), "t") for p in DOTS]
+    task = VisualTask.from_desired_poses(terms, {"t": make_transform(t=[0.0, 0.0, 0.6])})
+    sensor = ImageSensor(noise_px=0.5, blur_px=0.5)
+    sensor.read(task, scene, np.eye(4), 0.0)
+    sensor.read(task, scene, np.eye(4), 0.04)
+    bMc = make_transform(rotvec_to_matrix([0.0, 0.1, 0.0]))
+    got = sensor.read(task, scene, bMc, 0.08)
+    P = DOTS @ T[:3, :3].T + T[:3, 3]
+    P = (P - bMc[:3, 3]) @ bMc[:3, :3]  # in the turned camera's frame
+    truth = sensor.renderer.optics.to_pixel(P[:, :2] / P[:, 2:])
+    kept = np.hypot(*(sensor.dots_uv - truth).T) < 0.2
+    if predict:
+        assert got.lost == () and kept.all(), got.reason
+    else:
+        assert not kept.all()

@@ -28,7 +28,7 @@ from redservo.vision.blobs import Blob, _disc
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.vision.tracking import ImageDotTracker, _Dot
 
-__all__ = ["FAST_SLACK_PX", "window_blob"]
+__all__ = ["FAST_SLACK_PX", "similarity_prediction", "window_blob"]
 
 FAST_SLACK_PX = 3.0
 """How far (pixels) a dot may be from its prediction and still be found on the fast path."""
@@ -81,3 +81,23 @@ def window_blob(
         if math.hypot(out[1] - other[0], out[2] - other[1]) < 0.5 * (other_size + size):
             return None  # merged with a dot found before: the reference search decides
     return Blob((float(out[1]), float(out[2])), int(out[3]), int(size), out[5], out[6])
+
+
+def similarity_prediction(
+    ref: list[complex], cur: list[complex], found: list[int]
+) -> tuple[list[complex], float]:
+    """Every dot's position ``u + i v`` (pixels) from the dots ``found`` now at ``cur``: the
+    similarity (a translation with one dot) mapping their reference positions ``ref`` (all
+    N dots) onto them, and the predicted target's spread (RMS distance from its mean, pixels).
+    Plain complex arithmetic: a handful of dots, several times per frame."""
+    if len(found) == 1:
+        a, b = 1.0 + 0j, cur[0] - ref[found[0]]
+    else:
+        r0, c0 = sum(ref[i] for i in found) / len(found), sum(cur) / len(found)
+        dr = [ref[i] - r0 for i in found]
+        num = sum(d.conjugate() * (c - c0) for d, c in zip(dr, cur))
+        a = num / max(sum(abs(d) ** 2 for d in dr), 1e-12)
+        b = c0 - a * r0
+    z = [a * r + b for r in ref]
+    mean = sum(z) / len(z)
+    return z, math.sqrt(sum(abs(v - mean) ** 2 for v in z) / len(z))

@@ -50,7 +50,6 @@ prediction uses this frame's positions). The dot order never changes.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -62,7 +61,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
-from redservo.vision.fastdot import window_blob
+from redservo.vision.fastdot import similarity_prediction, window_blob
 from redservo.vision.optics import require_cv2
 
 __all__ = ["LOSS_REASONS", "ImageDotTracker"]
@@ -151,6 +150,7 @@ class ImageDotTracker:
             raise ConfigurationError(f"max_lost_frames must be >= 0, got {self.max_lost_frames}")
         self._dots: list[_Dot] = []
         self._ref: FloatArray | None = None
+        self._ref_c: list[complex] = []  # the same, as complex numbers u + i v
 
     @property
     def started(self) -> bool:
@@ -212,10 +212,9 @@ class ImageDotTracker:
             pred = d.uv + moves[i]
             base = self.max_jump_px + d.size + self.pad_px + 3.0
             gate = self.max_jump_px + d.size
-            fast = window_blob(self, img, d, pred, gate, list(taken.values()))
-            if fast is not None:
-                blob, why, first = fast, "", True
-            else:
+            blob: Blob | None = window_blob(self, img, d, pred, gate, list(taken.values()))
+            why, first = "", True
+            if blob is None:
                 blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
             reasons[i] = self._finish(i, pred, blob, why, first, taken)
         refused = self._off_geometry(taken)
@@ -233,7 +232,7 @@ class ImageDotTracker:
             half = min(base * (1.0 + self.window_growth * d.lost), float(max(img.shape)))
             gate = half
             if geo is not None:
-                pred, spread = geo[0][i], geo[1]
+                pred, spread = np.array([geo[0][i].real, geo[0][i].imag]), geo[1]
                 gate = max(2.0 * size, self.geometry_tol * spread)
                 half = gate + size + self.pad_px + 3.0  # the geometry is known: no growth
             if not np.isfinite(pred).all():
@@ -246,6 +245,7 @@ class ImageDotTracker:
                 reasons[i] = "off_geometry"
         if all(d.lost == 0 for d in self._dots):
             self._ref = np.array([d.uv for d in self._dots])
+            self._ref_c = [complex(x, y) for x, y in self._ref.tolist()]
         return self._state(reasons)
 
     def _moves(self, shift: ArrayLike | None) -> FloatArray:
@@ -270,7 +270,7 @@ class ImageDotTracker:
                 continue
             size = taken[i][1]
             gate = max(2.0 * size, self.geometry_tol * geo[1])
-            if float(np.hypot(*(taken[i][0] - geo[0][i]))) > gate:
+            if abs(complex(*taken[i][0].tolist()) - geo[0][i]) > gate:
                 refused.append(i)
         return refused
 
@@ -305,25 +305,12 @@ class ImageDotTracker:
             d.area, d.size = float(blob.area), float(blob.size)
         d.lost = 0
 
-    def _geometry(self, found: list[int]) -> tuple[FloatArray, float] | None:
+    def _geometry(self, found: list[int]) -> tuple[list[complex], float] | None:
         """Every dot's position predicted from the found dots (similarity from the reference)."""
         if self._ref is None or not found:
             return None
-        # plain complex arithmetic: a handful of dots, called several times per frame
-        ref = [complex(x, y) for x, y in self._ref.tolist()]
         cur = [complex(*self._dots[i].uv.tolist()) for i in found]
-        if len(found) == 1:
-            a, b = 1.0 + 0j, cur[0] - ref[found[0]]
-        else:
-            r0, c0 = sum(ref[i] for i in found) / len(found), sum(cur) / len(found)
-            dr = [ref[i] - r0 for i in found]
-            num = sum(d.conjugate() * (c - c0) for d, c in zip(dr, cur))
-            a = num / max(sum(abs(d) ** 2 for d in dr), 1e-12)
-            b = c0 - a * r0
-        z = [a * r + b for r in ref]
-        mean = sum(z) / len(z)
-        spread = math.sqrt(sum(abs(v - mean) ** 2 for v in z) / len(z))
-        return np.array([[v.real, v.imag] for v in z]), spread
+        return similarity_prediction(self._ref_c, cur, found)
 
     def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> Iterator[float]:
         """The gray levels to try, in order (module docstring; Otsu computed only if reached)."""
