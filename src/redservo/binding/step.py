@@ -169,67 +169,28 @@ class CompiledQPStep:
     dt: float
 
     def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
-        daqp = _daqp()
-        kq = _KQ
         e1, J1 = self.task.task(q)
         n = q.shape[0]
         lp = limits_pack(self.limits)
         z = np.zeros(n)
         prev = z if qdot_prev is None else qdot_prev
         has_prev = qdot_prev is not None
-        o = vars(self.law)
+        law = self.law
+        o = vars(law)
         v = z if o["v_max"] is None else np.ascontiguousarray(np.broadcast_to(o["v_max"], (n,)))
-        out = kq.qp_setup(
-            J1,
-            e1,
-            q,
-            lp.rows,
-            lp.has_v,
-            lp.has_a,
-            self.dt,
-            prev,
-            has_prev,
-            z,
-            False,
-            self.lam,
-            o["k_p"],
-            o["margin"],
-            v,
-            o["v_max"] is not None,
-            self.law.rcond,
-            o["eps"],
-            self.law.shield,
-        )
+        kq: Any = _KQ  # argument packs below, as the qp law's own call writes them out
+        rates = (lp.rows, lp.has_v, lp.has_a, self.dt, prev, has_prev)
+        opts = (self.lam, o["k_p"], o["margin"], v, o["v_max"] is not None, law.rcond, o["eps"])
+        out = kq.qp_setup(J1, e1, q, *rates, z, False, *opts, law.shield)
         qdot, inside, lo, hi, _, xdot, _, _, xfix, free, P, c, lof, hif = out
         xf = z[:0]
         if not inside and free.size:
             nf = free.size
             sense = np.zeros(nf, dtype=np.intc)
-            xf = np.ascontiguousarray(daqp.solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
-        return np.asarray(
-            kq.qp_tail(
-                J1,
-                xdot,
-                lo,
-                hi,
-                bool(inside),
-                qdot,
-                xfix,
-                free,
-                xf,
-                z,
-                False,
-                self.law.rcond,
-                q,
-                self.dt,
-                lp.rows,
-                lp.has_v,
-                lp.has_a,
-                prev,
-                has_prev,
-                self.law.shield,
-            )
-        )
+            xf = np.ascontiguousarray(_daqp().solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
+        found = (J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False, law.rcond)
+        tail = (q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev)
+        return np.asarray(kq.qp_tail(*found, *tail, law.shield))
 
 
 def compiled_qp_step(
