@@ -378,9 +378,13 @@ class ServoLoop:
         # Where the command in force has taken the joints since the read (the law's time).
         q_send = q + run.prev * max(self.clock() - now, 0.0)
         cmd, report = guard_command(
-            np.asarray(qdot, dtype=float), q=q_send, qdot_prev=run.prev, limits=self.limits,
-            period=self.period, hold=self.supervision.max_hold,
-        )  # fmt: skip
+            np.asarray(qdot, dtype=float),
+            q=q_send,
+            qdot_prev=run.prev,
+            limits=self.limits,
+            period=self.period,
+            hold=self.supervision.max_hold,
+        )
         run.counters["guarded"] += int(report.changed)
         run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
         assert run.state is not None and run.diag is not None

@@ -61,30 +61,25 @@ from redservo.redundancy.base import (
     Scaling,
     register,
 )
-from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.flags import FLAGS
 from redservo.redundancy.predictive_budget import LOOP_SHARE, Deadline, fallback_result, warm_up
 from redservo.redundancy.predictive_camera import (
     MotionGain,
     MotionLimit,
     limited,
-    motion_rows,
 )
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
     PointModel,
-    Prediction,
     SeenJoints,
-    build_qp,
     horizon,
-    local_prediction,
     point_model,
 )
 from redservo.redundancy.predictive_moments import MomentModel, moment_model
 from redservo.redundancy.predictive_options import OPTIONS
 from redservo.redundancy.predictive_pose import PosePoints
-from redservo.redundancy.safety import position_box
+from redservo.redundancy.predictive_qp import horizon_qp, solve_horizon
 
 __all__ = ["Predictive"]
 
@@ -272,7 +267,7 @@ class Predictive(Law):
             if dl.passed():
                 break
             with np.errstate(all="ignore"):
-                qp = self._qp(x, U, model, lim)
+                qp = horizon_qp(self, x, U, model, lim)
             if qp is None or not all(np.all(np.isfinite(a)) for a in (qp.H, qp.f, qp.A)):
                 why, value = fb.HORIZON_INFEASIBLE, float("nan")
                 break
@@ -333,67 +328,10 @@ class Predictive(Law):
         if done:
             self._goal = better_goal(model, self._goal, found)
 
-    def _qp(
-        self, x: LawInputs, U: FloatArray, model: Model | None, motion: MotionLimit | None
-    ) -> QP | None:
-        hz, lim = self._hz, x.limits
-        pred: Prediction | None
-        if model is not None:
-            pred = model.predict(x.q, U, hz, x.dt)
-            if pred is None:
-                return None
-        else:
-            pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
-        band = self._band(x)
-        cam, mpx = self._camera, self.image_margin_px
-        s_lo = s_hi = None
-        s_now = None if model is None else model.s_now
-        if pred.s is not None:
-            p = pred.s.shape[1] // 2
-            s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)
-            s_hi = np.tile(
-                [(cam.width - mpx - cam.u0) / cam.px, (cam.height - mpx - cam.v0) / cam.py], p
-            )
-        sigma = float(np.linalg.norm(x.J1, 2)) if x.J1.size else 1.0
-        rho = self.effort * (x.dt * max(sigma, 1e-9)) ** 2
-        ff = None if x.de1_dt is None else x.de1_dt
-        goal = None
-        if model is not None and self._goal is not None:
-            goal = (self._goal, self.goal_weight * sigma**2)
-        qp = build_qp(
-            pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
-            v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
-            s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal, s_now=s_now,
-            u0_box=position_box(x.q, lim, x.dt) if self.shield else None,
-        )  # fmt: skip
-        if motion is None or pred.s is None or s_now is None:
-            return qp
-        rows, blo, bhi = motion_rows(pred, hz, x.dt, U, s_now, motion)
-        return qp._replace(
-            A=np.vstack([qp.A, *rows]),
-            blo=np.concatenate([qp.blo, *blo]),
-            bhi=np.concatenate([qp.bhi, *bhi]),
-        )
-
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:
-        """``(U, why, value, iterations)``: daqp on ``qp``; ``why`` = 0 or the flag bit."""
-        daqp = daqp_once()
-        if daqp is None:  # pragma: no cover - daqp is a dependency of the qp extra
-            return start, fb.HORIZON_INFEASIBLE, float("nan"), 0
-        bu = np.concatenate([qp.hi, qp.bhi])
-        bl = np.concatenate([qp.lo, qp.blo])
-        sense = np.zeros(bu.size, dtype=np.intc)
-        y, _, flag, info = daqp.solve(
-            qp.H, qp.f, qp.A, bu, bl, sense,
-            iter_limit=self.max_qp_iterations,
-        )  # fmt: skip
-        iters = int(info.get("iterations", 0))
-        if flag == -4:
-            return start, fb.SOLVER_ITERATIONS, float(iters), iters
-        if flag <= 0 or not np.all(np.isfinite(y)):
-            return start, fb.HORIZON_INFEASIBLE, float(flag), iters
-        U = np.clip(y, qp.lo, qp.hi).reshape(start.shape)
-        return U, 0, 0.0, iters
+        """``(U, why, value, iterations)``: :func:`~redservo.redundancy.predictive_qp.
+        solve_horizon` with this law's iteration limit."""
+        return solve_horizon(qp, start, self.max_qp_iterations)
 
     def _fall_back(
         self, x: LawInputs, why: int, value: float, by_budget: bool, safe: LawResult | None

@@ -237,10 +237,16 @@ def moment_model(
     s = np.asarray(state.s, dtype=float)
     plane = np.asarray(state.inv_depth[0], dtype=float).reshape(-1)
     s_star = np.asarray(task.s_star, dtype=float)
-    own = prev.feature if prev is not None else MomentFeatures(
-        feature.points_o, desired_area=feature.desired_area,
-        desired_depth=feature.desired_depth, rotation_features=feature.rotation_features,
-    )  # fmt: skip
+    own = (
+        prev.feature
+        if prev is not None
+        else MomentFeatures(
+            feature.points_o,
+            desired_area=feature.desired_area,
+            desired_depth=feature.desired_depth,
+            rotation_features=feature.rotation_features,
+        )
+    )
     guess = None if prev is None else _inverse(bMc) @ prev.bMo
     cMo = estimate_pose(own, s, plane, guess)
     if cMo is None:

@@ -108,9 +108,14 @@ def add_objects(
             T = _tag_pose(geo)
             for part, (v, f), c in zip(("white", "black"), tag_meshes(obj.size), (_WHITE, _BLACK)):
                 h = server.scene.add_mesh_simple(
-                    f"{path}/{part}", v, f, color=c, side="double", position=T[:3, 3],
+                    f"{path}/{part}",
+                    v,
+                    f,
+                    color=c,
+                    side="double",
+                    position=T[:3, 3],
                     wxyz=_wxyz(T[:3, :3]),
-                )  # fmt: skip
+                )
                 out.append((h, ("tag", j)))
             h = server.scene.add_point_cloud(
                 f"{path}/corners", geo.astype(np.float32), color, point_size=0.01 * scale
