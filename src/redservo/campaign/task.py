@@ -117,7 +117,9 @@ def _run_task(task: _Task) -> dict[str, Any]:
     try:
         exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
         summary, row["_path"] = None, ASKED
-        if task.fast:
+        if task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
+            row["_path"] = "camera timing"
+        elif task.fast:
             from redservo.campaign.fastloop import fast_run
 
             summary, row["_path"] = fast_run(exp, task.method, task.law_options)

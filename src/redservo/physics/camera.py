@@ -183,6 +183,9 @@ class MujocoCamera(ImageSensor):
         }
         super()._plan(task, scene)
 
+    live = True
+    """It renders the physics' present state (:mod:`redservo.sensor_timing`)."""
+
     def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
         """As :meth:`ImageSensor.read`; keeps the frame's poses for a rod's first frame."""
         self._frame = (scene, np.asarray(bMc, dtype=float), float(t))

@@ -44,6 +44,9 @@ class SimulationOptions:
         stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
             tracking tasks: the run then lasts ``max_iterations`` and its outcome is
             ``converged`` when the final error is below the tolerance.
+        compensate_latency: The controller brings a camera's delayed measurement to the
+            present (:mod:`redservo.control.latency`); only stamped measurements (a sensor
+            with a latency or a frame rate, :mod:`redservo.sensor_timing`) are affected.
     """
 
     lam: float | AdaptiveGain = 0.5
@@ -62,6 +65,7 @@ class SimulationOptions:
     check_image: bool = True
     occlusion: Occlusion | None = None
     stop_at_convergence: bool = True
+    compensate_latency: bool = True
 
     @property
     def constant_lam(self) -> float:
