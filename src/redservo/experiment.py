@@ -23,6 +23,7 @@ from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
+from redservo.experiment_sensor import attach_timing, scenario_sensor
 from redservo.experiment_start import check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
@@ -301,33 +302,6 @@ def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot, camera: Camera) -> 
         raise _key(sc, "simulation", exc, type(sim).model_fields, "simulation") from None
 
 
-def _sensor(sc: Scenario, spec: ScenarioSpec, camera: Camera) -> Sensor | None:
-    s = spec.sensor
-    if s.kind == "ideal":
-        return None
-    from redservo.vision import ImageSensor
-
-    kwargs = s.model_dump(exclude={"kind", *TIMING_KEYS})
-    try:
-        return ImageSensor(camera, **kwargs)
-    except RedservoError as exc:
-        raise _key(sc, "sensor", exc, type(s).model_fields, "sensor.kind") from None
-
-
-TIMING_KEYS = ("rate", "latency", "exposure", "compensate_latency")
-"""The ``[sensor]`` keys of the camera's timing (:mod:`redservo.sensor_timing`)."""
-
-
-def _timing(sc: Scenario, exp: Experiment) -> None:
-    """The camera's timing around the built sensor (the ideal one included)."""
-    s = sc.spec.sensor
-    exp.timing = CameraTiming(s.rate, s.latency, s.exposure)
-    try:
-        exp.sensor = timed(exp.sensor, exp.timing, exp.options.dt)
-    except RedservoError as exc:
-        raise sc.error(f"sensor.{exc.argument or 'exposure'}", str(exc)) from None
-
-
 def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
     a = spec.actuators
     if a is None:
@@ -382,14 +356,14 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     camera = scenario_camera(sc)
     options = _options(sc, spec, robot, camera)
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
-    exp.sensor = _sensor(sc, spec, camera)
+    exp.sensor = scenario_sensor(sc, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
     exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
     if spec.simulator is not None and spec.simulator.kind == "mujoco":
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 
         attach_mujoco(exp)
-    _timing(sc, exp)
+    attach_timing(sc, exp)
     check_start(sc, spec, exp)
     return exp
 

@@ -16,10 +16,10 @@ describes, its **stamp**). :class:`TimedSensor` wraps any
   (linear in translation, geodesic in rotation); the world before the run's start
   (``t < 0``) is the world at ``t = 0`` (the robot at rest at ``q0``, the camera already
   running), so a measurement exists at the first step;
-* **exposure**: the wrapped sensor's ``read_exposed(task, scene, samples)`` when it has one
-  (the image sensor renders the motion blur from the camera's actual motion during the
-  exposure), else (the ideal sensor) the features averaged over ``EXPOSURE_SAMPLES`` instants
-  of the exposure window;
+* **exposure**: an image sensor (one with a ``renderer``) detects in one frame rendered with
+  the motion blur of the camera's actual motion during the exposure
+  (:mod:`redservo.vision.motion_blur`); the ideal sensor averages the features over
+  ``EXPOSURE_SAMPLES`` instants of the exposure window;
 * a **live** sensor (``live = True``: the MuJoCo camera, which renders the physics' present
   state) takes each frame at the first control step after its exposure time, stamped with
   that step's time, and cannot model an exposure.
@@ -29,9 +29,10 @@ Units: seconds, Hz.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -119,17 +120,17 @@ class TimedSensor:
 
     Raises:
         ConfigurationError: ``timing`` has an exposure and ``sensor`` can neither render
-            one (``read_exposed``) nor be averaged (an :class:`IdealSensor`); or the exposure
+            one (an image sensor with a ``renderer``) nor be averaged (an :class:`IdealSensor`); or the exposure
             is longer than the frame interval.
     """
 
     def __init__(self, sensor: Sensor, timing: CameraTiming, dt: float) -> None:
         self.live = bool(getattr(sensor, "live", False))
-        exposed = hasattr(sensor, "read_exposed") or isinstance(sensor, IdealSensor)
+        exposed = hasattr(sensor, "renderer") or isinstance(sensor, IdealSensor)
         if timing.exposure > 0.0 and (self.live or not exposed):
             raise ConfigurationError(
                 f"{type(sensor).__name__} cannot model an exposure (it renders only the "
-                "present, or has no read_exposed): use exposure = 0",
+                "present, or renders no image to blur): use exposure = 0",
                 argument="exposure",
             )
         if timing.exposure > timing.interval(dt) + _EPS:
@@ -187,7 +188,7 @@ class TimedSensor:
         world = max(t, 0.0)
         if t <= poses[0][0]:
             return poses[0][1], world
-        for (t0, T0), (t1, T1) in zip(poses, poses[1:]):
+        for (t0, T0), (t1, T1) in itertools.pairwise(poses):
             if t <= t1:
                 return _interpolate(T0, T1, (t - t0) / (t1 - t0)), world
         return poses[-1][1], world
@@ -209,9 +210,13 @@ class TimedSensor:
     def _exposed(
         self, task: VisualTask, scene: Scene, samples: list[tuple[FloatArray, float]]
     ) -> SensorReading:
-        read_exposed = getattr(self.sensor, "read_exposed", None)
-        if read_exposed is not None:
-            out: SensorReading = read_exposed(task, scene, samples)
+        renderer = getattr(self.sensor, "renderer", None)
+        if renderer is not None:  # an image sensor: one motion-blurred frame
+            from redservo.vision.motion_blur import exposed_image
+
+            bMc, tw = samples[len(samples) // 2]
+            image = exposed_image(renderer, scene, samples)
+            out: SensorReading = cast(Any, self.sensor).read(task, scene, bMc, tw, image)
             return out
         readings = [self.sensor.read(task, scene, T, tw) for T, tw in samples]
         bad = next((r for r in readings if r.s is None), None)

@@ -257,24 +257,12 @@ class ImageSensor:
 
     # -- reading --------------------------------------------------------------------------------
 
-    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
-        """Render, detect and return the measured features (see the module docstring)."""
-        return self.read_image(task, scene, bMc, t, self.renderer.render(scene, bMc, t))
-
-    def read_exposed(
-        self, task: VisualTask, scene: Scene, samples: list[tuple[FloatArray, float]]
+    def read(
+        self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float, image: Any = None
     ) -> SensorReading:
-        """:meth:`read` of a frame exposed over ``samples`` (camera pose 4x4, time s): motion
-        blur (:mod:`redservo.vision.motion_blur`); the middle sample is the frame's instant."""
-        from redservo.vision.motion_blur import exposed_image
-
-        bMc, t = samples[len(samples) // 2]
-        return self.read_image(task, scene, bMc, t, exposed_image(self.renderer, scene, samples))
-
-    def read_image(
-        self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float, image: Any
-    ) -> SensorReading:
-        """Detect the features in ``image``, the frame of camera pose ``bMc`` at ``t`` (s)."""
+        """Render (or take ``image``, e.g. a motion-blurred exposure of this pose and time:
+        :mod:`redservo.vision.motion_blur`), detect and return the measured features."""
+        image = self.renderer.render(scene, bMc, t) if image is None else image
         first = self._task_id != id(task)
         if first:
             self._plan(task, scene)
