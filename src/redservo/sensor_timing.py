@@ -219,12 +219,10 @@ class TimedSensor:
             out: SensorReading = cast(Any, self.sensor).read(task, scene, bMc, tw, image)
             return out
         readings = [self.sensor.read(task, scene, T, tw) for T, tw in samples]
-        bad = next((r for r in readings if r.s is None), None)
-        if bad is not None:
-            return bad
-        mid = readings[len(readings) // 2]
-        s = np.mean([r.s for r in readings], axis=0)
-        return mid._replace(s=s)
+        values = [r.s for r in readings if r.s is not None]
+        if len(values) < len(readings):  # lost during the exposure: that reading says why
+            return next(r for r in readings if r.s is None)
+        return readings[len(readings) // 2]._replace(s=np.mean(values, axis=0))
 
 
 def timed(sensor: Sensor | None, timing: CameraTiming, dt: float) -> Sensor | None:
