@@ -105,3 +105,19 @@ def test_a_campaign_sends_a_timed_camera_to_the_object_path_with_the_reason() ->
     exp = _panda("sensor.rate=25.0", "sensor.latency=0.04", "simulation.max_iterations=20")
     row = _run_task(_Task(0, "classical", {}, "panda-4points", None, {}, exp, True))
     assert row["_path"] == "camera timing"
+
+
+def test_the_mujoco_camera_is_timed_live_and_refuses_an_exposure() -> None:
+    pytest.importorskip("mujoco", reason="the MuJoCo backend needs redservo[mujoco]")
+    from redservo.physics._mj import rendering_available
+
+    if rendering_available() is not None:
+        pytest.skip("no offscreen rendering (EGL) here")
+    name = "panda-mujoco-4points"
+    sets = ["sensor.rate=10.0", "sensor.latency=0.1", "simulation.max_iterations=20"]
+    exp = build(apply_overrides(load_scenario(name), sets))
+    assert isinstance(exp.sensor, TimedSensor) and exp.sensor.live
+    result = exp.run()
+    assert len(result.log.t) > 0
+    with pytest.raises(ScenarioError, match=r"key 'sensor.exposure': .*cannot model an exposure"):
+        build(apply_overrides(load_scenario(name), [*sets, "sensor.exposure=0.01"]))
