@@ -20,7 +20,9 @@ def _camera_at(x: float) -> np.ndarray:
 
 
 def test_a_moving_camera_smears_the_dot_along_its_motion() -> None:
-    scene = Scene([PointSet("p", [[0.0, 0.0, 0.0]], trajectory=Static(make_transform(t=[0, 0, 1])))])
+    scene = Scene(
+        [PointSet("p", [[0.0, 0.0, 0.0]], trajectory=Static(make_transform(t=[0, 0, 1])))]
+    )
     renderer = Renderer()
     still = renderer.render(scene, _camera_at(0.0)).astype(float)
     # The camera moves 3 cm along x during the exposure: 18 px at f = 600 px, 1 m away.
