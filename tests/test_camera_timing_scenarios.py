@@ -121,3 +121,22 @@ def test_the_mujoco_camera_is_timed_live_and_refuses_an_exposure() -> None:
     assert len(result.log.t) > 0
     with pytest.raises(ScenarioError, match=r"key 'sensor.exposure': .*cannot model an exposure"):
         build(apply_overrides(load_scenario(name), [*sets, "sensor.exposure=0.01"]))
+
+
+def test_reproduce_takes_the_realistic_camera_through_images() -> None:
+    pytest.importorskip("cv2", reason="the image sensor needs redservo[vision]")
+    from redservo.cli_parser import build_parser
+    from redservo.errors import ConfigurationError
+    from redservo.reproduction import _check, image_sensors
+    from redservo.vision import ImageSensor
+
+    exp = _panda()
+    timed_sensor = image_sensors(True)(exp)
+    assert isinstance(timed_sensor, TimedSensor) and timed_sensor.timing.latency == 0.066
+    assert isinstance(timed_sensor.sensor, ImageSensor)
+    assert isinstance(image_sensors(False)(exp), ImageSensor)
+    args = build_parser().parse_args(["reproduce", "--camera", "realistic"])
+    assert args.camera == "realistic"
+    with pytest.raises(ConfigurationError) as info:
+        _check(0, None, "ideal", 0, "blurry")
+    assert info.value.argument == "camera"

@@ -1,6 +1,7 @@
 """Shipped camera presets: one option to run any scenario or campaign through a camera.
 
-``--camera NAME`` (``redservo run``, ``compare``, ``campaign``) applies the preset's
+``--camera NAME`` (``redservo run``, ``compare``, ``campaign``; ``reproduce --camera realistic`` runs the
+reproduction's realistic image sensor through :data:`REALISTIC_TIMING`) applies the preset's
 scenario overrides before the user's own ``--set`` (which therefore win):
 
 * ``ideal``: nothing (the scenario's own sensor: exact features at every period);
@@ -18,12 +19,23 @@ import argparse
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["CAMERA_PRESETS", "REALISTIC_TOLERANCE_PX", "add_camera_option", "camera_overrides"]
+from redservo.sensor_timing import CameraTiming
+
+__all__ = [
+    "CAMERA_PRESETS",
+    "REALISTIC_TIMING",
+    "REALISTIC_TOLERANCE_PX",
+    "add_camera_option",
+    "camera_overrides",
+]
+
+REALISTIC_TIMING = CameraTiming(rate=30.0, latency=0.066, exposure=0.008)
+"""The ``realistic`` preset's camera: 30 Hz, 66 ms latency, 8 ms exposure."""
 
 REALISTIC_TOLERANCE_PX = 1.0
-"""Convergence threshold (px) of the ``realistic`` preset on ``‖e1‖·f``: well above the
-stacked error's noise floor at rest with the preset's image noise (docs/camera-timing.md),
-well below a normalized 1e-3 is not: 1e-3 · 600 px = 0.6 px."""
+"""Convergence threshold (px) of the ``realistic`` preset on ``‖e1‖·f``: 13 times the p99
+(0.075 px) of the stacked error's noise at rest with the preset's image noise, measured on
+panda-4points (docs/camera-timing.md)."""
 
 CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
     "ideal": (),
@@ -31,9 +43,9 @@ CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
         'sensor.kind="image"',
         "sensor.noise_px=4.0",
         "sensor.blur_px=0.8",
-        "sensor.rate=30.0",
-        "sensor.latency=0.066",
-        "sensor.exposure=0.008",
+        f"sensor.rate={REALISTIC_TIMING.rate!r}",
+        f"sensor.latency={REALISTIC_TIMING.latency!r}",
+        f"sensor.exposure={REALISTIC_TIMING.exposure!r}",
         f"simulation.tolerance_px={REALISTIC_TOLERANCE_PX!r}",
     ),
 }

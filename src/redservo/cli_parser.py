@@ -150,6 +150,13 @@ def _add_reproduce(sub: Any, common: argparse.ArgumentParser) -> None:
         "(needs redservo[vision])",
     )
     rp.add_argument(
+        "--camera",
+        choices=("ideal", "realistic"),
+        default="ideal",
+        help="realistic: the runs through images (implies --sensor image) come from a 30 Hz "
+        "camera, 66 ms latency (compensated), 8 ms exposure (docs/camera-timing.md)",
+    )
+    rp.add_argument(
         "--no-pixel-noise",
         action="store_true",
         help="robustness: keep the ideal feature sensor (default: a noisy rendered image when "
