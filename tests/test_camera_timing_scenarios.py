@@ -5,9 +5,12 @@ path for a timed camera."""
 from __future__ import annotations
 
 import inspect
+import os
 from pathlib import Path
 
 import pytest
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's import, as redservo.physics does
 
 from redservo import ScenarioError
 from redservo.camera_presets import REALISTIC_TOLERANCE_PX, camera_overrides

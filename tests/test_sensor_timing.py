@@ -129,3 +129,18 @@ def test_an_exposure_the_sensor_cannot_model_or_longer_than_a_frame_is_refused()
         TimedSensor(_NoExposure(), CameraTiming(exposure=0.004, latency=0.01), 0.01)
     with pytest.raises(ConfigurationError, match="longer than the frame interval"):
         TimedSensor(IdealSensor(), CameraTiming(rate=100.0, exposure=0.02, latency=0.05), 0.01)
+
+
+class _Live(_Clock):
+    live = True  # renders only the present (the MuJoCo camera)
+
+
+def test_a_live_sensor_is_read_at_the_step_after_the_exposure_and_stamped_then() -> None:
+    inner = _Live()
+    out = _run(TimedSensor(inner, CameraTiming(rate=10.0, latency=0.1), 0.04), 0.04, 10)
+    assert out[0].stamp == pytest.approx(-0.1)  # at rest before the start: its own time
+    # Frames due at 0.1, 0.2, 0.3 are taken at the next steps, 0.12, 0.2, 0.32.
+    assert inner.calls == pytest.approx([0.0, 0.0, 0.12, 0.2, 0.32])
+    assert [r.stamp for r in out][-1] == pytest.approx(0.2)  # 0.32 is not available at 0.36
+    with pytest.raises(ConfigurationError, match="cannot model an exposure"):
+        TimedSensor(_Live(), CameraTiming(exposure=0.004, latency=0.01), 0.01)

@@ -22,7 +22,8 @@ describes, its **stamp**). :class:`TimedSensor` wraps any
   ``EXPOSURE_SAMPLES`` instants of the exposure window;
 * a **live** sensor (``live = True``: the MuJoCo camera, which renders the physics' present
   state) takes each frame at the first control step after its exposure time, stamped with
-  that step's time, and cannot model an exposure.
+  that step's time (a frame exposed before the start keeps its time: the world was at rest),
+  and cannot model an exposure.
 
 Units: seconds, Hz.
 """
@@ -197,7 +198,8 @@ class TimedSensor:
         """The frame exposed around ``t_j`` (s), stamped ``t_j``."""
         if self.live:  # it renders the present: the frame is taken at this step, stamped so
             t_now, bMc_now = self._poses[-1]
-            return self.sensor.read(task, scene, bMc_now, t_now)._replace(stamp=t_now)
+            stamp = t_j if t_j <= 0.0 else t_now  # before the start the world was at rest
+            return self.sensor.read(task, scene, bMc_now, t_now)._replace(stamp=stamp)
         bMc, tw = self._pose(t_j)
         if self.timing.exposure <= 0.0:
             reading = self.sensor.read(task, scene, bMc, tw)
