@@ -1,7 +1,7 @@
 """Benchmark: accuracy of the image detectors against ground truth, and time per frame (issue 12).
 
     .venv/bin/python benchmarks/bench_vision.py [--poses N] [--repeat N] [--frames N]
-        [--only detectors|dots] [--out bench_vision.json]
+        [--only detectors|dots|tags|speed] [--out bench_vision.json]
 
 One function per section (``SECTIONS``); ``main`` runs them all (or ``--only``).
 
@@ -26,6 +26,14 @@ Then the time per frame of render + detect + track for 4 dots (σ = 0.5, blur
 0.5 px), median over ``--repeat`` frames, and the same through
 ``ImageSensor.read``. Targets: dot RMS <= 0.1 px at σ = 0.5; render + detect
 <= 2 ms.
+
+Section ``speed`` (issue 28, item 6): the CPU time per 640x480 frame of
+``ImageDotTracker.update`` for four dots (generated sequences of
+:mod:`redservo.vision.dotseq`, best of 3 passes, ``time.process_time``), with the compiled
+window search and with the reference search alone; then the image campaign's control
+steps per CPU second, as ``redservo campaign panda-near-limits --samples 10 --seed 0
+--set sensor.kind="image" --methods wln --workers 1 --no-plot`` in this process (after a
+1-sample warm-up, so that compilation is not counted). Figures, never timed tests.
 
 Section ``dots`` (issue 19): :class:`redservo.vision.tracking.ImageDotTracker`
 on each sequence of :mod:`redservo.vision.dotseq` (640x480, ``--frames`` frames,
@@ -380,7 +388,73 @@ def bench_tags(args: argparse.Namespace) -> dict[str, Any]:
     return {"tags": rows, "tag_ms": full, "tag_decode_ms": decode}
 
 
-SECTIONS = {"detectors": run_detectors, "dots": run_dot_sequences, "tags": bench_tags}
+def tracker_cpu_us(kind: str, frames: int, fast: bool = True) -> float:
+    """CPU µs per 640x480 frame of ``ImageDotTracker.update`` (4 dots), best of 3 passes."""
+    from redservo.vision import tracking
+    from redservo.vision.dotseq import dot_sequence
+
+    seq = list(dot_sequence(kind, frames, size=(640, 480), seed=k_seed(kind)))
+    real = tracking.window_blob
+    if not fast:
+        tracking.window_blob = lambda *a, **k: None  # type: ignore[assignment]
+    try:
+        best = np.inf
+        for _ in range(3):
+            tracker = tracking.ImageDotTracker(4)
+            tracker.start(seq[0].image, seq[0].uv)
+            t0 = time.process_time()
+            for fr in seq[1:]:
+                tracker.update(fr.image)
+            best = min(best, (time.process_time() - t0) / (len(seq) - 1))
+    finally:
+        tracking.window_blob = real
+    return 1e6 * best
+
+
+def image_campaign_rate(samples: int) -> dict[str, float]:
+    """Control steps per CPU second of the image campaign of the module docstring."""
+    import tempfile
+    from dataclasses import replace
+
+    from redservo.campaign import load_campaign, run_campaign
+    from redservo.scenario import apply_overrides
+
+    defn = load_campaign("panda-near-limits")
+    defn = replace(defn, scenario=apply_overrides(defn.scenario, ['sensor.kind="image"']))
+    with tempfile.TemporaryDirectory() as tmp:
+        kw: dict[str, Any] = {"methods": ["wln"], "workers": 1, "progress": False}
+        run_campaign(defn, samples=1, out=Path(tmp) / "warm", **kw)
+        cpu = time.process_time()
+        res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
+        cpu = time.process_time() - cpu
+        steps = sum(int(r["iterations"]) for r in res.rows)  # rows read from the run's files
+    return {"steps": steps, "cpu_s": cpu, "steps_per_cpu_s": steps / cpu}
+
+
+def run_speed(args: argparse.Namespace) -> dict[str, Any]:
+    """Section ``speed`` (issue 28): tracker CPU time per frame, image-campaign throughput."""
+    frames = min(args.frames, 200)
+    print(f"\nImageDotTracker.update, 4 dots, 640x480, {frames} frames, CPU µs per frame:")
+    rows = []
+    for kind in ("nested", "gradient", "motion_blur", "occlusion"):
+        fast, ref = tracker_cpu_us(kind, frames), tracker_cpu_us(kind, frames, fast=False)
+        rows.append({"kind": kind, "fast_us": fast, "reference_us": ref})
+        print(f"  {kind:12s} {fast:8.1f} µs (reference search alone {ref:8.1f} µs)")
+    camp = image_campaign_rate(10)
+    print(
+        f"image campaign (panda-near-limits, 10 samples, wln): {camp['steps']:.0f} steps in "
+        f"{camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU second "
+        f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+    )
+    return {"tracker_cpu_us": rows, "image_campaign": camp}
+
+
+SECTIONS = {
+    "detectors": run_detectors,
+    "dots": run_dot_sequences,
+    "tags": bench_tags,
+    "speed": run_speed,
+}
 """Every benchmark section, run in this order by :func:`main`."""
 
 

@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/campaign_speed.py [--campaign cm01-gaze] [--samples 100] \
         [--scaling 300]
+    .venv/bin/python benchmarks/campaign_speed.py --all [--samples 30] [--loop-samples 5]
 
 prints, for a campaign (default ``cm01-gaze``, every method of its definition):
 
@@ -16,7 +17,9 @@ prints, for a campaign (default ``cm01-gaze``, every method of its definition):
 
 CPU time is the process's (``time.process_time``); a machine shared with other jobs still
 inflates it (caches, memory bandwidth), so the load average is printed with the results.
-docs/scaling.md gives the numbers.
+With ``--all``: for every shipped campaign, its compiled methods, the loop alone and the
+whole campaign in this process (the marginal rate: after a 1-sample warm-up), one table
+(:func:`all_campaigns`). docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations
@@ -27,7 +30,16 @@ import time
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
-__all__ = ["CampaignRate", "Scaling", "campaign_rate", "local_scaling", "loop_rates", "main"]
+__all__ = [
+    "CampaignRate",
+    "Scaling",
+    "all_campaigns",
+    "campaign_rate",
+    "campaign_row",
+    "local_scaling",
+    "loop_rates",
+    "main",
+]
 
 
 class CampaignRate(NamedTuple):
@@ -191,7 +203,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--scaling", type=int, default=0, help="samples of the 1-vs-2-worker run")
     p.add_argument("--dask", type=int, default=0, help="samples of the 1-vs-2 Dask-worker run")
     p.add_argument("--skip-rates", action="store_true", help="only the scaling runs")
+    p.add_argument("--all", action="store_true", help="every shipped campaign, one table")
     a = p.parse_args(argv)
+    if a.all:
+        all_campaigns(a.samples, a.loop_samples)
+        return 0
     print(f"campaign {a.campaign}; load average {_load()} on {os.cpu_count()} CPUs")
     if not a.skip_rates:
         _rates(a)
@@ -213,6 +229,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  speed-up 1 -> 2 workers: {res[0].wall_s / res[1].wall_s:.2f}")
     print(f"load average after: {_load()}")
     return 0
+
+
+def all_campaigns(samples: int, loop_samples: int) -> None:
+    """Print, per shipped campaign (its methods the compiled loop runs): the loop alone and
+    the whole campaign in this process, in steps per CPU second, and their ratio."""
+    from redservo.campaign.definition import shipped_campaigns
+
+    print(f"load average {_load()} on {os.cpu_count()} CPUs; {samples} samples per campaign")
+    print("| campaign | runs | steps | loop alone | end to end | end to end / loop |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name in sorted(shipped_campaigns()):
+        print(campaign_row(name, samples, loop_samples), flush=True)
+    print(f"load average after: {_load()}")
+
+
+def campaign_row(name: str, samples: int, loop_samples: int) -> str:
+    """The table row of :func:`all_campaigns` for campaign ``name``."""
+    rates = loop_rates(name, loop_samples)
+    cpu = sum(per_step * steps for per_step, steps in rates.values())
+    loop = sum(steps for _, steps in rates.values()) / cpu
+    r = campaign_rate(name, samples, methods=list(rates))
+    end = r.steps_per_cpu_s
+    return f"| {name} | {r.runs} | {r.steps} | {loop:,.0f} | {end:,.0f} | {end / loop:.2f} |"
 
 
 def _rates(a: argparse.Namespace) -> None:

@@ -2,7 +2,9 @@
 ``JointState`` (with faults on request) and records the velocity commands it receives.
 
     python tests/ros2_peer.py DOMAIN OUT.json [--duration s] [--rate Hz] [--stamps epoch|
-        monotonic|future] [--names a,b,...] [--nan-after k]
+        monotonic|future] [--names a,b,...] [--nan-after k] [--no-commands]
+
+``--no-commands``: no reader of the command topic (a velocity controller that is not loaded).
 """
 
 from __future__ import annotations
@@ -26,10 +28,13 @@ def main() -> None:
     p.add_argument("--stamps", default="epoch")
     p.add_argument("--names", default=",".join(["finger", *reversed(NAMES)]))
     p.add_argument("--nan-after", type=int, default=-1)
+    p.add_argument("--no-commands", action="store_true")
     a = p.parse_args()
     node = Ros2Node(a.domain)
     writer = node.writer("/joint_states", JointState)
-    reader = node.reader("/forward_velocity_controller/commands", Float64MultiArray)
+    reader = None
+    if not a.no_commands:
+        reader = node.reader("/forward_velocity_controller/commands", Float64MultiArray)
     names = a.names.split(",")
     received: list[list[float]] = []
     end, k = time.monotonic() + a.duration, 0
@@ -41,7 +46,9 @@ def main() -> None:
             pos[-1] = float("nan")
         stamp = seconds_to_time(now[a.stamps])
         writer.write(JointState(Header(stamp, "base"), names, pos, [], []))
-        received += [list(m.data) for m in reader.take(N=100) if isinstance(m, Float64MultiArray)]
+        if reader is not None:
+            msgs = reader.take(N=100)
+            received += [list(m.data) for m in msgs if isinstance(m, Float64MultiArray)]
         k += 1
         time.sleep(1.0 / a.rate)
     with open(a.out, "w") as f:

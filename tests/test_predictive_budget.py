@@ -69,9 +69,9 @@ def test_a_model_that_overruns_skips_every_solve() -> None:
     law, kw, solves = _law(clock)
     obs = law._obs
 
-    def slow(q: Any) -> Any:
+    def slow(q: Any, seen: Any) -> Any:
         clock.advance(0.006)
-        return obs(q)
+        return obs(q, seen)
 
     law._obs = slow
     res = law(**kw)
@@ -80,9 +80,11 @@ def test_a_model_that_overruns_skips_every_solve() -> None:
 
 @pytest.mark.parametrize("budget", [None, 0.005])
 def test_the_goal_search_stops_at_half_the_budget_on_the_laws_clock(budget: Any) -> None:
+    """Each search iteration takes 2 ms of fake time: without a budget a step runs
+    ``goal_steps`` of them (never the whole search), with 5 ms it stops past 2.5 ms."""
     exp, state = _panda_state()
     clock = FakeClock()
-    law = make_law("predictive", time_budget=budget)
+    law = make_law("predictive", time_budget=budget, goal_steps=5)
     law.clock = clock
     law.observe(exp.robot, exp.task, state)
     steps = law._search
@@ -108,6 +110,6 @@ def test_the_goal_search_stops_at_half_the_budget_on_the_laws_clock(budget: Any)
     steps.start = counted
     law(J1=state.J1, e1=state.e1, q=exp.q0, limits=exp.limits, lam=0.5, dt=DT)
     if budget is None:
-        assert len(seeds) == 3 and not steps.running  # the whole search, in this step
+        assert len(seeds) == 5 and steps.running  # goal_steps, the rest in the next periods
     else:
         assert len(seeds) == 2 and steps.running  # 2, 4 ms > 2.5 ms: goes on next period

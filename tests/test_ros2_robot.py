@@ -100,7 +100,7 @@ def test_joint_states_map_to_the_model_order_and_commands_reach_the_other_proces
         t, q = robot.wait_for_joints(20.0)
         np.testing.assert_allclose(q, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])  # names were scrambled
         assert abs(time.monotonic() - t) < 1.0  # epoch stamp on the monotonic clock
-        time.sleep(0.5)  # let the command reader match
+        assert robot.wait_for_subscriber(20.0) >= 1  # the peer's command reader matched
         robot.send_velocity(np.arange(6) * 0.01)
         robot.stop()
     got = finish(proc, out)["received"]
@@ -178,6 +178,16 @@ def test_no_publisher_is_one_error_naming_the_topic(node: Ros2Node) -> None:
     with Ros2Robot(node, JOINTS, joint_states="/nobody/joint_states") as robot:
         with pytest.raises(MessageError, match="no JointState on /nobody/joint_states within"):
             robot.wait_for_joints(0.3)
+
+
+def test_nobody_on_the_command_topic_is_one_error_naming_it(node: Ros2Node) -> None:
+    topic = f"/unread_{os.getpid()}/commands"  # read by no process, whoever shares the domain
+    with Ros2Robot(node, JOINTS, command=topic) as robot:
+        with pytest.raises(MessageError, match=f"nobody subscribes to {topic} within 0.3 s") as e:
+            robot.wait_for_subscriber(0.3)
+        assert robot.commands == 0 and robot.subscribers() == 0
+    assert e.value.argument == topic
+    assert "controller loaded" in str(e.value) and "nothing was sent" in str(e.value)
 
 
 def test_bad_joint_lists_are_one_error_naming_the_key() -> None:

@@ -43,10 +43,12 @@ def hardware(tmp_path: Path, text: str = "", name: str = "hw.toml") -> Path:
         ('command = "/velocity controller/commands"', "robot.command", "fully qualified"),
         ('command = "forward/commands"', "robot.command", "fully qualified"),
         ("domain_id = 300", "robot.domain_id", "0-232"),
-        ('[camera]\ndriver = "device"', "camera.driver", "not through `redservo servo` yet"),
+        ('[camera]\ndriver = "device"', "camera.driver", "use driver = 'ros2'"),
         ('[robot]\ndriver = "mujoco"\n[camera]\ndriver = "ros2"', "camera.driver", "needs"),
         ('[camera]\nimage = "camera/image"', "camera.image", "fully qualified"),
         ("[loop]\nwatchdog_timeout = -1", "loop.watchdog_timeout", "> 0"),
+        ("[loop]\nrealtime_priority = 100", "loop.realtime_priority", "integer 0-99"),
+        ("[loop]\nspin = -0.001", "loop.spin", ">= 0"),
         ("[arm]\nx = 1", "arm", "unknown table"),
     ],
 )
@@ -69,6 +71,28 @@ def test_missing_joint_names_are_refused_before_anything_is_sent(
     assert (
         "key 'robot.joints': names 2 joints; the scenario's panda has 7" in capsys.readouterr().err
     )
+
+
+def test_servo_refuses_to_start_when_nobody_reads_the_commands(tmp_path: Path, capsys: Any) -> None:
+    names = ",".join(f"joint{i}" for i in range(1, 8))
+    out = tmp_path / "peer.json"
+    peer = [sys.executable, str(ROOT / "tests" / "ros2_peer.py"), str(DOMAIN), str(out)]
+    proc = subprocess.Popen([*peer, "--duration", "30", "--names", names, "--no-commands"], env=ENV)
+    f = tmp_path / "hw.toml"
+    joints = [f"joint{i}" for i in range(1, 8)]
+    topic = f"/unread_{os.getpid()}/commands"  # read by no process, whoever shares the domain
+    f.write_text(
+        f"[robot]\ndomain_id = {DOMAIN}\nwait = 20.0\ncommand_wait = 0.3\njoints = {joints}\n"
+        f'command = "{topic}"\n'
+    )
+    try:
+        code = main(["servo", "panda-4points", "--hardware", str(f), "--yes"])
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "Traceback" not in err, err
+    assert f"nobody subscribes to {topic} within 0.3 s" in err
 
 
 @pytest.fixture
@@ -112,6 +136,7 @@ def test_panda_4points_converges_through_dds_against_the_rehearsal_arm(
     assert code == 0 and summary["outcome"] == "converged", summary["reason"]
     timing = json.loads((out / "timing.json").read_text())
     assert timing["iterations"] == summary["iterations"] and timing["jitter_p99"] is not None
+    assert timing["scheduling"].startswith(("SCHED_FIFO 50", "SCHED_OTHER (SCHED_FIFO 50 refused"))
     assert (out / "scenario.toml").exists() and (out / "log.npz").exists()
     stats = _stop(*arm)
     assert stats["commands"] >= summary["iterations"] and stats["refused"] == 0

@@ -392,7 +392,8 @@ def test_actuator_table_builds_the_actuator_model() -> None:
     from redservo.hardware.actuators import ACTUATOR_KEYS, ActuatorModel
     from redservo.schema.scenario import ActuatorsSpec
 
-    assert set(ActuatorsSpec.model_fields) == set(ACTUATOR_KEYS)
+    keys = {ActuatorsSpec.MODEL_KEYS.get(k, k) for k in ActuatorsSpec.model_fields}
+    assert keys == set(ACTUATOR_KEYS)
     sc = parse_scenario(
         _data(actuators={"tau": 0.02, "delay_steps": 1, "encoder_noise_std": [1e-5] * 6, "seed": 3})
     )

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from operator import itemgetter
-from typing import NamedTuple, NoReturn, cast
+from typing import TYPE_CHECKING, NamedTuple, NoReturn, cast
 
 import numpy as np
 
@@ -31,7 +31,10 @@ from redservo.features.base import Feature, Measurement
 from redservo.features.point import PointFeature
 from redservo.kernels import lazy
 
-_K = lazy("features")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import features as _K
+else:
+    _K = lazy("features")
 
 __all__ = [
     "Plan",

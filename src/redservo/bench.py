@@ -299,9 +299,14 @@ def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
         res = simulate(case.robot, case.scene, case.task, make_law(name), case.q, options=opt)
         out[f"simulate(), {case.name}, {name}"] = len(res.log) / (time.perf_counter() - t0)
         step = compiled_step(
-            case.robot, case.scene, case.task, make_law(name), limits=case.limits,
-            lam=case.lam, dt=case.dt,
-        )  # fmt: skip
+            case.robot,
+            case.scene,
+            case.task,
+            make_law(name),
+            limits=case.limits,
+            lam=case.lam,
+            dt=case.dt,
+        )
         q, prev = case.q.copy(), np.zeros(case.robot.n)
         step(q, prev)  # warm-up: load the kernel before timing
         t0 = time.perf_counter()

@@ -71,8 +71,18 @@ class _CameraAction(argparse.Action):
         namespace.set = camera_overrides(str(values)) + list(getattr(namespace, "set", None) or [])
 
 
-def add_camera_option(p: argparse.ArgumentParser) -> None:
-    """Add ``--camera {ideal,realistic}`` to a command that has ``--set``."""
+def add_camera_option(p: argparse.ArgumentParser, *, reproduce: bool = False) -> None:
+    """Add ``--camera {ideal,realistic}`` to a command that has ``--set``, or (``reproduce``)
+    to ``redservo reproduce``, whose runs through images it times."""
+    if reproduce:
+        p.add_argument(
+            "--camera",
+            choices=tuple(CAMERA_PRESETS),
+            default="ideal",
+            help="realistic: the runs through images (implies --sensor image) come from a 30 Hz "
+            "camera, 66 ms latency (compensated), 8 ms exposure (docs/camera-timing.md)",
+        )
+        return
     p.add_argument(
         "--camera",
         choices=tuple(CAMERA_PRESETS),

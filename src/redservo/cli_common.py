@@ -145,12 +145,18 @@ def summary_line(name: str, summary: Mapping[str, Any], joints: Sequence[str] = 
 
     cam = summary["max_camera_speed"]
     ratio = summary.get("peak_velocity_ratio")
+    closest = summary.get("min_distance")
     return (
         f"{name}: {outcome_text(summary, joints)}; {summary['iterations']} iterations, "
         f"final |e| = {summary['final_error_norm']:.3g}, min margin = {summary['min_margin']:.3f}, "
         f"max camera speed = {cam['translation']:.3g} m/s / {cam['rotation']:.3g} rad/s, "
         f"discontinuity = {summary['discontinuity']:.3g}"
         + (f", peak |q̇|/limit = {ratio:.2f}" if ratio is not None else "")
+        + (
+            f", min distance = {closest * 1000:.1f} mm ({summary.get('closest_pair')})"
+            if closest is not None
+            else ""
+        )
     )
 
 

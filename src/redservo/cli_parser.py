@@ -149,13 +149,7 @@ def _add_reproduce(sub: Any, common: argparse.ArgumentParser) -> None:
         "gradient, uncorrected distortion), and report per claim whether it still holds "
         "(needs redservo[vision])",
     )
-    rp.add_argument(
-        "--camera",
-        choices=("ideal", "realistic"),
-        default="ideal",
-        help="realistic: the runs through images (implies --sensor image) come from a 30 Hz "
-        "camera, 66 ms latency (compensated), 8 ms exposure (docs/camera-timing.md)",
-    )
+    add_camera_option(rp, reproduce=True)
     rp.add_argument(
         "--no-pixel-noise",
         action="store_true",

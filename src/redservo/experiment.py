@@ -24,7 +24,7 @@ from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
 from redservo.experiment_sensor import attach_timing, scenario_sensor
-from redservo.experiment_start import check_start
+from redservo.experiment_start import attach_collision, check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
@@ -273,10 +273,12 @@ def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot, camera: Camera) -> 
     if ctl.gain is not None:
         lam = AdaptiveGain(ctl.gain.zero, ctl.gain.inf, ctl.gain.slope)
     qdot_max: float | tuple[float, ...] | None = None
-    if isinstance(sim.qdot_max, list):
-        qdot_max = tuple(_per_joint(sc, "simulation.qdot_max", sim.qdot_max, robot.n).tolist())
+    if isinstance(sim.qdot_saturation, list):
+        qdot_max = tuple(
+            _per_joint(sc, "simulation.qdot_saturation", sim.qdot_saturation, robot.n).tolist()
+        )
     else:
-        qdot_max = sim.qdot_max
+        qdot_max = sim.qdot_saturation
     occ = spec.occlusion
     try:
         return SimulationOptions(
@@ -308,10 +310,12 @@ def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
         return None
     from redservo.hardware.actuators import ActuatorModel
 
-    kwargs = a.model_dump()
-    for key, value in kwargs.items():
+    names = type(a).MODEL_KEYS
+    kwargs = {}
+    for key, value in a.model_dump().items():
         if isinstance(value, list):
-            kwargs[key] = _per_joint(sc, f"actuators.{key}", value, n)
+            value = _per_joint(sc, f"actuators.{key}", value, n)
+        kwargs[names.get(key, key)] = value
     try:
         return ActuatorModel(**kwargs)
     except RedservoError as exc:
@@ -359,6 +363,7 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     exp.sensor = scenario_sensor(sc, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
     exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
+    attach_collision(sc, exp)
     if spec.simulator is not None and spec.simulator.kind == "mujoco":
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 

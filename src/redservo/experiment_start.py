@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from redservo.collision.start import check_clear
+from redservo.collision.start import check_clear, scenario_collision
 from redservo.errors import RedservoError
 from redservo.scenario import Scenario
 from redservo.schema.scenario import ScenarioSpec
@@ -19,7 +19,16 @@ from redservo.schema.scenario import ScenarioSpec
 if TYPE_CHECKING:
     from redservo.experiment import Experiment
 
-__all__ = ["check_start"]
+__all__ = ["attach_collision", "check_start"]
+
+
+def attach_collision(sc: Scenario, exp: Experiment) -> None:
+    """Give ``exp``'s options the run's collision set-up (``[collision]`` and the obstacles,
+    :func:`~redservo.collision.start.scenario_collision`), the self pairs checked at ``q0``."""
+    from dataclasses import replace
+
+    coll = scenario_collision(sc, exp.robot, exp.q0, exp.obstacles)
+    exp.options = replace(exp.options, collision=coll)
 
 
 def check_start(sc: Scenario, spec: ScenarioSpec, exp: Experiment) -> None:

@@ -9,14 +9,23 @@ the camera frame, ``v_c = J q̇``). Units: metres, radians.
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Generator
+from typing import Any, cast
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.spatial import inverse, matrix_to_rotvec
 
-__all__ = ["POS_TOL", "ROT_TOL", "Stall", "pose_error", "projected_step", "solve_ik"]
+__all__ = [
+    "POS_TOL",
+    "ROT_TOL",
+    "Stall",
+    "ik_steps",
+    "pose_error",
+    "projected_step",
+    "solve_ik",
+]
 
 POS_TOL = 1e-4
 """Position tolerance of the inverse kinematics (m)."""
@@ -86,7 +95,28 @@ def solve_ik(
     """Projected damped least squares from ``seed``: ``q ← clip(q + Jᵀ(JJᵀ + δ²I)⁻¹ err)``,
     the joints at a bound that the step pushes out left out of ``J`` (active set);
     returns ``q`` within ``[lo, hi]`` reaching ``target`` within :data:`POS_TOL` and
-    :data:`ROT_TOL`, or None (also when the error stalls: :data:`STALL_ITERATIONS`)."""
+    :data:`ROT_TOL`, or None (also when the error stalls: :data:`STALL_ITERATIONS`):
+    :func:`ik_steps` run to its end."""
+    steps = ik_steps(robot, target, seed, lo, hi, iterations=iterations, damping=damping)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as stop:
+            return cast("FloatArray | None", stop.value)
+
+
+def ik_steps(
+    robot: Any,
+    target: FloatArray,
+    seed: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    iterations: int = 300,
+    damping: float = 1e-3,
+) -> Generator[None, None, FloatArray | None]:
+    """:func:`solve_ik` one iteration (one kinematics evaluation, one step) per ``yield``,
+    so that a caller can spread it over several periods; its return value is the result."""
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
     stalled = Stall()
     for _ in range(iterations):
@@ -100,6 +130,7 @@ def solve_ik(
         if nxt is None:
             return None
         q = nxt
+        yield
     return None
 
 

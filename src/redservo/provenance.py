@@ -138,11 +138,12 @@ def _simulation(table: dict[str, Any], prov: Provenance) -> None:
     sim = table.setdefault("simulation", {})
     for key in _SIM_KEYS:
         sim[key] = getattr(opt, key)
+    sim.pop("qdot_max", None)  # the key's former name
     if opt.qdot_max is None:
-        sim.pop("qdot_max", None)
+        sim.pop("qdot_saturation", None)
     else:
         q = opt.qdot_max
-        sim["qdot_max"] = [float(v) for v in q] if isinstance(q, tuple) else float(q)
+        sim["qdot_saturation"] = [float(v) for v in q] if isinstance(q, tuple) else float(q)
     table.setdefault("robot", {})["rho"] = float(opt.rho)
     if opt.occlusion is None:
         table.pop("occlusion", None)

@@ -66,6 +66,8 @@ class Run:
     feature_names: tuple[str, ...]
     meta: dict[str, Any] = field(default_factory=dict, repr=False)
     diagnostics: dict[str, Any] = field(default_factory=dict, repr=False)
+    pair_names: tuple[str, ...] = ()
+    """The collision pairs the log's ``closest_pair`` indexes (empty: none measured)."""
 
     @property
     def method(self) -> str:
@@ -196,7 +198,10 @@ class Run:
         names = SimulationLog._ARRAYS
         kwargs: dict[str, Any] = {n: np.asarray(self.arrays[n]) for n in names if n in self.arrays}
         return SimulationLog(
-            **kwargs, joint_names=self.joint_names, feature_names=self.feature_names
+            **kwargs,
+            joint_names=self.joint_names,
+            feature_names=self.feature_names,
+            pair_names=self.pair_names,
         )
 
 
@@ -236,6 +241,7 @@ def load_run(path: str | Path) -> Run:
     names = tuple(str(s) for s in raw.pop("joint_names", np.array([])).tolist())
     features = tuple(str(s) for s in raw.pop("feature_names", np.array([])).tolist())
     raw.pop("flag_names", None)
+    pairs = tuple(str(s) for s in raw.pop("pair_names", np.array([])).tolist())
     summary = _json(p / "summary.json")
     check_log(p / "log.npz", raw, summary, len(names))
     return Run(
@@ -246,6 +252,7 @@ def load_run(path: str | Path) -> Run:
         feature_names=features,
         meta=_json(p / "run.json"),
         diagnostics=_json(p / "diagnostics.json"),
+        pair_names=pairs,
     )
 
 

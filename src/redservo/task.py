@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -37,7 +37,10 @@ from redservo.features.base import Feature
 from redservo.kernels import lazy
 from redservo.scene import Scene
 
-_K = lazy("features")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import features as _K
+else:
+    _K = lazy("features")
 _SCENE_CMO = Scene.cMo
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 

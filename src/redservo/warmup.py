@@ -241,6 +241,7 @@ def _controllers(cases: dict[str, Any]) -> None:
 def _campaign_loop(note: Callable[[str], None]) -> None:
     from redservo.campaign.definition import load_campaign, shipped_campaigns
     from redservo.campaign.fastloop import campaign_law, fast_reason, fast_summary
+    from redservo.campaign.reach import compile_search
     from redservo.campaign.sampling import draw_sample
     from redservo.experiment import build
 
@@ -251,6 +252,7 @@ def _campaign_loop(note: Callable[[str], None]) -> None:
         except ImportError as exc:
             note(f"{name} skipped: {' '.join(str(exc).split())}")
             continue
+        compile_search(exp)  # the reachability search of every sample
         for method in defn.methods:
             law = campaign_law(exp, method, defn.method_options.get(method))
             if fast_reason(exp, law) is None:
@@ -261,7 +263,11 @@ GROUPS: tuple[Group, ...] = (
     Group("laws", "every method through the public API", _laws),
     Group("scenarios", "every shipped scenario, 3 iterations", _scenarios),
     Group("compiled steps", "Afma6 points and moments, Panda points, qp, controllers", _steps),
-    Group("campaign loop", "every shipped campaign, one sample per method", _campaign_loop),
+    Group(
+        "campaign loop",
+        "every shipped campaign, one sample per method, its reachability search",
+        _campaign_loop,
+    ),
 )
 """What :func:`warmup` runs, in order."""
 
@@ -296,8 +302,10 @@ def warmup(
     counter = CompileCounter(progress=None if quiet else Progress("warmup", stream=out))
     numba = counter.install()
     if not numba:
-        say("warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
-            "compile; running the groups on the plain-Python path as a check")  # fmt: skip
+        say(
+            "warmup: numba is off (not installed, or REDSERVO_NO_NUMBA is set): nothing to "
+            "compile; running the groups on the plain-Python path as a check"
+        )
     seconds: dict[str, float] = {}
     compiled: dict[str, int] = {}
     try:

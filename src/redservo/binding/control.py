@@ -20,13 +20,12 @@ from collections import namedtuple
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from redservo import _task_plan as plan
 from redservo._validation import FloatArray
-from redservo.binding.step import robot_pack
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
@@ -41,8 +40,10 @@ from redservo.task import TaskState, VisualTask
 
 __all__ = ["CompiledControl", "bind_controller"]
 
-_K = lazy("control")
-_KINDS = {"afma6": "afma6_control", "dh": "dh_control", "chain": "chain_control"}
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import control as _K
+else:
+    _K = lazy("control")
 _NO_C = np.zeros((0, 0))
 _EMPTY = np.zeros(0)
 
@@ -213,11 +214,9 @@ def bind_controller(
         o = law_options(law, robot.n)
     except ConfigurationError as err:
         return str(err)
-    try:
-        kind, robot_args = robot_pack(robot)
-        kernel: Callable[..., Any] | None = getattr(_K, _KINDS[kind])
-    except ConfigurationError:  # the Jacobian from the robot object, the rest compiled
-        robot_args, kernel = (), None
+    pack = robot.kernel_pack()  # None: the Jacobian from the robot object, the rest compiled
+    robot_args = () if pack is None else pack
+    kernel: Callable[..., Any] | None = None if pack is None else _K.robot_control
     lp = limits_pack(limits)
     C = _NO_C if task.C is None else np.ascontiguousarray(task.C, dtype=np.float64)
     m = task.k if task.C is None else C.shape[0]

@@ -1,25 +1,26 @@
-"""The public objects bound to one compiled control step (pure Python glue, no numba here).
+"""The public objects bound to the step kernel for benchmarks (pure Python glue, no numba here).
 
-:func:`compiled_step` takes the objects a user builds — a robot (the Afma6, a DH chain
-such as the Panda, or a chain of fixed transforms and axes: a
-:class:`~redservo.robots.chain.ChainRobot`, e.g. any URDF robot), a static scene, a visual task of image points or of moment features,
-a law — and returns a :class:`CompiledStep`: the arguments of one kernel of
-:mod:`redservo.kernels.step` packed once, so that each call runs kinematics, features,
-``J1``, the law and its safety layer in compiled code. ``step(q, qdot_prev)`` gives the
-same command as ``law(J1=..., e1=..., q=q, ...)`` after ``robot.kinematics`` and
-``task.evaluate`` (to rounding), without any Python object per call. A batched closed
-loop (many samples advanced together) calls the same kernels from compiled code.
+:func:`compiled_step` takes the objects a user builds (a robot with compiled kinematics, a
+scene of point sets, a task of image points or moment features, a law) and returns a
+:class:`CompiledStep`: the packs of :func:`redservo.kernels.sensed.sensed_step` made once,
+so that each call runs the kinematics, the ideal sensor, CM01 eq. 25, the law and its
+safety layer in compiled code, with no Python object per call. It is the same step
+kernel (:mod:`redservo.kernels.control`) that the campaign loop runs at every iteration
+and the :class:`~redservo.control.Controller` runs on measured points; no copy of the step
+lives here. ``step(q, qdot_prev)`` gives the command of ``law(J1=..., e1=..., q=q, ...)``
+after ``robot.kinematics`` and ``task.evaluate``, bit for bit. :func:`compiled_qp_step`
+adds ``qp``'s solver (daqp) between two kernels.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.binding.packs import scene_pack, task_pack
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
@@ -28,18 +29,17 @@ from redservo.redundancy.base import Law
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.kio import law_options
 from redservo.robots import Robot
-from redservo.robots.afma6 import COUPLING, OFFSET, Afma6
-from redservo.robots.chain import ChainRobot
-from redservo.robots.dh import DHRobot
-from redservo.scene import PointSet, Scene, Static
-from redservo.spatial import inverse
+from redservo.scene import Scene
 from redservo.task import VisualTask
 
-__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step", "robot_pack"]
+__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
-_K = lazy("tasks")
-_KC = lazy("chain_tasks")
-_KQ = lazy("qp")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import qp as _KQ
+    from redservo.kernels import sensed as _KS
+else:
+    _KS = lazy("sensed")
+    _KQ = lazy("qp")
 
 
 def _daqp() -> Any:
@@ -52,93 +52,53 @@ def _daqp() -> Any:
 
 @dataclass(frozen=True)
 class CompiledStep:
-    """One control step as a kernel call: ``step(q, qdot_prev)`` returns the safe command.
+    """One control step as a call of the step kernel: ``step(q, qdot_prev)`` returns the safe
+    command.
 
-    The command is a view of :attr:`out`, the buffer the kernel fills (layout in
-    :func:`redservo.kernels.tasks.output_size`: ``q̇``, the law's integer and float
-    diagnostics, the safety numbers, the level of each axis); it is overwritten by the
-    next call, so copy it to keep it.
+    The step is :func:`redservo.kernels.sensed.sensed_step`: the robot's kinematics, the
+    ideal sensor, CM01 eq. 25 and the law with its safety layer, the kernels that the
+    campaign loop runs at each iteration and the Controller runs on measured points (one
+    step kernel, :mod:`redservo.kernels.control`).
     """
 
-    kernel: Callable[..., Any]
-    """The kernel of :mod:`redservo.kernels.tasks`."""
-    args: tuple[Any, ...]
-    """The packs between ``q`` and ``qdot_prev`` (robot, task, law, limits; plain tuples,
-    :mod:`redservo.kernels.tasks`), λ and dt, then a zero previous command."""
-    task_kernel: Callable[..., Any]
-    """The kernel computing ``(e1, J1)`` alone (kinematics and features) from ``q``, the
-    robot pack and the task pack."""
-    out: FloatArray
-    """The output buffer the kernel fills."""
+    robot: tuple[Any, ...]
+    """The robot pack (:mod:`redservo.robots.pack`)."""
+    scene: tuple[Any, ...]
+    task_pack: tuple[Any, ...]
+    law: tuple[Any, ...]
+    limits: tuple[Any, ...]
+    sim: tuple[Any, ...]
+    zero: FloatArray
+    """(n,) zeros (an empty slice of it: no previous command)."""
 
     def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
-        prev = self.args[-1] if qdot_prev is None else qdot_prev
-        self.kernel(q, *self.args[:-1], prev, qdot_prev is not None, self.out)
-        return self.out[: q.shape[0]]
-
-    def diagnostics(self, n: int) -> dict[str, FloatArray]:
-        """Views of :attr:`out` after a call: ``iout``, ``fout``, ``sout``, ``levels``."""
-        o = self.out
-        return {
-            "iout": o[n : n + 16],
-            "fout": o[n + 16 : n + 32],
-            "sout": o[n + 32 : n + 43],
-            "levels": o[n + 43 : 2 * n + 43],
-        }
+        prev = self.zero[:0] if qdot_prev is None else qdot_prev  # empty: no previous command
+        qd, _, _, _, ok = _KS.sensed_step(
+            q, prev, self.robot, self.scene, self.task_pack, self.law, self.limits, self.sim
+        )
+        if not ok:
+            raise ConfigurationError(
+                "the compiled step cannot run at this q (a feature is lost or an input is not "
+                "finite): use the Controller, whose checks name the input",
+                argument="q",
+            )
+        return np.asarray(qd)
 
     def task(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """``(e1, J1)`` at ``q``: the compiled kinematics and features of the step."""
-        e1, J1 = self.task_kernel(q, self.args[0], self.args[1])
+        """``(e1, J1)`` at ``q``: the compiled kinematics, ideal sensor and CM01 eq. 25."""
+        _, e1, J1, _, _, _, _ = _KS.sense(0, q, self.robot, self.scene, self.task_pack, self.sim)
         return e1, J1
 
 
-def robot_pack(robot: Robot) -> tuple[str, tuple[Any, ...]]:
-    """``(kind, pack)``: the robot as the kernels take it (:mod:`redservo.kernels.tasks`),
-    kind ``"afma6"``, ``"dh"`` or ``"chain"``.
-
-    Raises:
-        ConfigurationError: a robot without compiled kinematics.
-    """
-    eMc, cVe = np.ascontiguousarray(robot.eMc), np.ascontiguousarray(robot.cVe)
-    if isinstance(robot, Afma6):
-        return "afma6", (eMc, cVe, COUPLING, OFFSET)
-    if isinstance(robot, DHRobot):
-        return "dh", (
-            robot._par,
-            np.ascontiguousarray(robot._base),
-            np.ascontiguousarray(robot._flange),
-            robot.convention == "standard",
-            eMc,
-            cVe,
+def _robot_pack(robot: Robot) -> tuple[Any, ...]:
+    pack = robot.kernel_pack()
+    if pack is None:
+        raise ConfigurationError(
+            f"no compiled kinematics for {type(robot).__name__}; compiled robots: Afma6, DH "
+            "chains and ChainRobot (URDF robots)",
+            argument="robot",
         )
-    if isinstance(robot, ChainRobot):  # URDF robots included
-        return "chain", (robot.chain.frames, robot.chain.joints, eMc, cVe)
-    raise ConfigurationError(
-        f"no compiled kinematics for {type(robot).__name__}; compiled robots: Afma6, DH chains "
-        "and ChainRobot (URDF robots)",
-        argument="robot",
-    )
-
-
-def _target(scene: Scene, task: VisualTask) -> tuple[FloatArray, list[Any]]:
-    names = {t.target for t in task.terms}
-    if len(names) != 1:
-        raise ConfigurationError("a compiled step observes one scene object", argument="task")
-    (name,) = names
-    obj = scene.object(name)
-    if not isinstance(obj, PointSet) or not isinstance(obj.trajectory, Static):
-        raise ConfigurationError("a compiled step needs a static point set", argument="scene")
-    bMo = inverse(scene.wMb) @ obj.trajectory.wMo
-    return np.ascontiguousarray(bMo), [t.feature for t in task.terms]
-
-
-def _points_kernels(kind: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
-    """The step and task kernels of an image-point task on a robot of this ``kind``."""
-    if kind == "afma6":
-        return _K.afma6_step, _K.afma6_points
-    if kind == "dh":
-        return _K.dh_step, _K.dh_points
-    return _KC.chain_step, _KC.chain_points
+    return pack
 
 
 def compiled_step(
@@ -153,53 +113,44 @@ def compiled_step(
 ) -> CompiledStep:
     """Pack the arguments of the compiled step of this set-up (module docstring).
 
-    Supported: the Afma6, a DH robot or a :class:`~redservo.robots.chain.ChainRobot` (a
-    URDF robot; image points only); a static :class:`~redservo.scene.PointSet`; a task
-    of point features (current depth) or of one :class:`~redservo.features.MomentFeatures`;
-    every law except ``qp`` (:data:`redservo.kernels.step.LAW_IDS`).
+    Supported: the robots with compiled kinematics (the Afma6, DH robots, chains such as
+    URDF robots); point sets, static or on waypoints; tasks of image points and moment
+    features with the current depth; every law of
+    :data:`redservo.kernels.step.LAW_IDS` (``qp``: :func:`compiled_qp_step`).
 
     Raises:
         ConfigurationError: a set-up the compiled step does not cover.
     """
+    from redservo.camera import Camera
     from redservo.features import MomentFeatures, PointFeature
+    from redservo.scene import PointSet, Static, Waypoints
 
-    kind, robot_args = robot_pack(robot)
-    bMo, feats = _target(scene, task)
     if task.depth != "current":
         raise ConfigurationError("a compiled step uses the current depth", argument="task")
+    for term in task.terms:
+        obj = scene.object(term.target)
+        if type(term.feature) not in (PointFeature, MomentFeatures):
+            raise ConfigurationError(
+                "a compiled step needs point features or moment features", argument="task"
+            )
+        if not isinstance(obj, PointSet) or type(obj.trajectory) not in (Static, Waypoints):
+            raise ConfigurationError(
+                "a compiled step needs point sets, static or on waypoints", argument="scene"
+            )
     n = robot.n
     o = law_options(law, n)
     lp = limits_pack(limits)
-    law_pack = (o.law_id, o.fopt, o.iopt, o.vopt)
-    tail = (law_pack, (lp.rows, lp.has_v, lp.has_a), float(lam), float(dt), np.zeros(n))
-    s_star = np.ascontiguousarray(task.s_star)
-    if all(isinstance(f, PointFeature) for f in feats):
-        pts = np.ascontiguousarray(np.array([f.point_o for f in feats]))
-        C = np.eye(task.k) if task.C is None else np.ascontiguousarray(task.C)
-        visual: tuple[Any, ...] = (bMo, pts, s_star, C)
-        fn, task_fn = _points_kernels(kind)
-    elif len(feats) == 1 and isinstance(feats[0], MomentFeatures) and task.C is None:
-        f = feats[0]
-        kinds = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
-        visual = (
-            bMo,
-            np.ascontiguousarray(f.points_o),
-            f.desired_area,
-            f.desired_depth,
-            kinds[f.rotation_features],
-            s_star,
-        )
-        if kind != "afma6":
-            raise ConfigurationError("compiled moment steps exist for the Afma6", argument="robot")
-        fn = _K.afma6_moments_step
-        task_fn = _K.afma6_moments
-    else:
-        raise ConfigurationError(
-            "a compiled step needs point features or one moment feature", argument="task"
-        )
-    from redservo.kernels.tasks import output_size
-
-    return CompiledStep(fn, (robot_args, visual, *tail), task_fn, np.zeros(output_size(n)))
+    has_cap = getattr(law, "alpha_max", None) is not None
+    sim = (float(lam), float(dt), 0.0, True, np.ones(n), False, False)
+    return CompiledStep(
+        robot=_robot_pack(robot),
+        scene=scene_pack(scene, task, Camera(), 0.0, False),
+        task_pack=task_pack(task, 1.0),
+        law=(o.law_id, o.fopt, o.iopt, o.vopt, has_cap),
+        limits=(lp.rows, lp.has_v, lp.has_a, np.array(limits.q_min), np.array(limits.q_max)),
+        sim=sim,
+        zero=np.zeros(n),
+    )
 
 
 @dataclass(frozen=True)
@@ -218,34 +169,28 @@ class CompiledQPStep:
     dt: float
 
     def __call__(self, q: FloatArray, qdot_prev: FloatArray | None = None) -> FloatArray:
-        daqp = _daqp()
-        kq = _KQ
         e1, J1 = self.task.task(q)
         n = q.shape[0]
         lp = limits_pack(self.limits)
         z = np.zeros(n)
         prev = z if qdot_prev is None else qdot_prev
         has_prev = qdot_prev is not None
-        o = vars(self.law)
+        law = self.law
+        o = vars(law)
         v = z if o["v_max"] is None else np.ascontiguousarray(np.broadcast_to(o["v_max"], (n,)))
-        out = kq.qp_setup(
-            J1, e1, q, lp.rows, lp.has_v, lp.has_a, self.dt, prev, has_prev, z, False,
-            self.lam, o["k_p"], o["margin"], v, o["v_max"] is not None, self.law.rcond, o["eps"],
-            self.law.shield,
-        )  # fmt: skip
+        kq: Any = _KQ  # argument packs below, as the qp law's own call writes them out
+        rates = (lp.rows, lp.has_v, lp.has_a, self.dt, prev, has_prev)
+        opts = (self.lam, o["k_p"], o["margin"], v, o["v_max"] is not None, law.rcond, o["eps"])
+        out = kq.qp_setup(J1, e1, q, *rates, z, False, *opts, law.shield)
         qdot, inside, lo, hi, _, xdot, _, _, xfix, free, P, c, lof, hif = out
         xf = z[:0]
         if not inside and free.size:
             nf = free.size
             sense = np.zeros(nf, dtype=np.intc)
-            xf = np.ascontiguousarray(daqp.solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
-        return np.asarray(
-            kq.qp_tail(
-                J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False,
-                self.law.rcond, q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev,
-                self.law.shield,
-            )
-        )  # fmt: skip
+            xf = np.ascontiguousarray(_daqp().solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
+        found = (J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False, law.rcond)
+        tail = (q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev)
+        return np.asarray(kq.qp_tail(*found, *tail, law.shield))
 
 
 def compiled_qp_step(

@@ -312,9 +312,14 @@ def campaign_call(
     if sets:
         defn = replace(defn, scenario=apply_overrides(defn.scenario, sets))
     result = run_campaign(
-        defn, methods=methods, samples=samples, seed=seed, workers=workers, out=out,
+        defn,
+        methods=methods,
+        samples=samples,
+        seed=seed,
+        workers=workers,
+        out=out,
         progress=progress,
-    )  # fmt: skip
+    )
     if result.out is not None:
         bundle_files(Path(result.out), copy.deepcopy(defn.scenario.data))
     return result

@@ -9,7 +9,9 @@ Engines (docs/scaling.md):
 
 * ``workers == 1``: the jobs run in this process;
 * a local :class:`~concurrent.futures.ProcessPoolExecutor` (the default), whose workers exit
-  when this process dies (:func:`redservo.campaign.lock.worker_init`);
+  when this process dies (:func:`redservo.campaign.lock.worker_init`) and run one BLAS
+  thread each (:func:`redservo.kernels.blas.pin_process`; every engine's jobs run inside
+  :func:`redservo.kernels.blas.one_blas_thread`);
 * a Dask cluster (``scheduler="tcp://HOST:PORT"``, optional extra ``redservo[dask]``): the
   jobs are submitted to an existing scheduler through a :class:`distributed.Client`, a
   bounded number at a time (two per worker thread), and their rows stored as they complete.
@@ -128,13 +130,22 @@ def _store_then_raise(futures: Iterable[Future[JobResult]], on_result: OnResult)
         raise error
 
 
+def _worker_start(parent: int) -> None:
+    """Pool initializer: exit with ``parent`` (:func:`~redservo.campaign.lock.worker_init`),
+    one BLAS thread for the worker's life (:func:`redservo.kernels.blas.pin_process`)."""
+    from redservo.kernels.blas import pin_process
+
+    worker_init(parent)
+    pin_process()
+
+
 def _local(jobs: Iterable[Job], workers: int, on_result: OnResult) -> None:
     if workers == 1:
         for job in jobs:
             on_result(run_job(job))
         return
     with ProcessPoolExecutor(
-        max_workers=workers, initializer=worker_init, initargs=(os.getpid(),)
+        max_workers=workers, initializer=_worker_start, initargs=(os.getpid(),)
     ) as pool:
         pending: set[Future[JobResult]] = set()
         try:

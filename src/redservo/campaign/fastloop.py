@@ -13,7 +13,8 @@ not covered:
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
-  gain;
+  gain, a camera-motion limit (the Controller applies it: the object path), obstacles
+  (distances and their shield are the Controller's);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -107,6 +108,8 @@ def experiment_reason(exp: Experiment) -> str | None:
         (opt.eMc_model is not None, "hand-eye calibration error"),
         (opt.feedforward == "estimated", "feed-forward 'estimated'"),
         (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
+        (opt.image_motion is not None, "camera-motion limit"),
+        (opt.collision is not None, "obstacles (the compiled loop measures no distance)"),
     )
     for failed, reason in checks:
         if failed:
@@ -125,8 +128,13 @@ def _buffers(N: int, n: int) -> tuple[Any, ...]:
     key = (N, n)
     bufs = getattr(_BUFFERS, "bufs", None)
     if bufs is None or bufs[0] != key:
-        logs = (np.empty((N, n)), np.empty((N, n)), np.empty((N, 6)), np.empty(N),
-                np.empty(N, dtype=np.int64))  # fmt: skip
+        logs = (
+            np.empty((N, n)),
+            np.empty((N, n)),
+            np.empty((N, 6)),
+            np.empty(N),
+            np.empty(N, dtype=np.int64),
+        )
         bufs = _BUFFERS.bufs = (key, logs)
     out: tuple[Any, ...] = bufs[1]
     return out
@@ -209,9 +217,15 @@ def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, in
         if code != NEED_SOLVE:
             return int(rows), int(code), int(axis), int(abort)
         res = law(
-            J1=pJ.copy(), e1=pe.copy(), q=q.copy(), limits=exp.limits, lam=sim[0], dt=sim[1],
-            qdot_prev=prev.copy(), de1_dt=pf.copy() if pend[3] else None,
-        )  # fmt: skip
+            J1=pJ.copy(),
+            e1=pe.copy(),
+            q=q.copy(),
+            limits=exp.limits,
+            lam=sim[0],
+            dt=sim[1],
+            qdot_prev=prev.copy(),
+            de1_dt=pf.copy() if pend[3] else None,
+        )
         px[:] = res.qdot
         pend[0] = 1
         pend[1] = _flag_bits(res.diagnostics.events)
@@ -236,9 +250,15 @@ def _pack(exp: Experiment) -> _Packed:
     qsat = np.ones(n)
     if opt.qdot_max is not None:
         qsat = np.broadcast_to(np.asarray(opt.qdot_max, dtype=np.float64), (n,)).copy()
-    sim = (float(opt.constant_lam), float(opt.dt), float(opt.tolerance),
-           bool(opt.stop_at_convergence), qsat, opt.qdot_max is not None,
-           opt.feedforward == "known")  # fmt: skip
+    sim = (
+        float(opt.constant_lam),
+        float(opt.dt),
+        float(opt.tolerance),
+        bool(opt.stop_at_convergence),
+        qsat,
+        opt.qdot_max is not None,
+        opt.feedforward == "known",
+    )
     limits = (lp.rows, lp.has_v, lp.has_a, q_min, q_max)
     return _Packed(robot_args(exp), scene_args(exp), task_args(exp), limits, sim)
 
@@ -280,8 +300,15 @@ def fast_run(
     """``(summary, path)`` of one campaign run on the compiled loop: the summary (None when
     the caller must run the object path) and ``"compiled loop"`` or the reason it is not."""
     ctl = exp.scenario.spec.control
-    key = (method, repr(law_options), ctl.method, repr(ctl.options), ctl.shield, ctl.robust,
-           ctl.scaling)  # fmt: skip
+    key = (
+        method,
+        repr(law_options),
+        ctl.method,
+        repr(ctl.options),
+        ctl.shield,
+        ctl.robust,
+        ctl.scaling,
+    )
     laws: dict[tuple[Any, ...], Law] | None = getattr(_BUFFERS, "laws", None)
     if laws is None or len(laws) > 64:
         laws = _BUFFERS.laws = {}

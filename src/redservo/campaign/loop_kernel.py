@@ -43,13 +43,16 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
-from redservo.kernels.chain import chain_kinematics
-from redservo.kernels.events import qp_events, safety_events
-from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
-from redservo.kernels.loop_task import known_feedforward, loop_task
-from redservo.kernels.qp import qp_finish, qp_prepare
-from redservo.kernels.safety import apply_safety
-from redservo.kernels.step import I_SNS_BAD, LAW_IDS, law_step, step_events
+from redservo.kernels.sensed import (
+    ABORT_INFEASIBLE,
+    ABORT_NON_FINITE,
+    ABORT_RAISES,
+    QP,
+    law_bits,
+    qp_law,
+    sense,
+)
+from redservo.kernels.step import LAW_IDS
 from redservo.simulation.loop import LIMIT_TOLERANCE
 
 __all__ = [
@@ -66,112 +69,23 @@ __all__ = [
 ]
 
 MAX_ITERATIONS, CONVERGED, JOINT_LIMIT, TARGET_LOST, NEED_SOLVE = 0, 1, 2, 3, 4
-ABORT_NON_FINITE, ABORT_INFEASIBLE, ABORT_RAISES = 1, 2, 3
-"""Why a run left the kernel early: the law would raise (ShapeError, InfeasibleError), or
-the object path would (a feature invalid where the feed-forward measures it)."""
-
-QP = -1
-"""The law id of ``qp`` here (:data:`redservo.kernels.step.LAW_IDS` has no ``qp``)."""
+"""Outcome codes (``ABORT_*``: :mod:`redservo.kernels.sensed`)."""
 _WLN = LAW_IDS["wln"]
-_SNS = LAW_IDS["sns"]
 
 
 @kernel
-def _kinematics(q: Any, robot: Any) -> Any:
-    """Step 1 of the module docstring: ``(bMc, J)``."""
-    kind, eMc, cVe, coupling, offset, par, base, flange, standard, frames, joints = robot
-    if kind == 0:
-        return afma6_kinematics(q, eMc, cVe, coupling, offset)
-    if kind == 1:
-        return dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    return chain_kinematics(q, frames, joints, eMc, cVe)
-
-
-@kernel
-def _qp(J1: Any, e1: Any, ff: Any, has_ff: bool, q: Any, prev: Any, law: Any, limits: Any,
-        sim: Any, solve: Any) -> Any:  # fmt: skip
-    """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
-
-    Where the unconstrained optimum lies within the bounds (no solver), the kernels of the
-    law's fast path: :func:`~redservo.kernels.qp.qp_prepare`, ``qp_finish``, the safety
-    layer, on the effective error ``e1 + ff / λ``. Elsewhere ``J1``, ``e1`` and ``ff`` go
-    into ``solve`` and the loop returns to Python, which calls the law itself and hands its
-    command and flags back (``pend``).
-    """
-    _, fopt, iopt, vopt, _ = law
-    lp, has_v, has_a, _, _ = limits
-    lam, dt = sim[0], sim[1]
-    pJ, pe, px, pend, pf = solve
-    if pend[0] != 0:  # resumed at this iteration: the law's command, computed in Python
-        pend[0] = 0
-        return px.copy(), pend[1], False
-    m, n = J1.shape
-    e = np.empty(m)
-    for i in range(m):
-        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # LawInputs.e_eff
-    zn = np.zeros(n)
-    x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
-        J1, e, q, lp, has_v, has_a, dt, prev, True, zn, False, lam, fopt[2], fopt[3],
-        vopt[0], iopt[2] != 0, fopt[0], iopt[0] != 0,
-    )  # fmt: skip
-    if not inside:
-        pJ[:, :] = J1
-        pe[:] = e1
-        pf[:] = ff
-        pend[3] = 1 if has_ff else 0
-        return x, 0, True
-    bits = qp_events(m, rank, conflicts, False, -1.0)[0]
-    fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
-    qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(
-        fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
-    )
-    safe = safety_events(bad, s, over_v, dropped, change, acted, worst, exc, past)
-    return qd, bits | safe[0], False
-
-
-@kernel
-def _law(J1: Any, e1: Any, ff: Any, has_ff: bool, q: Any, prev: Any, hist: Any,
-         has_hist: bool, law: Any, limits: Any, sim: Any) -> Any:  # fmt: skip
-    """Step 4 for a law of ``law_step`` (feed-forward ``ff`` when ``has_ff``):
-    ``(q̇, bits, abs_grad, abort)``."""
-    law_id, fopt, iopt, vopt, _ = law
-    lp, has_v, has_a, _, _ = limits
-    none = q[:0]
-    inputs = (ff if has_ff else e1[:0], none, prev, hist if has_hist else none)
-    qd, iout, fout, axes, axf, vec, sout = law_step(
-        (law_id, fopt, iopt, vopt), (lp, has_v, has_a), (sim[0], sim[1]), J1, e1, q, inputs
-    )
-    if law_id == _SNS and iout[I_SNS_BAD] >= 0:
-        return qd, 0, axf, ABORT_INFEASIBLE
-    bits = step_events(law_id, fopt, e1.shape[0], iout, fout, axes, axf, vec, sout)
-    return qd, bits, axf, 0
-
-
-@kernel
-def _sense(it: int, q: Any, robot: Any, scene: Any, task: Any, sim: Any) -> Any:
-    """Steps 1-3 and the feed-forward: ``(J, e1, J1, ff, has_ff, outcome, abort)``,
-    ``outcome`` -1 while the run goes on."""
-    dt = sim[1]
-    t = it * dt
-    bMc, J = _kinematics(q, robot)
-    e1, J1, cMw, lost = loop_task(bMc, J, scene, task, t)
-    if lost:
-        return J, e1, J1, e1, False, TARGET_LOST, 0
-    if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
-        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
-    if not np.isfinite(np.sum(J1) + np.sum(e1)):
-        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
-    if not sim[6]:
-        return J, e1, J1, e1, False, -1, 0
-    ff, ok = known_feedforward(cMw, scene, task, t, dt)
-    if not (ok and np.all(np.isfinite(ff))):
-        return J, e1, J1, ff, True, MAX_ITERATIONS, ABORT_RAISES
-    return J, e1, J1, ff, True, -1, 0
-
-
-@kernel
-def _advance(it: int, q: Any, prev: Any, qd: Any, bits: int, J: Any, e1: Any, limits: Any,
-             sim: Any, logs: Any) -> Any:  # fmt: skip
+def _advance(
+    it: int,
+    q: Any,
+    prev: Any,
+    qd: Any,
+    bits: int,
+    J: Any,
+    e1: Any,
+    limits: Any,
+    sim: Any,
+    logs: Any,
+) -> Any:
     """Step 5: saturate, log row ``it``, test convergence and the hard limits, move ``q``;
     ``(rows, outcome, limit_axis)``, ``outcome`` -1 while the run goes on."""
     _, _, _, q_min, q_max = limits
@@ -245,17 +159,17 @@ def closed_loop(
     has_hist = False
     history = law_id == _WLN and iopt[2] != 0
     for it in range(solve[3][2], max_it):
-        J, e1, J1, ff, has_ff, outcome, abort = _sense(it, q, robot, scene, task, sim)
+        J, e1, J1, ff, has_ff, outcome, abort = sense(it, q, robot, scene, task, sim)
         if outcome >= 0:
             return it, outcome, -1, abort
         if law_id == QP:
-            qd, bits, need = _qp(J1, e1, ff, has_ff, q, prev, law, limits, sim, solve)
+            qd, bits, need = qp_law(J1, e1, ff, has_ff, q, prev, law, limits, sim, solve)
             if need:
                 solve[3][2] = it
                 return it, NEED_SOLVE, -1, 0
         else:
             args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim)
-            qd, bits, axf, abort = _law(*args)
+            qd, bits, axf, abort = law_bits(*args)
             if abort:
                 return it, MAX_ITERATIONS, -1, abort
             if history:
@@ -294,4 +208,4 @@ def _stamp_with_sources(*dispatchers: Any) -> None:
             pass
 
 
-_stamp_with_sources(_kinematics, _qp, _law, _sense, _advance, closed_loop)
+_stamp_with_sources(_advance, closed_loop)

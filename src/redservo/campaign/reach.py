@@ -14,6 +14,12 @@ uniformly inside the bounds (a generator seeded with 0: the answer depends only 
 sample). It uses the robot's own kinematics
 (``Robot.kinematics``: the camera pose and its Jacobian in the camera frame).
 
+The search runs compiled, every seed in one kernel call (:mod:`redservo.kernels.reach`),
+for the robots the compiled campaign loop covers (the Afma6, DH and URDF chains); the
+feature stage too when that loop can measure the task. Other robots and tasks run the same
+search in Python (:func:`redservo.ik.solve_ik`). Both give the same verdicts on the first
+200 samples of every shipped campaign (tests/test_reach_compiled.py).
+
 A reachable goal is not a promise that a method can get there (the path matters); an
 unreachable one is a goal this search did not find within the success margin (a search can
 miss one: the campaign report counts the successes on samples called unreachable, and with
@@ -33,7 +39,14 @@ from redservo._validation import FloatArray
 from redservo.ik import Stall, projected_step, solve_ik
 from redservo.spatial import inverse
 
-__all__ = ["RANDOM_SEEDS", "desired_camera_pose", "reachable", "reachable_column", "solve_ik"]
+__all__ = [
+    "RANDOM_SEEDS",
+    "compile_search",
+    "desired_camera_pose",
+    "reachable",
+    "reachable_column",
+    "solve_ik",
+]
 
 RANDOM_SEEDS = 60
 """Random seeds tried after the deterministic ones."""
@@ -69,10 +82,57 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
     seeds.append(0.5 * (lo + hi))
     seeds += [np.clip(seeds[0] + gen.normal(0.0, 0.15, rng.shape) * rng, lo, hi) for _ in range(4)]
     seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
+    tol = 0.5 * exp.options.tolerance
+    compiled = _compiled_search(exp, target, np.array(seeds), lo, hi, tol)
+    if compiled is not None:
+        return compiled
     if any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds):
         return True
-    tol = 0.5 * exp.options.tolerance
     return any(_feature_goal(exp, s, lo, hi, tol) for s in seeds)
+
+
+def _compiled_search(
+    exp: Any, target: FloatArray, seeds: FloatArray, lo: FloatArray, hi: FloatArray, tol: float
+) -> bool | None:
+    """The same search in one kernel call per stage (:mod:`redservo.kernels.reach`), or None
+    when the robot has no compiled kinematics (the search then runs in Python). The feature
+    stage runs in Python when the compiled loop cannot measure the task."""
+    from redservo.campaign.looppack import (
+        robot_args,
+        robot_reason,
+        scene_args,
+        scene_reason,
+        task_args,
+    )
+    from redservo.kernels.blas import one_blas_thread
+    from redservo.kernels.reach import feature_search, pose_search
+
+    if robot_reason(exp) is not None:
+        return None
+    robot, c = robot_args(exp), np.ascontiguousarray
+    seeds, lo, hi = c(seeds, dtype=np.float64), c(lo, dtype=np.float64), c(hi, dtype=np.float64)
+    with one_blas_thread():
+        if pose_search(robot, c(target, dtype=np.float64), seeds, lo, hi) >= 0:
+            return True
+        if scene_reason(exp) is not None:
+            return any(_feature_goal(exp, s, lo, hi, tol) for s in seeds)
+        scene = scene_args(exp)
+        scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
+        return bool(feature_search(robot, scene, task_args(exp), seeds, lo, hi, tol) >= 0)
+
+
+def compile_search(exp: Any) -> None:
+    """Compile (or load from the disk cache) the kernels of the search for ``exp``'s robot
+    and task (``redservo warmup``): both stages, from one seed, toward a pose 1 km away (the
+    pose stage fails at once, then the feature stage runs). Nothing when the task has no
+    desired pose (no search) or the search is not compiled for it."""
+    if desired_camera_pose(exp) is None:
+        return
+    lim = exp.limits
+    far = np.eye(4)
+    far[2, 3] = 1e3
+    seeds = np.array([np.clip(exp.q0, lim.q_min, lim.q_max)], dtype=float)
+    _compiled_search(exp, far, seeds, lim.q_min, lim.q_max, 0.5 * exp.options.tolerance)
 
 
 def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, tol: float) -> bool:

@@ -14,34 +14,7 @@ import numpy as np
 
 from redservo.campaign.definition import CampaignDefinition, ErrorSpec, Range
 from redservo.campaign.reach import reachable_column
-from redservo.errors import ConfigurationError
-
-Z95 = 1.959963984540054
-"""The 0.975 quantile of the standard normal distribution (two-sided 95 %)."""
-
-
-def wilson_interval(successes: int, n: int, *, z: float = Z95) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (Wilson 1927).
-
-    ``(p̂ + z²/2n ± z sqrt(p̂(1-p̂)/n + z²/4n²)) / (1 + z²/n)`` with ``p̂ = successes/n``.
-
-    Args:
-        successes: Number of successes, in [0, n].
-        n: Number of trials (>= 0); with n = 0 the interval is [0, 1].
-        z: Normal quantile (default: 95 % two-sided).
-
-    Raises:
-        ConfigurationError: ``successes`` outside [0, n] or ``n < 0``.
-    """
-    if n < 0 or not 0 <= successes <= n:
-        raise ConfigurationError(f"need 0 <= successes <= n, got successes={successes}, n={n}")
-    if n == 0:
-        return 0.0, 1.0
-    p = successes / n
-    denom = 1.0 + z * z / n
-    center = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, center - half), min(1.0, center + half)
+from redservo.campaign.wilson import wilson_interval
 
 
 class MethodStats(NamedTuple):
@@ -85,6 +58,8 @@ class MethodStats(NamedTuple):
     reachable_successes: int = 0
     reach_ci_low: float = float("nan")
     reach_ci_high: float = float("nan")
+    collisions: int = 0
+    """Runs that ended with a link touching an obstacle or another link (``collision``)."""
 
 
 STAT_COLUMNS = (
@@ -149,7 +124,7 @@ def column_stats(
     ok = np.zeros(0, bool) if reachable is None else reachable
     nr, kr = (int(ok.sum()), int((ok & success).sum())) if reachable is not None else (-1, 0)
     rlo, rhi = (float("nan"),) * 2 if reachable is None else wilson_interval(kr, nr)
-    named = ("converged", "joint_limit", "target_lost", "max_iterations")
+    named = ("converged", "joint_limit", "target_lost", "max_iterations", "collision")
     return MethodStats(
         method=method,
         runs=n,
@@ -158,6 +133,7 @@ def column_stats(
         ci_low=lo,
         ci_high=hi,
         limit_hits=outcomes.get("joint_limit", 0),
+        collisions=outcomes.get("collision", 0),
         target_lost=outcomes.get("target_lost", 0),
         max_iterations=outcomes.get("max_iterations", 0),
         other_failures=sum(c for o, c in outcomes.items() if o not in named),
@@ -198,11 +174,11 @@ def _g(v: float, fmt: str = ".3g") -> str:
 def stats_table(stats: Iterable[MethodStats]) -> str:
     """Return a markdown table, one row per method, of :class:`MethodStats`."""
     head = (
-        "| method | success [95% CI] | success among reachable [95% CI] | limit hits | shield runs | target lost | max. iter. | "
+        "| method | success [95% CI] | success among reachable [95% CI] | limit hits | collisions | shield runs | target lost | max. iter. | "
         "iterations med (p90) | peak q̇ med (p95) | p95 peak q̇/limit | "
         "peak cam. v (m/s) med (p95) | peak cam. ω (rad/s) med (p95) | discontinuity med | "
         "min margin med |\n"
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     )
     lines = []
     for s in stats:
@@ -210,7 +186,7 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
         lines.append(
             f"| {s.method} | {s.successes}/{s.runs} = {_g(100 * s.success_rate, '.1f')} % "
             f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {_reach(s)} | "
-            f"{s.limit_hits} | "
+            f"{s.limit_hits} | {s.collisions} | "
             f"{s.shield_runs} | {s.target_lost} | {s.max_iterations} | "
             f"{_g(s.iterations_median, '.0f')} ({_g(s.iterations_p90, '.0f')}) | "
             f"{_g(s.joint_speed_median)} ({_g(s.joint_speed_p95)}) | "

@@ -117,7 +117,9 @@ def _run_task(task: _Task) -> dict[str, Any]:
     try:
         exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
         summary, row["_path"] = None, ASKED
-        if task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
+        if task.fast and exp.options.collision is not None:
+            row["_path"] = NO_DISTANCES  # the compiled loop measures no distance
+        elif task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
             row["_path"] = "camera timing"
         elif task.fast:
             from redservo.campaign.fastloop import fast_run
@@ -142,6 +144,14 @@ def run_job(job: Job) -> JobResult:
     Raises:
         ScenarioError: a sample has no valid start (the whole campaign stops, as before).
     """
+    from redservo.kernels.blas import one_blas_thread
+
+    with one_blas_thread():  # the compiled loop and search: one BLAS thread (kernels/blas.py)
+        return _run_samples(job)
+
+
+def _run_samples(job: Job) -> JobResult:
+    """:func:`run_job`'s runs (its BLAS pinned)."""
     from redservo.campaign.sampling import draw_sample
     from redservo.experiment import build
 
@@ -200,6 +210,8 @@ def merge(results: Sequence[JobResult]) -> JobResult:
 
 ASKED = "fast=False asked for"
 """The ``_path`` note of a run the caller sent to the object path (no line is printed)."""
+NO_DISTANCES = "obstacles or self pairs (the compiled loop measures no distance)"
+"""The ``_path`` note of a run with a collision set-up (:mod:`redservo.control.avoidance`)."""
 
 
 def fallback_lines(paths: dict[tuple[str, str], int]) -> list[str]:

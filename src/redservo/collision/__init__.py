@@ -6,8 +6,8 @@
 * :mod:`~redservo.collision.query`: :func:`distances`, the user-facing query.
 * :mod:`~redservo.collision.urdf`: a URDF's ``<collision>`` elements as coal geometries.
 
-Distances come from `coal` (installed with Pinocchio 3); docs/collision.md. The control
-laws do not use them yet.
+Distances come from `coal` (installed with Pinocchio 3); docs/collision.md. Avoidance (the
+repulsive objective and the distance shield) is :mod:`redservo.control.avoidance`.
 """
 
 from redservo.collision.pairs import self_pairs

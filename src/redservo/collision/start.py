@@ -3,12 +3,14 @@
 :func:`check_clear` raises one :class:`~redservo.errors.ScenarioError` naming the
 obstacle's key and the pair in contact. A robot without a built-in collision model (a
 URDF arm, for now) is not checked: a :class:`UserWarning` says so, once per build.
+:func:`scenario_collision` builds the run's collision set-up from ``[collision]``.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from redservo._validation import FloatArray
 from redservo.collision.query import distances
@@ -17,7 +19,10 @@ from redservo.errors import ConfigurationError
 from redservo.robots.base import Robot
 from redservo.scenario import Scenario
 
-__all__ = ["check_clear"]
+if TYPE_CHECKING:
+    from redservo.control.avoidance import Collision
+
+__all__ = ["check_clear", "scenario_collision"]
 
 
 def check_clear(sc: Scenario, robot: Robot, q0: FloatArray, obstacles: Sequence[Obstacle]) -> None:
@@ -42,3 +47,46 @@ def check_clear(sc: Scenario, robot: Robot, q0: FloatArray, obstacles: Sequence[
                 f"the start configuration is in collision: link {rec.first!r} and obstacle "
                 f"{rec.second!r} overlap by {-rec.distance * 1000:.1f} mm",
             )
+
+
+def scenario_collision(
+    sc: Scenario, robot: Robot, q0: FloatArray, obstacles: Sequence[Obstacle]
+) -> Collision | None:
+    """The run's :class:`~redservo.control.avoidance.Collision` from ``[collision]`` and the
+    obstacles: None when there is nothing to measure (or, without ``[collision]``, a robot
+    without a collision model: :func:`check_clear` warned).
+
+    Raises:
+        ScenarioError: ``[collision]`` for a robot without a collision model
+            (``collision.enabled``), or the self pairs in contact at ``q0``
+            (``collision.self``).
+    """
+    from redservo.control.avoidance import Collision
+
+    spec = sc.spec.collision
+    if spec is None:
+        coll = Collision(tuple(obstacles), enabled=False)
+    else:
+        values = spec.model_dump()
+        values["self_collision"] = values.pop("self")
+        coll = Collision(tuple(obstacles), **values)
+    if not coll.active:
+        return None
+    try:
+        coll.check_robot(robot)
+    except ConfigurationError as exc:
+        if spec is None:
+            return None
+        raise sc.error("collision.enabled", str(exc)) from None
+    if coll.self_collision:
+        own = Collision(self_collision=True)
+        pd = own.measure(robot, q0, 0.0)
+        k = int(pd.d.argmin()) if pd.names else -1
+        if k >= 0 and pd.d[k] <= 0.0:
+            a, b = pd.names[k].split("/")
+            raise sc.error(
+                "collision.self",
+                f"the start configuration is in self-collision: links {a!r} and {b!r} "
+                f"overlap by {-pd.d[k] * 1000:.1f} mm",
+            )
+    return coll

@@ -4,7 +4,8 @@
   -> feed-forward -> law -> saturation); :mod:`redservo.control.steps`: what it takes and
   returns; :mod:`redservo.control.checks`: the checks of its arguments;
 * :mod:`redservo.control.objectives`: the composable secondary objectives;
-* :mod:`redservo.control.feedforward`: the feed-forward term of a moving target.
+* :mod:`redservo.control.feedforward`: the feed-forward term of a moving target;
+* :mod:`redservo.control.image_motion`: the camera-motion limit (:class:`ImageMotionLimit`).
 
 It sits above the public objects (robots, task, laws, scene) and below the loops
 (``simulation/``, ``hardware/``), which supply only time, measurements and actuation.
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 from redservo.control.controller import Controller
 from redservo.control.feedforward import FEEDFORWARD_MODES, Feedforward
+from redservo.control.image_motion import ImageMotionLimit
 from redservo.control.objectives import (
     CallableObjective,
     JointLimitForce,
@@ -31,6 +33,7 @@ __all__ = [
     "Controller",
     "Features",
     "Feedforward",
+    "ImageMotionLimit",
     "JointLimitForce",
     "Measurement",
     "Objective",

@@ -22,7 +22,11 @@ Every closed loop of redservo drives a :class:`Controller`: the simulator
    acceleration limits or (unless the law has ``shield = False``) past the safe range is
    corrected and flagged as a shipped law's safety layer does;
 5. **output saturation** (``qdot_saturation``): the whole command scaled down uniformly
-   (direction kept) so that no joint exceeds it, as a drive's saturation would.
+   (direction kept) so that no joint exceeds it, as a drive's saturation would;
+6. **distance shield** (``collision``): the whole command scaled so that no collision pair
+   comes closer than ``d_safe`` within one period
+   (:func:`~redservo.control.avoidance.distance_shield`), flagged
+   ``distance-shield-acted``.
 
 **Engines** (:attr:`Controller.engine`). ``"compiled"``: the steps above run as one
 compiled call (:mod:`redservo.binding.control`) when the set-up allows it (a task of image
@@ -44,9 +48,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo.control.avoidance import Collision, check_collision, shield_command
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
+from redservo.control.image_motion import ImageMotionLimit, limit_image_motion, point_rows
 from redservo.control.latency import CommandHistory, present
 from redservo.control.law_output import guarded_output, law_output
 from redservo.control.objectives import Objective, ObjectiveContext
@@ -81,12 +87,21 @@ class Controller:
         depth_scale: The depth the controller uses is ``Ẑ = depth_scale · Z`` (> 0).
         qdot_saturation: Output saturation after the law (rad/s or m/s, a number or (n,)):
             the command is scaled down uniformly so that no joint exceeds it. None: none.
+        image_motion: The camera-motion limit (:class:`ImageMotionLimit`): the command is
+            scaled down uniformly so that no image point moves further between two frames
+            (or smears more during the exposure) than it allows; the final guard then keeps
+            the acceleration limits. None: none.
         compensate_latency: Bring a measurement stamped before the step's ``t`` (a camera's
             latency, :attr:`Measurement.stamp`) to ``t`` with the commands sent since
             (:mod:`redservo.control.latency`); a measurement without a stamp is used as is.
+            The commands sent, with their times, are in ``history`` (a ``CommandHistory``).
         engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
             ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
             the reference).
+        collision: A :class:`~redservo.control.avoidance.Collision`: unless it is off
+            (``enabled`` or ``shield`` False), every command then passes the distance shield
+            (step 6 of the module docstring). Its repulsion is an objective of its own
+            (:class:`~redservo.control.avoidance.CollisionAvoidance`).
 
     Raises:
         ConfigurationError: an option is out of range, or the law cannot take what the
@@ -108,8 +123,10 @@ class Controller:
         feedforward: Feedforward = "none",
         depth_scale: float = 1.0,
         qdot_saturation: float | ArrayLike | None = None,
+        image_motion: ImageMotionLimit | None = None,
         compensate_latency: bool = True,
         engine: Literal["auto", "compiled", "python"] = "auto",
+        collision: Collision | None = None,
     ) -> None:
         objs = tuple(objectives)
         self.accepts = check_controller(
@@ -127,10 +144,19 @@ class Controller:
         self.feedforward: Feedforward = feedforward
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
+        if image_motion is not None and not isinstance(image_motion, ImageMotionLimit):
+            raise ConfigurationError(
+                f"image_motion must be an ImageMotionLimit or None, got {image_motion!r}",
+                argument="image_motion",
+            )
+        self.image_motion = image_motion
+        """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
+        self._motion_rows = point_rows(task) if image_motion is not None else ()
+        self.collision = check_collision(collision, robot)
+        """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self.compensate_latency = bool(compensate_latency)
         self.history = CommandHistory(self.dt, lambda q: robot.jacobian(q, check_limits=False))
-        """The commands sent, with their times (:mod:`redservo.control.latency`)."""
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
         self._python = python_parts(self)
@@ -255,11 +281,8 @@ class Controller:
         if res is None:
             return None
         qdot, state, diag = res
-        self.stage = "saturation"
-        qdot, saturated = self._saturate(qdot)
-        if saturated:
-            self.stage = "guard"
-            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag, saturated = self._shape(qdot, diag, state, q, Ja, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -358,11 +381,8 @@ class Controller:
             qdot, diag = self._final_guard(*law_output(res, self.law, self.robot.n), q, prev)
         else:
             qdot, diag = res.qdot, res.diagnostics
-        self.stage = "saturation"
-        qdot, saturated = self._saturate(qdot)
-        if saturated:
-            self.stage = "guard"
-            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        qdot, diag, saturated = self._shape(qdot, diag, state, q, J, prev)
+        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
@@ -380,6 +400,14 @@ class Controller:
             qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
         )
         return qdot, diag
+
+    def _distance_guard(
+        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, t: float, prev: FloatArray | None
+    ) -> tuple[FloatArray, Diagnostics]:
+        """The distance shield (:func:`~redservo.control.avoidance.shield_command`), when on."""
+        self.stage = "guard"
+        limits = self.limits.qddot_max
+        return shield_command(self.collision, self.robot, qdot, diag, q, t, self.dt, prev, limits)
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins
@@ -435,6 +463,31 @@ class Controller:
             if name in self.accepts:
                 kw[name] = value
         return kw
+
+    def _shape(
+        self,
+        qdot: FloatArray,
+        diag: Diagnostics,
+        state: TaskState,
+        q: FloatArray,
+        J: FloatArray | None,
+        prev: FloatArray | None,
+    ) -> tuple[FloatArray, Diagnostics, bool]:
+        """The output saturation and the camera-motion limit (each a uniform scaling towards
+        zero), then the final guard on a command either scaled: ``(q̇, diagnostics,
+        saturated)``."""
+        self.stage = "saturation"
+        qdot, saturated = self._saturate(qdot)
+        limited = False
+        if self.image_motion is not None:
+            Ja = self.jacobian(q) if J is None else J
+            qdot, diag, limited = limit_image_motion(
+                qdot, diag, state.L, Ja, self._motion_rows, self.image_motion
+            )
+        if saturated or limited:
+            self.stage = "guard"
+            qdot, diag = self._final_guard(qdot, diag, q, prev)
+        return qdot, diag, saturated
 
     def _saturate(self, qdot: FloatArray) -> tuple[FloatArray, bool]:
         if self.qdot_saturation is None:

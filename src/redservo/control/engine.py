@@ -35,9 +35,14 @@ def bind_engine(ctrl: Controller, engine: str) -> tuple[CompiledControl | None, 
     elif ctrl.feedforward == "estimated":
         why = "the estimated feed-forward needs the task state before the law"
     bound = why or bind_controller(
-        ctrl.robot, ctrl.task, ctrl.law, ctrl.limits, lam=ctrl.lam, dt=ctrl.dt,
+        ctrl.robot,
+        ctrl.task,
+        ctrl.law,
+        ctrl.limits,
+        lam=ctrl.lam,
+        dt=ctrl.dt,
         depth_scale=ctrl.depth_scale,
-    )  # fmt: skip
+    )
     if isinstance(bound, str):
         if engine == "compiled":
             raise ConfigurationError(f"no compiled engine: {bound}", argument="engine")

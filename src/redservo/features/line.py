@@ -30,7 +30,7 @@ Decisions:
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -40,7 +40,10 @@ from redservo.errors import GeometryError
 from redservo.features.base import Feature, Measurement
 from redservo.kernels import lazy
 
-_K = lazy("features")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import features as _K
+else:
+    _K = lazy("features")
 _BEHIND, _ZERO_AXIS, _THROUGH, _PARALLEL, _INFINITY, _INSIDE = 1, 2, 3, 4, 5, 6
 """Codes of :mod:`redservo.kernels.features`."""
 

@@ -6,7 +6,7 @@ moments, the object plane, the six features and their interaction matrices (kern
 
 from __future__ import annotations
 
-from typing import Any, Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -15,7 +15,10 @@ from redservo._validation import FloatArray, as_matrix
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.kernels import lazy
 
-_K = lazy("moments")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import moments as _K
+else:
+    _K = lazy("moments")
 _KIND = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
 (
     _BEHIND,

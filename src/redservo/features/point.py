@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -11,7 +13,10 @@ from redservo.errors import GeometryError
 from redservo.features.base import Feature, Measurement
 from redservo.kernels import lazy
 
-_K = lazy("features")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import features as _K
+else:
+    _K = lazy("features")
 
 __all__ = ["PointFeature", "point_interaction", "project_point"]
 

@@ -32,7 +32,7 @@ of the camera plane (``Z0 > r``), otherwise the contour is not an ellipse.
 
 from __future__ import annotations
 
-from typing import Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Literal, NamedTuple, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -42,7 +42,10 @@ from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.base import Feature, Measurement
 from redservo.kernels import lazy
 
-_K = lazy("features")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import features as _K
+else:
+    _K = lazy("features")
 _INSIDE, _NOT_IN_FRONT = 6, 7
 """Codes of :func:`redservo.kernels.features.sphere_ellipse`."""
 

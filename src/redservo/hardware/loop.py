@@ -52,7 +52,8 @@ from typing import Any, Literal
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.control import Controller, ControlStep, Objective
+from redservo.control import Controller, ControlStep, ImageMotionLimit, Objective
+from redservo.control.avoidance import Collision, shield_command
 from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.hardware.clock import StampWatch
@@ -67,6 +68,7 @@ from redservo.hardware.recorder import (
 )
 from redservo.hardware.settings import check_servo_control, check_timing
 from redservo.hardware.supervision import FollowWatch, Supervision
+from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
@@ -126,6 +128,13 @@ class ServoLoop:
             (:class:`~redservo.hardware.Supervision`; default ``Supervision()``: a command
             held at most ``watchdog_timeout``, 5 consecutive overruns, a 1 s following
             window, 5 identical readings for a frozen encoder).
+        image_motion: The camera-motion limit (:class:`~redservo.control.ImageMotionLimit`):
+            the Controller scales each command so that no image point moves further between
+            two of the camera's frames than the tracker follows. None: none.
+        collision: The distance shield's set-up (:class:`~redservo.control.avoidance.Collision`,
+            the obstacles' poses known): the controller's shield, then again after the guard
+            (over ``max_hold``), so the guard's acceleration step never undoes it. Its
+            repulsion is the objective ``CollisionAvoidance(collision)``.
 
     Raises:
         ConfigurationError: a period, gain, timeout, tolerance, limit or supervision
@@ -159,6 +168,8 @@ class ServoLoop:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         supervision: Supervision | None = None,
+        image_motion: ImageMotionLimit | None = None,
+        collision: Collision | None = None,
     ) -> None:
         check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
         if max_iterations is not None and max_iterations < 1:
@@ -169,9 +180,17 @@ class ServoLoop:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
         check_servo_control(objectives, feedforward)
         self.controller = Controller(
-            model_robot, task, law, limits, lam=lam, dt=period, objectives=objectives,
+            model_robot,
+            task,
+            law,
+            limits,
+            lam=lam,
+            dt=period,
+            objectives=objectives,
             feedforward=feedforward,
-        )  # fmt: skip
+            image_motion=image_motion,
+            collision=collision,
+        )
         """The control core (task, objectives, feed-forward, law) the loop drives."""
         self.robot = robot_iface
         self.source = source
@@ -223,13 +242,17 @@ class ServoLoop:
             position clip) and ``clock_fault`` (the offending stamp, or None).
         """
         self._stop_request.clear()
+        bind = getattr(self.controller.law, "bind_period", None)  # predictive's default budget
+        if callable(bind):  # a share of the period, on the loop's clock
+            bind(self.period, self.clock)
         warm_up = getattr(self.controller.law, "warm_up", None)  # e.g. predictive's first call
         if callable(warm_up):  # one-time costs paid before the first period, not inside it
             warm_up(self.controller.limits, self.task.m, self.period)
         run = self._new_run()
         end = RunEnd()
         try:
-            end.outcome, end.reason = self._loop(run)
+            with one_blas_thread():  # the compiled steps: one BLAS thread (kernels/blas.py)
+                end.outcome, end.reason = self._loop(run)
         except EndRun as stop:
             end.outcome, end.reason, end.clock_fault = stop.outcome, stop.reason, stop.fault
         except KeyboardInterrupt:
@@ -361,6 +384,11 @@ class ServoLoop:
         run.counters["guarded"] += int(report.changed)
         run.counters["acceleration_exceeded"] += int(bool(report.acceleration_exceeded))
         assert run.state is not None and run.diag is not None
+        hold, qddot_max = self.supervision.max_hold or self.period, self.limits.qddot_max
+        coll, t = self.controller.collision, now - run.t0
+        cmd, run.diag = shield_command(
+            coll, self.model_robot, cmd, run.diag, q_send, t, hold, run.prev, qddot_max
+        )
         run.recorder.append(
             t=now - run.t0,
             q=q,

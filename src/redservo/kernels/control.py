@@ -1,20 +1,22 @@
-"""The compiled step of a :class:`~redservo.control.Controller` on measured image points.
+"""The step kernel: one compiled control step that every loop drives (docs/architecture.md).
 
-One call turns joint positions and *measured* points into the safe command and everything
-the controller returns: kinematics of the robot, ``L(s, 1/Ẑ)``, ``e1 = C (s − s*)``,
-``J1 = C L J`` (CM01 eq. 25; products by BLAS, ``np.dot``, as numpy's ``@`` on the object
-path, so that both agree to the last bit, as the campaign loop of
-:mod:`redservo.kernels.loop_task` does), the law and its safety layer
+:func:`control_step` is the step: CM01 eq. 25 (``e1 = C (s − s*)``, ``J1 = C L J``, written
+here once, :func:`task_rows`), the input check, the law and its safety layer
 (:func:`redservo.kernels.step.law_step`) and the events of both
 (:func:`~redservo.kernels.step.law_events`, :func:`~redservo.kernels.step.sout_events`).
+Its drivers: the :class:`~redservo.control.Controller` (hence ``simulate`` and the servo
+loop) through :func:`robot_control` and :func:`given_control`, which add the kinematics
+(:func:`redservo.kernels.robot.robot_kinematics`) and the interaction matrix of the
+*measured* points; the campaign loop (:mod:`redservo.campaign.loop_kernel`), which adds the
+ideal sensor of :mod:`redservo.kernels.loop_task`; and the benchmarks' step
+(:mod:`redservo.binding.step`). Products by BLAS (``np.dot``), as numpy's ``@`` on the
+object path, so that every driver agrees with the object path to the last bit.
 
 Arguments travel as packs (plain tuples, unpacked by name at the top of each kernel; a
 NamedTuple would cost numba a slow type lookup on every call):
 
-* ``robot``: ``(eMc, cVe, coupling, offset)`` for the Afma6, ``(par, base, flange,
-  standard, eMc, cVe)`` for a DH chain, ``(frames, joints, eMc, cVe)`` for a chain of fixed
-  transforms and axes (URDF robots), as :mod:`redservo.kernels.kinematics` and
-  :mod:`redservo.kernels.chain` take them;
+* ``robot``: the robot pack of :mod:`redservo.robots.pack` (one layout and kind code for
+  the Afma6, DH chains and chains of fixed transforms and axes such as URDF robots);
 * ``meas``: ``(s, iz, s_star, C)``: the measured points (2N,), their inverse depths (N,)
   (1/m, already scaled by the controller's depth option), ``s*`` and the combination
   matrix ``C`` (m, 2N), or a (0, 0) array for none (``e1 = e``, ``J1 = L J``);
@@ -27,7 +29,7 @@ NamedTuple would cost numba a slow type lookup on every call):
 The float buffer ``buf`` (:func:`control_layout`) receives ``q̇`` (n), ``iout`` (16),
 ``fout`` (16), ``sout`` (11), ``axes`` (n), ``axf`` (n), the law's and the safety layer's
 event values and sources (4 × 20), ``e`` (2N), ``e1`` (m), ``J1`` (m·n) and ``L`` (2N·6).
-The kernels return ``(law mask, safety mask, vec)``, or a law mask of -1 when an input
+The Controller's kernels return ``(law mask, safety mask, vec)``, or a law mask of -1 when an input
 fails :func:`~redservo.kernels.inputs.inputs_ok` (NaN or inf, a joint outside its limits):
 the caller then takes the object path, whose checks name the input. Units: seconds,
 metres, radians.
@@ -40,14 +42,20 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.chain import chain_kinematics
 from redservo.kernels.features import points_interaction
 from redservo.kernels.flagbits import N_FLAGS
 from redservo.kernels.inputs import inputs_ok
-from redservo.kernels.kinematics import afma6_kinematics, dh_kinematics
+from redservo.kernels.robot import robot_kinematics
 from redservo.kernels.step import NS, law_events, law_step, sout_events
 
-__all__ = ["afma6_control", "chain_control", "control_layout", "dh_control"]
+__all__ = [
+    "control_layout",
+    "control_step",
+    "given_control",
+    "law_core",
+    "robot_control",
+    "task_rows",
+]
 
 NI, NF = 16, 16
 """Sizes of the law's ``iout`` and ``fout`` (:mod:`redservo.kernels.laws`)."""
@@ -56,11 +64,9 @@ NI, NF = 16, 16
 def control_layout(n: int, m: int, k: int) -> dict[str, tuple[int, int]]:
     """``{name: (start, stop)}`` of the buffer of a step with n joints, m task rows and k
     point coordinates (module docstring); ``"size"`` gives its length."""
-    sizes = (
-        ("qdot", n), ("iout", NI), ("fout", NF), ("sout", NS), ("axes", n), ("axf", n),
-        ("lvals", N_FLAGS), ("lsrc", N_FLAGS), ("svals", N_FLAGS), ("ssrc", N_FLAGS),
-        ("e", k), ("e1", m), ("J1", m * n), ("L", 6 * k),
-    )  # fmt: skip
+    names = "qdot iout fout sout axes axf lvals lsrc svals ssrc e e1 J1 L".split()
+    lengths = (n, NI, NF, NS, n, n, N_FLAGS, N_FLAGS, N_FLAGS, N_FLAGS, k, m, m * n, 6 * k)
+    sizes = zip(names, lengths, strict=True)
     out: dict[str, tuple[int, int]] = {}
     at = 0
     for name, size in sizes:
@@ -80,6 +86,84 @@ def _put(buf: Any, at: int, x: Any) -> int:
 
 
 @kernel
+def task_rows(e: Any, L: Any, C: Any, J: Any) -> Any:
+    """CM01 eq. 25, the one place it is computed: ``(e1, J1)`` with ``e1 = C e`` (m,) and
+    ``J1 = (C L) J`` (m, n), from the error ``e = s − s*`` (k,), the interaction matrix
+    ``L`` (k, 6) and the robot Jacobian ``J = cVe eJe`` (6, n); ``C`` (m, k), or a (0, 0)
+    array for none (``e1 = e``, ``J1 = L J``). Products by BLAS (``np.dot``), as numpy's
+    ``C @ e`` and ``(C @ L) @ J`` on the object path, so both agree to the last bit."""
+    if C.shape[0] == 0:
+        return e.copy(), np.dot(L, J)
+    return np.dot(C, e), np.dot(np.dot(C, L), J)
+
+
+@kernel
+def law_core(q: Any, J1: Any, e1: Any, law: Any, limits: Any, gains: Any, inputs: Any) -> Any:
+    """The input check, the law and its safety layer
+    (:func:`~redservo.kernels.step.law_step`) and the events of both, on ``J1`` (m, n) and
+    ``e1`` (m,); ``q`` (n,); ``law``, ``limits``, ``gains`` as ``law_step`` takes them;
+    ``inputs`` ``(ff, sec, prev, hist)``, each empty when absent.
+
+    Returns:
+        ``(ok, (q̇, iout, fout, axes, axf, vec, sout), (lmask, lvals, lsrc), (smask, svals,
+        ssrc))``; ``ok`` False when an input fails :func:`~redservo.kernels.inputs.inputs_ok`
+        (the law is then not called and the other outputs are empty: the caller takes the
+        object path, whose checks name the input).
+    """
+    ff, sec, prev, _ = inputs
+    if not inputs_ok(J1, e1, q, limits[0], ff, sec, prev):
+        z = e1[:0]
+        zi = np.zeros(0, dtype=np.int64)
+        return False, (z, zi, z, zi, z, z, z), (0, z, zi), (0, z, zi)
+    qdot, iout, fout, axes, axf, vec, sout = law_step(law, limits, gains, J1, e1, q, inputs)
+    lev = law_events(law[0], law[1], e1.shape[0], iout, fout, axes, axf, vec)
+    return True, (qdot, iout, fout, axes, axf, vec, sout), lev, sout_events(sout)
+
+
+@kernel
+def _put_law(buf: Any, out: Any, lev: Any, sev: Any) -> int:
+    """Write :func:`law_core`'s outputs into ``buf`` in the order of :func:`control_layout`
+    (``qdot`` to ``ssrc``); return the next index."""
+    qdot, iout, fout, axes, axf, _, sout = out
+    at = 0
+    for x in (qdot, iout.astype(np.float64), fout, sout):
+        at = _put(buf, at, x)
+    at = _put(buf, at, axes.astype(np.float64))
+    at = _put(buf, at, axf)
+    for x in (lev[1], lev[2].astype(np.float64), sev[1], sev[2].astype(np.float64)):
+        at = _put(buf, at, x)
+    return at
+
+
+@kernel
+def law_into(
+    q: Any, J1: Any, e1: Any, law: Any, limits: Any, gains: Any, inputs: Any, buf: Any
+) -> Any:
+    """:func:`law_core` with its outputs written into ``buf`` (the first parts of
+    :func:`control_layout`, ``qdot`` to ``ssrc``): ``(law mask, safety mask, vec)``, or a law
+    mask of -1 when an input fails the check. What a law object's call runs (one boxed
+    buffer instead of thirteen arrays)."""
+    ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, inputs)
+    if not ok:
+        return -1, 0, e1[:0]
+    _put_law(buf, out, lev, sev)
+    return lev[0], sev[0], out[5]
+
+
+@kernel
+def control_step(
+    q: Any, J: Any, e: Any, L: Any, C: Any, law: Any, limits: Any, gains: Any, inputs: Any
+) -> Any:
+    """The step kernel every loop drives: ``e1``, ``J1`` (:func:`task_rows`, CM01 eq. 25)
+    then :func:`law_core`. Args: ``q`` (n,), ``J`` (6, n), ``e`` (k,), ``L`` (k, 6), ``C``
+    as :func:`task_rows`, the rest as :func:`law_core`. Returns ``(ok, e1, J1, outputs,
+    law events, safety events)`` (:func:`law_core`)."""
+    e1, J1 = task_rows(e, L, C, J)
+    ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, inputs)
+    return ok, e1, J1, out, lev, sev
+
+
+@kernel
 def _measured(
     q: Any,
     J: Any,
@@ -90,70 +174,38 @@ def _measured(
     inputs: Any,
     buf: Any,
 ) -> Any:
-    """The step after the kinematics (module docstring)."""
+    """The Controller's step after the kinematics (module docstring): ``L(s, 1/Ẑ)``, ``e``,
+    then :func:`control_step`, its results written into ``buf``."""
     s, iz, s_star, C = meas
-    law_id, fopt = law[0], law[1]
-    rows = limits[0]
     L = points_interaction(s, iz)
     k = s.shape[0]
     e = np.empty(k)
     for i in range(k):
         e[i] = s[i] - s_star[i]
-    if C.shape[0] == 0:  # no combination matrix: e1 = e, J1 = L J
-        e1 = e.copy()
-        J1 = np.dot(L, J)
-    else:  # BLAS, as numpy's ``C @ e`` and ``(C @ L) @ J`` on the object path
-        e1 = np.dot(C, e)
-        J1 = np.dot(np.dot(C, L), J)
-    m = e1.shape[0]
     ff, sec, prev = inputs
-    if not inputs_ok(J1, e1, q, rows, ff, sec, prev):
+    full = (ff, sec, prev, q[:0])
+    ok, e1, J1, out, lev, sev = control_step(q, J, e, L, C, law, limits, gains, full)
+    if not ok:
         return -1, 0, e[:0]  # the object path raises the error naming the input
-    qdot, iout, fout, axes, axf, vec, sout = law_step(
-        law, limits, gains, J1, e1, q, (ff, sec, prev, q[:0])
-    )
-    lmask, lvals, lsrc = law_events(law_id, fopt, m, iout, fout, axes, axf, vec)
-    smask, svals, ssrc = sout_events(sout)
-    at = 0
-    for x in (qdot, iout.astype(np.float64), fout, sout):
-        at = _put(buf, at, x)
-    at = _put(buf, at, axes.astype(np.float64))
-    at = _put(buf, at, axf)
-    for x in (lvals, lsrc.astype(np.float64), svals, ssrc.astype(np.float64), e, e1):
+    at = _put_law(buf, out, lev, sev)
+    for x in (e, e1):
         at = _put(buf, at, x)
     at = _put(buf, at, J1)
     _put(buf, at, L)
-    return lmask, smask, vec
+    return lev[0], sev[0], out[5]
 
 
 @kernel
-def afma6_control(q: Any, robot: Any, *packs: Any) -> Any:
-    """The Controller's step on the Afma6; ``packs``: ``meas, law, limits, gains, inputs,
-    buf`` (module docstring)."""
-    eMc, cVe, coupling, offset = robot
-    _, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    return _measured(q, J, *packs)
-
-
-@kernel
-def dh_control(q: Any, robot: Any, *packs: Any) -> Any:
-    """The Controller's step on a DH chain (``packs`` as :func:`afma6_control`)."""
-    par, base, flange, standard, eMc, cVe = robot
-    _, J = dh_kinematics(q, par, base, flange, standard, eMc, cVe)
-    return _measured(q, J, *packs)
-
-
-@kernel
-def chain_control(q: Any, robot: Any, *packs: Any) -> Any:
-    """The Controller's step on a chain of fixed transforms and axes (``packs`` as
-    :func:`afma6_control`)."""
-    frames, joints, eMc, cVe = robot
-    _, J = chain_kinematics(q, frames, joints, eMc, cVe)
+def robot_control(q: Any, robot: Any, *packs: Any) -> Any:
+    """The Controller's step on a robot with compiled kinematics (``robot``: the pack of
+    :mod:`redservo.robots.pack`); ``packs``: ``meas, law, limits, gains, inputs, buf``
+    (module docstring)."""
+    _, J = robot_kinematics(q, robot)
     return _measured(q, J, *packs)
 
 
 @kernel
 def given_control(q: Any, J: Any, *packs: Any) -> Any:
     """The Controller's step with the model Jacobian ``J`` (6, n) given by the caller
-    (``packs`` as :func:`afma6_control`)."""
+    (``packs`` as :func:`robot_control`)."""
     return _measured(q, J, *packs)

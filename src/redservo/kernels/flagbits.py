@@ -35,8 +35,10 @@ __all__ = ["N_FLAGS"]
     POSITION_LIMIT_UNAVOIDABLE,
     HORIZON_INFEASIBLE,
     SOLVER_ITERATIONS,
-) = range(20)
-N_FLAGS = 20
+    CAMERA_MOTION_LIMITED,
+    DISTANCE_SHIELD,
+) = range(22)
+N_FLAGS = 22
 
 # -- sources (bits of src[flag]) -----------------------------------------------------------------
 ONLY = 1

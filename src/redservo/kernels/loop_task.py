@@ -15,7 +15,8 @@ Packs (built by :mod:`redservo.campaign.fastloop`; O targets, K task terms, M mo
   ``times``/``w_poses`` (:class:`redservo.scene.Waypoints`, ``w_rot`` its segments'
   world-frame rotation vectors); ``cam`` = (px, py, u0, v0, width, height, margin) in pixels.
 * ``task = (kind (K,), obj (K,), pt (K, 3), aux (K,), m_pts (M, P, 3), m_cnt (M,),
-  m_opt (M, 3), s_star (k,), C (m, k), has_C, depth_scale)``: term j is an image point
+  m_opt (M, 3), s_star (k,), C (m, k), has_C, depth_scale)`` (``C`` a (0, 0) array when
+  ``has_C`` is False): term j is an image point
   (``kind`` :data:`POINT`, ``pt[j]`` in the object frame, 2 rows) or the six moment
   features (:data:`MOMENTS`, 6 rows) of the ``m_cnt[aux[j]]`` points ``m_pts[aux[j]]``
   with ``m_opt[aux[j]] = (a*, Z*, rotation-feature kind)`` (:mod:`redservo.kernels.moments`).
@@ -206,9 +207,11 @@ def error(s: Any, task: Any) -> Any:
 
 
 @kernel
-def loop_task(bMc: Any, J: Any, scene: Any, task: Any, t: float) -> Any:
-    """``(e1, J1, cMw, lost)`` at the camera pose ``bMc`` and time ``t`` (s): the targets'
-    poses, the features, ``e1 = C (s - s*)``, ``J1 = (C L) J``, the image check."""
+def loop_task(bMc: Any, scene: Any, task: Any, t: float) -> Any:
+    """``(e, L, cMw, lost)`` at the camera pose ``bMc`` and time ``t`` (s): the targets'
+    poses, the features ``s``, the error ``e = s − s*`` (k,) and the interaction matrix
+    ``L`` (k, 6), and the image check; ``e1`` and ``J1`` are the step kernel's
+    (:func:`redservo.kernels.control.task_rows`)."""
     bMw, _, vis_pts, vis_cnt, cam, check = (
         scene[0],
         scene[1],
@@ -217,24 +220,17 @@ def loop_task(bMc: Any, J: Any, scene: Any, task: Any, t: float) -> Any:
         scene[4],
         scene[5],
     )
-    C, has_C = task[8], task[9]
     cMw = np.dot(inverse(bMc), bMw)
     cMo = target_poses(cMw, scene, t)
     s, L, ok = measure(cMo, task)
     if not ok:
         return s, L, cMw, True
     e = error(s, task)
-    if has_C:
-        e1 = np.dot(C, e)
-        J1 = np.dot(np.dot(C, L), J)
-    else:
-        e1 = e
-        J1 = np.dot(L, J)
     if check:
         for o in range(cMo.shape[0]):
             if not in_image(cMo[o], np.ascontiguousarray(vis_pts[o, : vis_cnt[o]]), cam):
-                return e1, J1, cMw, True
-    return e1, J1, cMw, False
+                return e, L, cMw, True
+    return e, L, cMw, False
 
 
 @kernel

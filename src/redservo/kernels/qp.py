@@ -304,9 +304,25 @@ def qp_setup(
         (``z`` = the secondary command).
     """
     qdot, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
-        J1, e, q, lp, has_v, has_a, dt, prev, has_prev, sec, has_sec, lam, k_p, margin,
-        v_opt, has_v_opt, rcond, shield,
-    )  # fmt: skip
+        J1,
+        e,
+        q,
+        lp,
+        has_v,
+        has_a,
+        dt,
+        prev,
+        has_prev,
+        sec,
+        has_sec,
+        lam,
+        k_p,
+        margin,
+        v_opt,
+        has_v_opt,
+        rcond,
+        shield,
+    )
     eps_abs = eps * smax * smax if smax > 0.0 else eps
     z = sec if has_sec else np.zeros(q.shape[0])
     x, free, _, _, _, lof, hif, P, c = bls_reduce(J1, xdot, lo, hi, z, eps_abs)

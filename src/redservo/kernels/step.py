@@ -1,6 +1,6 @@
 """One law call and its safety layer in compiled code, the law chosen by an id.
 
-:func:`law_step` (with the task kernels of :mod:`redservo.kernels.tasks`) is what a batched
+:func:`law_step` (driven by the step kernel, :mod:`redservo.kernels.control`) is what a batched
 closed loop calls for each sample (the simulator's ``simulate`` runs the same kernels one
 object at a time). A law is selected by its id
 (:data:`LAW_IDS`) and its options are packed by
@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.directional import directional, wln
 from redservo.kernels.events import (
     classical_events,
     directional_events,
@@ -39,130 +38,37 @@ from redservo.kernels.events import (
     sns_events,
     wln_events,
 )
-from redservo.kernels.iterative import iterative
+from redservo.kernels.law_dispatch import (
+    F_SNS_SCALE,
+    I_SNS_BAD,
+    I_SNS_RESTORED,
+    LAW_IDS,
+    raw_law,
+)
 from redservo.kernels.lawopts import (
     F_CON_FILTER,
-    F_CON_RCOND,
-    F_DIR_MARGIN,
-    F_E0,
-    F_E1,
     F_GAIN,
-    F_KAPPA,
-    F_LAMBDA_TUNE,
     F_P_FILTER,
     F_RCOND,
-    F_RHO,
-    F_RHO1,
     F_ROBUST,
-    F_SNS_MARGIN,
-    I_AUTO_ROBUST,
-    I_CURRENT,
     I_FIRST,
-    I_HAS_A,
-    I_HAS_V,
-    I_HISTORY,
-    I_JOINT_FORCE,
-    I_LEVELS,
-    I_PROJECTOR,
     I_SHIELD,
-    I_SMOOTH,
-    V_AMAX,
-    V_VMAX,
 )
-from redservo.kernels.laws import classical, gpm, gpm_auto, new_outputs
-from redservo.kernels.projection import large_projection
+from redservo.kernels.laws import classical
 from redservo.kernels.safety import apply_safety
-from redservo.kernels.sns import sns
 
-__all__ = ["I_SNS_BAD", "LAW_IDS", "law_events", "law_step", "sout_events", "step_events"]
+__all__ = [
+    "I_SNS_BAD",
+    "LAW_IDS",
+    "law_events",
+    "law_raw",
+    "law_step",
+    "sout_events",
+    "step_events",
+]
 
-LAW_IDS: dict[str, int] = {
-    "classical": 0,
-    "gpm": 1,
-    "gpm-auto": 2,
-    "iterative-basic": 3,
-    "iterative": 4,
-    "iterative-smooth": 5,
-    "iterative-smooth-e2": 6,
-    "directional": 7,
-    "wln": 8,
-    "sns": 9,
-    "large-projection": 10,
-}
-"""Methods with a fully compiled step, and their ids."""
 NS = 11
-I_SNS_RESTORED, I_SNS_BAD, F_SNS_SCALE = 5, 6, 2
-"""Where :func:`law_step` packs ``sns``'s restored flag, infeasible joint and task scale."""
-
-
-@kernel
-def _raw_law(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, e: Any, q: Any, io: Any) -> Any:
-    """The raw command of law ``law_id``, its options read from their slots
-    (:mod:`redservo.kernels.lawopts`); ``io`` the optional inputs with their flags."""
-    law_id, fopt, iopt, _ = law
-    lp = limits[0]
-    lam, dt = gains
-    ff, has_ff, sec, has_sec, _, _, hist, has_hist = io
-    rc = fopt[F_RCOND]
-    rb = fopt[F_ROBUST]
-    if law_id == 0:
-        return classical(J1, e, lam, sec, has_sec, rc, rb)
-    if law_id == 1:
-        return gpm(J1, e, q, lp, lam, sec, has_sec, fopt[F_GAIN], rc, rb)
-    if law_id == 2:
-        current, robust = iopt[I_CURRENT] != 0, iopt[I_AUTO_ROBUST] != 0
-        amax = fopt[F_GAIN]
-        return gpm_auto(J1, e, q, lp, lam, dt, sec, has_sec, amax, current, rc, rb, robust)
-    if law_id >= 3 and law_id <= 6:
-        smooth, levels = iopt[I_SMOOTH] != 0, iopt[I_LEVELS]
-        con_rcond, con_filter = fopt[F_CON_RCOND], fopt[F_CON_FILTER]
-        return iterative(
-            J1, e, q, lp, lam, dt, sec, has_sec, smooth, fopt[F_GAIN], levels, rc, rb,
-            con_rcond, con_filter,
-        )  # fmt: skip
-    if law_id == 7:
-        kappa, force, mu = fopt[F_KAPPA], iopt[I_JOINT_FORCE] != 0, fopt[F_DIR_MARGIN]
-        return directional(
-            J1, e1, e, ff, has_ff, q, lp, lam, dt, sec, has_sec, kappa, force, mu, rc, rb
-        )
-    if law_id == 8:
-        history = iopt[I_HISTORY] != 0
-        return wln(J1, e, q, lp, lam, sec, has_sec, history, hist, has_hist, rc, rb, 1e-9)
-    if law_id == 9:
-        return _sns(law, limits, gains, J1, e, q, io)
-    return large_projection(
-        J1, e1, e, q, lp, lam, sec, has_sec, fopt[F_E0], fopt[F_E1], iopt[I_PROJECTOR],
-        fopt[F_RHO], fopt[F_RHO1], fopt[F_LAMBDA_TUNE], rc, rb, fopt[F_P_FILTER],
-    )  # fmt: skip
-
-
-@kernel
-def _sns(law: Any, limits: Any, gains: Any, J1: Any, e: Any, q: Any, io: Any) -> Any:
-    """``sns`` with its outputs repacked in the common layout of :mod:`redservo.kernels.laws`
-    (rank, free null-space dimension, iterations, scale < 1, restored, infeasible joint)."""
-    _, fopt, iopt, vopt = law
-    lp, has_v, has_a = limits
-    lam, dt = gains
-    _, _, sec, has_sec, prev, has_prev, _, _ = io
-    out = sns(
-        J1, e, q, lp, has_v, has_a, lam, dt, prev, has_prev, sec, has_sec, vopt[V_VMAX],
-        iopt[I_HAS_V] != 0, vopt[V_AMAX], iopt[I_HAS_A] != 0, fopt[F_SNS_MARGIN],
-        fopt[F_RCOND], iopt[I_SHIELD] != 0,
-    )  # fmt: skip
-    n = q.shape[0]
-    qdot, iout, fout, axes, axf, vec = new_outputs(n, 0)
-    for i in range(n):
-        qdot[i] = out[0][i]
-        axes[i] = 1 if out[2][i] else 0
-    iout[0] = out[7]
-    iout[2] = out[4]
-    iout[3] = out[3]
-    iout[4] = 1 if out[1] < 1.0 else 0
-    iout[I_SNS_RESTORED] = 1 if out[5] else 0
-    iout[I_SNS_BAD] = out[9]
-    fout[F_SNS_SCALE] = out[1]
-    fout[3] = out[6]
-    return qdot, iout, fout, axes, axf, vec
+"""Length of the safety numbers ``sout`` of :func:`law_step`."""
 
 
 @kernel
@@ -172,6 +78,36 @@ def _given(x: Any, n: int) -> Any:
     if x.shape[0] > 0:
         return x, True
     return np.zeros(n), False
+
+
+@kernel
+def _prepared(gains: Any, e1: Any, q: Any, inputs: Any) -> Any:
+    """``(e, io)``: the effective error ``e = e1 + ff/λ`` (CM01 eq. 2) and the optional
+    inputs ``(ff, sec, prev, hist)`` (empty when absent) with their flags, as the law
+    kernels take them."""
+    n = q.shape[0]
+    m = e1.shape[0]
+    ff_in, sec_in, prev_in, hist_in = inputs
+    ff, has_ff = _given(ff_in, m)
+    sec, has_sec = _given(sec_in, n)
+    prev, has_prev = _given(prev_in, n)
+    hist, has_hist = _given(hist_in, n)
+    lam = gains[0]
+    e = np.empty(m)
+    for i in range(m):
+        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # effective error, CM01 eq. 2
+    return e, (ff, has_ff, sec, has_sec, prev, has_prev, hist, has_hist)
+
+
+@kernel
+def law_raw(law: Any, limits: Any, gains: Any, J1: Any, e1: Any, q: Any, inputs: Any) -> Any:
+    """The law's raw command, before the safety layer, and its events (arguments as
+    :func:`law_step`): ``(q̇, iout, fout, axes, axf, vec, mask, vals, src)``; what a law
+    object's :meth:`~redservo.redundancy.Law.compute` returns for secondary-first scaling."""
+    e, io = _prepared(gains, e1, q, inputs)
+    qdot, iout, fout, axes, axf, vec = raw_law(law, limits, gains, J1, e1, e, q, io)
+    mask, vals, src = law_events(law[0], law[1], e1.shape[0], iout, fout, axes, axf, vec)
+    return qdot, iout, fout, axes, axf, vec, mask, vals, src
 
 
 @kernel
@@ -190,21 +126,12 @@ def law_step(
     ``gains`` ``(λ, dt)``; ``inputs`` ``(ff, sec, prev, hist)``: the feed-forward (m,), the
     secondary command (n,), the previous command (n,) and ``wln``'s history (n,), each an
     empty array when absent."""
-    n = q.shape[0]
-    m = e1.shape[0]
-    ff_in, sec_in, prev_in, hist_in = inputs
-    ff, has_ff = _given(ff_in, m)
-    sec, has_sec = _given(sec_in, n)
-    prev, has_prev = _given(prev_in, n)
-    hist, has_hist = _given(hist_in, n)
     lam, dt = gains
     _, fopt, iopt, _ = law
     lp, has_v, has_a = limits
-    e = np.empty(m)
-    for i in range(m):
-        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # effective error, CM01 eq. 2
-    io = (ff, has_ff, sec, has_sec, prev, has_prev, hist, has_hist)
-    qdot, iout, fout, axes, axf, vec = _raw_law(law, limits, gains, J1, e1, e, q, io)
+    e, io = _prepared(gains, e1, q, inputs)
+    _, _, sec, _, prev, has_prev, _, _ = io
+    qdot, iout, fout, axes, axf, vec = raw_law(law, limits, gains, J1, e1, e, q, io)
     task = qdot
     first = iopt[I_FIRST] != 0
     if first:
@@ -269,9 +196,16 @@ def sout_events(sout: Any) -> Any:
     """``(mask, vals, src)`` of the safety layer from the numbers ``sout`` of
     :func:`law_step`."""
     return safety_events(
-        int(sout[0]), sout[1], sout[2] != 0, sout[3] != 0, sout[4], sout[5] != 0, sout[6],
-        sout[7] != 0, sout[9],
-    )  # fmt: skip
+        int(sout[0]),
+        sout[1],
+        sout[2] != 0,
+        sout[3] != 0,
+        sout[4],
+        sout[5] != 0,
+        sout[6],
+        sout[7] != 0,
+        sout[9],
+    )
 
 
 @kernel

@@ -48,9 +48,16 @@ class SimulationLog:
     gamma: FloatArray
     scale: FloatArray
     flags: FloatArray | None = None
+    min_distance: FloatArray | None = None
+    """(N,) the smallest distance (m) over the collision pairs at each step (NaN: not
+    measured, no obstacle and no self pair)."""
+    closest_pair: FloatArray | None = None
+    """(N,) index into :attr:`pair_names` of the pair at :attr:`min_distance` (-1: none)."""
     diagnostics: list[Diagnostics] = field(default_factory=list, repr=False)
     joint_names: tuple[str, ...] = ()
     feature_names: tuple[str, ...] = ()
+    pair_names: tuple[str, ...] = ()
+    """The closest pairs met, ``"link/obstacle"`` or ``"link/link"``."""
 
     _ARRAYS = (
         "t",
@@ -71,11 +78,17 @@ class SimulationLog:
         "gamma",
         "scale",
         "flags",
+        "min_distance",
+        "closest_pair",
     )
 
     def __post_init__(self) -> None:
         if self.flags is None:
             self.flags = np.full((len(self), len(FLAGS)), np.nan)
+        if self.min_distance is None:
+            self.min_distance = np.full(len(self), np.nan)
+        if self.closest_pair is None:
+            self.closest_pair = np.full(len(self), -1.0)
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -96,12 +109,13 @@ class SimulationLog:
             "joint_names": np.array(self.joint_names),
             "feature_names": np.array(self.feature_names),
             "flag_names": np.array([f.label for f in FLAGS]),
+            "pair_names": np.array(self.pair_names, dtype=str),
         }
         np.savez_compressed(path, **data)
 
     def save_csv(self, path: str | Path) -> None:
         """Save one row per iteration; vector columns are split as ``name[i]`` (0-based),
-        flags as ``flag.<label>``."""
+        flags as ``flag.<label>``, the closest pair by its name (empty: none)."""
         cols: list[str] = []
         blocks: list[FloatArray] = []
         for name, arr in self.arrays().items():
@@ -114,11 +128,15 @@ class SimulationLog:
                 cols.extend(f"{name}[{i}]" for i in range(a.shape[1]))
             blocks.append(a.astype(float))
         table = np.hstack(blocks) if blocks else np.zeros((0, 0))
+        pair = cols.index("closest_pair")
+        names = (*self.pair_names, "")  # index -1: no pair
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(cols)
             for row in table:
-                w.writerow([f"{v:.10g}" for v in row])
+                cells = [f"{v:.10g}" for v in row]
+                cells[pair] = names[int(row[pair])]
+                w.writerow(cells)
 
 
 class LogBuffer:
@@ -137,6 +155,7 @@ class LogBuffer:
         self.capacity = capacity
         self.rows = 0
         self.diagnostics: list[Diagnostics] = []
+        self.pairs: list[str] = []
         first = self._FIRST if capacity is None else min(capacity, self._FIRST)
         self.buf = self._alloc(first, n, k, m)
 
@@ -161,6 +180,8 @@ class LogBuffer:
             "gamma": np.zeros((N, n)),
             "scale": np.full(N, np.nan),
             "flags": np.full((N, len(FLAGS)), np.nan),
+            "min_distance": np.full(N, np.nan),
+            "closest_pair": np.full(N, -1.0),
         }
 
     def _grow(self) -> None:
@@ -183,9 +204,11 @@ class LogBuffer:
         state: TaskState,
         lim: JointLimits,
         d: Diagnostics,
+        closest: tuple[float, str] | None = None,
     ) -> None:
         """Record one iteration: time (s), joints, the command, the camera twist, the task
-        state the law saw, and the law's diagnostics."""
+        state the law saw, the law's diagnostics and, when measured, the smallest collision
+        distance (m) and its pair."""
         if self.rows == self.buf["t"].shape[0]:
             self._grow()
         buf, i = self.buf, self.rows
@@ -214,6 +237,11 @@ class LogBuffer:
             j = _FLAG_INDEX[ev.flag]
             if np.isnan(buf["flags"][i, j]):
                 buf["flags"][i, j] = ev.value if np.isfinite(ev.value) else 1.0
+        if closest is not None and closest[1]:
+            if closest[1] not in self.pairs:
+                self.pairs.append(closest[1])
+            buf["min_distance"][i] = closest[0]
+            buf["closest_pair"][i] = self.pairs.index(closest[1])
         self.diagnostics.append(d)
         self.rows = i + 1
 
@@ -225,4 +253,5 @@ class LogBuffer:
             diagnostics=self.diagnostics,
             joint_names=joint_names,
             feature_names=feature_names,
+            pair_names=tuple(self.pairs),
         )

@@ -30,7 +30,13 @@ __all__ = [
 ]
 
 Outcome = Literal[
-    "converged", "joint_limit", "max_iterations", "target_lost", "occluded", "feature_lost"
+    "converged",
+    "joint_limit",
+    "max_iterations",
+    "target_lost",
+    "occluded",
+    "feature_lost",
+    "collision",
 ]
 OUTCOMES: tuple[Outcome, ...] = (
     "converged",
@@ -39,6 +45,7 @@ OUTCOMES: tuple[Outcome, ...] = (
     "target_lost",
     "occluded",
     "feature_lost",
+    "collision",
 )
 SUCCESS_MARGIN = 0.01
 """Smallest distance of every joint to its real limits, fraction of the joint's range, for a run
@@ -97,6 +104,13 @@ class RunSummary(Mapping[str, Any]):
     discontinuity: float
     flags: dict[str, FlagCount] = field(default_factory=dict)
     """For each flag raised: (count of steps, first iteration)."""
+    min_distance: float | None = None
+    """Smallest distance (m) between a link and an obstacle or another link over the run,
+    the contact that ended a ``collision`` run included; None when none was measured."""
+    closest_pair: str | None = None
+    """The pair at :attr:`min_distance` (``"link/obstacle"`` or ``"link/link"``), or None."""
+    collision: dict[str, Any] | None = None
+    """``{"pair", "distance" (m, <= 0), "iteration"}`` of the contact that ended the run."""
 
     def __getitem__(self, key: str) -> Any:
         if key not in _FIELDS:
@@ -154,6 +168,7 @@ def summarize(
     *,
     dt: float | None = None,
     min_margin: float = SUCCESS_MARGIN,
+    collision: dict[str, Any] | None = None,
 ) -> RunSummary:
     """Return the typed run summary (module docstring for ``success``).
 
@@ -164,6 +179,7 @@ def summarize(
         limit_hit: ``{"axis", "iteration"}`` (0-based) of a limit crossing, or None.
         dt: Control period (s) for the acceleration check (default: from ``log.t``).
         min_margin: Required margin for success, fraction of each range.
+        collision: ``{"pair", "distance", "iteration"}`` of a contact that ended the run.
     """
     n = limits.n
     if dt is None:
@@ -208,7 +224,24 @@ def summarize(
         max_camera_speed=max_cam,
         discontinuity=disc,
         flags=flags,
+        **_closest(log, collision),
+        collision=collision,
     )
+
+
+def _closest(log: SimulationLog, hit: dict[str, Any] | None) -> dict[str, Any]:
+    """``min_distance`` and ``closest_pair`` of the summary from the log and the contact."""
+    d = log.min_distance
+    best: tuple[float, str] | None = None
+    if d is not None and log.closest_pair is not None and np.any(~np.isnan(d)):
+        i = int(np.nanargmin(d))
+        best = (float(d[i]), log.pair_names[int(log.closest_pair[i])])
+    if hit is not None and (best is None or hit["distance"] < best[0]):
+        best = (float(hit["distance"]), str(hit["pair"]))
+    return {
+        "min_distance": None if best is None else best[0],
+        "closest_pair": None if best is None else best[1],
+    }
 
 
 def flag_warnings(summary: RunSummary | Mapping[str, Any]) -> list[str]:

@@ -44,8 +44,14 @@ def failure_reasons(summary: Mapping[str, Any], joints: Sequence[str] = ()) -> l
         return []
     out: list[str] = []
     outcome = str(summary.get("outcome", ""))
+    hit = summary.get("collision")
     if outcome == "joint_limit":
         out.append(_limit_text(summary, joints))
+    elif outcome == "collision" and hit:
+        out.append(
+            f"{hit['pair']} collided at iteration {hit['iteration']} "
+            f"({-float(hit['distance']) * 1000:.2f} mm deep)"
+        )
     elif outcome in _ENDINGS:
         out.append(_ENDINGS[outcome].format(iterations=summary.get("iterations", "?")))
     elif outcome != "converged":

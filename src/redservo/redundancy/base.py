@@ -209,6 +209,31 @@ class Law(abc.ABC):
             (("i", I_FIRST), first),
         )
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        """Set an attribute; setting a public one (an option) drops the options packed for
+        the step kernel (:mod:`redservo.redundancy.kernel_call`), so they are packed anew."""
+        if not name.startswith("_"):
+            self.__dict__.pop("_kernel_pack", None)
+        object.__setattr__(self, name, value)
+
+    @property
+    def _kernel_step(self) -> bool:
+        """True when this law's call runs through the step kernel
+        (:mod:`redservo.redundancy.kernel_call`): a shipped law with a compiled step and a
+        ``diagnose`` method, not a subclass (which may compute otherwise)."""
+        cls = type(self)
+        hit = _KERNEL_STEP.get(cls)
+        if hit is None:
+            from redservo.kernels.step import LAW_IDS
+
+            hit = _KERNEL_STEP[cls] = (
+                hasattr(cls, "diagnose")
+                and cls.name in LAW_IDS
+                and _REGISTRY.get(cls.name) is cls
+                and cls.__module__.startswith("redservo.redundancy.")
+            )
+        return hit
+
     def _setup(self) -> None:  # noqa: B027 - optional hook
         """Checks across options and state, after the options are set (default: none)."""
 
@@ -285,10 +310,12 @@ class Law(abc.ABC):
             secondary=secondary,
             qdot_prev=qdot_prev,
         )
-        if self.scaling == "uniform":
-            done = self._compute_safe(x)
+        if self.scaling == "uniform" and self._kernel_step:
+            from redservo.redundancy.kernel_call import kernel_call
+
+            done = kernel_call(self, x)
             if done is not None:
-                return done
+                return LawResult(*done)
         result = self.compute(x)
         task = self.task_command(x) if self.scaling == "secondary-first" else None
         safe = apply_safety(
@@ -314,12 +341,6 @@ class Law(abc.ABC):
         """The primary-task part of the command, ``-λ J1⁺ e_eff`` (for secondary-first scaling)."""
         return np.asarray(-x.lam * (self.svd(x.J1).pinv @ x.e_eff))
 
-    def _compute_safe(self, x: LawInputs) -> LawResult | None:
-        """The safe command of :meth:`compute` followed by the safety stage with uniform
-        scaling in one compiled call, bit for bit what :meth:`__call__` would return, or
-        None (the default) to take that path. A law overrides it only when it can."""
-        return None
-
     @abc.abstractmethod
     def compute(self, x: LawInputs) -> LawResult:
         """Compute the raw command from validated inputs (implemented by each law)."""
@@ -343,6 +364,8 @@ if [f.name for f in fields(Diagnostics)][-2:] != ["events", "info"]:  # pragma: 
 # -- registry ------------------------------------------------------------------------------------
 
 _REGISTRY: dict[str, type[Law]] = {}
+_KERNEL_STEP: dict[type[Law], bool] = {}
+"""Per law class, whether its call runs through the step kernel (:attr:`Law._kernel_step`)."""
 L = TypeVar("L", bound=type[Law])
 
 

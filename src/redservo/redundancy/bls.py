@@ -12,7 +12,7 @@ the bounds. Each fallback is named in the returned note; nothing here raises.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,7 +20,10 @@ from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.redundancy.linalg import DEFAULT_RCOND
 
-_K = lazy("qp")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import qp as _K
+else:
+    _K = lazy("qp")
 
 __all__ = [
     "PREFERRED_QP_SOLVERS",

@@ -89,7 +89,7 @@ Decisions (docs/formulas.md §8; recorded for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -100,19 +100,20 @@ from redservo.kernels import lazy
 from redservo.kernels.lawopts import F_DIR_MARGIN, F_KAPPA, I_JOINT_FORCE
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event
+from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     I_PROJ,
     I_RANK,
     LawOutputs,
-    kernel_inputs,
-    optional,
     task_context,
 )
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("directional")
-_KC = lazy("calls")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import directional as _K
+else:
+    _K = lazy("directional")
 _I_FREED, _I_CLIPPED, _I_BLOCKED, _I_ANY_Z = 5, 6, 7, 8
 """Outputs of :func:`redservo.kernels.directional.directional` (layout documented there)."""
 _NONE: FloatArray = np.zeros(0)
@@ -265,16 +266,9 @@ class Directional(Law):
     margin: float
 
     def compute(self, x: LawInputs) -> LawResult:
-        m = x.J1.shape[0]
-        k = kernel_inputs(x)
-        ff, has_ff = optional(x.de1_dt, m)
-        qdot, iout, fout, axes, mask, vals, src = _KC.directional_call(
-            k.J1, np.ascontiguousarray(x.e1), k.e, ff, has_ff, k.q, k.lp, x.lam, x.dt, k.sec,
-            k.has_sec, self.kappa, self.use_joint_limits, self.margin, self.rcond,
-            self.filter_threshold,
-        )  # fmt: skip
-        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
-        return LawResult(qdot, self.diagnose(m, out))
+        """The raw command and diagnostics: the law kernel of the step kernel
+        (:func:`~redservo.redundancy.kernel_call.kernel_compute`)."""
+        return LawResult(*kernel_compute(self, x))
 
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to

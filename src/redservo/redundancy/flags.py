@@ -67,6 +67,13 @@ class Flag(enum.Enum):
     SOLVER_ITERATIONS = "solver-iterations"
     """``predictive``: the QP solver hit its iteration limit (or the solve its time budget);
     the fallback law's command was used [iterations, or the solve time in s]."""
+    CAMERA_MOTION_LIMITED = "camera-motion-limited"
+    """The camera-motion limit (:class:`redservo.control.ImageMotionLimit`) scaled the command
+    down so that no image point moves further between two frames than the tracker follows,
+    nor smears more than the detector tolerates [the scale, in (0, 1)]."""
+    DISTANCE_SHIELD = "distance-shield-acted"
+    """The distance shield (:mod:`redservo.control.avoidance`) scaled the command so that no
+    collision pair comes closer than ``d_safe`` within one period [the scale in [0, 1)]."""
 
     @property
     def label(self) -> str:

@@ -54,7 +54,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -64,12 +64,12 @@ from redservo.kernels import lazy
 from redservo.kernels.lawopts import F_GAIN, I_AUTO_ROBUST, I_CURRENT
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event
+from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     F_ALPHA,
     I_PROJ,
     I_RANK,
     LawOutputs,
-    kernel_inputs,
     task_context,
 )
 from redservo.redundancy.linalg import TaskSVD
@@ -90,10 +90,10 @@ secondary motion ``α g`` is at most ``1/ALPHA_FILTER`` times the motion ``|w_k|
 
 _NONE: FloatArray = np.zeros(0)
 """An output a law's kernel does not have."""
-_K = lazy("laws")
-_KE = lazy("events")
-_KL = lazy("linalg")
-_KC = lazy("calls")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import linalg as _KL
+else:
+    _KL = lazy("linalg")
 
 
 def null_project(svd: TaskSVD, v: FloatArray) -> FloatArray:
@@ -123,13 +123,9 @@ class GradientProjection(Law):
     alpha: float
 
     def compute(self, x: LawInputs) -> LawResult:
-        k = kernel_inputs(x)
-        qdot, iout, fout, axes, mask, vals, src = _KC.gpm_call(
-            k.J1, k.e, k.q, k.lp, x.lam, k.sec, k.has_sec, self.alpha, self.rcond,
-            self.filter_threshold,
-        )  # fmt: skip
-        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
-        return LawResult(qdot, self.diagnose(x.J1.shape[0], out))
+        """The raw command and diagnostics: the law kernel of the step kernel
+        (:func:`~redservo.redundancy.kernel_call.kernel_compute`)."""
+        return LawResult(*kernel_compute(self, x))
 
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
@@ -195,27 +191,9 @@ class GradientProjectionAuto(Law):
         return (*super().packed_extras(), (("i", I_AUTO_ROBUST), int(self.robust)))
 
     def compute(self, x: LawInputs) -> LawResult:
-        k = kernel_inputs(x)
-        qdot, iout, fout, _, cand, _ = _K.gpm_auto(
-            k.J1,
-            k.e,
-            k.q,
-            k.lp,
-            x.lam,
-            x.dt,
-            k.sec,
-            k.has_sec,
-            np.inf if self.alpha_max is None else self.alpha_max,
-            self.critical_rule == "current",
-            self.rcond,
-            self.filter_threshold,
-            self.robust,
-        )
-        m, n = x.J1.shape
-        cap = np.inf if self.alpha_max is None else self.alpha_max
-        mask, vals, src = _KE.gpm_auto_events(m, n, iout, cand, self.filter_threshold, cap)
-        out = LawOutputs(iout, fout, _NONE, cand, _NONE, mask, vals, src)
-        return LawResult(qdot, self.diagnose(m, out))
+        """The raw command and diagnostics: the law kernel of the step kernel
+        (:func:`~redservo.redundancy.kernel_call.kernel_compute`)."""
+        return LawResult(*kernel_compute(self, x))
 
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to

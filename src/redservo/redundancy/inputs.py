@@ -8,7 +8,7 @@ finiteness, real values, gains, and that ``q`` lies within the limits; units as 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,7 +20,10 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 
-_K = lazy("inputs")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import inputs as _K
+else:
+    _K = lazy("inputs")
 _F64 = np.dtype(np.float64)
 _EMPTY = np.empty(0)
 

@@ -96,7 +96,7 @@ Decisions (the paper is ambiguous or silent; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -108,13 +108,13 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event
+from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     I_ITER,
     I_OVER,
     I_PROJ,
     I_RANK,
     LawOutputs,
-    kernel_inputs,
     levels,
     optional,
     task_context,
@@ -136,9 +136,12 @@ CONSTRAINT_FILTER = 1e-2
 """Absolute filter threshold of the robust constraint inverse (``robust=True``): each
 level's null-space motion is at most 100x its right-hand side."""
 
-_K = lazy("iterative")
-_KE = lazy("events")
-_KC = lazy("calls")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import iterative as _K
+else:
+    _K = lazy("iterative")
+    _KE = lazy("events")
 _I_NCON, _I_NA, _F_MIN_SIGMA = 5, 6, 3
 """Outputs of :func:`redservo.kernels.iterative.iterative` (layout documented there)."""
 
@@ -271,27 +274,9 @@ class _IterativeLaw(Law):
         return (*super().packed_extras(), *extras)
 
     def compute(self, x: LawInputs) -> LawResult:
-        k = kernel_inputs(x)
-        robust = CONSTRAINT_FILTER if self.robust else 0.0
-        qdot, iout, fout, axes, gamma, vec, mask, vals, src = _KC.iterative_call(
-            k.J1,
-            k.e,
-            k.q,
-            k.lp,
-            x.lam,
-            x.dt,
-            k.sec,
-            k.has_sec,
-            self.smooth,
-            self.alpha if self.with_e2 else 0.0,
-            -1 if self.max_levels is None else self.max_levels,
-            self.rcond,
-            self.filter_threshold,
-            self.rcond if self.constraint_rcond is None else self.constraint_rcond,
-            robust,
-        )
-        out = LawOutputs(iout, fout, axes, gamma, vec, mask, vals, src)
-        return LawResult(qdot, self.diagnose(x.J1.shape[0], out))
+        """The raw command and diagnostics: the law kernel of the step kernel
+        (:func:`~redservo.redundancy.kernel_call.kernel_compute`)."""
+        return LawResult(*kernel_compute(self, x))
 
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to

@@ -8,7 +8,7 @@ integer and float outputs (layout in :mod:`redservo.kernels.laws`) back into a
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +17,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels.lawopts import NF, NI
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Law, LawInputs
+
+if TYPE_CHECKING:
+    from redservo.redundancy.base import Law, LawInputs
 
 __all__ = [
     "I_FILTERED",
@@ -30,6 +32,7 @@ __all__ = [
     "law_options",
     "levels",
     "optional",
+    "pack_options",
     "task_context",
 ]
 
@@ -147,6 +150,13 @@ def law_options(law: Law, n: int) -> LawOptions:
             f"method {name!r} has no compiled step; compiled methods: {', '.join(LAW_IDS)}",
             argument="method",
         )
+    return pack_options(law, n, LAW_IDS[name])
+
+
+def pack_options(law: Law, n: int, law_id: int) -> LawOptions:
+    """``law``'s options in the slots of the law kernel ``law_id`` (no check that the law
+    is that kernel's: :func:`law_options` checks it for the engine; a subclass of a shipped
+    law calling its parent's ``compute`` packs its options for its parent's kernel)."""
     f = np.zeros(NF)
     i = np.zeros(NI, dtype=np.int64)
     v = np.full((2, n), np.inf)
@@ -158,4 +168,4 @@ def law_options(law: Law, n: int) -> LawOptions:
             i[index] = value
         elif value is not None:
             v[index] = np.broadcast_to(value, (n,))
-    return LawOptions(LAW_IDS[name], f, i, np.ascontiguousarray(v))
+    return LawOptions(law_id, f, i, np.ascontiguousarray(v))

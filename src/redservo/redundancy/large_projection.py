@@ -60,7 +60,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -80,20 +80,22 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.flags import Event
+from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     F_ALPHA,
     I_PROJ,
     I_RANK,
     LawOutputs,
-    kernel_inputs,
     task_context,
 )
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("projection")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import projection as _K
+else:
+    _K = lazy("projection")
 _I_DEGENERATE = 5
 _MODES = {"switched": 0, "norm": 1, "classical": 2}
 _NONE: FloatArray = np.zeros(0)
@@ -338,31 +340,9 @@ class LargeProjection(Law):
         return (*super().packed_extras(), (("f", F_P_FILTER), P_FILTER if self.robust else 0.0))
 
     def compute(self, x: LawInputs) -> LawResult:
-        m, n = x.J1.shape
-        k = kernel_inputs(x)
-        qdot, iout, fout, axes, _, _ = _K.large_projection(
-            k.J1,
-            np.ascontiguousarray(x.e1),
-            k.e,
-            k.q,
-            k.lp,
-            x.lam,
-            k.sec,
-            k.has_sec,
-            self.e0,
-            self.e1,
-            _MODES[self.projector],
-            self.rho,
-            self.rho1,
-            self.lambda_tune,
-            self.rcond,
-            self.filter_threshold,
-            P_FILTER if self.robust else 0.0,
-        )
-        thr, pf = self.filter_threshold, P_FILTER if self.robust else 0.0
-        mask, vals, src = _KE.large_projection_events(m, n, iout, axes, thr, pf)
-        out = LawOutputs(iout, fout, axes, _NONE, _NONE, mask, vals, src)
-        return LawResult(qdot, self.diagnose(m, out))
+        """The raw command and diagnostics: the law kernel of the step kernel
+        (:func:`~redservo.redundancy.kernel_call.kernel_compute`)."""
+        return LawResult(*kernel_compute(self, x))
 
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to

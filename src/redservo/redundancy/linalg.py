@@ -20,7 +20,7 @@ and so the null-space basis E, are unchanged.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -41,7 +41,10 @@ DEFAULT_RCOND = 1e-8
 ROBUST_FILTER = 1e-3
 """Relative threshold ε of the robust task inverse: the amplification is at most ``1/ε``."""
 
-_K = lazy("linalg")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import linalg as _K
+else:
+    _K = lazy("linalg")
 
 
 def filtered_reciprocal(sigma: FloatArray, threshold: float) -> FloatArray:

@@ -105,6 +105,11 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         "{fallback} command used",
         fb.BY_TIME_BUDGET: "solve took {v:.3g} s, over the time budget: {fallback} command used",
     },
+    Flag.CAMERA_MOTION_LIMITED: {
+        fb.ONLY: "command scaled by {v:.3g}: the fastest image point would move {motion_px:.3g} px "
+        "between two frames (limit {limit_px:.3g} px)",
+    },
+    Flag.DISTANCE_SHIELD: {fb.ONLY: "distance shield scaled q̇ by {v:.3g}"},
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 

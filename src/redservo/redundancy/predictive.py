@@ -50,10 +50,10 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.errors import ConfigurationError
 from redservo.kernels import flagbits as fb
 from redservo.limits import JointLimits
 from redservo.redundancy.base import (
-    RCOND,
     Diagnostics,
     Law,
     LawInputs,
@@ -63,19 +63,27 @@ from redservo.redundancy.base import (
 )
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.flags import FLAGS
-from redservo.redundancy.options import Option
-from redservo.redundancy.predictive_budget import Deadline, fallback_result, warm_up
+from redservo.redundancy.predictive_budget import LOOP_SHARE, Deadline, fallback_result, warm_up
+from redservo.redundancy.predictive_camera import (
+    MotionGain,
+    MotionLimit,
+    limited,
+    motion_rows,
+)
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
     PointModel,
     Prediction,
+    SeenJoints,
     build_qp,
     horizon,
     local_prediction,
     point_model,
 )
 from redservo.redundancy.predictive_moments import MomentModel, moment_model
+from redservo.redundancy.predictive_options import OPTIONS
+from redservo.redundancy.predictive_pose import PosePoints
 from redservo.redundancy.safety import position_box
 
 __all__ = ["Predictive"]
@@ -98,72 +106,7 @@ class Predictive(Law):
     description = "model predictive control over N periods, joint limits + visibility (ACC 2010)"
     stateful = True
 
-    OPTIONS = (
-        Option("horizon", 10, kind="int", doc="prediction horizon N (periods)", low=1, high=200),
-        Option(
-            "control_horizon",
-            3,
-            kind="int",
-            doc="velocity blocks Nc (the last held to the end of the horizon)",
-            low=1,
-            high=50,
-        ),
-        Option(
-            "model",
-            "global",
-            kind="choice",
-            choices=("global", "local"),
-            doc="'global' (kinematics + projection) or 'local' (constant J1)",
-        ),
-        Option(
-            "effort",
-            1e-3,
-            doc="relative weight ρ of ‖U − Ū‖² (damping of the step from the warm start)",
-            low=0.0,
-            low_open=True,
-        ),
-        Option(
-            "margin",
-            0.0102,
-            doc="keep-out band at each joint limit, a fraction of the range (at least the "
-            "limits' own margin)",
-            low=0.0,
-            high=0.5,
-            high_open=True,
-        ),
-        Option(
-            "image_margin_px",
-            10.0,
-            doc="the image points stay this far inside the image (default camera)",
-            unit="px",
-            low=0.0,
-        ),
-        Option(
-            "goal_weight",
-            0.1,
-            doc="relative weight γ of the terminal joint goal ‖q_N - q*‖² (0: none)",
-            low=0.0,
-        ),
-        Option(
-            "replan",
-            50,
-            kind="int",
-            doc="periods between two searches of the joint goal q*",
-            low=1,
-        ),
-        Option("sqp_iterations", 1, kind="int", doc="SQP iterations per period", low=1, high=20),
-        Option("max_qp_iterations", 1000, kind="int", doc="daqp's iteration limit", low=1),
-        Option(
-            "time_budget",
-            None,
-            doc="wall-clock limit of one step (model, goal search, solve), or None (deterministic)",
-            unit="s",
-            low=0.0,
-            low_open=True,
-            none=True,
-        ),
-        RCOND,
-    )
+    OPTIONS = OPTIONS
     horizon: int
     control_horizon: int
     model: str
@@ -172,24 +115,43 @@ class Predictive(Law):
     image_margin_px: float
     goal_weight: float
     replan: int
+    goal_steps: int
     sqp_iterations: int
     max_qp_iterations: int
     time_budget: float | None
+    max_image_motion: float | None
+    max_image_motion_px: float | None
+    frame_rate: float | None
+    latency: float
+    model_depth: str
 
     def _setup(self) -> None:
         from redservo.redundancy.base import make_law
 
         self._hz = horizon(self.horizon, self.control_horizon)
         self._fallback = make_law("qp", margin=self.margin)
+        if self.max_image_motion is not None and self.max_image_motion_px is not None:
+            raise ConfigurationError(
+                "predictive: give max_image_motion (normalized units) or max_image_motion_px "
+                f"(pixels), not both (got {self.max_image_motion!r} and "
+                f"{self.max_image_motion_px!r})"
+            )
         self._camera = Camera()
+        self._gate_px: float | None = None
+        self.loop_budget: float | None = None
+        """The servo loop's budget when ``time_budget`` is None (:meth:`bind_period`, s)."""
+        self._seen = SeenJoints(self.latency)
+        self._gain = MotionGain()
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
         self._calls = 0
+        self._started: int | None = None
         self.clock: Callable[[], float] = time.perf_counter
         """The clock of ``time_budget`` (s, monotonic): a test sets a fake one."""
-        self._obs: Callable[[FloatArray], Model | None] | None = None
+        self._obs: Callable[[FloatArray, FloatArray | None], Model | None] | None = None
         self._moments: MomentModel | None = None
+        self._pose = PosePoints()
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
         self.last_plan: FloatArray | None = None
@@ -215,8 +177,12 @@ class Predictive(Law):
         self._obs = None
         self._goal = None
         self._search.reset()
+        self._seen.reset()
+        self._gain.reset()
         self._moments = None
+        self._pose.reset()
         self._calls = 0
+        self._started = None
         self.last_start = self.last_plan = None
 
     def warm_up(self, limits: JointLimits, m: int, dt: float) -> None:
@@ -229,6 +195,31 @@ class Predictive(Law):
     def bind_camera(self, camera: Camera) -> None:
         """Use ``camera``'s image for the visibility constraints (default :class:`Camera`)."""
         self._camera = camera
+
+    def bind_period(self, period: float, clock: Callable[[], float]) -> None:
+        """A servo loop's period (s) and clock (s, monotonic): without a ``time_budget``, a
+        step's budget is :data:`~redservo.redundancy.predictive_budget.LOOP_SHARE` of the
+        period, on ``clock``; a step past it returns the fallback, flagged."""
+        self.loop_budget = LOOP_SHARE * float(period)
+        self.clock = clock
+
+    def bind_tracker(self, gate_px: float | None) -> None:
+        """The gate (pixels) of the tracker that measures the features (None: no tracker,
+        the ideal sensor): the default camera-motion limit is a fraction of it
+        (:class:`~redservo.redundancy.predictive_camera.MotionLimit`)."""
+        self._gate_px = gate_px
+
+    def motion_limit(self, dt: float) -> MotionLimit | None:
+        """The camera-motion limit per period ``dt`` (s) from the options and the bound
+        camera and tracker (None: none)."""
+        return MotionLimit.resolve(
+            normalized=self.max_image_motion,
+            pixels=self.max_image_motion_px,
+            gate_px=self._gate_px,
+            frame_rate=self.frame_rate,
+            dt=dt,
+            camera=self._camera,
+        )
 
     def observe(self, robot: Any, task: Any, state: Any) -> None:
         """The :class:`~redservo.Controller`'s hook before each call: the model robot, the
@@ -243,12 +234,15 @@ class Predictive(Law):
         if self.model != "global" or len({t.target for t in terms}) != 1:
             return
         if all(type(t.feature) is PointFeature for t in terms):
-            self._obs = lambda q: point_model(robot, task, state, q)
+            if self.model_depth == "pose":
+                self._obs = self._pose.builder(robot, task, state)
+            else:
+                self._obs = lambda q, seen: point_model(robot, task, state, q, seen)
         elif len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
             feature, prev = terms[0].feature, self._moments
 
-            def build(q: FloatArray) -> MomentModel | None:
-                bMc = robot.kinematics(q, check_limits=False)[0]
+            def build(q: FloatArray, seen: FloatArray | None) -> MomentModel | None:
+                bMc = robot.kinematics(q if seen is None else seen, check_limits=False)[0]
                 self._moments = moment_model(robot, feature, task, state, prev, bMc)
                 return self._moments
 
@@ -257,23 +251,28 @@ class Predictive(Law):
     # -- one step ------------------------------------------------------------------------------
 
     def compute(self, x: LawInputs) -> LawResult:
-        dl = Deadline(self.time_budget, self.clock)  # covers the model, the goal and the solve
+        budget = self.time_budget if self.time_budget is not None else self.loop_budget
+        dl = Deadline(budget, self.clock)  # covers the model, the goal and the solve
         # With a budget, the fallback first: a step whose deadline passes returns it at once.
         safe = None if dl.budget is None else self._fallback.compute(x)
         obs, self._obs = self._obs, None
         hz = self._hz
         start = self.last_start = self._start(x, x.q.shape[0])
-        model = None if obs is None or dl.passed() else obs(x.q)
+        seen = self._seen.push(x.q, x.dt)
+        model = None if obs is None or dl.passed() else obs(x.q, seen)
         if model is not None and self.goal_weight > 0 and not dl.passed():
             self._update_goal(model, x, dl)
         self._calls += 1
         self.last_model = model
+        lim = None if model is None else self.motion_limit(x.dt)
+        if lim is not None and model is not None:
+            lim = self._gain.update(model, x.q, x.qdot_prev, x.dt, lim)
         U, why, value, iters = start, 0, 0.0, 0
         for _ in range(self.sqp_iterations):
             if dl.passed():
                 break
             with np.errstate(all="ignore"):
-                qp = self._qp(x, U, model)
+                qp = self._qp(x, U, model, lim)
             if qp is None or not all(np.all(np.isfinite(a)) for a in (qp.H, qp.f, qp.A)):
                 why, value = fb.HORIZON_INFEASIBLE, float("nan")
                 break
@@ -285,7 +284,7 @@ class Predictive(Law):
         if by_budget:
             why, value = fb.SOLVER_ITERATIONS, elapsed
         if why:
-            return self._fall_back(x, why, value, by_budget, safe)
+            return limited(self._fall_back(x, why, value, by_budget, safe), x, model, lim)
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
@@ -294,7 +293,7 @@ class Predictive(Law):
         d = Diagnostics(
             method=self.name, task_rank=rank, rank_deficient=rank < x.J1.shape[0], info=info
         )
-        return LawResult(np.ascontiguousarray(U[0]), d)
+        return limited(LawResult(np.ascontiguousarray(U[0]), d), x, model, lim)
 
     def _start(self, x: LawInputs, n: int) -> FloatArray:
         """The warm start ``Ū``: the previous solution shifted by one period (its last block
@@ -310,27 +309,33 @@ class Predictive(Law):
         return np.maximum(self.margin * (lim.q_max - lim.q_min), lim.margin_abs)
 
     def _update_goal(self, model: Model, x: LawInputs, dl: Deadline) -> None:
-        """Start the joint-goal search every ``replan`` periods (docs/predictive.md, "Joint
-        goal"; :class:`~redservo.redundancy.predictive_goal.GoalSearch`, within the limits less
-        the band) and advance it: to its end without ``time_budget``, else until half of it
-        has passed since the step began (``dl``), the search going on in the next periods;
-        the previous goal is kept when it is still the better one."""
+        """Start the joint-goal search (docs/predictive.md, "Joint goal";
+        :class:`~redservo.redundancy.predictive_goal.GoalSearch`, within the limits less the
+        band) at the first period, then ``replan`` periods after the previous start once that
+        one is over, and advance it by ``goal_steps`` iterations a period (and, with a
+        ``time_budget``, until half of it has passed since the step began, ``dl``): no single
+        step pays for the whole search, its state goes on in the next periods. The previous
+        goal is kept when it is still the better one."""
         band = self._band(x)
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
-        if self._calls % self.replan == 0:
+        due = self._started is None or self._calls - self._started >= self.replan
+        if due and not self._search.running:
             self._search.start(model, x.q, lo, hi, x.limits.q_max - x.limits.q_min)
+            self._started = self._calls
         if not self._search.running:
             return
         try:
             with np.errstate(all="ignore"):
-                done, found = self._search.advance(dl.at(0.5), dl.clock)
+                done, found = self._search.advance(dl.at(0.5), dl.clock, self.goal_steps)
         except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
             self._search.reset()
             return
         if done:
             self._goal = better_goal(model, self._goal, found)
 
-    def _qp(self, x: LawInputs, U: FloatArray, model: Model | None) -> QP | None:
+    def _qp(
+        self, x: LawInputs, U: FloatArray, model: Model | None, motion: MotionLimit | None
+    ) -> QP | None:
         hz, lim = self._hz, x.limits
         pred: Prediction | None
         if model is not None:
@@ -355,12 +360,20 @@ class Predictive(Law):
         goal = None
         if model is not None and self._goal is not None:
             goal = (self._goal, self.goal_weight * sigma**2)
-        return build_qp(
+        qp = build_qp(
             pred, U, hz, x.dt, q0=x.q, q_lo=lim.q_min + band, q_hi=lim.q_max - band,
             v_max=lim.qdot_max, a_max=lim.qddot_max, qdot_prev=x.qdot_prev,
             s_lo=s_lo, s_hi=s_hi, effort=rho, ff=ff, goal=goal, s_now=s_now,
             u0_box=position_box(x.q, lim, x.dt) if self.shield else None,
         )  # fmt: skip
+        if motion is None or pred.s is None or s_now is None:
+            return qp
+        rows, blo, bhi = motion_rows(pred, hz, x.dt, U, s_now, motion)
+        return qp._replace(
+            A=np.vstack([qp.A, *rows]),
+            blo=np.concatenate([qp.blo, *blo]),
+            bhi=np.concatenate([qp.bhi, *bhi]),
+        )
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:
         """``(U, why, value, iterations)``: daqp on ``qp``; ``why`` = 0 or the flag bit."""

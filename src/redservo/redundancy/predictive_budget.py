@@ -25,7 +25,11 @@ from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
 from redservo.redundancy.messages import events
 
-__all__ = ["Deadline", "fallback_result"]
+__all__ = ["LOOP_SHARE", "Deadline", "fallback_result"]
+
+LOOP_SHARE = 0.5
+"""The share of a servo loop's period that a step of the law may take by default (the rest
+for the measurement, the task, the safety stage and the robot's interface)."""
 
 
 class Deadline:

@@ -94,6 +94,8 @@ class GoalSearch:
 
     def __init__(self, random_seeds: int) -> None:
         self.random_seeds = random_seeds
+        self.iterations = 0
+        """The iterations run by the last :meth:`advance`."""
         self._steps: Generator[None, None, tuple[float, FloatArray] | None] | None = None
 
     @property
@@ -121,16 +123,25 @@ class GoalSearch:
         self._steps = search_steps(model, q, seeds, lo, hi)
 
     def advance(
-        self, deadline: float | None, clock: Callable[[], float] = time.perf_counter
+        self,
+        deadline: float | None,
+        clock: Callable[[], float] = time.perf_counter,
+        steps: int | None = None,
     ) -> tuple[bool, tuple[float, FloatArray] | None]:
-        """``(done, result)``: run the search until it ends or ``clock()`` (s) passes
-        ``deadline`` (None: to the end); one seed at least per call (a seed's inverse
-        kinematics takes up to a few milliseconds)."""
+        """``(done, result)``: run the search until it ends, ``steps`` iterations have run
+        (None: no limit; one iteration is one kinematics evaluation and one damped
+        least-squares step, tens of microseconds) or ``clock()`` (s) passes ``deadline``
+        (None: none); one iteration at least per call. The search's state (the seed under
+        way, its iterate, the goals found so far) is kept for the next call."""
         if self._steps is None:
             return True, None
+        self.iterations = 0
         try:
             while True:
                 next(self._steps)
+                self.iterations += 1
+                if steps is not None and self.iterations >= steps:
+                    return False, None
                 if deadline is not None and clock() > deadline:
                     return False, None
         except StopIteration as stop:
@@ -168,8 +179,9 @@ def search_steps(
     lo: FloatArray,
     hi: FloatArray,
 ) -> Generator[None, None, tuple[float, FloatArray] | None]:
-    """The search of :func:`joint_goal`, yielding after each seed (so that it can be spread
-    over periods); its return value is the result.
+    """The search of :func:`joint_goal`, yielding after each iteration of its inverse
+    kinematics (one kinematics evaluation and one step: so that it can be spread over periods
+    in equal small parts); its return value is the result.
 
     The pose IK of the desired camera pose from each seed (module docstring), the nearest
     of the first :data:`CANDIDATES` exact goals; then the feature-space search from every seed (the task may be met at other poses than
@@ -177,7 +189,7 @@ def search_steps(
     configuration met is the goal if its error is below a tenth of the error at ``q`` (the
     goal lies just beyond the band: the law gets as close as the band allows).
     """
-    from redservo.ik import solve_ik  # scipy: not loaded by ``import redservo``
+    from redservo.ik import ik_steps  # scipy: not loaded by ``import redservo``
 
     bMc = model.robot.kinematics(q, check_limits=False)[0]
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
@@ -185,24 +197,22 @@ def search_steps(
     found: list[FloatArray] = []
     if target is not None:
         for seed in seeds:
-            qs = solve_ik(model.robot, target, seed, lo, hi)
+            qs = yield from ik_steps(model.robot, target, seed, lo, hi)
             if qs is not None:
-                r, qp = _ik_from(model, qs, lo, hi, 30, TOL)
+                r, qp = yield from _ik_from(model, qs, lo, hi, 30, TOL)
                 if r < TOL and qp is not None:
                     found.append(qp)
                     if len(found) == CANDIDATES:
                         break
                 best = min(best, (r, qp), key=lambda b: b[0])
-            yield
     if found:  # the nearest, in fractions of each joint's range between the bounds
         near = min(found, key=lambda g: float(np.max(np.abs(g - q) / (hi - lo))))
         return goal_error(model, near), near
     for seed in seeds:
-        r, qp = _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
+        r, qp = yield from _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
         if r < TOL and qp is not None:
             return r, qp
         best = min(best, (r, qp), key=lambda b: b[0])
-        yield
     if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
         return best[0], best[1]
     return None
@@ -223,12 +233,12 @@ def _ik_from(
     hi: FloatArray,
     iterations: int,
     tol: float,
-) -> tuple[float, FloatArray | None]:
+) -> Generator[None, None, tuple[float, FloatArray | None]]:
     """Projected damped least squares on ``e(q) = C (s(q) - s*)`` within ``[lo, hi]`` from
     ``q``: ``(error, q)`` of the best configuration met (``error < tol``: converged; ``inf,
     None``: the prediction failed at the seed). A seed is given up when its error has not
     fallen below 0.99 of its best for :data:`STALL` iterations (stuck against the bounds or
-    in a local minimum)."""
+    in a local minimum). One iteration per ``yield`` (:func:`search_steps`)."""
     from redservo.ik import Stall, projected_step  # scipy: not loaded by ``import redservo``
 
     hz = horizon(1, 1)
@@ -252,4 +262,5 @@ def _ik_from(
         if nxt is None:
             return best
         q = nxt
+        yield
     return best

@@ -32,7 +32,15 @@ from redservo._validation import FloatArray
 if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with the laws
     from redservo.robots.base import Robot
 
-__all__ = ["Horizon", "PointModel", "Prediction", "horizon", "point_model", "point_prediction"]
+__all__ = [
+    "Horizon",
+    "PointModel",
+    "Prediction",
+    "SeenJoints",
+    "horizon",
+    "point_model",
+    "point_prediction",
+]
 
 BIG = 1e9
 """Stand-in for an absent bound (daqp takes finite bounds)."""
@@ -75,20 +83,64 @@ class PointModel(NamedTuple):
         return point_prediction(self, q0, U, hz, dt)
 
 
-def point_model(robot: Robot, task: Any, state: Any, q: FloatArray) -> PointModel | None:
+def point_model(
+    robot: Robot,
+    task: Any,
+    state: Any,
+    q: FloatArray,
+    q_seen: FloatArray | None = None,
+    Pc: FloatArray | None = None,
+) -> PointModel | None:
     """The :class:`PointModel` of a task of image points of one target from its evaluated
-    ``state`` (``s``, ``inv_depth``) at ``q``: the measured points put in the base frame,
-    ``P_b = bMc(q) (x/ζ, y/ζ, 1/ζ)``; None when a depth is not positive or a point not finite."""
+    ``state`` (``s``, ``inv_depth``) at ``q``: the measured points put in the base frame
+    where the camera saw them, ``P_b = bMc(q_seen) (x/ζ, y/ζ, 1/ζ)`` (``q_seen``: the joints
+    when the image was exposed, :class:`SeenJoints`; None: ``q``), ``s_now`` their projection
+    at ``q`` (the measurement brought to the present); ``Pc`` (p, 3): the points in the
+    camera frame then (m) when known otherwise (a pose estimate), instead of the measured
+    points at their depths; None when a depth is not positive or a point not finite."""
     xy = np.asarray(state.s, dtype=float).reshape(-1, 2)
     iz = np.array([float(np.asarray(d).reshape(-1)[0]) for d in state.inv_depth])
     if xy.shape[0] != iz.shape[0] or not np.all(iz > 0) or not np.all(np.isfinite(xy)):
         return None
-    Pc = np.c_[xy / iz[:, None], 1.0 / iz]
-    bMc = robot.kinematics(q, check_limits=False)[0]
+    if Pc is None:
+        Pc = np.c_[xy / iz[:, None], 1.0 / iz]
+    seen = robot.kinematics(q if q_seen is None else q_seen, check_limits=False)[0]
+    bMc = seen if q_seen is None else robot.kinematics(q, check_limits=False)[0]
     s_star = np.asarray(task.s_star, dtype=float)
-    P_b = Pc @ bMc[:3, :3].T + bMc[:3, 3]
+    P_b = Pc @ seen[:3, :3].T + seen[:3, 3]
     back = (P_b - bMc[:3, 3]) @ bMc[:3, :3]  # the model's own projection at q
     return PointModel(robot, P_b, task.C, s_star, (back[:, :2] / back[:, 2:3]).reshape(-1))
+
+
+class SeenJoints:
+    """The joints at which the camera exposed a measurement ``latency`` seconds old: the
+    joints of the past calls (one a period ``dt``, s), linearly interpolated; the oldest
+    kept when the run is younger than the latency (the Smith-predictor view of the
+    measurement: the points are put in the base frame where the camera saw them, and the
+    motion since is the model's)."""
+
+    def __init__(self, latency: float) -> None:
+        self.latency = float(latency)
+        self._past: list[FloatArray] = []
+
+    def reset(self) -> None:
+        """Forget the past joints."""
+        self._past = []
+
+    def push(self, q: FloatArray, dt: float) -> FloatArray | None:
+        """Record ``q`` (the joints now) and return the joints ``latency`` ago (None without
+        a latency)."""
+        if self.latency <= 0.0:
+            return None
+        back = self.latency / dt if dt > 0 else 0.0
+        self._past.append(np.array(q, dtype=float))
+        keep = int(np.ceil(back)) + 1
+        del self._past[:-keep]
+        pos = max(0.0, len(self._past) - 1 - back)  # fractional index of the exposure
+        i = min(int(pos), len(self._past) - 1)
+        j = min(i + 1, len(self._past) - 1)
+        w = pos - i
+        return np.asarray((1.0 - w) * self._past[i] + w * self._past[j])
 
 
 class Prediction(NamedTuple):

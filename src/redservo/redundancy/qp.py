@@ -64,7 +64,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,8 +87,12 @@ from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("qp")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import qp as _K
+else:
+    _K = lazy("qp")
+    _KE = lazy("events")
 
 __all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
@@ -233,9 +237,26 @@ class BoundedLeastSquares(Law):
         v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.qp_setup(
-            k.J1, k.e, k.q, k.lp, k.has_v, k.has_a, x.dt, prev, has_prev, k.sec, k.has_sec,
-            x.lam, self.k_p, self.margin, v, has_v, self.rcond, self.eps, self.shield,
-        )  # fmt: skip
+            k.J1,
+            k.e,
+            k.q,
+            k.lp,
+            k.has_v,
+            k.has_a,
+            x.dt,
+            prev,
+            has_prev,
+            k.sec,
+            k.has_sec,
+            x.lam,
+            self.k_p,
+            self.margin,
+            v,
+            has_v,
+            self.rcond,
+            self.eps,
+            self.shield,
+        )
         qdot, inside, lo, hi, conflicts, xdot, rank, eps_abs, xfix, free, P, c, lof, hif = out
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
@@ -297,8 +318,13 @@ class BoundedLeastSquares(Law):
             )
             return fixed, "daqp + active-set polish" if polished else "daqp", active, float(resid)
         sol, used = solve_bounded_least_squares(
-            k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary,
+            k.J1,
+            xdot,
+            lo,
+            hi,
+            eps=eps_abs,
+            z=x.secondary,
             solver=self._resolve_backend(),
-        )  # fmt: skip
+        )
         fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
         return fixed, used, active, float(resid)

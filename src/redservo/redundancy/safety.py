@@ -43,7 +43,7 @@ and turns their flags into typed events.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,8 +72,12 @@ __all__ = [
 _TOL = 1e-12
 """Relative slack below which a command counts as inside a box (roundoff)."""
 
-_K = lazy("safety")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import safety as _K
+else:
+    _K = lazy("safety")
+    _KE = lazy("events")
 
 
 def prev_command(qdot_prev: FloatArray | None, n: int) -> tuple[FloatArray, bool]:

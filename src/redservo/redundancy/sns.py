@@ -57,7 +57,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,8 +74,12 @@ from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("sns")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import events as _KE
+    from redservo.kernels import sns as _K
+else:
+    _K = lazy("sns")
+    _KE = lazy("events")
 
 __all__ = [
     "SNSSolution",
@@ -307,16 +311,38 @@ class SaturationInNullSpace(Law):
         )
         return (*super().packed_extras(), *has)
 
-    def compute(self, x: LawInputs) -> LawResult:
-        m, n = x.J1.shape
+    def _kernel(self, x: LawInputs) -> tuple[Any, ...]:
+        """The law kernel's outputs (:func:`redservo.kernels.sns.sns`) for ``x``."""
+        n = x.J1.shape[1]
         k = kernel_inputs(x)
         v, has_v = optional(None if self.v_max is None else _per_joint(self.v_max, n, "v_max"), n)
         a, has_a = optional(None if self.a_max is None else _per_joint(self.a_max, n, "a_max"), n)
         prev, has_prev = optional(x.qdot_prev, n)
-        out = _K.sns(
-            k.J1, k.e, k.q, k.lp, k.has_v, k.has_a, x.lam, x.dt, prev, has_prev, k.sec,
-            k.has_sec, v, has_v, a, has_a, self.margin, self.rcond, self.shield,
-        )  # fmt: skip
+        rates = (v, has_v, a, has_a)
+        return tuple(
+            _K.sns(
+                k.J1,
+                k.e,
+                k.q,
+                k.lp,
+                k.has_v,
+                k.has_a,
+                x.lam,
+                x.dt,
+                prev,
+                has_prev,
+                k.sec,
+                k.has_sec,
+                *rates,
+                self.margin,
+                self.rcond,
+                self.shield,
+            )
+        )
+
+    def compute(self, x: LawInputs) -> LawResult:
+        m = x.J1.shape[0]
+        out = self._kernel(x)
         (
             qdot,
             scale,

@@ -50,7 +50,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -65,8 +65,12 @@ from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, tas
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
-_K = lazy("directional")
-_KE = lazy("events")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import directional as _K
+    from redservo.kernels import events as _KE
+else:
+    _K = lazy("directional")
+    _KE = lazy("events")
 _I_WRANK, _I_WFILTERED, _F_WCOND = 5, 6, 3
 """Outputs of :func:`redservo.kernels.directional.wln` (layout documented there)."""
 

@@ -34,7 +34,7 @@ Choices (docs/formulas.md §11.2):
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Final
+from typing import TYPE_CHECKING, ClassVar, Final
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -44,6 +44,7 @@ from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
+from redservo.robots.pack import AFMA6, RobotPack, robot_pack
 from redservo.spatial import make_transform
 
 __all__ = ["AFMA6_JOINT_LIMITS", "AFMA6_QDDOT_MAX", "AFMA6_QDOT_MAX", "AFMA6_TOOLS", "Afma6"]
@@ -56,7 +57,10 @@ AFMA6_QDDOT_MAX: Final = (1.0, 1.0, 1.0, 3.0, 3.0, 3.0)
 """Acceleration limits (m/s², rad/s²). A documented choice (no public datasheet): the
 gantry reaches its velocity limit in 0.2 s and the wrist in about 0.23 s."""
 
-_K = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import kinematics as _K
+else:
+    _K = lazy("kinematics")
 
 COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""
@@ -172,6 +176,12 @@ class Afma6(Robot):
         """Return ``J(q) = cVe eJe`` (6, 6): the same kernel product as :meth:`kinematics`."""
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         return np.asarray(_K.matmul(self._cVe, _K.afma6_jacobe(qa, COUPLING, OFFSET)))
+
+    def kernel_pack(self) -> RobotPack | None:
+        """The Afma6 as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
+        if type(self).kinematics is not Afma6.kinematics:
+            return None
+        return robot_pack(AFMA6, 6, self._eMc, self._cVe, coupling=COUPLING, offset=OFFSET)
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

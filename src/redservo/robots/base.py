@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -74,6 +74,15 @@ class Robot(abc.ABC):
             qddot_max=qddot_max,
         )
         self.eMc = np.eye(4) if eMc is None else eMc
+
+    def kernel_pack(self) -> tuple[Any, ...] | None:
+        """This robot as the compiled engine takes it (:mod:`redservo.robots.pack`), or None
+        when its kinematics is not compiled (the engine then asks :meth:`jacobian`).
+
+        The robot kinds with compiled kinematics override it; a subclass that overrides
+        :meth:`kinematics` gets None, so the engine never runs a model other than the
+        robot's own."""
+        return None
 
     # -- identity ---------------------------------------------------------------------------
 

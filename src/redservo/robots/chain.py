@@ -25,7 +25,7 @@ bytes of ``q``, and ``fkine(q)``/``jacobian(q)`` are bit for bit the two outputs
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,11 +35,16 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import check_q_named
+from redservo.robots.pack import CHAIN, RobotPack, robot_pack
 
 __all__ = ["ChainPack", "ChainRobot", "chain_pack"]
 
-_K = lazy("chain")
-_KIN = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import chain as _K
+    from redservo.kernels import kinematics as _KIN
+else:
+    _K = lazy("chain")
+    _KIN = lazy("kinematics")
 
 
 class ChainPack(NamedTuple):
@@ -204,6 +209,13 @@ class ChainRobot(Robot):
         """Return ``J(q) = cVe eJe`` (6, n): the same kernel product as :meth:`kinematics`."""
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         return np.asarray(_KIN.matmul(self._cVe, self.jacobe(qa)))
+
+    def kernel_pack(self) -> RobotPack | None:
+        """The chain as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
+        if type(self).kinematics is not ChainRobot.kinematics:
+            return None
+        pack = self._chain_pack
+        return robot_pack(CHAIN, self.n, self._eMc, self._cVe, chain=(pack.frames, pack.joints))
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -41,6 +41,7 @@ from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError
 from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
+from redservo.robots.pack import DH, RobotPack, robot_pack
 
 __all__ = ["DHConvention", "DHLink", "DHRobot"]
 
@@ -48,7 +49,10 @@ DHConvention = Literal["standard", "modified"]
 
 _LIMIT_TOL = 1e-9  # allowed excess beyond a limit, joint units (same as JointLimits.check)
 
-_K = lazy("kinematics")
+if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import kinematics as _K
+else:
+    _K = lazy("kinematics")
 
 
 @dataclass(frozen=True, slots=True)
@@ -318,6 +322,13 @@ class DHRobot(Robot):
         """Return ``J(q) = cVe eJe`` (6, n): the same kernel product as :meth:`kinematics`."""
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         return np.asarray(_K.matmul(self._cVe, self.jacobe(qa)))
+
+    def kernel_pack(self) -> RobotPack | None:
+        """The DH chain as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
+        if type(self).kinematics is not DHRobot.kinematics:
+            return None
+        dh = (self._par, self._base, self._flange, self._convention == "standard")
+        return robot_pack(DH, self.n, self._eMc, self._cVe, dh=dh)
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

@@ -10,19 +10,24 @@
     domain_id = 0                         # ROS_DOMAIN_ID, 0-232
     network = "loopback"                  # loopback (this machine only) | system (CYCLONEDDS_URI)
     wait = 5.0                            # s to wait for the first JointState
+    command_wait = 2.0                    # s to wait for a reader of the command topic
     start_tolerance = 0.05                # rad: max |q - the scenario's q0| at the start
     publish_rate = 0.0                    # Hz of the rate bridge (0: one command per period)
     [camera]
     driver = "simulated"                  # simulated (features from the scenario and the
                                           # measured joints) | ros2 (Image + CameraInfo)
+                                          # | video (a file played at its frame rate)
     image = "/camera/image_raw"           # ros2: Image topic
     camera_info = "/camera/camera_info"   # ros2: CameraInfo topic
-    dot_threshold = 55.0                  # ros2: gray level of the dots' ink (0-255)
+    file = "run.mp4"                      # video: the file (relative to this file's folder)
+    dot_threshold = 55.0                  # ros2, video: gray level of the dots' ink (0-255)
     [loop]
     watchdog_timeout = 0.2                # s
     period = 0.04                         # s (default: the scenario's control.dt)
     clock_tolerance = 0.005               # s
     duration = 60.0                       # s (default: none; max_iterations of the scenario)
+    spin = 0.0                            # s of each wait spent polling the clock (0: sleep)
+    realtime_priority = 50                # SCHED_FIFO priority of the loop's thread (0: none)
 
 Every error is one :class:`~redservo.errors.ConfigurationError` naming the file and the key.
 Units: seconds, radians, Hz.
@@ -53,6 +58,7 @@ class RobotSpec:
     domain_id: int = 0
     network: str = "loopback"
     wait: float = 5.0
+    command_wait: float = 2.0
     start_tolerance: float = 0.05
     publish_rate: float = 0.0
 
@@ -64,6 +70,7 @@ class CameraSpec:
     driver: str = "simulated"
     image: str = "/camera/image_raw"
     camera_info: str = "/camera/camera_info"
+    file: str = ""
     dot_threshold: float = 55.0
 
 
@@ -75,6 +82,8 @@ class LoopSpec:
     period: float | None = None
     clock_tolerance: float = 0.005
     duration: float | None = None
+    spin: float = 0.0
+    realtime_priority: int = 50
 
 
 @dataclass
@@ -90,18 +99,19 @@ class HardwareSpec:
 _CHOICES = {
     "robot.driver": ("ros2", "mujoco"),
     "robot.network": ("loopback", "system"),
-    "camera.driver": ("simulated", "ros2"),
+    "camera.driver": ("simulated", "ros2", "video"),
 }
 _POSITIVE = {
     "robot.wait",
+    "robot.command_wait",
     "robot.start_tolerance",
     "loop.watchdog_timeout",
     "loop.period",
     "loop.duration",
 }
 _NOT_HERE = {
-    "device": "not through `redservo servo` yet",
-    "video": "not through `redservo servo` yet",
+    "device": "a camera device is not read directly: publish it on ROS 2 (e.g. the "
+    "v4l2_camera or usb_cam node) and use driver = 'ros2'",
 }
 
 
@@ -132,6 +142,14 @@ class _Reader:
                 return check_joint_names(raw, key)
             except ConfigurationError as exc:
                 raise self.error(key, str(exc)) from None
+        if key == "camera.file":
+            if not isinstance(raw, str) or not raw:
+                raise self.error(key, f"must be the path of a video file, got {raw!r}")
+            return str((self.path.parent / raw).resolve())
+        if key == "loop.realtime_priority":
+            if isinstance(raw, bool) or not isinstance(raw, int) or not 0 <= raw <= 99:
+                raise self.error(key, f"must be an integer 0-99 (0: do not ask), got {raw!r}")
+            return raw
         if key == "robot.domain_id":
             if isinstance(raw, bool) or not isinstance(raw, int) or not 0 <= raw <= 232:
                 raise self.error(key, f"must be an integer 0-232 (ROS_DOMAIN_ID), got {raw!r}")
@@ -173,6 +191,8 @@ def load_hardware(path: str | Path) -> HardwareSpec:
                 allowed = sorted(target.__dataclass_fields__)
                 raise reader.error(full, f"unknown key; allowed in [{name}]: {allowed}")
             setattr(target, key, reader.value(full, raw, getattr(target, key)))
+    if spec.camera.driver == "video" and not spec.camera.file:
+        raise reader.error("camera.file", "is needed by camera.driver = 'video'")
     if spec.camera.driver == "ros2" and spec.robot.driver != "ros2":
         raise reader.error("camera.driver", "'ros2' needs robot.driver = 'ros2'")
     if spec.loop.clock_tolerance >= spec.loop.watchdog_timeout:

@@ -8,8 +8,10 @@ to look for the dots) is the model's at the measured joints. A dot target is dar
 light surface, found below ``dot_threshold`` gray levels (55: the rehearsal arm's rendered
 ink, :data:`redservo.physics.camera.DOT_THRESHOLD`).
 
-The measurement is stamped with the image's stamp on the loop's clock (``EpochStamps``); no
-new image returns the previous measurement (same stamp: "no new image yet"). An image of an
+Decoding and detection run on a worker thread (:mod:`redservo.ros2.tracking`), so a slow
+frame never delays the control loop; the measurement is stamped with the image's stamp on
+the loop's clock (``EpochStamps``); until a newer image is measured, :meth:`Ros2ImageSource.
+measure` returns the previous measurement (same stamp: "no new image yet"). An image of an
 unknown encoding or of another size than ``CameraInfo`` says is a
 :class:`~redservo.ros2.faults.MessageError` naming the topic (the loop stops the arm).
 
@@ -21,10 +23,6 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
-from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.hardware.protocols import FeatureMeasurement
 from redservo.ros2.faults import MessageError
@@ -32,58 +30,13 @@ from redservo.ros2.images import camera_from_info, gray_image
 from redservo.ros2.messages import CameraInfo, Image
 from redservo.ros2.naming import validate_topic
 from redservo.ros2.stamps import EpochStamps
+from redservo.ros2.tracking import FrameWorker
 from redservo.ros2.transport import SENSOR_DATA, Ros2Node
 from redservo.scene import Scene
 from redservo.task import VisualTask
-from redservo.vision.dots import detect_dots
-from redservo.vision.render import Renderer
-from redservo.vision.sensor import ImageSensor
+from redservo.vision.frame_sensor import DOT_THRESHOLD, Frame, FrameSensor
 
-__all__ = ["FrameSensor", "Ros2ImageSource", "wait_for_camera"]
-
-DOT_THRESHOLD = 55.0
-"""Gray level below which a pixel is ink (the rehearsal arm's: :mod:`redservo.physics.camera`)."""
-
-
-class _Frame(Renderer):
-    """A renderer that returns the frame it was given (the newest camera image)."""
-
-    frame: NDArray[np.uint8] | None = None
-
-    def render(self, scene: Scene, bMc: FloatArray, t: float = 0.0) -> NDArray[np.uint8]:
-        assert self.frame is not None
-        return self.frame
-
-
-class FrameSensor(ImageSensor):
-    """The image sensor on given frames, dots as dark ink below ``dot_threshold``."""
-
-    def __init__(self, camera: Camera, dot_threshold: float = DOT_THRESHOLD) -> None:
-        super().__init__(camera)
-        self.renderer = _Frame(camera, self.renderer.options)
-        self.dot_threshold = float(dot_threshold)
-
-    def _read_dots(
-        self, image: Any, scene: Scene, bMc: FloatArray, t: float, first: bool, notes: list[str]
-    ) -> FloatArray:
-        if self._tracker is None:
-            return np.zeros((0, 2))
-        det = detect_dots(
-            image,
-            threshold=self.dot_threshold,
-            polarity="dark",
-            min_size_px=2.0,
-            max_size_px=0.25 * min(image.shape),
-            pad_px=2.5,
-        )
-        if first:
-            self._tracker.start(self._truth_uv(scene, bMc, t))
-        track = self._tracker.update(det.uv)
-        if track.n_blobs != self._tracker.n_dots:
-            notes.append(f"found {track.n_blobs} dot blob(s), expected {self._tracker.n_dots}")
-        self._detected = track.detected
-        self.dots_uv = track.uv
-        return self.renderer.optics.to_normalized(track.uv)
+__all__ = ["DOT_THRESHOLD", "FrameSensor", "Ros2ImageSource", "wait_for_camera"]
 
 
 def wait_for_camera(node: Ros2Node, topic: str, timeout: float) -> Camera:
@@ -105,12 +58,16 @@ def wait_for_camera(node: Ros2Node, topic: str, timeout: float) -> Camera:
 class Ros2ImageSource:
     """The task's features in the newest ``Image`` of ``topic`` (module docstring).
 
+    Decoding and detection run on a worker thread (:class:`~redservo.ros2.tracking.
+    FrameWorker`); :meth:`measure` returns its latest measurement without waiting.
+
     Args:
         node: The DDS participant.
         topic: The ``Image`` topic.
         camera: The camera (:func:`wait_for_camera`); images must have its size.
         task, scene: The scenario's task and scene.
-        pose: Gives the camera pose ``bMc`` at the measured joints (``true_pose()``).
+        pose: Gives the camera pose ``bMc`` at the measured joints (``true_pose()``), called
+            on the worker's thread.
         stamps: Epoch to loop clock.
         dot_threshold: Gray level of the ink (0-255).
     """
@@ -127,14 +84,31 @@ class Ros2ImageSource:
         dot_threshold: float = DOT_THRESHOLD,
     ) -> None:
         self.topic = validate_topic(topic, "camera.image")
-        self._reader = node.reader(self.topic, Image, SENSOR_DATA)
         self.camera, self.task, self.scene, self.pose = camera, task, scene, pose
         self.stamps = stamps
         self.sensor = FrameSensor(camera, dot_threshold)
-        self._last: FeatureMeasurement | None = None
-        self.frames = 0
         self.reason = ""
-        """Why the last :meth:`measure` returned None ("" otherwise)."""
+        """Why the last frame gave no measurement ("" otherwise)."""
+        reader = node.reader(self.topic, Image, SENSOR_DATA)
+        self.worker: FrameWorker[FeatureMeasurement] = FrameWorker(
+            node._open(), reader, Image, self._track, name=f"redservo-tracking {self.topic}"
+        )
+
+    @property
+    def frames(self) -> int:
+        """Images measured so far."""
+        return self.worker.frames
+
+    @property
+    def skipped(self) -> int:
+        """Images not measured because a newer one had arrived (the tracker was busy)."""
+        return self.worker.skipped
+
+    @property
+    def threads(self) -> list[int]:
+        """Native ids of the source's threads (the tracker), for their scheduling."""
+        tid = self.worker.native_id
+        return [] if tid is None or not self.worker.alive else [tid]
 
     def first_measurement(self, timeout: float) -> FeatureMeasurement:
         """Wait up to ``timeout`` (s) for an image and measure it (before the first command).
@@ -157,18 +131,8 @@ class Ros2ImageSource:
             time.sleep(0.01)
         raise MessageError(f"no Image on {self.topic} within {timeout:g} s", argument=self.topic)
 
-    def _newest(self) -> Image | None:
-        newest = None
-        for msg in self._reader.take(N=16):
-            if isinstance(msg, Image):
-                newest = msg
-        return newest
-
-    def measure(self, t: float) -> FeatureMeasurement | None:
-        """The features of the newest image (the previous measurement when none is new)."""
-        msg = self._newest()
-        if msg is None:
-            return self._last
+    def _track(self, msg: Image) -> FeatureMeasurement | None:
+        """Decode and measure one image (on the worker's thread), stamped with its stamp."""
         gray = gray_image(msg, self.topic)
         if gray.shape != (self.camera.height, self.camera.width):
             raise MessageError(
@@ -176,13 +140,23 @@ class Ros2ImageSource:
                 f"CameraInfo says {self.camera.width} x {self.camera.height}",
                 argument=self.topic,
             )
-        assert isinstance(self.sensor.renderer, _Frame)
+        assert isinstance(self.sensor.renderer, Frame)
         self.sensor.renderer.frame = gray
-        self.frames += 1
         reading = self.sensor.read(self.task, self.scene, self.pose.true_pose(), 0.0)
         self.reason = reading.reason
         if reading.s is None:
             return None
         stamp = self.stamps.to_loop(msg.header.stamp)
-        self._last = FeatureMeasurement(reading.s, tuple(reading.inv_depth), stamp)
-        return self._last
+        return FeatureMeasurement(reading.s, tuple(reading.inv_depth), stamp)
+
+    def measure(self, t: float) -> FeatureMeasurement | None:
+        """The latest measurement (the same one again until a newer image is measured).
+
+        Raises:
+            MessageError: the tracker met an unusable image (it has stopped).
+        """
+        return self.worker.latest()
+
+    def close(self) -> None:
+        """Stop the tracker (safe to call twice)."""
+        self.worker.close()

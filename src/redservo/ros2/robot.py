@@ -173,6 +173,12 @@ class Ros2Robot:
         assert self._last is not None
         return self._last
 
+    def latest_joints(self) -> tuple[float, FloatArray] | None:
+        """The newest reading taken so far ``(t, q)``, None before the first; takes no message
+        (safe from another thread than the loop's: the tracker's)."""
+        last = self._last
+        return None if last is None else (last[0], last[1].copy())
+
     def read_joints(self) -> tuple[float, FloatArray]:
         """The newest joint reading ``(t, q)``: ``t`` on the loop's clock (s), ``q`` in the
         model's joint order. The same ``t`` again when nothing new arrived.
@@ -189,6 +195,38 @@ class Ros2Robot:
         return self._last[0], self._last[1].copy()
 
     # -- commands -------------------------------------------------------------------------------
+
+    def subscribers(self) -> int:
+        """How many readers (the velocity controller, anything else) match the command topic."""
+        if self._writer is None:
+            return 0
+        return int(self._writer.get_publication_matched_status().current_count)
+
+    def wait_for_subscriber(self, timeout: float) -> int:
+        """Wait up to ``timeout`` (s, wall time) for a reader of the command topic.
+
+        A command nobody reads moves nothing and stops nothing: the servo refuses to start
+        rather than run open-loop against a controller that is not loaded.
+
+        Returns:
+            The number of matched readers (>= 1).
+
+        Raises:
+            MessageError: nobody subscribed within ``timeout`` (naming the topic); nothing
+                was sent.
+        """
+        deadline = time.monotonic() + timeout
+        while (count := self.subscribers()) == 0:
+            if time.monotonic() > deadline:
+                raise MessageError(
+                    f"nobody subscribes to {self.command} within {timeout:g} s (domain "
+                    f"{self.node.domain_id}, network {self.node.network}): is the velocity "
+                    "controller loaded and active (ros2 control list_controllers)? nothing "
+                    "was sent",
+                    argument=self.command,
+                )
+            time.sleep(0.005)
+        return count
 
     def send_velocity(self, qdot: ArrayLike) -> None:
         """Publish the (n,) joint velocities ``qdot`` (rad/s or m/s) in the joints' order."""

@@ -27,7 +27,9 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.experiment import Experiment
 from redservo.hardware import IdealFeatureSource, ServoLoop
+from redservo.hardware.realtime import quiet_interpreter, realtime_scheduling
 from redservo.hardware.recorder import ServoResult
+from redservo.hardware.waiting import HybridSleep
 from redservo.ros2.hardware_file import HardwareSpec
 
 __all__ = ["DryRunRobot", "JointPose", "check_start", "servo_on_hardware"]
@@ -58,7 +60,11 @@ class JointPose:
         self.robot, self.model, self.t_start = robot, model, t_start
 
     def true_pose(self) -> FloatArray:
-        _, q = self.robot.read_joints()
+        """``bMc`` at the newest joint reading the loop took (takes no message when the robot
+        has ``latest_joints``: the tracker's thread calls this)."""
+        latest = getattr(self.robot, "latest_joints", None)
+        reading = latest() if latest is not None else None
+        _, q = reading if reading is not None else self.robot.read_joints()
         pose: FloatArray = self.model.fkine(q, check_limits=False)
         return pose
 
@@ -143,16 +149,28 @@ def _connect(exp: Experiment, spec: HardwareSpec, period: float) -> tuple[Any, l
 def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
     """The feature source ``[camera]`` asks for (checked: ``CameraInfo`` arrives)."""
     pose = JointPose(hw, exp.robot, time.monotonic())
-    if spec.camera.driver == "simulated":
-        return IdealFeatureSource(exp.task, exp.scene, pose)  # type: ignore[arg-type]
-    from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
-
     cam = spec.camera
-    camera = wait_for_camera(hw.node, cam.camera_info, spec.robot.wait)
-    source = Ros2ImageSource(
-        hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
-    )
-    source.first_measurement(spec.robot.wait)  # the target is seen before any command
+    if cam.driver == "simulated":
+        return IdealFeatureSource(exp.task, exp.scene, pose)  # type: ignore[arg-type]
+    source: Any
+    if cam.driver == "video":
+        from redservo.hardware.video import VideoSource
+
+        source = VideoSource(
+            cam.file, exp.camera, exp.task, exp.scene, pose, dot_threshold=cam.dot_threshold
+        )
+    else:
+        from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
+
+        camera = wait_for_camera(hw.node, cam.camera_info, spec.robot.wait)
+        source = Ros2ImageSource(
+            hw.node, cam.image, camera, exp.task, exp.scene, pose, hw.stamps, cam.dot_threshold
+        )
+    try:
+        source.first_measurement(spec.robot.wait)  # the target is seen before any command
+    except BaseException:
+        source.close()
+        raise
     return source
 
 
@@ -193,6 +211,7 @@ def _servo_loop(
         tolerance=opts.tolerance,
         max_iterations=None if spec.loop.duration else opts.max_iterations,
         duration=spec.loop.duration,
+        sleep=HybridSleep(spec.loop.spin),
     )
 
 
@@ -216,7 +235,8 @@ def servo_on_hardware(
     Raises:
         ConfigurationError: a bad ``speed_scale``, an arm outside its limits or far from the
             scenario's start (nothing is sent), or a bad hardware file value.
-        MessageError: no usable ``JointState`` arrived.
+        MessageError: no usable ``JointState`` arrived, or nobody subscribes to the command
+            topic within ``robot.command_wait`` (not checked in a dry run: nothing is sent).
     """
     from redservo.ros2.timing import timing_report
 
@@ -230,7 +250,10 @@ def servo_on_hardware(
     period = spec.loop.period or exp.options.dt
     exp.run(max_iterations=2)  # compile (or load) the law's kernels before the real-time loop
     hw, joints = _connect(exp, spec, period)
+    source = None
     try:
+        if not dry_run and hasattr(hw, "wait_for_subscriber"):
+            hw.wait_for_subscriber(spec.robot.command_wait)  # the controller reads commands
         _, q = hw.read_joints()
         check_start(exp, np.asarray(q, dtype=float), spec, joints)
         source = _source(exp, spec, hw)  # the camera is checked before the question too
@@ -242,16 +265,20 @@ def servo_on_hardware(
         if confirm is not None and not confirm(what):
             return None, {}
         loop = _servo_loop(exp, spec, hw, source, limits, period, dry_run)
-        with _sigterm_as_interrupt():
+        rt = realtime_scheduling(spec.loop.realtime_priority, getattr(source, "threads", []))
+        with _sigterm_as_interrupt(), quiet_interpreter(), rt as scheduling:
             result = loop.run(raise_errors=False)
         # what write_run_files records of the controller (as a simulation result has it)
         result.engine = loop.controller.engine  # type: ignore[attr-defined]
         result.engine_reason = loop.controller.engine_reason  # type: ignore[attr-defined]
-        return result, timing_report(result, period, hw)
+        timing = timing_report(result, period, hw, source)
+        timing["scheduling"] = scheduling
+        return result, timing
     finally:
-        close = getattr(hw, "close", None)
-        if close is not None:
-            close()
+        for part in (source, hw):
+            close = getattr(part, "close", None)
+            if close is not None:
+                close()
 
 
 def save_run(result: ServoResult, exp: Experiment, out: Path, timing: dict[str, Any]) -> Path:

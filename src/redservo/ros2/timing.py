@@ -29,8 +29,11 @@ def percentiles(values: Any, prefix: str) -> dict[str, float | None]:
     }
 
 
-def timing_report(result: ServoResult, period: float, robot: Any) -> dict[str, Any]:
-    """The timing of ``result``: period (s), jitter, cycle time, joint-state ages."""
+def timing_report(
+    result: ServoResult, period: float, robot: Any, source: Any = None
+) -> dict[str, Any]:
+    """The timing of ``result``: period (s), jitter, cycle time, joint-state ages, and the
+    camera's frames measured and skipped (a newer one had arrived while the tracker was busy)."""
     t = np.asarray(result.log.t, dtype=float)
     jitter = np.abs(np.diff(t) - period) if t.size > 1 else np.zeros(0)
     report: dict[str, Any] = {
@@ -41,6 +44,8 @@ def timing_report(result: ServoResult, period: float, robot: Any) -> dict[str, A
     report.update(percentiles(jitter, "jitter"))
     report.update(percentiles(result.cycle_time, "cycle_time"))
     report.update(percentiles(getattr(robot, "ages", []), "joint_state_age"))
+    if hasattr(source, "skipped"):
+        report["frames"], report["frames_skipped"] = source.frames, source.skipped
     stamps = getattr(robot, "stamps", None)
     if stamps is not None:
         report["epoch_offset_uncertainty"] = stamps.uncertainty

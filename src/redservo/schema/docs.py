@@ -163,6 +163,7 @@ def scenario_reference() -> str:
         ("`[control.gain]`", s.GainSpec),
         ("`[simulation]`", s.SimulationSpec),
         ("`[occlusion]`", s.OcclusionSpec),
+        ("`[collision]`", s.CollisionSpec),
         ("`[sensor]`", s.SensorSpec),
         ("`[actuators]`", s.ActuatorsSpec),
         ("`[simulator]`", s.SimulatorSpec),

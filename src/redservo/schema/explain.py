@@ -143,6 +143,9 @@ def _message(err: Any, where: _Where) -> tuple[str, str]:
     if kind == "extra_forbidden":
         allowed = sorted(where.table.model_fields) if where.table is not None else []
         name = where.key.rsplit(".", 1)[-1]
+        renamed = getattr(where.table, "RENAMED", {}).get(name)
+        if renamed is not None:
+            return "", f"renamed: write {renamed[0]} ({renamed[1]})"
         return "", f"unknown key; allowed here: {', '.join(allowed)}{did_you_mean(name, allowed)}"
     if kind == "literal_error":
         allowed = (

@@ -21,9 +21,19 @@ from redservo.collision.shapes import SHAPES, Obstacle, Shape, needed_sizes
 from redservo.schema.base import BIG, Table, Vec3, fail, num, unknown_name
 from redservo.schema.scene import AnyMotion, Pose
 
-__all__ = ["ObstacleSpec"]
+__all__ = ["CollisionSpec", "ObstacleSpec", "OcclusionSpec"]
 
 _SIZES = ("radius", "size", "length")
+
+
+class OcclusionSpec(Table):
+    """An occluding sphere that may hide a points target (MC05 experiment 2)."""
+
+    occluder: str = Field(description="a sphere object")
+    target: str = Field(description="the points object it may hide")
+    beta: float = num(50.0, gt=0.0, le=1e6, description="β of V = exp(−β d²) (MC05 eq. 30)")
+    gain: float = num(1.0, ge=0.0, le=BIG, description="scale of the artificial force")
+    avoid: bool = Field(True, description="false: detect only")
 
 
 class ObstacleSpec(Table):
@@ -77,3 +87,30 @@ class ObstacleSpec(Table):
             length=self.length or 0.0,
         )
         return Obstacle(self.name, shape, traj)
+
+
+class CollisionSpec(Table):
+    """Collision avoidance against the `[[obstacles]]` (and, with `self`, the robot's own
+    links): a repulsive joint velocity in the law's secondary term for every pair closer than
+    `d_influence`, and the distance shield, which scales the command so that no pair comes
+    closer than `d_safe` within one period (flag distance-shield-acted). Without this table
+    (or with `enabled = false`) the obstacles are only measured: a run that touches one ends
+    with outcome `collision`. See docs/collision.md."""
+
+    enabled: bool = Field(True, description="avoid and shield; false: measure only")
+    d_safe: float = num(
+        0.02, ge=0.0, le=BIG, description="security distance (m): no pair ever closer"
+    )
+    d_influence: float = num(
+        0.10, gt=0.0, le=BIG, description="influence distance (m): the repulsion starts, > d_safe"
+    )
+    self: bool = Field(False, description="also the robot's self pairs")
+    xi: float = num(0.05, gt=0.0, le=BIG, description="separating speed asked for at d_safe (m/s)")
+    avoid: bool = Field(True, description="the repulsive secondary term")
+    shield: bool = Field(True, description="the distance shield")
+
+    @model_validator(mode="after")
+    def _distances(self) -> CollisionSpec:
+        if self.d_influence <= self.d_safe:
+            fail(f"must be > d_safe = {self.d_safe:g} m, got {self.d_influence:g} m", "d_influence")
+        return self

@@ -8,7 +8,7 @@ of ``task.desired``), without building anything: geometry (a target behind the c
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -25,7 +25,7 @@ from redservo.schema.base import (
 )
 from redservo.schema.camera import CameraSpec
 from redservo.schema.features import AnyFeature
-from redservo.schema.obstacles import ObstacleSpec
+from redservo.schema.obstacles import CollisionSpec, ObstacleSpec, OcclusionSpec
 from redservo.schema.scene import AnyObject, Pose
 from redservo.schema.sensor import SensorSpec
 from redservo.schema.simulator import SimulatorSpec
@@ -253,6 +253,11 @@ class ControlSpec(Table):
 class SimulationSpec(Table):
     """Simulator options (all optional)."""
 
+    RENAMED: ClassVar[dict[str, tuple[str, str]]] = {
+        "qdot_max": ("qdot_saturation", "the output saturation after the law")
+    }
+    """Keys renamed so that ``qdot_max`` means one thing in a file (the law's joint limit)."""
+
     max_iterations: int = integer(1000, ge=1, le=MAX_ITERATIONS, description="iteration cap")
     tolerance: float = num(1e-3, gt=0.0, le=BIG, description="convergence threshold on ‖e1‖")
     tolerance_px: float | None = num(
@@ -269,10 +274,12 @@ class SimulationSpec(Table):
         lt=0.5,
         description="success needs every joint this far from its limits (fraction of the range)",
     )
-    qdot_max: (
+    qdot_saturation: (
         Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
     ) = Field(
-        None, description="actuator saturation after the law (the law honours robot.qdot_max)"
+        None,
+        description="output saturation after the law: the command scaled down uniformly "
+        "(the law itself honours robot.qdot_max)",
     )
     noise_std: float = num(0.0, ge=0.0, le=10.0, description="feature noise (feature units)")
     seed: int = integer(0, ge=0, le=SEED_MAX, description="seed of the feature noise")
@@ -291,27 +298,29 @@ class SimulationSpec(Table):
     )
 
 
-class OcclusionSpec(Table):
-    """An occluding sphere that may hide a points target (MC05 experiment 2)."""
-
-    occluder: str = Field(description="a sphere object")
-    target: str = Field(description="the points object it may hide")
-    beta: float = num(50.0, gt=0.0, le=1e6, description="β of V = exp(−β d²) (MC05 eq. 30)")
-    gain: float = num(1.0, ge=0.0, le=BIG, description="scale of the artificial force")
-    avoid: bool = Field(True, description="false: detect only")
-
-
 class ActuatorsSpec(Table):
     """Joint actuator model: delay, lag, saturation, encoder (redservo.hardware.actuators)."""
+
+    RENAMED: ClassVar[dict[str, tuple[str, str]]] = {
+        "qdot_max": ("velocity_saturation", "the drives' velocity saturation"),
+        "qddot_max": ("acceleration_saturation", "the drives' acceleration saturation"),
+    }
+    """Keys renamed so that ``qdot_max`` means one thing in a file (the law's joint limit)."""
+    MODEL_KEYS: ClassVar[dict[str, str]] = {
+        "velocity_saturation": "qdot_max",
+        "acceleration_saturation": "qddot_max",
+    }
+    """The keyword of :class:`~redservo.hardware.actuators.ActuatorModel` a key sets, where it
+    differs."""
 
     tau: Annotated[float | list[float], PerJoint(ge=0.0, le=100.0, unit="s")] = Field(
         0.0, description="time constant of the first-order velocity lag (s), 0 = none"
     )
     delay_steps: int = integer(0, ge=0, le=1000, description="transport delay (control periods)")
-    qdot_max: (
+    velocity_saturation: (
         Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
     ) = Field(None, description="velocity saturation of the drives")
-    qddot_max: (
+    acceleration_saturation: (
         Annotated[float | list[float], PerJoint(gt=0.0, le=1e5, unit="rad/s² or m/s²")] | None
     ) = Field(None, description="acceleration saturation of the drives")
     encoder_resolution: (
@@ -344,6 +353,7 @@ class ScenarioSpec(Table):
         default_factory=lambda: SimulationSpec.model_validate({}), description="simulator options"
     )
     occlusion: OcclusionSpec | None = Field(None, description="an occluding sphere")
+    collision: CollisionSpec | None = Field(None, description="collision avoidance")
     sensor: SensorSpec = Field(
         default_factory=lambda: SensorSpec.model_validate({}),
         description="where the features come from",

@@ -23,7 +23,9 @@ run stops at that iteration with outcome ``joint_limit`` (the step is not
 applied), as a real robot's safety stop would. Other outcomes: ``converged`` (``‖e1‖ <
 tolerance``), ``max_iterations``, ``target_lost`` (a feature is invalid, behind the
 camera, or leaves the image), ``feature_lost`` (the image sensor lost a feature for too
-many frames) and ``occluded``. Every stateful part (law, sensor, actuator) is reset at
+many frames), ``occluded`` and ``collision`` (with ``options.collision`` measuring
+obstacles or self pairs: the smallest distance between a link and an obstacle or another
+link is logged at every step, and a distance <= 0 m ends the run). Every stateful part (law, sensor, actuator) is reset at
 the start of each run, so two identical runs give identical logs.
 
 Units: seconds, metres, radians; ``λ`` in 1/s.
@@ -43,6 +45,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.control import Controller, Measurement, SceneContext
+from redservo.control.avoidance import CollisionAvoidance
 from redservo.control.objectives import (
     CallableObjective,
     Objective,
@@ -50,6 +53,7 @@ from redservo.control.objectives import (
     visible_points,
 )
 from redservo.errors import GeometryError
+from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy.base import Law
@@ -135,7 +139,7 @@ def simulation_controller(
     (a copy; ``robot`` itself when there is no calibration error); its objectives are, in
     this order, ``secondary`` (a user function ``f(state, q, t)``), the occlusion avoidance
     of ``options.occlusion`` and ``objectives``; its gain, period, feed-forward, depth
-    factor and output saturation are the options'.
+    factor, output saturation and camera-motion limit are the options'.
 
     Args:
         robot: The true robot.
@@ -155,6 +159,9 @@ def simulation_controller(
         objs.append(CallableObjective(secondary))
     if options.occlusion is not None:
         objs.append(OcclusionAvoidance(options.occlusion))
+    coll = options.collision
+    if coll is not None and coll.enabled and coll.avoid and coll.active:
+        objs.append(CollisionAvoidance(coll))
     objs.extend(objectives)
     return Controller(
         model,
@@ -168,6 +175,8 @@ def simulation_controller(
         depth_scale=options.depth_scale,
         qdot_saturation=options.qdot_max,
         compensate_latency=options.compensate_latency,
+        image_motion=options.image_motion,
+        collision=coll,
     )
 
 
@@ -230,30 +239,33 @@ def simulate(
     outcome: Outcome = "max_iterations"
     limit_hit: dict[str, int] | None = None
     qdot_prev = np.zeros(robot.n)  # the robot starts at rest
-    for it in range(opt.max_iterations):
-        end, qdot = run.iteration(it, q, qdot_prev, buf)
-        if end is not None:
-            outcome = end
-            break
-        assert qdot is not None
-        if actuator is None:
-            q_next = q + qdot * opt.dt
-        else:
-            q_next, _ = actuator.step(q, qdot, opt.dt)
-        crossed = np.flatnonzero(
-            (q_next < lim.q_min - LIMIT_TOLERANCE) | (q_next > lim.q_max + LIMIT_TOLERANCE)
-        )
-        if crossed.size:
-            outcome = "joint_limit"
-            limit_hit = {"axis": int(crossed[0]), "iteration": it}
-            break
-        qdot_prev = qdot
-        # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
-        q = np.clip(q_next, lim.q_min, lim.q_max)
-        if progress is not None:
-            progress(it)
+    with one_blas_thread():  # the compiled steps: one BLAS thread (kernels/blas.py)
+        for it in range(opt.max_iterations):
+            end, qdot = run.iteration(it, q, qdot_prev, buf)
+            if end is not None:
+                outcome = end
+                break
+            assert qdot is not None
+            if actuator is None:
+                q_next = q + qdot * opt.dt
+            else:
+                q_next, _ = actuator.step(q, qdot, opt.dt)
+            crossed = np.flatnonzero(
+                (q_next < lim.q_min - LIMIT_TOLERANCE) | (q_next > lim.q_max + LIMIT_TOLERANCE)
+            )
+            if crossed.size:
+                outcome = "joint_limit"
+                limit_hit = {"axis": int(crossed[0]), "iteration": it}
+                break
+            qdot_prev = qdot
+            # A step commanded exactly onto a limit lands on it (roundoff is not a crossing).
+            q = np.clip(q_next, lim.q_min, lim.q_max)
+            if progress is not None:
+                progress(it)
     log = buf.to_log(robot.joint_names, task.names)
-    summary = summarize(log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin)
+    summary = summarize(
+        log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin, collision=run.contact
+    )
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
 
@@ -275,10 +287,27 @@ class _Run:
         bind = getattr(ctrl.law, "bind_camera", None)  # the predictive law's image bounds
         if bind is not None:
             bind(camera)
+        track = getattr(ctrl.law, "bind_tracker", None)  # and its camera-motion limit
+        if track is not None:
+            track(_tracking_gate(sensor))
         self.rng = np.random.default_rng(opt.seed)
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
         self.true_model = ctrl.robot is robot and actuator is None
+        coll = opt.collision
+        self.collision = coll if coll is not None and coll.active else None
+        self.contact: dict[str, Any] | None = None
+        """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
+
+    def closest(self, it: int, q: FloatArray, t: float) -> tuple[float, str] | None:
+        """The smallest distance (m) and its pair at the true ``q``, None when not measured;
+        records the contact when the distance is <= 0."""
+        if self.collision is None:
+            return None
+        d, pair = self.collision.measure(self.robot, q, t).closest()
+        if d <= 0.0:
+            self.contact = {"pair": pair, "distance": d, "iteration": it}
+        return d, pair
 
     def iteration(
         self, it: int, q: FloatArray, qdot_prev: FloatArray, buf: LogBuffer
@@ -291,6 +320,9 @@ class _Run:
         q_meas = q if act is None else np.clip(act.encoder(q), lim.q_min, lim.q_max)
         bMc, J_true = self.robot.kinematics(q, check_limits=False)
         J = J_true if self.true_model else ctrl.robot.jacobian(q_meas, check_limits=False)
+        closest = self.closest(it, q, t)
+        if self.contact is not None:
+            return "collision", None
         reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
         if reading.s is None:
             return _lost_outcome(reading), None
@@ -315,8 +347,18 @@ class _Run:
             return cast(Outcome, step.stop), None
         assert step.diagnostics is not None
         state, qdot = step.state, step.qdot
-        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics)
+        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics, closest)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
             return "converged", None
         return None, qdot
+
+
+def _tracking_gate(sensor: Sensor) -> float | None:
+    """The gate (pixels) of ``sensor``'s dot tracker, None without one (the ideal sensor:
+    the image pipeline is not imported for it)."""
+    if not type(sensor).__module__.startswith("redservo.vision"):
+        return None
+    from redservo.vision.terms import tracking_gate_px
+
+    return tracking_gate_px(sensor)

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from redservo._validation import FloatArray, as_transform
+from redservo.control.avoidance import Collision
 from redservo.control.feedforward import FEEDFORWARD_MODES, Feedforward
+from redservo.control.image_motion import ImageMotionLimit
 from redservo.control.objectives import Occlusion
 from redservo.errors import ConfigurationError
 from redservo.redundancy.gain import AdaptiveGain
@@ -41,9 +43,16 @@ class SimulationOptions:
         image_margin_px: A feature point closer than this to the image border counts as lost.
         check_image: Stop with ``target_lost`` when an object leaves the image.
         occlusion: Occlusion set-up (:class:`~redservo.control.Occlusion`), or None.
+        image_motion: The controller's camera-motion limit
+            (:class:`~redservo.control.ImageMotionLimit`), or None.
         stop_at_convergence: Stop as soon as ``‖e1‖ < tolerance``. Set False for
             tracking tasks: the run then lasts ``max_iterations`` and its outcome is
             ``converged`` when the final error is below the tolerance.
+        collision: Obstacles and collision avoidance
+            (:class:`~redservo.control.avoidance.Collision`), or None. With obstacles or
+            self pairs, every step's smallest distance is logged and a distance <= 0 ends
+            the run with outcome ``collision``; unless it is off, the controller avoids
+            (repulsive objective) and shields (distance shield).
         compensate_latency: The controller brings a camera's delayed measurement to the
             present (:mod:`redservo.control.latency`); only stamped measurements (a sensor
             with a latency or a frame rate, :mod:`redservo.sensor_timing`) are affected.
@@ -65,6 +74,8 @@ class SimulationOptions:
     check_image: bool = True
     occlusion: Occlusion | None = None
     stop_at_convergence: bool = True
+    image_motion: ImageMotionLimit | None = None
+    collision: Collision | None = None
     compensate_latency: bool = True
 
     @property
@@ -102,6 +113,12 @@ class SimulationOptions:
             raise ConfigurationError(
                 f"feedforward must be 'none', 'known' or 'estimated', got {self.feedforward!r}",
                 argument="feedforward",
+            )
+        if self.collision is not None and not isinstance(self.collision, Collision):
+            raise ConfigurationError(
+                f"collision must be a redservo.control.avoidance.Collision or None, got "
+                f"{self.collision!r:.60}",
+                argument="collision",
             )
         if self.eMc_model is not None:
             object.__setattr__(self, "eMc_model", as_transform(self.eMc_model, "eMc_model"))

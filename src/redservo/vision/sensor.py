@@ -49,13 +49,21 @@ from redservo.features import (
 )
 from redservo.scene import PointSet
 from redservo.sensors import SensorReading
-from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy, estimate_inv_depth
+from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy
 from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.moments import dot_moment_features
+from redservo.vision.motion import camera_shift
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
-from redservo.vision.terms import TermState, dot_tracker, measure_lines, measure_sphere, track_dots
+from redservo.vision.terms import (
+    TermState,
+    dot_tracker,
+    measure_lines,
+    measure_sphere,
+    term_inv_depths,
+    track_dots,
+)
 from redservo.vision.tracking import ImageDotTracker
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -145,6 +153,7 @@ class ImageSensor:
         self.feature_lost = False
         self.dots_uv: FloatArray = np.zeros((0, 2))
         """Pixel positions (N, 2) of the tracked dots after the last read (for overlays)."""
+        self._bMc: FloatArray | None = None  # the camera pose of the last frame
 
     @classmethod
     def from_config(cls, camera: Camera | None, table: Mapping[str, Any]) -> ImageSensor:
@@ -173,7 +182,7 @@ class ImageSensor:
     def reset(self) -> None:
         """Forget the trackers and restart the noise stream."""
         self.renderer.reset()
-        self._tracker = self._dot_tracker = None
+        self._tracker = self._dot_tracker = self._bMc = None
         self._terms = []
         self._task_id = None
         self.feature_lost = False
@@ -304,7 +313,8 @@ class ImageSensor:
             )
             return SensorReading(None, (), tuple(lost), reason, image)
         s_all = np.concatenate([st.s for st in self._terms if st.s is not None])
-        inv_depth = self._inv_depth(task, truth_d, set_xy)
+        dots = (self._sets, self._detected, set_xy)
+        inv_depth = term_inv_depths(self.depth, task, self._terms, truth_d, dots)
         if inv_depth is None:
             notes.append(f"no {self.depth} depth available yet")
             return SensorReading(None, (), tuple(lost), "; ".join(notes), image)
@@ -323,7 +333,10 @@ class ImageSensor:
         if self._dot_tracker is None:
             return np.zeros((0, 2))
         start = self._truth_uv(scene, bMc, t) if first else None
-        track = track_dots(self._dot_tracker, image, self.renderer.options, start, notes)
+        optics = self.renderer.optics
+        shift = None if first else camera_shift(self._terms, optics, self.dots_uv, self._bMc, bMc)
+        self._bMc = np.array(bMc, dtype=float)
+        track = track_dots(self._dot_tracker, image, self.renderer.options, start, notes, shift)
         self._detected = track.detected
         self.dots_uv = track.uv
         return self.renderer.optics.to_normalized(track.uv)
@@ -364,39 +377,3 @@ class ImageSensor:
         if s is None:
             notes.append(f"term {i} ({st.kind}): {why}")
         return s
-
-    def _inv_depth(
-        self, task: VisualTask, truth_d: list[FloatArray | None], set_xy: FloatArray
-    ) -> tuple[FloatArray, ...] | None:
-        if self.depth == "desired":
-            assert task.inv_depth_star is not None  # checked in _plan
-            return task.inv_depth_star
-        out = []
-        for i, (term, st) in enumerate(zip(task.terms, self._terms)):
-            d: FloatArray | None = truth_d[i]
-            if self.depth == "estimated" and st.s is not None and st.kind != "tag":
-                kw: dict[str, Any] = {}
-                if st.kind in ("point", "moments"):
-                    name = term.target
-                    kw = {"set_points": self._sets[name], "set_xy": self._set_xy(name, set_xy)}
-                try:
-                    d = estimate_inv_depth(term.feature, st.s, **kw)
-                except GeometryError:
-                    d = None  # keep the last estimate
-            if d is not None:
-                st.inv_depth = d
-            if st.inv_depth is None:
-                return None
-            out.append(st.inv_depth)
-        return tuple(out)
-
-    def _set_xy(self, name: str, set_xy: FloatArray) -> FloatArray:
-        """Normalized dots (N, 2) of point set ``name``; NaN for the dots lost this frame."""
-        start = 0
-        for other, pts in self._sets.items():
-            if other == name:
-                xy = set_xy[start : start + len(pts)].copy()
-                xy[~self._detected[start : start + len(pts)]] = np.nan
-                return xy
-            start += len(pts)
-        raise ConfigurationError(f"no point set {name!r}")  # pragma: no cover

@@ -12,19 +12,26 @@ edges, learnt on the first frame.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError, GeometryError
 from redservo.features import SphereFeature
+from redservo.vision.depth import DepthPolicy, estimate_inv_depth
 from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
 from redservo.vision.lines import orient_like, refine_line
 from redservo.vision.optics import require_cv2
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tracking import ImageDotTracker
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.task import VisualTask
 
 __all__ = [
     "TermState",
@@ -133,14 +140,28 @@ def _dot_sizes(opt: RenderOptions) -> tuple[float, float, float]:
     return max(2.0, R), 2.0 * R + 4.0 + 6.0 * opt.blur_px, max(2.5, 3.0 * opt.blur_px + 1.0)
 
 
+def dot_gate_px(opt: RenderOptions) -> float:
+    """The dot tracker's gate (pixels): the largest distance of a dot from its
+    constant-velocity prediction, ``25 + 3 blur_px``."""
+    return 25.0 + 3.0 * opt.blur_px
+
+
+def tracking_gate_px(sensor: Any) -> float | None:
+    """The gate (pixels, :func:`dot_gate_px`) of an image sensor's dot tracker, or None
+    for a sensor that tracks no dots in an image (the ideal sensor)."""
+    from redservo.vision.sensor import ImageSensor
+
+    return dot_gate_px(sensor.renderer.options) if isinstance(sensor, ImageSensor) else None
+
+
 def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageDotTracker:
     """The tracker of ``n_dots`` rendered dots: sizes from the render options, a motion of
-    up to ``25 + 3 blur_px`` pixels per frame after the constant-velocity prediction."""
+    up to :func:`dot_gate_px` pixels per frame after the constant-velocity prediction."""
     lo, hi, pad = _dot_sizes(opt)
     return ImageDotTracker(
         n_dots,
         polarity="bright" if opt.levels.point > opt.background else "dark",
-        max_jump_px=25.0 + 3.0 * opt.blur_px,
+        max_jump_px=dot_gate_px(opt),
         max_lost_frames=max_lost_frames,
         min_size_px=lo,
         max_size_px=hi,
@@ -154,14 +175,19 @@ def track_dots(
     opt: RenderOptions,
     start_uv: FloatArray | None,
     notes: list[str],
+    shift: FloatArray | None = None,
 ) -> DotTrack:
-    """Track the dots into ``image`` (from ``start_uv``, pixels, on a first frame).
+    """Track the dots into ``image`` (from ``start_uv``, pixels, on a first frame; then with
+    the predicted image motion ``shift`` (N, 2) pixels of each dot, if given).
 
     Appends to ``notes`` the dots lost in this frame with their reasons
     (:data:`~redservo.vision.tracking.LOSS_REASONS`) and, when the whole-image blob
     count (:func:`count_dot_blobs`) differs from the number of dots, that count.
     """
-    track = tracker.start(image, start_uv) if start_uv is not None else tracker.update(image)
+    if start_uv is not None:
+        track = tracker.start(image, start_uv)
+    else:
+        track = tracker.update(image, shift)
     n_blobs, n_border = count_dot_blobs(image, opt)
     n = tracker.n_dots
     if n_blobs != n:
@@ -292,3 +318,57 @@ def measure_lines(
         rho, theta = orient_like(meas.rho, meas.theta, float(ref[2 * k]), float(ref[2 * k + 1]))
         out[2 * k : 2 * k + 2] = (rho, theta)
     return out, ""
+
+
+def set_dots(
+    sets: Mapping[str, FloatArray], detected: NDArray[np.bool_], name: str, xy: FloatArray
+) -> FloatArray:
+    """Normalized dots (N, 2) of point set ``name`` among ``xy`` (the dots of every set of
+    ``sets``, in order); NaN for the dots not ``detected`` this frame."""
+    start = 0
+    for other, pts in sets.items():
+        if other == name:
+            out = xy[start : start + len(pts)].copy()
+            out[~detected[start : start + len(pts)]] = np.nan
+            return out
+        start += len(pts)
+    raise ConfigurationError(f"no point set {name!r}")  # pragma: no cover
+
+
+def term_inv_depths(
+    policy: DepthPolicy,
+    task: VisualTask,
+    terms: list[TermState],
+    truth_d: list[FloatArray | None],
+    dots: tuple[Mapping[str, FloatArray], NDArray[np.bool_], FloatArray],
+) -> tuple[FloatArray, ...] | None:
+    """Each term's inverse-depth parameters under the depth ``policy``
+    (:mod:`redservo.vision.depth`), kept in ``TermState.inv_depth`` (the dots' predicted motion
+    uses them, :mod:`redservo.vision.motion`); None while a term has none yet.
+
+    ``truth_d``: the true parameters per term where measured; ``dots``: the point sets, the
+    dots detected this frame and every dot's normalized position (N, 2)."""
+    if policy == "desired":
+        assert task.inv_depth_star is not None  # checked when the sensor plans the task
+        for st, star in zip(terms, task.inv_depth_star):
+            st.inv_depth = star
+        return task.inv_depth_star
+    sets, detected, xy = dots
+    out = []
+    for i, (term, st) in enumerate(zip(task.terms, terms)):
+        d: FloatArray | None = truth_d[i]
+        if policy == "estimated" and st.s is not None and st.kind != "tag":
+            kw: dict[str, Any] = {}
+            if st.kind in ("point", "moments"):
+                name = term.target
+                kw = {"set_points": sets[name], "set_xy": set_dots(sets, detected, name, xy)}
+            try:
+                d = estimate_inv_depth(term.feature, st.s, **kw)
+            except GeometryError:
+                d = None  # keep the last estimate
+        if d is not None:
+            st.inv_depth = d
+        if st.inv_depth is None:
+            return None
+        out.append(st.inv_depth)
+    return tuple(out)

@@ -51,7 +51,7 @@ prediction uses this frame's positions). The dot order never changes.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -61,6 +61,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
+from redservo.vision.fastdot import similarity_prediction, window_blob
 from redservo.vision.optics import require_cv2
 
 __all__ = ["LOSS_REASONS", "ImageDotTracker"]
@@ -149,6 +150,7 @@ class ImageDotTracker:
             raise ConfigurationError(f"max_lost_frames must be >= 0, got {self.max_lost_frames}")
         self._dots: list[_Dot] = []
         self._ref: FloatArray | None = None
+        self._ref_c: list[complex] = []  # the same, as complex numbers u + i v
 
     @property
     def started(self) -> bool:
@@ -188,20 +190,32 @@ class ImageDotTracker:
                 self._accept(d, blob, adapt_area=True)
         return self._state(reasons)
 
-    def update(self, image: NDArray[np.uint8]) -> DotTrack:
-        """Track every dot into ``image`` (H, W) uint8; return the new state."""
+    def update(self, image: NDArray[np.uint8], shift: ArrayLike | None = None) -> DotTrack:
+        """Track every dot into ``image`` (H, W) uint8; return the new state.
+
+        Args:
+            image: The frame.
+            shift: (N, 2) image motion (pixels) of each dot since the last frame, predicted
+                by the caller (e.g. from the commanded camera twist and the interaction
+                matrix); it replaces the constant-velocity prediction, so that the search
+                window follows the predicted motion. A NaN row: no prediction for that dot.
+        """
         if not self._dots:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
         img = _check_image(image)
+        moves = self._moves(shift)
         reasons = [""] * self.n_dots
         taken: dict[int, tuple[FloatArray, float]] = {}
-        before = {i: replace(d) for i, d in enumerate(self._dots) if d.lost == 0}
+        before = {i: _copy(d) for i, d in enumerate(self._dots) if d.lost == 0}
         for i in before:
             d = self._dots[i]
-            pred = d.uv + d.vel
+            pred = d.uv + moves[i]
             base = self.max_jump_px + d.size + self.pad_px + 3.0
             gate = self.max_jump_px + d.size
-            blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
+            blob: Blob | None = window_blob(self, img, d, pred, gate, list(taken.values()))
+            why, first = "", True
+            if blob is None:
+                blob, why, first = self._search(img, d, pred, base, gate, list(taken.values()))
             reasons[i] = self._finish(i, pred, blob, why, first, taken)
         refused = self._off_geometry(taken)
         for i in refused:
@@ -212,13 +226,13 @@ class ImageDotTracker:
         for i, d in enumerate(self._dots):
             if i in before and i not in refused:
                 continue
-            pred = d.uv + d.vel
+            pred = d.uv + moves[i]
             size = d.size if np.isfinite(d.size) else self.max_size_px
             base = self.max_jump_px + size + self.pad_px + 3.0
             half = min(base * (1.0 + self.window_growth * d.lost), float(max(img.shape)))
             gate = half
             if geo is not None:
-                pred, spread = geo[0][i], geo[1]
+                pred, spread = np.array([geo[0][i].real, geo[0][i].imag]), geo[1]
                 gate = max(2.0 * size, self.geometry_tol * spread)
                 half = gate + size + self.pad_px + 3.0  # the geometry is known: no growth
             if not np.isfinite(pred).all():
@@ -231,7 +245,20 @@ class ImageDotTracker:
                 reasons[i] = "off_geometry"
         if all(d.lost == 0 for d in self._dots):
             self._ref = np.array([d.uv for d in self._dots])
+            self._ref_c = [complex(x, y) for x, y in self._ref.tolist()]
         return self._state(reasons)
+
+    def _moves(self, shift: ArrayLike | None) -> FloatArray:
+        """Each dot's predicted motion (N, 2) in pixels: ``shift`` where given, else its velocity."""
+        vel = np.array([d.vel for d in self._dots])
+        if shift is None:
+            return vel
+        s = np.asarray(shift, dtype=float)
+        if s.shape != (self.n_dots, 2):
+            raise ShapeError(f"shift must have shape ({self.n_dots}, 2) pixels, got {s.shape}")
+        if np.isinf(s).any():
+            raise ConfigurationError("shift must be finite (NaN = no prediction), got inf")
+        return np.where(np.isnan(s).any(axis=1, keepdims=True), vel, s)
 
     def _off_geometry(self, taken: dict[int, tuple[FloatArray, float]]) -> list[int]:
         """Dots found this frame far from where the other found dots (>= 2) put them."""
@@ -243,7 +270,7 @@ class ImageDotTracker:
                 continue
             size = taken[i][1]
             gate = max(2.0 * size, self.geometry_tol * geo[1])
-            if float(np.hypot(*(taken[i][0] - geo[0][i]))) > gate:
+            if abs(complex(*taken[i][0].tolist()) - geo[0][i]) > gate:
                 refused.append(i)
         return refused
 
@@ -278,22 +305,12 @@ class ImageDotTracker:
             d.area, d.size = float(blob.area), float(blob.size)
         d.lost = 0
 
-    def _geometry(self, found: list[int]) -> tuple[FloatArray, float] | None:
+    def _geometry(self, found: list[int]) -> tuple[list[complex], float] | None:
         """Every dot's position predicted from the found dots (similarity from the reference)."""
         if self._ref is None or not found:
             return None
-        ref = self._ref[:, 0] + 1j * self._ref[:, 1]
-        cur = np.array([self._dots[i].uv[0] + 1j * self._dots[i].uv[1] for i in found])
-        if len(found) == 1:
-            a, b = 1.0 + 0j, cur[0] - ref[found[0]]
-        else:
-            r0, c0 = ref[found].mean(), cur.mean()
-            dr = ref[found] - r0
-            a = complex(np.vdot(dr, cur - c0) / max(float(np.vdot(dr, dr).real), 1e-12))
-            b = c0 - a * r0
-        z = a * ref + b
-        spread = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
-        return np.column_stack([z.real, z.imag]), spread
+        cur = [complex(*self._dots[i].uv.tolist()) for i in found]
+        return similarity_prediction(self._ref_c, cur, found)
 
     def _thresholds(self, d: _Dot, win: NDArray[np.uint8]) -> Iterator[float]:
         """The gray levels to try, in order (module docstring; Otsu computed only if reached)."""
@@ -390,6 +407,11 @@ class ImageDotTracker:
         lost = np.array([d.lost for d in self._dots], dtype=int)
         gone = tuple(int(i) for i in np.flatnonzero(lost > self.max_lost_frames))
         return DotTrack(uv, detected, lost, int(detected.sum()), gone, tuple(reasons))
+
+
+def _copy(d: _Dot) -> _Dot:
+    """A shallow copy of ``d`` (its arrays are replaced, never changed in place)."""
+    return _Dot(d.uv, d.vel, d.level, d.background, d.area, d.size, d.lost)
 
 
 def _check_image(image: Any) -> NDArray[np.uint8]:

@@ -1,0 +1,188 @@
+"""One iteration of a closed loop with an ideal sensor in compiled code: sense, then the step kernel.
+
+:func:`sense` gives the robot's kinematics (:func:`redservo.kernels.robot.robot_kinematics`),
+the features of an ideal sensor and their interaction matrix
+(:mod:`redservo.kernels.loop_task`), ``e1`` and ``J1`` (CM01 eq. 25, the step kernel's
+:func:`~redservo.kernels.control.task_rows`) and the known feed-forward; :func:`law_bits`
+runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
+its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's solver-free step.
+The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
+iteration, the benchmarks' step (:mod:`redservo.binding.step`) once per call
+(:func:`sensed_step`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.
+Units: m, rad, s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redservo.kernels._jit import kernel
+from redservo.kernels.control import law_core, task_rows
+from redservo.kernels.events import qp_events, safety_events
+from redservo.kernels.loop_task import known_feedforward, loop_task
+from redservo.kernels.qp import qp_finish, qp_prepare
+from redservo.kernels.robot import robot_kinematics
+from redservo.kernels.safety import apply_safety
+from redservo.kernels.step import I_SNS_BAD, LAW_IDS
+
+__all__ = [
+    "ABORT_INFEASIBLE",
+    "ABORT_NON_FINITE",
+    "ABORT_RAISES",
+    "MAX_ITERATIONS",
+    "QP",
+    "TARGET_LOST",
+    "law_bits",
+    "qp_law",
+    "sense",
+    "sensed_step",
+]
+
+MAX_ITERATIONS, TARGET_LOST = 0, 3
+"""The outcome codes :func:`sense` may end a run with (the loop's codes)."""
+ABORT_NON_FINITE, ABORT_INFEASIBLE, ABORT_RAISES = 1, 2, 3
+"""Why a run left the kernel early: the law would raise (ShapeError, InfeasibleError), or
+the object path would (a feature invalid where the feed-forward measures it)."""
+
+QP = -1
+"""The law id of ``qp`` here (:data:`redservo.kernels.step.LAW_IDS` has no ``qp``)."""
+_SNS = LAW_IDS["sns"]
+
+
+@kernel
+def qp_law(
+    J1: Any,
+    e1: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    prev: Any,
+    law: Any,
+    limits: Any,
+    sim: Any,
+    solve: Any,
+) -> Any:
+    """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
+
+    Where the unconstrained optimum lies within the bounds (no solver), the kernels of the
+    law's fast path: :func:`~redservo.kernels.qp.qp_prepare`, ``qp_finish``, the safety
+    layer, on the effective error ``e1 + ff / λ``. Elsewhere ``J1``, ``e1`` and ``ff`` go
+    into ``solve`` and the loop returns to Python, which calls the law itself and hands its
+    command and flags back (``pend``).
+    """
+    _, fopt, iopt, vopt, _ = law
+    lp, has_v, has_a, _, _ = limits
+    lam, dt = sim[0], sim[1]
+    pJ, pe, px, pend, pf = solve
+    if pend[0] != 0:  # resumed at this iteration: the law's command, computed in Python
+        pend[0] = 0
+        return px.copy(), pend[1], False
+    m, n = J1.shape
+    e = np.empty(m)
+    for i in range(m):
+        e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # LawInputs.e_eff
+    zn = np.zeros(n)
+    x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
+        J1,
+        e,
+        q,
+        lp,
+        has_v,
+        has_a,
+        dt,
+        prev,
+        True,
+        zn,
+        False,
+        lam,
+        fopt[2],
+        fopt[3],
+        vopt[0],
+        iopt[2] != 0,
+        fopt[0],
+        iopt[0] != 0,
+    )
+    if not inside:
+        pJ[:, :] = J1
+        pe[:] = e1
+        pf[:] = ff
+        pend[3] = 1 if has_ff else 0
+        return x, 0, True
+    bits = qp_events(m, rank, conflicts, False, -1.0)[0]
+    fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
+    qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(
+        fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
+    )
+    safe = safety_events(bad, s, over_v, dropped, change, acted, worst, exc, past)
+    return qd, bits | safe[0], False
+
+
+@kernel
+def law_bits(
+    J1: Any,
+    e1: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    prev: Any,
+    hist: Any,
+    has_hist: bool,
+    law: Any,
+    limits: Any,
+    sim: Any,
+) -> Any:
+    """Step 4 for a law of ``law_step``: the step kernel's law part
+    (:func:`redservo.kernels.control.law_core`, feed-forward ``ff`` when ``has_ff``):
+    ``(q̇, bits, abs_grad, abort)``."""
+    law_id, fopt, iopt, vopt, _ = law
+    lp, has_v, has_a, _, _ = limits
+    none = q[:0]
+    inputs = (ff if has_ff else e1[:0], none, prev, hist if has_hist else none)
+    packs = ((law_id, fopt, iopt, vopt), (lp, has_v, has_a), (sim[0], sim[1]))
+    ok, out, lev, sev = law_core(q, J1, e1, *packs, inputs)
+    if not ok:
+        return none, 0, none, ABORT_NON_FINITE
+    qd, iout, _, _, axf, _, _ = out
+    if law_id == _SNS and iout[I_SNS_BAD] >= 0:
+        return qd, 0, axf, ABORT_INFEASIBLE
+    return qd, lev[0] | sev[0], axf, 0
+
+
+@kernel
+def sense(it: int, q: Any, robot: Any, scene: Any, task: Any, sim: Any) -> Any:
+    """Steps 1-3 and the feed-forward: ``(J, e1, J1, ff, has_ff, outcome, abort)``,
+    ``outcome`` -1 while the run goes on."""
+    dt = sim[1]
+    t = it * dt
+    bMc, J = robot_kinematics(q, robot)
+    e, L, cMw, lost = loop_task(bMc, scene, task, t)
+    if lost:
+        return J, e, L, e, False, TARGET_LOST, 0
+    e1, J1 = task_rows(e, L, task[8], J)  # CM01 eq. 25, the step kernel's
+    if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
+        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
+    if not np.isfinite(np.sum(J1) + np.sum(e1)):
+        return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
+    if not sim[6]:
+        return J, e1, J1, e1, False, -1, 0
+    ff, ok = known_feedforward(cMw, scene, task, t, dt)
+    if not (ok and np.all(np.isfinite(ff))):
+        return J, e1, J1, ff, True, MAX_ITERATIONS, ABORT_RAISES
+    return J, e1, J1, ff, True, -1, 0
+
+
+@kernel
+def sensed_step(
+    q: Any, prev: Any, robot: Any, scene: Any, task: Any, law: Any, limits: Any, sim: Any
+) -> Any:
+    """One step at ``q`` (n,) with the previous command ``prev`` (n,) at time 0 for a law of
+    ``law_step``: ``(q̇, e1, J1, bits, ok)``; ``ok`` False when the features are lost or the
+    law would raise (the caller then runs the object path)."""
+    _, e1, J1, ff, has_ff, outcome, abort = sense(0, q, robot, scene, task, sim)
+    none = q[:0]
+    if outcome >= 0:
+        return none, e1, J1, 0, False
+    qd, bits, _, abort = law_bits(J1, e1, ff, has_ff, q, prev, none, False, law, limits, sim)
+    return qd, e1, J1, bits, abort == 0
