@@ -48,18 +48,19 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector
-from redservo.control.avoidance import Collision, check_collision, shield_command
+from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
-from redservo.control.image_motion import ImageMotionLimit, limit_image_motion, point_rows
+from redservo.control.image_motion import ImageMotionLimit, point_rows
 from redservo.control.latency import CommandHistory, present
-from redservo.control.law_output import guarded_output, law_output
+from redservo.control.law_output import law_output
 from redservo.control.objectives import Objective, ObjectiveContext
+from redservo.control.output import final_guard, shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.limits import JointLimits
-from redservo.redundancy.base import Diagnostics, LawResult
+from redservo.redundancy.base import LawResult
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
@@ -281,8 +282,7 @@ class Controller:
         if res is None:
             return None
         qdot, state, diag = res
-        qdot, diag, saturated = self._shape(qdot, diag, state, q, Ja, prev)
-        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
+        qdot, diag, saturated = shape_output(self, qdot, diag, state, q, Ja, t, prev)
         return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
@@ -378,36 +378,13 @@ class Controller:
         res = self.law(**self._law_kwargs(state, q, de1_dt, secondary, prev))
         if self._own_law:
             self.stage = "guard"
-            qdot, diag = self._final_guard(*law_output(res, self.law, self.robot.n), q, prev)
+            qdot, diag = final_guard(self, *law_output(res, self.law, self.robot.n), q, prev)
         else:
             qdot, diag = res.qdot, res.diagnostics
-        qdot, diag, saturated = self._shape(qdot, diag, state, q, J, prev)
-        qdot, diag = self._distance_guard(qdot, diag, q, t, prev)
+        qdot, diag, saturated = shape_output(self, qdot, diag, state, q, J, t, prev)
         if self._estimator is not None:
             self._estimator.record(state, t)
         return ControlStep(qdot, state, diag, secondary, de1_dt, None, saturated)
-
-    def _final_guard(
-        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, prev: FloatArray | None
-    ) -> tuple[FloatArray, Diagnostics]:
-        """The servo loop's final guard (:func:`~redservo.control.law_output.guarded_output`)
-        on a user's own law's output, and again on any command the output saturation scaled
-        (a uniform scaling towards zero keeps the velocity and position limits but may break
-        ``qddot_max`` against ``prev``); the position step unless the law has
-        ``shield = False``."""
-        shield = bool(getattr(self.law, "shield", True))
-        qdot, diag, _ = guarded_output(
-            qdot, diag, q=q, qdot_prev=prev, limits=self.limits, dt=self.dt, shield=shield
-        )
-        return qdot, diag
-
-    def _distance_guard(
-        self, qdot: FloatArray, diag: Diagnostics, q: FloatArray, t: float, prev: FloatArray | None
-    ) -> tuple[FloatArray, Diagnostics]:
-        """The distance shield (:func:`~redservo.control.avoidance.shield_command`), when on."""
-        self.stage = "guard"
-        limits = self.limits.qddot_max
-        return shield_command(self.collision, self.robot, qdot, diag, q, t, self.dt, prev, limits)
 
     def secondary(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         """Sum the objectives' commands (n,), in order; the first that ends the run wins
@@ -463,34 +440,3 @@ class Controller:
             if name in self.accepts:
                 kw[name] = value
         return kw
-
-    def _shape(
-        self,
-        qdot: FloatArray,
-        diag: Diagnostics,
-        state: TaskState,
-        q: FloatArray,
-        J: FloatArray | None,
-        prev: FloatArray | None,
-    ) -> tuple[FloatArray, Diagnostics, bool]:
-        """The output saturation and the camera-motion limit (each a uniform scaling towards
-        zero), then the final guard on a command either scaled: ``(q̇, diagnostics,
-        saturated)``."""
-        self.stage = "saturation"
-        qdot, saturated = self._saturate(qdot)
-        limited = False
-        if self.image_motion is not None:
-            Ja = self.jacobian(q) if J is None else J
-            qdot, diag, limited = limit_image_motion(
-                qdot, diag, state.L, Ja, self._motion_rows, self.image_motion
-            )
-        if saturated or limited:
-            self.stage = "guard"
-            qdot, diag = self._final_guard(qdot, diag, q, prev)
-        return qdot, diag, saturated
-
-    def _saturate(self, qdot: FloatArray) -> tuple[FloatArray, bool]:
-        if self.qdot_saturation is None:
-            return qdot, False
-        ratio = float(np.max(np.abs(qdot) / self.qdot_saturation))
-        return (qdot / ratio, True) if ratio > 1.0 else (qdot, False)

@@ -359,6 +359,6 @@ def _tracking_gate(sensor: Sensor) -> float | None:
     the image pipeline is not imported for it)."""
     if not type(sensor).__module__.startswith("redservo.vision"):
         return None
-    from redservo.vision.terms import tracking_gate_px
+    from redservo.vision.sensor import tracking_gate_px
 
     return tracking_gate_px(sensor)

@@ -58,6 +58,7 @@ from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 from redservo.vision.terms import (
     TermState,
+    dot_gate_px,
     dot_tracker,
     measure_lines,
     measure_sphere,
@@ -70,7 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.task import VisualTask
 
-__all__ = ["FEATURE_LOST", "ImageSensor"]
+__all__ = ["FEATURE_LOST", "ImageSensor", "tracking_gate_px"]
 
 _KINDS: dict[type, str] = {SphereFeature: "sphere", CylinderFeature: "cylinder"}
 _KINDS[LineFeature] = "line"
@@ -377,3 +378,9 @@ class ImageSensor:
         if s is None:
             notes.append(f"term {i} ({st.kind}): {why}")
         return s
+
+
+def tracking_gate_px(sensor: Any) -> float | None:
+    """The gate (pixels, :func:`dot_gate_px`) of an image sensor's dot tracker, or None
+    for a sensor that tracks no dots in an image (the ideal sensor)."""
+    return dot_gate_px(sensor.renderer.options) if isinstance(sensor, ImageSensor) else None

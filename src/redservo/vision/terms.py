@@ -146,14 +146,6 @@ def dot_gate_px(opt: RenderOptions) -> float:
     return 25.0 + 3.0 * opt.blur_px
 
 
-def tracking_gate_px(sensor: Any) -> float | None:
-    """The gate (pixels, :func:`dot_gate_px`) of an image sensor's dot tracker, or None
-    for a sensor that tracks no dots in an image (the ideal sensor)."""
-    from redservo.vision.sensor import ImageSensor
-
-    return dot_gate_px(sensor.renderer.options) if isinstance(sensor, ImageSensor) else None
-
-
 def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageDotTracker:
     """The tracker of ``n_dots`` rendered dots: sizes from the render options, a motion of
     up to :func:`dot_gate_px` pixels per frame after the constant-velocity prediction."""
