@@ -408,10 +408,12 @@ def test_image_sensor_keys_match_the_sensor() -> None:
     from redservo.schema.scenario import SensorSpec
 
     pytest.importorskip("cv2", reason="the image sensor needs OpenCV (redservo[vision])")
+    from redservo.experiment_sensor import TIMING_KEYS
     from redservo.vision import DEPTH_POLICIES, ImageSensor
 
     params = inspect.signature(ImageSensor.__init__).parameters
-    fields = SensorSpec.model_fields
+    # The camera's timing keys are the TimedSensor's (redservo.sensor_timing), not the image's.
+    fields = {k: v for k, v in SensorSpec.model_fields.items() if k not in TIMING_KEYS}
     for name, field in fields.items():
         if name != "kind":
             assert field.default == params[name].default, name  # same defaults, one place each

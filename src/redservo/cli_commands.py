@@ -197,6 +197,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             pixel_noise=False if args.no_pixel_noise else None,
             sensor=args.sensor,
             unfiltered=args.unfiltered,
+            camera=args.camera,
         )
     print("\n".join(console_summary(report, Path(args.out))))
     return 0

@@ -13,6 +13,7 @@ import argparse
 from typing import Any
 
 from redservo import cli_commands as cmd
+from redservo.camera_presets import add_camera_option
 from redservo.cli_common import Parser, add_figure_options, int_in, method_list, method_name
 
 __all__ = ["EPILOG", "build_parser"]
@@ -67,6 +68,7 @@ def _add_run(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     r.add_argument("--method", type=method_name, help="override the scenario's control method")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", help=_SET_HELP)
+    add_camera_option(r)
     r.add_argument("--out", help="output directory (default runs/SCENARIO-METHOD)")
     r.add_argument("--plot", action="store_true", help=argparse.SUPPRESS)  # now the default
     r.add_argument(
@@ -88,6 +90,7 @@ def _add_compare(sub: Any, common: argparse.ArgumentParser) -> None:
         "--methods", type=method_list, required=True, help="comma-separated method names"
     )
     c.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scenario key")
+    add_camera_option(c)
     c.add_argument("--out", help="output directory (default runs/SCENARIO-compare)")
     add_figure_options(c)
     c.set_defaults(func=cmd.cmd_compare, compiles=True)
@@ -146,6 +149,7 @@ def _add_reproduce(sub: Any, common: argparse.ArgumentParser) -> None:
         "gradient, uncorrected distortion), and report per claim whether it still holds "
         "(needs redservo[vision])",
     )
+    add_camera_option(rp, reproduce=True)
     rp.add_argument(
         "--no-pixel-noise",
         action="store_true",
@@ -180,6 +184,7 @@ def _add_campaign(sub: Any, common: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="override a key of the base scenario (after the campaign's overrides)",
     )
+    add_camera_option(cp)
     add_figure_options(cp)
     cp.add_argument(
         "--samples", type=int_in(1, MAX_SAMPLES), default=None, help="number of random variations"

@@ -12,7 +12,7 @@ the limits, every observed object in front of the camera and in the image at the
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -23,6 +23,7 @@ from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
+from redservo.experiment_sensor import attach_timing, scenario_sensor
 from redservo.experiment_start import attach_collision, check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
@@ -31,6 +32,7 @@ from redservo.robots import Robot
 from redservo.scenario import Scenario
 from redservo.scene import Scene, Static
 from redservo.schema.scenario import ScenarioSpec
+from redservo.sensor_timing import CameraTiming, timed
 from redservo.sensors import Sensor
 from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, simulate
 from redservo.simulation.loop import Actuator, simulation_controller
@@ -56,6 +58,9 @@ class Experiment:
     sensor: Sensor | None = None
     actuator: Actuator | None = None
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] (redservo.collision), world frame
+    timing: CameraTiming = field(default_factory=CameraTiming)
+    """The camera's timing (``[sensor]`` rate, latency, exposure): every run's sensor is seen
+    through it (:func:`redservo.sensor_timing.timed`), whoever replaced :attr:`sensor`."""
 
     def run(
         self,
@@ -81,7 +86,7 @@ class Experiment:
             options=options,
             camera=self.camera,
             limits=self.limits,
-            sensor=self.sensor,
+            sensor=timed(self.sensor, self.timing, options.dt),
             actuator=self.actuator,
             progress=progress,
         )
@@ -261,8 +266,9 @@ def _task(sc: Scenario, spec: ScenarioSpec, scene: Scene) -> VisualTask:
         raise sc.error("task.desired_pose" if desired is not None else "task", str(exc)) from None
 
 
-def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> SimulationOptions:
+def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot, camera: Camera) -> SimulationOptions:
     ctl, sim = spec.control, spec.simulation
+    focal_px = 0.5 * (camera.px + camera.py)  # tolerance_px: ‖e1‖ in pixels
     lam: float | AdaptiveGain = 0.5 if ctl.lam is None else ctl.lam
     if ctl.gain is not None:
         lam = AdaptiveGain(ctl.gain.zero, ctl.gain.inf, ctl.gain.slope)
@@ -279,7 +285,7 @@ def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> SimulationOption
             lam=lam,
             dt=ctl.dt,
             max_iterations=sim.max_iterations,
-            tolerance=sim.tolerance,
+            tolerance=sim.tolerance if sim.tolerance_px is None else sim.tolerance_px / focal_px,
             rho=spec.robot.rho,
             min_margin=sim.min_margin,
             qdot_max=qdot_max,
@@ -292,22 +298,10 @@ def _options(sc: Scenario, spec: ScenarioSpec, robot: Robot) -> SimulationOption
             check_image=sim.check_image,
             occlusion=None if occ is None else Occlusion(**occ.model_dump()),
             stop_at_convergence=sim.stop_at_convergence,
+            compensate_latency=spec.sensor.compensate_latency,
         )
     except RedservoError as exc:  # pragma: no cover - the schema checks every field
         raise _key(sc, "simulation", exc, type(sim).model_fields, "simulation") from None
-
-
-def _sensor(sc: Scenario, spec: ScenarioSpec, camera: Camera) -> Sensor | None:
-    s = spec.sensor
-    if s.kind == "ideal":
-        return None
-    from redservo.vision import ImageSensor
-
-    kwargs = s.model_dump(exclude={"kind"})
-    try:
-        return ImageSensor(camera, **kwargs)
-    except RedservoError as exc:
-        raise _key(sc, "sensor", exc, type(s).model_fields, "sensor.kind") from None
 
 
 def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
@@ -364,9 +358,9 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
         ctl.method, shield=ctl.shield, robust=ctl.robust, scaling=ctl.scaling, **ctl.options
     )
     camera = scenario_camera(sc)
-    options = _options(sc, spec, robot)
+    options = _options(sc, spec, robot, camera)
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
-    exp.sensor = _sensor(sc, spec, camera)
+    exp.sensor = scenario_sensor(sc, camera)
     exp.actuator = _actuator(sc, spec, robot.n)
     exp.obstacles = tuple(o.obstacle() for o in spec.obstacles)
     attach_collision(sc, exp)
@@ -374,6 +368,7 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
         from redservo.physics.scenario import attach_mujoco  # heavy: only when asked
 
         attach_mujoco(exp)
+    attach_timing(sc, exp)
     check_start(sc, spec, exp)
     return exp
 

@@ -44,6 +44,9 @@ class SensorReading(NamedTuple):
     """Why ``s`` is None or something was lost (empty when all is well)."""
     image: object | None = None
     """The image the features were measured in (2-D uint8 array), if the sensor made one."""
+    stamp: float | None = None
+    """When the image was exposed (s, the middle of the exposure), or None: at the instant
+    it was read (an untimed sensor; :mod:`redservo.sensor_timing`)."""
 
 
 @runtime_checkable

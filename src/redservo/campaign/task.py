@@ -119,6 +119,8 @@ def _run_task(task: _Task) -> dict[str, Any]:
         summary, row["_path"] = None, ASKED
         if task.fast and exp.options.collision is not None:
             row["_path"] = NO_DISTANCES  # the compiled loop measures no distance
+        elif task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
+            row["_path"] = "camera timing"
         elif task.fast:
             from redservo.campaign.fastloop import fast_run
 

@@ -53,6 +53,7 @@ from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.image_motion import ImageMotionLimit, point_rows
+from redservo.control.latency import CommandHistory, present
 from redservo.control.law_output import law_output
 from redservo.control.objectives import Objective, ObjectiveContext
 from redservo.control.output import final_guard, shape_output
@@ -91,6 +92,10 @@ class Controller:
             scaled down uniformly so that no image point moves further between two frames
             (or smears more during the exposure) than it allows; the final guard then keeps
             the acceleration limits. None: none.
+        compensate_latency: Bring a measurement stamped before the step's ``t`` (a camera's
+            latency, :attr:`Measurement.stamp`) to ``t`` with the commands sent since
+            (:mod:`redservo.control.latency`); a measurement without a stamp is used as is.
+            The commands sent, with their times, are in ``history`` (a ``CommandHistory``).
         engine: ``"auto"`` (default: compiled when the set-up allows it, module docstring),
             ``"compiled"`` (an error when it does not) or ``"python"`` (the object path,
             the reference).
@@ -120,6 +125,7 @@ class Controller:
         depth_scale: float = 1.0,
         qdot_saturation: float | ArrayLike | None = None,
         image_motion: ImageMotionLimit | None = None,
+        compensate_latency: bool = True,
         engine: Literal["auto", "compiled", "python"] = "auto",
         collision: Collision | None = None,
     ) -> None:
@@ -150,6 +156,8 @@ class Controller:
         self.collision = check_collision(collision, robot)
         """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
+        self.compensate_latency = bool(compensate_latency)
+        self.history = CommandHistory(self.dt, lambda q: robot.jacobian(q, check_limits=False))
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, why = bind_engine(self, engine)
         self._python = python_parts(self)
@@ -196,6 +204,7 @@ class Controller:
                 reset()
         if self._estimator is not None:
             self._estimator.reset()
+        self.history.reset()
 
     # -- one step ------------------------------------------------------------------------------
 
@@ -214,8 +223,9 @@ class Controller:
         Args:
             q: (n,) measured joint positions (m or rad), within ``limits``.
             measurement: The features ``s`` (k,) and their inverse-depth parameters per term.
-            t: Time of the measurement (s) since the start of the run: a finite number (a
-                string or a boolean is refused).
+            t: Time of the step (s) since the start of the run: a finite number (a
+                string or a boolean is refused). A measurement with a ``stamp`` earlier than
+                ``t`` (a camera's latency) is brought to ``t`` (``compensate_latency``).
             qdot_prev: (n,) the command applied since the previous step (rad/s or m/s): the
                 law's acceleration limits and the estimated feed-forward use it; None (e.g.
                 a first call with unknown motion) leaves both out. Zeros for a robot at rest.
@@ -236,13 +246,18 @@ class Controller:
         """
         qa = as_vector(q, "q", self.robot.n)
         t = as_time(t, "t")
+        if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
+            s = self._measured_s(measurement)
+            measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
+        done = None
         if self._compiled is not None:
             done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
-            if done is not None:
-                return done
-        Ja = self.jacobian(qa, J)
-        state = self.evaluate(measurement, Ja)
-        return self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+        if done is None:
+            Ja = self.jacobian(qa, J)
+            state = self.evaluate(measurement, Ja)
+            done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+        self.history.record(t, qa, done.qdot)
+        return done
 
     def _compiled_step(
         self,

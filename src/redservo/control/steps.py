@@ -34,6 +34,10 @@ class Measurement(NamedTuple):
 
     s: FloatArray
     inv_depth: tuple[FloatArray, ...]
+    stamp: float | None = None
+    """When the features were true (s, the image's exposure; :mod:`redservo.sensor_timing`),
+    or None: at the step's ``t``. The controller brings an older one to the present
+    (:mod:`redservo.control.latency`)."""
 
 
 class SceneContext(NamedTuple):

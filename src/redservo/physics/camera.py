@@ -183,10 +183,15 @@ class MujocoCamera(ImageSensor):
         }
         super()._plan(task, scene)
 
-    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
+    live = True
+    """It renders the physics' present state (:mod:`redservo.sensor_timing`)."""
+
+    def read(
+        self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float, image: Any = None
+    ) -> SensorReading:
         """As :meth:`ImageSensor.read`; keeps the frame's poses for a rod's first frame."""
         self._frame = (scene, np.asarray(bMc, dtype=float), float(t))
-        return super().read(task, scene, bMc, t)
+        return super().read(task, scene, bMc, t, image)
 
     def _measure(
         self,

@@ -81,7 +81,9 @@ def _command(only: str | None, fast: bool, robustness: int, seed: int, unfiltere
     return " ".join(parts)
 
 
-def _check(robustness: int, workers: int | None, sensor: str, unfiltered: int = 0) -> None:
+def _check(
+    robustness: int, workers: int | None, sensor: str, unfiltered: int = 0, camera: str = "ideal"
+) -> None:
     """The options of :func:`reproduce` that no type checks."""
     for name, value in (("robustness", robustness), ("unfiltered", unfiltered)):
         if value < 0:
@@ -91,6 +93,10 @@ def _check(robustness: int, workers: int | None, sensor: str, unfiltered: int = 
     if sensor not in ("ideal", "image"):
         raise ConfigurationError(
             f"sensor must be 'ideal' or 'image', got {sensor!r}", argument="sensor"
+        )
+    if camera not in ("ideal", "realistic"):
+        raise ConfigurationError(
+            f"camera must be 'ideal' or 'realistic', got {camera!r}", argument="camera"
         )
 
 
@@ -107,6 +113,7 @@ def reproduce(
     pixel_noise: bool | None = None,
     sensor: str = "ideal",
     unfiltered: int = 0,
+    camera: str = "ideal",
 ) -> dict[str, Any]:
     """Run the experiments, write figures, ``report.md`` and ``report.json`` into ``out``.
 
@@ -130,6 +137,9 @@ def reproduce(
         unfiltered: Also run every experiment on this many set-ups drawn without the
             phenomenon filter that chose the nominal one
             (:mod:`redservo.reproduction.unfiltered`; 0: none).
+        camera: ``"ideal"`` (default) or ``"realistic"``: the runs through images (implied)
+            come from a 30 Hz camera with 66 ms latency and an 8 ms exposure
+            (:data:`redservo.camera_presets.REALISTIC_TIMING`, docs/camera-timing.md).
 
     Returns:
         The report as a dict (the content of ``report.json``).
@@ -142,7 +152,7 @@ def reproduce(
     from redservo.reproduction.report import ExperimentResult, markdown, to_json
     from redservo.reproduction.robustness import run_robustness
 
-    _check(robustness, workers, sensor, unfiltered)
+    _check(robustness, workers, sensor, unfiltered, camera)
     specs = _select(only)
     sink = log or ((lambda msg: print(msg, file=sys.stderr)) if progress else None)
     out.mkdir(parents=True, exist_ok=True)
@@ -168,9 +178,11 @@ def reproduce(
             progress=sink,
             unfiltered=unfiltered,
         )
-    image = _through_images(results, fast, sink) if sensor == "image" else None
+    timed_camera = camera == "realistic"
+    through = sensor == "image" or timed_camera
+    image = _through_images(results, fast, sink, image_sensors(timed_camera)) if through else None
     command = _command(only, fast, robustness, seed, unfiltered)
-    command += " --sensor image" if image else ""
+    command += (" --camera realistic" if timed_camera else " --sensor image") if image else ""
     (out / "report.md").write_text(markdown(results, rob, out, command=command, image=image))
     report = to_json(results, rob, out, fast=fast, image=image)
     report["command"] = command
@@ -178,17 +190,31 @@ def reproduce(
     return report
 
 
-def _through_images(
-    results: Sequence[ExperimentResult], fast: bool, sink: Callable[[str], None] | None
-) -> dict[tuple[str, str], bool]:
-    """Run every experiment again, the cross-comparison included, with its features measured
-    in a realistic rendered image (:data:`~redservo.reproduction.imaging.REALISTIC`: noise,
-    blur, a lighting gradient, uncorrected lens distortion; true depth) by the library's
-    detector; return the verdict of every claim."""
+def image_sensors(timed_camera: bool) -> Callable[[Experiment], Sensor]:
+    """``f(experiment) -> sensor``: the realistic rendered image
+    (:data:`~redservo.reproduction.imaging.REALISTIC`: noise, blur, a lighting gradient,
+    uncorrected lens distortion; true depth), seen through the realistic camera's timing
+    (:data:`redservo.camera_presets.REALISTIC_TIMING`) when ``timed_camera``."""
+    from redservo.camera_presets import REALISTIC_TIMING
     from redservo.reproduction.imaging import REALISTIC, image_sensor
+    from redservo.sensor_timing import TimedSensor
 
     def sensor(exp: Experiment) -> Sensor:
-        return image_sensor(exp.camera, REALISTIC, seed=0)
+        found = image_sensor(exp.camera, REALISTIC, seed=0)
+        return TimedSensor(found, REALISTIC_TIMING, exp.options.dt) if timed_camera else found
+
+    return sensor
+
+
+def _through_images(
+    results: Sequence[ExperimentResult],
+    fast: bool,
+    sink: Callable[[str], None] | None,
+    sensor: Callable[[Experiment], Sensor],
+) -> dict[tuple[str, str], bool]:
+    """Run every experiment again, the cross-comparison included, with its features measured
+    by ``sensor`` (:func:`image_sensors`) with the library's detector; return the verdict of
+    every claim."""
 
     verdicts: dict[tuple[str, str], bool] = {}
     for e in results:

@@ -116,7 +116,10 @@ def _obstacle_names(spec: ScenarioSpec) -> None:
 
 def check_references(spec: ScenarioSpec) -> None:
     """Raise a validation error (key relative to the file) for the first broken reference."""
+    from redservo.schema.sensor import check_timing
+
     _obstacle_names(spec)
+    check_timing(spec)
     objects = _objects(spec)
     size = _features(spec, objects)
     _task(spec, size)

@@ -27,6 +27,7 @@ from redservo.schema.camera import CameraSpec
 from redservo.schema.features import AnyFeature
 from redservo.schema.obstacles import CollisionSpec, ObstacleSpec, OcclusionSpec
 from redservo.schema.scene import AnyObject, Pose
+from redservo.schema.sensor import SensorSpec
 from redservo.schema.simulator import SimulatorSpec
 from redservo.task import DepthMode
 
@@ -259,6 +260,13 @@ class SimulationSpec(Table):
 
     max_iterations: int = integer(1000, ge=1, le=MAX_ITERATIONS, description="iteration cap")
     tolerance: float = num(1e-3, gt=0.0, le=BIG, description="convergence threshold on ‖e1‖")
+    tolerance_px: float | None = num(
+        None,
+        gt=0.0,
+        le=1e4,
+        description="convergence threshold in pixels, ‖e1‖·f < tolerance_px with f the focal "
+        "length (px); replaces tolerance (images, docs/camera-timing.md)",
+    )
     stop_at_convergence: bool = Field(True, description="false for tracking tasks")
     min_margin: float = num(
         0.01,
@@ -288,44 +296,6 @@ class SimulationSpec(Table):
     check_image: bool = Field(
         True, description="stop with target_lost when an object leaves the image"
     )
-
-
-class SensorSpec(Table):
-    """Where the features come from: exact (``ideal``) or detected in a rendered camera image
-    (``image``: :class:`redservo.vision.ImageSensor`, extra ``redservo[vision]``,
-    docs/vision.md). The other keys configure the image sensor; with ``kind = "ideal"`` they
-    are checked but unused, so that ``--set sensor.kind="image"`` switches a scenario to
-    images with its own settings."""
-
-    kind: Literal["ideal", "image"] = choice("ideal", what="sensor", description="ideal | image")
-    noise_px: float = num(
-        0.0, ge=0.0, le=255.0, description="Gaussian image noise, std in gray levels (0-255)"
-    )
-    blur_px: float = num(0.0, ge=0.0, le=50.0, description="Gaussian blur, std (px)")
-    distortion: Annotated[
-        float | list[float],
-        PerJoint(ge=-10.0, le=10.0, doc="number k1 or array [k1, k2], each in [-10, 10]"),
-    ] = Field(0.0, description="radial distortion k1, or [k1, k2]")
-    depth: Literal["desired", "estimated", "true"] = choice(
-        "desired",
-        what="sensor depth",
-        description="depth given to the controller: desired | estimated (from the image) | true",
-    )
-    seed: int = integer(0, ge=0, le=SEED_MAX, description="seed of the image noise and texture")
-    max_lost_frames: int = integer(
-        3, ge=0, le=1_000_000, description="a feature lost longer stops the run (feature_lost)"
-    )
-    texture: bool = Field(False, description="textured background")
-    ellipse_method: Literal["moments", "contour"] = choice(
-        "moments", what="ellipse method", description="how a sphere's ellipse is measured"
-    )
-    dot_radius_px: float = num(4.0, gt=0.0, le=100.0, description="radius of a rendered dot (px)")
-
-    @model_validator(mode="after")
-    def _image_keys(self) -> SensorSpec:
-        if isinstance(self.distortion, list) and len(self.distortion) > 2:
-            fail("expected k1 or [k1, k2]", "distortion")
-        return self
 
 
 class ActuatorsSpec(Table):

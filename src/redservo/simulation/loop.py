@@ -174,6 +174,7 @@ def simulation_controller(
         feedforward=options.feedforward,
         depth_scale=options.depth_scale,
         qdot_saturation=options.qdot_max,
+        compensate_latency=options.compensate_latency,
         image_motion=options.image_motion,
         collision=coll,
     )
@@ -328,7 +329,7 @@ class _Run:
         s = reading.s
         if opt.noise_std > 0:
             s = s + self.rng.normal(0.0, opt.noise_std, ctrl.task.k)
-        meas = Measurement(s, tuple(reading.inv_depth))
+        meas = Measurement(s, tuple(reading.inv_depth), reading.stamp)
         if opt.check_image and not all(
             _in_image(self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px)
             for name in self.targets

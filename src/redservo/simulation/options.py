@@ -53,6 +53,9 @@ class SimulationOptions:
             self pairs, every step's smallest distance is logged and a distance <= 0 ends
             the run with outcome ``collision``; unless it is off, the controller avoids
             (repulsive objective) and shields (distance shield).
+        compensate_latency: The controller brings a camera's delayed measurement to the
+            present (:mod:`redservo.control.latency`); only stamped measurements (a sensor
+            with a latency or a frame rate, :mod:`redservo.sensor_timing`) are affected.
     """
 
     lam: float | AdaptiveGain = 0.5
@@ -73,6 +76,7 @@ class SimulationOptions:
     stop_at_convergence: bool = True
     image_motion: ImageMotionLimit | None = None
     collision: Collision | None = None
+    compensate_latency: bool = True
 
     @property
     def constant_lam(self) -> float:

@@ -267,9 +267,12 @@ class ImageSensor:
 
     # -- reading --------------------------------------------------------------------------------
 
-    def read(self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float) -> SensorReading:
-        """Render, detect and return the measured features (see the module docstring)."""
-        image = self.renderer.render(scene, bMc, t)
+    def read(
+        self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float, image: Any = None
+    ) -> SensorReading:
+        """Render (or take ``image``, e.g. a motion-blurred exposure of this pose and time:
+        :mod:`redservo.vision.motion_blur`), detect and return the measured features."""
+        image = self.renderer.render(scene, bMc, t) if image is None else image
         first = self._task_id != id(task)
         if first:
             self._plan(task, scene)

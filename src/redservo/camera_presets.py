@@ -1,0 +1,94 @@
+"""Shipped camera presets: one option to run any scenario or campaign through a camera.
+
+``--camera NAME`` (``redservo run``, ``compare``, ``campaign``; ``reproduce --camera realistic`` runs the
+reproduction's realistic image sensor through :data:`REALISTIC_TIMING`) applies the preset's
+scenario overrides before the user's own ``--set`` (which therefore win):
+
+* ``ideal``: nothing (the scenario's own sensor: exact features at every period);
+* ``realistic``: the features detected in a rendered image (``sensor.kind = "image"``,
+  the reproduction's realistic noise σ = 4 gray levels and optical blur σ = 0.8 px,
+  :data:`redservo.reproduction.imaging.REALISTIC`) from a 30 Hz camera with 66 ms latency
+  and an 8 ms exposure (motion blur), latency compensated (:mod:`redservo.sensor_timing`,
+  :mod:`redservo.control.latency`), and convergence judged in pixels:
+  ``simulation.tolerance_px`` = :data:`REALISTIC_TOLERANCE_PX` (docs/camera-timing.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from typing import Any
+
+from redservo.sensor_timing import CameraTiming
+
+__all__ = [
+    "CAMERA_PRESETS",
+    "REALISTIC_TIMING",
+    "REALISTIC_TOLERANCE_PX",
+    "add_camera_option",
+    "camera_overrides",
+]
+
+REALISTIC_TIMING = CameraTiming(rate=30.0, latency=0.066, exposure=0.008)
+"""The ``realistic`` preset's camera: 30 Hz, 66 ms latency, 8 ms exposure."""
+
+REALISTIC_TOLERANCE_PX = 1.0
+"""Convergence threshold (px) of the ``realistic`` preset on ``‖e1‖·f``: 13 times the p99
+(0.075 px) of the stacked error's noise at rest with the preset's image noise, measured on
+panda-4points (docs/camera-timing.md)."""
+
+CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
+    "ideal": (),
+    "realistic": (
+        'sensor.kind="image"',
+        "sensor.noise_px=4.0",
+        "sensor.blur_px=0.8",
+        f"sensor.rate={REALISTIC_TIMING.rate!r}",
+        f"sensor.latency={REALISTIC_TIMING.latency!r}",
+        f"sensor.exposure={REALISTIC_TIMING.exposure!r}",
+        f"simulation.tolerance_px={REALISTIC_TOLERANCE_PX!r}",
+    ),
+}
+"""Each preset's ``--set`` overrides, in order."""
+
+
+def camera_overrides(name: str) -> list[str]:
+    """The overrides of preset ``name`` (a key of :data:`CAMERA_PRESETS`)."""
+    return list(CAMERA_PRESETS[name])
+
+
+class _CameraAction(argparse.Action):
+    """``--camera NAME``: the preset's overrides go before every ``--set`` of the command."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: str | Sequence[Any] | None,
+        option_string: str | None = None,
+    ) -> None:
+        setattr(namespace, self.dest, values)
+        namespace.set = camera_overrides(str(values)) + list(getattr(namespace, "set", None) or [])
+
+
+def add_camera_option(p: argparse.ArgumentParser, *, reproduce: bool = False) -> None:
+    """Add ``--camera {ideal,realistic}`` to a command that has ``--set``, or (``reproduce``)
+    to ``redservo reproduce``, whose runs through images it times."""
+    if reproduce:
+        p.add_argument(
+            "--camera",
+            choices=tuple(CAMERA_PRESETS),
+            default="ideal",
+            help="realistic: the runs through images (implies --sensor image) come from a 30 Hz "
+            "camera, 66 ms latency (compensated), 8 ms exposure (docs/camera-timing.md)",
+        )
+        return
+    p.add_argument(
+        "--camera",
+        choices=tuple(CAMERA_PRESETS),
+        action=_CameraAction,
+        default="ideal",
+        help="camera preset: realistic = features in a rendered image from a 30 Hz camera, "
+        "66 ms latency (compensated), 8 ms exposure, convergence within "
+        f"{REALISTIC_TOLERANCE_PX:g} px (docs/camera-timing.md); before any --set",
+    )

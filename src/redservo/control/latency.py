@@ -1,0 +1,118 @@
+"""Latency compensation: a delayed measurement brought to the present (Smith predictor).
+
+A camera's measurement describes the instant its image was exposed, its **stamp**
+``t_s`` (:attr:`redservo.sensors.SensorReading.stamp`), and reaches the controller at
+``t > t_s``. Since ``t_s`` the robot has moved by the commands the controller sent, which
+the camera has not seen. With the interaction model ``L`` (k, 6) at the measured features
+(the task's depth option, the controller's depth estimate) and the model Jacobian
+``J(q_k)`` (6, n) of each command ``q̇_k`` in force over ``[t_k, t_k + T)``:
+
+    ``ŝ(t) = s(t_s) + L(s(t_s), 1/Ẑ) · Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [t_s, t)|``
+
+the features predicted at ``t`` (normalized image units), to first order in the motion.
+:class:`CommandHistory` keeps the commands with their times, so the controller knows which
+of them the camera has already seen (those before ``t_s``). The prediction is exact for a
+static target and a small motion; it knows nothing of the target's own motion during the
+latency (the feed-forward's job).
+
+Units: seconds; ``q̇`` in rad/s or m/s; the camera twist ``J q̇`` in m/s and rad/s.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from redservo._validation import FloatArray, as_time
+from redservo.control.steps import Features, Measurement
+from redservo.errors import ShapeError
+from redservo.task import VisualTask
+
+__all__ = ["CommandHistory", "present"]
+
+_EPS = 1e-9  # s
+
+
+@dataclass
+class _Command:
+    t: float
+    q: FloatArray
+    qdot: FloatArray
+    twist: FloatArray | None = None  # J(q) q̇, computed when first needed
+
+
+class CommandHistory:
+    """The commands sent, with their times (module docstring).
+
+    Args:
+        period: How long (s) a command stays in force when no later one follows: the
+            control period ``T``.
+        jacobian: ``J(q)`` (6, n), the model Jacobian, computed only for the commands a
+            measurement has not seen.
+        horizon: Commands older than this (s) before the newest are forgotten.
+    """
+
+    def __init__(
+        self, period: float, jacobian: Callable[[FloatArray], FloatArray], horizon: float = 1.0
+    ) -> None:
+        self.period, self.jacobian, self.horizon = float(period), jacobian, float(horizon)
+        self._cmds: deque[_Command] = deque()
+
+    def reset(self) -> None:
+        """Forget every command (start of a run)."""
+        self._cmds.clear()
+
+    def record(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
+        """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
+        self._cmds.append(_Command(float(t), q.copy(), qdot.copy()))
+        while self._cmds[0].t < t - self.horizon:
+            self._cmds.popleft()
+
+    def motion(self, stamp: float, now: float) -> FloatArray:
+        """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
+        displacement (m, rad) the commands made between ``stamp`` and ``now`` (s)."""
+        total = np.zeros(6)
+        cmds = list(self._cmds)
+        for i, cmd in enumerate(cmds):
+            end = cmds[i + 1].t if i + 1 < len(cmds) else cmd.t + self.period
+            overlap = min(end, now) - max(cmd.t, stamp)
+            if overlap <= _EPS:
+                continue
+            if cmd.twist is None:
+                cmd.twist = self.jacobian(cmd.q) @ cmd.qdot
+            total += cmd.twist * overlap
+        return total
+
+
+def present(
+    task: VisualTask,
+    history: CommandHistory,
+    measurement: Features,
+    t: float,
+    s: FloatArray,
+    depth_scale: float,
+) -> Features:
+    """``measurement`` (features ``s`` (k,) checked) brought from its stamp to ``t`` (s) by
+    the module docstring's ``ŝ(t)``; itself when it has no ``stamp`` (or None) or is of ``t``.
+
+    Raises:
+        ShapeError: the stamp is not a finite number, or is later than ``t`` (a measurement
+            used before it exists).
+    """
+    stamp = getattr(measurement, "stamp", None)
+    if stamp is None:
+        return measurement
+    stamp = as_time(stamp, "measurement.stamp")
+    if stamp > t + _EPS:
+        raise ShapeError(
+            f"measurement.stamp {stamp:g} s is later than the step's t = {t:g} s: a "
+            "measurement cannot be used before its image exists",
+            argument="measurement.stamp",
+        )
+    if stamp >= t - _EPS:
+        return measurement
+    L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
+    return Measurement(s + L @ history.motion(stamp, t), tuple(measurement.inv_depth), t)

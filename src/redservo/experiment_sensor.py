@@ -1,0 +1,55 @@
+"""The scenario's sensor for :func:`redservo.experiment.build`: the ideal or image sensor of
+``[sensor]``, and the camera's timing around it (:mod:`redservo.sensor_timing`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from redservo.errors import RedservoError
+from redservo.sensor_timing import CameraTiming, timed
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.camera import Camera
+    from redservo.experiment import Experiment
+    from redservo.scenario import Scenario
+    from redservo.sensors import Sensor
+
+__all__ = ["TIMING_KEYS", "attach_timing", "scenario_sensor"]
+
+TIMING_KEYS = ("rate", "latency", "exposure", "compensate_latency")
+"""The ``[sensor]`` keys of the camera's timing (:mod:`redservo.sensor_timing`), not the
+image sensor's."""
+
+
+def scenario_sensor(sc: Scenario, camera: Camera) -> Sensor | None:
+    """The image sensor of ``[sensor] kind = "image"``, or None (the ideal sensor).
+
+    Raises:
+        ScenarioError: a key the image sensor refuses (names it).
+    """
+    s = sc.spec.sensor
+    if s.kind == "ideal":
+        return None
+    from redservo.vision import ImageSensor
+
+    kwargs = s.model_dump(exclude={"kind", *TIMING_KEYS})
+    try:
+        return ImageSensor(camera, **kwargs)
+    except RedservoError as exc:
+        arg = exc.argument
+        raise sc.error(f"sensor.{arg}" if arg in kwargs else "sensor.kind", str(exc)) from None
+
+
+def attach_timing(sc: Scenario, exp: Experiment) -> None:
+    """Set ``exp.timing`` from ``[sensor]`` and wrap ``exp.sensor`` (built, the MuJoCo camera
+    included; None for the ideal one) in it when it is not the perfect camera.
+
+    Raises:
+        ScenarioError: the sensor cannot model the exposure (names ``sensor.exposure``).
+    """
+    s = sc.spec.sensor
+    exp.timing = CameraTiming(s.rate, s.latency, s.exposure)
+    try:
+        exp.sensor = timed(exp.sensor, exp.timing, exp.options.dt)
+    except RedservoError as exc:
+        raise sc.error(f"sensor.{exc.argument or 'exposure'}", str(exc)) from None
