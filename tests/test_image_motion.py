@@ -223,3 +223,24 @@ def test_the_servo_loop_honours_the_limit() -> None:
     assert np.isfinite(flag).any() and np.all(flag[np.isfinite(flag)] < 1.0)
     assert not np.isfinite(free.log.flag(Flag.CAMERA_MOTION_LIMITED)).any()
     assert len(held.log) > len(free.log)
+
+
+def test_the_sensor_key_sets_the_limit_from_the_tracker_gate_and_the_rate() -> None:
+    """``[sensor] motion_limit`` (the realistic preset sets it): the limit of the run's
+    Controller, a fraction of the image sensor's gate per frame at the camera's rate."""
+    from redservo.camera_presets import REALISTIC_MOTION_LIMIT, camera_overrides
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+    from redservo.vision.sensor import tracking_gate_px
+
+    sc = load_scenario("panda-4points")
+    assert build(sc).options.image_motion is None
+    exp = build(apply_overrides(sc, camera_overrides("realistic")))
+    lim = exp.options.image_motion
+    assert lim is not None and lim.frame_period == pytest.approx(1 / 30)
+    gate = tracking_gate_px(getattr(exp.sensor, "sensor", exp.sensor))  # inside the timing
+    f = min(exp.camera.px, exp.camera.py)
+    assert gate is not None
+    assert lim.max_motion == pytest.approx(REALISTIC_MOTION_LIMIT * gate / f)
+    exp2 = build(apply_overrides(sc, ["sensor.motion_limit=0.25"]))
+    assert exp2.options.image_motion is not None  # the ideal sensor: the default dot gate

@@ -10,7 +10,8 @@ scenario overrides before the user's own ``--set`` (which therefore win):
   :data:`redservo.reproduction.imaging.REALISTIC`) from a 30 Hz camera with 66 ms latency
   and an 8 ms exposure (motion blur), latency compensated (:mod:`redservo.sensor_timing`,
   :mod:`redservo.control.latency`), and convergence judged in pixels:
-  ``simulation.tolerance_px`` = :data:`REALISTIC_TOLERANCE_PX` (docs/camera-timing.md).
+  ``simulation.tolerance_px`` = :data:`REALISTIC_TOLERANCE_PX` (docs/camera-timing.md),
+  and the camera-motion limit ``sensor.motion_limit`` = :data:`REALISTIC_MOTION_LIMIT`.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from redservo.sensor_timing import CameraTiming
 
 __all__ = [
     "CAMERA_PRESETS",
+    "REALISTIC_MOTION_LIMIT",
     "REALISTIC_TIMING",
     "REALISTIC_TOLERANCE_PX",
     "add_camera_option",
@@ -31,6 +33,10 @@ __all__ = [
 
 REALISTIC_TIMING = CameraTiming(rate=30.0, latency=0.066, exposure=0.008)
 """The ``realistic`` preset's camera: 30 Hz, 66 ms latency, 8 ms exposure."""
+
+REALISTIC_MOTION_LIMIT = 0.5
+"""The ``realistic`` preset's camera-motion limit: an image point moves at most half the dot
+tracker's gate per frame (:class:`redservo.control.ImageMotionLimit`)."""
 
 REALISTIC_TOLERANCE_PX = 1.0
 """Convergence threshold (px) of the ``realistic`` preset on ``‖e1‖·f``: 13 times the p99
@@ -47,6 +53,7 @@ CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
         f"sensor.latency={REALISTIC_TIMING.latency!r}",
         f"sensor.exposure={REALISTIC_TIMING.exposure!r}",
         f"simulation.tolerance_px={REALISTIC_TOLERANCE_PX!r}",
+        f"sensor.motion_limit={REALISTIC_MOTION_LIMIT!r}",
     ),
 }
 """Each preset's ``--set`` overrides, in order."""

@@ -69,6 +69,13 @@ class SensorSpec(Table):
     compensate_latency: bool = Field(
         True, description="bring each measurement to the present with the commands sent since"
     )
+    motion_limit: float = num(
+        0.0,
+        ge=0.0,
+        le=1.0,
+        description="camera-motion limit: an image point moves at most this fraction of the "
+        "tracker's gate per frame (0: none; redservo.control.ImageMotionLimit)",
+    )
 
     @model_validator(mode="after")
     def _image_keys(self) -> SensorSpec:
