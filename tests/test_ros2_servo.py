@@ -43,7 +43,7 @@ def hardware(tmp_path: Path, text: str = "", name: str = "hw.toml") -> Path:
         ('command = "/velocity controller/commands"', "robot.command", "fully qualified"),
         ('command = "forward/commands"', "robot.command", "fully qualified"),
         ("domain_id = 300", "robot.domain_id", "0-232"),
-        ('[camera]\ndriver = "device"', "camera.driver", "use driver = 'ros2'"),
+        ('[camera]\ndriver = "webcam"', "camera.driver", "must be one of"),
         ('[robot]\ndriver = "mujoco"\n[camera]\ndriver = "ros2"', "camera.driver", "needs"),
         ('[camera]\nimage = "camera/image"', "camera.image", "fully qualified"),
         ("[loop]\nwatchdog_timeout = -1", "loop.watchdog_timeout", "> 0"),

@@ -84,7 +84,7 @@ def test_a_video_of_another_size_is_one_error_naming_the_key(tag_video: Any) -> 
     ("camera", "what"),
     [
         ('driver = "video"', "key 'camera.file': is needed by camera.driver = 'video'"),
-        ('driver = "device"', "publish it on ROS 2 (e.g. the v4l2_camera or usb_cam node)"),
+        ('driver = "device"\ndevice = -1', "key 'camera.device': must be a device index >= 0"),
         ('driver = "video"\nfile = 3', "key 'camera.file': must be the path of a video file"),
     ],
 )
@@ -96,3 +96,49 @@ def test_camera_driver_errors_are_one_line(
     assert main(["servo", "panda-4points", "--hardware", str(f), "--yes"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and what in err, err
+
+
+def test_a_live_device_is_read_as_it_delivers_and_stamped_less_its_latency(
+    tag_video: Any,
+) -> None:
+    """The ``device`` camera on OpenCV's own capture (of the recorded tag, as a device would
+    deliver frames): each frame measured off the loop's thread, stamped at delivery less the
+    declared latency, on an injected clock."""
+    from redservo.hardware.device import DeviceSource, check_size
+
+    exp, path, bMc = tag_video
+    now = [100.0]
+
+    def clock() -> float:
+        now[0] += 0.01
+        return now[0]
+
+    cap = check_size(cv2.VideoCapture(str(path)), exp.camera, "the tag video", "camera.device")
+    source = DeviceSource(
+        cap, exp.camera, exp.task, exp.scene, Pose(bMc), latency=0.05, clock=clock
+    )
+    try:
+        first = source.first_measurement(30.0)
+        while not source.ended:
+            source.sleep(0.002)
+    finally:
+        source.close()
+    truth, _ = exp.task.measure(exp.scene, bMc, 0.0)
+    np.testing.assert_allclose(first.s, truth, atol=0.02)
+    assert source.frames == 12 and source.skipped == 0
+    last = source.measure(0.0)
+    assert last is not None and last.t_measured < now[0] - 0.05 + 1e-9  # delivery less latency
+
+
+def test_a_device_of_another_size_or_absent_is_one_error_naming_the_key(tag_video: Any) -> None:
+    from redservo.hardware.device import DeviceSource, check_size, open_device
+
+    exp, path, bMc = tag_video
+    small = dataclasses.replace(exp.camera, width=exp.camera.width // 2)
+    with pytest.raises(ConfigurationError, match=r"camera.device: the tag video delivers 640 x"):
+        check_size(cv2.VideoCapture(str(path)), small, "the tag video", "camera.device")
+    with pytest.raises(ConfigurationError, match=r"camera\.device: OpenCV cannot open") as e:
+        open_device(str(path.with_name("no-such-camera")), exp.camera)
+    assert e.value.argument == "camera.device"
+    with pytest.raises(ConfigurationError, match=r"camera\.latency"):
+        DeviceSource(None, exp.camera, exp.task, exp.scene, Pose(bMc), latency=-1.0)

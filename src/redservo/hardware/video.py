@@ -90,6 +90,7 @@ class VideoSource:
         key: str = "camera.file",
     ) -> None:
         self.path = Path(path)
+        self.key = key
         self._cap, self.fps = _open(self.path, camera, key)
         self.task, self.scene, self.pose = task, scene, pose
         self.sensor = FrameSensor(camera, dot_threshold)
@@ -188,9 +189,9 @@ class VideoSource:
             if frames or self.ended or self.clock() > deadline:
                 why = self.reason or "no frame measured in time"
                 raise ConfigurationError(
-                    f"camera.file: the target is not found in the first frame of {self.path}: "
+                    f"{self.key}: the target is not found in the first frame of {self.path}: "
                     f"{why}; nothing was sent",
-                    argument="camera.file",
+                    argument=self.key,
                 )
             self.sleep(0.005)
 

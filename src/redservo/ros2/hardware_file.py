@@ -17,9 +17,12 @@
     driver = "simulated"                  # simulated (features from the scenario and the
                                           # measured joints) | ros2 (Image + CameraInfo)
                                           # | video (a file played at its frame rate)
+                                          # | device (a live camera read through OpenCV)
     image = "/camera/image_raw"           # ros2: Image topic
     camera_info = "/camera/camera_info"   # ros2: CameraInfo topic
     file = "run.mp4"                      # video: the file (relative to this file's folder)
+    device = 0                            # device: its index or path (e.g. "/dev/video0")
+    latency = 0.0                         # device: s from mid-exposure to delivery
     dot_threshold = 55.0                  # ros2, video: gray level of the dots' ink (0-255)
     [loop]
     watchdog_timeout = 0.2                # s
@@ -71,6 +74,8 @@ class CameraSpec:
     image: str = "/camera/image_raw"
     camera_info: str = "/camera/camera_info"
     file: str = ""
+    device: int | str = 0
+    latency: float = 0.0
     dot_threshold: float = 55.0
 
 
@@ -99,7 +104,7 @@ class HardwareSpec:
 _CHOICES = {
     "robot.driver": ("ros2", "mujoco"),
     "robot.network": ("loopback", "system"),
-    "camera.driver": ("simulated", "ros2", "video"),
+    "camera.driver": ("simulated", "ros2", "video", "device"),
 }
 _POSITIVE = {
     "robot.wait",
@@ -108,10 +113,6 @@ _POSITIVE = {
     "loop.watchdog_timeout",
     "loop.period",
     "loop.duration",
-}
-_NOT_HERE = {
-    "device": "a camera device is not read directly: publish it on ROS 2 (e.g. the "
-    "v4l2_camera or usb_cam node) and use driver = 'ros2'",
 }
 
 
@@ -125,10 +126,7 @@ class _Reader:
     def value(self, key: str, raw: Any, default: Any) -> Any:
         if key in _CHOICES:
             if raw not in _CHOICES[key]:
-                extra = (
-                    f" ({_NOT_HERE[raw]})" if key == "camera.driver" and raw in _NOT_HERE else ""
-                )
-                raise self.error(key, f"must be one of {list(_CHOICES[key])}, got {raw!r}{extra}")
+                raise self.error(key, f"must be one of {list(_CHOICES[key])}, got {raw!r}")
             return raw
         if key in ("robot.joint_states", "robot.command", "camera.image", "camera.camera_info"):
             try:
@@ -142,6 +140,11 @@ class _Reader:
                 return check_joint_names(raw, key)
             except ConfigurationError as exc:
                 raise self.error(key, str(exc)) from None
+        if key == "camera.device":
+            index = isinstance(raw, int) and not isinstance(raw, bool) and raw >= 0
+            if not (index or (isinstance(raw, str) and raw)):
+                raise self.error(key, f"must be a device index >= 0 or a path, got {raw!r}")
+            return raw
         if key == "camera.file":
             if not isinstance(raw, str) or not raw:
                 raise self.error(key, f"must be the path of a video file, got {raw!r}")

@@ -159,6 +159,20 @@ def _source(exp: Experiment, spec: HardwareSpec, hw: Any) -> Any:
         source = VideoSource(
             cam.file, exp.camera, exp.task, exp.scene, pose, dot_threshold=cam.dot_threshold
         )
+    elif cam.driver == "device":
+        from redservo.hardware.device import DeviceSource, open_device
+
+        capture = open_device(cam.device, exp.camera)
+        source = DeviceSource(
+            capture,
+            exp.camera,
+            exp.task,
+            exp.scene,
+            pose,
+            latency=cam.latency,
+            dot_threshold=cam.dot_threshold,
+            name=f"the camera {cam.device!r}",
+        )
     else:
         from redservo.ros2.image_source import Ros2ImageSource, wait_for_camera
 
