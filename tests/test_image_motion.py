@@ -5,6 +5,7 @@ engines with a typed flag, and bad settings are one clear error."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -244,3 +245,68 @@ def test_the_sensor_key_sets_the_limit_from_the_tracker_gate_and_the_rate() -> N
     assert lim.max_motion == pytest.approx(REALISTIC_MOTION_LIMIT * gate / f)
     exp2 = build(apply_overrides(sc, ["sensor.motion_limit=0.25"]))
     assert exp2.options.image_motion is not None  # the ideal sensor: the default dot gate
+
+
+def test_the_servo_loop_steps_at_the_present_with_the_measurement_stamped() -> None:
+    """With latency compensation (the Controller's default) the servo loop steps its
+    Controller at the present time and hands it the measurement stamped at its image's time
+    (:mod:`redservo.control.latency` brings it forward); without it, at the stamp's time."""
+    from redservo.hardware import (
+        ActuatorModel,
+        IdealFeatureSource,
+        ServoLoop,
+        SimulatedRobot,
+        VirtualClock,
+    )
+    from redservo.hardware.protocols import FeatureMeasurement
+    from redservo.robots import Afma6
+    from redservo.scene import PointSet, Scene, Static
+    from redservo.spatial import make_transform
+    from redservo.task import TaskTerm, VisualTask
+
+    class Late:
+        """The ideal source, its stamps 30 ms in the past (a camera's latency)."""
+
+        def __init__(self, inner: IdealFeatureSource) -> None:
+            self.inner = inner
+
+        def measure(self, t: float) -> FeatureMeasurement | None:
+            m = self.inner.measure(t)
+            return None if m is None else m._replace(t_measured=m.t_measured - 0.03)
+
+    q0 = np.array([0.0, 0.0, -0.5, 0.0, 0.0, 0.0])
+    seen: dict[bool, list[tuple[float, float | None]]] = {}
+    for compensate in (True, False):
+        clock = VirtualClock(50.0)
+        robot = Afma6()
+        sim = SimulatedRobot(robot, ActuatorModel.ideal(), q0, clock, period=0.02)
+        wMo = robot.fkine(q0) @ make_transform(t=(0.08, -0.05, 0.6))
+        scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
+        task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
+        loop = ServoLoop(
+            sim,
+            Late(IdealFeatureSource(task, scene, sim)),
+            robot,
+            task,
+            make_law("classical"),
+            robot.limits(),
+            period=0.02,
+            lam=1.0,
+            clock=clock,
+            sleep=clock.sleep,
+            max_iterations=20,
+        )
+        loop.controller.compensate_latency = compensate
+        calls = seen[compensate] = []
+        step = loop.controller.step
+
+        def spy(q: Any, m: Any, t: float, _step: Any = step, _calls: Any = calls, **kw: Any) -> Any:
+            _calls.append((t, getattr(m, "stamp", None)))
+            return _step(q, m, t, **kw)
+
+        loop.controller.step = spy  # type: ignore[method-assign]
+        loop.run()
+    for t, stamp in seen[True]:
+        assert stamp is not None and t - stamp == pytest.approx(0.03, abs=1e-9)
+    assert all(stamp is None for _, stamp in seen[False])
+    assert [t for t, _ in seen[False]] == pytest.approx([s for _, s in seen[True]])

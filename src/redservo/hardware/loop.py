@@ -52,7 +52,7 @@ from typing import Any, Literal
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.control import Controller, ControlStep, ImageMotionLimit, Objective
+from redservo.control import Controller, ControlStep, ImageMotionLimit, Measurement, Objective
 from redservo.control.avoidance import Collision, shield_command
 from redservo.control.guard import guard_command
 from redservo.errors import ConfigurationError, ShapeError
@@ -105,9 +105,10 @@ class ServoLoop:
             given its own (``OcclusionAvoidance(occlusion, scene=...)``).
         feedforward: ``"none"`` or ``"estimated"``: ``∂e1/∂t`` of a moving target from the
             loop's own successive measurements, ``(e1_k − e1_{k−1})/h − J1_{k−1} q̇``, with
-            ``h`` the time between the two measurements' stamps and ``q̇`` the command sent
-            since (:mod:`redservo.control.feedforward`). ``"known"`` needs the scene's
-            motion, which only the simulator has.
+            ``h`` the time between the two steps (the measurements brought to the present by
+            the Controller's latency compensation; between their stamps when it is off) and
+            ``q̇`` the command sent since (:mod:`redservo.control.feedforward`). ``"known"``
+            needs the scene's motion, which only the simulator has.
         watchdog_timeout: Stop when no fresh measurement, or no fresh joint reading, arrived
             for this long (s), >= T (:mod:`redservo.hardware.clock`).
         clock_tolerance: How far (s) a time stamp may be ahead of the loop's clock before it
@@ -353,7 +354,7 @@ class ServoLoop:
         run.stage = "model_robot.jacobian"
         J = self.model_robot.jacobian(q, check_limits=False)
         if fresh and run.joints.ever_fresh:
-            step = self._control(run, q, J)
+            step = self._control(run, q, J, now)
             if step.stop is not None:
                 return (
                     "objective_stop",
@@ -433,14 +434,22 @@ class ServoLoop:
             f"{run.k} (max_hold {hold:g} s): the loop ran late"
         )
 
-    def _control(self, run: RunState, q: FloatArray, J: FloatArray) -> ControlStep:
-        """The controller's step on the fresh measurement ``run.last``, at its stamp's time."""
+    def _control(self, run: RunState, q: FloatArray, J: FloatArray, now: float) -> ControlStep:
+        """The controller's step on the fresh measurement ``run.last``: at the present time
+        ``now`` (loop clock, s) with the measurement stamped at its image's time, which the
+        controller brings to the present with the commands sent since (its
+        ``compensate_latency``, :mod:`redservo.control.latency`); at the stamp's time without
+        it."""
         assert run.last is not None
         ctrl = self.controller
+        seen = float(run.last.t_measured) - run.t0
         try:
-            step = ctrl.step(
-                q, run.last, float(run.last.t_measured) - run.t0, qdot_prev=run.prev, J=J
-            )
+            if ctrl.compensate_latency:
+                meas = Measurement(run.last.s, tuple(run.last.inv_depth), seen)
+                t = max(now - run.t0, seen)  # a stamp ahead within clock_tolerance: no age
+                step = ctrl.step(q, meas, t, qdot_prev=run.prev, J=J)
+            else:
+                step = ctrl.step(q, run.last, seen, qdot_prev=run.prev, J=J)
             run.state = step.state
             return step
         finally:
