@@ -99,3 +99,32 @@ def test_make_demo_lines_name_the_step() -> None:
     demo = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(demo)
     assert demo.label(2, 5, ["reproduce", "--out", "x"]) == "step 2/5 (redservo reproduce)"
+
+
+def test_the_end_of_a_command_closes_its_report_and_nothing_of_it_leaks_into_the_next() -> None:
+    """``finish`` (the end of a ``redservo`` command): the closing line now if progress was
+    printed, then silence; a new command's group starts counting afresh and talks again."""
+    p, clock, out = _progress(10)
+    p.on_start("a")
+    clock.now += 9.0
+    assert p.tick()  # a progress line
+    p.on_end()
+    p.finish()
+    assert out.getvalue().splitlines()[-1] == "redservo: compiled 1 kernel(s) [run]; running"
+    lines = len(out.getvalue().splitlines())
+    clock.now += 1.0
+    assert not p.tick()  # the ticker stops silently: nothing during the next command
+    p.finish()  # twice is harmless
+    assert len(out.getvalue().splitlines()) == lines
+    p.set_group("compare", 5)
+    p.on_start("b")
+    clock.now += 9.0
+    assert p.tick() and "[compare] 0/~5" in out.getvalue().splitlines()[-1]
+
+
+def test_a_command_that_printed_no_progress_closes_silently() -> None:
+    p, clock, out = _progress(10)
+    p.on_start("a")
+    p.on_end()
+    p.finish()
+    assert out.getvalue() == ""

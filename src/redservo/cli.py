@@ -74,8 +74,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:
         print(f"redservo: error: {exc}", file=sys.stderr)
         return 2
+    compiles = getattr(args, "compiles", False)
     try:
-        if getattr(args, "compiles", False):
+        if compiles:
             from redservo.warmup import announce_compilation
 
             name = getattr(args.func, "__name__", "run")
@@ -95,8 +96,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         code, line = _describe(exc)
         if args.debug:
             traceback.print_exc()
+        if compiles:  # its closing line, if any, before the error line
+            from redservo.warmup import end_compilation_report
+
+            end_compilation_report()
         print(f"redservo: error: {line}", file=sys.stderr)
         return code
+    finally:
+        if compiles:
+            from redservo.warmup import end_compilation_report
+
+            end_compilation_report()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -91,6 +91,7 @@ class Progress:
             )
             self.started: float | None = None
             self.last: float | None = None
+            self._stopped, self._talked = False, False
 
     def on_start(self, name: str) -> None:
         """A kernel named ``name`` starts compiling."""
@@ -127,12 +128,31 @@ class Progress:
 
     def tick(self) -> bool:
         """Print the progress line; when nothing compiled for :attr:`every` seconds print a
-        closing line instead and return False (the ticker then stops)."""
+        closing line instead and return False (the ticker then stops). Silent, and False,
+        after :meth:`finish`."""
         with self._lock:
+            if self._stopped:
+                return False
             idle = not self.depth and (self.last is None or self._clock() - self.last >= self.every)
             summary = f"redservo: compiled {self.done} kernel(s) [{self.group}]; running"
-        self._say(summary if idle else self.line())
+        text = summary if idle else self.line()
+        with self._lock:  # a line is never printed after finish() returned
+            if self._stopped:
+                return False
+            self._talked = not idle  # a progress line, not yet closed
+            self._say(text)
         return not idle
+
+    def finish(self) -> None:
+        """The command is over: stop the ticker (no line of this command's compilations
+        appears during the next one), saying the closing line now if a progress line was
+        printed and none closed it."""
+        with self._lock:
+            if self._stopped:
+                return
+            self._stopped = True
+            if self._talked:
+                self._say(f"redservo: compiled {self.done} kernel(s) [{self.group}]; running")
 
     def _say(self, text: str) -> None:
         print(text, file=self._stream or sys.stderr, flush=True)

@@ -36,6 +36,7 @@ __all__ = [
     "Group",
     "WarmupReport",
     "announce_compilation",
+    "end_compilation_report",
     "warmup",
 ]
 
@@ -142,10 +143,20 @@ def announce_compilation(group: str = "run") -> None:
     (or a worker it forks), then the progress of the compilations of ``group`` (the command)
     every 10 s while they go on; nothing when the cache is warm or numba is off. Idempotent."""
     if _ANNOUNCER:
+        progress = _ANNOUNCER[0].progress
+        if progress is not None:
+            progress.set_group(group)  # this command's compilations, counted afresh
         return
     counter = CompileCounter(notice=True, progress=Progress(group))
     counter.install()
     _ANNOUNCER.append(counter)
+
+
+def end_compilation_report() -> None:
+    """The command is over: its compilation progress stops (its closing line now, if it
+    printed progress), so nothing of it appears during the next command in this process."""
+    if _ANNOUNCER and _ANNOUNCER[0].progress is not None:
+        _ANNOUNCER[0].progress.finish()
 
 
 # --------------------------------------------------------------------------- the groups
