@@ -123,7 +123,7 @@ def test_the_end_of_a_command_closes_its_report_and_nothing_of_it_leaks_into_the
 
 
 def test_a_command_that_printed_no_progress_closes_silently() -> None:
-    p, clock, out = _progress(10)
+    p, _, out = _progress(10)
     p.on_start("a")
     p.on_end()
     p.finish()
