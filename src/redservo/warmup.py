@@ -40,7 +40,7 @@ __all__ = [
     "warmup",
 ]
 
-COLD_SECONDS = "20-60"
+COLD_SECONDS = "60-90"
 """Wall seconds of a first ``redservo run`` on an empty cache on a 2-core machine (the
 figure of the notice; docs/speed.md gives the measurement)."""
 
