@@ -118,7 +118,7 @@ class CompiledControl:
             lmask, smask, vec = self.kernel(q, self.robot, meas, *packs)
         else:
             Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
-            lmask, smask, vec = _K.given_control(q, Jm, meas, *packs)
+            lmask, smask, vec = _K.measured_control(q, Jm, meas, *packs)
         if lmask < 0:
             return None
         return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)

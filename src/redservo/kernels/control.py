@@ -1,16 +1,19 @@
 """The step kernel: one compiled control step that every loop drives (docs/architecture.md).
 
-:func:`control_step` is the step: CM01 eq. 25 (``e1 = C (s − s*)``, ``J1 = C L J``, written
-here once, :func:`task_rows`), the input check, the law and its safety layer
-(:func:`redservo.kernels.step.law_step`) and the events of both
+The step is CM01 eq. 25 (``e1 = C (s − s*)``, ``J1 = C L J``, written here once,
+:func:`task_rows`) followed by :func:`law_core`: the input check, the law and its safety
+layer (:func:`redservo.kernels.step.law_step`) and the events of both
 (:func:`~redservo.kernels.step.law_events`, :func:`~redservo.kernels.step.sout_events`).
 Its drivers: the :class:`~redservo.control.Controller` (hence ``simulate`` and the servo
-loop) through :func:`robot_control` and :func:`given_control`, which add the kinematics
-(:func:`redservo.kernels.robot.robot_kinematics`) and the interaction matrix of the
-*measured* points; the campaign loop (:mod:`redservo.campaign.loop_kernel`), which adds the
-ideal sensor of :mod:`redservo.kernels.loop_task`; and the benchmarks' step
-(:mod:`redservo.binding.step`). Products by BLAS (``np.dot``), as numpy's ``@`` on the
-object path, so that every driver agrees with the object path to the last bit.
+loop) through :func:`measured_control` (the model Jacobian given) and :func:`robot_control`
+(the robot's compiled kinematics, :func:`redservo.kernels.robot.robot_kinematics`), on the
+*measured* points; the campaign loop (:mod:`redservo.campaign.loop_kernel`) and the
+benchmarks' step (:mod:`redservo.binding.step`), on the ideal sensor of
+:mod:`redservo.kernels.sensed`; a law object's call (:func:`law_into`,
+:mod:`redservo.redundancy.kernel_call`). Products by BLAS (``np.dot``), as numpy's ``@`` on
+the object path, so that every driver agrees with the object path to the last bit. (Every
+compiled layer links its callees' code again: a wrapper kernel costs seconds of a cold
+compile, so the drivers call these kernels directly.)
 
 Arguments travel as packs (plain tuples, unpacked by name at the top of each kernel; a
 NamedTuple would cost numba a slow type lookup on every call):
@@ -50,9 +53,9 @@ from redservo.kernels.step import NS, law_events, law_step, sout_events
 
 __all__ = [
     "control_layout",
-    "control_step",
-    "given_control",
     "law_core",
+    "law_into",
+    "measured_control",
     "robot_control",
     "task_rows",
 ]
@@ -151,20 +154,7 @@ def law_into(
 
 
 @kernel
-def control_step(
-    q: Any, J: Any, e: Any, L: Any, C: Any, law: Any, limits: Any, gains: Any, inputs: Any
-) -> Any:
-    """The step kernel every loop drives: ``e1``, ``J1`` (:func:`task_rows`, CM01 eq. 25)
-    then :func:`law_core`. Args: ``q`` (n,), ``J`` (6, n), ``e`` (k,), ``L`` (k, 6), ``C``
-    as :func:`task_rows`, the rest as :func:`law_core`. Returns ``(ok, e1, J1, outputs,
-    law events, safety events)`` (:func:`law_core`)."""
-    e1, J1 = task_rows(e, L, C, J)
-    ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, inputs)
-    return ok, e1, J1, out, lev, sev
-
-
-@kernel
-def _measured(
+def measured_control(
     q: Any,
     J: Any,
     meas: Any,
@@ -174,8 +164,10 @@ def _measured(
     inputs: Any,
     buf: Any,
 ) -> Any:
-    """The Controller's step after the kinematics (module docstring): ``L(s, 1/Ẑ)``, ``e``,
-    then :func:`control_step`, its results written into ``buf``."""
+    """The Controller's step with the model Jacobian ``J`` (6, n) given (module docstring):
+    ``L(s, 1/Ẑ)``, ``e``, CM01 eq. 25 (:func:`task_rows`), then the step kernel
+    (:func:`law_core`), its results written into ``buf``. ``packs`` as
+    :func:`robot_control`."""
     s, iz, s_star, C = meas
     L = points_interaction(s, iz)
     k = s.shape[0]
@@ -184,7 +176,8 @@ def _measured(
         e[i] = s[i] - s_star[i]
     ff, sec, prev = inputs
     full = (ff, sec, prev, q[:0])
-    ok, e1, J1, out, lev, sev = control_step(q, J, e, L, C, law, limits, gains, full)
+    e1, J1 = task_rows(e, L, C, J)
+    ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, full)
     if not ok:
         return -1, 0, e[:0]  # the object path raises the error naming the input
     at = _put_law(buf, out, lev, sev)
@@ -201,11 +194,4 @@ def robot_control(q: Any, robot: Any, *packs: Any) -> Any:
     :mod:`redservo.robots.pack`); ``packs``: ``meas, law, limits, gains, inputs, buf``
     (module docstring)."""
     _, J = robot_kinematics(q, robot)
-    return _measured(q, J, *packs)
-
-
-@kernel
-def given_control(q: Any, J: Any, *packs: Any) -> Any:
-    """The Controller's step with the model Jacobian ``J`` (6, n) given by the caller
-    (``packs`` as :func:`robot_control`)."""
-    return _measured(q, J, *packs)
+    return measured_control(q, J, *packs)
