@@ -3,7 +3,8 @@
 The page is generated from the code's own references: every docstring (module, class,
 function or method) under ``src/redservo`` that cites ``CM01 eq. N`` or ``MC05 eq. N`` (or a
 range, ``eqs. 27-29``, or a list, ``eqs. 13-15, 18``) puts its object under each equation it
-cites, with its signature, its first docstring paragraph and its file and line. After
+cites, with its signature, its first docstring paragraph and its file (no line numbers:
+the page changes only when a citing docstring or signature does). After
 changing such a docstring, regenerate it with ``python tests/test_equation_index.py --write``.
 """
 
@@ -85,7 +86,7 @@ def render() -> str:
         "Where the code implements or uses each equation of the two papers, found from the "
         "references in its docstrings (generated: `python tests/test_equation_index.py "
         "--write`; a test keeps this page current). Each name links to the object's signature, "
-        "the first paragraph of its docstring and its file and line, below. The equations "
+        "the first paragraph of its docstring and its file, below. The equations "
         "themselves are written out in [Formulas](../formulas.md).",
         "",
     ]
@@ -103,7 +104,7 @@ def render() -> str:
         out += [
             f'<a id="{anchor[name]}"></a>',
             "",
-            f"**`{name}`**, `{rel}:{line}`",
+            f"**`{name}`**, `{rel}`",
             "",
             "```text",
             sig if len(sig) < 300 else sig[:297] + "...",
