@@ -182,42 +182,9 @@ def test_qdot_max_means_one_thing_in_a_scenario_file(table: str, old: str, new: 
 def test_the_servo_loop_honours_the_limit() -> None:
     """The servo loop drives the same Controller: with a tight limit its commands are scaled
     and the log's flag column says so; the run still converges, more slowly."""
-    from redservo.hardware import (
-        ActuatorModel,
-        IdealFeatureSource,
-        ServoLoop,
-        SimulatedRobot,
-        VirtualClock,
-    )
-    from redservo.robots import Afma6
-    from redservo.scene import PointSet, Scene, Static
-    from redservo.spatial import make_transform
-    from redservo.task import TaskTerm, VisualTask
-
-    q0 = np.array([0.0, 0.0, -0.5, 0.0, 0.0, 0.0])
     runs = {}
     for name, lim in (("free", None), ("held", ImageMotionLimit(2e-4, 1 / 30))):
-        clock = VirtualClock(50.0)
-        robot = Afma6()
-        sim = SimulatedRobot(robot, ActuatorModel.ideal(), q0, clock, period=0.02)
-        wMo = robot.fkine(q0) @ make_transform(t=(0.08, -0.05, 0.6))
-        scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
-        task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
-        loop = ServoLoop(
-            sim,
-            IdealFeatureSource(task, scene, sim),
-            robot,
-            task,
-            make_law("classical"),
-            robot.limits(),
-            period=0.02,
-            lam=1.0,
-            clock=clock,
-            sleep=clock.sleep,
-            max_iterations=2000,
-            image_motion=lim,
-        )
-        runs[name] = loop.run()
+        runs[name] = _servo_loop(max_iterations=2000, image_motion=lim).run()
     free, held = runs["free"], runs["held"]
     assert free.outcome == held.outcome == "converged"
     flag = held.log.flag(Flag.CAMERA_MOTION_LIMITED)
@@ -251,51 +218,21 @@ def test_the_servo_loop_steps_at_the_present_with_the_measurement_stamped() -> N
     """With latency compensation (the Controller's default) the servo loop steps its
     Controller at the present time and hands it the measurement stamped at its image's time
     (:mod:`redservo.control.latency` brings it forward); without it, at the stamp's time."""
-    from redservo.hardware import (
-        ActuatorModel,
-        IdealFeatureSource,
-        ServoLoop,
-        SimulatedRobot,
-        VirtualClock,
-    )
     from redservo.hardware.protocols import FeatureMeasurement
-    from redservo.robots import Afma6
-    from redservo.scene import PointSet, Scene, Static
-    from redservo.spatial import make_transform
-    from redservo.task import TaskTerm, VisualTask
 
     class Late:
         """The ideal source, its stamps 30 ms in the past (a camera's latency)."""
 
-        def __init__(self, inner: IdealFeatureSource) -> None:
+        def __init__(self, inner: Any) -> None:
             self.inner = inner
 
         def measure(self, t: float) -> FeatureMeasurement | None:
             m = self.inner.measure(t)
             return None if m is None else m._replace(t_measured=m.t_measured - 0.03)
 
-    q0 = np.array([0.0, 0.0, -0.5, 0.0, 0.0, 0.0])
     seen: dict[bool, list[tuple[float, float | None]]] = {}
     for compensate in (True, False):
-        clock = VirtualClock(50.0)
-        robot = Afma6()
-        sim = SimulatedRobot(robot, ActuatorModel.ideal(), q0, clock, period=0.02)
-        wMo = robot.fkine(q0) @ make_transform(t=(0.08, -0.05, 0.6))
-        scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
-        task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
-        loop = ServoLoop(
-            sim,
-            Late(IdealFeatureSource(task, scene, sim)),
-            robot,
-            task,
-            make_law("classical"),
-            robot.limits(),
-            period=0.02,
-            lam=1.0,
-            clock=clock,
-            sleep=clock.sleep,
-            max_iterations=20,
-        )
+        loop = _servo_loop(Late, max_iterations=20)
         loop.controller.compensate_latency = compensate
         calls = seen[compensate] = []
         step = loop.controller.step
@@ -310,3 +247,31 @@ def test_the_servo_loop_steps_at_the_present_with_the_measurement_stamped() -> N
         assert stamp is not None and t - stamp == pytest.approx(0.03, abs=1e-9)
     assert all(stamp is None for _, stamp in seen[False])
     assert [t for t, _ in seen[False]] == pytest.approx([s for _, s in seen[True]])
+
+
+def _servo_loop(wrap: Any = None, **kw: Any) -> Any:
+    """A servo loop on the simulated Afma6 (ideal actuators, a virtual clock at 50 Hz) gazing
+    at one point; ``wrap`` wraps its ideal feature source."""
+    from redservo.hardware import (
+        ActuatorModel,
+        IdealFeatureSource,
+        ServoLoop,
+        SimulatedRobot,
+        VirtualClock,
+    )
+    from redservo.robots import Afma6
+    from redservo.scene import PointSet, Scene, Static
+    from redservo.spatial import make_transform
+    from redservo.task import TaskTerm, VisualTask
+
+    q0 = np.array([0.0, 0.0, -0.5, 0.0, 0.0, 0.0])
+    clock = VirtualClock(50.0)
+    robot = Afma6()
+    sim = SimulatedRobot(robot, ActuatorModel.ideal(), q0, clock, period=0.02)
+    wMo = robot.fkine(q0) @ make_transform(t=(0.08, -0.05, 0.6))
+    scene = Scene([PointSet("target", np.zeros((1, 3)), trajectory=Static(wMo))])
+    task = VisualTask([TaskTerm(PointFeature(), "target")], [0.0, 0.0])
+    source: Any = IdealFeatureSource(task, scene, sim)
+    law, lim = make_law("classical"), robot.limits()
+    timing = {"period": 0.02, "lam": 1.0, "clock": clock, "sleep": clock.sleep}
+    return ServoLoop(sim, wrap(source) if wrap else source, robot, task, law, lim, **timing, **kw)
