@@ -73,7 +73,7 @@ def test_a_tag_video_plays_at_its_rate_and_is_measured(tag_video: Any) -> None:
 def test_a_video_of_another_size_is_one_error_naming_the_key(tag_video: Any) -> None:
     exp, path, bMc = tag_video
     small = dataclasses.replace(exp.camera, width=exp.camera.width // 2)
-    with pytest.raises(ConfigurationError, match=r"camera.file: the video .* is 640 x") as e:
+    with pytest.raises(ConfigurationError, match=r"camera.file: the video .* delivers 640 x") as e:
         VideoSource(path, small, exp.task, exp.scene, Pose(bMc))
     assert e.value.argument == "camera.file"
     with pytest.raises(ConfigurationError, match=r"camera\.file: no video file"):

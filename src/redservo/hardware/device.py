@@ -27,13 +27,13 @@ from typing import Any
 
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
-from redservo.hardware.video import VideoSource
+from redservo.hardware.video import VideoSource, check_size
 from redservo.scene import Scene
 from redservo.task import VisualTask
 from redservo.vision.frame_sensor import DOT_THRESHOLD, FrameSensor
 from redservo.vision.optics import require_cv2
 
-__all__ = ["DeviceSource", "open_device"]
+__all__ = ["DeviceSource", "check_size", "open_device"]
 
 
 def open_device(device: int | str, camera: Camera, key: str = "camera.device") -> Any:
@@ -51,20 +51,6 @@ def open_device(device: int | str, camera: Camera, key: str = "camera.device") -
     cap.set(cv2.CAP_PROP_FRAME_WIDTH, camera.width)
     cap.set(cv2.CAP_PROP_FRAME_HEIGHT, camera.height)
     return check_size(cap, camera, f"the camera {device!r}", key)
-
-
-def check_size(cap: Any, camera: Camera, what: str, key: str) -> Any:
-    """``cap`` when it delivers frames of the camera's size (else released and refused)."""
-    cv2 = require_cv2()
-    size = (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)))
-    if size != (camera.width, camera.height):
-        cap.release()
-        raise ConfigurationError(
-            f"{key}: {what} delivers {size[0]} x {size[1]} pixels; the scenario's camera is "
-            f"{camera.width} x {camera.height}",
-            argument=key,
-        )
-    return cap
 
 
 class DeviceSource(VideoSource):

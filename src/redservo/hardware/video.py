@@ -33,7 +33,7 @@ from redservo.task import VisualTask
 from redservo.vision.frame_sensor import DOT_THRESHOLD, Frame, FrameSensor
 from redservo.vision.optics import require_cv2
 
-__all__ = ["VideoSource"]
+__all__ = ["VideoSource", "check_size"]
 
 
 def _open(path: Path, camera: Camera, key: str) -> tuple[Any, float]:
@@ -48,15 +48,22 @@ def _open(path: Path, camera: Camera, key: str) -> tuple[Any, float]:
     if not (math.isfinite(fps) and fps > 0.0):
         cap.release()
         raise ConfigurationError(f"{key}: the video {path} has no frame rate", argument=key)
+    return check_size(cap, camera, f"the video {path}", key), fps
+
+
+def check_size(cap: Any, camera: Camera, what: str, key: str) -> Any:
+    """``cap`` (an OpenCV capture) when it delivers frames of the camera's size; else it is
+    released and refused (naming ``key``)."""
+    cv2 = require_cv2()
     size = (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)))
     if size != (camera.width, camera.height):
         cap.release()
         raise ConfigurationError(
-            f"{key}: the video {path} is {size[0]} x {size[1]} pixels; the scenario's camera "
-            f"is {camera.width} x {camera.height}",
+            f"{key}: {what} delivers {size[0]} x {size[1]} pixels; the scenario's camera is "
+            f"{camera.width} x {camera.height}",
             argument=key,
         )
-    return cap, fps
+    return cap
 
 
 class VideoSource:
