@@ -20,7 +20,6 @@ Units: seconds, pixels.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -30,7 +29,7 @@ from redservo.errors import ConfigurationError
 from redservo.hardware.video import VideoSource, check_size
 from redservo.scene import Scene
 from redservo.task import VisualTask
-from redservo.vision.frame_sensor import DOT_THRESHOLD, FrameSensor
+from redservo.vision.frame_sensor import DOT_THRESHOLD
 from redservo.vision.optics import require_cv2
 
 __all__ = ["DeviceSource", "check_size", "open_device"]
@@ -96,32 +95,15 @@ class DeviceSource(VideoSource):
         self.key = "camera.device"
         self._cap, self.fps = capture, math.nan
         self.latency = float(latency)
-        self.task, self.scene, self.pose = task, scene, pose
-        self.sensor = FrameSensor(camera, dot_threshold)
-        self.clock, self.sleep = clock, sleep
-        self._lock = threading.Lock()
-        self._last = None
-        self._error: BaseException | None = None
-        self.frames = 0
-        self.skipped = 0
-        self.ended = False
-        self.reason = ""
-        self._closing = False
-        self._thread: threading.Thread | None = None
+        self._setup(camera, task, scene, pose, dot_threshold, clock, sleep)
 
-    def _play(self, t0: float) -> None:
+    def _deliver(self, t0: float) -> None:
         """Measure every frame as the device delivers it (the newest wins)."""
         cv2 = require_cv2()
-        try:
-            while not self._closing:
-                ok, image = self._cap.read()
-                if not ok:
-                    break
-                stamp = self.clock() - self.latency
-                gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-                self._measure(gray, stamp)
-        except BaseException as exc:  # handed to the loop's thread by measure()
-            with self._lock:
-                self._error = exc
-        finally:
-            self.ended = True
+        while not self._closing:
+            ok, image = self._cap.read()
+            if not ok:
+                break
+            stamp = self.clock() - self.latency
+            gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            self._measure(gray, stamp)

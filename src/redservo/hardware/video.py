@@ -99,6 +99,20 @@ class VideoSource:
         self.path = Path(path)
         self.key = key
         self._cap, self.fps = _open(self.path, camera, key)
+        self._setup(camera, task, scene, pose, dot_threshold, clock, sleep)
+
+    def _setup(
+        self,
+        camera: Camera,
+        task: VisualTask,
+        scene: Scene,
+        pose: Any,
+        dot_threshold: float,
+        clock: Callable[[], float],
+        sleep: Callable[[float], None],
+    ) -> None:
+        """The measuring and the worker's state, shared with the live camera
+        (:class:`~redservo.hardware.device.DeviceSource`)."""
         self.task, self.scene, self.pose = task, scene, pose
         self.sensor = FrameSensor(camera, dot_threshold)
         self.clock, self.sleep = clock, sleep
@@ -110,7 +124,7 @@ class VideoSource:
         self.skipped = 0
         """Frames not measured: their time had passed while the tracker was busy."""
         self.ended = False
-        """True once the file is played to its end."""
+        """True once the source has no more frames."""
         self.reason = ""
         """Why the last frame gave no measurement ("" otherwise)."""
         self._closing = False
@@ -132,28 +146,34 @@ class VideoSource:
         return [t.native_id] if t is not None and t.native_id and t.is_alive() else []
 
     def _play(self, t0: float) -> None:
-        cv2 = require_cv2()
-        i = 0
+        """The worker: :meth:`_deliver` the frames; what it raises is handed to the loop's
+        thread by :meth:`measure`."""
         try:
-            while not self._closing:
-                due = t0 + i / self.fps
-                if self.clock() > due + 1.0 / self.fps:  # late: drop it as a camera would
-                    if not self._cap.grab():
-                        break
-                    self.skipped, i = self.skipped + 1, i + 1
-                    continue
-                ok, image = self._cap.read()
-                if not ok:
-                    break
-                if (wait := due - self.clock()) > 0:
-                    self.sleep(wait)
-                self._measure(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), due)
-                i += 1
-        except BaseException as exc:  # handed to the loop's thread by measure()
+            self._deliver(t0)
+        except BaseException as exc:
             with self._lock:
                 self._error = exc
         finally:
             self.ended = True
+
+    def _deliver(self, t0: float) -> None:
+        """Measure frame ``i`` at ``t0 + i / fps``, skipping the frames already late."""
+        cv2 = require_cv2()
+        i = 0
+        while not self._closing:
+            due = t0 + i / self.fps
+            if self.clock() > due + 1.0 / self.fps:  # late: drop it as a camera would
+                if not self._cap.grab():
+                    break
+                self.skipped, i = self.skipped + 1, i + 1
+                continue
+            ok, image = self._cap.read()
+            if not ok:
+                break
+            if (wait := due - self.clock()) > 0:
+                self.sleep(wait)
+            self._measure(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), due)
+            i += 1
 
     def _measure(self, gray: Any, stamp: float) -> None:
         assert isinstance(self.sensor.renderer, Frame)
