@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -38,15 +38,7 @@ Outcome = Literal[
     "feature_lost",
     "collision",
 ]
-OUTCOMES: tuple[Outcome, ...] = (
-    "converged",
-    "joint_limit",
-    "max_iterations",
-    "target_lost",
-    "occluded",
-    "feature_lost",
-    "collision",
-)
+OUTCOMES: tuple[Outcome, ...] = get_args(Outcome)
 SUCCESS_MARGIN = 0.01
 """Smallest distance of every joint to its real limits, fraction of the joint's range, for a run
 to count as a success (and for a reproduction check to say "no joint limit reached")."""
