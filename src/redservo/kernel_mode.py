@@ -57,7 +57,7 @@ which the plain functions cost less than compiling (module docstring)."""
 
 COLD_NOTICE = (
     "redservo: the numba kernels are not compiled on this machine yet: running them as plain "
-    "Python (the same numbers; `redservo warmup` compiles them once, about a minute, for "
+    "Python (the same numbers; `redservo warmup` compiles them once, a few minutes, for "
     "campaigns and long runs)"
 )
 """The one line a command of :data:`AUTO_COMMANDS` prints when it runs uncompiled."""
