@@ -43,6 +43,7 @@ __all__ = [
     "is_warm",
     "mark_warm",
     "requested_mode",
+    "uncompiled_reason",
 ]
 
 MODE_ENV = "REDSERVO_KERNELS"
@@ -164,3 +165,15 @@ def choose_for_command(command: str) -> tuple[str, bool]:
         os.environ[_DISABLE_ENV] = "1"
         return "python", cold
     return "compiled", False
+
+
+def uncompiled_reason() -> str:
+    """Why the kernels of this process run as plain Python (one line, for the records)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return "numba is not installed (pip install 'redservo[fast]')"
+    return (
+        "the kernels run uncompiled in this process (REDSERVO_NO_NUMBA or REDSERVO_KERNELS="
+        "python, or a cold kernel cache: `redservo warmup` compiles them)"
+    )
