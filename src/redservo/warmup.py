@@ -334,6 +334,10 @@ def warmup(
         if numba:
             counter.uninstall()
     report = WarmupReport(seconds, compiled, numba)
+    if numba:  # every group ran: `auto` commands run compiled from now on
+        from redservo.kernel_mode import mark_warm
+
+        mark_warm()
     say(_verdict(report))
     return report
 

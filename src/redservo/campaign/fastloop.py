@@ -7,8 +7,9 @@ of :mod:`redservo.campaign.loop_kernel` and returns the same
 covered; the caller then runs the object path. :func:`fast_reason` says why a set-up is
 not covered:
 
-* numba is not installed (``pip install 'redservo[fast]'``): the loop would run as plain
-  Python, slower than the object path;
+* the kernels run uncompiled (numba not installed, or switched off:
+  :func:`redservo.kernel_mode.uncompiled_reason`): the loop would run as plain Python,
+  slower than the object path;
 * a method without a compiled step (``qp``, a user-registered law) or with
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
@@ -88,7 +89,9 @@ def law_reason(law: Law) -> str | None:
     from redservo.redundancy.qp import BoundedLeastSquares
 
     if not _compiled():
-        return "numba is not installed (pip install 'redservo[fast]')"
+        from redservo.kernel_mode import uncompiled_reason
+
+        return uncompiled_reason()
     known = law.name in LAW_IDS or type(law) is BoundedLeastSquares
     if not known or type(law).__module__.split(".")[1:2] != ["redundancy"]:
         return f"method {law.name!r} has no compiled step"

@@ -35,8 +35,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Protocol, cast
 
 import numpy as np
@@ -55,7 +53,8 @@ from redservo.control.objectives import (
 from redservo.errors import GeometryError
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
-from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
+from redservo.records import LogBuffer, Outcome, summarize
+from redservo.records.result import SimulationResult
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
@@ -81,39 +80,6 @@ class Actuator(Protocol):
     ) -> tuple[FloatArray, FloatArray]: ...
 
     def encoder(self, q: ArrayLike) -> FloatArray: ...
-
-
-@dataclass
-class SimulationResult:
-    """The outcome, typed summary and log of one run."""
-
-    outcome: Outcome
-    summary: RunSummary
-    log: SimulationLog
-    provenance: Any = field(default=None, repr=False, compare=False)
-    """What the run was made from (:class:`redservo.provenance.Provenance`), set by
-    :meth:`redservo.experiment.Experiment.run`; None for a bare :func:`simulate`."""
-    engine: str = "compiled"
-    """The controller's engine (:attr:`redservo.control.Controller.engine`)."""
-    engine_reason: str = ""
-    """Why the controller did not run compiled (one line), or ``""``."""
-
-    def save(self, directory: str | Path, *, extra: dict[str, Any] | None = None) -> Path:
-        """Write ``summary.json``, ``log.npz``, ``log.csv`` and ``diagnostics.json`` into
-        ``directory``, and with a provenance the resolved ``scenario.toml`` and ``run.json``
-        (:mod:`redservo.provenance`: ``redservo run DIR/scenario.toml`` re-runs it)."""
-        import json
-
-        from redservo.provenance import write_run_files
-
-        out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
-        summary = {**self.summary.to_dict(), **(extra or {})}
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        self.log.save_npz(out / "log.npz")
-        self.log.save_csv(out / "log.csv")
-        write_run_files(out, self)
-        return out
 
 
 def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
