@@ -76,6 +76,14 @@ def shipped_mjcf(name: str) -> Path:
     return Path(__file__).with_name("data") / "menagerie" / SHIPPED_MJCFS[key]
 
 
+def _default_base(model: Any, tip_body: int) -> int:
+    """The top body above the tip (a fixed base), or the world if that body has a joint."""
+    top = tip_body
+    while int(model.body_parentid[top]) != 0:
+        top = int(model.body_parentid[top])
+    return top if int(model.body_jntnum[top]) == 0 else 0
+
+
 def _servo(model: Any, path: Sequence[int], joints: Sequence[str] | None, source: str) -> list[int]:
     """The servoed joint ids: ``joints`` (chain order) or every joint of the path."""
     on_path = [
@@ -187,7 +195,8 @@ class MJCFRobot(ChainRobot):
     Args:
         path: The MJCF (``.xml``) file; its assets must lie inside its folder.
         tip: A site (preferred: a camera mount) or a body: the end-effector frame ``e``.
-        base: The base body ``b`` (default: the top body of the tree holding ``tip``).
+        base: The base body ``b`` (default: the top body of the tree holding ``tip``, or
+            ``"world"`` when that body has a joint).
         joints: The servoed joints (chain order; default: every joint from base to tip).
         eMc: 4x4 camera pose in the tip frame (default identity).
         locked_q: Values (m or rad) of the other joints, by name.
@@ -222,10 +231,7 @@ class MJCFRobot(ChainRobot):
         tip_body, end = tip_frame(model, tip, source)
         bodies = names_of(model, "body")
         if base is None:
-            top = tip_body
-            while int(model.body_parentid[top]) != 0:
-                top = int(model.body_parentid[top])
-            base = bodies[top]
+            base = bodies[_default_base(model, tip_body)]
         if base not in bodies:
             raise UnknownNameError(
                 f"base: {base!r} is not a body of {source}; bodies: {', '.join(bodies)}",

@@ -30,7 +30,15 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, GeometryError, UnknownNameError
 from redservo.spatial import make_transform, rotvec_to_matrix
 
-__all__ = ["chain_path", "compile_mjcf_chain", "load_model", "names_of", "pose_of", "tip_frame"]
+__all__ = [
+    "asset_files",
+    "chain_path",
+    "compile_mjcf_chain",
+    "load_model",
+    "names_of",
+    "pose_of",
+    "tip_frame",
+]
 
 _ASSET_DIRS = {
     "mesh": "meshdir",
@@ -50,10 +58,16 @@ def _mujoco() -> Any:
     return mujoco
 
 
-def _check_assets(xml: Path, root: Path, seen: set[Path]) -> None:
-    """Refuse an asset or include of ``xml`` that resolves outside ``root`` (module docstring)."""
+def asset_files(xml: Path, root: Path, seen: set[Path] | None = None) -> list[Path]:
+    """Every file (resolved) that the ``file=`` of ``xml``'s elements and of its includes name.
+
+    Raises:
+        ConfigurationError: ``xml`` (or an include) is not well-formed XML.
+        GeometryError: a file that resolves outside ``root`` (module docstring).
+    """
+    seen = set() if seen is None else seen
     if xml in seen:
-        return
+        return []
     seen.add(xml)
     try:
         tree = ET.parse(xml).getroot()
@@ -61,21 +75,23 @@ def _check_assets(xml: Path, root: Path, seen: set[Path]) -> None:
         raise ConfigurationError(f"{xml}: cannot read the MJCF ({exc})", argument="path") from None
     compiler = tree.find("compiler")
     dirs = {} if compiler is None else compiler.attrib
+    out = []
     for el in tree.iter():
         name = el.get("file")
         if name is None:
             continue
         sub = dirs.get(_ASSET_DIRS.get(el.tag, ""), dirs.get("assetdir", ""))
-        where = (root / name) if el.tag == "include" else (root / sub / name)
-        found = where.resolve()
+        found = ((root / name) if el.tag == "include" else (root / sub / name)).resolve()
         if not found.is_relative_to(root):
             raise GeometryError(
                 f"{xml}: <{el.tag} file={name!r}> resolves to {found}, outside the model's "
                 f"folder {root}; a model may only read files inside its folder",
                 argument="path",
             )
+        out.append(found)
         if el.tag == "include" and found.is_file():
-            _check_assets(found, root, seen)
+            out += asset_files(found, root, seen)
+    return out
 
 
 def load_model(path: str | os.PathLike[str]) -> Any:
@@ -89,7 +105,7 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     file = Path(path)
     if not file.is_file():
         raise ConfigurationError(f"MJCF file {str(file)!r} does not exist", argument="path")
-    _check_assets(file.resolve(), file.resolve().parent, set())
+    asset_files(file.resolve(), file.resolve().parent)
     try:
         return mujoco.MjModel.from_xml_path(str(file))
     except ValueError as exc:  # MuJoCo's parse and compile errors
