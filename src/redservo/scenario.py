@@ -227,16 +227,15 @@ def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, pre
         return
     value: str = robot[key]
     if "/" not in value and "\\" not in value and not value.endswith((".urdf", ".xml")):
+        from redservo.robots.mjcf import SHIPPED_MJCFS
+        from redservo.robots.urdf import SHIPPED_URDFS
         from redservo.schema.base import unknown_name
 
-        if key == "urdf":
-            from redservo.robots.urdf import SHIPPED_URDFS as shipped
-        else:
-            from redservo.robots.mjcf import SHIPPED_MJCFS as shipped
+        shipped = list(SHIPPED_URDFS if key == "urdf" else SHIPPED_MJCFS)
         if value.strip().lower() not in shipped:
             what = "shipped URDF" if key == "urdf" else "shipped MJCF"
             raise ScenarioError(
-                f"{source}: key '{prefix}robot.{key}': {unknown_name(what, value, list(shipped))}"
+                f"{source}: key '{prefix}robot.{key}': {unknown_name(what, value, shipped)}"
                 f" (or give a path to a {'.urdf' if key == 'urdf' else '.xml'} file)",
                 argument=f"{prefix}robot.{key}",
             )

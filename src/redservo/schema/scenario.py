@@ -56,6 +56,7 @@ LAM_MIN = 1e-3
 """Smallest gain λ (1/s): a time constant 1/λ of 1000 s (17 min); below it the error does not
 visibly decrease in any run, e.g. ``lam = 1e-300`` ran 600 motionless iterations."""
 
+
 class TaskSpec(Table):
     """The desired features: ``desired`` (s*) or ``desired_pose`` (what the camera sees there)."""
 
