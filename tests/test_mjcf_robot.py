@@ -231,7 +231,9 @@ def test_bad_input_names_the_argument(tmp_path: Path) -> None:
     path.write_text(ARM)
     with pytest.raises(ConfigurationError, match="does not exist"):
         MJCFRobot(tmp_path / "none.xml", tip="camera")
-    with pytest.raises(UnknownNameError, match="tip: 'cam' is neither a site nor a body") as e:
+    with pytest.raises(
+        UnknownNameError, match="tip: 'cam' is neither a site, a camera nor a body"
+    ) as e:
         MJCFRobot(path, tip="cam")
     assert e.value.argument == "tip"
     with pytest.raises(UnknownNameError, match="base: 'nope' is not a body") as e:
@@ -251,3 +253,32 @@ def test_bad_input_names_the_argument(tmp_path: Path) -> None:
     )
     with pytest.raises(ConfigurationError, match=r"MuJoCo cannot load .*odd\.xml"):
         MJCFRobot(tmp_path / "odd.xml", tip="camera")
+
+
+def test_a_mujoco_camera_as_tip_is_our_camera_frame(tmp_path: Path) -> None:
+    # MuJoCo's <camera> looks along its -z with y up; as a tip it becomes ours (z forward,
+    # y down): the same frame as a site turned by π about x, and it sees what MuJoCo's sees.
+    xml = ARM.replace(
+        '<site name="camera" pos="0.1 0.02 0" euler="0.3 1.5 0.2"/>',
+        '<site name="camera" pos="0.1 0.02 0" euler="0.3 1.5 0.2"/>'
+        '<camera name="wrist" pos="0.1 0.02 0" euler="0.3 1.5 0.2"/>',
+    )
+    path = tmp_path / "cam.xml"
+    path.write_text(xml)
+    joints = ["j1", "j2", "j3"]
+    cam = MJCFRobot(path, tip="wrist", joints=joints)
+    site = MJCFRobot(path, tip="camera", joints=joints)
+    flip = np.diag([1.0, -1.0, -1.0, 1.0])
+    for _ in range(10):
+        q = _random_q(cam)
+        np.testing.assert_allclose(cam.fkine(q), site.fkine(q) @ flip, atol=1e-12)
+        M, J = cam.mujoco_kinematics(q)
+        np.testing.assert_allclose(cam.fkine(q), M, atol=1e-12)
+        np.testing.assert_allclose(cam.jacobian(q), J, atol=1e-12)
+        # A point 1 m in front of MuJoCo's camera (its -z) is on our optical axis (+z).
+        cam._pose(q)
+        d = cam._data
+        ahead = d.cam_xpos[0] - d.cam_xmat[0].reshape(3, 3)[:, 2]
+        bMw = inverse(cam._world_pose(cam._base_id))
+        p = inverse(cam.fkine(q)) @ bMw @ np.append(ahead, 1.0)
+        np.testing.assert_allclose(p[:3], [0.0, 0.0, 1.0], atol=1e-12)

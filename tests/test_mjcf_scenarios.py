@@ -68,7 +68,7 @@ def test_a_file_path_is_read_relative_to_the_scenario(tmp_path: Path) -> None:
     [
         ('file = "ur5e"', 'file = "missing.xml"', "robot.file", "no such file"),
         ('file = "ur5e"', 'file = "ur6"', "robot.file", "unknown shipped MJCF 'ur6'"),
-        ('tip = "camera"', 'tip = "flange"', "robot.tip", "neither a site nor a body"),
+        ('tip = "camera"', 'tip = "flange"', "robot.tip", "neither a site, a camera nor a body"),
         ('tip = "camera"', 'tip = "camera"\nbase = "table"', "robot.base", "not a body"),
         ('tip = "camera"', 'tip = "camera"\nurdf = "ur5e"', "robot.kind", "give one of"),
         ('tip = "camera"', 'tip = "camera"\ncamera_link = "x"', "robot.camera_link", "only with"),

@@ -1,12 +1,13 @@
 """A robot read from an MJCF file (MuJoCo's format, e.g. MuJoCo Menagerie), run compiled.
 
 :class:`MJCFRobot` turns the bodies of an MJCF file from a ``base`` body down to a ``tip``
-(a site, or a body) into a :class:`~redservo.robots.Robot`: ``fkine_ee(q)`` is the pose
+(a site, a ``<camera>``, or a body) into a :class:`~redservo.robots.Robot`: ``fkine_ee(q)`` is the pose
 ``bMe`` of the tip in the base body's frame and ``jacobe(q)`` its 6 x n Jacobian ``eJe``
 in the tip frame (``(v, ω)``, ``v`` the velocity of the tip's origin), so that with the
 optional ``eMc`` (the camera in the tip frame, default identity: the tip frame *is* the
-camera frame, z forward along the optical axis, x to the right of the image, y down)
-``fkine(q) = bMe · eMc`` and ``jacobian(q) = cVe · eJe`` as for every model.
+camera frame, z forward along the optical axis, x to the right of the image, y down; a
+MuJoCo ``<camera>`` looks along its −z with y up, so a camera tip is that frame turned by π
+about x) ``fkine(q) = bMe · eMc`` and ``jacobian(q) = cVe · eJe`` as for every model.
 
 Joints (``q`` in chain order, base to tip, in MuJoCo's ``qpos`` units):
 
@@ -44,6 +45,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.robots.chain import ChainRobot
 from redservo.robots.mjcf_chain import (
+    FLIP,
     chain_path,
     compile_mjcf_chain,
     load_model,
@@ -183,6 +185,23 @@ def _rates(types: Sequence[str], names: Sequence[str], given: Any, default: bool
     return given
 
 
+def _pose(xmat: FloatArray, xpos: FloatArray) -> FloatArray:
+    """The 4x4 pose of MuJoCo's flat ``xmat`` (9,) and ``xpos`` (3,), world frame (m)."""
+    M = np.eye(4)
+    M[:3, :3] = np.reshape(xmat, (3, 3))
+    M[:3, 3] = xpos
+    return M
+
+
+def _tip_id(model: Any, tip: str) -> tuple[str, int]:
+    """``("site" | "camera" | "body", id)`` of the tip (the order of :func:`tip_frame`)."""
+    for kind, count in (("site", model.nsite), ("camera", model.ncam), ("body", model.nbody)):
+        names = [getattr(model, kind)(i).name for i in range(count)]
+        if tip in names:
+            return kind, names.index(tip)
+    raise AssertionError(tip)  # pragma: no cover - tip_frame raised first
+
+
 class MJCFRobot(ChainRobot):
     """A serial chain of an MJCF file, from ``base`` down to ``tip``, run compiled.
 
@@ -194,7 +213,8 @@ class MJCFRobot(ChainRobot):
 
     Args:
         path: The MJCF (``.xml``) file; its assets must lie inside its folder.
-        tip: A site (preferred: a camera mount) or a body: the end-effector frame ``e``.
+        tip: A site (z along the optical axis), a ``<camera>`` (turned by π about x into
+            ours) or a body: the end-effector frame ``e``.
         base: The base body ``b`` (default: the top body of the tree holding ``tip``, or
             ``"world"`` when that body has a joint).
         joints: The servoed joints (chain order; default: every joint from base to tip).
@@ -262,7 +282,8 @@ class MJCFRobot(ChainRobot):
         self.tip = tip
         self.locked_q = {model.joint(j).name: v for j, v in locked.items()}
         self._servo_ids = tuple(servo)
-        self._base_id, self._tip_body, self._tip_end = base_id, tip_body, end
+        self._base_id, self._tip_body = base_id, tip_body
+        self._tip_id = _tip_id(model, tip)
         self._attach(model)
 
     def _attach(self, model: Any) -> None:
@@ -292,7 +313,8 @@ class MJCFRobot(ChainRobot):
         self._attach(load_model(self.path))
 
     def _pose(self, q: FloatArray) -> None:
-        """Run ``mj_kinematics`` and ``mj_comPos`` at ``q`` (locked joints at their values)."""
+        """Run ``mj_kinematics``, ``mj_comPos`` and ``mj_camlight`` at ``q`` (locked joints at
+        their values)."""
         import mujoco
 
         m, d = self._model, self._data
@@ -300,26 +322,33 @@ class MJCFRobot(ChainRobot):
             d.qpos[m.jnt_qposadr[j]] = v
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
+        mujoco.mj_camlight(m, d)  # the cameras' cam_xpos, cam_xmat
 
     def _world_pose(self, body: int) -> FloatArray:
-        d, M = self._data, np.eye(4)
-        M[:3, :3] = d.xmat[body].reshape(3, 3)
-        M[:3, 3] = d.xpos[body]
-        return M
+        return _pose(self._data.xmat[body], self._data.xpos[body])
 
     def mujoco_kinematics(
         self, q: ArrayLike, *, check_limits: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """``(bMc, J)`` computed by MuJoCo (``mj_kinematics``, ``mj_jac`` at the tip): the
-        reference of :meth:`kinematics` (4x4 in m; ``J = cVe eJe``, 6 x n)."""
+        """``(bMc, J)`` computed by MuJoCo, the reference of :meth:`kinematics` (4x4 in m;
+        ``J = cVe eJe``, 6 x n): the tip's pose from ``mj_kinematics`` (``site_xpos``/``xmat``,
+        ``cam_xpos``/``xmat`` turned by :data:`~redservo.robots.mjcf_chain.FLIP`, or the body's)
+        and its Jacobian from ``mj_jacSite`` (a site) or ``mj_jac`` at its origin."""
         import mujoco
 
         qa = self.check_q(q, check_limits=check_limits)
         self._pose(qa)
         m, d = self._model, self._data
-        wMe = self._world_pose(self._tip_body) @ self._tip_end
         jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-        mujoco.mj_jac(m, d, jacp, jacr, wMe[:3, 3], self._tip_body)
+        kind, k = self._tip_id
+        if kind == "site":  # MuJoCo's own pose and Jacobian of the site
+            wMe = _pose(d.site_xmat[k], d.site_xpos[k])
+            mujoco.mj_jacSite(m, d, jacp, jacr, k)
+        else:  # a camera (turned into ours) or a body: the Jacobian at its origin
+            wMe = self._world_pose(self._tip_body)
+            if kind == "camera":
+                wMe = _pose(d.cam_xmat[k], d.cam_xpos[k]) @ FLIP
+            mujoco.mj_jac(m, d, jacp, jacr, wMe[:3, 3], self._tip_body)
         cols = [int(m.jnt_dofadr[j]) for j in self._servo_ids]
         Rt = wMe[:3, :3].T
         eJe = np.vstack([Rt @ jacp[:, cols], Rt @ jacr[:, cols]])

@@ -22,7 +22,7 @@ import os
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from redservo.errors import ConfigurationError, GeometryError, UnknownNameError
 from redservo.spatial import make_transform, rotvec_to_matrix
 
 __all__ = [
+    "FLIP",
     "asset_files",
     "chain_path",
     "compile_mjcf_chain",
@@ -133,17 +134,27 @@ def pose_of(pos: FloatArray, quat: FloatArray) -> FloatArray:
     return make_transform(R, np.asarray(pos, dtype=float))
 
 
+FLIP: Final = np.diag([1.0, -1.0, -1.0, 1.0])
+"""A MuJoCo ``<camera>`` frame (looking along −z, y up) to ours (along +z, y down): π about x."""
+
+
 def tip_frame(model: Any, tip: str, source: str) -> tuple[int, FloatArray]:
-    """``(body id, pose of the tip in that body)``: ``tip`` names a site, else a body."""
+    """``(body id, pose of the tip in that body)``: ``tip`` names a site, else a ``<camera>``
+    (then turned by π about x, :data:`FLIP`: our camera frame), else a body."""
     sites, bodies = names_of(model, "site"), names_of(model, "body")
+    cameras = [model.camera(i).name for i in range(model.ncam)]
     if tip in sites:
         k = sites.index(tip)
         return int(model.site_bodyid[k]), pose_of(model.site_pos[k], model.site_quat[k])
+    if tip in cameras:
+        k = cameras.index(tip)
+        return int(model.cam_bodyid[k]), pose_of(model.cam_pos[k], model.cam_quat[k]) @ FLIP
     if tip in bodies:
         return bodies.index(tip), np.eye(4)
     raise UnknownNameError(
-        f"tip: {tip!r} is neither a site nor a body of {source}; sites: "
-        f"{', '.join(sites) or '(none)'}; bodies: {', '.join(bodies[1:])}",
+        f"tip: {tip!r} is neither a site, a camera nor a body of {source}; sites: "
+        f"{', '.join(sites) or '(none)'}; cameras: {', '.join(cameras) or '(none)'}; "
+        f"bodies: {', '.join(bodies[1:])}",
         argument="tip",
     )
 

@@ -44,7 +44,9 @@ class RobotSpec(Table):
         "MuJoCo Menagerie one: panda | ur5e (needs redservo[mujoco])",
     )
     base: str | None = Field(None, description="MJCF: the base body (default: the top body)")
-    tip: str = Field("camera", description="MJCF: the site (or body) the camera is fixed to")
+    tip: str = Field(
+        "camera", description="MJCF: the site, MuJoCo camera or body where the camera is"
+    )
     camera_link: str = Field("camera_link", description="URDF: the link the camera is fixed to")
     base_link: str | None = Field(None, description="URDF: the base link (default: the root)")
     joints: list[str] | None = Field(
