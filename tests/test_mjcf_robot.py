@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("mujoco", reason="MJCF robots need redservo[mujoco]")
 
 from redservo.collision import Obstacle, Shape, distances
-from redservo.errors import ConfigurationError, GeometryError, UnknownNameError
+from redservo.errors import ConfigurationError, GeometryError, JointLimitError, UnknownNameError
 from redservo.robots import MJCFRobot, shipped_mjcf
 from redservo.robots.mjcf_collision import enclosing_capsule
 from redservo.robots.pack import CHAIN
@@ -24,6 +24,7 @@ RNG = np.random.default_rng(7)
 # Rotated bodies, a joint off its body origin, a non-zero ref, a slide, a locked joint, a
 # ball joint off the chain, a site with its own rotation: everything the chain folds in.
 ARM = """<mujoco model="arm">
+  <compiler angle="radian"/>
   <worldbody>
     <body name="stand" pos="0.1 0.2 0.3" euler="0.1 0.2 0.3">
       <geom type="box" size="0.1 0.1 0.05"/>
@@ -75,6 +76,7 @@ def test_menagerie_chain_equals_mujocos_own_kinematics(name: str) -> None:
 
 def test_folded_refs_offsets_and_locked_joints_equal_mujoco(tmp_path: Path) -> None:
     robot = _arm(tmp_path, locked_q={"lock": 0.4}, eMc=make_transform(t=(0.0, 0.01, 0.02)))
+    np.testing.assert_array_equal(robot._data.qpos[-4:], [1.0, 0.0, 0.0, 0.0])  # ball at qpos0
     assert robot.joint_types == ("revolute", "revolute", "prismatic")
     assert robot.base == "stand" and robot.locked_q["lock"] == 0.4
     for _ in range(20):
@@ -245,6 +247,11 @@ def test_bad_input_names_the_argument(tmp_path: Path) -> None:
         MJCFRobot(path, tip="free_part")
     with pytest.raises(ConfigurationError, match="chain order"):
         MJCFRobot(path, tip="camera", joints=["j2", "j1"])
+    with pytest.raises(JointLimitError, match=r"locked_q: 'lock' = 2\.0 is outside") as e:
+        _arm(tmp_path, locked_q={"lock": 2.0})
+    assert e.value.argument == "locked_q"
+    with pytest.raises(UnknownNameError, match="'ball' is not a locked hinge or slide"):
+        _arm(tmp_path, locked_q={"ball": 0.0})
     (tmp_path / "broken.xml").write_text("<mujoco><worldbody><body></mujoco>")
     with pytest.raises(ConfigurationError, match=r"broken\.xml: cannot read the MJCF"):
         MJCFRobot(tmp_path / "broken.xml", tip="camera")

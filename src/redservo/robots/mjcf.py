@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError, UnknownNameError
+from redservo.errors import ConfigurationError, JointLimitError, UnknownNameError
 from redservo.robots.chain import ChainRobot
 from redservo.robots.mjcf_chain import (
     FLIP,
@@ -148,21 +148,31 @@ def _limits(model: Any, j: int, source: str) -> tuple[float, float]:
 def _locked(
     model: Any, servo: Sequence[int], given: Mapping[str, float] | None
 ) -> dict[int, float]:
-    """The value (m or rad) of every joint not servoed: ``given`` or 0 (mid-range if outside)."""
+    """The value (m or rad) of every hinge or slide joint not servoed: ``given`` or 0
+    (mid-range if 0 is outside its range). Ball and free joints stay at MuJoCo's ``qpos0``."""
     names = names_of(model, "joint")
-    free = [j for j in range(model.njnt) if j not in servo]
+    free = [
+        j
+        for j in range(model.njnt)
+        if j not in servo and int(model.jnt_type[j]) in (_HINGE, _SLIDE)
+    ]
     for key in given or {}:
         if key not in [names[j] for j in free]:
             raise UnknownNameError(
-                f"locked_q: {key!r} is not a locked joint; those are: "
+                f"locked_q: {key!r} is not a locked hinge or slide joint; those are: "
                 f"{', '.join(names[j] for j in free) or '(none)'}",
                 argument="locked_q",
             )
     out = {}
     for j in free:
         lo, hi = model.jnt_range[j] if model.jnt_limited[j] else (-np.inf, np.inf)
-        default = 0.0 if lo <= 0.0 <= hi else 0.5 * (lo + hi)
-        out[j] = float((given or {}).get(names[j], default))
+        value = float((given or {}).get(names[j], 0.0 if lo <= 0.0 <= hi else 0.5 * (lo + hi)))
+        if not (np.isfinite(value) and lo <= value <= hi):
+            raise JointLimitError(
+                f"locked_q: {names[j]!r} = {value} is outside its range [{lo}, {hi}]",
+                argument="locked_q",
+            )
+        out[j] = value
     return out
 
 
