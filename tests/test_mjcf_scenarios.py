@@ -166,3 +166,20 @@ def test_a_run_directory_carries_the_mjcf_and_its_meshes(tmp_path: Path) -> None
     (model / "ur5e.xml").unlink()  # the run directory needs nothing outside it
     again = tmp_path / "again"
     assert main(["run", str(moved / "scenario.toml"), "--out", str(again), "--no-plot", "-q"]) == 0
+
+
+def test_without_distances_the_compiled_campaign_loop_takes_the_mjcf_robot() -> None:
+    pytest.importorskip("numba", reason="the compiled loop needs redservo[fast]")
+    from redservo.campaign import fastloop
+    from redservo.campaign.engine import FAST_PATH
+    from redservo.campaign.fastloop import campaign_law, fast_run
+    from redservo.scenario import apply_overrides
+
+    base = load_scenario("menagerie-ur5e-4points")
+    exp = build(apply_overrides(base, ["collision.self=false"]))
+    assert fastloop.fast_reason(exp, campaign_law(exp, "classical", None)) is None
+    summary, path = fast_run(exp, "classical", None)
+    assert path == FAST_PATH and summary is not None and summary.outcome == "converged"
+    with_self = build(base)
+    reason = fastloop.fast_reason(with_self, campaign_law(with_self, "classical", None))
+    assert reason is not None and "distance" in reason
