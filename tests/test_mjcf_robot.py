@@ -289,3 +289,23 @@ def test_a_mujoco_camera_as_tip_is_our_camera_frame(tmp_path: Path) -> None:
         bMw = inverse(cam._world_pose(cam._base_id))
         p = inverse(cam.fkine(q)) @ bMw @ np.append(ahead, 1.0)
         np.testing.assert_allclose(p[:3], [0.0, 0.0, 1.0], atol=1e-12)
+
+
+def test_every_file_attribute_and_include_stays_inside_the_models_folder(tmp_path: Path) -> None:
+    model = tmp_path / "model"
+    (model / "parts").mkdir(parents=True)
+    (tmp_path / "secret.png").write_bytes(b"x")
+    body = '<worldbody><body name="b"><joint name="j" range="-1 1"/><site name="tip"/></body></worldbody>'
+    cube = '<asset><texture name="t" type="cube" fileright="../secret.png"/></asset>'
+    (model / "cube.xml").write_text(f"<mujoco>{cube}{body}</mujoco>")
+    with pytest.raises(GeometryError, match=r"fileright='\.\./secret\.png'.*outside"):
+        MJCFRobot(model / "cube.xml", tip="tip")
+    # An include inherits meshdir: parts/arm.xml names ../../secret.png under meshdir="parts".
+    (model / "parts" / "arm.xml").write_text(
+        '<mujoco><asset><mesh file="../../secret.png"/></asset></mujoco>'
+    )
+    (model / "main.xml").write_text(
+        f'<mujoco><compiler meshdir="parts"/><include file="parts/arm.xml"/>{body}</mujoco>'
+    )
+    with pytest.raises(GeometryError, match=r"arm\.xml: <mesh file='\.\./\.\./secret\.png'>"):
+        MJCFRobot(model / "main.xml", tip="tip")

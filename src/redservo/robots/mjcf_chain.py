@@ -59,8 +59,11 @@ def _mujoco() -> Any:
     return mujoco
 
 
-def asset_files(xml: Path, root: Path, seen: set[Path] | None = None) -> list[Path]:
-    """Every file (resolved) that the ``file=`` of ``xml``'s elements and of its includes name.
+def asset_files(
+    xml: Path, root: Path, seen: set[Path] | None = None, dirs: Mapping[str, str] | None = None
+) -> list[Path]:
+    """Every file (resolved) that the ``file*=`` attributes of ``xml``'s elements and of its
+    includes name (an include inherits the ``<compiler>`` folders of the file including it).
 
     Raises:
         ConfigurationError: ``xml`` (or an include) is not well-formed XML.
@@ -75,23 +78,22 @@ def asset_files(xml: Path, root: Path, seen: set[Path] | None = None) -> list[Pa
     except (OSError, ET.ParseError) as exc:
         raise ConfigurationError(f"{xml}: cannot read the MJCF ({exc})", argument="path") from None
     compiler = tree.find("compiler")
-    dirs = {} if compiler is None else compiler.attrib
+    dirs = {**(dirs or {}), **({} if compiler is None else compiler.attrib)}
     out = []
     for el in tree.iter():
-        name = el.get("file")
-        if name is None:
-            continue
-        sub = dirs.get(_ASSET_DIRS.get(el.tag, ""), dirs.get("assetdir", ""))
-        found = ((root / name) if el.tag == "include" else (root / sub / name)).resolve()
-        if not found.is_relative_to(root):
-            raise GeometryError(
-                f"{xml}: <{el.tag} file={name!r}> resolves to {found}, outside the model's "
-                f"folder {root}; a model may only read files inside its folder",
-                argument="path",
-            )
-        out.append(found)
-        if el.tag == "include" and found.is_file():
-            out += asset_files(found, root, seen)
+        # file=, and a cube texture's fileright= ... fileback=
+        for attr, name in ((a, v) for a, v in el.attrib.items() if a.startswith("file")):
+            sub = dirs.get(_ASSET_DIRS.get(el.tag, ""), dirs.get("assetdir", ""))
+            found = ((root / name) if el.tag == "include" else (root / sub / name)).resolve()
+            if not found.is_relative_to(root):
+                raise GeometryError(
+                    f"{xml}: <{el.tag} {attr}={name!r}> resolves to {found}, outside the "
+                    f"model's folder {root}; a model may only read files inside its folder",
+                    argument="path",
+                )
+            out.append(found)
+            if el.tag == "include" and found.is_file():
+                out += asset_files(found, root, seen, dirs)
     return out
 
 

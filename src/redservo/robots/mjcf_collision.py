@@ -3,6 +3,8 @@
 Which geoms: every geom of the bodies under the robot's ``base`` (base included, off-chain
 bodies such as fingers too) that collides in MuJoCo (``contype`` or ``conaffinity`` not 0)
 or sits in group 3 (MuJoCo Menagerie's collision group, whose geoms often have both 0).
+Geoms outside the base's subtree (a scene's floor) are not the robot's: obstacles are given
+as a scenario's ``[[obstacles]]``.
 
 redservo's distances (:mod:`redservo.collision`) and the compiled primitive kernels take
 one capsule per link, so each body's collision geoms are enclosed in the smallest capsule
