@@ -183,3 +183,11 @@ def test_without_distances_the_compiled_campaign_loop_takes_the_mjcf_robot() -> 
     with_self = build(base)
     reason = fastloop.fast_reason(with_self, campaign_law(with_self, "classical", None))
     assert reason is not None and "distance" in reason
+
+
+def test_redservo_list_names_the_shipped_mjcf_robots(capsys) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    group = out.split('MJCF robots (robot.kind = "mjcf"', 1)[1].split("\n\n", 1)[0]
+    assert "panda" in group and "menagerie-panda-4points" in group, group
+    assert "ur5e" in group and "6 joints; scenarios: menagerie-ur5e-4points" in group, group
