@@ -29,6 +29,7 @@ import hashlib
 import os
 import platform
 import sys
+from importlib.util import find_spec
 from pathlib import Path
 
 from redservo.errors import ConfigurationError
@@ -64,7 +65,7 @@ COLD_NOTICE = (
 """The one line a command of :data:`AUTO_COMMANDS` prints when it runs uncompiled."""
 
 _DISABLE_ENV = "REDSERVO_NO_NUMBA"  # redservo.kernels._jit.DISABLE_ENV (not imported: numba)
-_KERNELS_DIR = Path(__file__).resolve().parent / "kernels"
+_KERNELS_DIR = Path(str(find_spec("redservo.kernels").origin)).resolve().parent  # type: ignore[union-attr]
 _MARKER = "redservo-warm-{}.txt"
 
 
