@@ -45,7 +45,9 @@ class SensorReading(NamedTuple):
     reason: str = ""
     """Why ``s`` is None or something was lost (empty when all is well)."""
     image: object | None = None
-    """The image the features were measured in (2-D uint8 array), if the sensor made one."""
+    """The image the features were measured in, if the sensor made one: a 2-D uint8 array,
+    or for the simulated image sensor a :class:`~redservo.vision.lazyframe.LazyFrame`,
+    computed where it was read (``np.asarray(image)`` gives the whole array)."""
     stamp: float | None = None
     """When the image was exposed (s, the middle of the exposure), or None: at the instant
     it was read (an untimed sensor; :mod:`redservo.sensor_timing`)."""

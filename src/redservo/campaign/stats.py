@@ -127,8 +127,8 @@ def column_stats(
     ok = np.zeros(0, bool) if reachable is None else reachable
     nr, kr = (int(ok.sum()), int((ok & success).sum())) if reachable is not None else (-1, 0)
     rlo, rhi = (float("nan"),) * 2 if reachable is None else wilson_interval(kr, nr)
-    named = ("converged", "joint_limit", "target_lost", "max_iterations", "collision")
-    named += ("feature_lost",)
+    named: tuple[str, ...] = ("converged", "joint_limit", "target_lost", "max_iterations")
+    named += ("collision", "feature_lost")
     return MethodStats(
         method=method,
         runs=n,
