@@ -151,3 +151,24 @@ def test_the_tracker_reads_a_lazy_frame_only_around_its_dots() -> None:
     assert track.detected.all()
     read = sum((r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in nxt._done)
     assert read < 0.05 * 640 * 480  # four windows, not the frame
+
+
+def test_the_compose_and_pose_kernels_agree_with_their_plain_python() -> None:
+    from redservo.kernels import interp
+    from redservo.kernels.compose import compose_region
+
+    rng = np.random.default_rng(4)
+    bgb = rng.uniform(0, 255, (40, 50)).astype(np.float32)
+    field = rng.standard_normal((80, 100)).astype(np.float32)
+    boxes = np.array([[5, 15, 10, 22, 0], [20, 30, 30, 45, 120]], dtype=np.int64)
+    deltas = rng.uniform(-80, 200, 120 + 150).astype(np.float32)
+    gain = rng.uniform(0.8, 1.2, (40, 50)).astype(np.float32)
+    for rect, has_gain in (((0, 40, 0, 50), False), ((3, 27, 8, 41), True)):
+        args = (np.array(rect), bgb, field, np.array([7, 11]), 4.0, boxes, deltas, gain, has_gain)
+        plain = getattr(compose_region, "py_func", compose_region)(*args)
+        assert np.array_equal(compose_region(*args), plain)
+    f = interp.interpolate_pose
+    T0 = make_transform(rotvec=[0.3, -0.2, 0.1], t=[0.1, 0.2, 0.3])
+    T1 = make_transform(rotvec=[0.31, -0.18, 0.12], t=[0.11, 0.2, 0.29])
+    assert np.allclose(f(T0, T1, 0.3), getattr(f, "py_func", f)(T0, T1, 0.3), atol=1e-15)
+    assert np.allclose(f(T0, T1, 1.0), T1, atol=1e-12) and np.array_equal(f(T0, T1, 0.0), T0)
