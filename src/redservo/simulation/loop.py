@@ -58,7 +58,7 @@ from redservo.records.result import SimulationResult
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
-from redservo.sensors import IdealSensor, Sensor, SensorReading
+from redservo.sensors import FrameNoise, IdealSensor, Sensor, SensorReading
 from redservo.simulation.options import SimulationOptions
 from redservo.task import TaskState, VisualTask
 
@@ -257,6 +257,7 @@ class _Run:
         if track is not None:
             track(_tracking_gate(sensor))
         self.rng = np.random.default_rng(opt.seed)
+        self.noise = FrameNoise(opt.noise_std, self.rng)  # a held frame keeps its noise
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
         self.true_model = ctrl.robot is robot and actuator is None
@@ -292,9 +293,7 @@ class _Run:
         reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
         if reading.s is None:
             return _lost_outcome(reading), None
-        s = reading.s
-        if opt.noise_std > 0:
-            s = s + self.rng.normal(0.0, opt.noise_std, ctrl.task.k)
+        s = self.noise(reading)
         meas = Measurement(s, tuple(reading.inv_depth), reading.stamp)
         if opt.check_image and not all(
             _in_image(self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px)
