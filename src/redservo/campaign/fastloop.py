@@ -182,14 +182,16 @@ def _law_args(law: Law, n: int) -> tuple[Any, ...]:
     if law.name != "qp":
         o = law_options(law, n)
         return o.law_id, o.fopt, o.iopt, o.vopt, getattr(law, "alpha_max", None) is not None
-    from redservo.redundancy.qp import _v_per_joint
+    from redservo.redundancy.qp import ACTIVE_SET, BoundedLeastSquares, _v_per_joint
 
-    v = getattr(law, "v_max", None)
+    assert isinstance(law, BoundedLeastSquares)
+    v = law.v_max
     vopt = np.zeros((2, n))
     if v is not None:
         vopt[0] = _v_per_joint(v, n)
-    fopt = np.array([law.rcond, 0.0, law.k_p, law.margin])  # type: ignore[attr-defined]
-    iopt = np.array([int(law.shield), 0, int(v is not None), 0], dtype=np.int64)
+    fopt = np.array([law.rcond, law.eps, law.k_p, law.margin])
+    in_kernel = law._resolve_backend() == ACTIVE_SET  # the solver runs in the loop
+    iopt = np.array([int(law.shield), int(in_kernel), int(v is not None), 0], dtype=np.int64)
     return QP, fopt, iopt, vopt, False
 
 
