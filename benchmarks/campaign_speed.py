@@ -247,11 +247,22 @@ def all_campaigns(samples: int, loop_samples: int) -> None:
 def campaign_row(name: str, samples: int, loop_samples: int) -> str:
     """The table row of :func:`all_campaigns` for campaign ``name``."""
     rates = loop_rates(name, loop_samples)
+    if not rates:  # e.g. obstacles: every run on the object path (the loop measures no distance)
+        return f"| {name} | no method on the compiled loop: {_uncovered(name)} | | | | |"
     cpu = sum(per_step * steps for per_step, steps in rates.values())
     loop = sum(steps for _, steps in rates.values()) / cpu
     r = campaign_rate(name, samples, methods=list(rates))
     end = r.steps_per_cpu_s
     return f"| {name} | {r.runs} | {r.steps} | {loop:,.0f} | {end:,.0f} | {end / loop:.2f} |"
+
+
+def _uncovered(name: str) -> str:
+    """Why the first sample of campaign ``name`` does not run on the compiled loop."""
+    from redservo.campaign import draw_sample, load_campaign
+    from redservo.campaign.fastloop import experiment_reason
+    from redservo.experiment import build
+
+    return str(experiment_reason(build(draw_sample(load_campaign(name), 0, 0).scenario)))
 
 
 def _rates(a: argparse.Namespace) -> None:
