@@ -5,7 +5,8 @@ the features of an ideal sensor and their interaction matrix
 (:mod:`redservo.kernels.loop_task`), ``e1`` and ``J1`` (CM01 eq. 25, the step kernel's
 :func:`~redservo.kernels.control.task_rows`) and the known feed-forward; :func:`law_bits`
 runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
-its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's solver-free step.
+its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's step with its compiled
+solver (:mod:`redservo.kernels.boxqp`).
 The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
 iteration, the benchmarks' step (:mod:`redservo.binding.step`) once per call
 (:func:`sensed_step`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.

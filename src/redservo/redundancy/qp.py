@@ -230,8 +230,7 @@ class BoundedLeastSquares(Law):
                 )
                 raise ConfigurationError(
                     f"solver must be 'auto', {ACTIVE_SET!r}, 'scipy' or an installed qpsolvers "
-                    f"backend; got "
-                    f"{solver!r} ({hint})",
+                    f"backend; got {solver!r} ({hint})",
                     argument="solver",
                 )
 
