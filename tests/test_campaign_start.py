@@ -18,9 +18,7 @@ from redservo.experiment import build
 
 
 def _object_path_lost(exp: Any, margin: float) -> bool:
-    res = exp.run(
-        method="classical", law_options={}, max_iterations=1, image_margin_px=margin
-    )
+    res = exp.run(method="classical", law_options={}, max_iterations=1, image_margin_px=margin)
     return res.outcome in ("target_lost", "occluded")
 
 

@@ -182,8 +182,8 @@ class CompiledQPStep:
         if not inside and free.size:
             xf, status, _ = _KB.box_qp(P, c, lof, hif)
             if status != _KB.SOLVED:
-                kw = {"q": q, "limits": self.limits, "lam": self.lam, "dt": self.dt}
-                return law(J1=J1, e1=e1, qdot_prev=qdot_prev, **kw).qdot
+                kw: dict[str, Any] = {"limits": self.limits, "lam": self.lam, "dt": self.dt}
+                return law(J1=J1, e1=e1, q=q, qdot_prev=qdot_prev, **kw).qdot
         found = (J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False, law.rcond)
         tail = (q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev)
         return np.asarray(kq.qp_tail(*found, *tail, law.shield))
