@@ -195,3 +195,53 @@ def test_the_campaign_loop_solves_qp_without_python(monkeypatch: pytest.MonkeyPa
         assert (calls[0] > 10) == handed_back, calls  # daqp: >10 steps with active bounds
         obj = exp.run(method="qp", law_options=opts).summary
         assert repr(fast.to_dict()) == repr(obj.to_dict())
+
+
+def _loop_step(rng: np.random.Generator, lim: Any) -> tuple[Any, ...]:
+    """A step's inputs with large errors (bounds active): J1 (m, n) of m = 2, 3 or 6 rows,
+    full rank or not, joints near their limits or not, a previous command within the rates."""
+    n, m = lim.n, int(rng.choice([2, 3, 6]))
+    J1 = rng.normal(size=(m, n))
+    if rng.random() < 0.3 and m > 1:
+        J1[-1] = J1[0] * rng.uniform(-2, 2)
+    e1 = 30.0 * rng.normal(size=m) * 10.0 ** rng.uniform(-3, 0)
+    margin = rng.uniform(0.002, 0.15, n) * lim.range
+    q = np.where(rng.random(n) < 0.5, lim.q_max - margin, lim.q_min + margin)
+    q = np.where(rng.random(n) < 0.5, q, lim.q_min + rng.uniform(0.2, 0.8, n) * lim.range)
+    prev = rng.uniform(-0.8, 0.8, n) * lim.qdot_max
+    lam, dt = float(rng.choice([0.3, 1.0, 5.0])), float(rng.choice([0.04, 0.08]))
+    return np.ascontiguousarray(J1), e1, q, prev, lam, dt
+
+
+@pytest.mark.parametrize("robot", ["afma6", "panda"])
+def test_the_loops_qp_step_is_the_law_objects(robot: str) -> None:
+    """The campaign loop's ``qp`` step (kernels/sensed.py ``qp_law``, solver in the kernel) on
+    random steps, bounds active on most: the law object's command bit for bit and exactly its
+    flags; nothing handed back to Python."""
+    pytest.importorskip("numba", reason="the compiled campaign loop needs numba")
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.kernels.sensed import qp_law
+    from redservo.packs import limits_pack
+    from redservo.robots import make_robot
+
+    rng = np.random.default_rng(11)
+    lim = make_robot(robot).limits(0.1)
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    n, solved, flags = lim.n, 0, set()
+    for opts in ({}, {"v_max": 0.3}, {"margin": 0.1, "k_p": 0.5}, {"shield": False}):
+        law = make_law("qp", **opts)
+        args = _law_args(law, n)
+        for _ in range(60):
+            J1, e1, q, prev, lam, dt = _loop_step(rng, lim)
+            m = e1.shape[0]
+            solve = (np.zeros((m, n)), np.zeros(m), np.zeros(n), np.zeros(4, np.int64), e1 * 0)
+            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            qd, bits, need = qp_law(J1, e1, e1, False, q, prev, args, limits, sim, solve)
+            res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev)
+            assert not need
+            assert np.array_equal(qd, res.qdot), opts
+            assert bits == _flag_bits(res.diagnostics.events), opts
+            solved += _solver_note(res).startswith("solver: active-set")
+            flags.add(bits)
+    assert solved > 100 and len(flags) >= 3
