@@ -299,6 +299,14 @@ class Law(abc.ABC):
             JointLimitError: ``q`` outside ``limits``.
             ConfigurationError: ``lam`` or ``dt`` not a finite positive number.
         """
+        kernel = self.scaling == "uniform" and self._kernel_step
+        if kernel:  # the checked signature: no Python check of the values (kernel_call)
+            from redservo.redundancy.kernel_call import fast_call
+
+            args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
+            done = fast_call(self, args)
+            if done is not None:
+                return LawResult(*done)
         x = validate_inputs(
             J1=J1,
             e1=e1,
@@ -310,7 +318,7 @@ class Law(abc.ABC):
             secondary=secondary,
             qdot_prev=qdot_prev,
         )
-        if self.scaling == "uniform" and self._kernel_step:
+        if kernel:
             from redservo.redundancy.kernel_call import kernel_call
 
             done = kernel_call(self, x)
