@@ -121,3 +121,25 @@ def test_the_fast_path_still_names_a_bad_value(name: str, value: Any, error: typ
     with pytest.raises(error) as info:
         law(**kw)
     assert info.value.argument == name
+
+
+def test_the_compiled_controller_step_gives_lazy_diagnostics_equal_to_the_object_paths() -> None:
+    from redservo import Controller
+    from redservo.bench_cases import bench_cases
+    from redservo.control import Measurement
+
+    case = next(c for c in bench_cases(scaling=()) if c.name == "afma6-4points")
+    bMc, J = case.robot.kinematics(case.q)
+    st = case.task.evaluate(case.scene, bMc, J, 0.0)
+    meas = Measurement(st.s, tuple(st.inv_depth))
+    steps = {}
+    for engine in ("auto", "python"):
+        law = make_law("iterative-smooth")
+        ctl = Controller(
+            case.robot, case.task, law, case.limits, lam=case.lam, dt=case.dt, engine=engine
+        )
+        steps[engine] = ctl.step(case.q.copy(), meas, 0.0, qdot_prev=None)
+    fast, ref = steps["auto"], steps["python"]
+    assert isinstance(fast.diagnostics, LazyDiagnostics)
+    assert fast.qdot.tobytes() == ref.qdot.tobytes()
+    assert repr(fast.diagnostics) == repr(ref.diagnostics)

@@ -70,6 +70,8 @@ def as_time(value: object, name: str) -> float:
     Only real numbers are stamps: a string (``"1.0"``), a boolean (``True``), NaN or inf is
     refused, never converted, so that a mistyped stamp is reported instead of taken as time.
     """
+    if type(value) is float and -math.inf < value < math.inf:
+        return value  # hot path: a finite Python float
     if not is_number(value) or not np.isfinite(float(value)):  # type: ignore[arg-type]
         raise ShapeError(
             f"{name} must be a finite number of seconds, got {value!r} ({type(value).__name__})",

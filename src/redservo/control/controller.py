@@ -42,7 +42,7 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -66,6 +66,15 @@ from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
 __all__ = ["Controller"]
+
+_F64 = np.dtype(np.float64)
+
+
+def _array(a: object, n: int) -> bool:
+    """``a`` is a C-contiguous float64 array of shape (n,): what the compiled step takes as
+    is (its kernel checks the values; a step it refuses takes the object path, whose
+    checks name the input)."""
+    return type(a) is np.ndarray and a.dtype is _F64 and a.shape == (n,) and a.flags.c_contiguous
 
 
 class Controller:
@@ -136,6 +145,7 @@ class Controller:
         )  # fmt: skip
         """The law's keywords (among ``J1 … dt, de1_dt, secondary, qdot_prev``)."""
         self.robot = robot
+        self._n = robot.n
         self.task = task
         self.law = law
         self.limits: JointLimits = limits if limits is not None else robot.limits()
@@ -244,15 +254,16 @@ class Controller:
             ConfigurationError: ``"known"`` feed-forward without a context, or an objective
                 that needs the scene without one.
         """
-        qa = as_vector(q, "q", self.robot.n)
         t = as_time(t, "t")
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)
             measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
         done = None
-        if self._compiled is not None:
+        qa = cast(FloatArray, q)
+        if self._compiled is not None and _array(q, self._n):  # the kernel checks the values
             done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
         if done is None:
+            qa = as_vector(q, "q", self._n)
             Ja = self.jacobian(qa, J)
             state = self.evaluate(measurement, Ja)
             done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
@@ -272,13 +283,16 @@ class Controller:
         kernel's check rejects: the object path raises the error naming it)."""
         assert self._compiled is not None
         self.stage = "task"
-        s = self._measured_s(measurement)
+        s = getattr(measurement, "s", None)
+        if not _array(s, self.task.k):  # the kernel checks the values, this the rest
+            s = self._measured_s(measurement)
         Ja = None if J is None else self.jacobian(q, J)
         self.stage = "feed-forward"
         prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
         de1_dt = self._feedforward_known(t, context) if self.feedforward == "known" else None
         self.stage = "law"
-        res = self._compiled.step(q, s, measurement.inv_depth, prev, J=Ja, de1_dt=de1_dt)
+        iz = getattr(measurement, "inv_depth", None)  # checked by the kernel's binding
+        res = self._compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
         if res is None:
             return None
         qdot, state, diag = res

@@ -221,7 +221,9 @@ def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, Diagnostics]
         return None
     if de1_dt is None and secondary is None and qdot_prev is None:
         inputs = _NO_INPUTS
-    elif all(v is None or _array(v, (k,)) for v, k in ((de1_dt, m), (secondary, n), (qdot_prev, n))):
+    elif all(
+        v is None or _array(v, (k,)) for v, k in ((de1_dt, m), (secondary, n), (qdot_prev, n))
+    ):
         inputs = (_given(de1_dt), _given(secondary), _given(qdot_prev), _EMPTY)
     else:
         return None
