@@ -64,6 +64,14 @@ def _to_float(value: ArrayLike, name: str) -> FloatArray:
     return np.asarray(raw, dtype=np.float64)
 
 
+def is_float_vector(a: object, n: int) -> bool:
+    """``a`` is a C-contiguous float64 array of shape (n,), as a compiled kernel takes it
+    without a copy (a check of the type and layout only: the kernel checks the values)."""
+    return (
+        type(a) is np.ndarray and a.dtype == _FLOAT64 and a.shape == (n,) and a.flags.c_contiguous
+    )
+
+
 def as_time(value: object, name: str) -> float:
     """Return ``value`` as a finite time stamp (s), raising :class:`ShapeError` otherwise.
 

@@ -42,12 +42,13 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import cached_property
 from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
@@ -66,15 +67,6 @@ from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
 __all__ = ["Controller"]
-
-_F64 = np.dtype(np.float64)
-
-
-def _array(a: object, n: int) -> bool:
-    """``a`` is a C-contiguous float64 array of shape (n,): what the compiled step takes as
-    is (its kernel checks the values; a step it refuses takes the object path, whose
-    checks name the input)."""
-    return type(a) is np.ndarray and a.dtype is _F64 and a.shape == (n,) and a.flags.c_contiguous
 
 
 class Controller:
@@ -145,7 +137,6 @@ class Controller:
         )  # fmt: skip
         """The law's keywords (among ``J1 … dt, de1_dt, secondary, qdot_prev``)."""
         self.robot = robot
-        self._n = robot.n
         self.task = task
         self.law = law
         self.limits: JointLimits = limits if limits is not None else robot.limits()
@@ -194,6 +185,11 @@ class Controller:
     @property
     def n(self) -> int:
         """Number of joints."""
+        return self.robot.n
+
+    @cached_property
+    def _n(self) -> int:
+        """Number of joints, read once (the step's hot path)."""
         return self.robot.n
 
     def __repr__(self) -> str:
@@ -260,7 +256,9 @@ class Controller:
             measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
         done = None
         qa = cast(FloatArray, q)
-        if self._compiled is not None and _array(q, self._n):  # the kernel checks the values
+        if self._compiled is not None and is_float_vector(
+            q, self._n
+        ):  # the kernel checks the values
             done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
         if done is None:
             qa = as_vector(q, "q", self._n)
@@ -284,7 +282,7 @@ class Controller:
         assert self._compiled is not None
         self.stage = "task"
         s = getattr(measurement, "s", None)
-        if not _array(s, self.task.k):  # the kernel checks the values, this the rest
+        if not is_float_vector(s, self.task.k):  # the kernel checks the values, this the rest
             s = self._measured_s(measurement)
         Ja = None if J is None else self.jacobian(q, J)
         self.stage = "feed-forward"

@@ -292,7 +292,14 @@ class Law(abc.ABC):
         Returns:
             :class:`LawResult` with ``qdot`` (n,) and ``diagnostics``. ``qdot`` never
             exceeds ``limits.qdot_max``, never holds NaN, and with ``shield`` on keeps
-            ``q + dt·qdot`` within the limits less their margin.
+            ``q + dt·qdot`` within the limits less their margin. A law with a compiled
+            step builds its diagnostics when they are first read
+            (:mod:`redservo.redundancy.lazy`), from what the call computed.
+
+        Inputs with the signature the compiled step takes (C-contiguous float64 arrays of
+        matching shapes, a float or adaptive gain, a float ``dt``) have their values checked
+        by the kernel alone; anything else, or a value the kernel refuses, gets the full
+        checks below, which name the argument.
 
         Raises:
             ShapeError: wrong shapes, complex values, or NaN/inf inputs.

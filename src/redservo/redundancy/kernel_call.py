@@ -132,7 +132,7 @@ def diagnose(
             smask, svals, ssrc.astype(np.int64), q, qdot, dt, limits, float(sout[6]), int(sout[10])
         )
     lo = LawOutputs(iout.astype(np.int64), fout, axes, axf, vec, lmask, lvals, lsrc)
-    return law.diagnose(m, lo, more)  # type: ignore[attr-defined, no-any-return]
+    return law.diagnose(m, lo, more)  # type: ignore[attr-defined]
 
 
 def _run(
