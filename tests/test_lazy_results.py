@@ -143,3 +143,19 @@ def test_the_compiled_controller_step_gives_lazy_diagnostics_equal_to_the_object
     assert isinstance(fast.diagnostics, LazyDiagnostics)
     assert fast.qdot.tobytes() == ref.qdot.tobytes()
     assert repr(fast.diagnostics) == repr(ref.diagnostics)
+
+
+def test_numpy_float_gains_take_the_fast_path_with_the_same_command(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    kw = _inputs(5)
+    law = make_law("gpm")
+    ref = law(**kw)
+
+    def refuse(**_: Any) -> Any:
+        raise AssertionError("validated in Python")
+
+    monkeypatch.setattr(base, "validate_inputs", refuse)
+    res = law(**{**kw, "lam": np.float64(kw["lam"]), "dt": np.float64(kw["dt"])})
+    assert res.qdot.tobytes() == ref.qdot.tobytes()
+    assert repr(res.diagnostics) == repr(ref.diagnostics)

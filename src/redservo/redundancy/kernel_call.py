@@ -205,19 +205,20 @@ def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, Diagnostics]
     anything else: the caller then validates the inputs in full
     (:func:`~redservo.redundancy.inputs.validate_inputs`), which names a faulty argument."""
     J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev = args
-    if type(J1) is not np.ndarray or J1.ndim != 2 or type(dt) is not float:
+    if type(J1) is not np.ndarray or J1.ndim != 2 or not isinstance(dt, float):
         return None
     m, n = J1.shape
     if m == 0 or not (_array(J1, (m, n)) and _array(e1, (m,)) and _array(q, (n,))):
         return None
     bound = _bound(law, limits, n)
-    if bound is None or not 0.0 < dt < math.inf:
+    if bound is None:
         return None
-    if type(lam) is not float:
-        if not isinstance(lam, AdaptiveGain):
-            return None
+    if isinstance(lam, AdaptiveGain):
         lam = gain_value(lam, e1)
-    if not 0.0 < lam < math.inf:
+    elif not isinstance(lam, float):  # a Python or numpy float; anything else: full checks
+        return None
+    lam, dt = float(lam), float(dt)
+    if not (0.0 < lam < math.inf and 0.0 < dt < math.inf):
         return None
     if de1_dt is None and secondary is None and qdot_prev is None:
         inputs = _NO_INPUTS
