@@ -28,11 +28,10 @@ from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, law_class
+from redservo.redundancy.base import Diagnostics, Law, law_class, lazy_diagnostics
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
 from redservo.redundancy.kio import law_options
-from redservo.redundancy.lazy import lazy_diagnostics
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
@@ -153,7 +152,7 @@ class CompiledControl:
         vec: FloatArray,
     ) -> tuple[FloatArray, TaskState, Diagnostics]:
         """Views of the kernel's buffer as the object path's results; the diagnostics are
-        built when first read (:mod:`redservo.redundancy.lazy`) from the law part of the
+        built when first read (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the
         buffer (``qdot`` to ``ssrc``), the law's options as they are now, and copies of
         ``q`` and ``q̇`` when the safety layer raised events."""
         qdot, e, e1, J1, L = (buf[sl] for sl in self.task_slices)

@@ -27,13 +27,20 @@ from redservo.redundancy.flags import Event
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.inputs import _array
 from redservo.redundancy.kio import LawOptions, LawOutputs, pack_options
-from redservo.redundancy.lazy import lazy_diagnostics
 from redservo.redundancy.safety import safety_events
 
 if TYPE_CHECKING:
     from redservo.redundancy.base import Diagnostics, Law, LawInputs
 
-__all__ = ["LAW_PARTS", "diagnose", "fast_call", "kernel_call", "kernel_compute", "kernel_id"]
+__all__ = [
+    "LAW_PARTS",
+    "DiagnoseArgs",
+    "diagnose",
+    "fast_call",
+    "kernel_call",
+    "kernel_compute",
+    "kernel_id",
+]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _KC
@@ -135,16 +142,19 @@ def diagnose(
     return law.diagnose(m, lo, more)  # type: ignore[attr-defined]
 
 
+DiagnoseArgs = tuple[Any, ...]
+"""The arguments of :func:`diagnose` for one call (what its lazy diagnostics keep)."""
+
+
 def _run(
     law: Law,
     arrays: tuple[FloatArray, FloatArray, FloatArray],
     limits: JointLimits,
     packs: tuple[Any, Any, tuple[float, float], tuple[FloatArray, ...]],
-    lazy: bool,
-) -> tuple[FloatArray, Diagnostics] | None:
+) -> tuple[FloatArray, DiagnoseArgs] | None:
     """The law kernel call on checked arrays ``(J1, e1, q)`` and ``packs`` ``(law pack,
-    limits pack, (λ, dt), inputs)``: ``(q̇, diagnostics)``, lazy unless ``lazy`` is False,
-    or None when the kernel's input check fails."""
+    limits pack, (λ, dt), inputs)``: ``(q̇, the arguments of diagnose)``, with copies of
+    what the caller may change afterwards, or None when the kernel's input check fails."""
     J1, e1, q = arrays
     law_pack, limits_t, gains, inputs = packs
     size, parts = _slices(q.shape[0])
@@ -154,22 +164,26 @@ def _run(
         return None
     qdot = buf[parts[0]]
     safety = (q.copy(), qdot.copy(), gains[1], limits) if smask else None
-    args = (type(law), dict(law.__dict__), J1.shape[0], buf, parts, (lmask, smask, vec), safety)
-    if lazy:
-        return qdot, lazy_diagnostics(diagnose, *args)
-    return qdot, diagnose(*args)
+    return qdot, (
+        type(law),
+        dict(law.__dict__),
+        J1.shape[0],
+        buf,
+        parts,
+        (lmask, smask, vec),
+        safety,
+    )
 
 
-def kernel_call(
-    law: Law, x: LawInputs, *, lazy: bool = True
-) -> tuple[FloatArray, Diagnostics] | None:
-    """``(q̇, diagnostics)``: the law's safe command for the validated inputs ``x`` through
-    the step kernel, or None when an input fails the kernel's conservative check (finite and
-    below 1e300; the caller then runs :meth:`~redservo.redundancy.Law.compute` and the safety
-    layer of :mod:`redservo.redundancy.safety`). The diagnostics are built when first read
-    (:mod:`redservo.redundancy.lazy`; ``lazy=False``: now)."""
+def kernel_call(law: Law, x: LawInputs) -> tuple[FloatArray, DiagnoseArgs] | None:
+    """``(q̇, the arguments of diagnose)``: the law's safe command for the validated inputs
+    ``x`` through the step kernel, or None when an input fails the kernel's conservative
+    check (finite and below 1e300; the caller then runs
+    :meth:`~redservo.redundancy.Law.compute` and the safety layer of
+    :mod:`redservo.redundancy.safety`). The caller builds the diagnostics when they are read
+    (:func:`~redservo.redundancy.base.lazy_diagnostics` with :func:`diagnose`)."""
     J1, e1, q, law_pack, limits, inputs = _packs(law, x)
-    return _run(law, (J1, e1, q), x.limits, (law_pack, limits, (x.lam, x.dt), inputs), lazy)
+    return _run(law, (J1, e1, q), x.limits, (law_pack, limits, (x.lam, x.dt), inputs))
 
 
 def kernel_compute(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics]:
@@ -196,8 +210,8 @@ def _bound(law: Law, limits: object, n: int) -> tuple[Any, Any] | None:
     return pack, limits_t
 
 
-def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, Diagnostics] | None:
-    """``(q̇, diagnostics)`` of ``law(J1=..., ...)`` with ``args`` ``(J1, e1, q, limits, lam,
+def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
+    """``(q̇, the arguments of diagnose)`` of ``law(J1=..., ...)`` with ``args`` ``(J1, e1, q, limits, lam,
     dt, de1_dt, secondary, qdot_prev)`` when they have the signature the kernel takes
     (C-contiguous float64 arrays of matching shapes, a JointLimits of ``n`` joints, float
     gains or an :class:`~redservo.AdaptiveGain`): no Python check of the values, which the
@@ -228,4 +242,4 @@ def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, Diagnostics]
         inputs = (_given(de1_dt), _given(secondary), _given(qdot_prev), _EMPTY)
     else:
         return None
-    return _run(law, (J1, e1, q), limits, (*bound, (lam, dt), inputs), True)
+    return _run(law, (J1, e1, q), limits, (*bound, (lam, dt), inputs))
