@@ -1,12 +1,14 @@
 """A law's call through the step kernel: validated inputs → packs → the same law kernel.
 
-:meth:`redservo.redundancy.Law.__call__` hands its validated inputs to :func:`kernel_call`
-for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
+:meth:`redservo.redundancy.Law.__call__` hands its inputs to :func:`fast_call` (inputs with
+the signature the kernel takes: the kernel alone checks their values) or, after the full
+checks, to :func:`kernel_call`, for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
 ``diagnose`` method, with uniform scaling: the law and its safety layer run in
 :func:`redservo.kernels.control.law_core`, the very kernel that the
 :class:`~redservo.control.Controller` and the campaign loop drive, and the law's own
-``diagnose`` turns the kernel's outputs into its :class:`~redservo.Diagnostics`, as the
-Controller does. There is no second composition of law and safety layer for the object
+``diagnose`` turns the kernel's outputs into its :class:`~redservo.Diagnostics` when they
+are first read (:func:`diagnose`, :class:`~redservo.redundancy.base.LazyDiagnostics`), as
+the Controller does. There is no second composition of law and safety layer for the object
 path. :func:`kernel_compute` is such a law's ``compute`` (its raw command, for
 secondary-first scaling): the same law kernel without the safety layer
 (:func:`redservo.kernels.step.law_raw`). Units: as the law call's (rad or m, s, 1/s).
