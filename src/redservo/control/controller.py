@@ -42,12 +42,13 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from functools import cached_property
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
 from redservo.control.engine import bind_engine, python_parts
@@ -186,6 +187,11 @@ class Controller:
         """Number of joints."""
         return self.robot.n
 
+    @cached_property
+    def _n(self) -> int:
+        """Number of joints, read once (the step's hot path)."""
+        return self.robot.n
+
     def __repr__(self) -> str:
         name = getattr(self.law, "name", None) or type(self.law).__name__
         return (
@@ -244,15 +250,18 @@ class Controller:
             ConfigurationError: ``"known"`` feed-forward without a context, or an objective
                 that needs the scene without one.
         """
-        qa = as_vector(q, "q", self.robot.n)
         t = as_time(t, "t")
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)
             measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
         done = None
-        if self._compiled is not None:
+        qa = cast(FloatArray, q)
+        if self._compiled is not None and is_float_vector(
+            q, self._n
+        ):  # the kernel checks the values
             done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
         if done is None:
+            qa = as_vector(q, "q", self._n)
             Ja = self.jacobian(qa, J)
             state = self.evaluate(measurement, Ja)
             done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
@@ -272,13 +281,16 @@ class Controller:
         kernel's check rejects: the object path raises the error naming it)."""
         assert self._compiled is not None
         self.stage = "task"
-        s = self._measured_s(measurement)
+        s = getattr(measurement, "s", None)
+        if not is_float_vector(s, self.task.k):  # the kernel checks the values, this the rest
+            s = self._measured_s(measurement)
         Ja = None if J is None else self.jacobian(q, J)
         self.stage = "feed-forward"
         prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
         de1_dt = self._feedforward_known(t, context) if self.feedforward == "known" else None
         self.stage = "law"
-        res = self._compiled.step(q, s, measurement.inv_depth, prev, J=Ja, de1_dt=de1_dt)
+        iz = getattr(measurement, "inv_depth", None)  # checked by the kernel's binding
+        res = self._compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
         if res is None:
             return None
         qdot, state, diag = res
