@@ -7,6 +7,7 @@ in a stable order (the seed papers' methods first, then the baselines).
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 from redservo.redundancy.base import (
     Diagnostics,
@@ -59,11 +60,27 @@ _ORDER = (
     "large-projection",
     "predictive",
 )
-_registered = registered_methods()
-METHODS: tuple[str, ...] = tuple(
-    [n for n in _ORDER if n in _registered] + [n for n in _registered if n not in _ORDER]
-)
-"""Names accepted by :func:`make_law`."""
 
-METHOD_DESCRIPTIONS: dict[str, str] = {n: _registered[n].description for n in METHODS}
+
+def _methods() -> tuple[str, ...]:
+    registered = registered_methods()
+    return tuple(
+        [n for n in _ORDER if n in registered] + [n for n in registered if n not in _ORDER]
+    )
+
+
+def __getattr__(name: str) -> Any:
+    """:data:`METHODS` and :data:`METHOD_DESCRIPTIONS`, read from the registry when asked,
+    so that a law registered after this import (docs/extending.md) is listed too."""
+    if name == "METHODS":
+        return _methods()
+    if name == "METHOD_DESCRIPTIONS":
+        registered = registered_methods()
+        return {n: registered[n].description for n in _methods()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+METHODS: tuple[str, ...]
+"""Names accepted by :func:`make_law` (the registry now: the seed papers' methods first)."""
+METHOD_DESCRIPTIONS: dict[str, str]
 """One-line description of each method."""
