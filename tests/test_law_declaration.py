@@ -15,7 +15,14 @@ import pytest
 from redservo.errors import ConfigurationError
 from redservo.kernels import lawopts
 from redservo.redundancy import law_class, registered_methods
-from redservo.redundancy.declare import OUTPUTS, LawKernel, declared_laws, kernel_class
+from redservo.redundancy.declare import (
+    OUTPUTS,
+    LawKernel,
+    bind_law,
+    declared_laws,
+    kernel_class,
+    law_slots,
+)
 from redservo.redundancy.options import COMMON_SLOTS, RCOND, Option, slotted
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -74,10 +81,8 @@ def test_too_many_slots_is_one_clear_error() -> None:
 
 
 def test_every_shipped_law_packs_its_options_where_its_declaration_reads_them() -> None:
-    from redservo.kernels.law_dispatch import _slots
-
     for name, cls in declared_laws():
-        slots = _slots(cls)
+        slots = law_slots(cls)
         for token in (*cls.KERNEL.args.split(), *cls.KERNEL.event_args.split()):
             if token.startswith("opt."):
                 assert token[4:].rstrip("?") in slots, (name, token)
@@ -96,8 +101,6 @@ def test_named_outputs_replace_numbers() -> None:
 
 
 def test_a_bad_declaration_is_one_clear_error() -> None:
-    from redservo.kernels.law_dispatch import _generate
-
     base = law_class("classical")
 
     def law(**kw: str) -> type:
@@ -110,13 +113,13 @@ def test_a_bad_declaration_is_one_clear_error() -> None:
         return type("Bad", (base,), {"name": "bad", "KERNEL": LawKernel(**{**fields, **kw})})
 
     with pytest.raises(ConfigurationError, match=r"Bad.KERNEL: unknown argument 'lambda'"):
-        _generate([("bad", law(args="J1 e lambda"))])
+        bind_law("bad", law(args="J1 e lambda"))
     with pytest.raises(ConfigurationError, match=r"'opt.alpha' is not a packed option of 'bad'"):
-        _generate([("bad", law(args="J1 e opt.alpha"))])
+        bind_law("bad", law(args="J1 e opt.alpha"))
     with pytest.raises(ConfigurationError, match=r"events kernel reads float options only"):
-        _generate([("bad", law(event_args="m opt.shield"))])
+        bind_law("bad", law(event_args="m opt.shield"))
     with pytest.raises(ConfigurationError, match=r"no kernel 'redservo.kernels.laws:nothing'"):
-        _generate([("bad", law(kernel="redservo.kernels.laws:nothing"))])
+        bind_law("bad", law(kernel="redservo.kernels.laws:nothing"))
 
 
 def test_only_a_class_declaring_its_kernel_or_defined_beside_it_runs_it() -> None:

@@ -25,11 +25,18 @@ Arguments are written as names, each bound by the generated dispatch:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import importlib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-__all__ = ["OUTPUTS", "LawKernel", "declared_laws", "kernel_class"]
+from redservo.errors import ConfigurationError
+from redservo.kernels import law_table
+from redservo.kernels.law_table import BoundLaw
+from redservo.redundancy.options import COMMON_SLOTS
+
+__all__ = ["OUTPUTS", "LawKernel", "bind_law", "bound_laws", "declared_laws", "kernel_class"]
 
 OUTPUTS: Mapping[str, tuple[str, int]] = {
     "rank": ("i", 0),
@@ -89,3 +96,97 @@ def declared_laws() -> list[tuple[str, Any]]:
     from redservo.redundancy import registered_methods
 
     return [(name, cls) for name, cls in registered_methods().items() if "KERNEL" in cls.__dict__]
+
+
+_INPUTS = frozenset(
+    "law limits gains J1 e1 e q io lp has_v has_a lam dt ff has_ff sec has_sec prev has_prev"
+    " hist has_hist".split()
+)
+"""The names of the generated ``raw_law`` (:mod:`redservo.kernels.law_dispatch`)."""
+_EVENT_INPUTS = _INPUTS | frozenset("m n iout fout axes axf vec".split())
+"""The names of the generated ``law_events``."""
+_PACKS = {"f": "fopt", "i": "iopt", "v": "vopt"}
+_OUTS = {"i": "iout", "f": "fout"}
+_KERNELS_DIR = Path(law_table.__file__).resolve().parent
+
+
+def law_slots(cls: Any) -> dict[str, tuple[str, int]]:
+    """Every packed name of the law class ``cls`` and its slot ``(kind, index)``."""
+    own = {o.name: o.slot for o in cls.OPTIONS if o.slot is not None}
+    return {**COMMON_SLOTS, **own, **getattr(cls, "SLOTS", {})}
+
+
+def _bind(token: str, cls: Any, events: bool) -> str:
+    """The expression of one declared argument (module docstring)."""
+    where = f"{cls.__name__}.KERNEL"
+    flag = token.endswith("?")
+    name = token.rstrip("?")
+    names = _EVENT_INPUTS if events else _INPUTS
+    if name in names and not flag:
+        return name
+    if name.startswith("opt."):
+        slot = law_slots(cls).get(name[4:])
+        if slot is None or (events and slot[0] != "f"):
+            only = " (an events kernel reads float options only)" if events else ""
+            raise ConfigurationError(
+                f"{where}: {token!r} is not a packed option of {cls.name!r}{only}",
+                argument="KERNEL",
+            )
+        expr = f"{_PACKS[slot[0]]}[{slot[1]}]"
+    elif name.startswith("out.") and events:
+        kind, index = cls.KERNEL.output(name[4:])
+        expr = f"{_OUTS[kind]}[{index}]"
+    else:
+        try:
+            return repr(float(token))
+        except ValueError:
+            raise ConfigurationError(
+                f"{where}: unknown argument {token!r}; allowed: {', '.join(sorted(names))},"
+                " opt.NAME, out.NAME (events), a number",
+                argument="KERNEL",
+            ) from None
+    return f"({expr} != 0)" if flag else expr
+
+
+def _resolve(path: str, cls: Any) -> tuple[Callable[..., Any], bytes]:
+    """The kernel ``"module:function"`` and its module's source when outside
+    ``redservo/kernels/`` (part of the cache stamp)."""
+    module, _, func = path.partition(":")
+    try:
+        mod = importlib.import_module(module)
+        fn = getattr(mod, func)
+    except (ImportError, AttributeError, ValueError):
+        raise ConfigurationError(
+            f"{cls.__name__}.KERNEL: no kernel {path!r} (expected 'module:function')",
+            argument="KERNEL",
+        ) from None
+    file = Path(mod.__file__ or "").resolve()
+    return fn, b"" if file.parent == _KERNELS_DIR else file.read_bytes()
+
+
+def bind_law(name: str, cls: Any) -> BoundLaw:
+    """The declaration of ``cls`` bound for the generated dispatch (module docstring).
+
+    Raises:
+        ConfigurationError: an unknown argument, option or kernel, naming ``Class.KERNEL``.
+    """
+    decl: LawKernel = cls.KERNEL
+    kern, stamp = _resolve(decl.kernel, cls)
+    events, stamp2 = _resolve(decl.events, cls)
+    return BoundLaw(
+        name,
+        kern,
+        ", ".join(_bind(t, cls, False) for t in decl.args.split()),
+        events,
+        ", ".join(_bind(t, cls, True) for t in decl.event_args.split()),
+        {**OUTPUTS, **decl.outputs},
+        stamp + stamp2,
+    )
+
+
+def bound_laws() -> list[BoundLaw]:
+    """Every declared law (:func:`declared_laws`), bound."""
+    return [bind_law(name, cls) for name, cls in declared_laws()]
+
+
+law_table.provide(bound_laws)
