@@ -165,8 +165,9 @@ def test_the_new_law_matches_its_formula_on_the_reference_path() -> None:
     """The plain-Python path of the same declaration: the damped command, the safety layer
     off its limits, equals ``-λ J1ᵀ(J1J1ᵀ + μ²I)⁻¹ e1``."""
     code = (
-        "import runpy, numpy as np, redservo\n"
-        f"runpy.run_path({str(EXAMPLE)!r}, run_name='damped_example')\n"
+        "import sys, numpy as np, redservo\n"
+        f"sys.path.insert(0, {str(EXAMPLE.parent)!r})\n"
+        "import custom_law_damped\n"
         "from redservo.kernels.step import LAW_IDS\n"
         "assert 'damped' in LAW_IDS\n"
         "law = redservo.make_law('damped', damping=0.2)\n"
