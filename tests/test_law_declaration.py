@@ -32,7 +32,7 @@ EXAMPLE = ROOT / "examples" / "custom_law_damped.py"
 def test_the_ids_and_the_dispatch_come_from_the_declarations() -> None:
     from redservo.kernels import law_dispatch
 
-    declared = [name for name, _ in declared_laws()]
+    declared = [name for name, _ in declared_laws(registered_methods())]
     assert list(law_dispatch.LAW_IDS) == declared
     assert list(law_dispatch.LAW_IDS.values()) == list(range(len(declared)))
     # every shipped method but the solver-based ones declares its kernel
@@ -81,7 +81,7 @@ def test_too_many_slots_is_one_clear_error() -> None:
 
 
 def test_every_shipped_law_packs_its_options_where_its_declaration_reads_them() -> None:
-    for name, cls in declared_laws():
+    for name, cls in declared_laws(registered_methods()):
         slots = law_slots(cls)
         for token in (*cls.KERNEL.args.split(), *cls.KERNEL.event_args.split()):
             if token.startswith("opt."):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from redservo.kernels import law_table
 from redservo.redundancy.base import (
     Diagnostics,
     Law,
@@ -44,6 +45,12 @@ _MODULES = (
 )
 for _mod in _MODULES:
     importlib.import_module(f"redservo.redundancy.{_mod}")
+
+from redservo.redundancy.declare import bound_laws  # noqa: E402 - after the laws' modules
+
+law_table.provide(lambda: bound_laws(registered_methods()))
+"""The compiled dispatch takes the laws declaring their kernel from the registry, as it is
+when the step kernel is first imported (docs/extending.md)."""
 
 _ORDER = (
     "classical",

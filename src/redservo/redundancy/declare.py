@@ -89,13 +89,11 @@ def kernel_class(cls: type) -> type | None:
     return None
 
 
-def declared_laws() -> list[tuple[str, Any]]:
-    """``(method, class)`` of every registered law that declares its kernel (``KERNEL`` in
-    the class itself, not inherited: a subclass may compute otherwise), in registration
-    order."""
-    from redservo.redundancy import registered_methods
-
-    return [(name, cls) for name, cls in registered_methods().items() if "KERNEL" in cls.__dict__]
+def declared_laws(registry: Mapping[str, Any]) -> list[tuple[str, Any]]:
+    """``(method, class)`` of every law of ``registry`` (name -> class, in registration
+    order) that declares its kernel (``KERNEL`` in the class itself, not inherited: a
+    subclass may compute otherwise)."""
+    return [(name, cls) for name, cls in registry.items() if "KERNEL" in cls.__dict__]
 
 
 _INPUTS = frozenset(
@@ -184,9 +182,7 @@ def bind_law(name: str, cls: Any) -> BoundLaw:
     )
 
 
-def bound_laws() -> list[BoundLaw]:
-    """Every declared law (:func:`declared_laws`), bound."""
-    return [bind_law(name, cls) for name, cls in declared_laws()]
-
-
-law_table.provide(bound_laws)
+def bound_laws(registry: Mapping[str, Any]) -> list[BoundLaw]:
+    """Every declared law of ``registry`` (:func:`declared_laws`), bound; what
+    :mod:`redservo.redundancy` provides to :mod:`redservo.kernels.law_table`."""
+    return [bind_law(name, cls) for name, cls in declared_laws(registry)]
