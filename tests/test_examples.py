@@ -19,6 +19,7 @@ ELSEWHERE = {
     "demo.py": "make demo runs it",
     "real_robot.py": "tests/test_servo_loop.py runs it",
     "calibration_demo.py": "writes calibration images for redservo calibrate (docs/vision.md)",
+    "custom_law_damped.py": "tests/test_law_declaration.py runs it (a new process: it adds a law)",
 }
 """Examples not run here, and why."""
 

@@ -92,8 +92,10 @@ def law_reason(law: Law) -> str | None:
         from redservo.kernel_mode import uncompiled_reason
 
         return uncompiled_reason()
+    from redservo.redundancy.declare import kernel_class
+
     known = law.name in LAW_IDS or type(law) is BoundedLeastSquares
-    if not known or type(law).__module__.split(".")[1:2] != ["redundancy"]:
+    if not known or (type(law) is not BoundedLeastSquares and kernel_class(type(law)) is None):
         return f"method {law.name!r} has no compiled step"
     if law.scaling != "uniform":
         return "scaling = 'secondary-first'"

@@ -33,7 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["COMPILED", "DISABLE_ENV", "kernel", "numba_version"]
+__all__ = ["COMPILED", "DISABLE_ENV", "add_stamp", "kernel", "numba_version"]
 
 DISABLE_ENV = "REDSERVO_NO_NUMBA"
 """Environment variable: a non-empty value other than ``0`` disables compilation."""
@@ -56,6 +56,16 @@ _KERNELS_DIR = Path(__file__).resolve().parent
 
 _IMPORTS = re.compile(r"^from redservo\.kernels\.(\w+) import", re.MULTILINE)
 _STAMPS: dict[str, str] = {}
+_EXTRA: dict[str, bytes] = {}
+
+
+def add_stamp(module: str, data: bytes) -> None:
+    """Make ``data`` part of the cache stamp of the kernel module ``module`` and of every
+    kernel module importing it: the source of the code ``module`` generates
+    (:mod:`redservo.kernels.law_dispatch`), so that cached callers are recompiled when it
+    changes. Call it before the kernels that read the stamp are defined."""
+    _EXTRA[module] = data
+    _STAMPS.clear()
 
 
 def _closure(name: str) -> list[str]:
@@ -83,6 +93,7 @@ def _stamp(py_file: str) -> str:
             path = _KERNELS_DIR / f"{mod}.py"
             h.update(mod.encode())
             h.update(path.read_bytes() if path.is_file() else b"")
+            h.update(_EXTRA.get(mod, b""))
         hit = _STAMPS[name] = h.hexdigest()
     return hit
 

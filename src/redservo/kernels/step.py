@@ -3,14 +3,17 @@
 :func:`law_step` (driven by the step kernel, :mod:`redservo.kernels.control`) is what a batched
 closed loop calls for each sample (the simulator's ``simulate`` runs the same kernels one
 object at a time). A law is selected by its id
-(:data:`LAW_IDS`) and its options are packed by
-:func:`redservo.redundancy.kio.law_options` into a float array ``fopt`` and an int
-array ``iopt`` (layout below); ``vopt`` (2, n) holds per-joint options (``sns``'s
-``v_max`` and ``a_max``, inf when absent). ``qp`` is not here: its solver is a Python
+(:data:`LAW_IDS`, generated from the laws' declarations with the dispatch
+:func:`~redservo.kernels.law_dispatch.raw_law` and
+:func:`~redservo.kernels.law_dispatch.law_events`, :mod:`redservo.kernels.law_dispatch`)
+and its options are packed by :func:`redservo.redundancy.kio.law_options` into a float
+array ``fopt`` and an int array ``iopt``; ``vopt`` (2, n) holds per-joint options
+(``sns``'s ``v_max`` and ``a_max``, inf when absent). ``qp`` is not here: its solver is a Python
 library (the law calls the kernels of :mod:`redservo.kernels.qp` around it).
 
-Option layout: the named slots of :mod:`redservo.kernels.lawopts` (each law's options declare
-theirs, ``Law.OPTIONS``).
+Option layout: the slots each law's declaration numbers
+(:func:`redservo.redundancy.options.slotted`; the common ones in
+:mod:`redservo.kernels.lawopts`).
 
 Step outputs: the law's ``(q̇, iout, fout, axes, axf, vec)`` (:mod:`redservo.kernels.laws`)
 with ``q̇`` after the safety layer, and ``sout`` (11,): the numbers of
@@ -27,38 +30,23 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.events import (
-    classical_events,
-    directional_events,
-    gpm_auto_events,
-    gpm_events,
-    iterative_events,
-    large_projection_events,
-    safety_events,
-    sns_events,
-    wln_events,
-)
+from redservo.kernels.events import safety_events
 from redservo.kernels.law_dispatch import (
     F_SNS_SCALE,
     I_SNS_BAD,
     I_SNS_RESTORED,
     LAW_IDS,
+    law_events,
     raw_law,
 )
-from redservo.kernels.lawopts import (
-    F_CON_FILTER,
-    F_GAIN,
-    F_P_FILTER,
-    F_RCOND,
-    F_ROBUST,
-    I_FIRST,
-    I_SHIELD,
-)
+from redservo.kernels.lawopts import F_RCOND, F_ROBUST, I_FIRST, I_SHIELD
 from redservo.kernels.laws import classical
 from redservo.kernels.safety import apply_safety
 
 __all__ = [
+    "F_SNS_SCALE",
     "I_SNS_BAD",
+    "I_SNS_RESTORED",
     "LAW_IDS",
     "law_events",
     "law_raw",
@@ -155,40 +143,6 @@ def law_step(
     sout[9] = past
     sout[10] = joint
     return out, iout, fout, axes, axf, vec, sout
-
-
-@kernel
-def law_events(
-    law_id: int,
-    fopt: Any,
-    m: int,
-    iout: Any,
-    fout: Any,
-    axes: Any,
-    axf: Any,
-    vec: Any,
-) -> Any:
-    """``(mask, vals, src)`` of the events of law ``law_id`` from its outputs in the common
-    layout (:mod:`redservo.kernels.laws`): the kernel of :mod:`redservo.kernels.events` the
-    law object calls, with the same arguments."""
-    n = axes.shape[0]
-    rb = fopt[F_ROBUST]
-    if law_id == 0:
-        return classical_events(m, n, iout, rb)
-    if law_id == 1:
-        return gpm_events(m, n, iout, rb)
-    if law_id == 2:
-        return gpm_auto_events(m, n, iout, axf, rb, fopt[F_GAIN])
-    if law_id >= 3 and law_id <= 6:
-        return iterative_events(m, n, iout, fout, vec, rb, fopt[F_CON_FILTER])
-    if law_id == 7:
-        return directional_events(m, n, iout, rb)
-    if law_id == 8:
-        return wln_events(m, n, iout, rb)
-    if law_id == 9:
-        restored = iout[I_SNS_RESTORED] != 0
-        return sns_events(m, iout[0], fout[F_SNS_SCALE], restored)
-    return large_projection_events(m, n, iout, axes, rb, fopt[F_P_FILTER])
 
 
 @kernel

@@ -7,7 +7,9 @@ in a stable order (the seed papers' methods first, then the baselines).
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
+from redservo.kernels import law_table
 from redservo.redundancy.base import (
     Diagnostics,
     Law,
@@ -44,6 +46,12 @@ _MODULES = (
 for _mod in _MODULES:
     importlib.import_module(f"redservo.redundancy.{_mod}")
 
+from redservo.redundancy.declare import bound_laws  # noqa: E402 - after the laws' modules
+
+law_table.provide(lambda: bound_laws(registered_methods()))
+"""The compiled dispatch takes the laws declaring their kernel from the registry, as it is
+when the step kernel is first imported (docs/extending.md)."""
+
 _ORDER = (
     "classical",
     "gpm",
@@ -59,11 +67,27 @@ _ORDER = (
     "large-projection",
     "predictive",
 )
-_registered = registered_methods()
-METHODS: tuple[str, ...] = tuple(
-    [n for n in _ORDER if n in _registered] + [n for n in _registered if n not in _ORDER]
-)
-"""Names accepted by :func:`make_law`."""
 
-METHOD_DESCRIPTIONS: dict[str, str] = {n: _registered[n].description for n in METHODS}
+
+def _methods() -> tuple[str, ...]:
+    registered = registered_methods()
+    return tuple(
+        [n for n in _ORDER if n in registered] + [n for n in registered if n not in _ORDER]
+    )
+
+
+def __getattr__(name: str) -> Any:
+    """:data:`METHODS` and :data:`METHOD_DESCRIPTIONS`, read from the registry when asked,
+    so that a law registered after this import (docs/extending.md) is listed too."""
+    if name == "METHODS":
+        return _methods()
+    if name == "METHOD_DESCRIPTIONS":
+        registered = registered_methods()
+        return {n: registered[n].description for n in _methods()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+METHODS: tuple[str, ...]
+"""Names accepted by :func:`make_law` (the registry now: the seed papers' methods first)."""
+METHOD_DESCRIPTIONS: dict[str, str]
 """One-line description of each method."""

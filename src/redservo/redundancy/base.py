@@ -233,7 +233,7 @@ class Law(abc.ABC):
                 hasattr(cls, "diagnose")
                 and cls.name in LAW_IDS
                 and _REGISTRY.get(cls.name) is cls
-                and cls.__module__.startswith("redservo.redundancy.")
+                and "KERNEL" in cls.__dict__
             )
         return hit
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import I_PROJ, I_RANK, LawOutputs, task_context
@@ -27,6 +28,12 @@ class Classical(Law):
 
     name = "classical"
     description = "q̇ = -λ J1⁺ e1 (CM01 eq. 2): no avoidance"
+    KERNEL = LawKernel(
+        "redservo.kernels.laws:classical",
+        "J1 e lam sec has_sec opt.rcond opt.robust",
+        "redservo.kernels.events:classical_events",
+        "m n iout opt.robust",
+    )
 
     def compute(self, x: LawInputs) -> LawResult:
         """The raw command and diagnostics: the law kernel of the step kernel

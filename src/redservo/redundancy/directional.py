@@ -97,8 +97,8 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import F_DIR_MARGIN, F_KAPPA, I_JOINT_FORCE
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
@@ -108,7 +108,7 @@ from redservo.redundancy.kio import (
     task_context,
 )
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import directional as _K
@@ -231,35 +231,44 @@ class Directional(Law):
     name = "directional"
     description = "MC05 directional redundancy: secondary motion allowed where it helps the task"
 
-    OPTIONS = (
-        Option(
-            "kappa",
-            1.0,
-            doc="joint-limit force gain κ",
-            ref="MC05 eqs. 27-29",
-            low=0.0,
-            low_open=True,
-            slot=("f", F_KAPPA),
+    KERNEL = LawKernel(
+        "redservo.kernels.directional:directional",
+        "J1 e1 e ff has_ff q lp lam dt sec has_sec opt.kappa opt.use_joint_limits? opt.margin"
+        " opt.rcond opt.robust",
+        "redservo.kernels.events:directional_events",
+        "m n iout opt.robust",
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "kappa",
+                1.0,
+                doc="joint-limit force gain κ",
+                ref="MC05 eqs. 27-29",
+                low=0.0,
+                low_open=True,
+                slot_kind="f",
+            ),
+            Option(
+                "use_joint_limits",
+                True,
+                kind="bool",
+                doc="add the joint-limit force -κ e2 (False: only secondary is projected)",
+                ref="MC05 eq. 27",
+                slot_kind="i",
+            ),
+            Option(
+                "margin",
+                1.0,
+                doc="μ shrinking the admissible interval [0, -2 a_i] (1: the paper's)",
+                ref="MC05 eqs. 10-23",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+                slot_kind="f",
+            ),
+            RCOND,
         ),
-        Option(
-            "use_joint_limits",
-            True,
-            kind="bool",
-            doc="add the joint-limit force -κ e2 (False: only secondary is projected)",
-            ref="MC05 eq. 27",
-            slot=("i", I_JOINT_FORCE),
-        ),
-        Option(
-            "margin",
-            1.0,
-            doc="μ shrinking the admissible interval [0, -2 a_i] (1: the paper's)",
-            ref="MC05 eqs. 10-23",
-            low=0.0,
-            high=1.0,
-            low_open=True,
-            slot=("f", F_DIR_MARGIN),
-        ),
-        RCOND,
     )
     kappa: float
     use_joint_limits: bool

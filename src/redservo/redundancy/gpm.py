@@ -61,8 +61,8 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import F_GAIN, I_AUTO_ROBUST, I_CURRENT
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
@@ -74,7 +74,7 @@ from redservo.redundancy.kio import (
 )
 from redservo.redundancy.linalg import TaskSVD
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 __all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
 
@@ -109,16 +109,24 @@ class GradientProjection(Law):
     name = "gpm"
     description = "gradient projection, q̇ = -λ(J1⁺e1 + α J1^⊥ e2) (CM01 eqs. 1-6)"
 
-    OPTIONS = (
-        Option(
-            "alpha",
-            2.0,
-            doc="gain α of the joint-limit gradient, relative to λ",
-            ref="CM01 eq. 6, §V-A2 (the smallest value that succeeded)",
-            low=0.0,
-            slot=("f", F_GAIN),
-        ),
-        RCOND,
+    KERNEL = LawKernel(
+        "redservo.kernels.laws:gpm",
+        "J1 e q lp lam sec has_sec opt.alpha opt.rcond opt.robust",
+        "redservo.kernels.events:gpm_events",
+        "m n iout opt.robust",
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "alpha",
+                2.0,
+                doc="gain α of the joint-limit gradient, relative to λ",
+                ref="CM01 eq. 6, §V-A2 (the smallest value that succeeded)",
+                low=0.0,
+                slot_kind="f",
+            ),
+            RCOND,
+        )
     )
     alpha: float
 
@@ -160,35 +168,45 @@ class GradientProjectionAuto(Law):
     name = "gpm-auto"
     description = "gradient projection with α chosen to stop the most critical axis (CM01 eq. 9)"
 
-    OPTIONS = (
-        Option(
-            "alpha_max",
-            None,
-            doc="upper bound on α (None or inf: none, CM01 Fig. 10(c)'s transient)",
-            ref="CM01 eq. 9",
-            low=0.0,
-            low_open=True,
-            finite=False,
-            none=True,
-            slot=("f", F_GAIN),
+    KERNEL = LawKernel(
+        "redservo.kernels.laws:gpm_auto",
+        "J1 e q lp lam dt sec has_sec opt.alpha_max opt.critical_rule? opt.rcond opt.robust"
+        " opt.auto_robust?",
+        "redservo.kernels.events:gpm_auto_events",
+        "m n iout axf opt.robust opt.alpha_max",
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "alpha_max",
+                None,
+                doc="upper bound on α (None or inf: none, CM01 Fig. 10(c)'s transient)",
+                ref="CM01 eq. 9",
+                low=0.0,
+                low_open=True,
+                finite=False,
+                none=True,
+                slot_kind="f",
+            ),
+            Option(
+                "critical_rule",
+                "predicted",
+                kind="choice",
+                doc="candidates: predicted q̂ or current q in the band",
+                ref="CM01 eq. 8, §II-C",
+                choices=("predicted", "current"),
+                slot_kind="i",
+            ),
+            RCOND,
         ),
-        Option(
-            "critical_rule",
-            "predicted",
-            kind="choice",
-            doc="candidates: predicted q̂ or current q in the band",
-            ref="CM01 eq. 8, §II-C",
-            choices=("predicted", "current"),
-            slot=("i", I_CURRENT),
-        ),
-        RCOND,
+        packed=(("auto_robust", "i"),),
     )
     alpha_max: float | None
     critical_rule: str
 
     def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
         """Also the robust eq. 9 (:mod:`redservo.kernels.lawopts`)."""
-        return (*super().packed_extras(), (("i", I_AUTO_ROBUST), int(self.robust)))
+        return (*super().packed_extras(), (self.SLOTS["auto_robust"], int(self.robust)))
 
     def compute(self, x: LawInputs) -> LawResult:
         """The raw command and diagnostics: the law kernel of the step kernel

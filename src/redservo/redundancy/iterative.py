@@ -103,10 +103,10 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import F_CON_FILTER, F_CON_RCOND, F_GAIN, I_LEVELS, I_SMOOTH
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
@@ -121,7 +121,7 @@ from redservo.redundancy.kio import (
 )
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 __all__ = [
     "Iterative",
@@ -238,7 +238,7 @@ _MAX_LEVELS = Option(
     ref="CM01 eqs. 13-15",
     low=1,
     none=True,
-    slot=("i", I_LEVELS),
+    slot_kind="i",
 )
 _ALPHA = Option(
     "alpha",
@@ -246,8 +246,21 @@ _ALPHA = Option(
     doc="gain α of the joint-limit gradient e2, as gpm",
     ref="CM01 eqs. 19-21",
     low=0.0,
-    slot=("f", F_GAIN),
+    slot_kind="f",
 )
+_PACKED = (("smooth", "i"), ("con_rcond", "f"), ("con_filter", "f"))
+"""What every variant packs besides its options (:meth:`_IterativeLaw.packed_extras`)."""
+
+
+def _kernel(alpha: str) -> LawKernel:
+    """The iterative kernel with ``alpha`` the gain of e2 (``"0.0"``: no e2 term)."""
+    return LawKernel(
+        "redservo.kernels.iterative:iterative",
+        f"J1 e q lp lam dt sec has_sec opt.smooth? {alpha} opt.max_levels opt.rcond"
+        " opt.robust opt.con_rcond opt.con_filter",
+        "redservo.kernels.events:iterative_events",
+        "m n iout fout vec opt.robust opt.con_filter",
+    )
 
 
 class _IterativeLaw(Law):
@@ -258,19 +271,21 @@ class _IterativeLaw(Law):
     max_levels: int | None = None
     alpha: float = 0.0
     constraint_rcond: float | None = None
+    SLOTS: ClassVar[dict[str, tuple[str, int]]]
 
     def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
         """Also: smooth γ weights, the levels of a variant without ``max_levels``, the
         constraint rows' cut-off (``rcond`` when None) and robust filter."""
         cr = self.rcond if self.constraint_rcond is None else self.constraint_rcond
+        slot = self.SLOTS
         extras: tuple[tuple[tuple[str, int], float], ...] = (
-            (("i", I_SMOOTH), int(self.smooth)),
-            (("f", F_CON_RCOND), cr),
-            (("f", F_CON_FILTER), CONSTRAINT_FILTER if self.robust else 0.0),
+            (slot["smooth"], int(self.smooth)),
+            (slot["con_rcond"], cr),
+            (slot["con_filter"], CONSTRAINT_FILTER if self.robust else 0.0),
         )
         if not any(o.name == "max_levels" for o in self.OPTIONS):
             levels = -1 if self.max_levels is None else self.max_levels
-            extras = (*extras, (("i", I_LEVELS), levels))
+            extras = (*extras, (slot["max_levels"], levels))
         return (*super().packed_extras(), *extras)
 
     def compute(self, x: LawInputs) -> LawResult:
@@ -335,7 +350,8 @@ class IterativeBasic(_IterativeLaw):
     name = "iterative-basic"
     description = "stop critical axes in Ker J1, one level (CM01 eqs. 10-12)"
     max_levels = 1
-    OPTIONS = (RCOND, _CON_RCOND)
+    KERNEL = _kernel("0.0")
+    OPTIONS, SLOTS = slotted((RCOND, _CON_RCOND), (*_PACKED, ("max_levels", "i")))
 
 
 @register
@@ -345,7 +361,8 @@ class Iterative(_IterativeLaw):
     name = "iterative"
     description = "stop critical axes in Ker J1, iterated (CM01 eqs. 13-15)"
 
-    OPTIONS = (_MAX_LEVELS, RCOND, _CON_RCOND)
+    KERNEL = _kernel("0.0")
+    OPTIONS, SLOTS = slotted((_MAX_LEVELS, RCOND, _CON_RCOND), _PACKED)
 
 
 @register
@@ -355,6 +372,7 @@ class IterativeSmooth(Iterative):
     name = "iterative-smooth"
     description = "iterative scheme, smooth γ-weighted slow-down (CM01 eqs. 16-18)"
     smooth = True
+    KERNEL = _kernel("0.0")
 
 
 @register
@@ -370,4 +388,5 @@ class IterativeSmoothE2(_IterativeLaw):
     smooth = True
     with_e2 = True
 
-    OPTIONS = (_ALPHA, _MAX_LEVELS, RCOND, _CON_RCOND)
+    KERNEL = _kernel("opt.alpha")
+    OPTIONS, SLOTS = slotted((_ALPHA, _MAX_LEVELS, RCOND, _CON_RCOND), _PACKED)

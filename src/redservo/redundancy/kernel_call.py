@@ -63,8 +63,8 @@ _NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY, _EMPTY)
 
 
 def kernel_id(cls: type) -> int:
-    """The id of the law kernel of ``cls``: the kernel of its nearest shipped ancestor (a
-    class of :mod:`redservo.redundancy` whose ``name`` has a compiled step), or -1."""
+    """The id of the law kernel of ``cls``: the kernel of its nearest ancestor declaring one
+    (``KERNEL``, :mod:`redservo.redundancy.declare`) whose ``name`` has a compiled step, or -1."""
     hit = _IDS.get(cls)
     if hit is None:
         from redservo.kernels.step import LAW_IDS
@@ -72,7 +72,7 @@ def kernel_id(cls: type) -> int:
         hit = -1
         for k in cls.__mro__:
             name = k.__dict__.get("name")
-            if k.__module__.startswith("redservo.redundancy.") and name in LAW_IDS:
+            if "KERNEL" in k.__dict__ and name in LAW_IDS:
                 hit = LAW_IDS[name]
                 break
         _IDS[cls] = hit

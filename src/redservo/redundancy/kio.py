@@ -145,7 +145,10 @@ def law_options(law: Law, n: int) -> LawOptions:
     from redservo.kernels.step import LAW_IDS
 
     name = law.name
-    if name not in LAW_IDS or type(law).__module__.split(".")[1:2] != ["redundancy"]:
+    from redservo.redundancy.declare import kernel_class
+
+    owner = kernel_class(type(law))
+    if name not in LAW_IDS or owner is None or getattr(owner, "name", None) != name:
         raise ConfigurationError(
             f"method {name!r} has no compiled step; compiled methods: {', '.join(LAW_IDS)}",
             argument="method",

@@ -67,18 +67,10 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import (
-    F_E0,
-    F_E1,
-    F_LAMBDA_TUNE,
-    F_P_FILTER,
-    F_RHO,
-    F_RHO1,
-    I_PROJECTOR,
-)
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
@@ -90,7 +82,7 @@ from redservo.redundancy.kio import (
 )
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import projection as _K
@@ -259,66 +251,76 @@ class LargeProjection(Law):
     name = "large-projection"
     description = "large projection operator P_λ and joint-limit law (Marey & Chaumette 2010)"
 
-    OPTIONS = (
-        Option(
-            "e0",
-            0.1,
-            doc="lower switching threshold on ‖e1‖ (ViSP's value; retune for your features)",
-            unit="task-error units",
-            ref="ICRA'10 eq. 24",
-            low=0.0,
-            slot=("f", F_E0),
+    KERNEL = LawKernel(
+        "redservo.kernels.projection:large_projection",
+        "J1 e1 e q lp lam sec has_sec opt.e0 opt.e1 opt.projector opt.rho opt.rho1"
+        " opt.lambda_tune opt.rcond opt.robust opt.p_filter",
+        "redservo.kernels.events:large_projection_events",
+        "m n iout axes opt.robust opt.p_filter",
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "e0",
+                0.1,
+                doc="lower switching threshold on ‖e1‖ (ViSP's value; retune for your features)",
+                unit="task-error units",
+                ref="ICRA'10 eq. 24",
+                low=0.0,
+                slot_kind="f",
+            ),
+            Option(
+                "e1",
+                0.7,
+                doc="upper switching threshold on ‖e1‖, > e0",
+                unit="task-error units",
+                ref="ICRA'10 eq. 24",
+                low=0.0,
+                low_open=True,
+                slot_kind="f",
+            ),
+            Option(
+                "rho",
+                0.1,
+                doc="activation band l0, fraction of each joint range",
+                ref="IROS'10 (ViSP's default)",
+                low=0.0,
+                high=0.5,
+                low_open=True,
+                high_open=True,
+                slot_kind="f",
+            ),
+            Option(
+                "rho1",
+                0.3,
+                doc="l1 position inside the band, fraction of rho Δq",
+                ref="IROS'10 (ViSP's default)",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+                high_open=True,
+                slot_kind="f",
+            ),
+            Option(
+                "lambda_tune",
+                0.7,
+                doc="extra reversal gain λ_i",
+                ref="IROS'10 (ViSP's default)",
+                low=0.0,
+                slot_kind="f",
+            ),
+            Option(
+                "projector",
+                "switched",
+                kind="choice",
+                doc="P_λ (switched), P_‖e‖ (norm) or I - J1⁺J1 (classical)",
+                ref="ICRA'10 eq. 24, IROS'10",
+                choices=_PROJECTORS,
+                slot_kind="i",
+            ),
+            RCOND,
         ),
-        Option(
-            "e1",
-            0.7,
-            doc="upper switching threshold on ‖e1‖, > e0",
-            unit="task-error units",
-            ref="ICRA'10 eq. 24",
-            low=0.0,
-            low_open=True,
-            slot=("f", F_E1),
-        ),
-        Option(
-            "rho",
-            0.1,
-            doc="activation band l0, fraction of each joint range",
-            ref="IROS'10 (ViSP's default)",
-            low=0.0,
-            high=0.5,
-            low_open=True,
-            high_open=True,
-            slot=("f", F_RHO),
-        ),
-        Option(
-            "rho1",
-            0.3,
-            doc="l1 position inside the band, fraction of rho Δq",
-            ref="IROS'10 (ViSP's default)",
-            low=0.0,
-            high=1.0,
-            low_open=True,
-            high_open=True,
-            slot=("f", F_RHO1),
-        ),
-        Option(
-            "lambda_tune",
-            0.7,
-            doc="extra reversal gain λ_i",
-            ref="IROS'10 (ViSP's default)",
-            low=0.0,
-            slot=("f", F_LAMBDA_TUNE),
-        ),
-        Option(
-            "projector",
-            "switched",
-            kind="choice",
-            doc="P_λ (switched), P_‖e‖ (norm) or I - J1⁺J1 (classical)",
-            ref="ICRA'10 eq. 24, IROS'10",
-            choices=_PROJECTORS,
-            slot=("i", I_PROJECTOR),
-        ),
-        RCOND,
+        packed=(("p_filter", "f"),),
     )
     e0: float
     e1: float
@@ -337,7 +339,10 @@ class LargeProjection(Law):
 
     def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
         """Also the robust 1/|P_ii| filter (0: off)."""
-        return (*super().packed_extras(), (("f", F_P_FILTER), P_FILTER if self.robust else 0.0))
+        return (
+            *super().packed_extras(),
+            (self.SLOTS["p_filter"], P_FILTER if self.robust else 0.0),
+        )
 
     def compute(self, x: LawInputs) -> LawResult:
         """The raw command and diagnostics: the law kernel of the step kernel

@@ -14,17 +14,26 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
 
 from redservo._validation import _to_float
 from redservo.errors import ConfigurationError, ShapeError
-from redservo.kernels.lawopts import F_RCOND
+from redservo.kernels.lawopts import F_RCOND, F_ROBUST, I_FIRST, I_SHIELD, NF, NI
 from redservo.redundancy.linalg import DEFAULT_RCOND
 
-__all__ = ["RCOND", "Option", "check_option", "constructor", "describe", "options_doc"]
+__all__ = [
+    "COMMON_SLOTS",
+    "RCOND",
+    "Option",
+    "check_option",
+    "constructor",
+    "describe",
+    "options_doc",
+    "slotted",
+]
 
 Kind = Literal["float", "int", "bool", "choice", "str", "per-joint"]
 
@@ -47,8 +56,12 @@ class Option:
         finite: A number must be finite (``inf`` refused).
         none: None is allowed (it means: see ``doc``).
         choices: The allowed strings of a ``choice``.
-        slot: Where the compiled step takes it: ``("f" | "i" | "v", index)`` in
-            ``fopt``/``iopt``/``vopt`` (:mod:`redservo.kernels.lawopts`), or None.
+        slot: Where the compiled step takes it, ``("f" | "i" | "v", index)`` in
+            ``fopt``/``iopt``/``vopt``, or None; numbered by :func:`slotted` from
+            ``slot_kind``, never by hand (but the slots every law shares,
+            :data:`COMMON_SLOTS`).
+        slot_kind: The slot it asks for: ``"f"`` (a float), ``"i"`` (an int, a bool, a
+            choice's index) or ``"v"`` (a per-joint row); None: not packed.
         encode: How the value is packed into its slot (default: the number, a bool as 0/1,
             a choice as its index, None as inf for ``f``, -1 for ``i``, absent for ``v``).
     """
@@ -68,6 +81,7 @@ class Option:
     choices: tuple[str, ...] = ()
     slot: tuple[str, int] | None = None
     encode: Callable[[Any], Any] | None = None
+    slot_kind: Literal["f", "i", "v"] | None = None
 
     def allowed(self) -> str:
         """What the option allows, in words (used in errors and docs)."""
@@ -99,7 +113,7 @@ class Option:
         if self.encode is not None:
             return self.encode(value)
         if value is None:
-            kind = None if self.slot is None else self.slot[0]
+            kind = None if self.slot is None else self.slot[0]  # "f", "i" or "v"
             return np.inf if kind == "f" else -1 if kind == "i" else None
         if self.kind == "choice":
             return self.choices.index(value)
@@ -215,3 +229,42 @@ def options_doc(options: tuple[Option, ...]) -> str:
         ref = f"; {o.ref}" if o.ref else ""
         lines.append(f"    {o.name}: {o.doc}{unit}; {o.allowed()}; default {o.default!r}{ref}.")
     return "\n    ".join(["", *lines])
+
+
+COMMON_SLOTS: dict[str, tuple[str, int]] = {
+    "rcond": ("f", F_RCOND),
+    "robust": ("f", F_ROBUST),
+    "shield": ("i", I_SHIELD),
+    "first": ("i", I_FIRST),
+}
+"""The slots every law packs (:meth:`redservo.redundancy.Law.packed_extras`)."""
+_SIZES = {"f": NF, "i": NI, "v": 2}
+
+
+def slotted(
+    options: tuple[Option, ...], packed: tuple[tuple[str, str], ...] = ()
+) -> tuple[tuple[Option, ...], dict[str, tuple[str, int]]]:
+    """A law's ``(OPTIONS, SLOTS)``: the options with their slots numbered in declaration
+    order (each its ``slot_kind``) after the common ones (:data:`COMMON_SLOTS`), then the ``packed`` extras
+    ``(name, kind)`` its ``packed_extras`` computes; ``SLOTS`` maps every packed name to
+    its ``(kind, index)``, which the generated dispatch reads (``opt.NAME`` in
+    :class:`~redservo.redundancy.declare.LawKernel`)."""
+    nxt = {"f": 2, "i": 2, "v": 0}
+    slots = dict(COMMON_SLOTS)
+    out = []
+
+    def take(kind: str) -> tuple[str, int]:
+        if nxt[kind] >= _SIZES[kind]:
+            raise ConfigurationError(f"more than {_SIZES[kind]} packed {kind!r} slots")
+        nxt[kind] += 1
+        return kind, nxt[kind] - 1
+
+    for o in options:
+        if o.slot_kind is not None and o.slot is None:
+            o = replace(o, slot=take(o.slot_kind))
+        if o.slot is not None:
+            slots[o.name] = o.slot
+        out.append(o)
+    for name, kind in packed:
+        slots[name] = take(kind)
+    return tuple(out), slots

@@ -65,14 +65,14 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray, _to_float
 from redservo.errors import ConfigurationError, InfeasibleError, ShapeError
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import F_SNS_MARGIN, I_HAS_A, I_HAS_V, V_AMAX, V_VMAX
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import events as _KE
@@ -267,37 +267,48 @@ class SaturationInNullSpace(Law):
     name = "sns"
     description = "saturation in the null space, task scaled when infeasible (Flacco et al. 2012)"
 
-    OPTIONS = (
-        Option(
-            "v_max",
-            None,
-            kind="per-joint",
-            doc="joint velocity limits (None: only the position limits bound the velocity)",
-            unit="rad/s or m/s",
-            ref="Flacco et al. 2012; docs/formulas.md §10.4",
-            none=True,
-            slot=("v", V_VMAX),
+    KERNEL = LawKernel(
+        "redservo.kernels.sns_law:sns_law",
+        "J1 e q lp has_v has_a lam dt prev has_prev sec has_sec opt.v_max opt.has_v_max?"
+        " opt.a_max opt.has_a_max? opt.margin opt.rcond opt.shield?",
+        "redservo.kernels.events:sns_events",
+        "m out.rank out.scale out.restored?",
+        outputs={"restored": ("i", 5), "bad_joint": ("i", 6), "clipped": ("f", 3)},
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "v_max",
+                None,
+                kind="per-joint",
+                doc="joint velocity limits (None: only the position limits bound the velocity)",
+                unit="rad/s or m/s",
+                ref="Flacco et al. 2012; docs/formulas.md §10.4",
+                none=True,
+                slot_kind="v",
+            ),
+            Option(
+                "a_max",
+                None,
+                kind="per-joint",
+                doc="joint acceleration limits for the braking bound √(2 a_max d), or None",
+                unit="rad/s² or m/s²",
+                ref="Flacco et al. 2012; docs/formulas.md §10.4",
+                none=True,
+                slot_kind="v",
+            ),
+            Option(
+                "margin",
+                1.0,
+                doc="factor applied to the velocity bounds",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+                slot_kind="f",
+            ),
+            RCOND,
         ),
-        Option(
-            "a_max",
-            None,
-            kind="per-joint",
-            doc="joint acceleration limits for the braking bound √(2 a_max d), or None",
-            unit="rad/s² or m/s²",
-            ref="Flacco et al. 2012; docs/formulas.md §10.4",
-            none=True,
-            slot=("v", V_AMAX),
-        ),
-        Option(
-            "margin",
-            1.0,
-            doc="factor applied to the velocity bounds",
-            low=0.0,
-            high=1.0,
-            low_open=True,
-            slot=("f", F_SNS_MARGIN),
-        ),
-        RCOND,
+        packed=(("has_v_max", "i"), ("has_a_max", "i")),
     )
     v_max: FloatArray | None
     a_max: FloatArray | None
@@ -306,8 +317,8 @@ class SaturationInNullSpace(Law):
     def packed_extras(self) -> tuple[tuple[tuple[str, int], float], ...]:
         """Also whether ``v_max`` and ``a_max`` are given."""
         has = (
-            (("i", I_HAS_V), int(self.v_max is not None)),
-            (("i", I_HAS_A), int(self.a_max is not None)),
+            (self.SLOTS["has_v_max"], int(self.v_max is not None)),
+            (self.SLOTS["has_a_max"], int(self.a_max is not None)),
         )
         return (*super().packed_extras(), *has)
 

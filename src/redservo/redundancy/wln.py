@@ -57,13 +57,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.kernels.lawopts import I_HISTORY
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
+from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
 from redservo.redundancy.messages import events
-from redservo.redundancy.options import Option
+from redservo.redundancy.options import Option, slotted
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import directional as _K
@@ -158,17 +158,25 @@ class WeightedLeastNorm(Law):
         )
         return super().__new__(target)
 
-    OPTIONS = (
-        Option(
-            "mode",
-            "pinv",
-            kind="choice",
-            doc="direction rule: the unweighted command (stateless) or the paper's history",
-            ref="Chan & Dubey 1995; docs/formulas.md §10.1",
-            choices=_MODES,
-            slot=("i", I_HISTORY),
+    KERNEL = LawKernel(
+        "redservo.kernels.directional:wln",
+        "J1 e q lp lam sec has_sec opt.mode? hist has_hist opt.rcond opt.robust 1e-9",
+        "redservo.kernels.events:wln_events",
+        "m n iout opt.robust",
+    )
+    OPTIONS, SLOTS = slotted(
+        (
+            Option(
+                "mode",
+                "pinv",
+                kind="choice",
+                doc="direction rule: the unweighted command (stateless) or the paper's history",
+                ref="Chan & Dubey 1995; docs/formulas.md §10.1",
+                choices=_MODES,
+                slot_kind="i",
+            ),
+            RCOND,
         ),
-        RCOND,
     )
     mode: str
 
