@@ -30,6 +30,7 @@ from redservo.kernels import (  # noqa: E402
     kinematics,
     laws,
     linalg,
+    moment_interaction,
     moments,
     projection,
     qp,
@@ -240,7 +241,17 @@ def test_feature_and_kinematics_kernels_compiled_and_plain_agree(seed: int) -> N
         both(moments.moment_measure, pts, T, 0.01, 0.5, kind)
         _, plane, xg, yg, mu, code, _ = moments.moment_measure(pts, T, 0.01, 0.5, kind)
         if code == 0:
-            both(moments.moment_features_interaction, 4, xg, yg, mu, plane, 0.01, 0.5, kind)
+            both(
+                moment_interaction.moment_features_interaction,
+                4,
+                xg,
+                yg,
+                mu,
+                plane,
+                0.01,
+                0.5,
+                kind,
+            )
     q = rng.uniform(-0.5, 0.5, 6)
     both(kinematics.afma6_kinematics, q, T, np.eye(6), 0.009091, -0.06924)
     par = np.vstack([np.zeros(6), np.zeros(6), rng.uniform(0, 0.3, 6), rng.uniform(0, 0.3, 6)])

@@ -224,6 +224,7 @@ def _moment_features_items(case: BenchCase) -> list[tuple[str, str, str, Callabl
     from redservo.kernels import lazy
 
     km = lazy("moments")
+    ki = lazy("moment_interaction")
     feat = case.task.terms[0].feature
     bMc = case.robot.fkine(case.q)
     cMo = np.ascontiguousarray(case.scene.cMo("t", bMc, 0.0))
@@ -233,7 +234,7 @@ def _moment_features_items(case: BenchCase) -> list[tuple[str, str, str, Callabl
 
     def compiled() -> Any:
         _, plane, xg, yg, mu, _, _ = km.moment_measure(pts, cMo, a, z, kind)
-        return km.moment_features_interaction(pts.shape[0], xg, yg, mu, plane, a, z, kind)
+        return ki.moment_features_interaction(pts.shape[0], xg, yg, mu, plane, a, z, kind)
 
     def api() -> Any:
         m = feat.measure(cMo)

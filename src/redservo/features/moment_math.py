@@ -1,6 +1,6 @@
 """Moment computations behind :class:`~redservo.features.moments.MomentFeatures`: image
 moments, the object plane, the six features and their interaction matrices (kernels of
-:mod:`redservo.kernels.moments`). Definitions and decisions: the docstring of
+:mod:`redservo.kernels.moments` and :mod:`redservo.kernels.moment_interaction`). Definitions and decisions: the docstring of
 :mod:`redservo.features.moments`, which re-exports every public name here.
 """
 
@@ -16,9 +16,11 @@ from redservo.errors import ConfigurationError, GeometryError
 from redservo.kernels import lazy
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import moment_interaction as _KL
     from redservo.kernels import moments as _K
 else:
     _K = lazy("moments")
+    _KL = lazy("moment_interaction")
 _KIND = {"c4c6": 0, "pxpy": 1, "sxsy": 2}
 (
     _BEHIND,
@@ -147,7 +149,7 @@ def centroid_interaction(mom: ImageMoments, plane: ArrayLike) -> FloatArray:
         L_yg = [0, -1/Zg, yg/Zg + A n11 + B n02, 1 + yg² + n02, -(xg yg + n11), -xg]
     """
     P = np.ascontiguousarray(plane, dtype=np.float64)
-    return np.asarray(_K.centroid_rows(int(mom.n), mom.xg, mom.yg, _mu(mom), P))
+    return np.asarray(_KL.centroid_rows(int(mom.n), mom.xg, mom.yg, _mu(mom), P))
 
 
 def _mu(mom: ImageMoments) -> FloatArray:
@@ -187,7 +189,7 @@ def centred_moment_interaction(
     if i < 0 or j < 0 or i + j > _ORDER - 1:
         raise ConfigurationError(f"L_mu is available for 0 <= i + j <= 3, got (i, j) = ({i}, {j})")
     P = np.ascontiguousarray(plane, dtype=np.float64)
-    row = _K.centred_moment_row(
+    row = _KL.centred_moment_row(
         int(i), int(j), _mu(mom), float(mom.xg), float(mom.yg), P, int(delta), float(eps)
     )
     return np.asarray(row)
@@ -297,7 +299,7 @@ def moment_features_interaction(
         depth_star: ``Z*`` (m).
         rotation_features: See the module docstring.
     """
-    L = _K.moment_features_interaction(
+    L = _KL.moment_features_interaction(
         int(mom.n),
         float(mom.xg),
         float(mom.yg),

@@ -55,7 +55,7 @@ from redservo._validation import FloatArray
 from redservo.control import Controller, ControlStep, ImageMotionLimit, Measurement, Objective
 from redservo.control.avoidance import Collision, shield_command
 from redservo.control.guard import guard_command
-from redservo.errors import ConfigurationError, ShapeError
+from redservo.errors import ShapeError
 from redservo.hardware.clock import StampWatch
 from redservo.hardware.inputs import EndRun, RunState, measure, read_joints
 from redservo.hardware.protocols import FeatureSource, RobotInterface
@@ -66,7 +66,7 @@ from redservo.hardware.recorder import (
     ServoResult,
     servo_result,
 )
-from redservo.hardware.settings import check_servo_control, check_timing
+from redservo.hardware.settings import LoopSettings, check_servo_control, check_timing
 from redservo.hardware.supervision import FollowWatch, Supervision
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
@@ -83,7 +83,7 @@ def _law_replaced_non_finite(d: Diagnostics | None) -> bool:
     return d is not None and d.has(Flag.NON_FINITE_REPLACED)
 
 
-class ServoLoop:
+class ServoLoop(LoopSettings):
     """Run a control law on a robot at a fixed period (see the module docstring).
 
     Args:
@@ -173,10 +173,7 @@ class ServoLoop:
         collision: Collision | None = None,
     ) -> None:
         check_timing(period, watchdog_timeout, clock_tolerance, duration, tolerance, lam)
-        if max_iterations is not None and max_iterations < 1:
-            raise ConfigurationError(f"max_iterations must be >= 1, got {max_iterations!r}")
-        if on_missing not in ("hold", "zero"):
-            raise ConfigurationError(f"on_missing must be 'hold' or 'zero', got {on_missing!r}")
+        self._set_ending(max_iterations, duration, tolerance, stop_at_convergence, on_missing)
         if limits.n != model_robot.n:
             raise ShapeError(f"limits has {limits.n} joints but model_robot has {model_robot.n}")
         check_servo_control(objectives, feedforward)
@@ -199,19 +196,8 @@ class ServoLoop:
         self.task = task
         self.law = law
         self.limits = limits
-        self.period = float(period)
         self.lam = lam
-        self.watchdog_timeout = float(watchdog_timeout)
-        self.clock_tolerance = float(clock_tolerance)
-        self.max_iterations = max_iterations
-        self.duration = duration
-        self.tolerance = float(tolerance)
-        self.stop_at_convergence = stop_at_convergence
-        self.on_missing = on_missing
-        self.clock = clock
-        self.sleep = sleep
-        self.supervision = (supervision or Supervision()).resolved(self.period, watchdog_timeout)
-        """The timing and following thresholds, ``max_hold`` resolved."""
+        self._set_timing(period, watchdog_timeout, clock_tolerance, clock, sleep, supervision)
         self.passes_qdot_prev = "qdot_prev" in self.controller.accepts
         self.last_result: ServoResult | None = None
         self._stop_request = threading.Event()

@@ -76,6 +76,39 @@ def projection(
 
 
 @kernel
+def count_directions(V: Any, rank: int, z: Any, p: Any) -> Any:
+    """Classify the task directions the secondary motion ``z`` (rad or m) moves along.
+
+    ``V`` holds the right singular vectors of J1 (its first ``rank`` columns span the task
+    directions) and ``p`` the diagonal of ``P̃_z`` (unitless, in [0, 1]). A direction with
+    a non-zero component of ``z`` is freed (p = 1), clipped (0 < p < 1) or blocked (p = 0).
+
+    Returns:
+        ``(moving_used, freed, clipped, blocked)``: the counts; ``moving_used`` = freed +
+        clipped.
+    """
+    n = V.shape[0]
+    freed = 0
+    clipped = 0
+    blocked = 0
+    moving_used = 0
+    for j in range(rank):
+        acc = 0.0
+        for i in range(n):
+            acc += V[i, j] * z[i]
+        if acc != 0.0:
+            if p[j] > 0.0:
+                moving_used += 1
+            if p[j] == 1.0:
+                freed += 1
+            elif p[j] > 0.0:
+                clipped += 1
+            else:
+                blocked += 1
+    return moving_used, freed, clipped, blocked
+
+
+@kernel
 def directional(
     J1: Any,
     e1: Any,
@@ -127,23 +160,7 @@ def directional(
     for i in range(n):
         qdot[i] = (dq1[i] + dq2[i]) / dt
         axf[i] = p[i]
-    freed = 0
-    clipped = 0
-    blocked = 0
-    moving_used = 0
-    for j in range(rank):
-        acc = 0.0
-        for i in range(n):
-            acc += V[i, j] * z[i]
-        if acc != 0.0:
-            if p[j] > 0.0:
-                moving_used += 1
-            if p[j] == 1.0:
-                freed += 1
-            elif p[j] > 0.0:
-                clipped += 1
-            else:
-                blocked += 1
+    moving_used, freed, clipped, blocked = count_directions(V, rank, z, p)
     svd_outputs(sigma, rank, filtered, iout, fout)
     iout[I_PROJ] = (n - rank) + moving_used
     iout[I_FREED] = freed

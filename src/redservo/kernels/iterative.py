@@ -92,6 +92,41 @@ def constrain(N: Any, K: Any, rhs: Any, tol: float, robust: float) -> Any:
 
 
 @kernel
+def level_constraints(q: Any, q_hat: Any, lp: Any, free: Any, v: Any, smooth: bool) -> Any:
+    """The constraints of one level of CM01's scheme (eqs. 11/16, 15/18/21).
+
+    ``q`` (rad or m) is the configuration and ``q_hat = q - λ·dt·v`` its prediction with
+    the level's control ``v`` (rad or m per ``λ·dt``); the axes critical at ``q_hat`` and
+    still ``free`` are constrained.
+
+    Returns:
+        ``(K, g, rhs)``: the constrained axes in order, their γ (unitless; 1 unless
+        ``smooth``) and ``-γ v_K``. All empty when no axis is constrained.
+    """
+    n = q.shape[0]
+    crit = critical(q, q_hat, lp)
+    count = 0
+    for i in range(n):
+        if crit[i] and free[i]:
+            count += 1
+    K = np.empty(count, dtype=np.int64)
+    rhs = np.empty(count)
+    g = np.empty(count)
+    if count == 0:
+        return K, g, rhs
+    j = 0
+    for i in range(n):
+        if crit[i] and free[i]:
+            K[j] = i
+            j += 1
+    gall = gamma(q_hat, lp)
+    for j in range(count):
+        g[j] = gall[K[j]] if smooth else 1.0
+        rhs[j] = -g[j] * v[K[j]]  # eqs. 11/16, 15/18/21
+    return K, g, rhs
+
+
+@kernel
 def iterate_null_space(
     E: Any,
     w: Any,
@@ -133,25 +168,10 @@ def iterate_null_space(
                 v[i] = (w[i] + extra[i] + d[i]) if has_extra else (w[i] + d[i])  # eqs. 12 / 20
         for i in range(n):
             q_hat[i] = q[i] - lam_dt * v[i]  # eq. 8, with the current level's control
-        crit = critical(q, q_hat, lp)
-        count = 0
-        for i in range(n):
-            if crit[i] and free[i]:
-                count += 1
+        K, g, rhs = level_constraints(q, q_hat, lp, free, v, smooth)
+        count = K.shape[0]
         if count == 0:
             break
-        K = np.empty(count, dtype=np.int64)
-        j = 0
-        for i in range(n):
-            if crit[i] and free[i]:
-                K[j] = i
-                j += 1
-        gall = gamma(q_hat, lp)
-        rhs = np.empty(count)
-        g = np.empty(count)
-        for j in range(count):
-            g[j] = gall[K[j]] if smooth else 1.0
-            rhs[j] = -g[j] * v[K[j]]  # eqs. 11/16, 15/18/21
         step, N, met, sig = constrain(N, K, rhs, tol, robust)
         min_sigma = min(min_sigma, sig)
         for i in range(n):
@@ -164,6 +184,35 @@ def iterate_null_space(
         unmet[level] = not met
         levels = level
     return d, level_of, levels, steps, gam, unmet, min_sigma
+
+
+@kernel
+def pack_levels(E: Any, d: Any, steps: Any, unmet: Any, levels: int, vec: Any) -> bool:
+    """Write ``vec = [a (n_a), b ((levels-1) n_a), unmet flag per level (levels)]``.
+
+    ``a = Eᵀ d`` and ``b = Eᵀ`` (motion of levels 2, 3, ...) are in the null-space
+    coordinates of ``E`` (n x n_a, orthonormal columns), the motions in rad or m per
+    ``λ``; a flag is 1.0 when its level was met only in the least-squares sense.
+    Returns whether any level was.
+    """
+    n, n_a = E.shape
+    nb = max(levels - 1, 0)
+    for j in range(n_a):  # a = E^T d, b = E^T (steps of levels 2, 3, ...)
+        acc = 0.0
+        for i in range(n):
+            acc += E[i, j] * d[i]
+        vec[j] = acc
+    for lv in range(1, levels):
+        for j in range(n_a):
+            acc = 0.0
+            for i in range(n):
+                acc += E[i, j] * steps[lv, i]
+            vec[n_a + (lv - 1) * n_a + j] = acc
+    any_unmet = False
+    for lv in range(1, levels + 1):
+        vec[n_a + nb * n_a + lv - 1] = 1.0 if unmet[lv] else 0.0
+        any_unmet = any_unmet or unmet[lv]
+    return any_unmet
 
 
 @kernel
@@ -219,21 +268,7 @@ def iterative(
         qdot[i] = -lam * v
         axes[i] = level_of[i]
         axf[i] = gam[i]
-    for j in range(n_a):  # a = E^T d, b = E^T (steps of levels 2, 3, ...)
-        acc = 0.0
-        for i in range(n):
-            acc += E[i, j] * d[i]
-        vec[j] = acc
-    for lv in range(1, levels):
-        for j in range(n_a):
-            acc = 0.0
-            for i in range(n):
-                acc += E[i, j] * steps[lv, i]
-            vec[n_a + (lv - 1) * n_a + j] = acc
-    any_unmet = False
-    for lv in range(1, levels + 1):
-        vec[n_a + nb * n_a + lv - 1] = 1.0 if unmet[lv] else 0.0
-        any_unmet = any_unmet or unmet[lv]
+    any_unmet = pack_levels(E, d, steps, unmet, levels, vec)
     ncon = 0
     for i in range(n):
         if level_of[i] > 0:

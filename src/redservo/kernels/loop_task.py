@@ -32,7 +32,8 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.features import point_interaction, points_measure, wrap_angle
-from redservo.kernels.moments import moment_features_interaction, moment_measure
+from redservo.kernels.moment_interaction import moment_features_interaction
+from redservo.kernels.moments import moment_measure
 
 __all__ = ["MOMENTS", "POINT", "inverse", "known_feedforward", "loop_task", "target_poses"]
 

@@ -117,6 +117,29 @@ def _masked_solution(J: Any, w: Any, xdot: Any, qn: Any, s: float, rcond: float)
 
 
 @kernel
+def clip_to_box(qdot: Any, lo: Any, hi: Any, w: Any) -> Any:
+    """Clip the solved ``q̇`` to ``[lo, hi]`` (rad/s or m/s) and read the joint mask ``w``.
+
+    Returns:
+        ``(out, clipped, saturated, free_count)``: the clipped command, the largest change
+        of the clip (rad/s or m/s), (n,) booleans of the saturated joints (``w = 0``) and
+        the number of free ones.
+    """
+    n = qdot.shape[0]
+    out = np.empty(n)
+    clipped = 0.0
+    saturated = np.empty(n, dtype=np.bool_)
+    free_count = 0
+    for i in range(n):
+        out[i] = min(max(qdot[i], lo[i]), hi[i])
+        clipped = max(clipped, abs(out[i] - qdot[i]))
+        saturated[i] = w[i] == 0.0
+        if w[i] != 0.0:
+            free_count += 1
+    return out, clipped, saturated, free_count
+
+
+@kernel
 def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rcond: float) -> Any:
     """Algorithm 1 of Flacco et al. 2012 with the masking fix (redundancy/sns.py).
 
@@ -176,17 +199,31 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
             qn = best_qn
             qdot, rank, pinv = _masked_solution(J, w, xdot, qn, s, rcond)
             break
-    out = np.empty(n)
-    clipped = 0.0
-    saturated = np.empty(n, dtype=np.bool_)
-    free_count = 0
-    for i in range(n):
-        out[i] = min(max(qdot[i], lo[i]), hi[i])
-        clipped = max(clipped, abs(out[i] - qdot[i]))
-        saturated[i] = w[i] == 0.0
-        if w[i] != 0.0:
-            free_count += 1
+    out, clipped, saturated, free_count = clip_to_box(qdot, lo, hi, w)
     return out, s, saturated, iterations, free_count - rank, restored, clipped, rank_J
+
+
+@kernel
+def inconsistent_outputs(n: int, bad: int, lo_s: Any, hi_s: Any) -> Any:
+    """:func:`sns`'s outputs when joint ``bad``'s SNS bounds are inconsistent.
+
+    A zero command (rad/s or m/s) and zero counts; only ``bad`` and the bounds
+    ``lo_s``/``hi_s`` (rad/s or m/s, for the error message) are meaningful.
+    """
+    return (
+        np.zeros(n),
+        0.0,
+        np.zeros(n, dtype=np.bool_),
+        0,
+        0,
+        False,
+        0.0,
+        0,
+        False,
+        bad,
+        lo_s,
+        hi_s,
+    )
 
 
 @kernel
@@ -226,20 +263,7 @@ def sns(
     n = q.shape[0]
     lo_s, hi_s, bad = sns_velocity_bounds(q, lp, dt, v_opt, has_v_opt, a_opt, has_a_opt, margin)
     if bad >= 0:
-        return (
-            np.zeros(n),
-            0.0,
-            np.zeros(n, dtype=np.bool_),
-            0,
-            0,
-            False,
-            0.0,
-            0,
-            False,
-            bad,
-            lo_s,
-            hi_s,
-        )
+        return inconsistent_outputs(n, bad, lo_s, hi_s)
     clo, chi = command_box(q, lp, has_v, has_a, dt, prev, has_prev, shield)
     lo, hi = intersect_boxes(lo_s, hi_s, clo, chi)
     xdot = np.empty(e.shape[0])

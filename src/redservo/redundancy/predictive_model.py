@@ -247,6 +247,30 @@ def _simple_bounds(
     return lo, hi
 
 
+def _add_acceleration_rows(
+    rows: list[FloatArray],
+    blo: list[FloatArray],
+    bhi: list[FloatArray],
+    Nc: int,
+    n: int,
+    a_max: FloatArray,
+    dt: float,
+) -> None:
+    """Append the rows ``-a_max dt ≤ u_j - u_{j-1} ≤ a_max dt`` between consecutive blocks.
+
+    ``a_max`` (n,) in rad/s² (m/s² for prismatic joints), ``dt`` in s; the rows act on the
+    stacked block velocities ``U`` (``Nc · n``, rad/s or m/s).
+    """
+    nv = Nc * n
+    for j in range(1, Nc):
+        D = np.zeros((n, nv))
+        D[:, j * n : (j + 1) * n] = np.eye(n)
+        D[:, (j - 1) * n : j * n] = -np.eye(n)
+        rows.append(D)
+        blo.append(-a_max * dt)
+        bhi.append(a_max * dt)
+
+
 def build_qp(
     pred: Prediction,
     Ubar: FloatArray,
@@ -306,13 +330,7 @@ def build_qp(
         blo.append(np.minimum(q_lo, q0) - q0)
         bhi.append(np.maximum(q_hi, q0) - q0)
     if a_max is not None:
-        for j in range(1, Nc):
-            D = np.zeros((n, nv))
-            D[:, j * n : (j + 1) * n] = np.eye(n)
-            D[:, (j - 1) * n : j * n] = -np.eye(n)
-            rows.append(D)
-            blo.append(-a_max * dt)
-            bhi.append(a_max * dt)
+        _add_acceleration_rows(rows, blo, bhi, Nc, n, a_max, dt)
     if pred.s is not None and pred.S is not None and s_lo is not None and s_hi is not None:
         s0 = pred.s[0] if s_now is None else s_now  # relax only what is already violated
         lo_s, hi_s = np.minimum(s_lo, s0), np.maximum(s_hi, s0)

@@ -225,7 +225,18 @@ class DHRobot(Robot):
         self._convention: DHConvention = convention
         self._base = np.eye(4) if base is None else as_transform(base, "base").copy()
         self._flange = np.eye(4) if flange is None else as_transform(flange, "flange").copy()
-        # Constant per-link arrays (the hot path only does vectorized arithmetic on them).
+        self._tabulate(links)
+        # (q bytes, (bMe, Z, P)) of the last evaluation; one attribute so that it is swapped atomically.
+        self._cache: tuple[bytes, tuple[FloatArray, FloatArray, FloatArray]] | None = None
+
+    def _tabulate(self, links: tuple[DHLink, ...]) -> None:
+        """Store the constant per-link arrays the hot path does vectorized arithmetic on.
+
+        ``_a`` and ``_d0`` (m), ``_theta0`` (rad), ``_offset`` (rad for a revolute joint, m
+        for a prismatic one), the cosine and sine of each ``alpha`` (unitless), the revolute
+        and prismatic masks (0/1), and ``_par``: the same table as the kernels take it
+        (kernels/kinematics.py, rows ``DH_ROWS``).
+        """
         alpha = np.array([link.alpha for link in links], dtype=float)
         self._a = np.array([link.a for link in links], dtype=float)
         self._ca = np.cos(alpha)
@@ -236,7 +247,6 @@ class DHRobot(Robot):
         self._revolute = np.array([link.joint_type == "revolute" for link in links])
         self._rev_f = self._revolute.astype(float)
         self._pri_f = 1.0 - self._rev_f
-        # The same table as the kernels take it (kernels/kinematics.py, rows DH_ROWS).
         self._par = np.ascontiguousarray(
             np.vstack(
                 [
@@ -251,8 +261,6 @@ class DHRobot(Robot):
                 ]
             )
         )
-        # (q bytes, (bMe, Z, P)) of the last evaluation; one attribute so that it is swapped atomically.
-        self._cache: tuple[bytes, tuple[FloatArray, FloatArray, FloatArray]] | None = None
 
     # -- description ----------------------------------------------------------------------------
 

@@ -112,6 +112,50 @@ def shipped_urdf(name: str) -> Path:
     return Path(__file__).with_name("data") / f"{key}.urdf"
 
 
+def _chosen_joints(
+    tree: URDFTree, movable: list[URDFJoint], joints: Sequence[str]
+) -> list[URDFJoint]:
+    """Return the joints named by ``joints``, checked against the chain's ``movable`` joints.
+
+    Each name must be a joint of the file, movable, between ``base_link`` and
+    ``camera_link``, listed once and in chain order (base to camera). Joint names carry no
+    units.
+
+    Raises:
+        ConfigurationError: ``joints`` is a string, names a fixed or off-chain joint, or is
+            not distinct and in chain order.
+        UnknownNameError: a name is not a joint of the file.
+    """
+    names = [j.name for j in movable]
+    if isinstance(joints, str):
+        raise ConfigurationError(
+            f"joints must be a sequence of joint names, got the string {joints!r}",
+            argument="joints",
+        )
+    joints = list(joints)
+    for name in joints:
+        if name not in tree.joints:
+            raise UnknownNameError(
+                f"joints: {name!r} is not a joint of {tree.source}; the movable joints "
+                f"from base_link to camera_link are: {', '.join(names)}",
+                argument="joints",
+            )
+        if name not in names:
+            raise ConfigurationError(
+                f"joints: {name!r} ({tree.joints[name].kind}) is not a movable joint between "
+                f"base_link and camera_link in {tree.source}; those are: {', '.join(names)}",
+                argument="joints",
+            )
+    order = [n for n in names if n in joints]
+    if order != joints:
+        raise ConfigurationError(
+            f"joints must be distinct and in chain order (base to camera_link), "
+            f"got {joints}; in order: {order}",
+            argument="joints",
+        )
+    return [j for j in movable if j.name in joints]
+
+
 def _servo_joints(
     tree: URDFTree, path: list[URDFJoint], joints: Sequence[str] | None
 ) -> list[URDFJoint]:
@@ -124,37 +168,7 @@ def _servo_joints(
                 "continuous and prismatic joints on the chain to camera_link",
                 argument="path",
             )
-    names = [j.name for j in movable]
-    if joints is None:
-        chosen = movable
-    else:
-        if isinstance(joints, str):
-            raise ConfigurationError(
-                f"joints must be a sequence of joint names, got the string {joints!r}",
-                argument="joints",
-            )
-        joints = list(joints)
-        for name in joints:
-            if name not in tree.joints:
-                raise UnknownNameError(
-                    f"joints: {name!r} is not a joint of {tree.source}; the movable joints "
-                    f"from base_link to camera_link are: {', '.join(names)}",
-                    argument="joints",
-                )
-            if name not in names:
-                raise ConfigurationError(
-                    f"joints: {name!r} ({tree.joints[name].kind}) is not a movable joint between "
-                    f"base_link and camera_link in {tree.source}; those are: {', '.join(names)}",
-                    argument="joints",
-                )
-        order = [n for n in names if n in joints]
-        if order != joints:
-            raise ConfigurationError(
-                f"joints must be distinct and in chain order (base to camera_link), "
-                f"got {joints}; in order: {order}",
-                argument="joints",
-            )
-        chosen = [j for j in movable if j.name in joints]
+    chosen = movable if joints is None else _chosen_joints(tree, movable, joints)
     if not chosen:
         raise ConfigurationError(
             f"no movable joint between base_link and camera_link in {tree.source}",
