@@ -19,7 +19,7 @@ from redservo.redundancy.predictive_goal import (
     joint_goal,
 )
 from redservo.redundancy.predictive_model import horizon, point_model
-from redservo.redundancy.predictive_moments import estimate_pose, moment_model
+from redservo.redundancy.predictive_moments import PLANE_WEIGHT, estimate_pose, moment_model
 from redservo.scenario import load_scenario
 from redservo.spatial import inverse
 
@@ -177,3 +177,25 @@ def test_the_simulation_binds_its_camera_to_the_law() -> None:
     opt = SimulationOptions(max_iterations=2)
     simulate(exp.robot, exp.scene, exp.task, law, exp.q0, options=opt, camera=cam)
     assert law._camera is cam
+
+
+def test_moment_model_through_a_depth_policy_plane() -> None:
+    """An image sensor gives the plane of its depth policy (parallel to the image at the
+    desired depth), which no pose shares with the features: the model is then built from
+    the features alone (it was None at every period, after 16 starts each time), and the
+    next period keeps that weight from its warm start."""
+    rng = np.random.default_rng(5)
+    exp, q = _mc05(rng)
+    bMc, st = _state(exp, q)
+    feat = exp.task.terms[0].feature
+    policy = (np.array([0.0, 0.0, 1.0 / feat.desired_depth]),)
+    assert np.max(np.abs(st.inv_depth[0] - policy[0])) > 0.05  # not the true plane
+    model = moment_model(exp.robot, feat, exp.task, st._replace(inv_depth=policy), None, bMc)
+    assert model is not None and model.plane_weight == 0.0
+    cMo = inverse(bMc) @ model.bMo
+    assert np.max(np.abs(model.feature.measure(cMo).s - st.s)) < 1e-6
+    bMc1, st1 = _state(exp, q + 0.002)
+    nxt = moment_model(exp.robot, feat, exp.task, st1._replace(inv_depth=policy), model, bMc1)
+    assert nxt is not None and nxt.plane_weight == 0.0
+    truth = moment_model(exp.robot, feat, exp.task, st, None, bMc)  # the measured plane
+    assert truth is not None and truth.plane_weight == PLANE_WEIGHT

@@ -115,4 +115,18 @@ def present(
     if stamp >= t - _EPS:
         return measurement
     L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
-    return Measurement(s + L @ history.motion(stamp, t), tuple(measurement.inv_depth), t)
+    s_now = s + L @ history.motion(stamp, t)
+    _linearise_at_measured(task, s_now, s)
+    return Measurement(s_now, tuple(measurement.inv_depth), t)
+
+
+def _linearise_at_measured(task: VisualTask, s_now: FloatArray, s: FloatArray) -> None:
+    """Tell each feature whose interaction matrix needs more than its value (the moment
+    features' image moments) that ``s_now`` is a prediction from the measured ``s``."""
+    at = 0
+    for term in task.terms:
+        size = term.feature.size
+        keep = getattr(term.feature, "predicted", None)
+        if keep is not None:
+            keep(s_now[at : at + size], s[at : at + size])
+        at += size

@@ -254,6 +254,17 @@ class MomentFeatures(Feature):
             )
         return best
 
+    def predicted(self, s: FloatArray, measured: FloatArray) -> None:
+        """Let :meth:`interaction` at ``s`` (6,), a prediction from the measured value
+        ``measured`` (6,) (a camera's latency compensated, :mod:`redservo.control.latency`),
+        use the image moments of ``measured``: the interaction matrix stays linearised at
+        the last image, as the first-order prediction itself is."""
+        mom = self._moments_for(as_vector(measured, "measured", 6))
+        sv = np.array(as_vector(s, "s", 6), dtype=float)
+        self._cache[sv.tobytes()] = (sv, mom)
+        while len(self._cache) > _CACHE_SIZE:
+            self._cache.popitem(last=False)
+
     def interaction(self, s: FloatArray, inv_depth: FloatArray) -> FloatArray:
         sv = as_vector(s, "s", 6)
         plane = as_vector(inv_depth, "inv_depth", 3)

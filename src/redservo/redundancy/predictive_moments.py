@@ -12,7 +12,11 @@ point model does with the points (Allibert, Courtial & Chaumette 2010's global m
 (the residual ``(s(cMo) − s, w (plane(cMo) − plane))``, :data:`PLANE_WEIGHT`, the camera
 moving by the step twist in its own frame, ``cMo ← exp(v_c)⁻¹ cMo``), warm-started from the
 previous period's ``bMo`` (the target is still in the base frame), else from the plane and
-the centroid with 16 turns about the plane normal, the best kept. The desired pose ``cMo*``
+the centroid with 16 turns about the plane normal, the best kept. A plane that no pose
+shares with the features is not a measurement but a depth policy (the image sensor's
+``depth = "desired"``: the plane parallel to the image at the desired depth): the pose is
+then the features' alone (``w = 0``), refined from the pose nearest that plane, and the later
+periods keep ``w = 0`` (warm-started, so a step does not pay the 16 starts again). The desired pose ``cMo*``
 is found by **virtual visual servoing** from ``s*`` (``v_c = −L_s⁺ (s(cMo) − s*)``): any pose
 with the desired features is a goal of the task, so ``bMc* = bMo cMo*⁻¹`` (the joint goal).
 
@@ -34,7 +38,7 @@ if TYPE_CHECKING:  # the robots (and scipy through them) are not imported with t
     from redservo.features import MomentFeatures
     from redservo.robots.base import Robot
 
-__all__ = ["MomentModel", "estimate_pose", "moment_model"]
+__all__ = ["MomentModel", "estimate_pose", "moment_model", "pose_and_weight"]
 
 
 def _inverse(T: FloatArray) -> FloatArray:
@@ -50,6 +54,12 @@ def _inverse(T: FloatArray) -> FloatArray:
 TOL = 1e-9
 """Residual ``‖s(cMo) − s‖`` below which the pose estimate is accepted."""
 
+PLANE_WEIGHT = 0.1
+"""Weight of the measured object plane ``(A, B, C)`` (1/m) against the features in the pose
+estimate: the six features alone leave poses that differ by a few degrees of tilt with the
+same values (the rotation invariants react to the tilt at second order); the plane tells
+them apart, and a plane estimated from a depth policy only pulls along those directions."""
+
 
 class MomentModel(NamedTuple):
     """The global model of a moment task: the model robot, a private copy of the feature
@@ -64,6 +74,9 @@ class MomentModel(NamedTuple):
     cMo_star: FloatArray | None
     s_now: FloatArray | None = None
     """(2p,) the object's points' normalized image coordinates where the model was built."""
+    plane_weight: float = PLANE_WEIGHT
+    """The weight of the measured plane in the pose estimate (1/m per normalized unit):
+    :data:`PLANE_WEIGHT`, or 0 when the plane is a depth policy (module docstring)."""
 
     def predict(self, q0: FloatArray, U: FloatArray, hz: Horizon, dt: float) -> Prediction | None:
         """The predictions at ``U`` (Nc, n) from ``q0`` (None: a point at or behind the
@@ -161,30 +174,39 @@ def _align(a: FloatArray, b: FloatArray) -> FloatArray:
     return rotvec_to_matrix(w / np.linalg.norm(w) * np.arctan2(np.linalg.norm(w), c))
 
 
-def _residual(feature: Any, T: FloatArray, s: FloatArray, plane: FloatArray) -> FloatArray:
-    """``(s(T) − s, w (plane(T) − plane))`` (9,), ``w`` = :data:`PLANE_WEIGHT`."""
+def _residual(
+    feature: Any, T: FloatArray, s: FloatArray, plane: FloatArray, weight: float
+) -> FloatArray:
+    """``(s(T) − s, w (plane(T) − plane))`` (9,), ``w`` = ``weight``."""
     meas = feature.measure(T)
-    return np.concatenate([feature.error(meas.s, s), PLANE_WEIGHT * (meas.inv_depth - plane)])
+    return np.concatenate([feature.error(meas.s, s), weight * (meas.inv_depth - plane)])
 
 
 def _fit(
-    feature: Any, T: FloatArray, s: FloatArray, plane: FloatArray, iterations: int
+    feature: Any,
+    T: FloatArray,
+    s: FloatArray,
+    plane: FloatArray,
+    iterations: int,
+    weight: float,
 ) -> tuple[FloatArray, float]:
-    """Gauss-Newton on :func:`_residual` over the pose (forward differences of 1e-7 on the
-    camera twist): ``(cMo, ‖s(cMo) − s‖)``, ``inf`` when the pose became degenerate."""
+    """Gauss-Newton on :func:`_residual` (plane weight ``weight``) over the pose (forward
+    differences of 1e-7 on the camera twist): ``(cMo, ‖s(cMo) − s‖)``, ``inf`` when the pose
+    became degenerate."""
     from redservo.spatial import exp_twist
 
     T = np.array(T, dtype=float)
     try:
         for _ in range(iterations):
-            r = _residual(feature, T, s, plane)
+            r = _residual(feature, T, s, plane, weight)
             if float(np.linalg.norm(r)) < TOL or not np.all(np.isfinite(r)):
                 break
             J = np.empty((r.size, 6))
             for j in range(6):
                 d = np.zeros(6)
                 d[j] = 1e-7
-                J[:, j] = (_residual(feature, _inverse(exp_twist(d)) @ T, s, plane) - r) / 1e-7
+                Td = _inverse(exp_twist(d)) @ T
+                J[:, j] = (_residual(feature, Td, s, plane, weight) - r) / 1e-7
             v = -np.linalg.lstsq(J, r, rcond=None)[0]
             size = max(float(np.linalg.norm(v[:3])) / 0.1, float(np.linalg.norm(v[3:])) / 0.3, 1.0)
             T = _inverse(exp_twist(v / size)) @ T
@@ -194,32 +216,37 @@ def _fit(
     return T, r6 if np.isfinite(r6) else np.inf
 
 
-PLANE_WEIGHT = 0.1
-"""Weight of the measured object plane ``(A, B, C)`` (1/m) against the features in the pose
-estimate: the six features alone leave poses that differ by a few degrees of tilt with the
-same values (the rotation invariants react to the tilt at second order); the plane tells
-them apart, and a plane estimated from a depth policy only pulls along those directions."""
-
-
 def estimate_pose(
     feature: Any, s: FloatArray, plane: FloatArray, guess: FloatArray | None
 ) -> FloatArray | None:
     """``cMo`` whose features are ``s`` and whose plane is nearest ``plane`` (module
     docstring), or None."""
+    return pose_and_weight(feature, s, plane, guess, PLANE_WEIGHT)[0]
+
+
+def pose_and_weight(
+    feature: Any, s: FloatArray, plane: FloatArray, guess: FloatArray | None, weight: float
+) -> tuple[FloatArray | None, float]:
+    """``(cMo, w)``: :func:`estimate_pose` with the plane weighted by ``weight``, then, when
+    no pose has both the features and that plane, by 0 from the pose nearest the plane
+    (module docstring); ``w`` the weight of the accepted pose (``(None, weight)``: none)."""
     if not (np.all(np.isfinite(plane)) and np.linalg.norm(plane) > 0 and s[2] > 0):
-        return None
+        return None, weight
     if guess is not None:
-        T, r = _fit(feature, guess, s, plane, 6)
+        T, r = _fit(feature, guess, s, plane, 6, weight)
         if r < FIT_TOL:
-            return T
+            return T, weight
     best, best_r = None, np.inf
     for T0 in _candidates(feature, s, plane):
-        T, r = _fit(feature, T0, s, plane, 30)
+        T, r = _fit(feature, T0, s, plane, 30, weight)
         if r < best_r:
             best, best_r = T, r
         if r < FIT_TOL:
-            break
-    return best if best_r < FIT_TOL else None
+            return T, weight
+    if best is None or weight == 0.0:
+        return None, weight
+    T, r = _fit(feature, best, s, plane, 30, 0.0)  # the plane is a depth policy
+    return (T, 0.0) if r < FIT_TOL else (None, weight)
 
 
 FIT_TOL = 1e-7
@@ -248,7 +275,8 @@ def moment_model(
         )
     )
     guess = None if prev is None else _inverse(bMc) @ prev.bMo
-    cMo = estimate_pose(own, s, plane, guess)
+    weight = PLANE_WEIGHT if prev is None else prev.plane_weight
+    cMo, weight = pose_and_weight(own, s, plane, guess, weight)
     if cMo is None:
         return None
     star = None
@@ -262,4 +290,4 @@ def moment_model(
     back = _inverse(bMc) @ bMo  # the model's own projection at q
     Pc = own.points_o @ back[:3, :3].T + back[:3, 3]
     s_now = (Pc[:, :2] / Pc[:, 2:3]).reshape(-1)
-    return MomentModel(robot, own, bMo, C, s_star, star, s_now)
+    return MomentModel(robot, own, bMo, C, s_star, star, s_now, weight)
