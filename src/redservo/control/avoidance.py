@@ -47,6 +47,7 @@ from redservo.collision.shapes import Obstacle
 from redservo.control.objectives import ObjectiveContext
 from redservo.errors import ConfigurationError
 from redservo.redundancy.base import Diagnostics
+from redservo.redundancy.distance_rows import bind_distances
 from redservo.redundancy.flags import Event, Flag
 from redservo.robots.base import Robot
 from redservo.scene import Static
@@ -105,7 +106,10 @@ class Collision:
         damping: ``μ`` (m/rad, > 0) of the repulsion's damped inverse.
         enabled: False: only measured (the simulator's ``collision`` outcome and log
             columns), neither avoided nor shielded.
-        avoid: The repulsive objective (:class:`CollisionAvoidance`).
+        avoid: Avoid: the repulsive objective (:class:`CollisionAvoidance`) and the
+            velocity-damper rows of ``qp``, ``sns`` and ``predictive``
+            (:mod:`redservo.redundancy.distance_rows`).
+        repel: With ``avoid``, the repulsive objective acts (False: the rows alone).
         shield: The distance shield (:func:`distance_shield`) in the controller.
         capsules: The robot's capsules (default :func:`~redservo.collision.link_capsules`).
 
@@ -121,6 +125,7 @@ class Collision:
     damping: float = 0.05
     enabled: bool = True
     avoid: bool = True
+    repel: bool = True
     shield: bool = True
     capsules: tuple[LinkCapsule, ...] | None = None
     _last: tuple[Any, PairDistances] | None = field(default=None, init=False, repr=False)
@@ -150,6 +155,11 @@ class Collision:
                     f"{name} must be a finite number {allowed}, got {getattr(self, name)!r}",
                     argument=name,
                 )
+
+    @property
+    def last_time(self) -> float:
+        """The time (s) of the last :meth:`measure` (0 before the first)."""
+        return 0.0 if self._last is None else float(self._last[0][2])
 
     @property
     def active(self) -> bool:
@@ -192,10 +202,13 @@ class Collision:
         return out
 
 
-def check_collision(collision: object, robot: Robot) -> Collision | None:
+def check_collision(collision: object, robot: Robot, law: object = None) -> Collision | None:
     """``collision`` checked for a controller of ``robot``: None or a :class:`Collision`
-    whose robot has a collision model (else a ``ConfigurationError``, ``argument="collision"``)."""
+    whose robot has a collision model (else a ``ConfigurationError``, ``argument="collision"``).
+    A ``law`` with velocity-damper rows (``qp``, ``sns``, ``predictive``) gets the set-up
+    (:func:`redservo.redundancy.distance_rows.bind_distances`)."""
     if collision is None:
+        bind_distances(law, None, robot)
         return None
     if not isinstance(collision, Collision):
         raise ConfigurationError(
@@ -205,6 +218,7 @@ def check_collision(collision: object, robot: Robot) -> Collision | None:
         )
     if collision.active:
         collision.check_robot(robot)
+    bind_distances(law, collision, robot)
     return collision
 
 
@@ -330,7 +344,7 @@ class CollisionAvoidance:
 
     def __call__(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         c = self.collision
-        if not (c.enabled and c.avoid and c.active):
+        if not (c.enabled and c.avoid and c.repel and c.active):
             return None, None
         if ctx.robot is None:
             raise ConfigurationError(

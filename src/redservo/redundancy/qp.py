@@ -52,6 +52,11 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   QP solver fails, the scipy fallback is used, and if that fails too the
   unconstrained solution clipped to the bounds (each noted). The result is
   always clipped to the bounds to remove solver tolerance.
+* **Distance rows** (collision avoidance on, :mod:`redservo.redundancy.distance_rows`): the
+  velocity dampers ``J_k q̇ ≥ b_k`` of the pairs within ``d_influence`` join the bounds as
+  linear inequalities (daqp on the full problem, no polish) unless the unconstrained optimum
+  meets them; when even "never closer" (``b_k`` capped at 0) is infeasible within the bounds
+  the rows are dropped for the step (noted) and the distance shield guards.
 * **Safety** (docs/safety.md): the bounds are intersected with the shield's box
   (velocity and acceleration limits of ``limits``, position limits less their margin,
   braking bound), so that ``qp`` satisfies them without the shield; the result is
@@ -82,6 +87,7 @@ from redservo.redundancy.bls import (
     qpsolvers_module,
     solve_bounded_least_squares,
 )
+from redservo.redundancy.distance_rows import distance_rows, solve_qp_rows
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
@@ -261,7 +267,18 @@ class BoundedLeastSquares(Law):
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
         used, resid = "", -1.0
-        if inside:
+        rows = distance_rows(self, k.q)
+        rowed = None
+        if rows is not None and not (inside and rows.satisfied(qdot)):
+            sec = x.secondary
+            rowed, note = solve_qp_rows(k.J1, xdot, lo, hi, float(eps_abs), sec, rows)
+            info.append(note)
+        if rowed is not None:
+            fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
+            used, resid = "daqp (with distance rows)", float(resid)
+            at = tuple(int(i) for i in np.flatnonzero(active))
+            critical = (at,) if at else ()
+        elif inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
         else:
