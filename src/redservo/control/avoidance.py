@@ -78,6 +78,8 @@ class PairDistances(NamedTuple):
     """(P,) ``∂d/∂t`` (m/s) from the obstacles' own motion (0 for static ones and self pairs)."""
     names: tuple[str, ...]
     """(P,) the pairs as ``"link/obstacle"`` or ``"link/link"``."""
+    kinds: tuple[str, ...] = ()
+    """(P,) each pair's kind, ``"environment"`` or ``"self"``."""
 
     def closest(self) -> tuple[float, str]:
         """The smallest distance (m) and its pair (``(inf, "")`` without pairs)."""
@@ -197,6 +199,7 @@ class Collision:
             np.array([r.jacobian for r in recs], dtype=float).reshape(len(recs), arm.n),
             drift,
             tuple(f"{r.first}/{r.second}" for r in recs),
+            tuple(r.kind for r in recs),
         )
         self._last = (key, out)
         return out

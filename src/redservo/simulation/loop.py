@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.collision.tally import DistanceTally
 from redservo.control import Controller, Measurement, SceneContext
 from redservo.control.avoidance import CollisionAvoidance
 from redservo.control.objectives import (
@@ -264,7 +265,14 @@ def simulate(
                 progress(it)
     log = buf.to_log(robot.joint_names, task.names)
     summary = summarize(
-        log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin, collision=run.contact
+        log,
+        outcome,
+        lim,
+        limit_hit,
+        dt=opt.dt,
+        min_margin=opt.min_margin,
+        collision=run.contact,
+        distances=None if run.tally is None else run.tally.fields(),
     )
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
@@ -296,6 +304,8 @@ class _Run:
         self.true_model = ctrl.robot is robot and actuator is None
         coll = opt.collision
         self.collision = coll if coll is not None and coll.active else None
+        self.tally = None if self.collision is None else DistanceTally(self.collision.d_influence)
+        """The run's distances per pair kind (:mod:`redservo.collision.tally`)."""
         self.contact: dict[str, Any] | None = None
         """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
 
@@ -304,7 +314,10 @@ class _Run:
         records the contact when the distance is <= 0."""
         if self.collision is None:
             return None
-        d, pair = self.collision.measure(self.robot, q, t).closest()
+        pd = self.collision.measure(self.robot, q, t)
+        if self.tally is not None:
+            self.tally.add(pd)
+        d, pair = pd.closest()
         if d <= 0.0:
             self.contact = {"pair": pair, "distance": d, "iteration": it}
         return d, pair
