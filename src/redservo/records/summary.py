@@ -109,6 +109,11 @@ class RunSummary(Mapping[str, Any]):
     (link/link), over the steps measured; None when none was measured."""
     steps_within_influence: int | None = None
     """Steps in which some pair was closer than ``d_influence``; None when not measured."""
+    min_manipulability: float | None = None
+    """Smallest Yoshikawa measure ``sqrt(det(J1 J1ᵀ))`` of the task Jacobian over the run
+    (:mod:`redservo.control.manipulability`); None when not measured."""
+    min_singular_value: float | None = None
+    """Smallest singular value of the task Jacobian over the run; None when not measured."""
 
     def __getitem__(self, key: str) -> Any:
         if key not in _FIELDS:
@@ -168,6 +173,7 @@ def summarize(
     min_margin: float = SUCCESS_MARGIN,
     collision: dict[str, Any] | None = None,
     distances: Mapping[str, Any] | None = None,
+    singularity: Mapping[str, Any] | None = None,
 ) -> RunSummary:
     """Return the typed run summary (module docstring for ``success``).
 
@@ -181,6 +187,8 @@ def summarize(
         collision: ``{"pair", "distance", "iteration"}`` of a contact that ended the run.
         distances: ``min_distance_by_kind`` and ``steps_within_influence``
             (:meth:`redservo.collision.tally.DistanceTally.fields`), or None.
+        singularity: ``min_manipulability`` and ``min_singular_value``
+            (:meth:`redservo.control.manipulability.SingularityMargin.fields`), or None.
     """
     n = limits.n
     if dt is None:
@@ -231,6 +239,7 @@ def summarize(
         **closest,
         collision=collision,
         **(distances or {}),
+        **(singularity or {}),
     )
 
 

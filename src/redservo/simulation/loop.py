@@ -47,6 +47,7 @@ from redservo.camera import Camera
 from redservo.collision.tally import DistanceTally
 from redservo.control import Controller, Measurement, SceneContext
 from redservo.control.avoidance import CollisionAvoidance
+from redservo.control.manipulability import SingularityMargin
 from redservo.control.objectives import (
     CallableObjective,
     Objective,
@@ -273,6 +274,7 @@ def simulate(
         min_margin=opt.min_margin,
         collision=run.contact,
         distances=None if run.tally is None else run.tally.fields(),
+        singularity=run.margin.fields(),
     )
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
@@ -306,6 +308,8 @@ class _Run:
         self.collision = coll if coll is not None and coll.active else None
         self.tally = None if self.collision is None else DistanceTally(self.collision.d_influence)
         """The run's distances per pair kind (:mod:`redservo.collision.tally`)."""
+        self.margin = SingularityMargin()
+        """The run's distance to a task singularity (:mod:`redservo.control.manipulability`)."""
         self.contact: dict[str, Any] | None = None
         """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
 
@@ -361,6 +365,7 @@ class _Run:
         assert step.diagnostics is not None
         state, qdot = step.state, step.qdot
         buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics, closest)
+        self.margin.add(state.J1)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
             return "converged", None
