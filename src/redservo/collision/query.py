@@ -21,6 +21,7 @@ from redservo._validation import FloatArray
 from redservo.collision.pairs import self_pairs
 from redservo.collision.robot import LinkCapsule, link_capsules, point_jacobians
 from redservo.collision.shapes import Obstacle
+from redservo.collision.urdf_query import is_urdf, urdf_distances
 from redservo.robots.base import Robot
 
 __all__ = ["DistanceRecord", "distances"]
@@ -132,7 +133,8 @@ def distances(
         ('post', (7,))
 
     Args:
-        robot: A built-in model (see :func:`~redservo.collision.robot.link_capsules`).
+        robot: A built-in model (see :func:`~redservo.collision.robot.link_capsules`), or a
+            URDF robot with ``<collision>`` elements (:mod:`~redservo.collision.urdf_query`).
         q: (n,) joint positions (rad or m); not checked against the limits.
         obstacles: The obstacles (world = base frame).
         t: Time (s) at which the obstacles are posed.
@@ -144,6 +146,8 @@ def distances(
         One record per pair: every link against every obstacle, then the self pairs.
     """
     qa = robot.check_q(q, check_limits=False)
+    if capsules is None and is_urdf(robot):  # its own <collision> elements
+        return list(urdf_distances(robot, qa, obstacles, t=t, self_collision=self_collision))
     caps = tuple(capsules) if capsules is not None else link_capsules(robot)
     O, J = point_jacobians(robot, qa)
     links = [_Link(c, O, J) for c in caps]

@@ -18,7 +18,8 @@ rather than measured from CAD, rounded up (a margin is safer than a miss):
   workspace, are not modelled.
 
 Change or extend with :func:`link_capsules` ``radii=`` (a mapping from frame name to
-radius). Other robots (URDF files) have no collision model yet (a :class:`ConfigurationError`).
+radius). A URDF robot uses its own ``<collision>`` elements
+(:mod:`redservo.collision.urdf_query`).
 """
 
 from __future__ import annotations
@@ -102,7 +103,7 @@ def _poses(robot: Robot, q: FloatArray) -> dict[str, FloatArray]:
     if not isinstance(robot, DHRobot | Afma6):
         raise ConfigurationError(
             f"robot {robot.name!r} has no built-in collision model (built-in: Afma6, "
-            "Humanoid9, Panda and any DHRobot; URDF collision elements are not read yet)",
+            "Humanoid9, Panda and any DHRobot; a URDF robot uses its <collision> elements)",
             argument="robot",
         )
     return dict(robot.link_poses(q, check_limits=False))

@@ -1,8 +1,9 @@
 """The start of a scenario with ``[[obstacles]]`` must be collision-free.
 
 :func:`check_clear` raises one :class:`~redservo.errors.ScenarioError` naming the
-obstacle's key and the pair in contact. A robot without a built-in collision model (a
-URDF arm, for now) is not checked: a :class:`UserWarning` says so, once per build.
+obstacle's key and the pair in contact. A robot without a collision model (a URDF arm
+without ``<collision>`` elements) is not checked: a :class:`UserWarning` says so, once per
+build.
 :func:`scenario_collision` builds the run's collision set-up from ``[collision]``.
 """
 

@@ -44,6 +44,7 @@ from redservo._validation import FloatArray
 from redservo.collision.query import distances
 from redservo.collision.robot import LinkCapsule, link_capsules
 from redservo.collision.shapes import Obstacle
+from redservo.collision.urdf_query import is_urdf, urdf_elements
 from redservo.control.objectives import ObjectiveContext
 from redservo.errors import ConfigurationError
 from redservo.redundancy.base import Diagnostics
@@ -171,8 +172,9 @@ class Collision:
     def check_robot(self, robot: Robot) -> None:
         """Raise a :class:`ConfigurationError` (``argument="collision"``) if ``robot`` has no
         collision model."""
+        arm = collision_arm(robot)
         try:
-            link_capsules(collision_arm(robot))
+            urdf_elements(arm) if is_urdf(arm) and self.capsules is None else link_capsules(arm)
         except ConfigurationError as exc:
             raise ConfigurationError(str(exc), argument="collision") from None
 
