@@ -55,14 +55,21 @@ def _transform(M: FloatArray) -> Any:
     return coal.Transform3s(np.ascontiguousarray(M[:3, :3]), np.ascontiguousarray(M[:3, 3]))
 
 
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``a × b`` of two 3-vectors (numpy's formula, without its broadcasting overhead)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
 def _capsule_frame(A: FloatArray, B: FloatArray) -> FloatArray:
     """A frame at the segment's middle whose z axis runs from ``A`` to ``B``."""
     z = (B - A) / np.linalg.norm(B - A)
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
+    x = _cross(helper, z)
     x /= np.linalg.norm(x)
     M = np.eye(4)
-    M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    M[:3, :3] = np.column_stack([x, _cross(z, x), z])
     M[:3, 3] = 0.5 * (A + B)
     return M
 
