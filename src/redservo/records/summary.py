@@ -210,10 +210,9 @@ def summarize(
     ratio, v_viol, a_viol = _rates(log, limits, dt)
     flags = _flag_counts(log)
     shield = flags[Flag.SHIELD_ACTED.label].count if Flag.SHIELD_ACTED.label in flags else 0
-    closest = _closest(log, collision)
-    touched = closest["min_distance"] is not None and closest["min_distance"] < 0.0
+    extra = {**_closest(log, collision), **(distances or {}), **(singularity or {})}
     success = (
-        not touched
+        _clear(extra["min_distance"])
         and outcome == "converged"
         and clear_of_limits(margin, min_margin)
         and v_viol == 0
@@ -236,11 +235,14 @@ def summarize(
         max_camera_speed=max_cam,
         discontinuity=disc,
         flags=flags,
-        **closest,
         collision=collision,
-        **(distances or {}),
-        **(singularity or {}),
+        **extra,
     )
+
+
+def _clear(min_distance: float | None) -> bool:
+    """No collision pair overlapped (``min_distance``, m, None when not measured)."""
+    return min_distance is None or min_distance >= 0.0
 
 
 def _closest(log: SimulationLog, hit: dict[str, Any] | None) -> dict[str, Any]:

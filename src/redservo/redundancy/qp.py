@@ -149,6 +149,12 @@ def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
     return v
 
 
+def _levels(active: NDArray[np.bool_]) -> tuple[tuple[int, ...], ...]:
+    """``critical``: the joints at a bound, as one level (none: no level)."""
+    at = tuple(int(i) for i in np.flatnonzero(active))
+    return (at,) if at else ()
+
+
 @register
 class BoundedLeastSquares(Law):
     """``min ‖J1 q̇ + λ e_eff‖² + ε‖q̇‖²`` s.t. velocity bounds from the joint limits (KLW 2011).
@@ -267,17 +273,10 @@ class BoundedLeastSquares(Law):
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
         used, resid = "", -1.0
-        rows = distance_rows(self, k.q)
-        rowed = None
-        if rows is not None and not (inside and rows.satisfied(qdot)):
-            sec = x.secondary
-            rowed, note = solve_qp_rows(k.J1, xdot, lo, hi, float(eps_abs), sec, rows)
-            info.append(note)
+        rowed = self._rows(k, x, xdot, lo, hi, float(eps_abs), qdot if inside else None, info)
         if rowed is not None:
             fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
-            used, resid = "daqp (with distance rows)", float(resid)
-            at = tuple(int(i) for i in np.flatnonzero(active))
-            critical = (at,) if at else ()
+            used, resid, critical = "daqp (with distance rows)", float(resid), _levels(active)
         elif inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
@@ -285,8 +284,7 @@ class BoundedLeastSquares(Law):
             qp = (xfix, free, P, c, lof, hif)
             fixed, used, active, resid = self._solve(k, x, xdot, lo, hi, float(eps_abs), qp)
             info.append(f"solver: {used}")
-            at = tuple(int(i) for i in np.flatnonzero(active))
-            critical = (at,) if at else ()
+            critical = _levels(active)
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
         fallback = "fallback" in used or "failed" in used
@@ -304,6 +302,27 @@ class BoundedLeastSquares(Law):
             info=tuple(info),
         )
         return LawResult(fixed, diag)
+
+    def _rows(
+        self,
+        k: KernelInputs,
+        x: LawInputs,
+        xdot: FloatArray,
+        lo: FloatArray,
+        hi: FloatArray,
+        eps_abs: float,
+        free: FloatArray | None,
+        info: list[str],
+    ) -> FloatArray | None:
+        """The solution with the distance rows (module docstring), or None: no row, the
+        unconstrained optimum ``free`` (None: not within the bounds) meets them, or no
+        solution (noted in ``info``)."""
+        rows = distance_rows(self, k.q)
+        if rows is None or (free is not None and rows.satisfied(free)):
+            return None
+        rowed, note = solve_qp_rows(k.J1, xdot, lo, hi, eps_abs, x.secondary, rows)
+        info.append(note)
+        return rowed
 
     def _solve(
         self,

@@ -265,17 +265,7 @@ def simulate(
             if progress is not None:
                 progress(it)
     log = buf.to_log(robot.joint_names, task.names)
-    summary = summarize(
-        log,
-        outcome,
-        lim,
-        limit_hit,
-        dt=opt.dt,
-        min_margin=opt.min_margin,
-        collision=run.contact,
-        distances=None if run.tally is None else run.tally.fields(),
-        singularity=run.margin.fields(),
-    )
+    summary = run.summary(log, outcome, limit_hit)
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
 
@@ -312,6 +302,24 @@ class _Run:
         """The run's distance to a task singularity (:mod:`redservo.control.manipulability`)."""
         self.contact: dict[str, Any] | None = None
         """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
+
+    def summary(
+        self, log: SimulationLog, outcome: Outcome, limit_hit: dict[str, int] | None
+    ) -> RunSummary:
+        """The run's summary (:func:`~redservo.records.summarize`) with its contact, its
+        distances per pair kind and its singularity margin."""
+        opt = self.opt
+        return summarize(
+            log,
+            outcome,
+            self.ctrl.limits,
+            limit_hit,
+            dt=opt.dt,
+            min_margin=opt.min_margin,
+            collision=self.contact,
+            distances=None if self.tally is None else self.tally.fields(),
+            singularity=self.margin.fields(),
+        )
 
     def closest(self, it: int, q: FloatArray, t: float) -> tuple[float, str] | None:
         """The smallest distance (m) and its pair at the true ``q``, None when not measured;
