@@ -44,7 +44,7 @@ def urdf_elements(robot: Any) -> tuple[UrdfCollision, ...]:
     """
     hit = robot.__dict__.get(_KEY)
     if hit is not None:
-        return hit  # type: ignore[no-any-return]
+        return hit
     links = set(robot.link_poses(robot.q_min / 2 + robot.q_max / 2, check_limits=False))
     elems = tuple(e for e in urdf_collisions(robot.path) if e.link in links)
     if not elems:
