@@ -90,3 +90,24 @@ def test_rows_alone_keep_the_predictive_law_off_the_ball() -> None:
     assert d is not None
     # The start is already inside d_safe (15 mm): the rows let it come no closer.
     assert float(np.min(d)) >= min(float(d[0]), 0.02) - 1e-4
+
+
+def test_repel_is_a_scenario_key_and_the_predictive_fallback_gets_the_rows() -> None:
+    import tomllib
+    from importlib import resources
+
+    from redservo.control.avoidance import check_collision
+    from redservo.redundancy import make_law
+    from redservo.scenario import parse_scenario
+
+    text = resources.files("redservo.scenarios").joinpath("panda-post.toml").read_text()
+    data = tomllib.loads(text)
+    data.setdefault("collision", {})["repel"] = False
+    exp = build(parse_scenario(data, "post.toml"))
+    coll = exp.options.collision
+    assert coll is not None and coll.repel is False and coll.avoid
+    law = make_law("predictive")
+    check_collision(coll, exp.robot, law)
+    assert getattr(law._fallback, "_distance_source", None) is not None  # type: ignore[attr-defined]
+    check_collision(None, exp.robot, law)
+    assert getattr(law._fallback, "_distance_source", None) is None  # type: ignore[attr-defined]
