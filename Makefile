@@ -63,8 +63,8 @@ egl:
 		echo "EGL not installed: the MuJoCo rendering tests will be skipped"; \
 	fi
 
-## make demo: create the environment, install, compile the kernels (redservo warmup, with
-## progress), reproduce the papers and write figures to $(OUT)/
+## make demo: create the environment, install, reproduce the papers, run a small campaign and
+## one animated run, and write figures to $(OUT)/ (kernels uncompiled until `redservo warmup`)
 demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 

@@ -30,10 +30,12 @@ Then the time per frame of render + detect + track for 4 dots (σ = 0.5, blur
 Section ``speed`` (issue 28, item 6): the CPU time per 640x480 frame of
 ``ImageDotTracker.update`` for four dots (generated sequences of
 :mod:`redservo.vision.dotseq`, best of 3 passes, ``time.process_time``), with the compiled
-window search and with the reference search alone; then the image campaign's control
-steps per CPU second, as ``redservo campaign panda-near-limits --samples 10 --seed 0
---set sensor.kind="image" --methods wln --workers 1 --no-plot`` in this process (after a
-1-sample warm-up, so that compilation is not counted). Figures, never timed tests.
+window search and with the reference search alone, beside ViSP's ``vpDot2`` (25.7 µs per
+frame of four dots, the issue's figure: the ratio is printed); then the image campaigns'
+control steps per CPU second, as ``redservo campaign panda-near-limits --samples 10 --seed 0
+--methods wln --workers 1 --no-plot`` with ``--set sensor.kind="image"`` and with
+``--camera realistic``, in this process (after a 1-sample warm-up, so that compilation is
+not counted), and how much of a step the sensor takes. Figures, never timed tests.
 
 Section ``dots`` (issue 19): :class:`redservo.vision.tracking.ImageDotTracker`
 on each sequence of :mod:`redservo.vision.dotseq` (640x480, ``--frames`` frames,
@@ -411,42 +413,84 @@ def tracker_cpu_us(kind: str, frames: int, fast: bool = True) -> float:
     return 1e6 * best
 
 
-def image_campaign_rate(samples: int) -> dict[str, float]:
-    """Control steps per CPU second of the image campaign of the module docstring."""
+VPDOT2_US = 25.7
+"""ViSP's ``vpDot2``: CPU µs per 640x480 frame tracking four dots (issue 28, item 6)."""
+
+
+def image_campaign_rate(samples: int, camera: str = "realistic") -> dict[str, float]:
+    """Control steps per CPU second of the image campaign of the module docstring, through
+    the camera preset ``camera`` (``"image"``: ``sensor.kind="image"`` alone, untimed), and
+    the CPU µs per sensor read (the sensor's share of a step)."""
     import tempfile
     from dataclasses import replace
 
+    from redservo import sensor_timing
+    from redservo.camera_presets import camera_overrides
     from redservo.campaign import load_campaign, run_campaign
     from redservo.scenario import apply_overrides
+    from redservo.vision import sensor as image_sensor
 
+    sets = ['sensor.kind="image"'] if camera == "image" else camera_overrides(camera)
     defn = load_campaign("panda-near-limits")
-    defn = replace(defn, scenario=apply_overrides(defn.scenario, ['sensor.kind="image"']))
+    defn = replace(defn, scenario=apply_overrides(defn.scenario, sets))
+    timed = sensor_timing.TimedSensor if camera != "image" else image_sensor.ImageSensor
+    spent, reads, read = [0.0], [0], timed.read
+
+    def timed_read(self: Any, *args: Any) -> Any:
+        t0 = time.process_time()
+        try:
+            return read(self, *args)
+        finally:
+            spent[0] += time.process_time() - t0
+            reads[0] += 1
+
     with tempfile.TemporaryDirectory() as tmp:
         kw: dict[str, Any] = {"methods": ["wln"], "workers": 1, "progress": False}
         run_campaign(defn, samples=1, out=Path(tmp) / "warm", **kw)
-        cpu = time.process_time()
-        res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
-        cpu = time.process_time() - cpu
+        timed.read = timed_read  # type: ignore[method-assign]
+        try:
+            cpu = time.process_time()
+            res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
+            cpu = time.process_time() - cpu
+        finally:
+            timed.read = read  # type: ignore[method-assign]
         steps = sum(int(r["iterations"]) for r in res.rows)  # rows read from the run's files
-    return {"steps": steps, "cpu_s": cpu, "steps_per_cpu_s": steps / cpu}
+    return {
+        "steps": steps,
+        "cpu_s": cpu,
+        "steps_per_cpu_s": steps / cpu,
+        "sensor_us_per_step": 1e6 * spent[0] / max(steps, 1),
+        "rest_us_per_step": 1e6 * (cpu - spent[0]) / max(steps, 1),
+    }
 
 
 def run_speed(args: argparse.Namespace) -> dict[str, Any]:
-    """Section ``speed`` (issue 28): tracker CPU time per frame, image-campaign throughput."""
+    """Section ``speed`` (issue 28): tracker CPU time per frame beside vpDot2, and the
+    image campaigns' throughput."""
     frames = min(args.frames, 200)
     print(f"\nImageDotTracker.update, 4 dots, 640x480, {frames} frames, CPU µs per frame:")
     rows = []
     for kind in ("nested", "gradient", "motion_blur", "occlusion"):
         fast, ref = tracker_cpu_us(kind, frames), tracker_cpu_us(kind, frames, fast=False)
-        rows.append({"kind": kind, "fast_us": fast, "reference_us": ref})
-        print(f"  {kind:12s} {fast:8.1f} µs (reference search alone {ref:8.1f} µs)")
-    camp = image_campaign_rate(10)
-    print(
-        f"image campaign (panda-near-limits, 10 samples, wln): {camp['steps']:.0f} steps in "
-        f"{camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU second "
-        f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
-    )
-    return {"tracker_cpu_us": rows, "image_campaign": camp}
+        rows.append(
+            {"kind": kind, "fast_us": fast, "reference_us": ref, "vs_vpdot2": fast / VPDOT2_US}
+        )
+        print(
+            f"  {kind:12s} {fast:8.1f} µs = {fast / VPDOT2_US:4.1f}x vpDot2 ({VPDOT2_US} µs) "
+            f"(reference search alone {ref:8.1f} µs)"
+        )
+    out: dict[str, Any] = {"tracker_cpu_us": rows, "vpdot2_us": VPDOT2_US}
+    for camera in ("image", "realistic"):
+        camp = image_campaign_rate(10, camera)
+        print(
+            f"image campaign (panda-near-limits, 10 samples, wln, {camera}): {camp['steps']:.0f} "
+            f"steps in {camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU "
+            f"second; per step {camp['sensor_us_per_step']:.0f} µs in the sensor, "
+            f"{camp['rest_us_per_step']:.0f} µs elsewhere (load average "
+            f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+        )
+        out[f"image_campaign_{camera}"] = camp
+    return out
 
 
 SECTIONS = {

@@ -19,7 +19,25 @@ CPU time is the process's (``time.process_time``); a machine shared with other j
 inflates it (caches, memory bandwidth), so the load average is printed with the results.
 With ``--all``: for every shipped campaign, its compiled methods, the loop alone and the
 whole campaign in this process (the marginal rate: after a 1-sample warm-up), one table
-(:func:`all_campaigns`). docs/scaling.md gives the numbers.
+(:func:`all_campaigns`; a campaign with no compiled method gets a row saying why).
+docs/scaling.md gives the numbers.
+
+Last figures (2026-11-29, issue 29 item 4: ``qp``'s solver compiled into the loop, one build
+and a compiled start check per sample), steps per CPU second end to end, 20 samples, two
+rounds, main (02103a2) → this code, on a machine at load average 18-20 on 2 CPUs (absolute
+numbers depressed; compare within a line), each line from ``campaign_row(name, 20, 5)`` as
+``--all --samples 20 --loop-samples 5`` calls it:
+
+* afma6-gaze-demo 33 400 / 27 400 → 48 100 / 40 900 (loop alone 128 000 / 84 000)
+* cm01-gaze 60 000 / 60 000 → 79 800 / 63 000 (loop alone 108 000 / 115 000)
+* cm01-humanoid-tracking 40 500 / 35 100 → 55 900 / 53 300 (loop alone 65 000 / 60 000)
+* mc05-joint-limits 27 700 / 26 000 → 43 800 / 37 800 (loop alone 54 000 / 44 000)
+* panda-near-limits 31 200 / 27 100 → 39 600 / 39 500 (loop alone 62 000 / 59 000)
+* panda-urdf-near-limits 24 100 / 28 100 → 36 500 / 38 900 (loop alone 67 000 / 66 000)
+* panda-posts: no method on the compiled loop (obstacles: the loop measures no distance)
+
+Still below 100 000: the loop alone is, wherever ``J1`` has 6 rows or more (LAPACK
+``dgesvd`` of a 6x6 matrix: 5.3 µs per step); docs/scaling.md says where the rest goes.
 """
 
 from __future__ import annotations
@@ -79,6 +97,17 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
     """Per method: CPU seconds per control step of the compiled loop alone, and the steps
     timed (``samples`` samples, each run ``repeat`` times)."""
     from redservo.campaign import draw_sample, load_campaign
+    from redservo.experiment import build
+    from redservo.kernels.blas import one_blas_thread
+
+    defn = load_campaign(campaign)
+    exps = [build(draw_sample(defn, 0, i).scenario) for i in range(samples)]
+    with one_blas_thread():  # as the campaign's jobs run (campaign/task.py run_job)
+        return _loop_rates(defn, exps, repeat)
+
+
+def _loop_rates(defn: Any, exps: list[Any], repeat: int) -> dict[str, tuple[float, int]]:
+    """:func:`loop_rates` on built experiments."""
     from redservo.campaign.fastloop import (
         _buffers,
         _law_args,
@@ -87,10 +116,7 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
         campaign_law,
         fast_reason,
     )
-    from redservo.experiment import build
 
-    defn = load_campaign(campaign)
-    exps = [build(draw_sample(defn, 0, i).scenario) for i in range(samples)]
     out: dict[str, tuple[float, int]] = {}
     for method in defn.methods:
         cpu, steps = 0.0, 0
@@ -247,11 +273,22 @@ def all_campaigns(samples: int, loop_samples: int) -> None:
 def campaign_row(name: str, samples: int, loop_samples: int) -> str:
     """The table row of :func:`all_campaigns` for campaign ``name``."""
     rates = loop_rates(name, loop_samples)
+    if not rates:  # e.g. obstacles: every run on the object path (the loop measures no distance)
+        return f"| {name} | no method on the compiled loop: {_uncovered(name)} | | | | |"
     cpu = sum(per_step * steps for per_step, steps in rates.values())
     loop = sum(steps for _, steps in rates.values()) / cpu
     r = campaign_rate(name, samples, methods=list(rates))
     end = r.steps_per_cpu_s
     return f"| {name} | {r.runs} | {r.steps} | {loop:,.0f} | {end:,.0f} | {end / loop:.2f} |"
+
+
+def _uncovered(name: str) -> str:
+    """Why the first sample of campaign ``name`` does not run on the compiled loop."""
+    from redservo.campaign import draw_sample, load_campaign
+    from redservo.campaign.fastloop import experiment_reason
+    from redservo.experiment import build
+
+    return str(experiment_reason(build(draw_sample(load_campaign(name), 0, 0).scenario)))
 
 
 def _rates(a: argparse.Namespace) -> None:

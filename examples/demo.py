@@ -1,7 +1,9 @@
 """`make demo`: reproduce both papers, run a small Monte Carlo comparison, and animate a run.
 
-It first compiles the numba kernels with progress (``redservo warmup``: tens of seconds on a
-fresh install, a few seconds once cached), then writes, under ``--out`` (default ``out/``):
+On a fresh install it runs the kernels uncompiled (the same numbers: compiling them would
+cost more than these short jobs; ``redservo warmup`` compiles them once for campaigns and
+long runs, docs/speed.md), on a warmed-up machine compiled. It writes, under ``--out``
+(default ``out/``):
 
 * ``report.md``, ``report.json`` and every figure of the reproduction of
   Chaumette & Marchand 2001 and Mansard & Chaumette 2005 (``redservo reproduce``; SVG for
@@ -77,7 +79,6 @@ class Watch:
 def _steps(out: Path) -> list[list[str]]:
     run = out / "panda-4points"
     return [
-        ["warmup"],
         ["reproduce", "--out", str(out)],
         [
             "campaign",
@@ -139,7 +140,8 @@ def run() -> int:
         f"  redservo view {run_dir}        # interactive 3-D view in the browser\n"
         f"  redservo plot {out / 'campaign'} --format pdf   # re-draw figures from the files\n"
         f"  redservo replay {out / 'campaign'} --sample 0 --method gpm   # re-run one sample\n"
-        f"  redservo run {run_dir / 'scenario.toml'}   # re-run the run exactly"
+        f"  redservo run {run_dir / 'scenario.toml'}   # re-run the run exactly\n"
+        "  redservo warmup   # compile the kernels once (a few minutes) for campaigns and long runs"
     )
     return 0
 

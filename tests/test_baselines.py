@@ -478,13 +478,17 @@ def test_qp_pushes_back_from_inside_the_margin_band() -> None:
     assert any("exceeds v_max" in s for s in res.diagnostics.notes)
 
 
-def test_qp_falls_back_to_scipy_without_qpsolvers(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_qp_needs_no_qp_library(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without qpsolvers the default solver is the compiled one; scipy's gives its command."""
     monkeypatch.setattr(qp_module, "qpsolvers_module", lambda: None)
-    law = paper_law("qp")
     limits = JointLimits(-np.ones(3), np.ones(3))
-    res = law(J1=np.eye(2, 3), e1=[50.0, -50.0], q=np.zeros(3), limits=limits, lam=1.0, dt=0.1)
-    assert any("scipy" in s for s in res.diagnostics.notes)
+    kw = {"J1": np.eye(2, 3), "e1": [50.0, -50.0], "q": np.zeros(3), "limits": limits}
+    res = paper_law("qp")(lam=1.0, dt=0.1, **kw)
+    assert any(s.startswith("solver: active-set") for s in res.diagnostics.notes)
     assert np.all(np.abs(res.qdot) <= 10.0 + 1e-12)
+    ref = paper_law("qp", solver="scipy")(lam=1.0, dt=0.1, **kw)
+    assert any("scipy" in s for s in ref.diagnostics.notes)
+    assert np.allclose(res.qdot, ref.qdot, rtol=1e-9, atol=1e-9)
     with pytest.raises(ConfigurationError, match="not installed"):
         make_law("qp", solver="daqp")
 

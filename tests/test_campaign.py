@@ -78,6 +78,14 @@ def _row(outcome: str, iterations: int, speed: float) -> dict[str, Any]:
     }
 
 
+def test_feature_lost_is_a_failure_shown_with_the_target_lost_not_an_error() -> None:
+    rows = [_row("converged", 100, 1.0), _row("feature_lost", 40, 2.0), _row("error", 0, 0.0)]
+    s = method_stats("m", rows)
+    assert (s.feature_lost, s.target_lost, s.other_failures) == (1, 0, 1)
+    line = cmp.stats_table([s]).splitlines()[-1]
+    assert "(+1 errors)" in line and "| 0 (+1 feature lost) |" in line
+
+
 def test_method_stats_counts_and_medians() -> None:
     rows = [
         _row("converged", 100, 1.0),

@@ -327,7 +327,6 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
 
 def test_compiled_qp_step_on_the_urdf_panda_gives_the_public_command() -> None:
     pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
-    pytest.importorskip("daqp", reason="the compiled qp step calls daqp")
     from redservo.binding import compiled_qp_step
     from redservo.experiment import build
     from redservo.scenario import load_scenario

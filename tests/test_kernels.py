@@ -288,7 +288,6 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
 @pytest.mark.parametrize("case", ["afma6-4points", "panda-6d-free", "panda-6d-bounds"])
 def test_compiled_qp_step_gives_the_public_command(case: str, shield: bool) -> None:
     """Also with the shield off: the compiled step passes the law's ``shield`` on."""
-    pytest.importorskip("daqp", reason="the compiled qp step calls daqp")
     c = next(x for x in bench_cases(scaling=()) if x.name == case)
     bMc, J = c.robot.kinematics(c.q)
     state = c.task.evaluate(c.scene, bMc, J, 0.0)

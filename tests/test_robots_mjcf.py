@@ -1,6 +1,6 @@
-"""MJCF models (docs/robots.md, "MJCF models"): the page's recipe reads a serial MJCF arm into
-a ChainRobot whose camera pose is MuJoCo's, and an MJCF given as robot.urdf is refused in one
-line that says what it is."""
+"""MJCF models (docs/robots.md, "MJCF models"): the page's example reads a serial MJCF arm into
+an MJCFRobot whose camera pose is MuJoCo's, and an MJCF given as robot.urdf is refused in one
+line that says what it is and what to write instead."""
 
 from __future__ import annotations
 
@@ -41,14 +41,16 @@ def _recipe() -> str:
     return re.findall(r"```python\n(.*?)```", section, flags=re.S)[0]
 
 
-def test_the_docs_recipe_reads_an_mjcf_arm_exactly(tmp_path: Path) -> None:
+def test_the_docs_recipe_reads_an_mjcf_arm_exactly(tmp_path: Path, monkeypatch) -> None:
     mujoco = pytest.importorskip("mujoco")
     path = tmp_path / "arm.xml"
     path.write_text(ARM)
+    monkeypatch.chdir(tmp_path)
     scope: dict[str, object] = {}
     exec(compile(_recipe(), "docs/robots.md", "exec"), scope)
-    robot = scope["chain_from_mjcf"](path, "camera", qdot_max=[2.0, 2.0, 0.5])  # type: ignore[operator]
-    assert robot.joint_names == ("yaw", "shoulder", "reach")
+    robot = scope["robot"]
+    assert robot.joint_names == ("yaw", "shoulder", "reach")  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(robot.qdot_max, [2.0, 2.0, 0.5])  # type: ignore[attr-defined]
     model = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(model)
     site = model.site("camera").id
@@ -60,7 +62,7 @@ def test_the_docs_recipe_reads_an_mjcf_arm_exactly(tmp_path: Path) -> None:
         wMs = np.eye(4)
         wMs[:3, :3] = data.site_xmat[site].reshape(3, 3)
         wMs[:3, 3] = data.site_xpos[site]
-        np.testing.assert_allclose(robot.fkine(q), wMs, atol=1e-12)
+        np.testing.assert_allclose(robot.fkine(q), wMs, atol=1e-12)  # type: ignore[attr-defined]
 
 
 def test_an_mjcf_given_as_robot_urdf_is_named_for_what_it_is(tmp_path: Path) -> None:
@@ -75,3 +77,4 @@ def test_an_mjcf_given_as_robot_urdf_is_named_for_what_it_is(tmp_path: Path) -> 
     line = str(err.value)
     assert "\n" not in line and "robot.urdf" in line, line
     assert "an MJCF (MuJoCo) model, not a URDF" in line and '"MJCF models"' in line, line
+    assert "robot.kind = 'mjcf'" in line, line

@@ -3,6 +3,7 @@ stamped with their exposure time, available only after the latency, held in betw
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from redservo.errors import ConfigurationError
 from redservo.sensor_timing import EXPOSURE_SAMPLES, CameraTiming, TimedSensor, timed
-from redservo.sensors import IdealSensor, SensorReading
+from redservo.sensors import FrameNoise, IdealSensor, SensorReading
 
 
 class _Clock(IdealSensor):
@@ -144,3 +145,59 @@ def test_a_live_sensor_is_read_at_the_step_after_the_exposure_and_stamped_then()
     assert [r.stamp for r in out][-1] == pytest.approx(0.2)  # 0.32 is not available at 0.36
     with pytest.raises(ConfigurationError, match="cannot model an exposure"):
         TimedSensor(_Live(), CameraTiming(exposure=0.004, latency=0.01), 0.01)
+
+
+def _held_noise(measured: list[tuple[float | None, np.ndarray]]) -> None:
+    """Readings of one frame (same stamp) carry the same noise; each frame has its own."""
+    frames: dict[float | None, np.ndarray] = {}
+    for stamp, s in measured:
+        if stamp in frames:
+            assert np.array_equal(frames[stamp], s), "a held frame was given fresh noise"
+        frames[stamp] = s
+    values = list(frames.values())
+    assert len(values) >= 3 and all(not np.array_equal(a, b) for a, b in itertools.pairwise(values))
+
+
+def test_feature_noise_is_drawn_once_per_frame() -> None:
+    noise = FrameNoise(0.01, np.random.default_rng(3))
+    sensor = TimedSensor(_Clock(), CameraTiming(rate=25.0), 0.01)
+    out = _run(sensor, 0.01, 13)
+    noisy = [(r.stamp, noise(r)) for r in out]
+    _held_noise(noisy)
+    assert all(not np.array_equal(s, r.s) for (_, s), r in zip(noisy, out))  # noised
+    fresh = FrameNoise(0.01, np.random.default_rng(3))  # untimed: a new reading every period
+    draws = [fresh(SensorReading(np.zeros(2), ())) for _ in range(3)]
+    assert not np.array_equal(draws[0], draws[1]) and not np.array_equal(draws[1], draws[2])
+
+
+def test_the_simulation_holds_a_frame_with_its_noise(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from redservo.control import Controller
+    from redservo.experiment import build
+    from redservo.scenario import apply_overrides, load_scenario
+
+    seen: list[tuple[float | None, np.ndarray]] = []
+    step = Controller.step
+
+    def spy(self: Any, q: Any, meas: Any, *args: Any, **kwargs: Any) -> Any:
+        seen.append((meas.stamp, np.array(meas.s)))
+        return step(self, q, meas, *args, **kwargs)
+
+    monkeypatch.setattr(Controller, "step", spy)
+    sets = ["sensor.rate=5.0", "simulation.noise_std=0.001", "simulation.max_iterations=16"]
+    build(apply_overrides(load_scenario("panda-4points"), sets)).run()
+    assert len(seen) == 16
+    _held_noise(seen)
+
+
+def test_the_servo_loops_simulated_source_holds_a_frame_with_its_noise() -> None:
+    from types import SimpleNamespace
+
+    from redservo.hardware.simulated import IdealFeatureSource
+
+    robot = SimpleNamespace(true_pose=lambda: _pose(0.0), t_start=0.0)
+    sensor = TimedSensor(_Clock(), CameraTiming(rate=25.0), 0.01)
+    source = IdealFeatureSource(None, None, robot, sensor=sensor, noise_std=0.01, seed=1)  # type: ignore[arg-type]
+    got = [source.measure(0.01 * k) for k in range(13)]
+    _held_noise([(float(k // 4), m.s) for k, m in enumerate(got) if m is not None])  # 25 Hz

@@ -75,4 +75,7 @@ def test_the_wheel_installs_and_runs_outside_the_source_tree(tmp_path: Path) -> 
     with __import__("zipfile").ZipFile(wheel) as zf:
         names = set(zf.namelist())
     assert "redservo/scenarios/cm01-gaze.toml" in names and "redservo/py.typed" in names
+    for robot in ("franka_emika_panda/panda.xml", "universal_robots_ur5e/ur5e.xml"):
+        xml = f"redservo/robots/data/menagerie/{robot}"
+        assert xml in names and f"{xml.rsplit('/', 1)[0]}/LICENSE" in names, robot
     assert any(n.endswith("licenses/LICENSE") or n.endswith("/LICENSE") for n in names), names

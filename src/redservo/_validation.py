@@ -64,12 +64,22 @@ def _to_float(value: ArrayLike, name: str) -> FloatArray:
     return np.asarray(raw, dtype=np.float64)
 
 
+def is_float_vector(a: object, n: int) -> bool:
+    """``a`` is a C-contiguous float64 array of shape (n,), as a compiled kernel takes it
+    without a copy (a check of the type and layout only: the kernel checks the values)."""
+    return (
+        type(a) is np.ndarray and a.dtype == _FLOAT64 and a.shape == (n,) and a.flags.c_contiguous
+    )
+
+
 def as_time(value: object, name: str) -> float:
     """Return ``value`` as a finite time stamp (s), raising :class:`ShapeError` otherwise.
 
     Only real numbers are stamps: a string (``"1.0"``), a boolean (``True``), NaN or inf is
     refused, never converted, so that a mistyped stamp is reported instead of taken as time.
     """
+    if type(value) is float and -math.inf < value < math.inf:
+        return value  # hot path: a finite Python float
     if not is_number(value) or not np.isfinite(float(value)):  # type: ignore[arg-type]
         raise ShapeError(
             f"{name} must be a finite number of seconds, got {value!r} ({type(value).__name__})",

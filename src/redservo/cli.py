@@ -67,6 +67,17 @@ def _describe(exc: BaseException) -> tuple[int, str]:
     )
 
 
+def _kernels_for(command: str, *, quiet: bool) -> bool:
+    """Choose compiled or plain kernels for ``command`` (:mod:`redservo.kernel_mode`); say
+    so in one line when it runs uncompiled because the cache is cold; True if compiled."""
+    from redservo.kernel_mode import COLD_NOTICE, choose_for_command
+
+    mode, cold = choose_for_command(command)
+    if cold and not quiet:
+        print(COLD_NOTICE, file=sys.stderr)
+    return mode == "compiled"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``redservo`` console script; returns the exit code."""
     try:
@@ -77,10 +88,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     compiles = getattr(args, "compiles", False)
     try:
         if compiles:
+            name = getattr(args.func, "__name__", "run").removeprefix("_").removeprefix("cmd_")
+            compiles = _kernels_for(name, quiet=getattr(args, "quiet", False))
+        if compiles:
             from redservo.warmup import announce_compilation
 
-            name = getattr(args.func, "__name__", "run")
-            announce_compilation(name.removeprefix("_").removeprefix("cmd_"))
+            announce_compilation(name)
         code = int(args.func(args))
         sys.stdout.flush()  # a closed pipe is seen here, not in Python's flush at exit
         return code

@@ -39,6 +39,7 @@ def print_list(quiet: bool) -> None:
     from redservo.campaign import shipped_campaigns
     from redservo.redundancy import METHOD_DESCRIPTIONS
     from redservo.robots import ROBOTS
+    from redservo.robots.mjcf import SHIPPED_MJCFS
     from redservo.robots.urdf import SHIPPED_URDFS
     from redservo.scenario import shipped_scenarios
 
@@ -50,6 +51,10 @@ def print_list(quiet: bool) -> None:
         (
             "URDF robots (robot.urdf in a scenario; needs redservo[urdf])",
             {name: _urdf_line(name) for name in SHIPPED_URDFS},
+        ),
+        (
+            'MJCF robots (robot.kind = "mjcf", robot.file in a scenario; needs redservo[mujoco])',
+            {name: _mjcf_line(name) for name in SHIPPED_MJCFS},
         ),
         ("Methods (--method NAME)", dict(METHOD_DESCRIPTIONS)),
         ("Experiments (redservo reproduce --only ID)", _experiments()),
@@ -91,6 +96,27 @@ def _urdf_line(name: str) -> str:
                 users.append(entry.name[:-5])
     used = f"; scenarios: {', '.join(users)}" if users else ""
     return f"{tree.name}, {movable} movable joints{used}"
+
+
+def _mjcf_line(name: str) -> str:
+    """A shipped MJCF: its model name, joints and the shipped scenarios that use it (read
+    without MuJoCo)."""
+    import tomllib
+    import xml.etree.ElementTree as ET
+    from importlib import resources
+
+    from redservo.robots.mjcf import shipped_mjcf
+
+    root = ET.parse(shipped_mjcf(name)).getroot()
+    joints = len(root.findall(".//worldbody//joint"))
+    users = []
+    for entry in sorted(resources.files("redservo").joinpath("scenarios").iterdir(), key=str):
+        if entry.name.endswith(".toml"):
+            robot = tomllib.loads(entry.read_text(encoding="utf-8")).get("robot", {})
+            if robot.get("kind") == "mjcf" and str(robot.get("file", "")).lower() == name:
+                users.append(entry.name[:-5])
+    used = f"; scenarios: {', '.join(users)}" if users else ""
+    return f"MuJoCo Menagerie's {root.get('model')}, trimmed, {joints} joints{used}"
 
 
 def _experiments() -> dict[str, str]:

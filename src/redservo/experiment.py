@@ -23,6 +23,7 @@ from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
 from redservo.experiment_camera import mounted_robot, scenario_camera
+from redservo.experiment_robot import scenario_robot as _robot
 from redservo.experiment_sensor import attach_timing, scenario_sensor
 from redservo.experiment_start import attach_collision, check_start
 from redservo.limits import JointLimits
@@ -144,26 +145,6 @@ def _key(
     arg = getattr(exc, "argument", None)
     key = f"{table}.{arg}" if arg and arg in fields else default
     return sc.error(key, str(exc))
-
-
-def _robot(sc: Scenario, spec: ScenarioSpec) -> Robot:
-    r = spec.robot
-    try:
-        if r.model is not None:
-            from redservo.robots import make_robot
-
-            return make_robot(r.model, **r.options)
-        from redservo.robots.urdf import URDFRobot, shipped_urdf
-
-        assert r.urdf is not None
-        path = r.urdf if r.urdf.endswith(".urdf") or "/" in r.urdf else shipped_urdf(r.urdf)
-        # Rate limits given in the scenario replace the file's (which may lack them).
-        keys = ("camera_link", "joints", "base_link", "locked_q", "qdot_max", "qddot_max")
-        eMc = None if r.eMc is None else r.eMc.matrix()
-        return URDFRobot(path, eMc=eMc, **{key: getattr(r, key) for key in keys})
-    except RedservoError as exc:
-        default = "robot.options" if r.model is not None else "robot.urdf"
-        raise _key(sc, "robot", exc, type(r).model_fields, default) from None
 
 
 def _per_joint(sc: Scenario, key: str, value: Any, n: int, *, scalar_ok: bool = True) -> Any:

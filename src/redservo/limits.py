@@ -63,6 +63,74 @@ def _band(value: object, name: str, upper: float, meaning: str) -> float:
     return v
 
 
+def _checked_bounds(
+    q_min: ArrayLike, q_max: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(q_min, q_max, range)`` as float vectors (rad or m), checked: at least one joint,
+    ``q_max > q_min`` everywhere, every bound within ±1e15 with a finite range.
+
+    Raises:
+        ShapeError: not vectors of one length.
+        JointLimitError: a joint's bounds are not usable (naming the joint and its bounds).
+    """
+    with np.errstate(over="ignore"):  # ±1e308 limits are reported below, not warned about
+        lo = as_vector(q_min, "q_min")
+        hi = as_vector(q_max, "q_max", lo.shape[0])
+    if lo.shape[0] == 0:
+        raise JointLimitError("q_min and q_max must have at least one joint", argument="q_min")
+    bad = np.flatnonzero(~(hi > lo))
+    if bad.size:
+        i = int(bad[0])
+        raise JointLimitError(
+            f"q_max must be strictly greater than q_min for every joint; joint {i} has "
+            f"q_min={lo[i]:.17g}, q_max={hi[i]:.17g}",
+            argument="q_max",
+            joint=i,
+            lower=float(lo[i]),
+            upper=float(hi[i]),
+        )
+    with np.errstate(over="ignore"):
+        rng = hi - lo
+    huge = np.flatnonzero(~np.isfinite(rng) | (np.abs(lo) > 1e15) | (np.abs(hi) > 1e15))
+    if huge.size:
+        i = int(huge[0])
+        raise JointLimitError(
+            f"joint {i}: limits [{lo[i]:.6g}, {hi[i]:.6g}] are not usable joint limits "
+            "(each must be within ±1e15 m or rad, with a finite range); give the robot's "
+            "real limits",
+            argument="q_min",
+            joint=i,
+            lower=float(lo[i]),
+            upper=float(hi[i]),
+        )
+    return lo, hi, rng
+
+
+def _keep_out(
+    margin: float, margin_abs: ArrayLike | None, rho: float, rng: FloatArray
+) -> FloatArray:
+    """The keep-out margin per joint (m or rad): ``margin_abs`` as given, else ``margin``
+    (a fraction of each range); either must stay inside the activation band ``rho·range``.
+
+    Raises:
+        ConfigurationError: a margin outside ``[0, rho·range)`` (naming the argument).
+    """
+    if margin_abs is not None:
+        mabs = _rate_limit(margin_abs, "margin_abs", rng.shape[0], "m or rad", allow_zero=True)
+        assert mabs is not None
+        over = np.flatnonzero(mabs >= rho * rng)
+        if over.size:
+            i = int(over[0])
+            raise ConfigurationError(
+                f"margin_abs[{i}] = {mabs[i]:.6g} must be below the band rho·range = "
+                f"{rho * rng[i]:.6g}",
+                argument="margin_abs",
+            )
+        return mabs
+    frac = _band(margin, "margin", rho, f"in [0, rho = {rho:g}), a fraction of the range")
+    return frac * rng
+
+
 @dataclass(frozen=True, eq=False)
 class JointLimits:
     """Real joint limits ``q̄``, activation thresholds ``q̃`` (CM01 eq. 3) and rate limits.
@@ -114,56 +182,12 @@ class JointLimits:
         margin: float = 0.0,
         margin_abs: ArrayLike | None = None,
     ) -> None:
-        with np.errstate(over="ignore"):  # ±1e308 limits are reported below, not warned about
-            lo = as_vector(q_min, "q_min")
-            hi = as_vector(q_max, "q_max", lo.shape[0])
-        if lo.shape[0] == 0:
-            raise JointLimitError("q_min and q_max must have at least one joint", argument="q_min")
-        bad = np.flatnonzero(~(hi > lo))
-        if bad.size:
-            i = int(bad[0])
-            raise JointLimitError(
-                f"q_max must be strictly greater than q_min for every joint; joint {i} has "
-                f"q_min={lo[i]:.17g}, q_max={hi[i]:.17g}",
-                argument="q_max",
-                joint=i,
-                lower=float(lo[i]),
-                upper=float(hi[i]),
-            )
-        with np.errstate(over="ignore"):
-            rng = hi - lo
-        huge = np.flatnonzero(~np.isfinite(rng) | (np.abs(lo) > 1e15) | (np.abs(hi) > 1e15))
-        if huge.size:
-            i = int(huge[0])
-            raise JointLimitError(
-                f"joint {i}: limits [{lo[i]:.6g}, {hi[i]:.6g}] are not usable joint limits "
-                "(each must be within ±1e15 m or rad, with a finite range); give the robot's "
-                "real limits",
-                argument="q_min",
-                joint=i,
-                lower=float(lo[i]),
-                upper=float(hi[i]),
-            )
+        lo, hi, rng = _checked_bounds(q_min, q_max)
         rho_f = _band(rho, "rho", 0.5, "in (0, 0.5), the band width as a fraction of the range")
         if rho_f <= 0.0:
             raise ConfigurationError(f"rho must lie in (0, 0.5), got {rho!r}", argument="rho")
         n = lo.shape[0]
-        if margin_abs is not None:
-            mabs = _rate_limit(margin_abs, "margin_abs", n, "m or rad", allow_zero=True)
-            assert mabs is not None
-            over = np.flatnonzero(mabs >= rho_f * rng)
-            if over.size:
-                i = int(over[0])
-                raise ConfigurationError(
-                    f"margin_abs[{i}] = {mabs[i]:.6g} must be below the band rho·range = "
-                    f"{rho_f * rng[i]:.6g}",
-                    argument="margin_abs",
-                )
-        else:
-            frac = _band(
-                margin, "margin", rho_f, f"in [0, rho = {rho_f:g}), a fraction of the range"
-            )
-            mabs = frac * rng
+        mabs = _keep_out(margin, margin_abs, rho_f, rng)
         for name, value in (
             ("q_min", lo),
             ("q_max", hi),

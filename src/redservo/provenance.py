@@ -14,7 +14,8 @@ limits actually used); :meth:`redservo.simulation.SimulationResult.save` then ca
   (start, limits, options; checked by building it), with the reasons when it does not
   (e.g. code that removed the robot's rate limits, which no scenario key expresses),
   and the controller's ``engine`` (``"compiled"``, ``"kernels"`` or ``"python"``,
-  :attr:`redservo.control.Controller.engine`) with ``engine_reason``;
+  :attr:`redservo.control.Controller.engine`) with ``engine_reason``, and ``kernels``:
+  ``"numba X.Y"`` (compiled) or ``"python"`` (the plain kernels, :mod:`redservo.kernel_mode`);
 * ``diagnostics.json`` — for each diagnostic flag raised, the iterations, the number
   attached at each and the law's first message (docs/safety.md), and the law's
   informational lines with the iteration each first appeared;
@@ -304,10 +305,20 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
         "not_exact_because": why,
         "engine": result.engine,
         "engine_reason": result.engine_reason,
+        "kernels": _kernels(),
         "files": files,
     }
     (out / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default) + "\n")
     return [*paths, out / "scenario.toml", out / "run.json", *(out / f for f in files["copied"])]
+
+
+def _kernels() -> str:
+    """How the kernels ran: ``"numba X.Y"`` (compiled) or ``"python"`` (plain functions,
+    :mod:`redservo.kernel_mode`)."""
+    from redservo.kernels._jit import numba_version
+
+    version = numba_version()
+    return "python" if version is None else f"numba {version}"
 
 
 def _json_default(value: Any) -> Any:

@@ -18,6 +18,9 @@ self-contained: moved to another folder or machine, ``redservo run DIR/scenario.
   ``package://`` reference names. Any other reference (``/etc/passwd``,
   ``../../../etc/hostname``, a link out of the folder) is refused: listed under
   ``"refused"`` with the reason, warned about (:class:`RunFileWarning`), never copied;
+* ``robot.file`` of an MJCF robot when it is a file (a shipped name stays a name), with every
+  ``file=`` its assets and includes name, in the same layout: MuJoCo only loaded it if they
+  all lie inside its folder (:func:`redservo.robots.mjcf_chain.load_model`);
 * ``camera.file`` (an intrinsics file);
 
 and rewrites those keys of the resolved scenario table to the copies' paths relative to
@@ -42,7 +45,7 @@ __all__ = [
     "relocate",
 ]
 
-FILE_KEYS = (("robot", "urdf"), ("camera", "file"))
+FILE_KEYS = (("robot", "urdf"), ("robot", "file"), ("camera", "file"))
 """The scenario keys that name a file (table, key)."""
 
 FOLDER = "files"
@@ -112,8 +115,26 @@ def _refusal(found: Path, root: Path) -> str | None:
     return None
 
 
-def _is_shipped_urdf(value: str) -> bool:
-    return "/" not in value and "\\" not in value and not value.endswith(".urdf")
+def _is_shipped_urdf(value: str, section: str = "robot") -> bool:
+    """A robot file given by a shipped name (``"panda"``), not a path."""
+    plain = "/" not in value and "\\" not in value
+    return section == "robot" and plain and not value.endswith((".urdf", ".xml"))
+
+
+def _mjcf(src: Path, dest: Path, report: dict[str, list[str]]) -> None:
+    """Copy an MJCF and the files its elements name (module docstring), same layout."""
+    from redservo.robots.mjcf_chain import asset_files
+
+    root = src.resolve().parent
+    for found in asset_files(src.resolve(), root):
+        target = dest.parent / found.relative_to(root)
+        if found.is_file():
+            _copy(found, target)
+            report["copied"].append(target.relative_to(dest.parent.parent).as_posix())
+        else:
+            report["missing"].append(f"{src.name}: {found.relative_to(root)}")
+    _copy(src, dest)
+    report["copied"].append(dest.relative_to(dest.parent.parent).as_posix())
 
 
 def _free(dest_dir: Path, name: str, taken: set[Path]) -> Path:
@@ -210,7 +231,7 @@ def bundle_files(out: Path, table: dict[str, Any]) -> dict[str, list[str]]:
     for section, key in FILE_KEYS:
         sub = table.get(section)
         value = sub.get(key) if isinstance(sub, dict) else None
-        if not isinstance(value, str) or (key == "urdf" and _is_shipped_urdf(value)):
+        if not isinstance(value, str) or _is_shipped_urdf(value, section):
             continue
         src = Path(value)
         if not src.is_file():
@@ -219,6 +240,8 @@ def bundle_files(out: Path, table: dict[str, Any]) -> dict[str, list[str]]:
         dest = _free(out / FOLDER, src.name, taken)
         if key == "urdf":
             _urdf(src, dest, taken, report)
+        elif section == "robot":
+            _mjcf(src, dest, report)
         else:
             _copy(src, dest)
             report["copied"].append(dest.relative_to(out).as_posix())
@@ -234,7 +257,7 @@ def relocate(table: dict[str, Any], root: Path) -> None:
     for section, key in FILE_KEYS:
         sub = table.get(section)
         value = sub.get(key) if isinstance(sub, dict) else None
-        if not isinstance(value, str) or (key == "urdf" and _is_shipped_urdf(value)):
+        if not isinstance(value, str) or _is_shipped_urdf(value, section):
             continue
         path = Path(value)
         if not path.is_absolute():

@@ -217,39 +217,46 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 
 def _resolve_urdf(table: dict[str, Any], source: str, base_dir: Path | None, prefix: str) -> None:
-    """Make a relative ``robot.urdf`` path absolute (relative to the scenario file)."""
+    """Make a relative ``robot.urdf`` path (or ``robot.file`` of ``kind = "mjcf"``) absolute
+    (relative to the scenario file); a bare name must be a shipped file."""
     robot = table.get("robot")
-    if not isinstance(robot, dict) or not isinstance(robot.get("urdf"), str):
+    if not isinstance(robot, dict):
         return
-    urdf: str = robot["urdf"]
-    if "/" not in urdf and "\\" not in urdf and not urdf.endswith((".urdf", ".xml")):
+    key = "file" if robot.get("kind") == "mjcf" else "urdf"
+    if not isinstance(robot.get(key), str):
+        return
+    value: str = robot[key]
+    if "/" not in value and "\\" not in value and not value.endswith((".urdf", ".xml")):
+        from redservo.robots.mjcf import SHIPPED_MJCFS
         from redservo.robots.urdf import SHIPPED_URDFS
         from redservo.schema.base import unknown_name
 
-        if urdf.strip().lower() not in SHIPPED_URDFS:
+        shipped = list(SHIPPED_URDFS if key == "urdf" else SHIPPED_MJCFS)
+        if value.strip().lower() not in shipped:
+            what = "shipped URDF" if key == "urdf" else "shipped MJCF"
             raise ScenarioError(
-                f"{source}: key '{prefix}robot.urdf': {unknown_name('shipped URDF', urdf, SHIPPED_URDFS)}"
-                " (or give a path to a .urdf file)",
-                argument=f"{prefix}robot.urdf",
+                f"{source}: key '{prefix}robot.{key}': {unknown_name(what, value, shipped)}"
+                f" (or give a path to a {'.urdf' if key == 'urdf' else '.xml'} file)",
+                argument=f"{prefix}robot.{key}",
             )
         return
-    path = Path(urdf)
+    path = Path(value)
     relative = not path.is_absolute()
     if relative:
         path = (base_dir or Path.cwd()) / path
     if not path.is_file():
         where = "is a directory" if path.is_dir() else "does not exist"
         hint = (
-            f"; {urdf!r} is read relative to "
+            f"; {value!r} is read relative to "
             + ("the scenario file's folder" if base_dir is not None else "the current folder")
             if relative
             else ""
         )
         raise ScenarioError(
-            f"{source}: key '{prefix}robot.urdf': no such file {str(path)!r} ({where}{hint})",
-            argument=f"{prefix}robot.urdf",
+            f"{source}: key '{prefix}robot.{key}': no such file {str(path)!r} ({where}{hint})",
+            argument=f"{prefix}robot.{key}",
         )
-    robot["urdf"] = str(path.resolve())
+    robot[key] = str(path.resolve())
 
 
 def parse_scenario(

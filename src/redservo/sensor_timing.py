@@ -39,8 +39,8 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.kernels.interp import interpolate_pose
 from redservo.sensors import IdealSensor, Sensor, SensorReading
-from redservo.spatial import matrix_to_rotvec, rotvec_to_matrix
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
@@ -109,11 +109,10 @@ class CameraTiming:
 
 
 def _interpolate(T0: FloatArray, T1: FloatArray, u: float) -> FloatArray:
-    """The pose a fraction ``u`` in [0, 1] of the way from ``T0`` to ``T1`` (4x4)."""
-    T = np.eye(4)
-    T[:3, 3] = (1.0 - u) * T0[:3, 3] + u * T1[:3, 3]
-    T[:3, :3] = T0[:3, :3] @ rotvec_to_matrix(u * matrix_to_rotvec(T0[:3, :3].T @ T1[:3, :3]))
-    return T
+    """The pose a fraction ``u`` in [0, 1] of the way from ``T0`` to ``T1`` (4x4): linear in
+    translation, geodesic in rotation (compiled: :func:`redservo.kernels.interp.interpolate_pose`)."""
+    out: FloatArray = interpolate_pose(T0, T1, float(u))
+    return out
 
 
 class TimedSensor:
@@ -200,8 +199,8 @@ class TimedSensor:
             t_now, bMc_now = self._poses[-1]
             stamp = t_j if t_j <= 0.0 else t_now  # before the start the world was at rest
             return self.sensor.read(task, scene, bMc_now, t_now)._replace(stamp=stamp)
-        bMc, tw = self._pose(t_j)
         if self.timing.exposure <= 0.0:
+            bMc, tw = self._pose(t_j)
             reading = self.sensor.read(task, scene, bMc, tw)
         else:
             offsets = np.linspace(-0.5, 0.5, EXPOSURE_SAMPLES) * self.timing.exposure
@@ -214,10 +213,10 @@ class TimedSensor:
     ) -> SensorReading:
         renderer = getattr(self.sensor, "renderer", None)
         if renderer is not None:  # an image sensor: one motion-blurred frame
-            from redservo.vision.motion_blur import exposed_image
+            from redservo.vision.motion_blur import exposed_frame
 
             bMc, tw = samples[len(samples) // 2]
-            image = exposed_image(renderer, scene, samples)
+            image = exposed_frame(renderer, scene, samples)  # computed where it is read
             out: SensorReading = cast(Any, self.sensor).read(task, scene, bMc, tw, image)
             return out
         readings = [self.sensor.read(task, scene, T, tw) for T, tw in samples]

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
 
+import numpy as np
+
 from redservo._validation import FloatArray
 from redservo.errors import GeometryError
 
@@ -28,7 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.task import VisualTask
 
-__all__ = ["IdealSensor", "Sensor", "SensorReading"]
+__all__ = ["FrameNoise", "IdealSensor", "Sensor", "SensorReading"]
 
 
 class SensorReading(NamedTuple):
@@ -43,7 +45,9 @@ class SensorReading(NamedTuple):
     reason: str = ""
     """Why ``s`` is None or something was lost (empty when all is well)."""
     image: object | None = None
-    """The image the features were measured in (2-D uint8 array), if the sensor made one."""
+    """The image the features were measured in, if the sensor made one: a 2-D uint8 array,
+    or for the simulated image sensor a :class:`~redservo.vision.lazyframe.LazyFrame`,
+    computed where it was read (``np.asarray(image)`` gives the whole array)."""
     stamp: float | None = None
     """When the image was exposed (s, the middle of the exposure), or None: at the instant
     it was read (an untimed sensor; :mod:`redservo.sensor_timing`)."""
@@ -76,3 +80,26 @@ class IdealSensor:
         except GeometryError as exc:
             return SensorReading(None, (), tuple(range(len(task.terms))), str(exc))
         return SensorReading(s, inv_depth)
+
+
+class FrameNoise:
+    """Additive Gaussian noise of standard deviation ``std`` (feature units) on the features,
+    drawn from ``rng`` once per *frame*: a reading the sensor holds (the same
+    :class:`SensorReading` again, e.g. a 30 Hz camera read by a faster loop,
+    :mod:`redservo.sensor_timing`) keeps the noise it was first given, as the same image
+    would. An untimed sensor makes a new reading every period: a draw every period."""
+
+    def __init__(self, std: float, rng: np.random.Generator) -> None:
+        self.std, self.rng = float(std), rng
+        self._held: tuple[SensorReading | None, FloatArray | None] = (None, None)
+
+    def __call__(self, reading: SensorReading) -> FloatArray:
+        """``reading.s`` (not None) plus this frame's noise."""
+        assert reading.s is not None
+        if self.std <= 0.0:
+            return reading.s
+        if reading is not self._held[0]:
+            self._held = (reading, reading.s + self.rng.normal(0.0, self.std, reading.s.shape[0]))
+        s = self._held[1]
+        assert s is not None
+        return s

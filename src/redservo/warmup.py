@@ -211,7 +211,6 @@ def _feature_variants() -> None:
 
 
 def _steps(note: Callable[[str], None]) -> None:
-    import importlib.util
 
     from redservo.bench_cases import bench_cases
     from redservo.binding import compiled_qp_step, compiled_step
@@ -224,9 +223,6 @@ def _steps(note: Callable[[str], None]) -> None:
         step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
         step(c.q, step(c.q).copy())
     _controllers(cases)
-    if importlib.util.find_spec("daqp") is None:
-        note("qp step skipped: needs daqp (pip install 'redservo[qp]')")
-        return
     c = cases["afma6-4points"]
     qp = compiled_qp_step(
         c.robot, c.scene, c.task, make_law("qp"), limits=c.limits, lam=0.5, dt=0.04
@@ -334,6 +330,10 @@ def warmup(
         if numba:
             counter.uninstall()
     report = WarmupReport(seconds, compiled, numba)
+    if numba:  # every group ran: `auto` commands run compiled from now on
+        from redservo.kernel_mode import mark_warm
+
+        mark_warm()
     say(_verdict(report))
     return report
 

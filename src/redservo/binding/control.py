@@ -16,10 +16,8 @@ Python), the laws with a compiled step and a ``diagnose`` method, a fixed or ada
 
 from __future__ import annotations
 
-from collections import namedtuple
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,11 +28,10 @@ from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
-from redservo.redundancy.base import Diagnostics, Law, law_class
-from redservo.redundancy.flags import Event
+from redservo.redundancy.base import Diagnostics, Law, law_class, lazy_diagnostics
 from redservo.redundancy.gain import AdaptiveGain, gain_value
-from redservo.redundancy.kio import LawOutputs, law_options
-from redservo.redundancy.safety import safety_events
+from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
+from redservo.redundancy.kio import law_options
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
@@ -71,12 +68,12 @@ class CompiledControl:
     adaptive: AdaptiveGain | None
     """The adaptive gain λ(‖e1‖∞), evaluated at each step as the law would, or None."""
     depth_scale: float
-    slices: tuple[slice, ...]
-    """The parts of the kernel's buffer, in the order of
-    :func:`redservo.kernels.control.control_layout`."""
-    views: Any
-    """A NamedTuple type with the layout's part names, in that order (the views of a buffer
-    are read by name, so the layout is written down once, in the kernel module)."""
+    law_slices: tuple[slice, ...]
+    """The law's parts of the kernel's buffer, ``qdot`` to ``ssrc`` in the order of
+    :func:`redservo.kernels.control.control_layout` (what the law's ``diagnose`` reads)."""
+    task_slices: tuple[slice, ...]
+    """The parts ``qdot``, ``e``, ``e1``, ``J1``, ``L`` of the kernel's buffer (the command
+    and the task state), found by name in the layout."""
     size: int
 
     def step(
@@ -154,34 +151,19 @@ class CompiledControl:
         smask: int,
         vec: FloatArray,
     ) -> tuple[FloatArray, TaskState, Diagnostics]:
-        """Views of the kernel's buffer as the object path's results."""
-        v = self.views._make(buf[sl] for sl in self.slices)  # named by control_layout
-        m = v.e1.shape[0]
-        e1 = v.e if self.C.shape[0] == 0 else v.e1
-        state = TaskState(s, v.e, e1, v.L.reshape(-1, 6), v.J1.reshape(m, q.shape[0]), inv_depth)
-        out = LawOutputs(
-            v.iout.astype(np.int64), v.fout, v.axes, v.axf, vec, lmask, v.lvals, v.lsrc
-        )
-        more: tuple[Event, ...] = ()
-        if smask:
-            more = safety_events(
-                smask,
-                v.svals,
-                v.ssrc.astype(np.int64),
-                q,
-                v.qdot,
-                self.gains[1],
-                self.limits,
-                float(v.sout[6]),
-                int(v.sout[10]),
-            )
-        return v.qdot, state, self.law.diagnose(m, out, more)  # type: ignore[attr-defined]
-
-
-@lru_cache(maxsize=4)
-def _views(names: tuple[str, ...]) -> Any:
-    """The NamedTuple type of a buffer's views (:attr:`CompiledControl.views`)."""
-    return namedtuple("ControlViews", names)
+        """Views of the kernel's buffer as the object path's results; the diagnostics are
+        built when first read (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the
+        buffer (``qdot`` to ``ssrc``), the law's options as they are now, and copies of
+        ``q`` and ``q̇`` when the safety layer raised events."""
+        qdot, e, e1, J1, L = (buf[sl] for sl in self.task_slices)
+        m = e1.shape[0]
+        e1 = e if self.C.shape[0] == 0 else e1
+        state = TaskState(s, e, e1, L.reshape(-1, 6), J1.reshape(m, q.shape[0]), inv_depth)
+        law = self.law
+        safety = (q.copy(), qdot.copy(), self.gains[1], self.limits) if smask else None
+        masks = (lmask, smask, vec)
+        args = (type(law), dict(law.__dict__), m, buf, self.law_slices, masks, safety)
+        return qdot, state, lazy_diagnostics(diagnose, *args)
 
 
 def bind_controller(
@@ -236,7 +218,7 @@ def bind_controller(
         gains=(np.nan if isinstance(lam, AdaptiveGain) else float(lam), float(dt)),
         adaptive=lam if isinstance(lam, AdaptiveGain) else None,
         depth_scale=float(depth_scale),
-        slices=tuple(slice(*v) for v in layout.values()),
-        views=_views(tuple(layout)),
+        law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
+        task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
         size=size,
     )

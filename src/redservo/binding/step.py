@@ -9,7 +9,7 @@ kernel (:mod:`redservo.kernels.control`) that the campaign loop runs at every it
 and the :class:`~redservo.control.Controller` runs on measured points; no copy of the step
 lives here. ``step(q, qdot_prev)`` gives the command of ``law(J1=..., e1=..., q=q, ...)``
 after ``robot.kinematics`` and ``task.evaluate``, bit for bit. :func:`compiled_qp_step`
-adds ``qp``'s solver (daqp) between two kernels.
+adds ``qp``'s compiled solver (:mod:`redservo.kernels.boxqp`) between two kernels.
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import Law
-from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.kio import law_options
 from redservo.robots import Robot
 from redservo.scene import Scene
@@ -35,19 +34,13 @@ from redservo.task import VisualTask
 __all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import boxqp as _KB
     from redservo.kernels import qp as _KQ
     from redservo.kernels import sensed as _KS
 else:
     _KS = lazy("sensed")
     _KQ = lazy("qp")
-
-
-def _daqp() -> Any:
-    """The daqp module (looked up once per process by the ``qp`` law's solvers)."""
-    daqp = daqp_once()
-    if daqp is None:
-        raise ImportError("the compiled qp step needs daqp: pip install 'redservo[qp]'")
-    return daqp
+    _KB = lazy("boxqp")
 
 
 @dataclass(frozen=True)
@@ -156,9 +149,11 @@ def compiled_step(
 @dataclass(frozen=True)
 class CompiledQPStep:
     """The ``qp`` step without Python objects per call: the compiled task, the kernel
-    :func:`redservo.kernels.qp.qp_setup`, daqp on the reduced problem, then the kernel
+    :func:`redservo.kernels.qp.qp_setup`, the compiled solver on the reduced problem
+    (:func:`redservo.kernels.boxqp.box_qp`, the law's ``"auto"`` solver), then the kernel
     :func:`redservo.kernels.qp.qp_tail` (polish, checks, safety layer). Diagnostics are
-    not built; ``step(q, qdot_prev)`` returns the safe command. Needs daqp (``redservo[qp]``)."""
+    not built; ``step(q, qdot_prev)`` returns the safe command. Where the solver fails, the
+    law object gives the command (its fallback)."""
 
     task: CompiledStep
     """The compiled task (its :meth:`CompiledStep.task` gives ``(e1, J1)``)."""
@@ -185,9 +180,10 @@ class CompiledQPStep:
         qdot, inside, lo, hi, _, xdot, _, _, xfix, free, P, c, lof, hif = out
         xf = z[:0]
         if not inside and free.size:
-            nf = free.size
-            sense = np.zeros(nf, dtype=np.intc)
-            xf = np.ascontiguousarray(_daqp().solve(P, c, np.zeros((0, nf)), hif, lof, sense)[0])
+            xf, status, _ = _KB.box_qp(P, c, lof, hif)
+            if status != _KB.SOLVED:
+                kw: dict[str, Any] = {"limits": self.limits, "lam": self.lam, "dt": self.dt}
+                return law(J1=J1, e1=e1, q=q, qdot_prev=qdot_prev, **kw).qdot
         found = (J1, xdot, lo, hi, bool(inside), qdot, xfix, free, xf, z, False, law.rcond)
         tail = (q, self.dt, lp.rows, lp.has_v, lp.has_a, prev, has_prev)
         return np.asarray(kq.qp_tail(*found, *tail, law.shield))

@@ -7,8 +7,9 @@ of :mod:`redservo.campaign.loop_kernel` and returns the same
 covered; the caller then runs the object path. :func:`fast_reason` says why a set-up is
 not covered:
 
-* numba is not installed (``pip install 'redservo[fast]'``): the loop would run as plain
-  Python, slower than the object path;
+* the kernels run uncompiled (numba not installed, or switched off:
+  :func:`redservo.kernel_mode.uncompiled_reason`): the loop would run as plain Python,
+  slower than the object path;
 * a method without a compiled step (``qp``, a user-registered law) or with
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
@@ -88,7 +89,9 @@ def law_reason(law: Law) -> str | None:
     from redservo.redundancy.qp import BoundedLeastSquares
 
     if not _compiled():
-        return "numba is not installed (pip install 'redservo[fast]')"
+        from redservo.kernel_mode import uncompiled_reason
+
+        return uncompiled_reason()
     known = law.name in LAW_IDS or type(law) is BoundedLeastSquares
     if not known or type(law).__module__.split(".")[1:2] != ["redundancy"]:
         return f"method {law.name!r} has no compiled step"
@@ -140,30 +143,48 @@ def _buffers(N: int, n: int) -> tuple[Any, ...]:
     return out
 
 
+def _constant(value: float, shape: tuple[int, ...]) -> Any:
+    """A read-only (rows, ...) array of ``value``: a view of a per-thread buffer that grows
+    as needed (the summary reads the unused log columns and keeps none of them)."""
+    key = f"const_{value!r}_{shape[1:]}"
+    buf = getattr(_BUFFERS, key, None)
+    if buf is None or buf.shape[0] < shape[0]:
+        buf = np.full((max(shape[0], 1024), *shape[1:]), value)
+        buf.flags.writeable = False
+        setattr(_BUFFERS, key, buf)
+    return buf[: shape[0]]
+
+
 def _summary(exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, ...]) -> RunSummary:
-    """The run's :class:`RunSummary`, by :func:`summarize` on the logged arrays."""
+    """The run's :class:`RunSummary`, by :func:`summarize` on the logged arrays (views of
+    the loop's buffers: the summary keeps numbers, not arrays)."""
     Q, QD, TW, EN, FL = logs
     opt, n = exp.options, exp.robot.n
     bits = (FL[:rows, None] >> np.arange(len(FLAGS))) & 1
-    empty = np.zeros((rows, 0))
+    empty, zeros, nan = (
+        _constant(0.0, (rows, 0)),
+        _constant(0.0, (rows,)),
+        _constant(np.nan, (rows,)),
+    )
+    zeros_n = _constant(0.0, (rows, n))
     log = SimulationLog(
         t=np.arange(rows, dtype=np.float64) * opt.dt,
-        q=Q[:rows].copy(),
-        qdot=QD[:rows].copy(),
-        camera_twist=TW[:rows].copy(),
+        q=Q[:rows],
+        qdot=QD[:rows],
+        camera_twist=TW[:rows],
         s=empty,
         e=empty,
         e1=empty,
-        error_norm=EN[:rows].copy(),
-        q_normalized=np.zeros((rows, n)),
-        alpha=np.full(rows, np.nan),
-        projector_rank=np.zeros(rows),
-        task_rank=np.zeros(rows),
-        levels=np.zeros(rows),
-        overconstrained=np.zeros(rows),
-        constrained=np.zeros((rows, n)),
-        gamma=np.zeros((rows, n)),
-        scale=np.full(rows, np.nan),
+        error_norm=EN[:rows],
+        q_normalized=zeros_n,
+        alpha=nan,
+        projector_rank=zeros,
+        task_rank=zeros,
+        levels=zeros,
+        overconstrained=zeros,
+        constrained=zeros_n,
+        gamma=zeros_n,
+        scale=nan,
         flags=np.where(bits != 0, 1.0, np.nan),
     )
     outcome = _OUTCOMES[code]
@@ -179,14 +200,16 @@ def _law_args(law: Law, n: int) -> tuple[Any, ...]:
     if law.name != "qp":
         o = law_options(law, n)
         return o.law_id, o.fopt, o.iopt, o.vopt, getattr(law, "alpha_max", None) is not None
-    from redservo.redundancy.qp import _v_per_joint
+    from redservo.redundancy.qp import ACTIVE_SET, BoundedLeastSquares, _v_per_joint
 
-    v = getattr(law, "v_max", None)
+    assert isinstance(law, BoundedLeastSquares)
+    v = law.v_max
     vopt = np.zeros((2, n))
     if v is not None:
         vopt[0] = _v_per_joint(v, n)
-    fopt = np.array([law.rcond, 0.0, law.k_p, law.margin])  # type: ignore[attr-defined]
-    iopt = np.array([int(law.shield), 0, int(v is not None), 0], dtype=np.int64)
+    fopt = np.array([law.rcond, law.eps, law.k_p, law.margin])
+    in_kernel = law._resolve_backend() == ACTIVE_SET  # the solver runs in the loop
+    iopt = np.array([int(law.shield), int(in_kernel), int(v is not None), 0], dtype=np.int64)
     return QP, fopt, iopt, vopt, False
 
 

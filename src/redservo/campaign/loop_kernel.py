@@ -14,10 +14,11 @@ operations of the object path, in the same order and with the same kernels:
    feature that cannot be measured ends the run with ``target_lost``);
 3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points; the
    known feed-forward ``∂e1/∂t`` (:func:`~redservo.kernels.loop_task.known_feedforward`);
-4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` the
-   kernels of its solver-free steps, while a step whose bounds are active (a QP to solve)
-   returns :data:`NEED_SOLVE`: Python calls the law itself and calls the loop again from
-   that iteration with the command;
+4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` its
+   kernels and its compiled solver (:mod:`redservo.kernels.boxqp`), while a step the
+   kernel cannot finish (the law set to a Python solver library such as daqp, or the
+   compiled solver failing: the law's Python fallback) returns :data:`NEED_SOLVE`: Python
+   calls the law itself and calls the loop again from that iteration with the command;
 5. the actuator saturation, the camera twist ``J q̇``, ``‖e1‖``, the convergence test,
    the hard-limit test (``joint_limit``) and ``q ← clip(q + q̇ dt)``.
 
@@ -140,8 +141,8 @@ def closed_loop(
         scene, task: the packs of :mod:`redservo.kernels.loop_task` (targets, static or on
             waypoints; image points and moment features).
         law: ``(law_id, fopt, iopt, vopt, has_cap)``: :func:`redservo.redundancy.kio.law_options`,
-            or :data:`QP` with ``fopt = (rcond, 0, k_p, margin)``, ``iopt = (shield, 0,
-            has v_max)``, ``vopt[0] = v_max``.
+            or :data:`QP` with ``fopt = (rcond, eps, k_p, margin)``, ``iopt = (shield,
+            solver in the kernel, has v_max)``, ``vopt[0] = v_max``.
         limits: ``(lp, has_v, has_a, q_min, q_max)``.
         sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat, known_ff)``.
         logs: ``(Q, QD, TW, EN, FL)``, (N, n), (N, n), (N, 6), (N,), (N,) int64; N is the

@@ -11,9 +11,10 @@ bit.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from redservo.campaign.sampling import Sample
+if TYPE_CHECKING:
+    from redservo.campaign.sampling import Sample
 
 FAST_PATH = "compiled loop"
 """The ``_path`` note of a run on the compiled loop (any other note is the reason it fell back

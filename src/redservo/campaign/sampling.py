@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.campaign.definition import CampaignDefinition, Range
-from redservo.errors import ConfigurationError, RedservoError, ScenarioError
+from redservo.errors import ConfigurationError, ScenarioError
 from redservo.limits import JointLimits
 from redservo.scenario import Scenario
 from redservo.spatial import inverse, make_transform, matrix_to_rotvec
@@ -203,23 +203,9 @@ def _draw(defn: CampaignDefinition, seed: int, index: int, attempt: int) -> Samp
 
 def _start_problem(defn: CampaignDefinition, sc: Scenario) -> str | None:
     """Why the sample's start is invalid, or None (module docstring, "Invalid starts")."""
-    from redservo.experiment import build
+    from redservo.campaign.start import start_check
 
-    try:
-        exp = build(sc)
-    except RedservoError as exc:
-        return str(exc)
-    margin = max(exp.options.image_margin_px, defn.target.image_margin_px)
-    res = exp.run(
-        method="classical",
-        law_options={},
-        max_iterations=1,
-        image_margin_px=margin,
-        check_image=True,
-    )
-    if res.outcome in ("target_lost", "occluded"):
-        return f"{res.outcome} at the start (image margin {margin:g} px)"
-    return None
+    return start_check(defn, sc)[0]
 
 
 def draw_sample(defn: CampaignDefinition, seed: int, index: int) -> Sample:
@@ -231,12 +217,20 @@ def draw_sample(defn: CampaignDefinition, seed: int, index: int) -> Sample:
     Raises:
         ScenarioError: no valid start in ``defn.max_attempts`` draws.
     """
+    return draw_built(defn, seed, index)[0]
+
+
+def draw_built(defn: CampaignDefinition, seed: int, index: int) -> tuple[Sample, Any]:
+    """:func:`draw_sample` and the sample's experiment, built once by the start check
+    (:mod:`redservo.campaign.start`), for the runs of the sample."""
+    from redservo.campaign.start import start_check
+
     last = ""
     for attempt in range(defn.max_attempts):
         sample = _draw(defn, seed, index, attempt)
-        problem = _start_problem(defn, sample.scenario)
+        problem, exp = start_check(defn, sample.scenario)
         if problem is None:
-            return sample
+            return sample, exp
         last = problem
     raise ScenarioError(
         f"{defn.source}: key 'target': sample {index}: no valid start in {defn.max_attempts} "

@@ -60,6 +60,9 @@ class MethodStats(NamedTuple):
     reach_ci_high: float = float("nan")
     collisions: int = 0
     """Runs that ended with a link touching an obstacle or another link (``collision``)."""
+    feature_lost: int = 0
+    """Runs that ended because the image sensor lost a feature for good (``feature_lost``):
+    a failure, not an error; the table shows them with the target lost."""
 
 
 STAT_COLUMNS = (
@@ -124,7 +127,8 @@ def column_stats(
     ok = np.zeros(0, bool) if reachable is None else reachable
     nr, kr = (int(ok.sum()), int((ok & success).sum())) if reachable is not None else (-1, 0)
     rlo, rhi = (float("nan"),) * 2 if reachable is None else wilson_interval(kr, nr)
-    named = ("converged", "joint_limit", "target_lost", "max_iterations", "collision")
+    named: tuple[str, ...] = ("converged", "joint_limit", "target_lost", "max_iterations")
+    named += ("collision", "feature_lost")
     return MethodStats(
         method=method,
         runs=n,
@@ -135,6 +139,7 @@ def column_stats(
         limit_hits=outcomes.get("joint_limit", 0),
         collisions=outcomes.get("collision", 0),
         target_lost=outcomes.get("target_lost", 0),
+        feature_lost=outcomes.get("feature_lost", 0),
         max_iterations=outcomes.get("max_iterations", 0),
         other_failures=sum(c for o, c in outcomes.items() if o not in named),
         iterations_median=_pct(cols["iterations"][success], 50),
@@ -183,11 +188,12 @@ def stats_table(stats: Iterable[MethodStats]) -> str:
     lines = []
     for s in stats:
         other = f" (+{s.other_failures} errors)" if s.other_failures else ""
+        lost = f" (+{s.feature_lost} feature lost)" if s.feature_lost else ""
         lines.append(
             f"| {s.method} | {s.successes}/{s.runs} = {_g(100 * s.success_rate, '.1f')} % "
             f"[{100 * s.ci_low:.1f}, {100 * s.ci_high:.1f}]{other} | {_reach(s)} | "
             f"{s.limit_hits} | {s.collisions} | "
-            f"{s.shield_runs} | {s.target_lost} | {s.max_iterations} | "
+            f"{s.shield_runs} | {s.target_lost}{lost} | {s.max_iterations} | "
             f"{_g(s.iterations_median, '.0f')} ({_g(s.iterations_p90, '.0f')}) | "
             f"{_g(s.joint_speed_median)} ({_g(s.joint_speed_p95)}) | "
             f"{_g(s.peak_velocity_ratio_p95, '.2f')} | "

@@ -152,20 +152,15 @@ def run_job(job: Job) -> JobResult:
 
 def _run_samples(job: Job) -> JobResult:
     """:func:`run_job`'s runs (its BLAS pinned)."""
-    from redservo.campaign.sampling import draw_sample
-    from redservo.experiment import build
+    from redservo.campaign.sampling import draw_built
 
     defn = _definition(job)
     joint_names = defn.nominal.joint_names
     rows: list[dict[str, Any]] = []
     paths: Counter[tuple[str, str]] = Counter()
     for i, methods in job.samples:
-        s = draw_sample(defn, job.seed, i)
+        s, exp = draw_built(defn, job.seed, i)  # exp None: each run builds again, records why
         params = _sample_columns(s, joint_names)
-        try:
-            exp = build(s.scenario)
-        except Exception:  # each run builds again and records the error in its row
-            exp = None
         params["reachable"] = _reachable(exp)
         for m in methods:
             opts = defn.method_options.get(m)

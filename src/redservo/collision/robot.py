@@ -76,6 +76,9 @@ def link_capsules(
     Raises:
         ConfigurationError: another kind of robot, or a radius is not > 0.
     """
+    own = getattr(robot, "collision_capsules", None)  # a robot with its own geometry (MJCF)
+    if own is not None:
+        return tuple(own(radii))
     poses = _poses(robot, (robot.q_min + robot.q_max) / 2)
     table = dict(LINK_RADII.get(robot.name.lower(), {}))
     table |= dict(radii or {})
@@ -116,6 +119,10 @@ def point_jacobians(robot: Robot, q: FloatArray) -> tuple[FloatArray, FloatArray
         ``(O, J)``: (F, 3) origins (m) and (F, 3, n) Jacobians ``∂o/∂q`` (m/rad or m/m),
         frames in the order of ``robot.link_poses``.
     """
+    own = getattr(robot, "collision_points", None)  # the ends of its own capsules (MJCF)
+    if own is not None:
+        O, J = own(q)
+        return O, J
     poses = _poses(robot, q)
     O = np.stack([M[:3, 3] for M in poses.values()])
     if robot.name.lower() == "afma6":

@@ -42,17 +42,18 @@ Units: seconds, metres, radians; ``λ`` in 1/s; commands in rad/s or m/s per joi
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from functools import cached_property
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_matrix, as_time, as_vector
+from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
-from redservo.control.engine import bind_engine, python_parts
+from redservo.control.engine import compiled_step, setup_engine
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
-from redservo.control.image_motion import ImageMotionLimit, point_rows
+from redservo.control.image_motion import ImageMotionLimit, check_image_motion, point_rows
 from redservo.control.latency import CommandHistory, present
 from redservo.control.law_output import law_output
 from redservo.control.objectives import Objective, ObjectiveContext
@@ -131,9 +132,16 @@ class Controller:
     ) -> None:
         objs = tuple(objectives)
         self.accepts = check_controller(
-            robot, task, law, limits, lam=lam, dt=dt, objectives=objs,
-            feedforward=feedforward, depth_scale=depth_scale,
-        )  # fmt: skip
+            robot,
+            task,
+            law,
+            limits,
+            lam=lam,
+            dt=dt,
+            objectives=objs,
+            feedforward=feedforward,
+            depth_scale=depth_scale,
+        )
         """The law's keywords (among ``J1 … dt, de1_dt, secondary, qdot_prev``)."""
         self.robot = robot
         self.task = task
@@ -145,12 +153,7 @@ class Controller:
         self.feedforward: Feedforward = feedforward
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
-        if image_motion is not None and not isinstance(image_motion, ImageMotionLimit):
-            raise ConfigurationError(
-                f"image_motion must be an ImageMotionLimit or None, got {image_motion!r}",
-                argument="image_motion",
-            )
-        self.image_motion = image_motion
+        self.image_motion = check_image_motion(image_motion)
         """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
         self._motion_rows = point_rows(task) if image_motion is not None else ()
         self.collision = check_collision(collision, robot, law)
@@ -159,14 +162,10 @@ class Controller:
         self.compensate_latency = bool(compensate_latency)
         self.history = CommandHistory(self.dt, lambda q: robot.jacobian(q, check_limits=False))
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
-        self._compiled, why = bind_engine(self, engine)
-        self._python = python_parts(self)
+        self._compiled, self._python, self.engine_reason = setup_engine(self, engine)
+        """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self._own_law = any(part.startswith("law ") for part in self._python)
         """The law is a user's own: its output goes through the final guard."""
-        self.engine_reason = (
-            "written in Python: " + ", ".join(self._python) if self._python else why
-        )
-        """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self.stage = "task"
         """The part of the step running, or that raised: ``"task"``, ``"objectives"``,
         ``"feed-forward"``, ``"law"``, ``"guard"`` or ``"saturation"`` (a loop names it in
@@ -184,6 +183,11 @@ class Controller:
     @property
     def n(self) -> int:
         """Number of joints."""
+        return self.robot.n
+
+    @cached_property
+    def _n(self) -> int:
+        """Number of joints, read once (the step's hot path)."""
         return self.robot.n
 
     def __repr__(self) -> str:
@@ -244,46 +248,23 @@ class Controller:
             ConfigurationError: ``"known"`` feed-forward without a context, or an objective
                 that needs the scene without one.
         """
-        qa = as_vector(q, "q", self.robot.n)
         t = as_time(t, "t")
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)
             measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
         done = None
-        if self._compiled is not None:
-            done = self._compiled_step(qa, measurement, t, qdot_prev, J, context)
+        qa = cast(FloatArray, q)
+        if self._compiled is not None and is_float_vector(
+            q, self._n
+        ):  # the kernel checks the values
+            done = compiled_step(self, qa, measurement, t, qdot_prev, J, context)
         if done is None:
+            qa = as_vector(q, "q", self._n)
             Ja = self.jacobian(qa, J)
             state = self.evaluate(measurement, Ja)
             done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
         self.history.record(t, qa, done.qdot)
         return done
-
-    def _compiled_step(
-        self,
-        q: FloatArray,
-        measurement: Features,
-        t: float,
-        qdot_prev: ArrayLike | None,
-        J: ArrayLike | None,
-        context: SceneContext | None,
-    ) -> ControlStep | None:
-        """:meth:`step` in one compiled call, or None to take the object path (an input the
-        kernel's check rejects: the object path raises the error naming it)."""
-        assert self._compiled is not None
-        self.stage = "task"
-        s = self._measured_s(measurement)
-        Ja = None if J is None else self.jacobian(q, J)
-        self.stage = "feed-forward"
-        prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
-        de1_dt = self._feedforward_known(t, context) if self.feedforward == "known" else None
-        self.stage = "law"
-        res = self._compiled.step(q, s, measurement.inv_depth, prev, J=Ja, de1_dt=de1_dt)
-        if res is None:
-            return None
-        qdot, state, diag = res
-        qdot, diag, saturated = shape_output(self, qdot, diag, state, q, Ja, t, prev)
-        return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
     def jacobian(self, q: FloatArray, J: ArrayLike | None = None) -> FloatArray:
         """The model Jacobian (6, n) at ``q``: ``J`` checked when given, else computed."""
@@ -365,8 +346,13 @@ class Controller:
             ctx = ObjectiveContext(
                 None if context is None else context.scene,
                 None if context is None else context.bMc,
-                Ja, q, self.limits, state, t, self.robot,
-            )  # fmt: skip
+                Ja,
+                q,
+                self.limits,
+                state,
+                t,
+                self.robot,
+            )
             secondary, stop = self.secondary(ctx)
             if stop is not None:
                 return ControlStep(np.zeros(self.robot.n), state, None, None, None, stop, False)

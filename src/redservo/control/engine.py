@@ -1,17 +1,24 @@
-"""Which engine a :class:`~redservo.control.Controller` step runs on (module docstring of
-:mod:`redservo.control.controller`, "Engines")."""
+"""The compiled engine of a :class:`~redservo.control.Controller`: which engine its step
+runs on (module docstring of :mod:`redservo.control.controller`, "Engines") and the step in
+one compiled call."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+from numpy.typing import ArrayLike
+
+from redservo._validation import FloatArray, is_float_vector
 from redservo.binding.control import CompiledControl, bind_controller
+from redservo.control.output import shape_output
+from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError
 
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
 
-__all__ = ["bind_engine", "python_parts"]
+__all__ = ["bind_engine", "compiled_step", "python_parts", "setup_engine"]
 
 
 def bind_engine(ctrl: Controller, engine: str) -> tuple[CompiledControl | None, str]:
@@ -70,3 +77,46 @@ def python_parts(ctrl: Controller) -> list[str]:
         if isinstance(o, CallableObjective) or type(o).__module__.split(".")[0] != "redservo"
     ]
     return parts
+
+
+def setup_engine(ctrl: Controller, engine: str) -> tuple[CompiledControl | None, list[str], str]:
+    """``(compiled engine or None, the parts written in Python, why not compiled)`` of
+    ``ctrl`` (:func:`bind_engine`, :func:`python_parts`; the reason ``""`` when compiled).
+
+    Raises:
+        ConfigurationError: as :func:`bind_engine`.
+    """
+    compiled, why = bind_engine(ctrl, engine)
+    python = python_parts(ctrl)
+    return compiled, python, ("written in Python: " + ", ".join(python) if python else why)
+
+
+def compiled_step(
+    ctrl: Controller,
+    q: FloatArray,
+    measurement: Features,
+    t: float,
+    qdot_prev: ArrayLike | None,
+    J: ArrayLike | None,
+    context: SceneContext | None,
+) -> ControlStep | None:
+    """:meth:`Controller.step <redservo.control.Controller.step>` in one compiled call, or
+    None to take the object path (an input the kernel's check rejects: the object path
+    raises the error naming it). Units: as the step's (rad or m, s)."""
+    assert ctrl._compiled is not None
+    ctrl.stage = "task"
+    s = getattr(measurement, "s", None)
+    if not is_float_vector(s, ctrl.task.k):  # the kernel checks the values, this the rest
+        s = ctrl._measured_s(measurement)
+    Ja = None if J is None else ctrl.jacobian(q, J)
+    ctrl.stage = "feed-forward"
+    prev = None if qdot_prev is None else np.asarray(qdot_prev, dtype=float)
+    de1_dt = ctrl._feedforward_known(t, context) if ctrl.feedforward == "known" else None
+    ctrl.stage = "law"
+    iz = getattr(measurement, "inv_depth", None)  # checked by the kernel's binding
+    res = ctrl._compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
+    if res is None:
+        return None
+    qdot, state, diag = res
+    qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
+    return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)

@@ -45,6 +45,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ImageMotionLimit",
+    "check_image_motion",
     "image_motion_scale",
     "limit_image_motion",
     "motion_event",
@@ -164,6 +165,20 @@ def motion_event(scale: float, fastest: float, limit: ImageMotionLimit) -> Event
         1 << fb.CAMERA_MOTION_LIMITED, vals, src, motion_px=motion_px, limit_px=limit_px
     )
     return event
+
+
+def check_image_motion(limit: object) -> ImageMotionLimit | None:
+    """``limit`` if it is an :class:`ImageMotionLimit` or None.
+
+    Raises:
+        ConfigurationError: anything else (``argument="image_motion"``).
+    """
+    if limit is not None and not isinstance(limit, ImageMotionLimit):
+        raise ConfigurationError(
+            f"image_motion must be an ImageMotionLimit or None, got {limit!r}",
+            argument="image_motion",
+        )
+    return limit
 
 
 def point_rows(task: VisualTask) -> tuple[int, ...]:

@@ -27,7 +27,7 @@ from redservo.hardware.actuators import ActuatorModel
 from redservo.hardware.protocols import FeatureMeasurement
 from redservo.robots.base import Robot
 from redservo.scene import Scene
-from redservo.sensors import IdealSensor, Sensor
+from redservo.sensors import FrameNoise, IdealSensor, Sensor
 from redservo.task import VisualTask
 
 __all__ = ["IdealFeatureSource", "SimulatedRobot", "VirtualClock"]
@@ -200,6 +200,7 @@ class IdealFeatureSource:
         self.sensor.reset()
         self.noise_std = float(noise_std)
         self._rng = np.random.default_rng(seed)
+        self._noise = FrameNoise(self.noise_std, self._rng)
 
     def measure(self, t: float) -> FeatureMeasurement | None:
         """Measure at loop time ``t`` (s); None when the sensor lost the target."""
@@ -207,7 +208,5 @@ class IdealFeatureSource:
         reading = self.sensor.read(self.task, self.scene, bMc, t - self.robot.t_start)
         if reading.s is None:
             return None
-        s = reading.s
-        if self.noise_std > 0.0:
-            s = s + self._rng.normal(0.0, self.noise_std, s.shape[0])
+        s = self._noise(reading)  # drawn once per frame: a held frame keeps its noise
         return FeatureMeasurement(s, tuple(reading.inv_depth), float(t))

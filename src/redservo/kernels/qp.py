@@ -1,8 +1,9 @@
 """Kernels of the bounded least-squares law ``qp`` (its bounds, reduction and polish).
 
-Formulas and decisions: :mod:`redservo.redundancy.qp`, which wraps these kernels and
-calls the QP solver (a Python library) between :func:`qp_prepare`/:func:`bls_reduce` and
-:func:`bls_expand`/:func:`qp_finish`.
+Formulas and decisions: :mod:`redservo.redundancy.qp`, which wraps these kernels; the QP
+solver runs between :func:`qp_prepare`/:func:`bls_reduce` and :func:`bls_expand`/
+:func:`qp_finish`: by default the compiled one (:mod:`redservo.kernels.boxqp`, which also
+chains them: the campaign loop's ``qp`` step), or a Python library on request.
 """
 
 from __future__ import annotations

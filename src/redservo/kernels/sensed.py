@@ -5,7 +5,8 @@ the features of an ideal sensor and their interaction matrix
 (:mod:`redservo.kernels.loop_task`), ``e1`` and ``J1`` (CM01 eq. 25, the step kernel's
 :func:`~redservo.kernels.control.task_rows`) and the known feed-forward; :func:`law_bits`
 runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
-its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's solver-free step.
+its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's step with its compiled
+solver (:mod:`redservo.kernels.boxqp`).
 The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
 iteration, the benchmarks' step (:mod:`redservo.binding.step`) once per call
 (:func:`sensed_step`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
+from redservo.kernels.boxqp import SOLVED, qp_solve
 from redservo.kernels.control import law_core, task_rows
 from redservo.kernels.events import qp_events, safety_events
 from redservo.kernels.loop_task import known_feedforward, loop_task
@@ -66,11 +68,14 @@ def qp_law(
 ) -> Any:
     """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
 
-    Where the unconstrained optimum lies within the bounds (no solver), the kernels of the
-    law's fast path: :func:`~redservo.kernels.qp.qp_prepare`, ``qp_finish``, the safety
-    layer, on the effective error ``e1 + ff / λ``. Elsewhere ``J1``, ``e1`` and ``ff`` go
-    into ``solve`` and the loop returns to Python, which calls the law itself and hands its
-    command and flags back (``pend``).
+    The law's kernels on the effective error ``e1 + ff / λ``:
+    :func:`~redservo.kernels.qp.qp_prepare`, then where the unconstrained optimum lies
+    within the bounds ``qp_finish``, elsewhere the compiled solver
+    (:func:`~redservo.kernels.boxqp.qp_solve`, when ``iopt[1]``: the law's solver is
+    ``"auto"``/``"active-set"``), then the safety layer. A step the kernel cannot finish
+    (another solver chosen, or the compiled one failed: the law's Python fallback) puts
+    ``J1``, ``e1`` and ``ff`` into ``solve`` and returns to Python, which calls the law itself
+    and hands its command and flags back (``pend``).
     """
     _, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
@@ -84,36 +89,27 @@ def qp_law(
     for i in range(m):
         e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # LawInputs.e_eff
     zn = np.zeros(n)
-    x, inside, lo, hi, conflicts, xdot, rank, _ = qp_prepare(
-        J1,
-        e,
-        q,
-        lp,
-        has_v,
-        has_a,
-        dt,
-        prev,
-        True,
-        zn,
-        False,
-        lam,
-        fopt[2],
-        fopt[3],
-        vopt[0],
-        iopt[2] != 0,
-        fopt[0],
-        iopt[0] != 0,
+    shield, has_vopt = iopt[0] != 0, iopt[2] != 0
+    rates = (q, lp, has_v, has_a, dt, prev, True, zn, False, lam)
+    x, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
+        J1, e, *rates, fopt[2], fopt[3], vopt[0], has_vopt, fopt[0], shield
     )
-    if not inside:
-        pJ[:, :] = J1
-        pe[:] = e1
-        pf[:] = ff
-        pend[3] = 1 if has_ff else 0
-        return x, 0, True
-    bits = qp_events(m, rank, conflicts, False, -1.0)[0]
-    fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
+    resid = -1.0
+    if inside:
+        fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
+    else:
+        status = SOLVED - 1
+        if iopt[1] != 0:
+            fixed, _, _, resid, status = qp_solve(J1, xdot, lo, hi, smax, fopt[1], q, dt, lp)
+        if status != SOLVED:
+            pJ[:, :] = J1
+            pe[:] = e1
+            pf[:] = ff
+            pend[3] = 1 if has_ff else 0
+            return x, 0, True
+    bits = qp_events(m, rank, conflicts, False, resid)[0]
     qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(
-        fixed, q, lp, has_v, has_a, dt, prev, True, iopt[0] != 0, zn, False
+        fixed, q, lp, has_v, has_a, dt, prev, True, shield, zn, False
     )
     safe = safety_events(bad, s, over_v, dropped, change, acted, worst, exc, past)
     return qd, bits | safe[0], False

@@ -12,11 +12,15 @@ simulator (tests/test_layers.py).
 * :class:`RunSummary` and :func:`summarize` (:mod:`redservo.records.summary`): the outcome,
   what counts as a success, the rate and margin statistics and the flag counts;
 * :func:`verdict` / :func:`outcome_text` (:mod:`redservo.records.verdict`): the success verdict
-  in words (why a run is no success), what every place that shows an outcome prints.
+  in words (why a run is no success), what every place that shows an outcome prints;
+* :class:`SimulationResult` (:mod:`redservo.records.result`): one run's outcome, summary and
+  log, and :meth:`~SimulationResult.save` to a run directory (out of the simulation loop:
+  a replay or a reproduction saves the same record).
 """
 
 from __future__ import annotations
 
+from redservo.records.result import SimulationResult
 from redservo.records.runlog import FLAG_COLUMNS, LogBuffer, SimulationLog
 from redservo.records.summary import (
     OUTCOMES,
@@ -36,6 +40,7 @@ __all__ = [
     "Outcome",
     "RunSummary",
     "SimulationLog",
+    "SimulationResult",
     "failure_reasons",
     "flag_warnings",
     "outcome_text",

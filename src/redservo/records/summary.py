@@ -156,10 +156,9 @@ def _flag_counts(log: SimulationLog) -> dict[str, FlagCount]:
     if log.flags is None or not len(log):
         return out
     raised = ~np.isnan(log.flags)
-    for j, flag in enumerate(FLAGS):
-        steps = np.flatnonzero(raised[:, j])
-        if steps.size:
-            out[flag.label] = FlagCount(int(steps.size), int(steps[0]))
+    counts, first = raised.sum(axis=0), raised.argmax(axis=0)  # per flag, in 3 calls, not 2F
+    for j in np.flatnonzero(counts):
+        out[FLAGS[j].label] = FlagCount(int(counts[j]), int(first[j]))
     return out
 
 

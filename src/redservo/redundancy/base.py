@@ -26,6 +26,7 @@ from __future__ import annotations
 import abc
 import inspect
 import operator
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Literal, NamedTuple, TypeVar
 
@@ -50,7 +51,9 @@ __all__ = [
     "Law",
     "LawInputs",
     "LawResult",
+    "LazyDiagnostics",
     "law_class",
+    "lazy_diagnostics",
     "make_law",
     "register",
     "registered_methods",
@@ -292,13 +295,28 @@ class Law(abc.ABC):
         Returns:
             :class:`LawResult` with ``qdot`` (n,) and ``diagnostics``. ``qdot`` never
             exceeds ``limits.qdot_max``, never holds NaN, and with ``shield`` on keeps
-            ``q + dt·qdot`` within the limits less their margin.
+            ``q + dt·qdot`` within the limits less their margin. A law with a compiled
+            step builds its diagnostics when they are first read
+            (:class:`LazyDiagnostics`), from what the call computed.
+
+        Inputs with the signature the compiled step takes (C-contiguous float64 arrays of
+        matching shapes, a float or adaptive gain, a float ``dt``) have their values checked
+        by the kernel alone; anything else, or a value the kernel refuses, gets the full
+        checks below, which name the argument.
 
         Raises:
             ShapeError: wrong shapes, complex values, or NaN/inf inputs.
             JointLimitError: ``q`` outside ``limits``.
             ConfigurationError: ``lam`` or ``dt`` not a finite positive number.
         """
+        kernel = self.scaling == "uniform" and self._kernel_step
+        if kernel:  # the checked signature: no Python check of the values (kernel_call)
+            from redservo.redundancy.kernel_call import diagnose, fast_call
+
+            args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
+            done = fast_call(self, args)
+            if done is not None:
+                return LawResult(done[0], lazy_diagnostics(diagnose, *done[1]))
         x = validate_inputs(
             J1=J1,
             e1=e1,
@@ -310,12 +328,12 @@ class Law(abc.ABC):
             secondary=secondary,
             qdot_prev=qdot_prev,
         )
-        if self.scaling == "uniform" and self._kernel_step:
-            from redservo.redundancy.kernel_call import kernel_call
+        if kernel:
+            from redservo.redundancy.kernel_call import diagnose, kernel_call
 
             done = kernel_call(self, x)
             if done is not None:
-                return LawResult(*done)
+                return LawResult(done[0], lazy_diagnostics(diagnose, *done[1]))
         result = self.compute(x)
         task = self.task_command(x) if self.scaling == "secondary-first" else None
         safe = apply_safety(
@@ -359,6 +377,73 @@ _BEFORE_EVENTS = operator.attrgetter(*[f.name for f in fields(Diagnostics)][:-2]
 """The fields of :class:`Diagnostics` before ``events`` and ``info`` (its last two), in order."""
 if [f.name for f in fields(Diagnostics)][-2:] != ["events", "info"]:  # pragma: no cover
     raise RuntimeError("Diagnostics must end with its events and info fields")
+
+
+# -- diagnostics built when read ------------------------------------------------------------------
+
+_FIELD_NAMES = tuple(f.name for f in fields(Diagnostics))
+_ALL_FIELDS = operator.attrgetter(*_FIELD_NAMES)
+"""Every field of a :class:`Diagnostics`, in order."""
+
+
+class LazyDiagnostics(Diagnostics):
+    """A :class:`Diagnostics` whose fields are computed on the first read of any of them.
+
+    A law call through the step kernel (:mod:`redservo.redundancy.kernel_call`) and the
+    compiled :class:`~redservo.control.Controller` step end with the kernel's raw outputs
+    (integer and float codes, event masks); turning them into a frozen :class:`Diagnostics`
+    with worded events costs more than the law itself on a small arm, and a loop that only
+    sends ``qdot`` never reads it. The build works on a copy of what the call produced (the
+    kernel's buffer, the law's options as they were, ``q`` and ``q̇`` when the safety layer
+    raised events), so a later change of the law, of ``q`` or of ``qdot`` in place does not
+    change what it says. It compares equal to the eager diagnostics, and prints, copies and
+    pickles as a plain :class:`Diagnostics`.
+    """
+
+    __slots__ = ("_build",)
+
+    def __getattr__(self, name: str) -> Any:
+        """Called only for a field not yet set: build them all, then read ``name``."""
+        try:
+            build = object.__getattribute__(self, "_build")
+        except AttributeError:  # made by ``dataclasses.replace``: every field is set
+            raise AttributeError(name) from None
+        if build is None or name not in _FIELD_NAMES:
+            raise AttributeError(name)
+        fn, args = build
+        try:
+            eager = fn(*args)
+        except AttributeError as err:  # not a missing field: say what failed
+            raise RuntimeError(f"building the diagnostics failed: {err}") from err
+        for key, value in zip(_FIELD_NAMES, _ALL_FIELDS(eager), strict=True):
+            object.__setattr__(self, key, value)
+        object.__setattr__(self, "_build", None)
+        return object.__getattribute__(self, name)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Diagnostics):
+            return bool(_ALL_FIELDS(self) == _ALL_FIELDS(other))
+        return NotImplemented
+
+    __hash__ = Diagnostics.__hash__
+
+    def __repr__(self) -> str:
+        return repr(self.eager())
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Diagnostics, _ALL_FIELDS(self))
+
+    def eager(self) -> Diagnostics:
+        """The same diagnostics as a plain :class:`~redservo.Diagnostics`."""
+        return Diagnostics(*_ALL_FIELDS(self))
+
+
+def lazy_diagnostics(fn: Callable[..., Diagnostics], *args: Any) -> LazyDiagnostics:
+    """Diagnostics that are ``fn(*args)``, computed when first read (``args`` must not
+    change in the meantime: pass copies of anything the caller may modify)."""
+    d = object.__new__(LazyDiagnostics)
+    object.__setattr__(d, "_build", (fn, args))
+    return d
 
 
 # -- registry ------------------------------------------------------------------------------------

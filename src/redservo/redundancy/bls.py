@@ -1,9 +1,10 @@
 """Solvers of the bounded least squares ``min ‖J x - r‖² + eps ‖x - z‖²``, ``lo <= x <= hi``
 (the ``qp`` law, :mod:`redservo.redundancy.qp`; docs/formulas.md §10.5).
 
-``solver="auto"`` of the law uses :mod:`qpsolvers` (optional extra ``redservo[qp]``,
-imported lazily) with the first available of :data:`PREFERRED_QP_SOLVERS`; ``daqp`` is
-called directly (the call qpsolvers makes, without its ~20 µs per call). Without a QP
+The law's default solver is compiled (:mod:`redservo.kernels.boxqp`); these are the
+others: a :mod:`qpsolvers` backend by name (optional extra ``redservo[qp]``, imported
+lazily; :data:`PREFERRED_QP_SOLVERS` lists the usual ones), ``daqp`` called directly (the
+call qpsolvers makes, without its ~20 µs per call), and the fallback. Without a QP
 backend, or when it fails, :func:`scipy.optimize.lsq_linear` (``bvls``) on
 ``[J; √eps I] x ≈ [r; √eps z]``; if that fails too, the unconstrained solution clipped to
 the bounds. Each fallback is named in the returned note; nothing here raises.

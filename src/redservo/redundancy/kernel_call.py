@@ -1,12 +1,14 @@
 """A law's call through the step kernel: validated inputs → packs → the same law kernel.
 
-:meth:`redservo.redundancy.Law.__call__` hands its validated inputs to :func:`kernel_call`
-for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
+:meth:`redservo.redundancy.Law.__call__` hands its inputs to :func:`fast_call` (inputs with
+the signature the kernel takes: the kernel alone checks their values) or, after the full
+checks, to :func:`kernel_call`, for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
 ``diagnose`` method, with uniform scaling: the law and its safety layer run in
 :func:`redservo.kernels.control.law_core`, the very kernel that the
 :class:`~redservo.control.Controller` and the campaign loop drive, and the law's own
-``diagnose`` turns the kernel's outputs into its :class:`~redservo.Diagnostics`, as the
-Controller does. There is no second composition of law and safety layer for the object
+``diagnose`` turns the kernel's outputs into its :class:`~redservo.Diagnostics` when they
+are first read (:func:`diagnose`, :class:`~redservo.redundancy.base.LazyDiagnostics`), as
+the Controller does. There is no second composition of law and safety layer for the object
 path. :func:`kernel_compute` is such a law's ``compute`` (its raw command, for
 secondary-first scaling): the same law kernel without the safety layer
 (:func:`redservo.kernels.step.law_raw`). Units: as the law call's (rad or m, s, 1/s).
@@ -14,21 +16,33 @@ secondary-first scaling): the same law kernel without the safety layer
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
+from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.flags import Event
+from redservo.redundancy.gain import AdaptiveGain, gain_value
+from redservo.redundancy.inputs import _array
 from redservo.redundancy.kio import LawOptions, LawOutputs, pack_options
 from redservo.redundancy.safety import safety_events
 
 if TYPE_CHECKING:
     from redservo.redundancy.base import Diagnostics, Law, LawInputs
 
-__all__ = ["kernel_call", "kernel_compute", "kernel_id"]
+__all__ = [
+    "LAW_PARTS",
+    "DiagnoseArgs",
+    "diagnose",
+    "fast_call",
+    "kernel_call",
+    "kernel_compute",
+    "kernel_id",
+]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _KC
@@ -39,9 +53,13 @@ else:
 _EMPTY = np.zeros(0)
 _IDS: dict[type, int] = {}
 _SLICES: dict[int, tuple[int, tuple[slice, ...]]] = {}
-_PARTS = ("qdot", "iout", "fout", "sout", "axes", "axf", "lvals", "lsrc", "svals", "ssrc")
+LAW_PARTS = ("qdot", "iout", "fout", "sout", "axes", "axf", "lvals", "lsrc", "svals", "ssrc")
 _PACK = "_kernel_pack"
 """Where a law keeps its packed options (:func:`_law_pack`)."""
+_BOUND = "_kernel_bound"
+"""Where a law keeps its packs with the limits they were made for (:func:`_bound`)."""
+_NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY, _EMPTY)
+"""No feed-forward, secondary command, previous command or history."""
 
 
 def kernel_id(cls: type) -> int:
@@ -93,38 +111,81 @@ def _slices(n: int) -> tuple[int, tuple[slice, ...]]:
     hit = _SLICES.get(n)
     if hit is None:
         layout = _KC.control_layout(n, 0, 0)
-        parts = [layout[k] for k in _PARTS]
+        parts = [layout[k] for k in LAW_PARTS]
         hit = _SLICES[n] = (parts[-1][1], tuple(slice(*p) for p in parts))
     return hit
 
 
-def kernel_call(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics] | None:
-    """``(q̇, diagnostics)``: the law's safe command for the validated inputs ``x`` through
-    the step kernel, or None when an input fails the kernel's conservative check (finite and
-    below 1e300; the caller then runs :meth:`~redservo.redundancy.Law.compute` and the safety
-    layer of :mod:`redservo.redundancy.safety`)."""
-    J1, e1, q, law_pack, limits, inputs = _packs(law, x)
-    size, parts = _slices(q.shape[0])
-    buf = np.empty(size)
-    lmask, smask, vec = _KC.law_into(q, J1, e1, law_pack, limits, (x.lam, x.dt), inputs, buf)
-    if lmask < 0:
-        return None
-    qdot, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc = (buf[p] for p in parts)
+def diagnose(
+    cls: type[Law],
+    state: dict[str, Any],
+    m: int,
+    buf: FloatArray,
+    parts: tuple[slice, ...],
+    masks: tuple[int, int, FloatArray],
+    safety: tuple[FloatArray, FloatArray, float, JointLimits] | None,
+) -> Diagnostics:
+    """The law's :class:`~redservo.Diagnostics` from a law kernel call's buffer ``buf``
+    (its ``parts``), ``masks`` ``(law mask, safety mask, vec)`` and, when the safety layer
+    raised events, ``(q, q̇, dt, limits)``; the law is rebuilt from its class and attribute
+    dictionary ``state`` as it was at the call (so a later change of an option does not
+    change what the diagnostics say)."""
+    law = object.__new__(cls)
+    law.__dict__.update(state)
+    _, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc = (buf[p] for p in parts)
+    lmask, smask, vec = masks
     more: tuple[Event, ...] = ()
-    if smask:
+    if smask and safety is not None:
+        q, qdot, dt, limits = safety
         more = safety_events(
-            smask,
-            svals,
-            ssrc.astype(np.int64),
-            q,
-            qdot,
-            x.dt,
-            x.limits,
-            float(sout[6]),
-            int(sout[10]),
+            smask, svals, ssrc.astype(np.int64), q, qdot, dt, limits, float(sout[6]), int(sout[10])
         )
     lo = LawOutputs(iout.astype(np.int64), fout, axes, axf, vec, lmask, lvals, lsrc)
-    return qdot, law.diagnose(J1.shape[0], lo, more)  # type: ignore[attr-defined]
+    return law.diagnose(m, lo, more)  # type: ignore[attr-defined]
+
+
+DiagnoseArgs = tuple[Any, ...]
+"""The arguments of :func:`diagnose` for one call (what its lazy diagnostics keep)."""
+
+
+def _run(
+    law: Law,
+    arrays: tuple[FloatArray, FloatArray, FloatArray],
+    limits: JointLimits,
+    packs: tuple[Any, Any, tuple[float, float], tuple[FloatArray, ...]],
+) -> tuple[FloatArray, DiagnoseArgs] | None:
+    """The law kernel call on checked arrays ``(J1, e1, q)`` and ``packs`` ``(law pack,
+    limits pack, (λ, dt), inputs)``: ``(q̇, the arguments of diagnose)``, with copies of
+    what the caller may change afterwards, or None when the kernel's input check fails."""
+    J1, e1, q = arrays
+    law_pack, limits_t, gains, inputs = packs
+    size, parts = _slices(q.shape[0])
+    buf = np.empty(size)
+    lmask, smask, vec = _KC.law_into(q, J1, e1, law_pack, limits_t, gains, inputs, buf)
+    if lmask < 0:
+        return None
+    qdot = buf[parts[0]]
+    safety = (q.copy(), qdot.copy(), gains[1], limits) if smask else None
+    return qdot, (
+        type(law),
+        dict(law.__dict__),
+        J1.shape[0],
+        buf,
+        parts,
+        (lmask, smask, vec),
+        safety,
+    )
+
+
+def kernel_call(law: Law, x: LawInputs) -> tuple[FloatArray, DiagnoseArgs] | None:
+    """``(q̇, the arguments of diagnose)``: the law's safe command for the validated inputs
+    ``x`` through the step kernel, or None when an input fails the kernel's conservative
+    check (finite and below 1e300; the caller then runs
+    :meth:`~redservo.redundancy.Law.compute` and the safety layer of
+    :mod:`redservo.redundancy.safety`). The caller builds the diagnostics when they are read
+    (:func:`~redservo.redundancy.base.lazy_diagnostics` with :func:`diagnose`)."""
+    J1, e1, q, law_pack, limits, inputs = _packs(law, x)
+    return _run(law, (J1, e1, q), x.limits, (law_pack, limits, (x.lam, x.dt), inputs))
 
 
 def kernel_compute(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics]:
@@ -134,3 +195,53 @@ def kernel_compute(law: Law, x: LawInputs) -> tuple[FloatArray, Diagnostics]:
     J1, e1, q, law_pack, limits, inputs = _packs(law, x)
     out = _KS.law_raw(law_pack, limits, (x.lam, x.dt), J1, e1, q, inputs)
     return out[0], law.diagnose(J1.shape[0], LawOutputs(*out[1:]))  # type: ignore[attr-defined]
+
+
+def _bound(law: Law, limits: object, n: int) -> tuple[Any, Any] | None:
+    """``(law pack, limits pack)`` for ``n`` joints, packed once and kept on the law with the
+    limits they were made for; None when ``limits`` is not a JointLimits of ``n`` joints."""
+    hit = law.__dict__.get(_BOUND)
+    pack = _law_pack(law, n)
+    if hit is not None and hit[0] is limits and hit[1] is pack:
+        return pack, hit[2]
+    if type(limits) is not JointLimits or limits.n != n:
+        return None
+    lp = limits_pack(limits)
+    limits_t = (lp.rows, lp.has_v, lp.has_a)
+    law.__dict__[_BOUND] = (limits, pack, limits_t)
+    return pack, limits_t
+
+
+def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
+    """``(q̇, the arguments of diagnose)`` of ``law(J1=..., ...)`` with ``args`` ``(J1, e1, q, limits, lam,
+    dt, de1_dt, secondary, qdot_prev)`` when they have the signature the kernel takes
+    (C-contiguous float64 arrays of matching shapes, a JointLimits of ``n`` joints, float
+    gains or an :class:`~redservo.AdaptiveGain`): no Python check of the values, which the
+    kernel's own check (finite, below 1e300, ``q`` within the limits) makes. None for
+    anything else: the caller then validates the inputs in full
+    (:func:`~redservo.redundancy.inputs.validate_inputs`), which names a faulty argument."""
+    J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev = args
+    if type(J1) is not np.ndarray or J1.ndim != 2 or not isinstance(dt, float):
+        return None
+    m, n = J1.shape
+    if m == 0 or not (_array(J1, (m, n)) and _array(e1, (m,)) and _array(q, (n,))):
+        return None
+    bound = _bound(law, limits, n)
+    if bound is None:
+        return None
+    if isinstance(lam, AdaptiveGain):
+        lam = gain_value(lam, e1)
+    elif not isinstance(lam, float):  # a Python or numpy float; anything else: full checks
+        return None
+    lam, dt = float(lam), float(dt)
+    if not (0.0 < lam < math.inf and 0.0 < dt < math.inf):
+        return None
+    if de1_dt is None and secondary is None and qdot_prev is None:
+        inputs = _NO_INPUTS
+    elif all(
+        v is None or _array(v, (k,)) for v, k in ((de1_dt, m), (secondary, n), (qdot_prev, n))
+    ):
+        inputs = (_given(de1_dt), _given(secondary), _given(qdot_prev), _EMPTY)
+    else:
+        return None
+    return _run(law, (J1, e1, q), limits, (*bound, (lam, dt), inputs))

@@ -44,19 +44,28 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   region (reported in ``notes``). Options that are invalid raise
   :class:`~redservo.errors.ConfigurationError`; a control step never raises.
 * Variables whose bounds coincide are eliminated before solving.
-* **Solvers** (:mod:`redservo.redundancy.bls`): ``solver="auto"`` uses :mod:`qpsolvers` (optional extra
-  ``redservo[qp]``, imported lazily) with the first available of ``daqp``,
-  ``proxsuite``, ``quadprog``, else :func:`scipy.optimize.lsq_linear` (method
-  ``bvls``) on ``[J1; √ε I] q̇ ≈ [ẋ; √ε secondary]``; ``"scipy"`` forces that
-  fallback; any other qpsolvers backend name may be given explicitly. If the
-  QP solver fails, the scipy fallback is used, and if that fails too the
-  unconstrained solution clipped to the bounds (each noted). The result is
-  always clipped to the bounds to remove solver tolerance.
+* **Solvers**: ``solver="auto"`` (or ``"active-set"``) is the compiled primal active-set
+  method of :mod:`redservo.kernels.boxqp` on the reduced problem (a strictly convex QP in a
+  box; the same minimiser as daqp to 1e-9, tests/test_boxqp.py): no Python call per step,
+  no optional dependency, and the one solver of every path (the law object, the compiled
+  ``qp`` step, the campaign loop), so their commands are the same bit for bit. Should it
+  fail (a box with ``q̇_min > q̇_max`` after the safety box, a non-finite number, its
+  iteration cap), :func:`scipy.optimize.lsq_linear` (``bvls``) solves
+  ``[J1; √ε I] q̇ ≈ [ẋ; √ε secondary]``, and if that fails too the unconstrained solution
+  is clipped to the bounds; either is noted and flagged ``solver-fallback``.
+  ``"scipy"`` forces the scipy solver; a :mod:`qpsolvers` backend name (``"daqp"``,
+  ``"proxsuite"``, ``"quadprog"``; extra ``redservo[qp]``, imported lazily; daqp is called
+  directly) selects that library, the reference the compiled solver is checked against
+  (:mod:`redservo.redundancy.bls`; its failures fall back the same way). Campaigns run
+  those library solves from Python (the compiled loop hands the step back), the default
+  compiled one inside the loop. The result is always clipped to the bounds to remove
+  solver tolerance.
 * **Distance rows** (collision avoidance on, :mod:`redservo.redundancy.distance_rows`): the
   velocity dampers ``J_k q̇ ≥ b_k`` of the pairs within ``d_influence`` join the bounds as
   linear inequalities (daqp on the full problem, no polish) unless the unconstrained optimum
   meets them; when even "never closer" (``b_k`` capped at 0) is infeasible within the bounds
-  the rows are dropped for the step (noted) and the distance shield guards.
+  the rows are dropped for the step (noted) and the distance shield guards; without daqp
+  installed (extra ``redservo[qp]``) the rows are dropped with a note.
 * **Safety** (docs/safety.md): the bounds are intersected with the shield's box
   (velocity and acceleration limits of ``limits``, position limits less their margin,
   braking bound), so that ``qp`` satisfies them without the shield; the result is
@@ -82,7 +91,6 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.bls import (
-    PREFERRED_QP_SOLVERS,
     daqp_once,
     qpsolvers_module,
     solve_bounded_least_squares,
@@ -94,13 +102,21 @@ from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import boxqp as _KB
     from redservo.kernels import events as _KE
     from redservo.kernels import qp as _K
 else:
     _K = lazy("qp")
+    _KB = lazy("boxqp")
     _KE = lazy("events")
 
-__all__ = ["BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
+__all__ = ["ACTIVE_SET", "BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
+
+ACTIVE_SET = "active-set"
+"""The ``solver`` name of the compiled active-set solver (:mod:`redservo.kernels.boxqp`),
+what ``"auto"`` means."""
+_FAILURES = {-1: "the bounds do not meet", 0: "numerical failure or iteration cap"}
+"""The compiled solver's status codes that are not a solution, in words."""
 
 
 def qp_velocity_bounds(
@@ -203,8 +219,8 @@ class BoundedLeastSquares(Law):
             "solver",
             "auto",
             kind="str",
-            doc="'auto' (daqp/proxsuite/quadprog if installed, else scipy), 'scipy' or a "
-            "qpsolvers backend",
+            doc="'auto' or 'active-set' (the compiled active-set solver), 'scipy' or an "
+            "installed qpsolvers backend (daqp, proxsuite, quadprog)",
         ),
         RCOND,
     )
@@ -216,7 +232,7 @@ class BoundedLeastSquares(Law):
 
     def _setup(self) -> None:
         solver = self.solver
-        if solver not in ("auto", "scipy"):
+        if solver not in ("auto", ACTIVE_SET, "scipy"):
             qps = qpsolvers_module()
             available = list(qps.available_solvers) if qps is not None else []
             if solver not in available:
@@ -226,22 +242,14 @@ class BoundedLeastSquares(Law):
                     else "qpsolvers is not installed (pip install 'redservo[qp]')"
                 )
                 raise ConfigurationError(
-                    f"solver must be 'auto', 'scipy' or an installed qpsolvers backend; got "
-                    f"{solver!r} ({hint})",
+                    f"solver must be 'auto', {ACTIVE_SET!r}, 'scipy' or an installed qpsolvers "
+                    f"backend; got {solver!r} ({hint})",
                     argument="solver",
                 )
-        self._backend: str | None = None
 
     def _resolve_backend(self) -> str:
-        """The backend name for this instance (``"auto"`` resolved once, lazily)."""
-        if self._backend is None:
-            if self.solver != "auto":
-                self._backend = self.solver
-            else:
-                qps = qpsolvers_module()
-                available = set(qps.available_solvers) if qps is not None else set()
-                self._backend = next((s for s in PREFERRED_QP_SOLVERS if s in available), "scipy")
-        return self._backend
+        """The backend name for this instance: ``"auto"`` is :data:`ACTIVE_SET`."""
+        return ACTIVE_SET if self.solver == "auto" else self.solver
 
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
@@ -335,12 +343,23 @@ class BoundedLeastSquares(Law):
         qp: tuple[Any, ...],
     ) -> tuple[FloatArray, str, NDArray[np.bool_], float]:
         """The bounded least squares with the solver, then the polish and the final checks:
-        ``(q̇, solver note, joints at a bound, relative residual)``. With daqp (the usual
-        backend) the problem reduced by the kernel goes straight to it; any other backend or
-        a failure takes the general path of :func:`solve_bounded_least_squares`."""
+        ``(q̇, solver note, joints at a bound, relative residual)``. The compiled solver
+        (:data:`ACTIVE_SET`) and daqp take the problem reduced by the kernel; any other
+        backend or a failure takes the general path of :func:`solve_bounded_least_squares`."""
         xfix, free, P, c, lof, hif = qp
+        backend, why = self._resolve_backend(), ""
+        if backend == ACTIVE_SET:
+            kin = (k.sec, k.has_sec, k.q, x.dt, k.lp)
+            fixed, polished, active, resid, status = _KB.qp_solve_reduced(
+                k.J1, xdot, lo, hi, xfix, free, P, c, lof, hif, *kin
+            )
+            if status == _KB.SOLVED:
+                used = f"{ACTIVE_SET} + active-set polish" if polished else ACTIVE_SET
+                return fixed, used, active, float(resid)
+            why = f"{ACTIVE_SET} failed ({_FAILURES[int(status)]}); fallback "
+            backend = "scipy"
         xf = None
-        if free.size and self._resolve_backend() == "daqp":
+        if free.size and backend == "daqp":
             daqp = daqp_once()
             if daqp is not None:
                 nf = free.size
@@ -354,13 +373,7 @@ class BoundedLeastSquares(Law):
             )
             return fixed, "daqp + active-set polish" if polished else "daqp", active, float(resid)
         sol, used = solve_bounded_least_squares(
-            k.J1,
-            xdot,
-            lo,
-            hi,
-            eps=eps_abs,
-            z=x.secondary,
-            solver=self._resolve_backend(),
+            k.J1, xdot, lo, hi, eps=eps_abs, z=x.secondary, solver=backend
         )
         fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, sol, k.q, x.dt, k.lp)
-        return fixed, used, active, float(resid)
+        return fixed, why + used, active, float(resid)

@@ -144,21 +144,15 @@ def _renderer(camera: Camera, options: Any, imaging: Imaging) -> Any:
             if any(lens):
                 true_cam = replace(true_cam, k1=lens[0], k2=lens[1], p1=lens[2], p2=lens[3], k3=0.0)
             self.true_optics = Optics(true_cam)
-            h, w = self.optics.shape
-            gu = np.linspace(-imaging.gradient, imaging.gradient, w, dtype=np.float32)
-            gv = np.linspace(-imaging.gradient, imaging.gradient, h, dtype=np.float32)
-            self._gain = (1.0 + gv[:, None]) * (1.0 + gu[None, :])
+            if imaging.gradient != 0.0:  # the light's gain on the quantized image
+                h, w = self.optics.shape
+                gu = np.linspace(-imaging.gradient, imaging.gradient, w, dtype=np.float32)
+                gv = np.linspace(-imaging.gradient, imaging.gradient, h, dtype=np.float32)
+                self.gain = (1.0 + gv[:, None]) * (1.0 + gu[None, :])
 
         def layers(self, scene: Any, bMc: Any, t: float = 0.0) -> Any:
             return scene_layers(
                 scene, as_transform(bMc, "bMc"), t, self.true_optics, self.options.levels
             )
-
-        def render_layers(self, layers: Any) -> Any:
-            img = super().render_layers(layers)
-            if imaging.gradient == 0.0:
-                return img
-            lit = img.astype(np.float32) * self._gain
-            return np.clip(np.rint(lit), 0.0, 255.0).astype(np.uint8)
 
     return _TrueLensRenderer()

@@ -10,7 +10,9 @@ camera frame (docs/formulas.md §1). Shipped models, by name for :func:`make_rob
 
 :class:`DHRobot` builds any other serial arm from a Denavit–Hartenberg table, and
 :class:`URDFRobot` reads one from a URDF file (extra ``redservo[urdf]``; imported on
-first use, with :func:`shipped_urdf` for the shipped ``"panda"`` and ``"ur5e"`` files).
+first use, with :func:`shipped_urdf` for the shipped ``"panda"`` and ``"ur5e"`` files);
+:class:`MJCFRobot` reads one from an MJCF file with MuJoCo (extra ``redservo[mujoco]``;
+:func:`shipped_mjcf` for the trimmed MuJoCo Menagerie ``"panda"`` and ``"ur5e"``).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from redservo.robots.humanoid import Humanoid9
 from redservo.robots.panda import Panda
 
 if TYPE_CHECKING:  # imported lazily by __getattr__ below
+    from redservo.robots.mjcf import MJCFRobot, shipped_mjcf
     from redservo.robots.urdf import URDFRobot, shipped_urdf
 
 __all__ = [
@@ -37,10 +40,12 @@ __all__ = [
     "EyeToHandRobot",
     "Humanoid9",
     "JointType",
+    "MJCFRobot",
     "Panda",
     "Robot",
     "URDFRobot",
     "make_robot",
+    "shipped_mjcf",
     "shipped_urdf",
 ]
 
@@ -50,11 +55,16 @@ _FACTORIES: Final[dict[str, Callable[..., Robot]]] = {
     "panda": Panda,
 }
 
-_LAZY: Final = {"URDFRobot": "redservo.robots.urdf", "shipped_urdf": "redservo.robots.urdf"}
+_LAZY: Final = {
+    "URDFRobot": "redservo.robots.urdf",
+    "shipped_urdf": "redservo.robots.urdf",
+    "MJCFRobot": "redservo.robots.mjcf",
+    "shipped_mjcf": "redservo.robots.mjcf",
+}
 
 
 def __getattr__(name: str) -> Any:
-    """Import :class:`URDFRobot` and :func:`shipped_urdf` on first access."""
+    """Import :class:`URDFRobot`, :class:`MJCFRobot` and their ``shipped_*`` on first access."""
     if name in _LAZY:
         import importlib
 

@@ -213,9 +213,9 @@ def read_urdf(path: str | os.PathLike[str]) -> URDFTree:
     if root.tag == "mujoco":
         raise _fail(
             source,
-            "an MJCF (MuJoCo) model, not a URDF (root <mujoco>, expected <robot>): redservo "
-            "reads robots from URDF; an MJCF arm can be read into a ChainRobot in Python "
-            '(docs/robots.md, "MJCF models")',
+            "an MJCF (MuJoCo) model, not a URDF (root <mujoco>, expected <robot>): give it "
+            "as robot.kind = 'mjcf' with robot.file (MJCFRobot in Python; "
+            'docs/robots.md, "MJCF models")',
         )
     if root.tag != "robot":
         raise _fail(source, f"the root element is <{root.tag}>, expected <robot>")

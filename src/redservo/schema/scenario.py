@@ -26,6 +26,7 @@ from redservo.schema.base import (
 from redservo.schema.camera import CameraSpec
 from redservo.schema.features import AnyFeature
 from redservo.schema.obstacles import CollisionSpec, ObstacleSpec, OcclusionSpec
+from redservo.schema.robot import RobotSpec
 from redservo.schema.scene import AnyObject, Pose
 from redservo.schema.sensor import SensorSpec
 from redservo.schema.simulator import SimulatorSpec
@@ -54,109 +55,6 @@ DT_MIN = 1e-4
 LAM_MIN = 1e-3
 """Smallest gain λ (1/s): a time constant 1/λ of 1000 s (17 min); below it the error does not
 visibly decrease in any run, e.g. ``lam = 1e-300`` ran 600 motionless iterations."""
-
-_Joint = Annotated[float, Field(ge=-BIG, le=BIG, allow_inf_nan=False)]
-_Joints = Annotated[
-    list[_Joint], Field(min_length=1, max_length=1000), Doc("array of numbers (one per joint)")
-]
-
-
-class RobotSpec(Table):
-    """The robot: a shipped model *or* a URDF file, the start and the limits."""
-
-    model: str | None = Field(
-        None, description="a shipped robot (redservo list): afma6 | humanoid9 | panda"
-    )
-    options: dict[str, Any] = Field(
-        {}, description="constructor options of the model (afma6: tool)"
-    )
-    urdf: str | None = Field(
-        None,
-        description="a URDF file (path relative to the scenario file) or a shipped one: panda | "
-        "ur5e (needs redservo[urdf])",
-    )
-    camera_link: str = Field("camera_link", description="URDF: the link the camera is fixed to")
-    base_link: str | None = Field(None, description="URDF: the base link (default: the root)")
-    joints: list[str] | None = Field(
-        None, min_length=1, description="URDF: the servoed joints (default: every movable one)"
-    )
-    locked_q: dict[str, Annotated[float, Field(ge=-BIG, le=BIG, allow_inf_nan=False)]] | None = (
-        Field(None, description="URDF: positions (m or rad) of the locked joints")
-    )
-    eMc: Pose | None = Field(
-        None, description="URDF: camera pose in camera_link (default identity)"
-    )
-    q0: _Joints | None = Field(None, description="start configuration (m or rad)")
-    start_pose: Pose | None = Field(
-        None,
-        description="...or a start camera pose in the base frame, reached by inverse kinematics",
-    )
-    q_guess: _Joints | None = Field(None, description="initial guess of the inverse kinematics")
-    rho: float = num(0.1, gt=0.0, lt=0.5, description="band width of the thresholds (CM01 eq. 3)")
-    margin: float = num(
-        0.01,
-        ge=0.0,
-        lt=0.5,
-        description="keep-out of the position shield at each limit, fraction of the range, < rho",
-    )
-    q_min: _Joints | None = Field(None, description="override of the lower joint limits (m or rad)")
-    q_max: _Joints | None = Field(None, description="override of the upper joint limits (m or rad)")
-    qdot_max: (
-        Annotated[float | list[float], PerJoint(gt=0.0, le=BIG, unit="rad/s or m/s")] | None
-    ) = Field(
-        None, description="override of the joint velocity limits (default: the robot's datasheet)"
-    )
-    qddot_max: (
-        Annotated[float | list[float], PerJoint(gt=0.0, le=1e5, unit="rad/s² or m/s²")] | None
-    ) = Field(None, description="override of the joint acceleration limits")
-
-    @field_validator("model")
-    @classmethod
-    def _known_model(cls, v: str | None) -> str | None:
-        from redservo.robots import ROBOTS
-
-        if v is not None and v.strip().lower() not in ROBOTS:
-            fail(unknown_name("robot", v, ROBOTS))
-        return v
-
-    @model_validator(mode="after")
-    def _consistent(self) -> RobotSpec:
-        urdf_keys = ("base_link", "joints", "locked_q", "eMc")
-        if self.model is None and self.urdf is None:
-            fail("missing required key (a shipped robot; or give robot.urdf, a URDF file)", "model")
-        if self.model is not None and self.urdf is not None:
-            fail("give either model (a shipped robot) or urdf (a URDF file), not both", "urdf")
-        if self.model is not None:
-            for key in [*urdf_keys, "camera_link"]:
-                if key in self.model_fields_set:
-                    fail("only with robot.urdf (a URDF file), not with robot.model", key)
-        elif "options" in self.model_fields_set:
-            fail("only with robot.model; a URDF robot takes camera_link, joints, ...", "options")
-        if self.q0 is None and self.start_pose is None:
-            fail("missing: give q0 (joint positions) or start_pose (camera pose)", "q0")
-        if self.q0 is not None and self.start_pose is not None:
-            fail(
-                "give either q0 (joint positions) or start_pose (camera pose), not both",
-                "start_pose",
-            )
-        if self.q_guess is not None and self.start_pose is None:
-            fail("only with start_pose (it seeds the inverse kinematics)", "q_guess")
-        if self.margin >= self.rho:
-            fail(
-                f"must be below rho = {self.rho:g} (the shield's keep-out lies inside the band), "
-                f"got {self.margin:g}",
-                "margin",
-            )
-        if self.q_min is not None and self.q_max is not None:
-            if len(self.q_min) != len(self.q_max):
-                fail(f"q_min has {len(self.q_min)} entries and q_max {len(self.q_max)}", "q_max")
-            for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max)):
-                if not lo < hi:
-                    fail(
-                        f"q_max[{i}] = {hi:g} must be above q_min[{i}] = {lo:g} (inverted limits)",
-                        f"q_max[{i}]",
-                    )
-        return self
 
 
 class TaskSpec(Table):

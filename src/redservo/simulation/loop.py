@@ -35,8 +35,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Protocol, cast
 
 import numpy as np
@@ -57,11 +55,12 @@ from redservo.control.objectives import (
 from redservo.errors import GeometryError
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
-from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
+from redservo.records import LogBuffer, Outcome, summarize
+from redservo.records.result import SimulationResult
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
-from redservo.sensors import IdealSensor, Sensor, SensorReading
+from redservo.sensors import FrameNoise, IdealSensor, Sensor, SensorReading
 from redservo.simulation.options import SimulationOptions
 from redservo.task import TaskState, VisualTask
 
@@ -83,39 +82,6 @@ class Actuator(Protocol):
     ) -> tuple[FloatArray, FloatArray]: ...
 
     def encoder(self, q: ArrayLike) -> FloatArray: ...
-
-
-@dataclass
-class SimulationResult:
-    """The outcome, typed summary and log of one run."""
-
-    outcome: Outcome
-    summary: RunSummary
-    log: SimulationLog
-    provenance: Any = field(default=None, repr=False, compare=False)
-    """What the run was made from (:class:`redservo.provenance.Provenance`), set by
-    :meth:`redservo.experiment.Experiment.run`; None for a bare :func:`simulate`."""
-    engine: str = "compiled"
-    """The controller's engine (:attr:`redservo.control.Controller.engine`)."""
-    engine_reason: str = ""
-    """Why the controller did not run compiled (one line), or ``""``."""
-
-    def save(self, directory: str | Path, *, extra: dict[str, Any] | None = None) -> Path:
-        """Write ``summary.json``, ``log.npz``, ``log.csv`` and ``diagnostics.json`` into
-        ``directory``, and with a provenance the resolved ``scenario.toml`` and ``run.json``
-        (:mod:`redservo.provenance`: ``redservo run DIR/scenario.toml`` re-runs it)."""
-        import json
-
-        from redservo.provenance import write_run_files
-
-        out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
-        summary = {**self.summary.to_dict(), **(extra or {})}
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        self.log.save_npz(out / "log.npz")
-        self.log.save_csv(out / "log.csv")
-        write_run_files(out, self)
-        return out
 
 
 def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
@@ -291,6 +257,7 @@ class _Run:
         if track is not None:
             track(_tracking_gate(sensor))
         self.rng = np.random.default_rng(opt.seed)
+        self.noise = FrameNoise(opt.noise_std, self.rng)  # a held frame keeps its noise
         self.targets = sorted({term.target for term in ctrl.task.terms})
         # The true Jacobian serves the controller when its model is the true robot.
         self.true_model = ctrl.robot is robot and actuator is None
@@ -351,9 +318,7 @@ class _Run:
         reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
         if reading.s is None:
             return _lost_outcome(reading), None
-        s = reading.s
-        if opt.noise_std > 0:
-            s = s + self.rng.normal(0.0, opt.noise_std, ctrl.task.k)
+        s = self.noise(reading)
         meas = Measurement(s, tuple(reading.inv_depth), reading.stamp)
         if opt.check_image and not all(
             _in_image(self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px)

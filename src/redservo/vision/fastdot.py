@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.kernels.blob import FOUND, window_dot
 from redservo.vision.blobs import Blob, _disc
+from redservo.vision.lazyframe import LazyFrame
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.vision.tracking import ImageDotTracker, _Dot
@@ -73,6 +74,11 @@ def window_blob(
             *((0.0, 0.0, 0.0, 0.0) if lim is None else (1.0, *lim)),
         ]
     )
+    if isinstance(img, LazyFrame):  # compute the kernel's window first (its arithmetic)
+        half = params[2]
+        r0, c0 = max(int(pred[1] - half), 0), max(int(pred[0] - half), 0)
+        img.region(r0, int(pred[1] + half) + 1, c0, int(pred[0] + half) + 1)
+        img = img.pixels
     out = window_dot(img, params, _discs(p))
     if out[0] != FOUND:
         return None

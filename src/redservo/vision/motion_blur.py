@@ -14,28 +14,31 @@ Used by :class:`redservo.sensor_timing.TimedSensor` with an image sensor's ``rea
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from redservo._validation import FloatArray
-from redservo.vision.shapes import Layer
+from redservo._validation import FloatArray, as_transform
+from redservo.camera import MIN_DEPTH
+from redservo.scene import PointSet
+from redservo.vision.lazyframe import LazyFrame, pixels
+from redservo.vision.shapes import Layer, disc_coverage
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.vision.render import Renderer
 
-__all__ = ["exposed_image"]
+__all__ = ["exposed_frame", "exposed_image"]
 
 
 def _mean_layer(group: list[Layer], n: int) -> Layer:
     """The footprint averaged over ``n`` instants (absent from some: zero coverage there)."""
-    r0 = min(ly.rect[0] for ly in group)
-    r1 = max(ly.rect[1] for ly in group)
-    c0 = min(ly.rect[2] for ly in group)
-    c1 = max(ly.rect[3] for ly in group)
+    discs = [ly.disc for ly in group if ly.disc is not None]
+    if len(discs) == len(group) and len({d[2] for d in discs}) == 1:  # a dot's discs
+        cu, cv = (np.array([d[i] for d in discs]) for i in (0, 1))
+        return _layer(group, _disc_mean(cu, cv, discs[0][2], n))
 
     def coverage(rows: slice, cols: slice) -> FloatArray:
         out = np.zeros((rows.stop - rows.start, cols.stop - cols.start))
@@ -49,9 +52,20 @@ def _mean_layer(group: list[Layer], n: int) -> Layer:
                 )
         return out / n
 
+    return _layer(group, coverage)
+
+
+def _layer(group: list[Layer], coverage: Callable[[slice, slice], FloatArray]) -> Layer:
+    """The layer of ``group``'s union rectangle and mean depth with ``coverage``."""
+    rect = (
+        min(ly.rect[0] for ly in group),
+        max(ly.rect[1] for ly in group),
+        min(ly.rect[2] for ly in group),
+        max(ly.rect[3] for ly in group),
+    )
     depth = float(np.mean([ly.depth for ly in group]))
     first = group[0]
-    return Layer(first.name, first.kind, depth, first.level, (r0, r1, c0, c1), coverage)
+    return Layer(first.name, first.kind, depth, first.level, rect, coverage)
 
 
 def exposed_image(
@@ -59,13 +73,92 @@ def exposed_image(
 ) -> NDArray[np.uint8]:
     """One frame (H, W) uint8 exposed over the camera poses and times ``samples``
     (``(bMc 4x4, t s)``, evenly spread over the exposure window; module docstring)."""
-    groups: dict[tuple[str, str, int], list[Layer]] = {}
-    for bMc, t in samples:
-        seen: dict[tuple[str, str], int] = {}
-        for ly in renderer.layers(scene, bMc, t):
-            k = seen.get((ly.name, ly.kind), 0)
-            seen[(ly.name, ly.kind)] = k + 1
-            groups.setdefault((ly.name, ly.kind, k), []).append(ly)
-    layers = [_mean_layer(group, len(samples)) for group in groups.values()]
+    return pixels(exposed_frame(renderer, scene, samples))
+
+
+def exposed_frame(
+    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+) -> LazyFrame | NDArray[np.uint8]:
+    """:func:`exposed_image`, computed where it is read
+    (:meth:`~redservo.vision.render.Renderer.lazy`)."""
+    layers = _dot_layers(renderer, scene, samples)
+    if layers is None:
+        groups: dict[tuple[str, str, int], list[Layer]] = {}
+        for bMc, t in samples:
+            seen: dict[tuple[str, str], int] = {}
+            for ly in renderer.layers(scene, bMc, t):
+                k = seen.get((ly.name, ly.kind), 0)
+                seen[(ly.name, ly.kind)] = k + 1
+                groups.setdefault((ly.name, ly.kind, k), []).append(ly)
+        layers = [_mean_layer(group, len(samples)) for group in groups.values()]
     layers.sort(key=lambda ly: -ly.depth)
-    return renderer.render_layers(layers)
+    return renderer.lazy(layers)
+
+
+def _dot_layers(
+    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+) -> list[Layer] | None:
+    """The mean layers of a scene of point sets only, every instant's dots projected at
+    once: the layers of the general path (the same numbers, groups in the same order),
+    without a layer object per dot and instant. None for any other scene or a renderer
+    with its own :meth:`~redservo.vision.render.Renderer.layers`."""
+    from redservo.vision.render import Renderer
+
+    if type(renderer).layers is not Renderer.layers:
+        return None
+    objs = [obj for obj in map(scene.object, scene.names) if isinstance(obj, PointSet)]
+    if len(objs) != len(scene.names):
+        return None
+    optics, lv = renderer.optics, renderer.options.levels
+    R = lv.dot_radius_px
+    h, w = optics.shape
+    P = np.stack(
+        [
+            np.concatenate(
+                [obj.points @ cMo[:3, :3].T + cMo[:3, 3] for obj, cMo in zip(objs, cMos)]
+            )
+            for cMos in (
+                [scene.cMo(name, as_transform(bMc, "bMc"), t) for name in scene.names]
+                for bMc, t in samples
+            )
+        ]
+    )  # (instants, dots, 3) in the camera frame
+    names = [f"{obj.name}[{k}]" for obj in objs for k in range(len(obj.points))]
+    front = P[..., 2] > MIN_DEPTH
+    UV = optics.to_pixel(P[..., :2] / np.where(front, P[..., 2], 1.0)[..., None])
+    box = np.stack([UV[..., 1] - R - 2, UV[..., 1] + R + 2, UV[..., 0] - R - 2, UV[..., 0] + R + 2])
+    with np.errstate(invalid="ignore"):
+        lo = np.maximum(np.floor(box[0::2]), 0.0)
+        hi = np.minimum(np.ceil(box[1::2]), [[[h]], [[w]]])
+        seen = front & np.isfinite(UV).all(axis=-1) & (lo < hi).all(axis=0)
+    members: dict[int, list[int]] = {}  # dot -> its instants, in the general path's order
+    for i in range(len(samples)):
+        k = np.flatnonzero(seen[i])
+        for j in k[np.argsort(-P[i, k, 2], kind="stable")]:
+            members.setdefault(int(j), []).append(i)
+    layers = []
+    for j, inst in members.items():
+        rect = (
+            int(lo[0, inst, j].min()),
+            int(hi[0, inst, j].max()),
+            int(lo[1, inst, j].min()),
+            int(hi[1, inst, j].max()),
+        )
+        depth = float(np.mean([P[i, j, 2] for i in inst]))
+        cov = _disc_mean(UV[inst, j, 0], UV[inst, j, 1], R, len(samples))
+        layers.append(Layer(names[j], "point", depth, lv.point, rect, cov))
+    return layers
+
+
+def _disc_mean(
+    cu: FloatArray, cv: FloatArray, radius: float, n: int
+) -> Callable[[slice, slice], FloatArray]:
+    """The coverage of a dot's discs summed in order over the instants, divided by ``n``."""
+
+    def coverage(rows: slice, cols: slice) -> FloatArray:
+        out = np.zeros((rows.stop - rows.start, cols.stop - cols.start))
+        for part in disc_coverage(rows, cols, cu, cv, radius):
+            out += part  # 0 outside the disc's own rectangle: the general path's sum
+        return out / n
+
+    return coverage

@@ -38,6 +38,7 @@ from redservo._validation import FloatArray, as_transform
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.scene import Scene
+from redservo.vision.lazyframe import FrameParts, LazyFrame, pixels
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.shapes import Layer, Levels, Rect, scene_layers
 
@@ -98,6 +99,11 @@ class RenderOptions:
                 raise ConfigurationError(f"Levels.{name} must be positive, got {value!r}")
 
 
+_FIELDS: dict[tuple[int, int, int], tuple[NDArray[np.float32], dict[str, Any]]] = {}
+"""The noise field of each ``(seed, height, width)`` drawn lately (at most 4, read-only) and
+the random stream's state right after its draw: each run's renderer restarts at its seed."""
+
+
 def _merge(rects: list[Rect]) -> list[tuple[Rect, list[int]]]:
     """Merge overlapping rectangles; return each merged rectangle with its members."""
     groups: list[tuple[Rect, list[int]]] = [(r, [i]) for i, r in enumerate(rects)]
@@ -140,6 +146,8 @@ class Renderer:
         self.options = options or RenderOptions()
         self.optics = Optics(camera or Camera(), self.options.k1, self.options.k2)
         self._cache: dict[str, Any] = {}
+        self.gain: NDArray[np.float32] | None = None
+        """(H, W) float32 light gain applied to the quantized image (None: none)."""
         self.reset()
 
     def reset(self) -> None:
@@ -179,15 +187,34 @@ class Renderer:
         out: NDArray[np.float32] = cv2.GaussianBlur(img, (0, 0), sigmaX=s, sigmaY=s)
         return out
 
+    def _noise_offset(self) -> tuple[NDArray[np.float32], tuple[int, int]]:
+        """The per-seed noise field (2H, 2W, unit variance) and this frame's random offset
+        ``(r, c)`` into it: the frame's noise is the (H, W) window at that offset, so each
+        pixel's noise depends on the frame and its position only."""
+        h, w = self.optics.shape
+        if "noise" not in self._cache:
+            # a seeded field is always the same: drawn once
+            memo = None if self.options.seed is None else _FIELDS.get((self.options.seed, h, w))
+            if memo is not None:
+                self._cache["noise"] = memo[0]
+                self._rng.bit_generator.state = dict(memo[1])  # the stream as if drawn again
+            else:
+                field_ = self._rng.standard_normal((2 * h, 2 * w), dtype=np.float32)
+                field_.flags.writeable = False
+                self._cache["noise"] = field_
+                if self.options.seed is not None:
+                    if len(_FIELDS) >= 4:
+                        del _FIELDS[next(iter(_FIELDS))]
+                    state = dict(self._rng.bit_generator.state)
+                    _FIELDS[(self.options.seed, h, w)] = (field_, state)
+        r, c = self._rng.integers(0, h), self._rng.integers(0, w)
+        return self._cache["noise"], (int(r), int(c))
+
     def _noise(self) -> NDArray[np.float32]:
         """A random (H, W) window of the per-seed noise field (unit variance)."""
         h, w = self.optics.shape
-        if "noise" not in self._cache:
-            self._cache["noise"] = self._rng.standard_normal((2 * h, 2 * w), dtype=np.float32)
-        field_ = self._cache["noise"]
-        r, c = self._rng.integers(0, h), self._rng.integers(0, w)
-        window: NDArray[np.float32] = field_[r : r + h, c : c + w]
-        return window
+        field_, (r, c) = self._noise_offset()
+        return field_[r : r + h, c : c + w]
 
     def layers(self, scene: Scene, bMc: FloatArray, t: float = 0.0) -> list[Layer]:
         """The objects' footprints at this instant, far to near."""
@@ -198,20 +225,34 @@ class Renderer:
         return self.render_layers(self.layers(scene, bMc, t))
 
     def render_layers(self, layers: list[Layer]) -> NDArray[np.uint8]:
-        """Composite ``layers`` (far to near), blur, add noise, quantize."""
-        cv2 = require_cv2()
+        """Composite ``layers`` (far to near), blur, add noise, quantize: the whole frame."""
+        return pixels(self.lazy(layers))
+
+    def lazy_frame(
+        self, scene: Scene, bMc: FloatArray, t: float = 0.0
+    ) -> LazyFrame | NDArray[np.uint8]:
+        """The frame of :meth:`render`, its pixels computed where they are read
+        (:class:`~redservo.vision.lazyframe.LazyFrame`); a subclass that renders otherwise
+        (its own :meth:`render` or :meth:`render_layers`) gives its whole image."""
+        if type(self).render is not Renderer.render:
+            return self.render(scene, bMc, t)
+        return self.lazy(self.layers(scene, bMc, t))
+
+    def lazy(self, layers: list[Layer]) -> LazyFrame | NDArray[np.uint8]:
+        """The frame of ``layers`` (far to near), computed where it is read; the whole
+        image when a subclass has its own :meth:`render_layers`."""
+        if type(self).render_layers is not Renderer.render_layers:
+            return self.render_layers(layers)
         opt = self.options
         bg, bg_blurred = self._background()
-        if opt.noise_px > 0.0:
-            img = cv2.scaleAdd(self._noise(), float(opt.noise_px), bg_blurred)
-        else:
-            img = bg_blurred.copy()
-        h, w = img.shape
+        field_, offset = self._noise_offset() if opt.noise_px > 0.0 else (bg_blurred, (0, 0))
+        h, w = bg.shape
         m = int(np.ceil(3.0 * opt.blur_px)) + 1 if opt.blur_px > 0.0 else 0
         rects = [
             (max(r0 - m, 0), min(r1 + m, h), max(c0 - m, 0), min(c1 + m, w))
             for r0, r1, c0, c1 in (ly.rect for ly in layers)
         ]
+        patches = []
         for (r0, r1, c0, c1), members in _merge(rects):
             patch = bg[r0:r1, c0:c1].copy()
             for i in sorted(members):  # layers are sorted far to near
@@ -220,10 +261,9 @@ class Renderer:
                 alpha = ly.coverage(slice(lr0, lr1), slice(lc0, lc1)).astype(np.float32)
                 sub = patch[lr0 - r0 : lr1 - r0, lc0 - c0 : lc1 - c0]
                 sub += alpha * (np.float32(ly.level) - sub)
-            delta = patch - bg[r0:r1, c0:c1]
-            img[r0:r1, c0:c1] += self._blur(delta)
-        out: NDArray[np.uint8] = cv2.add(img, 0.0, dtype=cv2.CV_8U)  # rounds and saturates
-        return out
+            patches.append(((r0, r1, c0, c1), self._blur(patch - bg[r0:r1, c0:c1])))
+        parts = FrameParts(bg_blurred, field_, offset, opt.noise_px, patches, self.gain)
+        return LazyFrame(parts)
 
 
 def render(

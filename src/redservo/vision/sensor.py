@@ -47,11 +47,11 @@ from redservo.features import (
     PointFeature,
     SphereFeature,
 )
-from redservo.scene import PointSet
 from redservo.sensors import SensorReading
 from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy
 from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
+from redservo.vision.lazyframe import pixels
 from redservo.vision.moments import dot_moment_features
 from redservo.vision.motion import camera_shift
 from redservo.vision.render import Renderer, RenderOptions
@@ -59,6 +59,7 @@ from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 from redservo.vision.terms import (
     TermState,
     dot_gate_px,
+    dot_term,
     dot_tracker,
     measure_lines,
     measure_sphere,
@@ -151,6 +152,7 @@ class ImageSensor:
         self._sets: dict[str, FloatArray] = {}
         self._detected: NDArray[np.bool_] = np.zeros(0, dtype=bool)
         self._task_id: int | None = None
+        self._dots_only = False  # every term is measured on the dots: read by windows
         self.feature_lost = False
         self.dots_uv: FloatArray = np.zeros((0, 2))
         """Pixel positions (N, 2) of the tracked dots after the last read (for overlays)."""
@@ -205,7 +207,7 @@ class ImageSensor:
             if (tag := tag_term(i, f, scene.object(term.target))) is not None:
                 self._terms.append(tag)
             elif isinstance(f, PointFeature | MomentFeatures):
-                self._terms.append(self._dot_term(i, f, term.target, scene))
+                self._terms.append(dot_term(i, f, term.target, scene, self._sets, self.depth))
             elif isinstance(f, SphereFeature | CylinderFeature | LineFeature):
                 if self.depth == "estimated" and isinstance(f, LineFeature):
                     raise ConfigurationError(
@@ -225,35 +227,9 @@ class ImageSensor:
             # the blob-position tracker, for subclasses that detect blobs themselves
             self._tracker = DotTracker(n_dots, 25.0 + 3.0 * opt.blur_px, self.max_lost_frames)
         self._task_id = id(task)
-
-    def _dot_term(
-        self, i: int, f: PointFeature | MomentFeatures, target: str, scene: Scene
-    ) -> TermState:
-        """The term of a point or moment feature: indices of its dots in the shared tracker."""
-        obj = scene.object(target)
-        if not isinstance(obj, PointSet):
-            raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
-        if target not in self._sets:
-            self._sets[target] = obj.points
-        offset = 0
-        for name, pts_ in self._sets.items():
-            if name == target:
-                break
-            offset += len(pts_)
-        pts = f.point_o[None, :] if isinstance(f, PointFeature) else f.points_o
-        idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
-        if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
-            raise ConfigurationError(
-                f"term {i}: a point of the feature is not a dot of point set {target!r}; "
-                "the image sensor measures only drawn dots"
-            )
-        if self.depth == "estimated" and len(obj.points) < 2:
-            raise ConfigurationError(
-                f"term {i}: depth='estimated' needs a point set of at least 2 dots "
-                f"({target!r} has 1); use depth='desired' or 'true'"
-            )
-        kind = "point" if isinstance(f, PointFeature) else "moments"
-        return TermState(kind, np.array(idx) + offset)
+        self._dots_only = all(
+            st.kind in ("point", "moments") and not isinstance(st, TagTerm) for st in self._terms
+        )
 
     def _truth_uv(self, scene: Scene, bMc: FloatArray, t: float) -> FloatArray:
         """True pixel positions of every tracked dot (NaN behind the camera)."""
@@ -272,10 +248,13 @@ class ImageSensor:
     ) -> SensorReading:
         """Render (or take ``image``, e.g. a motion-blurred exposure of this pose and time:
         :mod:`redservo.vision.motion_blur`), detect and return the measured features."""
-        image = self.renderer.render(scene, bMc, t) if image is None else image
         first = self._task_id != id(task)
         if first:
             self._plan(task, scene)
+        if image is None:  # computed where it is read: the tracker's windows (dots only)
+            image = self.renderer.lazy_frame(scene, bMc, t)
+        if not self._dots_only:
+            image = pixels(image)
         truth: list[FloatArray | None] = [None] * len(task.terms)
         truth_d: list[FloatArray | None] = [None] * len(task.terms)
         if first or self.depth == "true":

@@ -40,7 +40,7 @@ from redservo.features.sphere import sphere_ellipse
 from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere, Tag
 from redservo.vision.optics import Optics
 
-__all__ = ["Layer", "Levels", "scene_layers"]
+__all__ = ["Layer", "Levels", "disc_coverage", "scene_layers"]
 
 Rect = tuple[int, int, int, int]
 """Pixel rectangle ``(row0, row1, col0, col1)``, half-open."""
@@ -68,6 +68,8 @@ class Layer:
     level: float
     rect: Rect
     coverage: Callable[[slice, slice], FloatArray]
+    disc: tuple[float, float, float] | None = None
+    """A dot's disc ``(u, v, radius)`` (pixels), whose coverage is :func:`disc_coverage`."""
 
 
 def _clip_rect(r0: float, r1: float, c0: float, c1: float, shape: tuple[int, int]) -> Rect | None:
@@ -79,14 +81,22 @@ def _clip_rect(r0: float, r1: float, c0: float, c1: float, shape: tuple[int, int
     return lo_r, hi_r, lo_c, hi_c
 
 
+def disc_coverage(
+    rows: slice, cols: slice, cu: FloatArray, cv: FloatArray, radius: float
+) -> FloatArray:
+    """Coverage (n, len(rows), len(cols)) of the n discs of centres ``(cu, cv)`` (n,) and
+    ``radius`` (pixels): ``clip(radius + 0.5 - d, 0, 1)``, ``d`` from the pixel centres."""
+    du = (np.arange(cols.start, cols.stop) + 0.5)[None, :] - cu[:, None]
+    dv = (np.arange(rows.start, rows.stop) + 0.5)[None, :] - cv[:, None]
+    d = np.sqrt(du[:, None, :] ** 2 + dv[:, :, None] ** 2)
+    return np.clip(radius + 0.5 - d, 0.0, 1.0)
+
+
 def _disc(optics: Optics, uv: FloatArray, radius: float) -> Callable[[slice, slice], FloatArray]:
-    cu, cv = float(uv[0]), float(uv[1])
+    cu, cv = np.array([uv[0]], dtype=float), np.array([uv[1]], dtype=float)
 
     def coverage(rows: slice, cols: slice) -> FloatArray:
-        du = np.arange(cols.start, cols.stop) + 0.5 - cu
-        dv = np.arange(rows.start, rows.stop) + 0.5 - cv
-        d = np.sqrt(du[None, :] ** 2 + dv[:, None] ** 2)
-        return np.clip(radius + 0.5 - d, 0.0, 1.0)
+        return disc_coverage(rows, cols, cu, cv, radius)[0]
 
     return coverage
 
@@ -157,20 +167,17 @@ def _ellipse_rect(optics: Optics, radius: float, X0: FloatArray) -> Rect | None:
 
 def _point_layers(obj: PointSet, cMo: FloatArray, optics: Optics, lv: Levels) -> list[Layer]:
     P = obj.points @ cMo[:3, :3].T + cMo[:3, 3]
+    front = P[:, 2] > MIN_DEPTH
+    UV = optics.to_pixel(P[:, :2] / np.where(front, P[:, 2], 1.0)[:, None])  # all dots at once
     out = []
     R = lv.dot_radius_px
-    for k, X in enumerate(P):
-        if X[2] <= MIN_DEPTH:
-            continue
-        uv = optics.to_pixel(X[:2] / X[2])
-        if not np.all(np.isfinite(uv)):
-            continue
+    for k in np.flatnonzero(front & np.isfinite(UV).all(axis=1)):
+        uv = UV[k]
         rect = _clip_rect(uv[1] - R - 2, uv[1] + R + 2, uv[0] - R - 2, uv[0] + R + 2, optics.shape)
         if rect is not None:
+            cov, disc = _disc(optics, uv, R), (float(uv[0]), float(uv[1]), R)
             out.append(
-                Layer(
-                    f"{obj.name}[{k}]", "point", float(X[2]), lv.point, rect, _disc(optics, uv, R)
-                )
+                Layer(f"{obj.name}[{k}]", "point", float(P[k, 2]), lv.point, rect, cov, disc)
             )
     return out
 

@@ -21,10 +21,12 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.features import SphereFeature
+from redservo.features import MomentFeatures, PointFeature, SphereFeature
+from redservo.scene import PointSet, Scene
 from redservo.vision.depth import DepthPolicy, estimate_inv_depth
 from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
+from redservo.vision.lazyframe import pixels
 from redservo.vision.lines import orient_like, refine_line
 from redservo.vision.optics import require_cv2
 from redservo.vision.render import Renderer, RenderOptions
@@ -36,6 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "TermState",
     "count_dot_blobs",
+    "dot_term",
     "dot_tracker",
     "flat_field",
     "gray_threshold",
@@ -161,6 +164,48 @@ def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageD
     )
 
 
+def dot_term(
+    i: int,
+    f: PointFeature | MomentFeatures,
+    target: str,
+    scene: Scene,
+    sets: dict[str, FloatArray],
+    depth: DepthPolicy,
+) -> TermState:
+    """The state of task term ``i``, a point or moment feature ``f`` on the point set
+    ``target``: the indices of its dots among the dots of ``sets`` (each point set's dots,
+    in order; ``target``'s added if new) as one dot tracker follows them.
+
+    Raises:
+        ConfigurationError: ``target`` is not a point set, a point of ``f`` is not one of its
+            dots, or ``depth='estimated'`` with a single dot.
+    """
+    obj = scene.object(target)
+    if not isinstance(obj, PointSet):
+        raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
+    if target not in sets:
+        sets[target] = obj.points
+    offset = 0
+    for name, pts_ in sets.items():
+        if name == target:
+            break
+        offset += len(pts_)
+    pts = f.point_o[None, :] if isinstance(f, PointFeature) else f.points_o
+    idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
+    if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
+        raise ConfigurationError(
+            f"term {i}: a point of the feature is not a dot of point set {target!r}; "
+            "the image sensor measures only drawn dots"
+        )
+    if depth == "estimated" and len(obj.points) < 2:
+        raise ConfigurationError(
+            f"term {i}: depth='estimated' needs a point set of at least 2 dots "
+            f"({target!r} has 1); use depth='desired' or 'true'"
+        )
+    kind = "point" if isinstance(f, PointFeature) else "moments"
+    return TermState(kind, np.array(idx) + offset)
+
+
 def track_dots(
     tracker: ImageDotTracker,
     image: NDArray[np.uint8],
@@ -173,14 +218,18 @@ def track_dots(
     the predicted image motion ``shift`` (N, 2) pixels of each dot, if given).
 
     Appends to ``notes`` the dots lost in this frame with their reasons
-    (:data:`~redservo.vision.tracking.LOSS_REASONS`) and, when the whole-image blob
-    count (:func:`count_dot_blobs`) differs from the number of dots, that count.
+    (:data:`~redservo.vision.tracking.LOSS_REASONS`) and, on the first frame and on a frame
+    where a dot was lost (where it says why), the whole-image blob count
+    (:func:`count_dot_blobs`) when it differs from the number of dots: a frame where every
+    dot was found is not counted (a pass over the whole image, which ``image``, a
+    :class:`~redservo.vision.lazyframe.LazyFrame`, then never computes).
     """
     if start_uv is not None:
         track = tracker.start(image, start_uv)
     else:
         track = tracker.update(image, shift)
-    n_blobs, n_border = count_dot_blobs(image, opt)
+    everyone = start_uv is None and bool(track.detected.all())
+    n_blobs, n_border = (tracker.n_dots, 0) if everyone else count_dot_blobs(pixels(image), opt)
     n = tracker.n_dots
     if n_blobs != n:
         notes.append(f"found {n_blobs} dot blob(s), expected {n}")

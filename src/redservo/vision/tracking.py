@@ -62,6 +62,7 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
 from redservo.vision.fastdot import similarity_prediction, window_blob
+from redservo.vision.lazyframe import LazyFrame, window
 from redservo.vision.optics import require_cv2
 
 __all__ = ["LOSS_REASONS", "ImageDotTracker"]
@@ -345,7 +346,7 @@ class ImageDotTracker:
         r0, r1 = max(int(centre[1] - half), 0), min(int(centre[1] + half) + 1, H)
         if c1 - c0 < 2 or r1 - r0 < 2:
             return None, "out_of_image", False
-        win = img[r0:r1, c0:c1]
+        win = window(img, r0, r1, c0, c1)
         bright = self.polarity == "bright"
         reason = ""
         for j, thr in enumerate(self._thresholds(d, win)):
@@ -414,7 +415,10 @@ def _copy(d: _Dot) -> _Dot:
     return _Dot(d.uv, d.vel, d.level, d.background, d.area, d.size, d.lost)
 
 
-def _check_image(image: Any) -> NDArray[np.uint8]:
+def _check_image(image: Any) -> Any:
+    """``image`` as a 2-D uint8 array, or the :class:`LazyFrame` itself (read by windows)."""
+    if isinstance(image, LazyFrame):
+        return image
     img = np.asarray(image)
     if img.ndim != 2 or img.dtype != np.uint8:
         raise ShapeError(f"image must be a 2-D uint8 array, got {img.dtype} of shape {img.shape}")
