@@ -55,7 +55,7 @@ from redservo.control.objectives import (
 from redservo.errors import GeometryError
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
-from redservo.records import LogBuffer, Outcome, summarize
+from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
 from redservo.records.result import SimulationResult
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
