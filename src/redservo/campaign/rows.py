@@ -55,6 +55,7 @@ def _columns(joint_names: Sequence[str]) -> list[tuple[str, str]]:
         ("velocity_violations", "int"),
         ("acceleration_violations", "int"),
         ("shield_activations", "int"),
+        ("min_distance", "float"),
         ("flags", "str"),
         ("error", "str"),
     ]
@@ -94,6 +95,7 @@ def _summary_columns(summary: Mapping[str, Any], joint_names: Sequence[str]) -> 
         "velocity_violations": int(summary.get("velocity_violations", 0)),
         "acceleration_violations": int(summary.get("acceleration_violations", 0)),
         "shield_activations": int(summary.get("shield_activations", 0)),
+        "min_distance": _nan_if_none(summary.get("min_distance")),  # m, NaN: not measured
         "flags": ";".join(sorted(summary.get("flags", {}))),
         "error": "",
     }
@@ -122,6 +124,7 @@ def _error_columns(exc: BaseException) -> dict[str, Any]:
         "velocity_violations": 0,
         "acceleration_violations": 0,
         "shield_activations": 0,
+        "min_distance": nan,
         "flags": "",
         "error": " ".join(f"{type(exc).__name__}: {exc}".split()),  # one line
     }

@@ -67,6 +67,8 @@ class RunTable:
         self.velocity[k, i] = int(row.get("velocity_violations") or 0) > 0
         self.attempts[k, i] = int(row["attempts"])
         outcome = str(row["outcome"])
+        if float(row.get("min_distance") or 0.0) < 0.0:  # overlapped: a collision, a failure
+            outcome = "collision"
         if outcome not in self.outcomes:
             self.outcomes.append(outcome)
         self.outcome[k, i] = self.outcomes.index(outcome)

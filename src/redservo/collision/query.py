@@ -21,6 +21,7 @@ from redservo._validation import FloatArray
 from redservo.collision.pairs import self_pairs
 from redservo.collision.robot import LinkCapsule, link_capsules, point_jacobians
 from redservo.collision.shapes import Obstacle
+from redservo.collision.urdf_query import is_urdf, urdf_distances
 from redservo.robots.base import Robot
 
 __all__ = ["DistanceRecord", "distances"]
@@ -54,14 +55,21 @@ def _transform(M: FloatArray) -> Any:
     return coal.Transform3s(np.ascontiguousarray(M[:3, :3]), np.ascontiguousarray(M[:3, 3]))
 
 
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``a × b`` of two 3-vectors (numpy's formula, without its broadcasting overhead)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
 def _capsule_frame(A: FloatArray, B: FloatArray) -> FloatArray:
     """A frame at the segment's middle whose z axis runs from ``A`` to ``B``."""
     z = (B - A) / np.linalg.norm(B - A)
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
+    x = _cross(helper, z)
     x /= np.linalg.norm(x)
     M = np.eye(4)
-    M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    M[:3, :3] = np.column_stack([x, _cross(z, x), z])
     M[:3, 3] = 0.5 * (A + B)
     return M
 
@@ -132,7 +140,8 @@ def distances(
         ('post', (7,))
 
     Args:
-        robot: A built-in model (see :func:`~redservo.collision.robot.link_capsules`).
+        robot: A built-in model (see :func:`~redservo.collision.robot.link_capsules`), or a
+            URDF robot with ``<collision>`` elements (:mod:`~redservo.collision.urdf_query`).
         q: (n,) joint positions (rad or m); not checked against the limits.
         obstacles: The obstacles (world = base frame).
         t: Time (s) at which the obstacles are posed.
@@ -144,6 +153,8 @@ def distances(
         One record per pair: every link against every obstacle, then the self pairs.
     """
     qa = robot.check_q(q, check_limits=False)
+    if capsules is None and is_urdf(robot):  # its own <collision> elements
+        return list(urdf_distances(robot, qa, obstacles, t=t, self_collision=self_collision))
     caps = tuple(capsules) if capsules is not None else link_capsules(robot)
     O, J = point_jacobians(robot, qa)
     links = [_Link(c, O, J) for c in caps]

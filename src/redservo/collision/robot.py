@@ -18,7 +18,8 @@ rather than measured from CAD, rounded up (a margin is safer than a miss):
   workspace, are not modelled.
 
 Change or extend with :func:`link_capsules` ``radii=`` (a mapping from frame name to
-radius). Other robots (URDF files) have no collision model yet (a :class:`ConfigurationError`).
+radius). A URDF robot uses its own ``<collision>`` elements
+(:mod:`redservo.collision.urdf_query`).
 """
 
 from __future__ import annotations
@@ -105,7 +106,7 @@ def _poses(robot: Robot, q: FloatArray) -> dict[str, FloatArray]:
     if not isinstance(robot, DHRobot | Afma6):
         raise ConfigurationError(
             f"robot {robot.name!r} has no built-in collision model (built-in: Afma6, "
-            "Humanoid9, Panda and any DHRobot; URDF collision elements are not read yet)",
+            "Humanoid9, Panda and any DHRobot; a URDF robot uses its <collision> elements)",
             argument="robot",
         )
     return dict(robot.link_poses(q, check_limits=False))
@@ -128,12 +129,14 @@ def point_jacobians(robot: Robot, q: FloatArray) -> tuple[FloatArray, FloatArray
         return O, _afma6_jacobians(robot, q, O.shape[0])
     chain: Any = robot._chain  # type: ignore[attr-defined]  # a DHRobot (see _poses)
     _, Z, P = chain(np.ascontiguousarray(q, dtype=np.float64))
-    J = np.zeros((O.shape[0], 3, robot.n))
-    prismatic = [t == "prismatic" for t in robot.joint_types]
-    for k in range(1, O.shape[0]):
-        for j in range(min(k, robot.n)):
-            J[k, :, j] = Z[j] if prismatic[j] else np.cross(Z[j], O[k] - P[j])
-    return O, J
+    n = robot.n
+    Z, P = np.asarray(Z)[:n], np.asarray(P)[:n]
+    prismatic = np.array([t == "prismatic" for t in robot.joint_types])
+    # Column j of frame k: z_j (prismatic) or z_j x (o_k - p_j), for the joints j < k only.
+    cols = np.cross(Z[None, :, :], O[:, None, :] - P[None, :, :])  # (F, n, 3)
+    cols[:, prismatic] = Z[prismatic]
+    before = np.arange(n)[None, :] < np.arange(O.shape[0])[:, None]
+    return O, np.ascontiguousarray(np.where(before[:, :, None], cols, 0.0).transpose(0, 2, 1))
 
 
 def _afma6_jacobians(robot: Any, q: FloatArray, frames: int) -> FloatArray:

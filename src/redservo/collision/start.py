@@ -1,8 +1,9 @@
 """The start of a scenario with ``[[obstacles]]`` must be collision-free.
 
 :func:`check_clear` raises one :class:`~redservo.errors.ScenarioError` naming the
-obstacle's key and the pair in contact. A robot without a built-in collision model (a
-URDF arm, for now) is not checked: a :class:`UserWarning` says so, once per build.
+obstacle's key and the pair in contact. A robot without a collision model (a URDF arm
+without ``<collision>`` elements) is not checked: a :class:`UserWarning` says so, once per
+build.
 :func:`scenario_collision` builds the run's collision set-up from ``[collision]``.
 """
 
@@ -26,7 +27,9 @@ __all__ = ["check_clear", "scenario_collision"]
 
 
 def check_clear(sc: Scenario, robot: Robot, q0: FloatArray, obstacles: Sequence[Obstacle]) -> None:
-    """Raise if a link of ``robot`` at ``q0`` touches an obstacle at t = 0 (distance ≤ 0 m)."""
+    """Raise if a link of ``robot`` at ``q0`` touches an obstacle at t = 0 (distance ≤ 0 m)
+    or, with a ``[collision]`` table (enabled or not, so that a campaign draws the same starts
+    with and without avoidance), lies closer to one than its ``d_safe``."""
     if not obstacles:
         return
     arm = getattr(robot, "carrier", robot)  # camera.mount = "world": the arm carrying the target
@@ -40,12 +43,21 @@ def check_clear(sc: Scenario, robot: Robot, q0: FloatArray, obstacles: Sequence[
         )
         return
     index = {o.name: i for i, o in enumerate(obstacles)}
+    spec = sc.spec.collision
+    d_safe = 0.0 if spec is None else spec.d_safe
     for rec in records:
         if rec.distance <= 0.0:
             raise sc.error(
                 f"obstacles[{index[rec.second]}]",
                 f"the start configuration is in collision: link {rec.first!r} and obstacle "
                 f"{rec.second!r} overlap by {-rec.distance * 1000:.1f} mm",
+            )
+        if rec.distance < d_safe:
+            raise sc.error(
+                f"obstacles[{index[rec.second]}]",
+                f"the start configuration is within collision.d_safe = {d_safe * 1000:.1f} mm: "
+                f"link {rec.first!r} is {rec.distance * 1000:.1f} mm from obstacle "
+                f"{rec.second!r} (no law could keep d_safe from there)",
             )
 
 

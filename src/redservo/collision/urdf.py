@@ -9,8 +9,8 @@ folder above the URDF holding a ROS ``package.xml``, else the URDF's folder; the
 or unreadable mesh is one :class:`~redservo.errors.GeometryError` naming the file and the
 link. Units: metres.
 
-Not done yet: the distances and Jacobians of these geometries for a
-:class:`~redservo.robots.URDFRobot` (the built-in robots have them, :mod:`.query`).
+Their distances and Jacobians for a :class:`~redservo.robots.URDFRobot` are
+:mod:`redservo.collision.urdf_query`'s (used by :func:`redservo.collision.distances`).
 """
 
 from __future__ import annotations

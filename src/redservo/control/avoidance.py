@@ -44,9 +44,11 @@ from redservo._validation import FloatArray
 from redservo.collision.query import distances
 from redservo.collision.robot import LinkCapsule, link_capsules
 from redservo.collision.shapes import Obstacle
+from redservo.collision.urdf_query import is_urdf, urdf_elements
 from redservo.control.objectives import ObjectiveContext
 from redservo.errors import ConfigurationError
 from redservo.redundancy.base import Diagnostics
+from redservo.redundancy.distance_rows import bind_distances
 from redservo.redundancy.flags import Event, Flag
 from redservo.robots.base import Robot
 from redservo.scene import Static
@@ -58,6 +60,7 @@ __all__ = [
     "check_collision",
     "collision_arm",
     "distance_shield",
+    "exact_scale",
     "repulsive_command",
     "shield_command",
 ]
@@ -77,6 +80,8 @@ class PairDistances(NamedTuple):
     """(P,) ``∂d/∂t`` (m/s) from the obstacles' own motion (0 for static ones and self pairs)."""
     names: tuple[str, ...]
     """(P,) the pairs as ``"link/obstacle"`` or ``"link/link"``."""
+    kinds: tuple[str, ...] = ()
+    """(P,) each pair's kind, ``"environment"`` or ``"self"``."""
 
     def closest(self) -> tuple[float, str]:
         """The smallest distance (m) and its pair (``(inf, "")`` without pairs)."""
@@ -105,7 +110,10 @@ class Collision:
         damping: ``μ`` (m/rad, > 0) of the repulsion's damped inverse.
         enabled: False: only measured (the simulator's ``collision`` outcome and log
             columns), neither avoided nor shielded.
-        avoid: The repulsive objective (:class:`CollisionAvoidance`).
+        avoid: Avoid: the repulsive objective (:class:`CollisionAvoidance`) and the
+            velocity-damper rows of ``qp``, ``sns`` and ``predictive``
+            (:mod:`redservo.redundancy.distance_rows`).
+        repel: With ``avoid``, the repulsive objective acts (False: the rows alone).
         shield: The distance shield (:func:`distance_shield`) in the controller.
         capsules: The robot's capsules (default :func:`~redservo.collision.link_capsules`).
 
@@ -121,6 +129,7 @@ class Collision:
     damping: float = 0.05
     enabled: bool = True
     avoid: bool = True
+    repel: bool = True
     shield: bool = True
     capsules: tuple[LinkCapsule, ...] | None = None
     _last: tuple[Any, PairDistances] | None = field(default=None, init=False, repr=False)
@@ -152,6 +161,11 @@ class Collision:
                 )
 
     @property
+    def last_time(self) -> float:
+        """The time (s) of the last :meth:`measure` (0 before the first)."""
+        return 0.0 if self._last is None else float(self._last[0][2])
+
+    @property
     def active(self) -> bool:
         """Whether there is anything to measure (an obstacle or the self pairs)."""
         return bool(self.obstacles) or self.self_collision
@@ -159,8 +173,9 @@ class Collision:
     def check_robot(self, robot: Robot) -> None:
         """Raise a :class:`ConfigurationError` (``argument="collision"``) if ``robot`` has no
         collision model."""
+        arm = collision_arm(robot)
         try:
-            link_capsules(collision_arm(robot))
+            urdf_elements(arm) if is_urdf(arm) and self.capsules is None else link_capsules(arm)
         except ConfigurationError as exc:
             raise ConfigurationError(str(exc), argument="collision") from None
 
@@ -187,15 +202,19 @@ class Collision:
             np.array([r.jacobian for r in recs], dtype=float).reshape(len(recs), arm.n),
             drift,
             tuple(f"{r.first}/{r.second}" for r in recs),
+            tuple(r.kind for r in recs),
         )
         self._last = (key, out)
         return out
 
 
-def check_collision(collision: object, robot: Robot) -> Collision | None:
+def check_collision(collision: object, robot: Robot, law: object = None) -> Collision | None:
     """``collision`` checked for a controller of ``robot``: None or a :class:`Collision`
-    whose robot has a collision model (else a ``ConfigurationError``, ``argument="collision"``)."""
+    whose robot has a collision model (else a ``ConfigurationError``, ``argument="collision"``).
+    A ``law`` with velocity-damper rows (``qp``, ``sns``, ``predictive``) gets the set-up
+    (:func:`redservo.redundancy.distance_rows.bind_distances`)."""
     if collision is None:
+        bind_distances(law, None, robot)
         return None
     if not isinstance(collision, Collision):
         raise ConfigurationError(
@@ -205,6 +224,7 @@ def check_collision(collision: object, robot: Robot) -> Collision | None:
         )
     if collision.active:
         collision.check_robot(robot)
+    bind_distances(law, collision, robot)
     return collision
 
 
@@ -308,6 +328,7 @@ def shield_command(
         return qdot, diag
     pd = c.measure(robot, q, t)
     s, k = distance_shield(qdot, pd.d, pd.J, dt=dt, d_safe=c.d_safe, drift=pd.drift)
+    s, k = exact_scale(c, robot, q, t, dt, qdot, pd, s, k)
     if k < 0:
         return qdot, diag
     cmd = qdot * s
@@ -321,6 +342,36 @@ def shield_command(
     return cmd, dataclasses.replace(diag, events=(*diag.events, *events))
 
 
+def exact_scale(
+    c: Collision,
+    robot: Robot,
+    q: FloatArray,
+    t: float,
+    dt: float,
+    qdot: FloatArray,
+    pd: PairDistances,
+    s: float,
+    k: int,
+) -> tuple[float, int]:
+    """:func:`distance_shield`'s scale ``s`` checked on the true geometry: the pairs'
+    distances at ``q + dt s q̇`` and ``t + dt`` (one more query, only when a pair is predicted
+    within ``d_influence``). The first-order prediction misses the distance's curvature
+    (a link swinging past a post by several cm a period lands up to 0.2 mm under ``d_s``);
+    while a pair would land under ``min(d_s, its distance at rest)``, ``s`` shrinks by 0.6
+    (at most 8 times, then 0). Returns ``(s, k)`` as :func:`distance_shield` does."""
+    rest = pd.d + dt * pd.drift
+    if s <= 0.0 or not np.any(rest + dt * s * (pd.J @ qdot) < c.d_influence):
+        return s, k
+    floor = np.minimum(c.d_safe, rest)
+    for _ in range(8):
+        gap = c.measure(robot, q + dt * s * qdot, t + dt).d - floor
+        j = int(np.argmin(gap))
+        if gap[j] >= 0.0:
+            return s, k
+        s, k = 0.6 * s, j
+    return 0.0, k
+
+
 @dataclass
 class CollisionAvoidance:
     """The repulsive objective of a :class:`Collision` (module docstring): ``q̇_rep`` as the
@@ -330,7 +381,7 @@ class CollisionAvoidance:
 
     def __call__(self, ctx: ObjectiveContext) -> tuple[FloatArray | None, str | None]:
         c = self.collision
-        if not (c.enabled and c.avoid and c.active):
+        if not (c.enabled and c.avoid and c.repel and c.active):
             return None, None
         if ctx.robot is None:
             raise ConfigurationError(

@@ -156,7 +156,7 @@ class Controller:
         self.image_motion = check_image_motion(image_motion)
         """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
         self._motion_rows = point_rows(task) if image_motion is not None else ()
-        self.collision = check_collision(collision, robot)
+        self.collision = check_collision(collision, robot, law)
         """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self.compensate_latency = bool(compensate_latency)

@@ -3,7 +3,8 @@
 A run is a **success** only if it converged with every joint at least ``min_margin``
 (fraction of its range) from its hard limits all along, no command exceeded a velocity
 or acceleration limit, and the position shield never had to act: a method that needed
-the shield did not avoid the limit by itself. Joint indices are 0-based everywhere.
+the shield did not avoid the limit by itself, and no collision pair ever overlapped
+(``min_distance < 0``). Joint indices are 0-based everywhere.
 """
 
 from __future__ import annotations
@@ -103,6 +104,16 @@ class RunSummary(Mapping[str, Any]):
     """The pair at :attr:`min_distance` (``"link/obstacle"`` or ``"link/link"``), or None."""
     collision: dict[str, Any] | None = None
     """``{"pair", "distance" (m, <= 0), "iteration"}`` of the contact that ended the run."""
+    min_distance_by_kind: dict[str, float] | None = None
+    """Smallest distance (m) per pair kind, ``"environment"`` (link/obstacle) and ``"self"``
+    (link/link), over the steps measured; None when none was measured."""
+    steps_within_influence: int | None = None
+    """Steps in which some pair was closer than ``d_influence``; None when not measured."""
+    min_manipulability: float | None = None
+    """Smallest Yoshikawa measure ``sqrt(det(J1 J1ᵀ))`` of the task Jacobian over the run
+    (:mod:`redservo.control.manipulability`); None when not measured."""
+    min_singular_value: float | None = None
+    """Smallest singular value of the task Jacobian over the run; None when not measured."""
 
     def __getitem__(self, key: str) -> Any:
         if key not in _FIELDS:
@@ -160,6 +171,8 @@ def summarize(
     dt: float | None = None,
     min_margin: float = SUCCESS_MARGIN,
     collision: dict[str, Any] | None = None,
+    distances: Mapping[str, Any] | None = None,
+    singularity: Mapping[str, Any] | None = None,
 ) -> RunSummary:
     """Return the typed run summary (module docstring for ``success``).
 
@@ -171,6 +184,10 @@ def summarize(
         dt: Control period (s) for the acceleration check (default: from ``log.t``).
         min_margin: Required margin for success, fraction of each range.
         collision: ``{"pair", "distance", "iteration"}`` of a contact that ended the run.
+        distances: ``min_distance_by_kind`` and ``steps_within_influence``
+            (:meth:`redservo.collision.tally.DistanceTally.fields`), or None.
+        singularity: ``min_manipulability`` and ``min_singular_value``
+            (:meth:`redservo.control.manipulability.SingularityMargin.fields`), or None.
     """
     n = limits.n
     if dt is None:
@@ -192,8 +209,10 @@ def summarize(
     ratio, v_viol, a_viol = _rates(log, limits, dt)
     flags = _flag_counts(log)
     shield = flags[Flag.SHIELD_ACTED.label].count if Flag.SHIELD_ACTED.label in flags else 0
+    extra = {**_closest(log, collision), **(distances or {}), **(singularity or {})}
     success = (
-        outcome == "converged"
+        _clear(extra["min_distance"])
+        and outcome == "converged"
         and clear_of_limits(margin, min_margin)
         and v_viol == 0
         and a_viol == 0
@@ -215,9 +234,14 @@ def summarize(
         max_camera_speed=max_cam,
         discontinuity=disc,
         flags=flags,
-        **_closest(log, collision),
         collision=collision,
+        **extra,
     )
+
+
+def _clear(min_distance: float | None) -> bool:
+    """No collision pair overlapped (``min_distance``, m, None when not measured)."""
+    return min_distance is None or min_distance >= 0.0
 
 
 def _closest(log: SimulationLog, hit: dict[str, Any] | None) -> dict[str, Any]:

@@ -2,7 +2,8 @@
 
 :func:`horizon_qp` builds the QP of one step of :class:`~redservo.redundancy.predictive.
 Predictive` (the model's prediction over the horizon, the joint bounds less the band, the
-rate limits, the image bounds, the effort, the joint goal and the camera-motion rows);
+rate limits, the image bounds, the effort, the joint goal, the camera-motion rows and, with
+collision avoidance on, the velocity-damper rows on the first command);
 :func:`solve_horizon` solves it with daqp. Units: rad or m, s; commands in rad/s or m/s.
 """
 
@@ -16,6 +17,7 @@ from redservo._validation import FloatArray
 from redservo.kernels import flagbits as fb
 from redservo.redundancy.base import LawInputs
 from redservo.redundancy.bls import daqp_once
+from redservo.redundancy.distance_rows import distance_rows
 from redservo.redundancy.predictive_camera import MotionLimit, motion_rows
 from redservo.redundancy.predictive_model import QP, Prediction, build_qp, local_prediction
 from redservo.redundancy.safety import position_box
@@ -77,6 +79,7 @@ def horizon_qp(
         s_now=s_now,
         u0_box=position_box(x.q, lim, x.dt) if law.shield else None,
     )
+    qp = with_distance_rows(qp, law, x.q)
     if motion is None or pred.s is None or s_now is None:
         return qp
     rows, blo, bhi = motion_rows(pred, hz, x.dt, U, s_now, motion)
@@ -84,6 +87,23 @@ def horizon_qp(
         A=np.vstack([qp.A, *rows]),
         blo=np.concatenate([qp.blo, *blo]),
         bhi=np.concatenate([qp.bhi, *bhi]),
+    )
+
+
+def with_distance_rows(qp: QP, law: Predictive, q: FloatArray) -> QP:
+    """``qp`` with the velocity-damper rows ``J_k u₀ ≥ b_k`` on the first command ``u₀``
+    (:mod:`redservo.redundancy.distance_rows`; the command applied before the next
+    measurement), capped at "never closer" (``b_k ≤ 0``) so that rest stays feasible."""
+    rows = distance_rows(law, q)
+    if rows is None:
+        return qp
+    G = np.zeros((rows.b.size, qp.A.shape[1]))
+    G[:, : rows.G.shape[1]] = rows.G
+    b = np.minimum(rows.b, 0.0)
+    return qp._replace(
+        A=np.vstack([qp.A, G]),
+        blo=np.concatenate([qp.blo, b]),
+        bhi=np.concatenate([qp.bhi, np.full(b.size, 1e30)]),
     )
 
 

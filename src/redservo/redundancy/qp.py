@@ -60,6 +60,12 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   those library solves from Python (the compiled loop hands the step back), the default
   compiled one inside the loop. The result is always clipped to the bounds to remove
   solver tolerance.
+* **Distance rows** (collision avoidance on, :mod:`redservo.redundancy.distance_rows`): the
+  velocity dampers ``J_k q̇ ≥ b_k`` of the pairs within ``d_influence`` join the bounds as
+  linear inequalities (daqp on the full problem, no polish) unless the unconstrained optimum
+  meets them; when even "never closer" (``b_k`` capped at 0) is infeasible within the bounds
+  the rows are dropped for the step (noted) and the distance shield guards; without daqp
+  installed (extra ``redservo[qp]``) the rows are dropped with a note.
 * **Safety** (docs/safety.md): the bounds are intersected with the shield's box
   (velocity and acceleration limits of ``limits``, position limits less their margin,
   braking bound), so that ``qp`` satisfies them without the shield; the result is
@@ -89,6 +95,7 @@ from redservo.redundancy.bls import (
     qpsolvers_module,
     solve_bounded_least_squares,
 )
+from redservo.redundancy.distance_rows import distance_rows, solve_qp_rows
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
@@ -156,6 +163,12 @@ def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
             f"one value per joint"
         )
     return v
+
+
+def _levels(active: NDArray[np.bool_]) -> tuple[tuple[int, ...], ...]:
+    """``critical``: the joints at a bound, as one level (none: no level)."""
+    at = tuple(int(i) for i in np.flatnonzero(active))
+    return (at,) if at else ()
 
 
 @register
@@ -268,15 +281,18 @@ class BoundedLeastSquares(Law):
         info: list[str] = []
         critical: tuple[tuple[int, ...], ...] = ()
         used, resid = "", -1.0
-        if inside:
+        rowed = self._rows(k, x, xdot, lo, hi, float(eps_abs), qdot if inside else None, info)
+        if rowed is not None:
+            fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
+            used, resid, critical = "daqp (with distance rows)", float(resid), _levels(active)
+        elif inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
         else:
             qp = (xfix, free, P, c, lof, hif)
             fixed, used, active, resid = self._solve(k, x, xdot, lo, hi, float(eps_abs), qp)
             info.append(f"solver: {used}")
-            at = tuple(int(i) for i in np.flatnonzero(active))
-            critical = (at,) if at else ()
+            critical = _levels(active)
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
         fallback = "fallback" in used or "failed" in used
@@ -294,6 +310,27 @@ class BoundedLeastSquares(Law):
             info=tuple(info),
         )
         return LawResult(fixed, diag)
+
+    def _rows(
+        self,
+        k: KernelInputs,
+        x: LawInputs,
+        xdot: FloatArray,
+        lo: FloatArray,
+        hi: FloatArray,
+        eps_abs: float,
+        free: FloatArray | None,
+        info: list[str],
+    ) -> FloatArray | None:
+        """The solution with the distance rows (module docstring), or None: no row, the
+        unconstrained optimum ``free`` (None: not within the bounds) meets them, or no
+        solution (noted in ``info``)."""
+        rows = distance_rows(self, k.q)
+        if rows is None or (free is not None and rows.satisfied(free)):
+            return None
+        rowed, note = solve_qp_rows(k.J1, xdot, lo, hi, eps_abs, x.secondary, rows)
+        info.append(note)
+        return rowed
 
     def _solve(
         self,

@@ -49,6 +49,9 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   (velocity and acceleration limits of ``limits``, position limits less their margin),
   so that ``sns`` satisfies them without the shield; the result is moved by whole
   float64 steps so that ``q + dt q̇`` is within the limits exactly.
+* **Distance rows** (collision avoidance on): the velocity dampers ``J_k q̇ ≥ b_k``
+  (:mod:`redservo.redundancy.distance_rows`) are saturated as joints are, in the null space
+  of the saturated constraints (:mod:`redservo.redundancy.sns_rows` states how).
 * Diagnostics: ``scale`` = the task scale ``s`` (1 when the task is executed in
   full), ``critical = ((saturated joints),)``, ``iterations`` = passes of the
   loop, ``overconstrained = scale < 1``, ``projector_rank`` = dimension of the
@@ -69,10 +72,13 @@ from redservo.limits import JointLimits
 from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
+from redservo.redundancy.distance_rows import distance_rows
+from redservo.redundancy.inputs import validate_inputs
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
+from redservo.redundancy.sns_rows import with_rows
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import events as _KE
@@ -350,6 +356,19 @@ class SaturationInNullSpace(Law):
                 self.shield,
             )
         )
+
+    def __call__(self, **kwargs: Any) -> LawResult:
+        """:meth:`Law.__call__`; with a run's collision avoidance on and a command that
+        breaks a velocity-damper row, Algorithm 1 again over the joints and the rows
+        (:mod:`redservo.redundancy.sns_rows`)."""
+        res = super().__call__(**kwargs)
+        if getattr(self, "_distance_source", None) is None:
+            return res
+        x = validate_inputs(**kwargs)
+        rows = distance_rows(self, x.q)
+        if rows is None or rows.satisfied(res.qdot):
+            return res
+        return with_rows(self, x, rows, self._kernel(x), res)
 
     def compute(self, x: LawInputs) -> LawResult:
         m = x.J1.shape[0]

@@ -92,7 +92,8 @@ class ObstacleSpec(Table):
 class CollisionSpec(Table):
     """Collision avoidance against the `[[obstacles]]` (and, with `self`, the robot's own
     links): a repulsive joint velocity in the law's secondary term for every pair closer than
-    `d_influence`, and the distance shield, which scales the command so that no pair comes
+    `d_influence`, velocity-damper rows inside `qp`, `sns` and `predictive`, and the
+    distance shield, which scales the command so that no pair comes
     closer than `d_safe` within one period (flag distance-shield-acted). Without this table
     (or with `enabled = false`) the obstacles are only measured: a run that touches one ends
     with outcome `collision`. See docs/collision.md."""
@@ -102,11 +103,14 @@ class CollisionSpec(Table):
         0.02, ge=0.0, le=BIG, description="security distance (m): no pair ever closer"
     )
     d_influence: float = num(
-        0.10, gt=0.0, le=BIG, description="influence distance (m): the repulsion starts, > d_safe"
+        0.10, gt=0.0, le=BIG, description="influence distance (m): avoidance starts, > d_safe"
     )
     self: bool = Field(False, description="also the robot's self pairs")
     xi: float = num(0.05, gt=0.0, le=BIG, description="separating speed asked for at d_safe (m/s)")
-    avoid: bool = Field(True, description="the repulsive secondary term")
+    avoid: bool = Field(
+        True, description="avoid: the repulsive secondary term and the qp/sns/predictive rows"
+    )
+    repel: bool = Field(True, description="with avoid, the repulsive term (false: rows only)")
     shield: bool = Field(True, description="the distance shield")
 
     @model_validator(mode="after")

@@ -42,8 +42,10 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.collision.tally import DistanceTally
 from redservo.control import Controller, Measurement, SceneContext
 from redservo.control.avoidance import CollisionAvoidance
+from redservo.control.manipulability import SingularityMargin
 from redservo.control.objectives import (
     CallableObjective,
     Objective,
@@ -53,7 +55,7 @@ from redservo.control.objectives import (
 from redservo.errors import GeometryError
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
-from redservo.records import LogBuffer, Outcome, summarize
+from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
 from redservo.records.result import SimulationResult
 from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
@@ -229,9 +231,7 @@ def simulate(
             if progress is not None:
                 progress(it)
     log = buf.to_log(robot.joint_names, task.names)
-    summary = summarize(
-        log, outcome, lim, limit_hit, dt=opt.dt, min_margin=opt.min_margin, collision=run.contact
-    )
+    summary = run.summary(log, outcome, limit_hit)
     return SimulationResult(outcome, summary, log, None, ctrl.engine, ctrl.engine_reason)
 
 
@@ -263,15 +263,40 @@ class _Run:
         self.true_model = ctrl.robot is robot and actuator is None
         coll = opt.collision
         self.collision = coll if coll is not None and coll.active else None
+        self.tally = None if self.collision is None else DistanceTally(self.collision.d_influence)
+        """The run's distances per pair kind (:mod:`redservo.collision.tally`)."""
+        self.margin = SingularityMargin()
+        """The run's distance to a task singularity (:mod:`redservo.control.manipulability`)."""
         self.contact: dict[str, Any] | None = None
         """``{"pair", "distance", "iteration"}`` of the contact that ended the run."""
+
+    def summary(
+        self, log: SimulationLog, outcome: Outcome, limit_hit: dict[str, int] | None
+    ) -> RunSummary:
+        """The run's summary (:func:`~redservo.records.summarize`) with its contact, its
+        distances per pair kind and its singularity margin."""
+        opt = self.opt
+        return summarize(
+            log,
+            outcome,
+            self.ctrl.limits,
+            limit_hit,
+            dt=opt.dt,
+            min_margin=opt.min_margin,
+            collision=self.contact,
+            distances=None if self.tally is None else self.tally.fields(),
+            singularity=self.margin.fields(),
+        )
 
     def closest(self, it: int, q: FloatArray, t: float) -> tuple[float, str] | None:
         """The smallest distance (m) and its pair at the true ``q``, None when not measured;
         records the contact when the distance is <= 0."""
         if self.collision is None:
             return None
-        d, pair = self.collision.measure(self.robot, q, t).closest()
+        pd = self.collision.measure(self.robot, q, t)
+        if self.tally is not None:
+            self.tally.add(pd)
+        d, pair = pd.closest()
         if d <= 0.0:
             self.contact = {"pair": pair, "distance": d, "iteration": it}
         return d, pair
@@ -313,6 +338,7 @@ class _Run:
         assert step.diagnostics is not None
         state, qdot = step.state, step.qdot
         buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics, closest)
+        self.margin.add(state.J1)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):
             return "converged", None

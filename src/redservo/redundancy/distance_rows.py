@@ -1,0 +1,143 @@
+"""Velocity-damper rows on ``q̇`` for the optimisation laws (``qp``, ``sns``, ``predictive``).
+
+With a run's collision avoidance on (:class:`~redservo.control.avoidance.Collision`,
+``enabled``, ``avoid``), every pair ``k`` closer than ``d_i`` (``d_influence``, m) gives the
+velocity damper of Faverjon & Tournassoud (1987) as a linear inequality on the command::
+
+    ḋ_k = J_k q̇ + ∂d_k/∂t  ≥  −ξ (d_k − d_s)/(d_i − d_s)            (m/s)
+    i.e.  J_k q̇ ≥ b_k = −ξ (d_k − d_s)/(d_i − d_s) − ∂d_k/∂t
+
+(``J_k`` the distance Jacobian, m/rad or m/m; ``ξ`` = ``Collision.xi``, m/s, the approach
+speed allowed at ``d_i``; ``d_s`` = ``d_safe``). The allowed approach speed falls linearly
+to 0 at ``d_s`` and, inside ``d_s``, the row asks the pair to separate. The rows are what
+the law solves for: ``qp`` adds them to its QP (:func:`solve_qp_rows`), ``sns`` saturates
+them as it saturates joints (:mod:`redservo.redundancy.sns_rows`), ``predictive`` adds them
+on its first command. The repulsive secondary and the distance shield stay in place.
+
+A law gets its rows through :func:`bind_distances` (the Controller's collision check calls
+it); :func:`distance_rows` measures them at the law's ``q``, at the time of the collision
+set-up's last measurement (the repulsive objective measures first in the same step).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.redundancy.bls import daqp_once
+
+if TYPE_CHECKING:
+    from redservo.control.avoidance import Collision
+    from redservo.robots.base import Robot
+
+__all__ = [
+    "ROW_LAWS",
+    "DistanceRows",
+    "bind_distances",
+    "distance_rows",
+    "row_report",
+    "solve_qp_rows",
+]
+
+_SOURCE = "_distance_source"
+"""The attribute of a law holding its ``(collision, robot)`` (or None)."""
+_INF = 1e30
+"""daqp's infinite bound."""
+_ROW_TOL = 1e-9
+"""A row counts as satisfied when ``J_k q̇ ≥ b_k − 1e-9`` (m/s)."""
+
+
+class DistanceRows(NamedTuple):
+    """``G q̇ ≥ b`` for the pairs within ``d_influence`` (module docstring)."""
+
+    G: FloatArray
+    """(r, n) the pairs' distance Jacobians (m/rad or m/m)."""
+    b: FloatArray
+    """(r,) the damper's bounds (m/s)."""
+    names: tuple[str, ...]
+    """(r,) the pairs."""
+
+    def satisfied(self, qdot: FloatArray) -> bool:
+        """Whether ``qdot`` (rad/s or m/s) meets every row."""
+        return bool(np.all(self.G @ qdot >= self.b - _ROW_TOL))
+
+
+ROW_LAWS = ("qp", "sns", "predictive")
+"""The laws that solve with the rows; the others avoid through their secondary term."""
+
+
+def bind_distances(law: object, collision: Collision | None, robot: Robot) -> None:
+    """Give ``law`` (one of :data:`ROW_LAWS`) the collision set-up of its controller, or take
+    it away (``collision`` None or not avoiding)."""
+    if getattr(law, "name", None) not in ROW_LAWS:
+        return
+    on = collision is not None and collision.enabled and collision.avoid and collision.active
+    object.__setattr__(law, _SOURCE, (collision, robot) if on else None)
+    inner = getattr(law, "_fallback", None)  # the predictive law's qp, when its solve fails
+    if inner is not None:
+        bind_distances(inner, collision, robot)
+
+
+def distance_rows(law: object, q: FloatArray) -> DistanceRows | None:
+    """The rows of ``law`` at ``q`` (rad or m): None without a bound collision set-up or when
+    no pair is within ``d_influence``."""
+    src: tuple[Collision, Robot] | None = getattr(law, _SOURCE, None)
+    if src is None:
+        return None
+    c, robot = src
+    pd = c.measure(robot, q, c.last_time)
+    near = pd.d < c.d_influence
+    if not np.any(near):
+        return None
+    ramp = c.xi * (pd.d[near] - c.d_safe) / (c.d_influence - c.d_safe)
+    names = tuple(nm for nm, k in zip(pd.names, near, strict=True) if k)
+    return DistanceRows(np.ascontiguousarray(pd.J[near]), -ramp - pd.drift[near], names)
+
+
+def solve_qp_rows(
+    J1: FloatArray,
+    xdot: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    eps: float,
+    secondary: FloatArray | None,
+    rows: DistanceRows,
+) -> tuple[FloatArray | None, str]:
+    """``min ‖J1 q̇ − ẋ‖² + ε ‖q̇ − secondary‖²`` s.t. ``lo ≤ q̇ ≤ hi`` and ``G q̇ ≥ b``
+    with daqp: ``(q̇, note)``, q̇ None when no solution exists even with the rows relaxed
+    to "never closer" (``b`` capped at 0; the note says which was solved).
+
+    Args:
+        J1: (m, n) task Jacobian; xdot: (m,) task velocity.
+        lo, hi: (n,) the law's velocity bounds (rad/s or m/s).
+        eps: Absolute regularisation ε (units of ``J1ᵀ J1``).
+        secondary: (n,) preferred joint velocity, or None.
+        rows: The distance rows.
+    """
+    daqp = daqp_once()
+    if daqp is None:  # pragma: no cover - daqp is a dependency of the qp extra
+        return None, "distance rows: daqp is not installed"
+    n = J1.shape[1]
+    H = J1.T @ J1 + eps * np.eye(n)
+    f = -(J1.T @ xdot)
+    if secondary is not None:
+        f = f - eps * secondary
+    for b, what in ((rows.b, "velocity dampers"), (np.minimum(rows.b, 0.0), "relaxed to 0")):
+        bu = np.concatenate([hi, np.full(b.size, _INF)])
+        bl = np.concatenate([lo, b])
+        sense = np.zeros(bu.size, dtype=np.intc)
+        y, _, flag, _ = daqp.solve(H, f, rows.G, bu, bl, sense)
+        if flag > 0 and np.all(np.isfinite(y)):
+            return np.asarray(y, dtype=float), f"distance rows: {len(b)} ({what})"
+    return None, f"distance rows: {len(rows.b)} infeasible within the joint bounds"
+
+
+def row_report(rows: DistanceRows | None, qdot: FloatArray) -> str:
+    """One line on the rows the command leaves unmet (for ``info``), or ``""``."""
+    if rows is None or rows.satisfied(qdot):
+        return ""
+    gap = rows.b - rows.G @ qdot
+    k = int(np.argmax(gap))
+    return f"distance row of {rows.names[k]} unmet by {gap[k]:.3g} m/s (the distance shield guards)"
