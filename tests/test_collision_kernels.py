@@ -3,11 +3,14 @@ pairs: the same signed distance to 1e-9 m and the same witness points."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
 from redservo.collision import Shape
-from redservo.collision.query import _capsule_frame, _query, _transform
+from redservo.collision.pair import _query, _transform
+from redservo.collision.query import _capsule_frame
 from redservo.kernels import lazy
 from redservo.spatial import make_transform
 
@@ -21,7 +24,7 @@ def _capsule(rng: np.random.Generator, length_min: float = 0.02) -> tuple:
     return a0, a1, float(rng.uniform(0.01, 0.1))
 
 
-def _coal_capsule(a0: np.ndarray, a1: np.ndarray, r: float) -> tuple:
+def _coal_capsule(a0: np.ndarray, a1: np.ndarray, r: float) -> tuple[Any, Any]:
     if np.linalg.norm(a1 - a0) == 0.0:
         return Shape("sphere", radius=r).coal(), _transform(make_transform(t=a0))
     shape = Shape("capsule", radius=r, length=float(np.linalg.norm(a1 - a0)))

@@ -13,8 +13,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 mujoco = pytest.importorskip("mujoco", reason="the MuJoCo backend needs redservo[mujoco]")
 
 from redservo.collision import Obstacle, Shape  # noqa: E402
-from redservo.collision.query import _query, _transform  # noqa: E402
-from redservo.experiment import build  # noqa: E402
+from redservo.collision.pair import _query, _transform  # noqa: E402
+from redservo.experiment.build import build  # noqa: E402
 from redservo.physics import MujocoActuator, MujocoArm  # noqa: E402
 from redservo.physics.obstacles import obstacle_bodies, set_obstacle_poses  # noqa: E402
 from redservo.robots import Panda  # noqa: E402
@@ -92,7 +92,7 @@ def _random_shape(rng: np.random.Generator, kinds: tuple[str, ...]) -> Shape:
     kind = str(rng.choice(kinds))
     r = float(rng.uniform(0.02, 0.2))
     if kind == "box":
-        return Shape("box", size=tuple(rng.uniform(0.05, 0.4, 3)))  # type: ignore[arg-type]
+        return Shape("box", size=tuple(rng.uniform(0.05, 0.4, 3)))
     if kind in ("capsule", "cylinder"):
         return Shape(kind, radius=r, length=float(rng.uniform(0.05, 0.5)))
     return Shape(kind, radius=r)

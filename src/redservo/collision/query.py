@@ -12,12 +12,11 @@ to ``n`` and adds nothing to ``ḋ``). Distances come from `coal` (docs/decision
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
-from typing import Any, Literal
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.collision.pair import DistanceRecord, PairKind, _normal, _query, _transform
 from redservo.collision.pairs import self_pairs
 from redservo.collision.robot import LinkCapsule, link_capsules, point_jacobians
 from redservo.collision.shapes import Obstacle
@@ -25,34 +24,6 @@ from redservo.collision.urdf_query import is_urdf, urdf_distances
 from redservo.robots.base import Robot
 
 __all__ = ["DistanceRecord", "distances"]
-
-PairKind = Literal["environment", "self"]
-
-_TOLERANCE = 1e-10
-"""GJK/EPA tolerance (m): coal's default, 1e-6, would make the distance of curved pairs
-(cylinders, boxes against capsules) a staircase at that scale and its derivative noise."""
-
-
-@dataclass(frozen=True)
-class DistanceRecord:
-    """One pair's distance (module docstring; m, base = world frame)."""
-
-    first: str
-    """The robot link (a :class:`~redservo.collision.robot.LinkCapsule` name)."""
-    second: str
-    """The obstacle's name, or the other link's."""
-    kind: PairKind
-    distance: float
-    a: FloatArray
-    b: FloatArray
-    normal: FloatArray
-    jacobian: FloatArray
-
-
-def _transform(M: FloatArray) -> Any:
-    import coal
-
-    return coal.Transform3s(np.ascontiguousarray(M[:3, :3]), np.ascontiguousarray(M[:3, 3]))
 
 
 def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -91,26 +62,6 @@ class _Link:
         """(3, n) velocity of the axis point nearest to ``p``."""
         s = float(np.clip(np.dot(p - self.A, self.B - self.A) / self.length**2, 0.0, 1.0))
         return np.asarray((1.0 - s) * self.JA + s * self.JB)
-
-
-def _query(g1: Any, tf1: Any, g2: Any, tf2: Any) -> tuple[float, FloatArray, FloatArray]:
-    import coal
-
-    req = coal.DistanceRequest()
-    req.enable_signed_distance = True
-    req.gjk_tolerance = req.epa_tolerance = _TOLERANCE
-    res = coal.DistanceResult()
-    coal.distance(g1, tf1, g2, tf2, req, res)
-    return float(res.min_distance), res.getNearestPoint1().copy(), res.getNearestPoint2().copy()
-
-
-def _normal(d: float, a: FloatArray, b: FloatArray, fallback: FloatArray) -> FloatArray:
-    """Unit vector from ``b`` towards ``a`` (away from ``b`` when they overlap)."""
-    v = a - b
-    norm = float(np.linalg.norm(v))
-    if norm < 1e-12:
-        return fallback
-    return np.asarray(v / norm if d >= 0.0 else -v / norm)
 
 
 def distances(

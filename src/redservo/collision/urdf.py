@@ -5,7 +5,7 @@ radius>``) become coal shapes; a ``<mesh filename scale>`` is resolved like the 
 code resolves meshes (relative to the URDF, ``file://``, or ``package://PKG/...`` in the
 folders above it) and must lie, links resolved, inside the robot's own folder (the nearest
 folder above the URDF holding a ROS ``package.xml``, else the URDF's folder; the check of
-:mod:`redservo.runfiles`): a mesh never makes redservo read outside it. A missing, refused
+:mod:`redservo.runs.files`): a mesh never makes redservo read outside it. A missing, refused
 or unreadable mesh is one :class:`~redservo.errors.GeometryError` naming the file and the
 link. Units: metres.
 
@@ -63,7 +63,7 @@ def _origin(el: ET.Element | None, what: str) -> FloatArray:
 def _mesh(shape: ET.Element, urdf: Path, what: str) -> tuple[Any, str]:
     import coal
 
-    from redservo.runfiles import _find_mesh, _refusal
+    from redservo.runs.files import _find_mesh, _refusal
 
     name = shape.get("filename", "")
     where = _find_mesh(name, urdf.parent)  # the run files' resolution: one rule for both

@@ -67,7 +67,7 @@ def urdf_distances(
 ) -> list[Any]:
     """One :class:`~redservo.collision.query.DistanceRecord` per (element, obstacle) at
     ``q`` (rad or m) and ``t`` (s); ``first`` is the element's link."""
-    from redservo.collision.query import DistanceRecord, _normal, _query, _transform
+    from redservo.collision.pair import DistanceRecord, _normal, _query, _transform
 
     if self_collision:
         raise ConfigurationError(

@@ -1,0 +1,1 @@
+"""The ``redservo`` command line: the parser, one module per command group."""
