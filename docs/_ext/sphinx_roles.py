@@ -74,9 +74,10 @@ class SphinxRoles(griffe.Extension):
 
     def on_attribute_instance(self, *, attr: Any, **kwargs: Any) -> None:
         value = attr.value
-        if not attr.parent or not attr.parent.is_module or value is None or isinstance(value, str):
+        if not attr.parent or not attr.parent.is_module or isinstance(value, str):
             return
-        if type(value).__name__ not in _COMPUTED:
+        # a computed value, or only an annotation (a value a module __getattr__ gives)
+        if value is not None and type(value).__name__ not in _COMPUTED:
             return
         shown = _runtime_value(attr.parent.path, attr.name)
         if shown is not None:
