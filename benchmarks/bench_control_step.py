@@ -59,8 +59,8 @@ def main() -> None:
     if args.saved is not None:
         data = json.loads(args.saved.read_text())
     else:
-        from redservo.bench import run_bench
-        from redservo.bench_cli import _progress
+        from redservo.bench.steps import run_bench
+        from redservo.cli.bench import _progress
 
         result = run_bench(repeat=args.repeat, rounds=args.rounds, progress=_progress(True))
         print(result.markdown)

@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_law_call.py [--rounds R] [--batch B] [--json out.json]
 
-On the ``afma6-4points`` case of :mod:`redservo.bench_cases` (4-point IBVS on the Afma6),
+On the ``afma6-4points`` case of :mod:`redservo.bench.cases` (4-point IBVS on the Afma6),
 with the 8 point coordinates as the task (``J1 = L J``, 8x6, no combination matrix) and
 with the case's own 6x6 combination (``J1 = C L J``), the laws ``classical``, ``gpm``,
 ``iterative-smooth``, ``directional`` and ``sns`` are called with their defaults (shield
@@ -25,7 +25,7 @@ import numpy as np
 from bench_object_path import measure, timing_args
 
 from redservo import make_law
-from redservo.bench_cases import bench_cases
+from redservo.bench.cases import bench_cases
 
 METHODS = ("classical", "gpm", "iterative-smooth", "directional", "sns")
 TARGET_US = 15.0

@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-shadows", action="store_true")
     ap.add_argument("--offsamples", type=int, default=None, help="MSAA samples (MuJoCo: 4)")
     args = ap.parse_args(argv)
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.physics.camera import MujocoCamera
     from redservo.scenario import apply_overrides, load_scenario
 

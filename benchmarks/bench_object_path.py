@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_object_path.py [--rounds R] [--batch B] [--json out.json]
 
 What the README shows for a real robot, on the ``afma6-4points`` case of
-:mod:`redservo.bench_cases` (a 0.2 m square at 0.6 m, the start rotated 80° about the
+:mod:`redservo.bench.cases` (a 0.2 m square at 0.6 m, the start rotated 80° about the
 optical axis; m = 6, n = 6):
 
 * ``kinematics``: ``robot.kinematics(q)`` (``bMc`` and ``J``);
@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from redservo import make_law
-from redservo.bench_cases import bench_cases
+from redservo.bench.cases import bench_cases
 
 TARGETS_US = {"task.evaluate": 10.0, "law classical": 15.0, "path classical": 30.0}
 """Issue 18's targets (µs, medians) for the items that have one."""

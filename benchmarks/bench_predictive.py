@@ -41,7 +41,7 @@ import numpy as np
 from redservo import Flag, make_law
 from redservo.campaign.definition import load_campaign
 from redservo.campaign.sampling import draw_sample
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import load_scenario
 from redservo.simulation import simulate
 

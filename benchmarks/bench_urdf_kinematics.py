@@ -73,7 +73,7 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=200)
     args = parser.parse_args()
     print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}")
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.robots import Panda
     from redservo.scenario import load_scenario
 

@@ -424,10 +424,10 @@ def image_campaign_rate(samples: int, camera: str = "realistic") -> dict[str, fl
     import tempfile
     from dataclasses import replace
 
-    from redservo import sensor_timing
-    from redservo.camera_presets import camera_overrides
     from redservo.campaign import load_campaign, run_campaign
+    from redservo.experiment.camera_presets import camera_overrides
     from redservo.scenario import apply_overrides
+    from redservo.sensors import timing as sensor_timing
     from redservo.vision import sensor as image_sensor
 
     sets = ['sensor.kind="image"'] if camera == "image" else camera_overrides(camera)

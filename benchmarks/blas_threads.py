@@ -4,7 +4,7 @@
         [--methods iterative-smooth large-projection classical]
 
 Times the compiled control step (:func:`redservo.binding.compiled_step`) of the 4-point
-task on a seeded chain of ``n`` revolute joints (:func:`redservo.bench_cases.scaling_case`)
+task on a seeded chain of ``n`` revolute joints (:func:`redservo.bench.cases.scaling_case`)
 while ``burners`` processes spin on the CPUs (the load of a shared machine; default one per
 CPU, at the lowest priority so that the machine's other users keep theirs), per method, twice, the rounds interleaved:
 
@@ -54,7 +54,7 @@ def time_calls(fn: Callable[[], Any], calls: int) -> tuple[np.ndarray, np.ndarra
 
 
 def _step(n: int, method: str) -> Callable[[], Any]:
-    from redservo.bench_cases import scaling_case
+    from redservo.bench.cases import scaling_case
     from redservo.binding import compiled_step
     from redservo.redundancy import make_law
 

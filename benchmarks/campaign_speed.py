@@ -97,7 +97,7 @@ def loop_rates(campaign: str, samples: int, repeat: int = 3) -> dict[str, tuple[
     """Per method: CPU seconds per control step of the compiled loop alone, and the steps
     timed (``samples`` samples, each run ``repeat`` times)."""
     from redservo.campaign import draw_sample, load_campaign
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.kernels.blas import one_blas_thread
 
     defn = load_campaign(campaign)
@@ -286,7 +286,7 @@ def _uncovered(name: str) -> str:
     """Why the first sample of campaign ``name`` does not run on the compiled loop."""
     from redservo.campaign import draw_sample, load_campaign
     from redservo.campaign.fastloop import experiment_reason
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     return str(experiment_reason(build(draw_sample(load_campaign(name), 0, 0).scenario)))
 

@@ -33,7 +33,7 @@ for m in METHODS:
     make_law(m)(J1=J1, e1=np.ones(6), q=np.zeros(7), limits=lim, lam=0.5, dt=0.04)
     laws[m] = time.perf_counter() - t
 t2 = time.perf_counter()
-from redservo.bench_cases import bench_cases
+from redservo.bench.cases import bench_cases
 from redservo.binding import compiled_step
 c = bench_cases(scaling=())[0]
 s = compiled_step(c.robot, c.scene, c.task, make_law("classical"), limits=c.limits, lam=0.5, dt=0.04)

@@ -28,7 +28,7 @@ import numpy as np
 
 from redservo import METHODS
 from redservo.errors import RedservoError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
 SHIPPED = ("panda-4points", "panda-mujoco-4points", "afma6-gaze-demo", "cm01-gaze")

@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from redservo.camera import Camera
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.features import CylinderFeature, LineFeature, SphereFeature
 from redservo.features.base import wrap_angle
 from redservo.physics import MujocoArm, MujocoCamera

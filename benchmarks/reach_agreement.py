@@ -6,7 +6,7 @@
 draws the campaign's samples exactly as ``redservo campaign`` does
 (:func:`redservo.campaign.sampling.draw_sample`), builds each sample's experiment and judges
 its goal with both :func:`redservo.campaign.reach.reachable` (the campaign's ``reachable``
-column: the projected damped least squares of :mod:`redservo.ik`, shared with the
+column: the projected damped least squares of :mod:`redservo.robots.ik`, shared with the
 ``predictive`` law) and :func:`redservo.campaign.reach_check.reachable_independent`
 (bounded ``least_squares`` from Sobol starts). It prints the counts, the agreement, the
 disagreements (sample, first, second) and the CPU seconds per sample of each method
@@ -41,7 +41,7 @@ def agreement(campaign: str, samples: int, seed: int, *, progress: bool = False)
     from redservo.campaign.reach import reachable
     from redservo.campaign.reach_check import reachable_independent
     from redservo.campaign.sampling import draw_sample
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     defn = load_campaign(campaign)
     out = Agreement(list(range(samples)), [], [], 0.0, 0.0)

@@ -23,7 +23,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from redservo.experiment import Experiment, build
+from redservo.experiment.build import Experiment, build
 from redservo.ros2 import servo_run
 from redservo.ros2.hardware_file import load_hardware
 from redservo.scenario import apply_overrides, load_scenario
@@ -32,7 +32,7 @@ BURN = "while True: pass"
 
 
 def _arm(domain: int) -> subprocess.Popen[bytes]:
-    cli = "import sys; from redservo.cli import main; sys.exit(main())"
+    cli = "import sys; from redservo.cli.main import main; sys.exit(main())"
     cmd = [sys.executable, "-c", cli, "sim-arm", "panda-4points", "--domain-id", str(domain)]
     # niced: on a real set-up the arm is another machine, not a competitor for this CPU
     return subprocess.Popen(["nice", "-n", "10", *cmd, "--command-timeout", "0.2"])

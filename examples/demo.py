@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from redservo.cli import main
+from redservo.cli.main import main
 
 
 class _Tap:

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from redservo import make_law
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.hardware import (
     ActuatorModel,
     IdealFeatureSource,

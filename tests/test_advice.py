@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 import redservo
-from redservo.advice import (
+from redservo.cli.main import main
+from redservo.records.advice import (
     APPROACHES,
     SHIELD_RUNS,
     alternatives,
@@ -17,7 +18,6 @@ from redservo.advice import (
     failed_at_a_limit,
     law_hint,
 )
-from redservo.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGNS = ("panda-near-limits", "cm01-gaze", "mc05-joint-limits", "cm01-humanoid-tracking")

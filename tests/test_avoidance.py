@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import (
     Collision,
@@ -24,10 +24,10 @@ from redservo.control.avoidance import (
     repulsive_command,
 )
 from redservo.errors import ConfigurationError, ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.redundancy.flags import Flag
 from redservo.robots import make_robot
-from redservo.runs import load_run
+from redservo.runs.load import load_run
 from redservo.scenario import load_scenario, parse_scenario
 from redservo.scene import ConstantVelocity, Static
 from redservo.spatial import make_transform

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redservo.bench import MAIN_CASES, _reference, run_bench
-from redservo.bench_cases import bench_cases
-from redservo.cli import main
+from redservo.bench.cases import bench_cases
+from redservo.bench.steps import MAIN_CASES, _reference, run_bench
+from redservo.cli.main import main
 from redservo.redundancy import make_law
 
 

@@ -70,7 +70,7 @@ def test_campaign_jobs_run_with_one_blas_thread(monkeypatch: pytest.MonkeyPatch)
 
 
 def test_simulate_runs_with_one_blas_thread() -> None:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
     exp = build(load_scenario("panda-4points"))

@@ -183,7 +183,7 @@ def test_the_campaign_loop_solves_qp_without_python(monkeypatch: pytest.MonkeyPa
     pytest.importorskip("daqp", reason="daqp is the reference")
     from redservo.campaign import draw_sample, load_campaign
     from redservo.campaign.fastloop import fast_run
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     d = load_campaign("cm01-gaze")
     exp = build(draw_sample(d, 0, 1).scenario)  # 180 of 227 steps with active bounds
@@ -221,7 +221,7 @@ def test_the_loops_qp_step_is_the_law_objects(robot: str) -> None:
     pytest.importorskip("numba", reason="the compiled campaign loop needs numba")
     from redservo.campaign.fastloop import _flag_bits, _law_args
     from redservo.kernels.sensed import qp_law
-    from redservo.packs import limits_pack
+    from redservo.redundancy.packs import limits_pack
     from redservo.robots import make_robot
 
     rng = np.random.default_rng(11)

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from redservo.calibration.files import load_camera
 from redservo.camera import Camera
-from redservo.camera_io import load_camera
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.spatial import inverse, make_transform, matrix_to_rotvec
 
 cv2 = pytest.importorskip("cv2")
@@ -182,7 +182,7 @@ def test_hand_eye_command_json_and_csv(tmp_path: Path, capsys: pytest.CaptureFix
         rot, trans = _errors(make_transform(t=pose["translation"], rotvec=pose["rotvec"]), W_M_C)
         assert rot < 0.2 and trans < 2e-3
     # the snippet drops into a scenario
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario, parse_scenario
 
     data = load_scenario("panda-eye-to-hand").data

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redservo.camera_io import load_camera
-from redservo.cli import main
+from redservo.calibration.files import load_camera
+from redservo.cli.main import main
 from redservo.spatial import make_transform
 
 cv2 = pytest.importorskip("cv2")

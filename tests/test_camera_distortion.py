@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from redservo.calibration.files import load_camera, save_camera
 from redservo.camera import Camera
-from redservo.camera_io import load_camera, save_camera
 from redservo.errors import ConfigurationError
 
 cv2 = pytest.importorskip("cv2")
@@ -161,7 +161,7 @@ def _scenario(tmp_path: Path, camera: dict, sensor: dict | None = None) -> objec
 
 
 def test_scenario_camera_file_relative_to_the_scenario(tmp_path: Path) -> None:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     (tmp_path / "calib").mkdir()
     save_camera(tmp_path / "calib" / "cam.yaml", CAM)
@@ -170,7 +170,7 @@ def test_scenario_camera_file_relative_to_the_scenario(tmp_path: Path) -> None:
 
 
 def test_scenario_distortion_key(tmp_path: Path) -> None:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     exp = build(_scenario(tmp_path, {"distortion": [-0.1, 0.02, 0.0, 0.001]}))  # type: ignore[arg-type]
     assert exp.camera.distortion == (-0.1, 0.02, 0.0, 0.001, 0.0)
@@ -188,7 +188,7 @@ def test_scenario_distortion_key(tmp_path: Path) -> None:
 )
 def test_bad_scenario_camera(tmp_path: Path, camera: dict, sensor: dict | None, key: str) -> None:
     from redservo.errors import ScenarioError
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     save_camera(tmp_path / "cam.yaml", CAM)
     (tmp_path / "bad.yaml").write_text(FLAT.replace("K:", "Q:"))
@@ -199,7 +199,7 @@ def test_bad_scenario_camera(tmp_path: Path, camera: dict, sensor: dict | None, 
 
 def test_image_sensor_undistorts_the_dots() -> None:
     """Through a distorted lens, the detected points equal the true (undistorted) ones."""
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = apply_overrides(load_scenario("panda-eye-to-hand"), ['sensor.kind="image"'])

@@ -13,12 +13,12 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's import, as redservo.physics does
 
 from redservo import ScenarioError
-from redservo.camera_presets import REALISTIC_TOLERANCE_PX, camera_overrides
-from redservo.cli import main
-from redservo.experiment import build
+from redservo.cli.main import main
+from redservo.experiment.build import build
+from redservo.experiment.camera_presets import REALISTIC_TOLERANCE_PX, camera_overrides
 from redservo.hardware import ServoLoop
 from redservo.scenario import apply_overrides, load_scenario
-from redservo.sensor_timing import MAX_LATENCY, TimedSensor
+from redservo.sensors.timing import MAX_LATENCY, TimedSensor
 
 
 def _panda(*sets: str):  # type: ignore[no-untyped-def]
@@ -128,7 +128,7 @@ def test_the_mujoco_camera_is_timed_live_and_refuses_an_exposure() -> None:
 
 def test_reproduce_takes_the_realistic_camera_through_images() -> None:
     pytest.importorskip("cv2", reason="the image sensor needs redservo[vision]")
-    from redservo.cli_parser import build_parser
+    from redservo.cli.parser import build_parser
     from redservo.errors import ConfigurationError
     from redservo.reproduction import _check, image_sensors
     from redservo.vision import ImageSensor

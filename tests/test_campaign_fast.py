@@ -18,7 +18,7 @@ from redservo import METHODS
 from redservo.campaign import draw_sample, fastloop, load_campaign, run_campaign
 from redservo.campaign.engine import FAST_PATH
 from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
 COMPILED = tuple(m for m in METHODS if m != "predictive")
@@ -318,7 +318,7 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
     from redservo.errors import InfeasibleError
     from redservo.kernels.sensed import ABORT_INFEASIBLE, law_bits
     from redservo.kernels.step import LAW_IDS
-    from redservo.packs import limits_pack
+    from redservo.redundancy.packs import limits_pack
     from redservo.robots import make_robot
 
     rng = np.random.default_rng(7)

@@ -14,7 +14,7 @@ from redservo.campaign import load_campaign, start
 from redservo.campaign.definition import shipped_campaigns
 from redservo.campaign.sampling import _draw, draw_built, draw_sample
 from redservo.errors import RedservoError
-from redservo.experiment import build
+from redservo.experiment.build import build
 
 
 def _object_path_lost(exp: Any, margin: float) -> bool:
@@ -50,7 +50,7 @@ def test_the_compiled_start_check_gives_the_object_paths_verdicts() -> None:
 def test_a_sample_is_built_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """draw_built returns the experiment of the start check, which the runs use: one build
     per valid sample, and the same sample as draw_sample."""
-    import redservo.experiment as experiment
+    import redservo.experiment.build as experiment
 
     d = load_campaign("cm01-gaze")
     builds = [0]

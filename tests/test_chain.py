@@ -293,7 +293,7 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
     pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
     from redservo import METHODS
     from redservo.binding import compiled_step
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
     exp = build(load_scenario("panda-urdf-4points"))
@@ -328,7 +328,7 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
 def test_compiled_qp_step_on_the_urdf_panda_gives_the_public_command() -> None:
     pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
     from redservo.binding import compiled_qp_step
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
     exp = build(load_scenario("panda-urdf-4points"))

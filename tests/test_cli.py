@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from redservo.cli import main
+from redservo.cli.main import main
 from tests.test_scenario import GOOD
 
 
@@ -231,12 +231,12 @@ def test_debug_shows_the_traceback_and_a_bug_exits_1(
     assert main(["--debug", *argv]) == 2  # before or after the command
     assert "Traceback" in capsys.readouterr().err
 
-    import redservo.experiment
+    import redservo.experiment.build
 
     def broken(*_a: object, **_k: object) -> None:
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(redservo.experiment, "build", broken)
+    monkeypatch.setattr(redservo.experiment.build, "build", broken)
     assert main(["run", "afma6-gaze-demo", "--out", str(tmp_path), "-q"]) == 1
     line = _one_error_line(capsys)
     assert "internal error: RuntimeError: a bug" in line and "--debug" in line
@@ -305,7 +305,7 @@ def test_run_plots_by_default_in_the_formats_asked(tmp_path: Path) -> None:
 
 
 def test_reproduce_summary_names_the_claims_not_reproduced() -> None:
-    from redservo.cli_tools import reproduce_lines
+    from redservo.cli.tools import reproduce_lines
 
     report = {
         "experiments": [
@@ -366,7 +366,7 @@ def test_a_closed_pipe_ends_quietly() -> None:
     os.close(r)  # no reader at all, before the command writes anything
     try:
         proc = subprocess.run(
-            [sys.executable, "-m", "redservo.cli", "list"],
+            [sys.executable, "-m", "redservo.cli.main", "list"],
             stdout=w,
             stderr=subprocess.PIPE,
             text=True,
@@ -493,7 +493,7 @@ def test_list_shows_the_shipped_urdf_robots(capsys: pytest.CaptureFixture[str]) 
 def test_a_paper_scenario_changed_by_the_shield_says_how_to_run_the_paper_law() -> None:
     from types import SimpleNamespace
 
-    from redservo.cli_commands import paper_note
+    from redservo.cli.commands import paper_note
     from redservo.scenario import load_scenario
 
     sc = load_scenario("cm01-humanoid-tracking")
@@ -511,7 +511,7 @@ def test_every_command_that_writes_takes_out(capsys: pytest.CaptureFixture[str])
     prints)."""
     import argparse
 
-    from redservo.cli_parser import build_parser
+    from redservo.cli.parser import build_parser
 
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     silent = {"list", "view", "warmup"}

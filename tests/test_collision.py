@@ -14,7 +14,7 @@ import pytest
 
 from redservo.collision import Obstacle, Shape, distances, link_capsules, self_pairs
 from redservo.errors import GeometryError, ScenarioError, UnknownNameError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.robots import make_robot
 from redservo.scenario import parse_scenario
 from redservo.scene import ConstantVelocity, Static

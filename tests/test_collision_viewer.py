@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from redservo.collision import Obstacle, Shape
-from redservo.runs import load_run
+from redservo.runs.load import load_run
 from redservo.scenario import load_scenario, parse_scenario
 from redservo.scene import ConstantVelocity, Static
 from redservo.spatial import make_transform
@@ -88,7 +88,7 @@ def test_animate_panel_draws_the_obstacles(tmp_path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.viewer.animate import _limits, _Scene3D
     from redservo.viewer.playback import Playback
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import io
 from types import SimpleNamespace
 
-from redservo import compile_progress as cp
-from redservo import warmup as wu
+from redservo.bench import compile_progress as cp
+from redservo.bench import warmup as wu
 
 
 class FakeClock:

@@ -173,7 +173,7 @@ def test_run_json_records_the_engine(tmp_path: Any, capsys: pytest.CaptureFixtur
     import json
 
     import redservo
-    from redservo.cli_common import engine_note
+    from redservo.cli.common import engine_note
 
     res = redservo.run("cm01-gaze", out=tmp_path / "gaze", max_iterations=5)
     meta = json.loads((tmp_path / "gaze" / "run.json").read_text())

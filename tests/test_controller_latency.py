@@ -9,7 +9,7 @@ import pytest
 from redservo.control import Measurement
 from redservo.control.latency import CommandHistory
 from redservo.errors import ShapeError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
 

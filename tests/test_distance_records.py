@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 
 from redservo.campaign.table import RunTable
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.collision.tally import DistanceTally
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import load_scenario
 
 

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from redservo.collision import Obstacle, Shape
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.redundancy.distance_rows import DistanceRows, solve_qp_rows
 from redservo.redundancy.sns import sns_solve
 from redservo.redundancy.sns_rows import sns_rows_solve

@@ -13,7 +13,7 @@ import pytest
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import Collision, shield_command
 from redservo.errors import ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.redundancy.base import Diagnostics
 from redservo.robots import make_robot
 from redservo.scenario import parse_scenario

@@ -102,7 +102,7 @@ def test_no_compiled_kinematics() -> None:
     from redservo.binding import compiled_step
     from redservo.campaign.fastloop import fast_run
     from redservo.errors import ConfigurationError
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
     exp = build(load_scenario("panda-eye-to-hand"))
@@ -125,7 +125,7 @@ def _data() -> dict:
 
 def test_every_law_converges_on_the_shipped_scenario() -> None:
     """Every law sees only J1: each drives the carried target to its desired image."""
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.redundancy import METHODS
     from redservo.scenario import load_scenario
 
@@ -170,7 +170,7 @@ def test_every_law_converges_on_the_shipped_scenario() -> None:
 )
 def test_bad_eye_to_hand_keys(edit: object, key: str) -> None:
     from redservo.errors import ScenarioError
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import parse_scenario
 
     data = _data()
@@ -182,7 +182,7 @@ def test_bad_eye_to_hand_keys(edit: object, key: str) -> None:
 
 def test_pose_in_effector_needs_a_world_camera() -> None:
     from redservo.errors import ScenarioError
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import parse_scenario
 
     data = _data()
@@ -195,7 +195,7 @@ def test_controller_engines_agree() -> None:
     """The controller's compiled engine takes the Jacobian from the robot object (it has no
     compiled eye-to-hand kinematics): the same command as the Python path, bit for bit."""
     from redservo.control import Controller, Measurement
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.redundancy import make_law
     from redservo.scenario import load_scenario
 

@@ -93,7 +93,7 @@ def test_bad_options() -> None:
 
 
 def _load(name: str, *sets: str):
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     return build(apply_overrides(load_scenario(name), list(sets)))

@@ -74,7 +74,7 @@ def test_from_camera_refuses_a_fraction_above_one() -> None:
 
 
 def _setup() -> tuple[object, ...]:
-    from redservo.bench_cases import bench_cases
+    from redservo.bench.cases import bench_cases
 
     c = bench_cases(scaling=())[0]  # the Afma6 and four points
     bMc, J = c.robot.kinematics(c.q)
@@ -138,7 +138,7 @@ def test_simulate_gives_the_limit_to_its_controller_and_campaigns_take_the_objec
     import dataclasses
 
     from redservo.campaign.fastloop import experiment_reason
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario
     from redservo.simulation import SimulationOptions
     from redservo.simulation.loop import simulation_controller
@@ -166,7 +166,7 @@ def test_qdot_max_means_one_thing_in_a_scenario_file(table: str, old: str, new: 
     """The output saturation and the drives' saturations have names of their own; the old
     key is one error that names the new one, and the new key works."""
     from redservo.errors import ScenarioError
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario("panda-4points")
@@ -196,8 +196,8 @@ def test_the_servo_loop_honours_the_limit() -> None:
 def test_the_sensor_key_sets_the_limit_from_the_tracker_gate_and_the_rate() -> None:
     """``[sensor] motion_limit`` (the realistic preset sets it): the limit of the run's
     Controller, a fraction of the image sensor's gate per frame at the camera's rate."""
-    from redservo.camera_presets import REALISTIC_MOTION_LIMIT, camera_overrides
-    from redservo.experiment import build
+    from redservo.experiment.build import build
+    from redservo.experiment.camera_presets import REALISTIC_MOTION_LIMIT, camera_overrides
     from redservo.scenario import apply_overrides, load_scenario
     from redservo.vision.sensor import tracking_gate_px
 

@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("cv2", reason="the image sensor needs redservo[vision] (opencv)")
 
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario, shipped_scenarios
 
 IMAGE = ['sensor.kind="image"']
@@ -32,7 +32,7 @@ def test_the_gaze_converges_through_images() -> None:
 
 def test_run_writes_a_video_of_the_camera_view(tmp_path) -> None:
     pytest.importorskip("PIL", reason="GIF writing needs Pillow (redservo[viewer])")
-    from redservo.cli import main
+    from redservo.cli.main import main
 
     gif = tmp_path / "run.gif"
     args = ["run", "cm01-gaze", "--set", IMAGE[0], "--set", "simulation.max_iterations=12"]

@@ -1,4 +1,4 @@
-"""Compiled or plain kernels for a command (redservo.kernel_mode): a cold cache runs the
+"""Compiled or plain kernels for a command (redservo.bench.kernel_mode): a cold cache runs the
 short commands uncompiled, with the same numbers, and says so once."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redservo import kernel_mode
-from redservo.cli import main
+from redservo.bench import kernel_mode as kernel_mode
+from redservo.cli.main import main
 from redservo.errors import ConfigurationError
 
 pytest.importorskip("numba")
@@ -33,7 +33,7 @@ def _choose(cache: Path, command: str, **extra: str) -> tuple[list[object], str]
     """``choose_for_command(command)`` in a fresh process (no kernel imported yet), and the
     REDSERVO_NO_NUMBA it leaves."""
     code = (
-        "import json, os; from redservo.kernel_mode import choose_for_command as c; "
+        "import json, os; from redservo.bench.kernel_mode import choose_for_command as c; "
         f"print(json.dumps([list(c({command!r})), os.environ.get('REDSERVO_NO_NUMBA', '')]))"
     )
     out = subprocess.run(
@@ -69,9 +69,11 @@ def _py(cache: Path, code: str) -> str:
 
 def test_a_warm_up_marker_makes_them_compiled(tmp_path: Path) -> None:
     """numba reads NUMBA_CACHE_DIR once, at import: each step in a fresh process."""
-    ask = "from redservo.kernel_mode import is_warm; print(is_warm())"
+    ask = "from redservo.bench.kernel_mode import is_warm; print(is_warm())"
     assert _py(tmp_path, ask) == "False"
-    marker = Path(_py(tmp_path, "from redservo.kernel_mode import mark_warm; print(mark_warm())"))
+    marker = Path(
+        _py(tmp_path, "from redservo.bench.kernel_mode import mark_warm; print(mark_warm())")
+    )
     assert marker.is_file() and tmp_path in marker.parents
     assert _py(tmp_path, ask) == "True"
     assert _choose(tmp_path, "run") == (["compiled", False], "")
@@ -98,7 +100,7 @@ def test_the_uncompiled_first_run_gives_the_compiled_run_bit_for_bit(tmp_path: P
         [
             sys.executable,
             "-c",
-            "import sys; from redservo.cli import main; sys.exit(main())",
+            "import sys; from redservo.cli.main import main; sys.exit(main())",
             "run",
             "panda-4points",
             "--no-plot",
@@ -120,3 +122,13 @@ def test_the_uncompiled_first_run_gives_the_compiled_run_bit_for_bit(tmp_path: P
     assert a.files == b.files
     for key in a.files:
         assert a[key].tobytes() == b[key].tobytes(), key
+
+
+def test_the_command_line_starts_without_importing_numba(tmp_path: Path) -> None:
+    """The choice is made before any kernel is imported: importing the command line (and
+    `import redservo`) must not import numba or a kernel module that would decide it."""
+    code = (
+        "import sys; import redservo.cli.main; "
+        "print('numba' in sys.modules, 'redservo.kernels._jit' in sys.modules)"
+    )
+    assert _py(tmp_path, code) == "False False"

@@ -15,10 +15,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from redservo import METHODS, JointLimits, make_law
-from redservo.bench_cases import bench_cases
+from redservo.bench.cases import bench_cases
 from redservo.binding import compiled_qp_step, compiled_step
-from redservo.packs import limits_pack
 from redservo.redundancy.kio import law_options
+from redservo.redundancy.packs import limits_pack
 
 numba = pytest.importorskip("numba", reason="the compiled path needs numba (redservo[fast])")
 

@@ -132,7 +132,7 @@ def test_the_fast_path_still_names_a_bad_value(name: str, value: Any, error: typ
 
 def test_the_compiled_controller_step_gives_lazy_diagnostics_equal_to_the_object_paths() -> None:
     from redservo import Controller
-    from redservo.bench_cases import bench_cases
+    from redservo.bench.cases import bench_cases
     from redservo.control import Measurement
 
     case = next(c for c in bench_cases(scaling=()) if c.name == "afma6-4points")

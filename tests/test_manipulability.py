@@ -15,7 +15,7 @@ from redservo.control.manipulability import (
     manipulability_gradient,
 )
 from redservo.errors import ConfigurationError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.redundancy import make_law
 from redservo.robots import make_robot
 from redservo.scenario import load_scenario

@@ -13,9 +13,9 @@ import pytest
 pytest.importorskip("mujoco", reason="MJCF robots need redservo[mujoco]")
 
 import redservo
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.errors import ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.robots import MJCFRobot, shipped_mjcf
 from redservo.scenario import load_scenario
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from redservo import METHODS
-from redservo.cli import main
-from redservo.experiment import build
+from redservo.cli.main import main
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
 

@@ -20,7 +20,7 @@ pytest.importorskip("cv2", reason="the detectors need redservo[vision]")
 
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.features import CylinderFeature, LineFeature, SphereFeature
 from redservo.features.base import wrap_angle
 from redservo.physics import MujocoArm, MujocoCamera

@@ -19,7 +19,7 @@ pytest.importorskip("mujoco", reason="the MuJoCo backend needs redservo[mujoco]"
 
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.features import PointFeature
 from redservo.physics import MujocoActuator, MujocoArm, MujocoCamera, MujocoRobot
 from redservo.physics._mj import rendering_available

@@ -11,9 +11,10 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="figures need matplotlib (redservo[plot])")
 
-from redservo import figstyle, plots
 from redservo.errors import ConfigurationError
-from redservo.experiment import build
+from redservo.experiment.build import build
+from redservo.plots import figures as plots
+from redservo.plots import style as figstyle
 from redservo.redundancy import METHODS
 from redservo.scenario import parse_scenario
 from tests.test_scenario import GOOD
@@ -21,7 +22,7 @@ from tests.test_scenario import GOOD
 
 @pytest.fixture
 def checked(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
-    """Every figure saved through redservo.figstyle.savefig (what plots.save and every
+    """Every figure saved through redservo.plots.style.savefig (what plots.save and every
     figure module call), checked before it is written:
     laid out as savefig lays it out, its tight bounding box stays inside the figure, every
     labelled axis has a unit in parentheses and a title."""

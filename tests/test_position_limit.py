@@ -258,7 +258,7 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
     from redservo.campaign.fastloop import _flag_bits, _law_args
     from redservo.kernels.sensed import law_bits
     from redservo.kernels.step import LAW_IDS
-    from redservo.packs import limits_pack
+    from redservo.redundancy.packs import limits_pack
 
     kw = _case(dt)
     lim = kw["limits"]
@@ -287,7 +287,7 @@ def test_the_campaign_loop_gives_sns_the_same_box_when_the_shield_box_is_empty()
     loop kernel: the same command and flags as the law object."""
     from redservo.campaign.fastloop import _flag_bits, _law_args
     from redservo.kernels.sensed import law_bits
-    from redservo.packs import limits_pack
+    from redservo.redundancy.packs import limits_pack
 
     lim = JointLimits([0.0, -1.0], [1.0, 1.0], 0.1, margin=0.05, qdot_max=2.0, qddot_max=100.0)
     q, dt, prev = np.array([0.97, 0.0]), 0.3, np.zeros(2)

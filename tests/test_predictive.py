@@ -12,7 +12,7 @@ from redservo import Flag, JointLimits, make_law
 from redservo.campaign.definition import load_campaign
 from redservo.campaign.fastloop import fast_run
 from redservo.campaign.sampling import draw_sample
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.redundancy.predictive_model import horizon, point_prediction
 from redservo.scenario import load_scenario
 

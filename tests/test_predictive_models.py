@@ -9,8 +9,7 @@ import numpy as np
 
 from redservo.campaign.definition import load_campaign
 from redservo.campaign.sampling import draw_sample
-from redservo.experiment import build
-from redservo.ik import pose_error
+from redservo.experiment.build import build
 from redservo.redundancy.predictive_goal import (
     GoalSearch,
     better_goal,
@@ -20,6 +19,7 @@ from redservo.redundancy.predictive_goal import (
 )
 from redservo.redundancy.predictive_model import horizon, point_model
 from redservo.redundancy.predictive_moments import PLANE_WEIGHT, estimate_pose, moment_model
+from redservo.robots.ik import pose_error
 from redservo.scenario import load_scenario
 from redservo.spatial import inverse
 

@@ -14,7 +14,7 @@ from redservo.campaign.reach import reachable
 from redservo.campaign.reach_check import disagreements, reachable_independent
 from redservo.campaign.reach_report import ReachCheck, check_campaign, write_reach_check
 from redservo.campaign.sampling import draw_sample
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
 
@@ -88,7 +88,7 @@ def test_campaign_report_lists_disagreements(
 
 
 def test_cli_check_reach(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from redservo.cli import main
+    from redservo.cli.main import main
 
     path = tmp_path / "c.toml"
     path.write_text(

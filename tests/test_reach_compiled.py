@@ -14,7 +14,7 @@ import pytest
 import redservo.campaign.reach as reach
 from redservo.campaign import draw_sample, load_campaign
 from redservo.campaign.task import _reachable
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.spatial import matrix_to_rotvec, rotvec_to_matrix
 
 VERDICTS = json.loads((Path(__file__).parent / "data" / "reach_verdicts.json").read_text())
@@ -98,7 +98,7 @@ def test_a_robot_without_compiled_kinematics_keeps_the_python_search(
 @pytest.mark.parametrize("angle", [0.0, 1e-8, 0.3, 2.0, math.pi - 2e-3, math.pi - 1e-5, math.pi])
 @pytest.mark.parametrize("compiled", [True, False])
 def test_theta_u_is_the_rotation_vector(angle: float, compiled: bool) -> None:
-    """Away from and near θ = π (the branch :func:`redservo.ik._theta_u` hands to scipy)."""
+    """Away from and near θ = π (the branch :func:`redservo.robots.ik._theta_u` hands to scipy)."""
     from redservo.kernels.reach import theta_u
 
     fn = theta_u if compiled else getattr(theta_u, "py_func", theta_u)

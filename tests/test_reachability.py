@@ -8,7 +8,7 @@ import numpy as np
 from redservo.campaign.reach import desired_camera_pose, reachable, solve_ik
 from redservo.campaign.stats import method_stats, stats_table, wilson_interval
 from redservo.campaign.table import RunTable
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 from redservo.spatial import inverse, matrix_to_rotvec
 

@@ -200,7 +200,7 @@ def test_reproduce_through_images_runs_the_cross_comparison(
 
 
 def test_robustness_alone_means_twenty_set_ups() -> None:
-    from redservo.cli_parser import build_parser
+    from redservo.cli.parser import build_parser
 
     parser = build_parser()
     assert parser.parse_args(["reproduce", "--robustness"]).robustness == 20

@@ -1,6 +1,6 @@
 """Figures a paper reader would misread (issue 33 item 6), checked on the matplotlib figures.
 
-Each figure function is called with :func:`redservo.figstyle.save` replaced by a recorder,
+Each figure function is called with :func:`redservo.plots.style.save` replaced by a recorder,
 so that the figure stays open and its artists (legends, texts, markers, labels) can be read.
 """
 
@@ -21,7 +21,7 @@ LIMIT_HIT = "joint_limit"
 @pytest.fixture
 def captured(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Any]]:
     """Figure file name -> the open figure, instead of writing it."""
-    import redservo.figstyle as figstyle
+    import redservo.plots.style as figstyle
 
     figs: dict[str, Any] = {}
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from redservo.errors import ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs, run_experiment
 from redservo.reproduction.checks import IMPL, PAPER

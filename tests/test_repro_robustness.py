@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs, RunSpec, nominal_scenario, run_experiment
 from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar
@@ -50,7 +50,7 @@ def test_a_perturbation_moves_the_start_and_the_targets_only() -> None:
     base = nominal_scenario(spec)
     p = draw_perturbation("mc05-occlusion", 0, periods=(0.04,), pixel_noise=False)
     bound = p.bind(base)
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     nominal = build(base)
     moved = build(bound.apply(base))

@@ -67,7 +67,7 @@ def test_the_docs_recipe_reads_an_mjcf_arm_exactly(tmp_path: Path, monkeypatch) 
 
 def test_an_mjcf_given_as_robot_urdf_is_named_for_what_it_is(tmp_path: Path) -> None:
     pytest.importorskip("pinocchio", reason="URDF robots need redservo[urdf] (pin)")
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     (tmp_path / "arm.xml").write_text(ARM)
     text = (ROOT / "src/redservo/scenarios/panda-urdf-4points.toml").read_text()

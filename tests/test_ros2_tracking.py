@@ -104,7 +104,7 @@ class Pose:
 
 def test_an_apriltag_is_measured_through_the_ros_camera(node: Ros2Node, tmp_path: Path) -> None:
     pytest.importorskip("cv2")
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.ros2.image_source import FrameSensor, wait_for_camera
     from redservo.scenario import load_scenario
     from redservo.vision.render import Renderer

@@ -1,6 +1,6 @@
 """A run directory is made to be shared: a URDF's ``<mesh filename>`` must never copy a file
 from outside the robot's own folder, nor a file that is not a mesh, into it
-(:mod:`redservo.runfiles`)."""
+(:mod:`redservo.runs.files`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from redservo.runfiles import RunFileWarning, bundle_files
+from redservo.runs.files import RunFileWarning, bundle_files
 
 _STL = b"solid part\nfacet normal 0 0 1\nendfacet\nendsolid part\n"
 

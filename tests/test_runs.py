@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.errors import ConfigurationError
-from redservo.experiment import build
+from redservo.experiment.build import build
+from redservo.runs.tomlwriter import dumps
 from redservo.scenario import load_scenario, parse_scenario
-from redservo.tomlwriter import dumps
 from tests.test_scenario import GOOD
 
 

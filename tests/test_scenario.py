@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from redservo import ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario, parse_scenario, shipped_scenarios
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -175,7 +175,7 @@ def test_validating_does_not_build_or_import_the_simulator() -> None:
     """The scenario ⇄ experiment import cycle is gone: validation imports neither."""
     code = (
         "import sys; from redservo.scenario import load_scenario; load_scenario('cm01-gaze'); "
-        "print([m for m in ('redservo.experiment', 'redservo.simulation') if m in sys.modules])"
+        "print([m for m in ('redservo.experiment.build', 'redservo.simulation') if m in sys.modules])"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
@@ -201,7 +201,7 @@ def test_the_corpus_covers_every_kind_of_breakage() -> None:
 def test_every_broken_file_is_one_line_naming_file_and_key(
     name: str, case: dict[str, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from redservo.cli import main
+    from redservo.cli.main import main
 
     path = BAD / name
     assert main(["run", str(path), "-q", "--out", str(tmp_path / "o")]) == 2, case["what"]
@@ -408,11 +408,11 @@ def test_image_sensor_keys_match_the_sensor() -> None:
     from redservo.schema.scenario import SensorSpec
 
     pytest.importorskip("cv2", reason="the image sensor needs OpenCV (redservo[vision])")
-    from redservo.experiment_sensor import TIMING_KEYS
+    from redservo.experiment.sensor import TIMING_KEYS
     from redservo.vision import DEPTH_POLICIES, ImageSensor
 
     params = inspect.signature(ImageSensor.__init__).parameters
-    # The camera's timing keys are the TimedSensor's (redservo.sensor_timing), not the image's.
+    # The camera's timing keys are the TimedSensor's (redservo.sensors.timing), not the image's.
     fields = {k: v for k, v in SensorSpec.model_fields.items() if k not in TIMING_KEYS}
     for name, field in fields.items():
         if name != "kind":

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.errors import ScenarioError
 from redservo.robots.urdf import shipped_urdf
-from redservo.runfiles import RunFileWarning
+from redservo.runs.files import RunFileWarning
 from redservo.scenario import load_scenario
 
 pytest.importorskip("pinocchio")
@@ -121,7 +121,7 @@ def test_a_moved_run_works_without_its_original_files(
         frame = pb.frame(k)
         assert frame.links and np.all(np.isfinite(frame.bMc))
     # What `redservo plot` needs of the run beyond its log (drawing is tested in test_runs).
-    from redservo.replot import _context
+    from redservo.runs.replot import _context
 
     context = _context(load_run(moved))
     assert context.joint_names == load_run(moved).joint_names and context.camera is not None
@@ -132,8 +132,8 @@ def test_a_moved_run_works_without_its_original_files(
 
 
 def test_the_logged_robot_equals_the_run_robot_bit_for_bit(tmp_path: Path) -> None:
-    from redservo.experiment import build
-    from redservo.runkin import LoggedRobot
+    from redservo.experiment.build import build
+    from redservo.runs.kinematics import LoggedRobot
 
     exp = build(load_scenario("panda-urdf-4points"))
     result = exp.run(max_iterations=6)
@@ -187,8 +187,8 @@ def test_a_missing_absolute_urdf_is_not_said_to_be_relative(tmp_path: Path) -> N
 
 def test_a_camera_file_is_copied_and_named_relatively(tmp_path: Path) -> None:
     pytest.importorskip("cv2")
+    from redservo.calibration.files import save_camera
     from redservo.camera import Camera
-    from redservo.camera_io import save_camera
 
     calib = save_camera(tmp_path / "calib" / "wrist.yaml", Camera(px=580.0, py=585.0))
     text = _SCENARIO.format(urdf="panda") + '[camera]\nfile = "../calib/wrist.yaml"\n'

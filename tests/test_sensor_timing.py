@@ -1,4 +1,4 @@
-"""A camera's timing around any sensor (redservo.sensor_timing): frames at the camera's rate,
+"""A camera's timing around any sensor (redservo.sensors.timing): frames at the camera's rate,
 stamped with their exposure time, available only after the latency, held in between."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from redservo.errors import ConfigurationError
-from redservo.sensor_timing import EXPOSURE_SAMPLES, CameraTiming, TimedSensor, timed
 from redservo.sensors import FrameNoise, IdealSensor, SensorReading
+from redservo.sensors.timing import EXPOSURE_SAMPLES, CameraTiming, TimedSensor, timed
 
 
 class _Clock(IdealSensor):
@@ -174,7 +174,7 @@ def test_the_simulation_holds_a_frame_with_its_noise(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     from redservo.control import Controller
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     seen: list[tuple[float | None, np.ndarray]] = []

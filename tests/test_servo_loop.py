@@ -17,7 +17,7 @@ import pytest
 
 from redservo import ConfigurationError, JointLimits, make_law
 from redservo.control import JointLimitForce, Occlusion, OcclusionAvoidance
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.features import PointFeature
 from redservo.hardware import (
     ActuatorModel,

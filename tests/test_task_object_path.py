@@ -15,7 +15,7 @@ from redservo import (
     ShapeError,
     UnknownNameError,
 )
-from redservo.bench_cases import dh_chain
+from redservo.bench.cases import dh_chain
 from redservo.features import LineFeature, PointFeature, SphereFeature
 from redservo.features.base import Measurement
 from redservo.robots import Afma6

@@ -11,9 +11,9 @@ import pytest
 pytest.importorskip("pinocchio", reason="the URDF scenarios need redservo[urdf] (pin)")
 
 import redservo
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.errors import ScenarioError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.robots import shipped_urdf
 from redservo.robots.panda import PANDA_QDDOT_MAX
 from redservo.scenario import apply_overrides, load_scenario

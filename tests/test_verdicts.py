@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 
 import redservo
-from redservo.cli_common import summary_line
+from redservo.cli.common import summary_line
 from redservo.records import failure_reasons, outcome_text, verdict
-from redservo.report import summary_table
+from redservo.runs.tables import summary_table
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = Path(redservo.__file__).resolve().parent
@@ -167,7 +167,7 @@ def test_animate_title_shows_the_verdict(
     pytest.importorskip("PIL")
     from matplotlib.figure import Figure
 
-    from redservo.cli import main
+    from redservo.cli.main import main
 
     titles: list[str] = []
     real = Figure.suptitle

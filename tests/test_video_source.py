@@ -14,9 +14,9 @@ pytest.importorskip("cv2")
 
 import cv2
 
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.errors import ConfigurationError
-from redservo.experiment import build
+from redservo.experiment.build import build
 from redservo.hardware.video import VideoSource
 from redservo.scenario import load_scenario
 from redservo.vision.render import Renderer

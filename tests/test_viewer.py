@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli import main
+from redservo.cli.main import main
 from redservo.robots import Afma6, Humanoid9, Panda
 from redservo.scenario import load_scenario, parse_scenario
 
@@ -46,7 +46,7 @@ def test_link_poses_end_at_the_end_effector(robot: object) -> None:
 @pytest.fixture(scope="module")
 def panda_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A short Panda run (its elbow starts near its lower limit), saved with its scenario."""
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     out = tmp_path_factory.mktemp("view") / "panda"
     sc = load_scenario("panda-4points")
@@ -78,7 +78,7 @@ def test_camera_image_shows_the_features(panda_run: Path) -> None:
 
     img = camera_image(Playback(load_run(panda_run)), 5, width=320)
     assert img.shape == (240, 320, 3) and img.dtype == np.uint8
-    from redservo.figstyle import role_rgb
+    from redservo.plots.style import role_rgb
 
     orange = np.all(np.abs(img.astype(int) - role_rgb("desired")) < 30, axis=2)
     blue = np.all(np.abs(img.astype(int) - role_rgb("current")) < 30, axis=2)
@@ -356,7 +356,7 @@ def test_viewer_draws_the_urdf_meshes_and_the_objects_as_they_are(tmp_path: Path
     objects are a tag (its squares), a sphere, a cylinder (a mesh) and points."""
     pytest.importorskip("viser", reason="the viewer needs viser (redservo[viewer])")
     pytest.importorskip("pinocchio", reason="URDF robots need Pinocchio (redservo[urdf])")
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.viewer.playback import Playback
     from redservo.viewer.server import serve
 

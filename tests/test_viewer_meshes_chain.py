@@ -113,7 +113,7 @@ def test_urdf_robot_knows_its_camera_chain(tmp_path: Path) -> None:
 
 
 def test_a_servo_run_without_its_scenario_says_why(tmp_path: Path) -> None:
-    from redservo.runs import load_run
+    from redservo.runs.load import load_run
 
     (tmp_path / "summary.json").write_text(
         json.dumps({"outcome": "converged", "max_cycle_time": 0.001})

@@ -143,7 +143,7 @@ def test_cli_prints_tags_and_poses_from_a_bag(tmp_path: Path, capsys) -> None:
 
 
 def test_cli_with_a_camera_file_and_errors(tmp_path: Path, capsys) -> None:
-    from redservo.camera_io import save_camera
+    from redservo.calibration.files import save_camera
 
     folder = tmp_path / "shots"
     folder.mkdir()

@@ -265,7 +265,7 @@ def test_from_config() -> None:
 
 def test_in_the_loop_like_the_ideal_sensor() -> None:
     # The shipped gazing scenario through the simulator, features measured in the image.
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     base = load_scenario("cm01-gaze")

@@ -9,7 +9,7 @@ from redservo.camera import Camera
 from redservo.errors import ConfigurationError, GeometryError, ShapeError, UnknownNameError
 from redservo.scene import Scene, Static, Tag
 from redservo.spatial import make_transform
-from redservo.tag_families import TAG_FAMILIES, check_tag
+from redservo.vision.tag_families import TAG_FAMILIES, check_tag
 
 cv2 = pytest.importorskip(
     "cv2", reason="the image pipeline needs OpenCV: pip install 'redservo[vision]'"
@@ -124,7 +124,7 @@ def test_bad_input() -> None:
 def _run(name: str, *sets: str, start: list[float] | None = None):
     import copy
 
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import Scenario, apply_overrides, load_scenario
 
     sc = load_scenario(name)

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from redservo import warmup as wu
-from redservo.cli import main
+from redservo.bench import warmup as wu
+from redservo.cli.main import main
 
 
 def _numba_on() -> bool:
@@ -43,7 +43,7 @@ def test_warmup_runs_every_group_and_prints_progress() -> None:
     group started and finished with its time, then the total; exit code 0."""
     env = {**os.environ, "REDSERVO_NO_NUMBA": "1"}
     out = subprocess.run(
-        [sys.executable, "-m", "redservo.cli", "warmup"],
+        [sys.executable, "-m", "redservo.cli.main", "warmup"],
         env=env,
         capture_output=True,
         text=True,
@@ -120,7 +120,7 @@ def test_the_notice_appears_on_a_cold_cache_and_not_on_a_warm_one(tmp_path: Path
     script = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(tmp_path)!r})
-        from redservo.warmup import announce_compilation
+        from redservo.bench.warmup import announce_compilation
         announce_compilation()
         announce_compilation()  # idempotent: one listener
         import mod

@@ -40,7 +40,7 @@ from redservo.redundancy import (
 )
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain
-from redservo.runs import Run, load_run
+from redservo.runs.load import Run, load_run
 
 if TYPE_CHECKING:  # imported on first use by __getattr__ below
     from redservo.api import compare, load_scenario, run

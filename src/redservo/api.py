@@ -3,7 +3,7 @@
 These four functions are what ``redservo run``, ``compare`` and ``campaign`` do, callable
 from Python (``import redservo``): :func:`load_scenario`, :func:`run`, :func:`compare`,
 :func:`campaign`. For a control loop of your own, :meth:`Experiment.controller
-<redservo.experiment.Experiment.controller>` (or :class:`redservo.Controller`) gives the
+<redservo.experiment.build.Experiment.controller>` (or :class:`redservo.Controller`) gives the
 control core a run drives. Every error is one :class:`~redservo.errors.RedservoError`
 naming the argument (or file and key) and what is allowed. Units: m, rad, s; joints and
 iterations numbered from 0.
@@ -28,12 +28,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from redservo.errors import ConfigurationError
-from redservo.overrides import Overrides
-from redservo.overrides import as_assignments as _assignments
+from redservo.experiment.overrides import Overrides
+from redservo.experiment.overrides import as_assignments as _assignments
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.campaign import CampaignResult
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.scenario import Scenario
     from redservo.simulation import SimulationResult
 
@@ -97,7 +97,7 @@ def load_scenario(scenario: ScenarioLike, overrides: Overrides = None) -> Scenar
 
 
 def _experiment(scenario: ScenarioLike, overrides: Overrides) -> Experiment:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     return build(load_scenario(scenario, overrides))
 
@@ -211,7 +211,7 @@ def check_methods(names: Sequence[str]) -> None:
 
 def write_comparison(out: Path, name: str, results: Mapping[str, SimulationResult]) -> None:
     """Save a comparison: one run directory per method, ``compare.json`` and ``compare.md``."""
-    from redservo.report import summary_table
+    from redservo.runs.tables import summary_table
 
     for m, r in results.items():
         r.save(out / m, extra={"scenario": name, "method": m})

@@ -14,7 +14,7 @@ pinhole)::
 Pixel convention: pixel edges on the integers, so the pixel in row ``i`` and column ``j``
 has its centre at ``(j + 0.5, i + 0.5)``; OpenCV (and ROS) put pixel centres on the
 integers, so an OpenCV camera matrix's ``cx, cy`` are ``u0 - 0.5, v0 - 0.5`` here
-(:mod:`redservo.camera_io` converts when it reads or writes a file).
+(:mod:`redservo.calibration.files` converts when it reads or writes a file).
 
 Decisions:
     * A point is projectable only if its depth exceeds :data:`MIN_DEPTH`

@@ -3,7 +3,7 @@
 The format is documented, with a fully commented example and a reference generated from
 the schema, in ``docs/scenarios.md``. :func:`load_scenario` reads and validates a file (or
 a shipped scenario name) against :class:`redservo.schema.ScenarioSpec`, without building
-anything; :func:`redservo.experiment.build` turns it into the objects
+anything; :func:`redservo.experiment.build.build` turns it into the objects
 :func:`redservo.simulation.simulate` needs and checks the geometry. Every error is a
 :class:`~redservo.errors.ScenarioError` of one line that names the file, the key and what
 is allowed.
@@ -269,7 +269,7 @@ def parse_scenario(
     """Validate a scenario table (keys, types, ranges, names, references) and return it.
 
     Nothing is built: geometry (``q0`` within the robot's limits, a target in front of the
-    camera and in the image) is checked by :func:`redservo.experiment.build`.
+    camera and in the image) is checked by :func:`redservo.experiment.build.build`.
 
     Args:
         data: The TOML table.
@@ -286,7 +286,7 @@ def parse_scenario(
 
     table = copy.deepcopy(dict(data))
     _resolve_urdf(table, source, base_dir, key_prefix)
-    from redservo.camera_io import resolve_camera_file
+    from redservo.calibration.files import resolve_camera_file
 
     resolve_camera_file(table, source, base_dir, key_prefix)
     scenario = Scenario(table, source)

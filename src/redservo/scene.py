@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, GeometryError, ShapeError, UnknownNameError
 from redservo.spatial import inverse, matrix_to_rotvec, rotvec_to_matrix, twist_transform
-from redservo.tag_families import check_tag, tag_points
+from redservo.vision.tag_families import check_tag, tag_points
 
 __all__ = [
     "ConstantVelocity",
@@ -260,7 +260,7 @@ class PointSet(SceneObject):
 class Tag(PointSet):
     """A square fiducial tag (AprilTag or ArUco): ``size`` (m, the black square's side), ``tag_id``
     and ``family``; its ``points`` are its 4 corners in ViSP's tag frame
-    (:func:`redservo.tag_families.tag_points`; docs/vision.md, Tags)."""
+    (:func:`redservo.vision.tag_families.tag_points`; docs/vision.md, Tags)."""
 
     points: FloatArray = field(init=False)
     size: float = 0.05

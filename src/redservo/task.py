@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo import _task_plan as plan
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, ShapeError
+from redservo.features import plan as plan
 from redservo.features.base import Feature
 from redservo.kernels import lazy
 from redservo.scene import Scene

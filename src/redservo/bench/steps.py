@@ -1,6 +1,6 @@
 """Control-step benchmarks (``redservo bench``): what users run, compiled and reference.
 
-For each case of :mod:`redservo.bench_cases` and each method, up to four paths are timed:
+For each case of :mod:`redservo.bench.cases` and each method, up to four paths are timed:
 
 * ``compiled``: the whole step (kinematics, features, ``J1``, law, safety) as one kernel
   call (:func:`redservo.binding.compiled_step`); for ``qp`` the compiled task, one
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from redservo.bench_cases import SCALING_N, BenchCase, bench_cases
+from redservo.bench.cases import SCALING_N, BenchCase, bench_cases
 from redservo.redundancy import METHODS, make_law
 
 __all__ = ["BenchResult", "BenchRow", "bench_cases", "run_bench"]
@@ -246,7 +246,7 @@ def _moment_features_items(case: BenchCase) -> list[tuple[str, str, str, Callabl
 def _reference(cases: list[str], methods: list[str], rounds: int, batch: int) -> list[BenchRow]:
     """Time the compiled step with numba disabled, in a subprocess."""
     code = (
-        "import json, sys; from redservo.bench import _reference_main; "
+        "import json, sys; from redservo.bench.steps import _reference_main; "
         "print(json.dumps(_reference_main(*json.loads(sys.argv[1]))))"
     )
     env = {**os.environ, "REDSERVO_NO_NUMBA": "1"}
@@ -274,7 +274,7 @@ def _first_call() -> dict[str, float]:
     """``import redservo`` and the first compiled step in a fresh process (cache warm)."""
     code = (
         "import time; t0 = time.perf_counter(); import redservo; t1 = time.perf_counter()\n"
-        "from redservo.bench_cases import bench_cases; from redservo.redundancy import make_law\n"
+        "from redservo.bench.cases import bench_cases; from redservo.redundancy import make_law\n"
         "from redservo.binding import compiled_step\n"
         "c = bench_cases(scaling=())[0]\n"
         "s = compiled_step(c.robot, c.scene, c.task, make_law('iterative-smooth'), "

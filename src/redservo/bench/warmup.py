@@ -26,7 +26,7 @@ from typing import IO, Any, NamedTuple, cast
 
 import numpy as np
 
-from redservo.compile_progress import Progress, kernel_name
+from redservo.bench.compile_progress import Progress, kernel_name
 
 __all__ = [
     "COLD_SECONDS",
@@ -184,7 +184,7 @@ def _laws(note: Callable[[str], None]) -> None:
 
 
 def _scenarios(note: Callable[[str], None]) -> None:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import load_scenario, shipped_scenarios
 
     for name in shipped_scenarios():
@@ -212,7 +212,7 @@ def _feature_variants() -> None:
 
 def _steps(note: Callable[[str], None]) -> None:
 
-    from redservo.bench_cases import bench_cases
+    from redservo.bench.cases import bench_cases
     from redservo.binding import compiled_qp_step, compiled_step
     from redservo.redundancy import make_law
 
@@ -250,7 +250,7 @@ def _campaign_loop(note: Callable[[str], None]) -> None:
     from redservo.campaign.fastloop import campaign_law, fast_reason, fast_summary
     from redservo.campaign.reach import compile_search
     from redservo.campaign.sampling import draw_sample
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     for name in shipped_campaigns():
         defn = load_campaign(name)
@@ -331,7 +331,7 @@ def warmup(
             counter.uninstall()
     report = WarmupReport(seconds, compiled, numba)
     if numba:  # every group ran: `auto` commands run compiled from now on
-        from redservo.kernel_mode import mark_warm
+        from redservo.bench.kernel_mode import mark_warm
 
         mark_warm()
     say(_verdict(report))

@@ -22,16 +22,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from redservo import _task_plan as plan
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.features import plan as plan
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import Diagnostics, Law, law_class, lazy_diagnostics
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
 from redservo.redundancy.kio import law_options
+from redservo.redundancy.packs import limits_pack
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 

@@ -24,9 +24,9 @@ from redservo.binding.packs import scene_pack, task_pack
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import Law
 from redservo.redundancy.kio import law_options
+from redservo.redundancy.packs import limits_pack
 from redservo.robots import Robot
 from redservo.scene import Scene
 from redservo.task import VisualTask

@@ -4,7 +4,7 @@
   circle grid in several images, ``cv2.findChessboardCorners`` + ``cv2.cornerSubPix`` (or
   ``cv2.findCirclesGrid``), then ``cv2.calibrateCamera``: the
   :class:`~redservo.camera.Camera` with its distortion and the RMS reprojection error;
-  ``redservo calibrate`` writes it as an OpenCV file (:func:`redservo.camera_io.save_camera`).
+  ``redservo calibrate`` writes it as an OpenCV file (:func:`redservo.calibration.files.save_camera`).
 * :func:`hand_eye` (:mod:`~redservo.calibration.hand_eye`): from pairs of robot poses
   ``wMe`` and target poses ``cMo``, ``cv2.calibrateHandEye`` gives ``eMc`` (eye-in-hand) or,
   with the robot poses inverted, the fixed camera's ``wMc`` (eye-to-hand), with the

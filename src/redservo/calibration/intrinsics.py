@@ -5,7 +5,7 @@ Pattern conventions (OpenCV's): a chessboard ``COLSxROWS`` counts its *inner* co
 ``COLSxROWS`` counts circles, ``spacing`` is the distance between neighbouring centres (m).
 The pattern's points are ``(i * square, j * square, 0)``, ``i`` along the columns, in
 OpenCV's detection order. The result is a :class:`~redservo.camera.Camera` in redservo's
-pixel convention (``u0 = cx + 0.5``; :mod:`redservo.camera_io`), with the distortion model
+pixel convention (``u0 = cx + 0.5``; :mod:`redservo.calibration.files`), with the distortion model
 fitted (:mod:`~redservo.calibration.distortion`, chosen or ``auto``) and the doubts about
 the views (:mod:`~redservo.calibration.views`: repeated views are not used, fewer than three
 distinct ones are refused; poor coverage or tilt spread is warned about).

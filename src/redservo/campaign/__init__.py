@@ -299,12 +299,12 @@ def campaign_call(
 ) -> CampaignResult:
     """:func:`redservo.api.campaign` (documented there): :func:`run_campaign` with the base
     scenario's ``overrides`` applied, and the files it references copied into ``out/files/``
-    so that ``redservo replay`` works on the directory once moved (:mod:`redservo.runfiles`)."""
+    so that ``redservo replay`` works on the directory once moved (:mod:`redservo.runs.files`)."""
     import copy
     from dataclasses import replace
 
-    from redservo.overrides import as_assignments
-    from redservo.runfiles import bundle_files
+    from redservo.experiment.overrides import as_assignments
+    from redservo.runs.files import bundle_files
     from redservo.scenario import apply_overrides
 
     defn = load_campaign(definition)

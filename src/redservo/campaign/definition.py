@@ -158,7 +158,7 @@ class CampaignDefinition:
     @cached_property
     def nominal(self) -> _Nominal:
         """The base scenario evaluated at its own start (cached)."""
-        from redservo.experiment import build
+        from redservo.experiment.build import build
 
         exp = build(self.scenario)
         bMc = exp.robot.fkine(exp.q0)
@@ -288,7 +288,7 @@ def parse_campaign(
 
 def _check_start(spec: StartSpec, base: Scenario, src: str) -> None:
     """What ``[start]`` must satisfy given the base scenario's ``rho`` and joints."""
-    from redservo.experiment import build_robot
+    from redservo.experiment.build import build_robot
 
     rho = base.spec.robot.rho
     names = build_robot(base).joint_names

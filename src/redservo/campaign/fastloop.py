@@ -8,7 +8,7 @@ covered; the caller then runs the object path. :func:`fast_reason` says why a se
 not covered:
 
 * the kernels run uncompiled (numba not installed, or switched off:
-  :func:`redservo.kernel_mode.uncompiled_reason`): the loop would run as plain Python,
+  :func:`redservo.bench.kernel_mode.uncompiled_reason`): the loop would run as plain Python,
   slower than the object path;
 * a method without a compiled step (``qp``, a user-registered law) or with
   ``scaling = "secondary-first"``;
@@ -42,7 +42,7 @@ from redservo.campaign.looppack import (
     task_args,
 )
 from redservo.errors import ConfigurationError
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.records import Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.flags import FLAGS, Event
@@ -89,7 +89,7 @@ def law_reason(law: Law) -> str | None:
     from redservo.redundancy.qp import BoundedLeastSquares
 
     if not _compiled():
-        from redservo.kernel_mode import uncompiled_reason
+        from redservo.bench.kernel_mode import uncompiled_reason
 
         return uncompiled_reason()
     from redservo.redundancy.declare import kernel_class
@@ -267,7 +267,7 @@ class _Packed(NamedTuple):
 
 
 def _pack(exp: Experiment) -> _Packed:
-    from redservo.packs import limits_pack
+    from redservo.redundancy.packs import limits_pack
 
     opt, lim, n = exp.options, exp.limits, exp.robot.n
     lp = limits_pack(lim)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from redservo.binding.packs import scene_pack, scene_targets, task_pack
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 
 __all__ = ["robot_args", "robot_reason", "scene_args", "scene_reason", "task_args"]
 

@@ -17,7 +17,7 @@ sample). It uses the robot's own kinematics
 The search runs compiled, every seed in one kernel call (:mod:`redservo.kernels.reach`),
 for the robots the compiled campaign loop covers (the Afma6, DH and URDF chains); the
 feature stage too when that loop can measure the task. Other robots and tasks run the same
-search in Python (:func:`redservo.ik.solve_ik`). Both give the same verdicts on the first
+search in Python (:func:`redservo.robots.ik.solve_ik`). Both give the same verdicts on the first
 200 samples of every shipped campaign (tests/test_reach_compiled.py).
 
 A reachable goal is not a promise that a method can get there (the path matters); an
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.ik import Stall, projected_step, solve_ik
+from redservo.robots.ik import Stall, projected_step, solve_ik
 from redservo.spatial import inverse
 
 __all__ = [
@@ -53,7 +53,7 @@ RANDOM_SEEDS = 60
 
 
 def desired_camera_pose(exp: Any) -> FloatArray | None:
-    """``bMc*`` (4, 4) of an :class:`~redservo.experiment.Experiment`, or None when its task
+    """``bMc*`` (4, 4) of an :class:`~redservo.experiment.build.Experiment`, or None when its task
     gives desired feature values rather than a desired pose."""
     spec = exp.scenario.spec
     pose = spec.task.desired_pose

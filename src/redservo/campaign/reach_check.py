@@ -1,7 +1,7 @@
 """An independent second opinion on a campaign sample's reachability.
 
 :mod:`redservo.campaign.reach` decides reachability with the projected damped least squares of
-:mod:`redservo.ik`, the same solver, damping, tolerances and seed generator as the
+:mod:`redservo.robots.ik`, the same solver, damping, tolerances and seed generator as the
 ``predictive`` law's goal search (:mod:`redservo.redundancy.predictive_goal`). A law that
 succeeds where that search failed, or a search that agrees with the law because both share a
 blind spot, cannot be told apart with it alone. This module answers the same question with
@@ -16,8 +16,8 @@ nothing in common but the robot's forward kinematics:
   :data:`SOBOL_SCRAMBLE`) spanning the bounds, nothing derived from the sample's start.
 
 Reachable means the same as in :mod:`redservo.campaign.reach`: every joint at least ``margin``
-of its range inside its limits, the pose within :data:`redservo.ik.POS_TOL` /
-:data:`redservo.ik.ROT_TOL`, or the task error below half the convergence tolerance.
+of its range inside its limits, the pose within :data:`redservo.robots.ik.POS_TOL` /
+:data:`redservo.robots.ik.ROT_TOL`, or the task error below half the convergence tolerance.
 :func:`disagreements` lists the samples the two methods judge differently. Units: metres,
 radians.
 """
@@ -106,9 +106,9 @@ def reachable_independent(
 ) -> bool | None:
     """Whether the sample's goal is reachable with every joint at least ``margin`` (a fraction
     of its range, default the scenario's ``min_margin``) inside its limits, decided without
-    :mod:`redservo.ik` (module docstring); None when the task has no desired pose."""
+    :mod:`redservo.robots.ik` (module docstring); None when the task has no desired pose."""
     from redservo.campaign.reach import desired_camera_pose
-    from redservo.ik import POS_TOL, ROT_TOL
+    from redservo.robots.ik import POS_TOL, ROT_TOL
 
     target = desired_camera_pose(exp)
     if target is None:

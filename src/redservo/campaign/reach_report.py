@@ -65,7 +65,7 @@ def check_campaign(defn: Any, seed: int, rows: Sequence[dict[str, Any]]) -> Reac
     campaign ``defn`` drawn with ``seed``) whose ``reachable`` column is known."""
     from redservo.campaign.reach_check import disagreements, reachable_independent
     from redservo.campaign.sampling import draw_sample
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     known = _column(rows)
     ids = sorted(known)

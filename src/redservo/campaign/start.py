@@ -54,7 +54,7 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
 def start_check(defn: CampaignDefinition, sc: Scenario) -> tuple[str | None, Any]:
     """``(problem, experiment)``: why the sample's start is invalid (None: it is valid) and
     its built experiment (None when building failed)."""
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     try:
         exp = build(sc)

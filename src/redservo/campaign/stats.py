@@ -299,13 +299,13 @@ def _figures(
     (:meth:`redservo.campaign.table.RunTable.box`; ``rows`` is then not read).
 
     Titles give the campaign ``name`` and N (runs per method); each method has its colour
-    of :func:`redservo.figstyle.method_style`; files as :func:`redservo.figstyle.savefig`
+    of :func:`redservo.plots.style.method_style`; files as :func:`redservo.plots.style.savefig`
     writes them (``formats``: default the active ones). Returns the first file of each.
     """
     try:
         from matplotlib.figure import Figure
 
-        from redservo.figstyle import method_style, savefig
+        from redservo.plots.style import method_style, savefig
     except ImportError:  # matplotlib is optional
         return ()
     names = [s.method for s in result_stats]

@@ -111,7 +111,7 @@ def _run_task(task: _Task) -> dict[str, Any]:
     The row's ``_path`` says whether the compiled loop ran it (:data:`FAST_PATH`) or why
     not (the job removes it and counts it).
     """
-    from redservo.experiment import build
+    from redservo.experiment.build import build
 
     row: dict[str, Any] = {"sample": task.sample, "method": task.method, **task.params}
     try:

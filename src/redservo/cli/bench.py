@@ -10,7 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from redservo.cli_common import method_list
+from redservo.cli.common import method_list
 
 __all__ = ["add_bench_arguments", "main_bench"]
 
@@ -84,7 +84,7 @@ def _progress(enabled: bool) -> Callable[[int, int, str], None] | None:
 
 def main_bench(args: argparse.Namespace) -> int:
     """Run the benchmark with the parsed ``args``; print markdown, write JSON if asked."""
-    from redservo.bench import run_bench
+    from redservo.bench.steps import run_bench
     from redservo.errors import ConfigurationError
     from redservo.redundancy import law_class
 

@@ -5,7 +5,7 @@
                        [--out camera.yaml] [--poses-out poses.json]
     redservo calibrate-hand-eye POSES.json|csv [--mount hand|world] [--method tsai] [--out FILE]
 
-Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`).
+Registered by :func:`register` into the parser (:mod:`redservo.cli.parser`).
 """
 
 from __future__ import annotations
@@ -87,8 +87,8 @@ def _usage(message: str) -> Exception:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from redservo.calibration.files import save_camera
     from redservo.calibration.intrinsics import Pattern, calibrate_camera, parse_size
-    from redservo.camera_io import save_camera
 
     pattern: Pattern
     if args.chessboard:

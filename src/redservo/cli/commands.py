@@ -1,6 +1,6 @@
 """The ``redservo`` commands that run something: run, compare, list, reproduce, campaign, bench
-and warmup (the parser is :mod:`redservo.cli_parser`; the commands on saved results are in
-:mod:`redservo.cli_tools`). Each command imports what it needs when it runs, so that the
+and warmup (the parser is :mod:`redservo.cli.parser`; the commands on saved results are in
+:mod:`redservo.cli.tools`). Each command imports what it needs when it runs, so that the
 command line starts fast; each returns the exit code.
 """
 
@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from redservo.cli_common import (
+from redservo.cli.common import (
     UsageError,
     draw_figures,
     engine_note,
@@ -37,14 +37,14 @@ __all__ = [
 
 
 def _plots() -> Any:
-    from redservo import plots
+    from redservo.plots import figures as plots
 
     return plots
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``redservo run``: one scenario, its run directory, figures and summary line."""
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario(args.scenario)
@@ -106,10 +106,10 @@ def paper_note(sc: Any, summary: Any) -> str | None:
 
 
 def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str | None:
-    """:func:`redservo.advice.law_hint` for a run that failed at a limit, with whether its
+    """:func:`redservo.records.advice.law_hint` for a run that failed at a limit, with whether its
     goal is reachable within the success margin (the campaigns' inverse-kinematics search,
     run only then); None for any other run."""
-    from redservo.advice import failed_at_a_limit, law_hint
+    from redservo.records.advice import failed_at_a_limit, law_hint
 
     if not failed_at_a_limit(summary):
         return None
@@ -120,9 +120,9 @@ def law_hint_line(exp: Any, summary: Any, scenario: str, sets: list[str]) -> str
 
 
 def compare_hint_line(exp: Any, summaries: dict[str, Any], args: argparse.Namespace) -> str | None:
-    """:func:`redservo.advice.compare_hint` when a compared run failed at a limit (the goal's
+    """:func:`redservo.records.advice.compare_hint` when a compared run failed at a limit (the goal's
     reachability searched only then); None otherwise."""
-    from redservo.advice import compare_hint, failed_at_a_limit
+    from redservo.records.advice import compare_hint, failed_at_a_limit
 
     if not any(failed_at_a_limit(s) for s in summaries.values()):
         return None
@@ -135,7 +135,7 @@ def compare_hint_line(exp: Any, summaries: dict[str, Any], args: argparse.Namesp
 def cmd_compare(args: argparse.Namespace) -> int:
     """``redservo compare``: several methods on one scenario, a table and figures."""
     from redservo.api import check_methods
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario(args.scenario)
@@ -173,7 +173,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_list(args: argparse.Namespace) -> int:
     """``redservo list``: what is shipped (``-q``: names only)."""
-    from redservo.cli_tools import print_list
+    from redservo.cli.tools import print_list
 
     print_list(args.quiet)
     return 0
@@ -260,10 +260,10 @@ def interrupted_campaign_line(out: Path) -> str:
 
 def bundle_campaign_files(out: Path | None, defn: Any) -> None:
     """Copy the files the campaign's base scenario references into ``out/files/``, so that
-    ``redservo replay`` works on the directory once moved (:func:`redservo.runfiles.relocate`)."""
+    ``redservo replay`` works on the directory once moved (:func:`redservo.runs.files.relocate`)."""
     import copy
 
-    from redservo.runfiles import bundle_files
+    from redservo.runs.files import bundle_files
 
     if out is not None:
         bundle_files(Path(out), copy.deepcopy(defn.scenario.data))
@@ -271,14 +271,14 @@ def bundle_campaign_files(out: Path | None, defn: Any) -> None:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``redservo bench``: time the control step of every method."""
-    from redservo.bench_cli import main_bench
+    from redservo.cli.bench import main_bench
 
     return main_bench(args)
 
 
 def cmd_warmup(args: argparse.Namespace) -> int:
     """``redservo warmup``: compile every kernel ahead of use, with progress on stderr."""
-    from redservo.warmup import warmup
+    from redservo.bench.warmup import warmup
 
     warmup(quiet=args.quiet)
     return 0

@@ -1,7 +1,7 @@
 """What the ``redservo`` commands share: usage errors, option types, progress and summary lines.
 
-Imported by :mod:`redservo.cli` (the entry point), :mod:`redservo.cli_parser` (the
-parser), :mod:`redservo.cli_commands` and :mod:`redservo.cli_tools` (the commands); it
+Imported by :mod:`redservo.cli.main` (the entry point), :mod:`redservo.cli.parser` (the
+parser), :mod:`redservo.cli.commands` and :mod:`redservo.cli.tools` (the commands); it
 imports none of them, so that the command line has no import cycle.
 """
 
@@ -189,7 +189,7 @@ def add_figure_options(p: argparse.ArgumentParser, default: str = "png") -> None
 def figures(args: argparse.Namespace) -> Iterator[bool]:
     """Within the block, figures are written in ``--format`` (none with ``--no-plot``);
     yields whether figures are wanted."""
-    from redservo.figstyle import figure_formats, parse_formats
+    from redservo.plots.style import figure_formats, parse_formats
 
     if getattr(args, "no_plot", False):
         with figure_formats(()):

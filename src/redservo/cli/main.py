@@ -9,14 +9,14 @@
                       [--workers K | --scheduler tcp://HOST:PORT] [--out DIR] [--wait] [--repair]
     redservo bench [--repeat N]
     redservo warmup
-    redservo plot | replay | view | animate PATH ...   (redservo.cli_tools)
+    redservo plot | replay | view | animate PATH ...   (redservo.cli.tools)
 
 Commands that write figures take ``--format png,pdf,svg`` and ``--no-plot``; ``--version``
-prints the version. The parser is :mod:`redservo.cli_parser`, the commands
-:mod:`redservo.cli_commands` and :mod:`redservo.cli_tools`, what they share
-:mod:`redservo.cli_common`. The first command that compiles the numba kernels says so in
+prints the version. The parser is :mod:`redservo.cli.parser`, the commands
+:mod:`redservo.cli.commands` and :mod:`redservo.cli.tools`, what they share
+:mod:`redservo.cli.common`. The first command that compiles the numba kernels says so in
 one line on stderr, then its progress every 10 s while it compiles
-(:mod:`redservo.compile_progress`; ``redservo warmup`` compiles them all ahead).
+(:mod:`redservo.bench.compile_progress`; ``redservo warmup`` compiles them all ahead).
 
 Exit codes: 0 on success (a run that ends in ``joint_limit`` is a result, not an error);
 2 on bad input (unknown scenario, method or key, malformed or absurd file, bad option, a
@@ -34,8 +34,8 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from redservo.cli_common import EXTRAS, UsageError
-from redservo.cli_parser import build_parser
+from redservo.cli.common import EXTRAS, UsageError
+from redservo.cli.parser import build_parser
 from redservo.errors import RedservoError
 
 __all__ = ["main"]
@@ -68,9 +68,9 @@ def _describe(exc: BaseException) -> tuple[int, str]:
 
 
 def _kernels_for(command: str, *, quiet: bool) -> bool:
-    """Choose compiled or plain kernels for ``command`` (:mod:`redservo.kernel_mode`); say
+    """Choose compiled or plain kernels for ``command`` (:mod:`redservo.bench.kernel_mode`); say
     so in one line when it runs uncompiled because the cache is cold; True if compiled."""
-    from redservo.kernel_mode import COLD_NOTICE, choose_for_command
+    from redservo.bench.kernel_mode import COLD_NOTICE, choose_for_command
 
     mode, cold = choose_for_command(command)
     if cold and not quiet:
@@ -91,7 +91,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             name = getattr(args.func, "__name__", "run").removeprefix("_").removeprefix("cmd_")
             compiles = _kernels_for(name, quiet=getattr(args, "quiet", False))
         if compiles:
-            from redservo.warmup import announce_compilation
+            from redservo.bench.warmup import announce_compilation
 
             announce_compilation(name)
         code = int(args.func(args))
@@ -110,14 +110,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             traceback.print_exc()
         if compiles:  # its closing line, if any, before the error line
-            from redservo.warmup import end_compilation_report
+            from redservo.bench.warmup import end_compilation_report
 
             end_compilation_report()
         print(f"redservo: error: {line}", file=sys.stderr)
         return code
     finally:
         if compiles:
-            from redservo.warmup import end_compilation_report
+            from redservo.bench.warmup import end_compilation_report
 
             end_compilation_report()
 

@@ -1,10 +1,10 @@
 """The argument parser of the ``redservo`` command line, one function per command group.
 
 :func:`build_parser` assembles the parser; each ``_add_*`` function adds one command (its
-options, help text and the function that runs it, :mod:`redservo.cli_commands`;
-``plot``/``replay``/``view``/``animate`` come from :func:`redservo.cli_tools.register`).
-Commands that run control steps set ``compiles=True``: :func:`redservo.cli.main` then says
-once when the numba kernels are being compiled (:mod:`redservo.warmup`).
+options, help text and the function that runs it, :mod:`redservo.cli.commands`;
+``plot``/``replay``/``view``/``animate`` come from :func:`redservo.cli.tools.register`).
+Commands that run control steps set ``compiles=True``: :func:`redservo.cli.main.main` then says
+once when the numba kernels are being compiled (:mod:`redservo.bench.warmup`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from redservo import cli_commands as cmd
-from redservo.camera_presets import add_camera_option
-from redservo.cli_common import Parser, add_figure_options, int_in, method_list, method_name
+from redservo.cli import commands as cmd
+from redservo.cli.common import Parser, add_figure_options, int_in, method_list, method_name
+from redservo.experiment.camera_presets import add_camera_option
 
 __all__ = ["EPILOG", "build_parser"]
 
@@ -29,7 +29,7 @@ _SET_HELP = (
 def build_parser() -> argparse.ArgumentParser:
     """The ``redservo`` parser with every command."""
     from redservo._version import __version__
-    from redservo.cli_tools import register
+    from redservo.cli.tools import register
 
     p = Parser(
         prog="redservo",
@@ -52,10 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
         add(sub, common)
     _add_warmup(sub, common)
     register(sub, common, int_in)
-    from redservo.cli_calibrate import register as register_calibrate
+    from redservo.cli.calibrate import register as register_calibrate
 
     register_calibrate(sub, common)
-    from redservo.cli_servo import register as register_servo
+    from redservo.cli.servo import register as register_servo
 
     register_servo(sub, common)
     return p
@@ -235,7 +235,7 @@ def _add_campaign_storage(cp: argparse.ArgumentParser) -> None:
 
 
 def _add_bench(sub: Any, common: argparse.ArgumentParser) -> None:
-    from redservo.bench_cli import add_bench_arguments
+    from redservo.cli.bench import add_bench_arguments
 
     b = sub.add_parser("bench", help="time the control step of every method", parents=[common])
     add_bench_arguments(b, int_in)

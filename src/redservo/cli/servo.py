@@ -6,7 +6,7 @@
                      [--joint-states TOPIC] [--command TOPIC] [--rate HZ]
                      [--command-timeout S] [--duration S] [--camera] [--out FILE]
 
-Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`).
+Registered by :func:`register` into the parser (:mod:`redservo.cli.parser`).
 Exit codes as every command (2: bad input, one line); ``servo`` returns 1 when the run
 ended on a fault (``stale_measurement``, ``clock_fault``, ``error``, ``interrupted``) and
 when the user did not confirm.
@@ -72,7 +72,7 @@ def register(sub: Any, common: argparse.ArgumentParser) -> None:
 
 
 def _experiment(scenario: str, sets: list[str] | None) -> Any:
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.scenario import apply_overrides, load_scenario
 
     sc = load_scenario(scenario)

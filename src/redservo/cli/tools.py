@@ -1,5 +1,5 @@
 """The ``redservo`` commands that work on saved results (their options shared with the other
-commands are in :mod:`redservo.cli_common`).
+commands are in :mod:`redservo.cli.common`).
 
     redservo plot PATH [--out DIR] [--format png,pdf,svg]
     redservo replay CAMPAIGN_DIR --sample K --method M [--new] [--out DIR] [--format ...] [--no-plot]
@@ -8,7 +8,7 @@ commands are in :mod:`redservo.cli_common`).
 
 ``PATH`` is a run directory (``redservo run``/``replay``), a comparison or reproduction
 directory (``--method`` picks a run, default the first), or for ``plot`` also a campaign
-directory (any other folder is refused, nothing written into it). Registered by :func:`register` into the parser (:mod:`redservo.cli_parser`); every
+directory (any other folder is refused, nothing written into it). Registered by :func:`register` into the parser (:mod:`redservo.cli.parser`); every
 command imports what it needs when it runs (the command line starts fast).
 """
 
@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from redservo.cli_common import add_figure_options, figures, method_name, summary_line, warn
+from redservo.cli.common import add_figure_options, figures, method_name, summary_line, warn
 
 __all__ = ["print_list", "register", "reproduce_lines"]
 
@@ -142,7 +142,7 @@ def reproduce_lines(report: dict[str, Any], out: Path) -> list[str]:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from redservo.replot import kind_of, replot
+    from redservo.runs.replot import kind_of, replot
 
     kind = kind_of(Path(args.path))  # refuses any other folder before anything is written
     if not _matplotlib():
@@ -157,7 +157,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from redservo.replay import replay_sample
+    from redservo.runs.replay import replay_sample
 
     r = replay_sample(args.path, args.sample, args.method, out=args.out, new=args.new)
     if r.row is None and args.new:
@@ -168,7 +168,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         )
     with figures(args) as wanted:
         if wanted and _matplotlib():
-            from redservo import plots
+            from redservo.plots import figures as plots
 
             plots.run_figures(r.result, r.experiment, r.out)
     print(summary_line(f"sample {args.sample} [{args.method}]", r.result.summary))

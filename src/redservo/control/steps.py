@@ -35,7 +35,7 @@ class Measurement(NamedTuple):
     s: FloatArray
     inv_depth: tuple[FloatArray, ...]
     stamp: float | None = None
-    """When the features were true (s, the image's exposure; :mod:`redservo.sensor_timing`),
+    """When the features were true (s, the image's exposure; :mod:`redservo.sensors.timing`),
     or None: at the step's ``t``. The controller brings an older one to the present
     (:mod:`redservo.control.latency`)."""
 

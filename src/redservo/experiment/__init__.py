@@ -1,2 +1,2 @@
 """From a validated scenario to runnable objects: robot, camera, sensor, task, law,
-checked start (:func:`redservo.experiment.build.build`)."""
+checked start (:func:`redservo.experiment.build.build.build`)."""

@@ -22,10 +22,10 @@ from redservo.camera import Camera
 from redservo.collision.shapes import Obstacle
 from redservo.control import Controller
 from redservo.errors import RedservoError, ScenarioError
-from redservo.experiment_camera import mounted_robot, scenario_camera
-from redservo.experiment_robot import scenario_robot as _robot
-from redservo.experiment_sensor import attach_timing, scenario_sensor
-from redservo.experiment_start import attach_collision, check_start
+from redservo.experiment.camera import mounted_robot, scenario_camera
+from redservo.experiment.robot import scenario_robot as _robot
+from redservo.experiment.sensor import attach_timing, scenario_sensor
+from redservo.experiment.start import attach_collision, check_start
 from redservo.limits import JointLimits
 from redservo.redundancy import Law, make_law
 from redservo.redundancy.gain import AdaptiveGain
@@ -33,8 +33,8 @@ from redservo.robots import Robot
 from redservo.scenario import Scenario
 from redservo.scene import Scene, Static
 from redservo.schema.scenario import ScenarioSpec
-from redservo.sensor_timing import CameraTiming, timed
 from redservo.sensors import Sensor
+from redservo.sensors.timing import CameraTiming, timed
 from redservo.simulation import Occlusion, SimulationOptions, SimulationResult, simulate
 from redservo.simulation.loop import Actuator, simulation_controller
 from redservo.spatial import inverse
@@ -61,7 +61,7 @@ class Experiment:
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] (redservo.collision), world frame
     timing: CameraTiming = field(default_factory=CameraTiming)
     """The camera's timing (``[sensor]`` rate, latency, exposure): every run's sensor is seen
-    through it (:func:`redservo.sensor_timing.timed`), whoever replaced :attr:`sensor`."""
+    through it (:func:`redservo.sensors.timing.timed`), whoever replaced :attr:`sensor`."""
 
     def run(
         self,
@@ -125,8 +125,8 @@ class Experiment:
     def _provenance(
         self, method: str | None, law_options: Mapping[str, Any] | None, options: Any
     ) -> Any:
-        """What :meth:`run` ran, for a self-describing run directory (redservo.provenance)."""
-        from redservo.provenance import Provenance
+        """What :meth:`run` ran, for a self-describing run directory (redservo.runs.provenance)."""
+        from redservo.runs.provenance import Provenance
 
         ctl = self.scenario.spec.control
         name = method or ctl.method
@@ -320,7 +320,7 @@ def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
     Args:
         sc: The scenario.
         robot: Use this robot, as it is, instead of building the scenario's (e.g. a saved
-            run's :class:`~redservo.runkin.LoggedRobot`, already mounted).
+            run's :class:`~redservo.runs.kinematics.LoggedRobot`, already mounted).
 
     Raises:
         ScenarioError: anything in the file is invalid or inconsistent (names the key).

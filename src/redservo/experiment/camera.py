@@ -1,7 +1,7 @@
 """A scenario's camera: its intrinsics (typed in or from a calibration file) and its mount.
 
 :func:`scenario_camera` builds the :class:`~redservo.camera.Camera` of ``[camera]``
-(:func:`redservo.camera_io.load_camera` for ``file``); :func:`mounted_robot` wraps the
+(:func:`redservo.calibration.files.load_camera` for ``file``); :func:`mounted_robot` wraps the
 robot in :class:`~redservo.robots.eye_to_hand.EyeToHandRobot` for ``mount = "world"``,
 after checking what an eye-to-hand set-up supports: every object carried by the end
 effector (``pose_in_effector``, or ``pose_in_camera`` at the start) and static on it, no
@@ -28,7 +28,7 @@ def scenario_camera(sc: Scenario) -> Camera:
     """
     c = sc.spec.camera
     if c.file is not None:
-        from redservo.camera_io import load_camera
+        from redservo.calibration.files import load_camera
 
         try:
             camera = load_camera(c.file)

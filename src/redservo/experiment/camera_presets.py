@@ -8,7 +8,7 @@ scenario overrides before the user's own ``--set`` (which therefore win):
 * ``realistic``: the features detected in a rendered image (``sensor.kind = "image"``,
   the reproduction's realistic noise σ = 4 gray levels and optical blur σ = 0.8 px,
   :data:`redservo.reproduction.imaging.REALISTIC`) from a 30 Hz camera with 66 ms latency
-  and an 8 ms exposure (motion blur), latency compensated (:mod:`redservo.sensor_timing`,
+  and an 8 ms exposure (motion blur), latency compensated (:mod:`redservo.sensors.timing`,
   :mod:`redservo.control.latency`), and convergence judged in pixels:
   ``simulation.tolerance_px`` = :data:`REALISTIC_TOLERANCE_PX` (docs/camera-timing.md),
   and the camera-motion limit ``sensor.motion_limit`` = :data:`REALISTIC_MOTION_LIMIT`.
@@ -20,7 +20,7 @@ import argparse
 from collections.abc import Sequence
 from typing import Any
 
-from redservo.sensor_timing import CameraTiming
+from redservo.sensors.timing import CameraTiming
 
 __all__ = [
     "CAMERA_PRESETS",

@@ -32,7 +32,7 @@ def as_assignments(overrides: Overrides) -> list[str]:
             argument="overrides",
         )
     if isinstance(overrides, Mapping):
-        from redservo.tomlwriter import _value
+        from redservo.runs.tomlwriter import _value
 
         return [f"{key}={_value(value)}" for key, value in overrides.items()]
     return [str(item) for item in overrides]

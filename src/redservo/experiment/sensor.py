@@ -1,5 +1,5 @@
-"""The scenario's sensor for :func:`redservo.experiment.build`: the ideal or image sensor of
-``[sensor]``, and the camera's timing around it (:mod:`redservo.sensor_timing`)."""
+"""The scenario's sensor for :func:`redservo.experiment.build.build`: the ideal or image sensor of
+``[sensor]``, and the camera's timing around it (:mod:`redservo.sensors.timing`)."""
 
 from __future__ import annotations
 
@@ -7,19 +7,19 @@ import dataclasses
 from typing import TYPE_CHECKING
 
 from redservo.errors import RedservoError
-from redservo.sensor_timing import CameraTiming, timed
+from redservo.sensors.timing import CameraTiming, timed
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.camera import Camera
     from redservo.control import ImageMotionLimit
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.scenario import Scenario
     from redservo.sensors import Sensor
 
 __all__ = ["TIMING_KEYS", "attach_timing", "motion_limit", "scenario_sensor"]
 
 TIMING_KEYS = ("rate", "latency", "exposure", "compensate_latency", "motion_limit")
-"""The ``[sensor]`` keys of the camera's timing (:mod:`redservo.sensor_timing`), not the
+"""The ``[sensor]`` keys of the camera's timing (:mod:`redservo.sensors.timing`), not the
 image sensor's."""
 
 

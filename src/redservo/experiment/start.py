@@ -17,7 +17,7 @@ from redservo.scenario import Scenario
 from redservo.schema.scenario import ScenarioSpec
 
 if TYPE_CHECKING:
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
 
 __all__ = ["attach_collision", "check_start"]
 

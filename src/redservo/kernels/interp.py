@@ -1,6 +1,6 @@
 """Compiled pose interpolation: the camera pose between two control steps.
 
-:class:`redservo.sensor_timing.TimedSensor` needs the camera pose at each instant of an
+:class:`redservo.sensors.timing.TimedSensor` needs the camera pose at each instant of an
 exposure, between the poses ``T0`` and ``T1`` (4x4) of the control steps around it: the
 translation linear, the rotation geodesic, ``R0 exp(u log(R0ᵀ R1))``. The logarithm is
 ``θ a`` with ``sin θ a = vee(R - Rᵀ)/2``, ``cos θ = (tr R - 1)/2`` and ``θ = atan2(sin, cos)``

@@ -2,7 +2,7 @@
 
 The algorithm, its decisions and the corrected equations are documented in
 :mod:`redservo.redundancy.iterative`, which wraps these kernels. ``lp`` is the packed
-limits (:func:`redservo.packs.limits_pack`).
+limits (:func:`redservo.redundancy.packs.limits_pack`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Joint-limit quantities of CM01 on packed limits (:func:`redservo.packs.limits_pack`).
+"""Joint-limit quantities of CM01 on packed limits (:func:`redservo.redundancy.packs.limits_pack`).
 
 The same formulas as the methods of :class:`~redservo.JointLimits` (limits.py documents
 them): the excess ``s_i`` and gradient ``e2_i = s_i/Δq̄_i`` (CM01 eqs. 5-6), the critical

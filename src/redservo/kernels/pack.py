@@ -3,7 +3,7 @@
 A kernel argument ``lp`` is one (ROWS, n) float64 array whose rows are, in this order,
 ``q̄_min, q̄_max, q̃_min, q̃_max, Δq̄, centre, q_safe_min, q_safe_max, q̇_max (inf if none),
 q̈_max (inf if none), ρ Δq̄`` (joint units: m or rad, per s, per s²). The object layer
-builds it from a :class:`~redservo.JointLimits` (:func:`redservo.packs.limits_pack`);
+builds it from a :class:`~redservo.JointLimits` (:func:`redservo.redundancy.packs.limits_pack`);
 this module imports nothing, so that the kernels stay below every public object.
 """
 

@@ -1,7 +1,7 @@
-"""Reachability search kernels: the projected damped least squares of :mod:`redservo.ik`, compiled.
+"""Reachability search kernels: the projected damped least squares of :mod:`redservo.robots.ik`, compiled.
 
 :func:`pose_search` and :func:`feature_search` run, over a batch of seeds, the searches of
-:mod:`redservo.campaign.reach` (the camera pose by :func:`redservo.ik.solve_ik`, the task
+:mod:`redservo.campaign.reach` (the camera pose by :func:`redservo.robots.ik.solve_ik`, the task
 error by the feature search) with the same steps, tolerances, step caps and stall rule, in
 one call without Python in the loop and without BLAS (every product and the small linear
 solve are loops: no BLAS thread is ever started here). Arithmetic differs from numpy's in the
@@ -30,14 +30,14 @@ from redservo.kernels.robot import robot_kinematics
 __all__ = ["feature_search", "pose_search", "projected_step", "theta_u"]
 
 POS_TOL, ROT_TOL = 1e-4, 1e-3
-""":data:`redservo.ik.POS_TOL` (m) and :data:`redservo.ik.ROT_TOL` (rad)."""
+""":data:`redservo.robots.ik.POS_TOL` (m) and :data:`redservo.robots.ik.ROT_TOL` (rad)."""
 STALL_ITERATIONS, STALL_GAIN = 40, 0.99
-""":data:`redservo.ik.STALL_ITERATIONS` and :data:`redservo.ik.STALL_GAIN`."""
+""":data:`redservo.robots.ik.STALL_ITERATIONS` and :data:`redservo.robots.ik.STALL_GAIN`."""
 
 
 @kernel
 def theta_u(R: Any) -> Any:
-    """θu (3,) of a rotation matrix (rad): :func:`redservo.ik._theta_u`; near θ = π from the
+    """θu (3,) of a rotation matrix (rad): :func:`redservo.robots.ik._theta_u`; near θ = π from the
     largest diagonal term (the axis up to sign, which θ = π makes irrelevant)."""
     c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
     v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
@@ -89,7 +89,7 @@ def _solve(A: Any, b: Any) -> Any:
 
 @kernel
 def _dls(J: Any, err: Any, damping: float) -> Any:
-    """``Jᵀ(JJᵀ + δ²I)⁻¹ err`` (:func:`redservo.ik._dls`)."""
+    """``Jᵀ(JJᵀ + δ²I)⁻¹ err`` (:func:`redservo.robots.ik._dls`)."""
     A = matmul(J, np.ascontiguousarray(J.T))
     for i in range(A.shape[0]):
         A[i, i] += damping * damping
@@ -99,7 +99,7 @@ def _dls(J: Any, err: Any, damping: float) -> Any:
 
 @kernel
 def projected_step(J: Any, err: Any, q: Any, lo: Any, hi: Any, damping: float, cap: float) -> Any:
-    """``(q_next, ok)``: :func:`redservo.ik.projected_step` (``ok`` False where it returns None)."""
+    """``(q_next, ok)``: :func:`redservo.robots.ik.projected_step` (``ok`` False where it returns None)."""
     step = _dls(J, err, damping)
     blocked = ((q <= lo) & (step < 0)) | ((q >= hi) & (step > 0))
     if blocked.any():
@@ -120,7 +120,7 @@ def projected_step(J: Any, err: Any, q: Any, lo: Any, hi: Any, damping: float, c
 def _pose_seed(
     robot: Any, target: Any, seed: Any, lo: Any, hi: Any, iterations: int, damping: float
 ) -> bool:
-    """:func:`redservo.ik.solve_ik` from one seed: True when it reaches ``target``."""
+    """:func:`redservo.robots.ik.solve_ik` from one seed: True when it reaches ``target``."""
     q = np.minimum(np.maximum(seed.copy(), lo), hi)
     best, since = np.inf, 0
     for _ in range(iterations):
@@ -147,7 +147,7 @@ def _pose_seed(
 @kernel
 def pose_search(robot: Any, target: Any, seeds: Any, lo: Any, hi: Any) -> int:
     """The first seed (row of ``seeds``) from which the camera reaches ``target`` (``bMc*``,
-    4x4) within ``[lo, hi]``, or -1 (:func:`redservo.ik.solve_ik`'s defaults: 300
+    4x4) within ``[lo, hi]``, or -1 (:func:`redservo.robots.ik.solve_ik`'s defaults: 300
     iterations, damping 1e-3)."""
     for s in range(seeds.shape[0]):
         if _pose_seed(robot, target, seeds[s], lo, hi, 300, 1e-3):

@@ -184,7 +184,7 @@ class MujocoCamera(ImageSensor):
         super()._plan(task, scene)
 
     live = True
-    """It renders the physics' present state (:mod:`redservo.sensor_timing`)."""
+    """It renders the physics' present state (:mod:`redservo.sensors.timing`)."""
 
     def read(
         self, task: VisualTask, scene: Scene, bMc: FloatArray, t: float, image: Any = None

@@ -1,6 +1,6 @@
 """A scenario's ``[simulator] kind = "mujoco"``: the experiment's actuator and sensor.
 
-:func:`attach_mujoco` replaces the built :class:`~redservo.experiment.Experiment`'s
+:func:`attach_mujoco` replaces the built :class:`~redservo.experiment.build.Experiment`'s
 actuator by a :class:`~redservo.physics.MujocoActuator` (the arm's dynamics) and, with
 ``camera = "rendered"``, its sensor by a :class:`~redservo.physics.MujocoCamera` configured
 by the ``[sensor]`` table's image keys. The camera is the scenario's: on the arm, or with
@@ -20,7 +20,7 @@ from redservo.schema.simulator import MAX_PHYSICS_STEPS
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.camera import Camera
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
 
 __all__ = ["attach_mujoco"]
 

@@ -1,2 +1,2 @@
 """Figures of runs, comparisons and campaigns, in the house style
-(:mod:`redservo.plots.style`; matplotlib is imported lazily where possible)."""
+(:mod:`redservo.plots.figures.style`; matplotlib is imported lazily where possible)."""

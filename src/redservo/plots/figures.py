@@ -1,9 +1,9 @@
-"""Figures of runs and comparisons, in the house style of :mod:`redservo.figstyle`.
+"""Figures of runs and comparisons, in the house style of :mod:`redservo.plots.style`.
 
 matplotlib is imported lazily (``pip install 'redservo[plot]'``). Every axis carries its
 unit; titles name the scenario and the method(s). The style and file helpers
 (:func:`savefig`, :func:`method_style`, :func:`figure_formats`, ...) live in
-:mod:`redservo.figstyle` and are re-exported here.
+:mod:`redservo.plots.style` and are re-exported here.
 
 Joint positions are plotted normalized to [-1, 1] (CM01's convention), with the
 activation thresholds ``q̃`` (CM01 eq. 3) as dashed lines.
@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.figstyle import (
+from redservo.plots.style import (
     FORMATS,
     METHOD_STYLES,
     ROLE_COLORS,
@@ -34,7 +34,7 @@ from redservo.figstyle import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.simulation import SimulationLog, SimulationResult
 
 __all__ = [

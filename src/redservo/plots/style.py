@@ -1,7 +1,7 @@
 """The house style of every figure, and how figures become files.
 
 matplotlib is imported lazily (``pip install 'redservo[plot]'``). Shared by the run,
-comparison, campaign and reproduction figures (:mod:`redservo.plots` draws the run and
+comparison, campaign and reproduction figures (:mod:`redservo.plots.figures` draws the run and
 comparison figures with it):
 
 * :func:`savefig` writes one file per format (``png`` at 300 dpi, ``pdf``, ``svg``) with a

@@ -1,6 +1,6 @@
 """The result of one run: its outcome, typed summary and log, and how to write it to a run
 directory (``summary.json``, ``log.npz``, ``log.csv``, ``diagnostics.json``, and with a
-provenance ``scenario.toml`` and ``run.json``: :mod:`redservo.provenance`)."""
+provenance ``scenario.toml`` and ``run.json``: :mod:`redservo.runs.provenance`)."""
 
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ class SimulationResult:
     summary: RunSummary
     log: SimulationLog
     provenance: Any = field(default=None, repr=False, compare=False)
-    """What the run was made from (:class:`redservo.provenance.Provenance`), set by
-    :meth:`redservo.experiment.Experiment.run`; None for a bare :func:`simulate`."""
+    """What the run was made from (:class:`redservo.runs.provenance.Provenance`), set by
+    :meth:`redservo.experiment.build.Experiment.run`; None for a bare :func:`simulate`."""
     engine: str = "compiled"
     """The controller's engine (:attr:`redservo.control.Controller.engine`)."""
     engine_reason: str = ""
@@ -32,10 +32,10 @@ class SimulationResult:
     def save(self, directory: str | Path, *, extra: dict[str, Any] | None = None) -> Path:
         """Write ``summary.json``, ``log.npz``, ``log.csv`` and ``diagnostics.json`` into
         ``directory``, and with a provenance the resolved ``scenario.toml`` and ``run.json``
-        (:mod:`redservo.provenance`: ``redservo run DIR/scenario.toml`` re-runs it)."""
+        (:mod:`redservo.runs.provenance`: ``redservo run DIR/scenario.toml`` re-runs it)."""
         import json
 
-        from redservo.provenance import write_run_files
+        from redservo.runs.provenance import write_run_files
 
         out = Path(directory)
         out.mkdir(parents=True, exist_ok=True)

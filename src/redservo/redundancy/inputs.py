@@ -17,8 +17,8 @@ from redservo._validation import FloatArray, _to_float, require_finite
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.gain import AdaptiveGain, gain_value
+from redservo.redundancy.packs import limits_pack
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import inputs as _K

@@ -104,7 +104,6 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
@@ -122,6 +121,7 @@ from redservo.redundancy.kio import (
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
+from redservo.redundancy.packs import limits_pack
 
 __all__ = [
     "Iterative",

@@ -24,11 +24,11 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.flags import Event
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.inputs import _array
 from redservo.redundancy.kio import LawOptions, LawOutputs, pack_options
+from redservo.redundancy.packs import limits_pack
 from redservo.redundancy.safety import safety_events
 
 if TYPE_CHECKING:

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels.lawopts import NF, NI
-from redservo.packs import limits_pack
+from redservo.redundancy.packs import limits_pack
 
 if TYPE_CHECKING:
     from redservo.redundancy.base import Law, LawInputs

@@ -68,7 +68,6 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
@@ -83,6 +82,7 @@ from redservo.redundancy.kio import (
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
+from redservo.redundancy.packs import limits_pack
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import projection as _K

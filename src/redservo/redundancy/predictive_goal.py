@@ -9,7 +9,7 @@ The search has two stages, because the image error alone is a poor guide far fro
    from the current camera pose, Gauss-Newton steps ``v_c = −L⁺ (s − s*)`` (CM01 eq. 26 for
    ``L``) applied as ``bMc ← bMc exp(v_c)`` until ``‖s − s*‖ < 1e-10``; for the moment
    features, ``bMo cMo*⁻¹`` (:mod:`redservo.redundancy.predictive_moments`).
-2. **Inverse kinematics of that pose** (:func:`redservo.ik.solve_ik`, the campaigns'
+2. **Inverse kinematics of that pose** (:func:`redservo.robots.ik.solve_ik`, the campaigns'
    reachability search) from each seed in turn, then a few steps of feature-space projected
    damped least squares on ``e(q) = C (s(q) − s*)`` to bring the predicted error below
    :data:`TOL`. Of the first :data:`CANDIDATES` seeds that get there, the goal nearest to
@@ -189,7 +189,7 @@ def search_steps(
     configuration met is the goal if its error is below a tenth of the error at ``q`` (the
     goal lies just beyond the band: the law gets as close as the band allows).
     """
-    from redservo.ik import ik_steps  # scipy: not loaded by ``import redservo``
+    from redservo.robots.ik import ik_steps  # scipy: not loaded by ``import redservo``
 
     bMc = model.robot.kinematics(q, check_limits=False)[0]
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
@@ -239,7 +239,7 @@ def _ik_from(
     None``: the prediction failed at the seed). A seed is given up when its error has not
     fallen below 0.99 of its best for :data:`STALL` iterations (stuck against the bounds or
     in a local minimum). One iteration per ``yield`` (:func:`search_steps`)."""
-    from redservo.ik import Stall, projected_step  # scipy: not loaded by ``import redservo``
+    from redservo.robots.ik import Stall, projected_step  # scipy: not loaded by ``import redservo``
 
     hz = horizon(1, 1)
     best: tuple[float, FloatArray | None] = (np.inf, None)

@@ -88,7 +88,6 @@ from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.bls import (
     daqp_once,
@@ -100,6 +99,7 @@ from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
+from redservo.redundancy.packs import limits_pack
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import boxqp as _KB

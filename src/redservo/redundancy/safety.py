@@ -52,9 +52,9 @@ from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.kernels.flagbits import POSITION_LIMIT_UNAVOIDABLE
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.flags import Event
 from redservo.redundancy.messages import events
+from redservo.redundancy.packs import limits_pack
 
 __all__ = [
     "SafetyOutcome",

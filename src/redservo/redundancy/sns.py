@@ -69,7 +69,6 @@ from redservo._validation import FloatArray, _to_float
 from redservo.errors import ConfigurationError, InfeasibleError, ShapeError
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.distance_rows import distance_rows
@@ -78,6 +77,7 @@ from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
+from redservo.redundancy.packs import limits_pack
 from redservo.redundancy.sns_rows import with_rows
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time

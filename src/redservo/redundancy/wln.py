@@ -58,12 +58,12 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
 from redservo.limits import JointLimits
-from redservo.packs import limits_pack
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
+from redservo.redundancy.packs import limits_pack
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import directional as _K

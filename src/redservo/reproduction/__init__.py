@@ -24,7 +24,7 @@ from redservo.reproduction.checks import IMPL, PAPER, Check, Claim, Verdict
 from redservo.reproduction.registry import experiments
 
 if TYPE_CHECKING:  # pragma: no cover
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.reproduction.report import ExperimentResult
     from redservo.sensors import Sensor
 
@@ -139,7 +139,7 @@ def reproduce(
             (:mod:`redservo.reproduction.unfiltered`; 0: none).
         camera: ``"ideal"`` (default) or ``"realistic"``: the runs through images (implied)
             come from a 30 Hz camera with 66 ms latency and an 8 ms exposure
-            (:data:`redservo.camera_presets.REALISTIC_TIMING`, docs/camera-timing.md).
+            (:data:`redservo.experiment.camera_presets.REALISTIC_TIMING`, docs/camera-timing.md).
 
     Returns:
         The report as a dict (the content of ``report.json``).
@@ -194,10 +194,10 @@ def image_sensors(timed_camera: bool) -> Callable[[Experiment], Sensor]:
     """``f(experiment) -> sensor``: the realistic rendered image
     (:data:`~redservo.reproduction.imaging.REALISTIC`: noise, blur, a lighting gradient,
     uncorrected lens distortion; true depth), seen through the realistic camera's timing
-    (:data:`redservo.camera_presets.REALISTIC_TIMING`) when ``timed_camera``."""
-    from redservo.camera_presets import REALISTIC_TIMING
+    (:data:`redservo.experiment.camera_presets.REALISTIC_TIMING`) when ``timed_camera``."""
+    from redservo.experiment.camera_presets import REALISTIC_TIMING
     from redservo.reproduction.imaging import REALISTIC, image_sensor
-    from redservo.sensor_timing import TimedSensor
+    from redservo.sensors.timing import TimedSensor
 
     def sensor(exp: Experiment) -> Sensor:
         found = image_sensor(exp.camera, REALISTIC, seed=0)

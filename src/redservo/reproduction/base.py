@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from redservo.errors import ConfigurationError
-from redservo.experiment import Experiment, build
+from redservo.experiment.build import Experiment, build
 from redservo.reproduction.checks import Check, Claim, evaluate
 from redservo.scenario import Scenario, apply_overrides, load_scenario
 from redservo.simulation import SimulationResult

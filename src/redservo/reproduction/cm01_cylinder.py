@@ -99,7 +99,7 @@ def _normalized(runs: Runs, label: str) -> FloatArray:
 
 
 def _fig14(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     exp = runs.experiments["iterative"]
@@ -129,7 +129,7 @@ def _fig14(runs: Runs, out: Path) -> Path:
 
 
 def _fig15(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     lim = runs.experiments["iterative"].limits
@@ -161,7 +161,7 @@ def _fig15(runs: Runs, out: Path) -> Path:
 
 
 def _joints(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     lim = runs.experiments["iterative"].limits

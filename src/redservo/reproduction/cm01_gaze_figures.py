@@ -42,7 +42,7 @@ SATURATION_LEVELS: tuple[float | None, ...] = (None, 0.1, 0.05, 0.03, 0.02)
 def _velocity_grid(
     runs: Runs, labels: Sequence[str], path: Path, title: str, *, with_alpha: bool = False
 ) -> Path:
-    from redservo.figstyle import _plt, place_legend, save
+    from redservo.plots.style import _plt, place_legend, save
 
     plt = _plt()
     names = runs.base.robot.joint_names
@@ -125,7 +125,7 @@ def _axes_figure(runs: Runs, labels: Sequence[str], path: Path, title: str) -> P
     hit a joint limit ends with a ``×`` and "run ends: axis k at its limit" on the panel of
     the axis that hit, a ``|`` on the other panel. The legend is outside, to the right.
     """
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     thr = threshold(runs.base.limits.rho)
@@ -168,7 +168,7 @@ def _axes_figure(runs: Runs, labels: Sequence[str], path: Path, title: str) -> P
 
 
 def _fig08(runs: Runs, path: Path) -> Path:
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     exp = runs.experiments["iterative-smooth"]
@@ -208,7 +208,7 @@ def _fig08(runs: Runs, path: Path) -> Path:
 
 def _fig13(runs: Runs, path: Path) -> Path:
     """The command and the odometry velocities of iterative-smooth and iterative, imperfect robot."""
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     names = runs.base.robot.joint_names
@@ -237,7 +237,7 @@ def _fig13(runs: Runs, path: Path) -> Path:
 
 def _saturation_sweep(runs: Runs, path: Path) -> Path:
     """Iterations to converge vs the controller's velocity saturation (extra runs)."""
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4))

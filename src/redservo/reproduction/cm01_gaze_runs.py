@@ -8,7 +8,7 @@ Labels, gains and the imperfect-robot model shared by the experiment's checks
 
 from __future__ import annotations
 
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.reproduction.base import RunSpec
 
 __all__ = [

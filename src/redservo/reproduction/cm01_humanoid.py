@@ -112,7 +112,7 @@ def group_panel(
     ax.set_ylabel(group, fontsize=9)
     if not legend:
         return
-    from redservo.figstyle import place_legend
+    from redservo.plots.style import place_legend
 
     place_legend(ax, fontsize=6, ncol=3)  # in a corner free of data, else outside
 
@@ -135,7 +135,7 @@ def fig16_humanoid_model(path: Path, q: ArrayLike | None = None) -> Path:
     the hip centre to the floor for scale, and the camera's optical axis; the title says the
     geometry is ours.
     """
-    from redservo.figstyle import _plt, save
+    from redservo.plots.style import _plt, save
     from redservo.robots.humanoid import HIP_HEIGHT, Humanoid9
 
     plt = _plt()

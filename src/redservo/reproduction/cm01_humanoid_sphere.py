@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.features.sphere import sphere_paper_interaction
 from redservo.records.summary import SUCCESS_MARGIN
 from redservo.reproduction.base import ExperimentSpec, Runs, RunSpec
@@ -213,7 +213,7 @@ def _current_rate(runs: Runs) -> Verdict:
 
 
 def _plt() -> Any:
-    from redservo.figstyle import _plt as plt
+    from redservo.plots.style import _plt as plt
 
     return plt()
 
@@ -232,7 +232,7 @@ def _ellipse_pixels(s: FloatArray, camera: Any, n: int = 120) -> FloatArray:
 
 
 def _fig17(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = _plt()
     main = "iterative-smooth"
@@ -282,7 +282,7 @@ def _fig17(runs: Runs, out: Path) -> Path:
 
 
 def _all_runs(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = _plt()
     names = runs.base.robot.joint_names

@@ -222,7 +222,7 @@ def _classical(runs: Runs) -> Verdict:
 
 
 def _plt() -> Any:
-    from redservo.figstyle import _plt as plt
+    from redservo.plots.style import _plt as plt
 
     return plt()
 
@@ -245,7 +245,7 @@ def _group_legend(ax: Any, joints: int) -> None:
 
 def figures(runs: Runs, out: Path) -> list[Path]:
     """Draw CM01 Fig. 18 and the tracking error into ``out``."""
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = _plt()
     laws = ("iterative", "iterative-smooth")

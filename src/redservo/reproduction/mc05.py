@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.redundancy.linalg import DEFAULT_RCOND, pinv
 from redservo.scene import PointSet, Sphere
 from redservo.simulation import SimulationResult
@@ -161,7 +161,7 @@ def in_band(exp: Experiment, result: SimulationResult) -> NDArray[np.bool_]:
 
 def pyplot() -> Any:
     """The lazily imported ``matplotlib.pyplot``."""
-    from redservo.figstyle import _plt
+    from redservo.plots.style import _plt
 
     return _plt()
 

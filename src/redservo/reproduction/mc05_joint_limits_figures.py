@@ -27,7 +27,7 @@ UNLIMITED = "classical-unlimited"
 
 
 def _fig2(runs: Runs, out: Path, plane: tuple[int, int]) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = pyplot()
     exp = runs.experiments["classical"]
@@ -145,7 +145,7 @@ def _hit_axis(runs: Runs) -> int:
 
 
 def _fig3(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = pyplot()
     d = runs["directional"]
@@ -172,7 +172,7 @@ def _fig3(runs: Runs, out: Path) -> Path:
 
 
 def _fig4(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = pyplot()
     fig, axs = plt.subplots(2, 3, figsize=(11, 5.2), sharex=True)

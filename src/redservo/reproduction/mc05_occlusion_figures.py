@@ -36,7 +36,7 @@ NONE = "no avoidance"
 
 
 def _fig5(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import place_legend, save
+    from redservo.plots.style import place_legend, save
 
     plt = pyplot()
     fig, axs = plt.subplots(2, 1, figsize=(7, 5.2), sharex=True, sharey=True)
@@ -69,7 +69,7 @@ def _phase_indices(runs: Runs) -> list[int]:
 
 
 def _fig6(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = pyplot()
     idx = _phase_indices(runs)
@@ -111,7 +111,7 @@ def _fig6(runs: Runs, out: Path) -> Path:
 
 
 def _fig7(runs: Runs, out: Path) -> Path:
-    from redservo.figstyle import save
+    from redservo.plots.style import save
 
     plt = pyplot()
     fig, axs = plt.subplots(2, 3, figsize=(12, 5.4), sharex=True)

@@ -55,7 +55,7 @@ from redservo.scenario import Scenario, parse_scenario
 from redservo.spatial import make_transform, matrix_to_rotvec, rotvec_to_matrix
 
 if TYPE_CHECKING:
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.sensors import Sensor
 
 __all__ = [
@@ -187,7 +187,7 @@ class Perturbation:
 
     def bind(self, base: Scenario) -> BoundPerturbation:
         """Resolve the draw on the nominal scenario ``base`` (start, target poses)."""
-        from redservo.experiment import build
+        from redservo.experiment.build import build
 
         exp = build(base)
         lim, robot = exp.limits, exp.robot

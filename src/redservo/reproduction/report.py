@@ -162,7 +162,7 @@ def _claim_line(c: Claim, rob: Robustness | None, exp_id: str, image: ImageVerdi
 def _section(
     e: ExperimentResult, rob: Robustness | None, out: Path, image: ImageVerdicts = None
 ) -> str:
-    from redservo.report import summary_table
+    from redservo.runs.tables import summary_table
 
     spec = e.spec
     rows = {label: r.summary for label, r in e.runs.results.items()}

@@ -25,7 +25,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.hardware import IdealFeatureSource, ServoLoop
 from redservo.hardware.realtime import quiet_interpreter, realtime_scheduling
 from redservo.hardware.recorder import ServoResult
@@ -299,7 +299,7 @@ def save_run(result: ServoResult, exp: Experiment, out: Path, timing: dict[str, 
     """Write the run directory (module docstring)."""
     import json
 
-    from redservo.provenance import write_run_files
+    from redservo.runs.provenance import write_run_files
 
     sc = exp.scenario
     result.save(out, extra={"scenario": sc.name, "source": sc.source, "method": sc.method})

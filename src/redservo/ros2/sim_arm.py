@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from redservo.errors import ConfigurationError
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.ros2.messages import Float64MultiArray, Header, JointState
 from redservo.ros2.naming import validate_topic
 from redservo.ros2.stamps import EpochStamps

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from redservo.errors import ConfigurationError
-from redservo.experiment import Experiment
+from redservo.experiment.build import Experiment
 from redservo.ros2.images import info_message, rgb_message
 from redservo.ros2.messages import CameraInfo, Header, Image
 from redservo.ros2.naming import validate_topic

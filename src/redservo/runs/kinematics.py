@@ -9,7 +9,7 @@ also stores the joint names and types and the limits the run used. :class:`Logge
 is a :class:`~redservo.robots.base.Robot` that answers ``fkine``, ``jacobian`` and
 ``link_poses`` at those configurations only (bit for bit what the run's robot gave);
 anywhere else it raises a :class:`~redservo.errors.ConfigurationError`: it can show a
-run, never simulate a new one. :meth:`redservo.runs.Run.experiment` falls back to it when
+run, never simulate a new one. :meth:`redservo.runs.load.Run.experiment` falls back to it when
 the run's own robot cannot be built.
 """
 

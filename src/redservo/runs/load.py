@@ -4,7 +4,7 @@ A run directory (``redservo run``, each method of ``redservo compare``, each run
 ``redservo reproduce``, ``redservo replay``) holds ``summary.json``, ``log.npz``,
 ``log.csv``, ``diagnostics.json`` and, when the run was made from a scenario, the resolved
 ``scenario.toml``, ``run.json``, the files it references (``files/``) and the robot's
-logged kinematics (``kinematics.npz``; :mod:`redservo.provenance`). :func:`load_run` reads
+logged kinematics (``kinematics.npz``; :mod:`redservo.runs.provenance`). :func:`load_run` reads
 them into a :class:`Run`; its :attr:`Run.log` is a pandas DataFrame (``pip install
 pandas``) with one row per iteration and the columns of ``log.csv`` (vectors split as
 ``q[0]``, ``q[1]``, ...; flags as ``flag.<label>``), and :attr:`Run.arrays` the same data
@@ -28,7 +28,7 @@ from redservo.errors import ConfigurationError
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.scenario import Scenario
     from redservo.simulation import SimulationLog
 
@@ -151,8 +151,8 @@ class Run:
 
     @property
     def kinematics_path(self) -> Path | None:
-        """The logged kinematics ``kinematics.npz`` (:mod:`redservo.runkin`), if the run has them."""
-        from redservo.runkin import KINEMATICS_FILE
+        """The logged kinematics ``kinematics.npz`` (:mod:`redservo.runs.kinematics`), if the run has them."""
+        from redservo.runs.kinematics import KINEMATICS_FILE
 
         p = self.path / KINEMATICS_FILE
         return p if p.is_file() else None
@@ -162,7 +162,7 @@ class Run:
 
         Args:
             logged: True: the robot replays the run's logged kinematics
-                (:class:`~redservo.runkin.LoggedRobot`: shows and plots the run, cannot
+                (:class:`~redservo.runs.kinematics.LoggedRobot`: shows and plots the run, cannot
                 simulate a new one); False: the scenario's own robot; None (default): the
                 scenario's own robot, or the logged one when the former cannot be built here
                 (e.g. a URDF robot without Pinocchio).
@@ -171,8 +171,8 @@ class Run:
             ScenarioError: the scenario does not build (and no kinematics are logged).
         """
         from redservo.errors import RedservoError
-        from redservo.experiment import build
-        from redservo.runkin import LoggedRobot
+        from redservo.experiment.build import build
+        from redservo.runs.kinematics import LoggedRobot
 
         kin = self.kinematics_path
         if logged and kin is None:

@@ -1,6 +1,6 @@
 """Self-describing runs: the resolved scenario of a run, written beside its log.
 
-:meth:`redservo.experiment.Experiment.run` attaches a :class:`Provenance` to its result
+:meth:`redservo.experiment.build.Experiment.run` attaches a :class:`Provenance` to its result
 (the scenario table, the method and its options, the simulation options and the joint
 limits actually used); :meth:`redservo.simulation.SimulationResult.save` then calls
 :func:`write_run_files`, which writes into the run directory:
@@ -15,14 +15,14 @@ limits actually used); :meth:`redservo.simulation.SimulationResult.save` then ca
   (e.g. code that removed the robot's rate limits, which no scenario key expresses),
   and the controller's ``engine`` (``"compiled"``, ``"kernels"`` or ``"python"``,
   :attr:`redservo.control.Controller.engine`) with ``engine_reason``, and ``kernels``:
-  ``"numba X.Y"`` (compiled) or ``"python"`` (the plain kernels, :mod:`redservo.kernel_mode`);
+  ``"numba X.Y"`` (compiled) or ``"python"`` (the plain kernels, :mod:`redservo.bench.kernel_mode`);
 * ``diagnostics.json`` — for each diagnostic flag raised, the iterations, the number
   attached at each and the law's first message (docs/safety.md), and the law's
   informational lines with the iteration each first appeared;
 * ``files/`` — copies of the files the scenario references (a URDF and its meshes, a
-  camera file), which ``scenario.toml`` names by relative paths (:mod:`redservo.runfiles`);
+  camera file), which ``scenario.toml`` names by relative paths (:mod:`redservo.runs.files`);
 * ``kinematics.npz`` — the robot's camera poses, Jacobians and link poses at every logged
-  configuration (:mod:`redservo.runkin`), so that the run is shown without the robot's model.
+  configuration (:mod:`redservo.runs.kinematics`), so that the run is shown without the robot's model.
 
 A run directory is thus self-contained: moved elsewhere, it re-runs, plots, replays, views
 and animates without the original files.
@@ -84,7 +84,7 @@ class Provenance:
         options: The simulation options used.
         limits: The joint limits the law was given.
         q0: Start configuration (m or rad).
-        rebuild: Builds the experiment of a scenario (:func:`redservo.experiment.build`,
+        rebuild: Builds the experiment of a scenario (:func:`redservo.experiment.build.build`,
             given by the experiment so that this module, which the simulation's ``save``
             imports, stays below it); :func:`resolve` rebuilds the resolved scenario with it.
         robot: The robot the run moved (its kinematics are logged when saved), or None.
@@ -195,7 +195,7 @@ def resolve(prov: Provenance) -> tuple[dict[str, Any], list[str]]:
     """The resolved scenario table of a run, and why it would not re-run exactly (empty: exact).
 
     The table is checked by building it (:attr:`Provenance.rebuild`, i.e.
-    :func:`redservo.experiment.build`) and comparing the start, the joint limits and the
+    :func:`redservo.experiment.build.build`) and comparing the start, the joint limits and the
     simulation options with the run's.
     """
     table = copy.deepcopy(dict(prov.data))
@@ -267,19 +267,19 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
     Returns:
         The paths written.
     """
-    from redservo.tomlwriter import dumps
+    from redservo.runs.tomlwriter import dumps
 
     paths = [out / "diagnostics.json"]
     paths[0].write_text(json.dumps(_diagnostics(result.log), indent=1) + "\n")
     prov: Provenance | None = getattr(result, "provenance", None)
     if prov is None:
         return paths
-    from redservo.runfiles import bundle_files
+    from redservo.runs.files import bundle_files
 
     table, why = resolve(prov)
     files = bundle_files(out, table)  # copies; the table now names them relatively
     if prov.robot is not None:
-        from redservo.runkin import KINEMATICS_FILE, write_kinematics
+        from redservo.runs.kinematics import KINEMATICS_FILE, write_kinematics
 
         write_kinematics(out, prov.robot, result.log.q)
         paths.append(out / KINEMATICS_FILE)
@@ -314,7 +314,7 @@ def write_run_files(out: Path, result: SimulationResult) -> list[Path]:
 
 def _kernels() -> str:
     """How the kernels ran: ``"numba X.Y"`` (compiled) or ``"python"`` (plain functions,
-    :mod:`redservo.kernel_mode`)."""
+    :mod:`redservo.bench.kernel_mode`)."""
     from redservo.kernels._jit import numba_version
 
     version = numba_version()

@@ -45,8 +45,8 @@ def _definition(campaign_dir: Path) -> tuple[Any, int]:
     """The campaign definition and seed stored in ``definition.json``."""
     from redservo.campaign import parse_campaign
     from redservo.campaign.definition import fingerprint_of
-    from redservo.runfiles import relocate
-    from redservo.tomlwriter import dumps
+    from redservo.runs.files import relocate
+    from redservo.runs.tomlwriter import dumps
 
     meta_path = campaign_dir / "definition.json"
     if not meta_path.is_file():
@@ -80,7 +80,7 @@ def _definition(campaign_dir: Path) -> tuple[Any, int]:
 
 
 def _row(campaign_dir: Path, sample: int, method: str) -> dict[str, Any] | None:
-    from redservo.replot import _campaign_rows
+    from redservo.runs.replot import _campaign_rows
 
     if not (campaign_dir / "samples.csv").is_file():
         return None
@@ -102,7 +102,7 @@ def _samples(campaign_dir: Path) -> int | None:
 
 
 def _stored_samples(campaign_dir: Path) -> set[int]:
-    from redservo.replot import _campaign_rows
+    from redservo.runs.replot import _campaign_rows
 
     if not (campaign_dir / "samples.csv").is_file():
         return set()
@@ -152,7 +152,7 @@ def replay_sample(
             campaign ran (without ``new``).
         UnknownNameError: unknown method.
     """
-    from redservo.experiment import build
+    from redservo.experiment.build import build
     from redservo.redundancy import law_class
 
     root = Path(campaign_dir)

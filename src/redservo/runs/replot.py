@@ -2,17 +2,17 @@
 reproduction from its files, without simulating again.
 
 * a run directory (``summary.json`` + ``log.npz``): the run's figures
-  (:func:`redservo.plots.draw_run`), with the scenario's camera and thresholds when the
+  (:func:`redservo.plots.figures.draw_run`), with the scenario's camera and thresholds when the
   run holds its resolved ``scenario.toml``;
 * a comparison directory (``compare.json``, one run directory per method): the overlaid
-  figures (:func:`redservo.plots.draw_compare`);
+  figures (:func:`redservo.plots.figures.draw_compare`);
 * a campaign directory (``campaign.json`` + ``samples.csv``): the campaign figures, from
   the stored rows (:func:`redservo.campaign.stats._figures`);
 * a reproduction directory (``report.json``): every experiment's paper figures, from the
   saved runs (each run directory holds its scenario).
 
 Figures are written next to the data (or into ``out``, the ``--out`` option) in the active
-formats (:func:`redservo.figstyle.figure_formats`, the ``--format`` option). Any other
+formats (:func:`redservo.plots.style.figure_formats`, the ``--format`` option). Any other
 folder is refused (nothing is written into it).
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from redservo.errors import ConfigurationError
-from redservo.runs import Run, find_runs, is_run_dir, load_run
+from redservo.runs.load import Run, find_runs, is_run_dir, load_run
 
 __all__ = ["kind_of", "replot", "summary_from_dict"]
 
@@ -79,7 +79,7 @@ def replot(path: str | Path, out: str | Path | None = None) -> list[Path]:
 
 
 def _context(run: Run) -> Any:
-    from redservo.plots import FigureContext
+    from redservo.plots.figures import FigureContext
 
     if run.scenario_path is not None:
         return FigureContext.of(run.experiment())
@@ -88,13 +88,13 @@ def _context(run: Run) -> Any:
 
 
 def _run(run: Run, out: Path) -> list[Path]:
-    from redservo.plots import draw_run
+    from redservo.plots.figures import draw_run
 
     return draw_run(run.simulation_log(), _context(run), run.method, out)
 
 
 def _compare(path: Path, out: Path) -> list[Path]:
-    from redservo.plots import draw_compare
+    from redservo.plots.figures import draw_compare
 
     runs = [load_run(p) for p in find_runs(path, depth=1)]
     meta = (

@@ -3,7 +3,7 @@
 :class:`ScenarioSpec` is the whole file; validating it checks every key, type, range and
 name, and the references between tables (a feature's object, the occluder, the length
 of ``task.desired``), without building anything: geometry (a target behind the camera,
-``q0`` outside the robot's limits) is checked by :func:`redservo.experiment.build`.
+``q0`` outside the robot's limits) is checked by :func:`redservo.experiment.build.build`.
 """
 
 from __future__ import annotations

@@ -196,7 +196,7 @@ class TagObject(ObjectSpec):
     @model_validator(mode="after")
     def _known(self) -> TagObject:
         from redservo.errors import RedservoError
-        from redservo.tag_families import check_tag
+        from redservo.vision.tag_families import check_tag
 
         try:
             check_tag(self.family, self.id)

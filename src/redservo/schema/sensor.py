@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from pydantic import Field, model_validator
 
 from redservo.schema.base import PerJoint, Table, choice, fail, integer, num
-from redservo.sensor_timing import MAX_LATENCY, MAX_RATE
+from redservo.sensors.timing import MAX_LATENCY, MAX_RATE
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.schema.scenario import ScenarioSpec

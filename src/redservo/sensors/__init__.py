@@ -50,7 +50,7 @@ class SensorReading(NamedTuple):
     computed where it was read (``np.asarray(image)`` gives the whole array)."""
     stamp: float | None = None
     """When the image was exposed (s, the middle of the exposure), or None: at the instant
-    it was read (an untimed sensor; :mod:`redservo.sensor_timing`)."""
+    it was read (an untimed sensor; :mod:`redservo.sensors.timing`)."""
 
 
 @runtime_checkable
@@ -86,7 +86,7 @@ class FrameNoise:
     """Additive Gaussian noise of standard deviation ``std`` (feature units) on the features,
     drawn from ``rng`` once per *frame*: a reading the sensor holds (the same
     :class:`SensorReading` again, e.g. a 30 Hz camera read by a faster loop,
-    :mod:`redservo.sensor_timing`) keeps the noise it was first given, as the same image
+    :mod:`redservo.sensors.timing`) keeps the noise it was first given, as the same image
     would. An untimed sensor makes a new reading every period: a draw every period."""
 
     def __init__(self, std: float, rng: np.random.Generator) -> None:

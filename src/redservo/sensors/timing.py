@@ -39,12 +39,14 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.kernels.interp import interpolate_pose
+from redservo.kernels import lazy
 from redservo.sensors import IdealSensor, Sensor, SensorReading
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.task import VisualTask
+
+_KI = lazy("interp")  # imported on first use: the command line starts without numba
 
 __all__ = [
     "EXPOSURE_SAMPLES",
@@ -111,7 +113,7 @@ class CameraTiming:
 def _interpolate(T0: FloatArray, T1: FloatArray, u: float) -> FloatArray:
     """The pose a fraction ``u`` in [0, 1] of the way from ``T0`` to ``T1`` (4x4): linear in
     translation, geodesic in rotation (compiled: :func:`redservo.kernels.interp.interpolate_pose`)."""
-    out: FloatArray = interpolate_pose(T0, T1, float(u))
+    out: FloatArray = _KI.interpolate_pose(T0, T1, float(u))
     return out
 
 

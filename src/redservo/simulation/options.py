@@ -55,7 +55,7 @@ class SimulationOptions:
             (repulsive objective) and shields (distance shield).
         compensate_latency: The controller brings a camera's delayed measurement to the
             present (:mod:`redservo.control.latency`); only stamped measurements (a sensor
-            with a latency or a frame rate, :mod:`redservo.sensor_timing`) are affected.
+            with a latency or a frame rate, :mod:`redservo.sensors.timing`) are affected.
     """
 
     lam: float | AdaptiveGain = 0.5

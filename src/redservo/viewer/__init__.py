@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from redservo.errors import ConfigurationError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from redservo.runs import Run
+    from redservo.runs.load import Run
     from redservo.viewer.animate import write_animation
     from redservo.viewer.image import camera_image
     from redservo.viewer.playback import Playback
@@ -49,7 +49,7 @@ def pick_run(path: str | Path, method: str | None = None) -> Run:
         ConfigurationError: no run there, or none for ``method`` (lists the choices); a
             campaign directory (replay a sample first).
     """
-    from redservo.runs import find_runs, is_run_dir, load_run
+    from redservo.runs.load import find_runs, is_run_dir, load_run
 
     p = Path(path)
     if is_run_dir(p):

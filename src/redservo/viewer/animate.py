@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo.errors import ConfigurationError
-from redservo.figstyle import ROLE_COLORS
+from redservo.plots.style import ROLE_COLORS
 from redservo.viewer.obstacles import posed_outline
 from redservo.viewer.playback import Frame, limit_color
 from redservo.vision.video import Progress, _write_mp4, write_gif
@@ -155,7 +155,7 @@ def _limits(pb: Playback, ks: list[int]) -> NDArray[np.float64]:
 def _frames(
     pb: Playback, ks: list[int], dpi: int, progress: Progress | None = None
 ) -> list[NDArray[np.uint8]]:
-    from redservo.figstyle import _plt
+    from redservo.plots.style import _plt
     from redservo.records.verdict import outcome_text
     from redservo.viewer.image import camera_image
 

@@ -3,7 +3,7 @@ desired features, and the feature trajectories so far.
 
 Not a photometric rendering (that is :mod:`redservo.vision.render`, which needs OpenCV):
 a schematic image that needs only Pillow (``redservo[viewer]``). In the colours of
-:data:`redservo.figstyle.ROLE_COLORS` (the same in the run figures, the ``--video`` GIFs
+:data:`redservo.plots.style.ROLE_COLORS` (the same in the run figures, the ``--video`` GIFs
 and the 3-D views): objects in the ``target`` colour (points as dots, a sphere's limb, a
 cylinder's axis or a line), the current point features as sky-blue circles with their
 trajectory, the desired ones as orange crosses, and with ``task.desired_pose`` the objects
@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo.errors import ConfigurationError
-from redservo.figstyle import role_rgb
+from redservo.plots.style import role_rgb
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.viewer.playback import Playback

@@ -1,7 +1,7 @@
 """What the viewer and the animation show at each frame of a saved run (no graphics here).
 
 A :class:`Playback` rebuilds the run's experiment from its resolved ``scenario.toml``
-(:class:`redservo.runs.Run`) and gives, for a logged iteration ``k``, in the robot base
+(:class:`redservo.runs.load.Run`) and gives, for a logged iteration ``k``, in the robot base
 frame (m): the link frames (``robot.link_poses``), the joint axes with each joint's
 closeness to its limits, the camera pose, the objects' geometry, and the image-plane
 points (current and desired). Joint axes come from the base-frame Jacobian, so every
@@ -22,8 +22,8 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from redservo.experiment import Experiment
-    from redservo.runs import Run
+    from redservo.experiment.build import Experiment
+    from redservo.runs.load import Run
 
 __all__ = ["LIMIT_COLORS", "Frame", "Playback", "limit_color", "limit_level"]
 
@@ -188,7 +188,7 @@ class Playback:
     @cached_property
     def point_slices(self) -> list[tuple[int, int]]:
         """(x, y) indices in ``s`` of every point feature."""
-        from redservo.plots import FigureContext
+        from redservo.plots.figures import FigureContext
 
         return list(FigureContext.of(self.exp).point_slices)
 

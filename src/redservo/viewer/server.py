@@ -33,7 +33,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.figstyle import role_rgb
+from redservo.plots.style import role_rgb
 from redservo.viewer.obstacles import add_obstacles, place_obstacles
 from redservo.viewer.playback import Frame, limit_color
 from redservo.viewer.surfaces import add_objects, add_visuals, place, robot_visuals
@@ -46,7 +46,7 @@ __all__ = ["DRAWN_ID", "LINK_COLOR", "TARGET_COLOR", "ViewerSession", "serve"]
 LINK_COLOR = (142, 68, 173)
 """RGB of the robot's links (a purple no other element of the page uses)."""
 TARGET_COLOR = role_rgb("target")
-"""RGB of the target objects (:data:`redservo.figstyle.ROLE_COLORS`, as in every figure)."""
+"""RGB of the target objects (:data:`redservo.plots.style.ROLE_COLORS`, as in every figure)."""
 DRAWN_ID = "redservo-drawn"
 """``id`` of the hidden element a page gets once it has drawn the scene (module docstring)."""
 

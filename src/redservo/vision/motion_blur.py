@@ -9,7 +9,7 @@ at the instants ``τ_1 … τ_N`` of the exposure window, the blurred footprint 
 composited as one layer (far to near), then blurred optically, noised and quantized once
 (:meth:`~redservo.vision.render.Renderer.render_layers`), as a single frame: the noise is
 the frame's, not averaged down. Footprints are matched across instants by object and order.
-Used by :class:`redservo.sensor_timing.TimedSensor` with an image sensor's ``read(..., image)``.
+Used by :class:`redservo.sensors.timing.TimedSensor` with an image sensor's ``read(..., image)``.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from redservo.vision.render import Renderer
 from redservo.vision.video import Progress, write_video
 
 if TYPE_CHECKING:  # pragma: no cover
-    from redservo.experiment import Experiment
+    from redservo.experiment.build import Experiment
     from redservo.simulation import SimulationResult
 
 __all__ = ["run_video"]

@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
 from redservo.scene import Tag
-from redservo.tag_families import TAG_FAMILIES
 from redservo.vision.optics import Optics, require_cv2
+from redservo.vision.tag_families import TAG_FAMILIES
 
 __all__ = ["INK_LEVEL", "PAPER_LEVEL", "LayerParts", "tag_bits", "tag_layers"]
 

@@ -8,7 +8,7 @@ One line per detected tag and frame::
 ``thetau`` the pose ``cMo`` in ViSP's tag frame, with ``--tag-size``; the last number the RMS
 reprojection error), ``frame k: no tag``, or ``frame k: damaged (could not be decoded)`` for a
 video frame that does not decode (the later frames keep their numbers). The camera is ``--camera FILE`` (an OpenCV or ROS
-camera_info YAML, :func:`redservo.camera_io.load_camera`), else a bag's own ``CameraInfo``
+camera_info YAML, :func:`redservo.calibration.files.load_camera`), else a bag's own ``CameraInfo``
 topic, else ``--px --py --u0 --v0 --k1``.
 """
 
@@ -34,7 +34,7 @@ def add_tag_arguments(p: argparse.ArgumentParser, number: Any) -> None:
 def camera_of(args: argparse.Namespace) -> Camera:
     """The camera: ``--camera`` file, a bag's CameraInfo, or the intrinsics flags."""
     if args.camera:
-        from redservo.camera_io import load_camera
+        from redservo.calibration.files import load_camera
 
         return load_camera(args.camera)
     from redservo.vision.bags import bag_camera, is_bag
@@ -60,8 +60,8 @@ def format_tag(frame: int, det: Any) -> str:
 
 def run_tags(args: argparse.Namespace) -> int:
     """Print the tags of every frame of ``args.source``."""
-    from redservo.tag_families import check_tag
     from redservo.vision.sources import numbered_frames
+    from redservo.vision.tag_families import check_tag
     from redservo.vision.tags import detect_tags
 
     family = check_tag(args.tags)

@@ -40,8 +40,8 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, ShapeError
-from redservo.tag_families import TAG_FAMILIES, check_tag, tag_points
 from redservo.vision.optics import Optics, require_cv2
+from redservo.vision.tag_families import TAG_FAMILIES, check_tag, tag_points
 from redservo.vision.tag_refine import refine_quad
 
 __all__ = ["TagDetection", "detect_tags", "iter_tags", "tag_corners"]
@@ -152,7 +152,7 @@ def detect_tags(
 
     Args:
         image: 8-bit grayscale image (a colour image (H, W, 3) is converted).
-        family: Tag family (:data:`redservo.tag_families.TAG_FAMILIES`; ``"tag36h11"`` also).
+        family: Tag family (:data:`redservo.vision.tag_families.TAG_FAMILIES`; ``"tag36h11"`` also).
         camera: Intrinsics (and distortion) for the pose; None: no pose.
         tag_size: Side of the tag's black square (m); with ``camera``, each tag's pose.
         z_aligned: ViSP's ``setZAlignedWithCameraAxis(true)`` frame (module docstring).

@@ -4,7 +4,7 @@
 
 * the tracked dots (``dots_uv``, pixels) as thin circles (role ``target``);
 * the detected features ``s`` (role ``current``, sky blue) and the desired ``s*``
-  (role ``desired``, orange: the colours of :data:`redservo.figstyle.ROLE_COLORS`, as in
+  (role ``desired``, orange: the colours of :data:`redservo.plots.style.ROLE_COLORS`, as in
   ``redservo animate`` and the viewer), term by term when a task is given — a point as a
   circle (current) or a cross (desired), a sphere as its ellipse, a cylinder's limbs and a
   line as lines, moments as the centroid ``(xn/an, yn/an)`` with a segment along the
@@ -40,7 +40,7 @@ from redservo.features import (
     SphereFeature,
     sphere_moments_from_area,
 )
-from redservo.figstyle import role_rgb
+from redservo.plots.style import role_rgb
 from redservo.vision.optics import Optics, require_cv2
 from redservo.vision.videopanel import error_panel
 

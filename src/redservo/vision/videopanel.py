@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.figstyle import role_rgb
+from redservo.plots.style import role_rgb
 from redservo.vision.optics import require_cv2
 
 __all__ = ["PanelLayout", "error_panel", "panel_layout"]
