@@ -21,6 +21,7 @@ import redservo
 from redservo.kernels._jit import kernel
 from redservo.kernels.laws import I_PROJ, new_outputs, svd_outputs
 from redservo.kernels.linalg import null_project, task_svd
+from redservo.records import outcome_text
 from redservo.redundancy import register
 from redservo.redundancy.classical import Classical
 from redservo.redundancy.declare import LawKernel
@@ -90,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     iters = {"max_iterations": 30} if args.quick else {}
     r = redservo.run("afma6-gaze-demo", method="damped", **iters)
-    print(f"simulate: {r.outcome}, {r.summary.iterations} iterations, engine {r.engine}")
+    print(f"simulate: {outcome_text(r.summary)}, engine {r.engine}")
     res = redservo.campaign(
         "afma6-gaze-demo",
         methods=["classical", "damped"],

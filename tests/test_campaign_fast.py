@@ -36,7 +36,14 @@ def _same_rows(a: tuple[dict[str, Any], ...], b: tuple[dict[str, Any], ...]) -> 
     ]
 
 
+_NOT_MEASURED_BY_THE_LOOP = ("min_manipulability", "min_singular_value")
+"""Summary fields the compiled loop leaves None ("not measured": the singularity margin needs
+the task Jacobian's SVD at every step, which only the object path keeps); no row carries them."""
+
+
 def _same_summary(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    a, b = ({k: v for k, v in d.items() if k not in _NOT_MEASURED_BY_THE_LOOP} for d in (a, b))
+
     def walk(v: Any) -> Any:
         if isinstance(v, dict):
             return {k: walk(x) for k, x in v.items()}

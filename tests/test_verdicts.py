@@ -107,6 +107,7 @@ _SHOWS_OUTCOME = re.compile(r"\{[^{}\n]*\boutcome\b[^{}\n]*\}")
 _NOT_A_RUN_OUTCOME = {
     # why a drawn start is invalid ("target_lost at the start"), not how a run ended
     ("campaign/sampling.py", "{res.outcome}"),
+    ("campaign/start.py", "{outcome}"),
     # dict comprehensions counting outcomes, not showing one
     ("campaign/stats.py", "outcomes.count(o)"),
     ("campaign/table.py", "enumerate(self.outcomes)"),
