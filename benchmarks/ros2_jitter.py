@@ -32,7 +32,7 @@ BURN = "while True: pass"
 
 
 def _arm(domain: int) -> subprocess.Popen[bytes]:
-    cli = "import sys; from redservo.cli.main import main; sys.exit(main())"
+    cli = "import sys; from redservo.cli.entry import main; sys.exit(main())"
     cmd = [sys.executable, "-c", cli, "sim-arm", "panda-4points", "--domain-id", str(domain)]
     # niced: on a real set-up the arm is another machine, not a competitor for this CPU
     return subprocess.Popen(["nice", "-n", "10", *cmd, "--command-timeout", "0.2"])

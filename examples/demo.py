@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 
 
 class _Tap:

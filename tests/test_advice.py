@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import redservo
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.records.advice import (
     APPROACHES,
     SHIELD_RUNS,

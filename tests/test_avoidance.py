@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import (
     Collision,

@@ -10,7 +10,7 @@ import pytest
 
 from redservo.bench.cases import bench_cases
 from redservo.bench.steps import MAIN_CASES, _reference, run_bench
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.redundancy import make_law
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from redservo.calibration.files import load_camera
 from redservo.camera import Camera
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.spatial import inverse, make_transform, matrix_to_rotvec
 
 cv2 = pytest.importorskip("cv2")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from redservo.calibration.files import load_camera
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.spatial import make_transform
 
 cv2 = pytest.importorskip("cv2")

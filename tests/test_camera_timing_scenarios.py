@@ -13,7 +13,7 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's import, as redservo.physics does
 
 from redservo import ScenarioError
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.experiment.build import build
 from redservo.experiment.camera_presets import REALISTIC_TOLERANCE_PX, camera_overrides
 from redservo.hardware import ServoLoop

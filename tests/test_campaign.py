@@ -381,7 +381,7 @@ def test_run_campaign_rejects_bad_arguments() -> None:
 
 
 def test_cli_campaign(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     path = tmp_path / "c.toml"
     path.write_text(
@@ -659,7 +659,7 @@ def test_a_lost_job_is_named_and_the_campaign_resumes(
 def test_an_incomplete_campaign_exits_2_with_one_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     path, out = tmp_path / "c.toml", tmp_path / "out"
     path.write_text(CAMPAIGN.format(samples=3))
@@ -745,7 +745,7 @@ def _campaign_cmd(path: Path, out: Path, *extra: str, hold_from: int | None = No
         else ""
     )
     code = (
-        f"import sys; sys.modules['matplotlib'] = None; {hold}from redservo.cli.main import main; "
+        f"import sys; sys.modules['matplotlib'] = None; {hold}from redservo.cli.entry import main; "
         "sys.exit(main(sys.argv[1:]))"
     )
     args = ["campaign", str(path), "--out", str(out), "-q", *extra]

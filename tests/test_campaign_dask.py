@@ -86,7 +86,7 @@ def test_local_cluster_rows_equal_the_local_run_and_resume(
 def test_cli_scheduler_option(
     cluster: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     out = tmp_path / "cli"
     argv = ["campaign", "cm01-gaze", "--samples", "2", "--methods", "classical,gpm"]

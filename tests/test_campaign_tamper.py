@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from redservo.campaign import run_campaign
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ConfigurationError
 from tests.test_campaign import quick
 

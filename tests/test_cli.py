@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from tests.test_scenario import GOOD
 
 
@@ -366,7 +366,7 @@ def test_a_closed_pipe_ends_quietly() -> None:
     os.close(r)  # no reader at all, before the command writes anything
     try:
         proc = subprocess.run(
-            [sys.executable, "-m", "redservo.cli.main", "list"],
+            [sys.executable, "-m", "redservo.cli.entry", "list"],
             stdout=w,
             stderr=subprocess.PIPE,
             text=True,

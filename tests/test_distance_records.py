@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from redservo.campaign.table import RunTable
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.collision.tally import DistanceTally
 from redservo.experiment.build import build
 from redservo.scenario import load_scenario

@@ -32,7 +32,7 @@ def test_the_gaze_converges_through_images() -> None:
 
 def test_run_writes_a_video_of_the_camera_view(tmp_path) -> None:
     pytest.importorskip("PIL", reason="GIF writing needs Pillow (redservo[viewer])")
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     gif = tmp_path / "run.gif"
     args = ["run", "cm01-gaze", "--set", IMAGE[0], "--set", "simulation.max_iterations=12"]

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from redservo.bench import kernel_mode as kernel_mode
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ConfigurationError
 
 pytest.importorskip("numba")
@@ -100,7 +100,7 @@ def test_the_uncompiled_first_run_gives_the_compiled_run_bit_for_bit(tmp_path: P
         [
             sys.executable,
             "-c",
-            "import sys; from redservo.cli.main import main; sys.exit(main())",
+            "import sys; from redservo.cli.entry import main; sys.exit(main())",
             "run",
             "panda-4points",
             "--no-plot",
@@ -128,7 +128,7 @@ def test_the_command_line_starts_without_importing_numba(tmp_path: Path) -> None
     """The choice is made before any kernel is imported: importing the command line (and
     `import redservo`) must not import numba or a kernel module that would decide it."""
     code = (
-        "import sys; import redservo.cli.main; "
+        "import sys; import redservo.cli.entry; "
         "print('numba' in sys.modules, 'redservo.kernels._jit' in sys.modules)"
     )
     assert _py(tmp_path, code) == "False False"

@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("mujoco", reason="MJCF robots need redservo[mujoco]")
 
 import redservo
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ScenarioError
 from redservo.experiment.build import build
 from redservo.robots import MJCFRobot, shipped_mjcf

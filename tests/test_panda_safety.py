@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from redservo import METHODS
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 

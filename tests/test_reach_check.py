@@ -88,7 +88,7 @@ def test_campaign_report_lists_disagreements(
 
 
 def test_cli_check_reach(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     path = tmp_path / "c.toml"
     path.write_text(

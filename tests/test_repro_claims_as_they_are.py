@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.records.summary import SUCCESS_MARGIN, clear_of_limits
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs

@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("cv2", reason="the image sensor needs redservo[vision] (opencv)")
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 
 
 def test_reproduce_through_images_reports_every_claim(tmp_path) -> None:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.reproduction import experiments
 from redservo.reproduction.base import Runs, RunSpec, nominal_scenario, run_experiment
 from redservo.reproduction.checks import IMPL, PAPER, Check, Verdict, registrar

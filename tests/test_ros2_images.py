@@ -18,7 +18,7 @@ pytest.importorskip("cyclonedds")
 pytest.importorskip("cv2")
 
 from redservo.camera import Camera
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.ros2.faults import MessageError
 from redservo.ros2.images import camera_from_info, gray_image, info_message, rgb_message
 from redservo.ros2.messages import CameraInfo, Header, Image
@@ -77,7 +77,11 @@ def test_panda_converges_on_the_rehearsal_arms_rendered_camera(tmp_path: Path) -
         pytest.skip(str(rendering_available()))
     domain = 150 + os.getpid() % 80
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    cli = [sys.executable, "-c", "import sys; from redservo.cli.main import main; sys.exit(main())"]
+    cli = [
+        sys.executable,
+        "-c",
+        "import sys; from redservo.cli.entry import main; sys.exit(main())",
+    ]
     arm = subprocess.Popen(
         [
             *cli,

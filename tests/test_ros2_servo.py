@@ -18,14 +18,14 @@ import pytest
 pytest.importorskip("cyclonedds")
 pytest.importorskip("mujoco")
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.ros2.messages import Float64MultiArray
 from redservo.ros2.transport import Ros2Node
 
 ROOT = Path(__file__).resolve().parents[1]
 DOMAIN = 1 + os.getpid() % 19  # 1-19: no other ros2 test file uses it
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-CLI = [sys.executable, "-c", "import sys; from redservo.cli.main import main; sys.exit(main())"]
+CLI = [sys.executable, "-c", "import sys; from redservo.cli.entry import main; sys.exit(main())"]
 
 
 def hardware(tmp_path: Path, text: str = "", name: str = "hw.toml") -> Path:

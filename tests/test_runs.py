@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ConfigurationError
 from redservo.experiment.build import build
 from redservo.runs.tomlwriter import dumps

@@ -201,7 +201,7 @@ def test_the_corpus_covers_every_kind_of_breakage() -> None:
 def test_every_broken_file_is_one_line_naming_file_and_key(
     name: str, case: dict[str, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     path = BAD / name
     assert main(["run", str(path), "-q", "--out", str(tmp_path / "o")]) == 2, case["what"]

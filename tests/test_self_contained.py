@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ScenarioError
 from redservo.robots.urdf import shipped_urdf
 from redservo.runs.files import RunFileWarning

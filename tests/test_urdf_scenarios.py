@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("pinocchio", reason="the URDF scenarios need redservo[urdf] (pin)")
 
 import redservo
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ScenarioError
 from redservo.experiment.build import build
 from redservo.robots import shipped_urdf

@@ -168,7 +168,7 @@ def test_animate_title_shows_the_verdict(
     pytest.importorskip("PIL")
     from matplotlib.figure import Figure
 
-    from redservo.cli.main import main
+    from redservo.cli.entry import main
 
     titles: list[str] = []
     real = Figure.suptitle

@@ -14,7 +14,7 @@ pytest.importorskip("cv2")
 
 import cv2
 
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.errors import ConfigurationError
 from redservo.experiment.build import build
 from redservo.hardware.video import VideoSource

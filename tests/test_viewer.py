@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from redservo import load_run
-from redservo.cli.main import main
+from redservo.cli.entry import main
 from redservo.robots import Afma6, Humanoid9, Panda
 from redservo.scenario import load_scenario, parse_scenario
 

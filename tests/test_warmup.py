@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from redservo.bench import warmup as wu
-from redservo.cli.main import main
+from redservo.cli.entry import main
 
 
 def _numba_on() -> bool:
@@ -43,7 +43,7 @@ def test_warmup_runs_every_group_and_prints_progress() -> None:
     group started and finished with its time, then the total; exit code 0."""
     env = {**os.environ, "REDSERVO_NO_NUMBA": "1"}
     out = subprocess.run(
-        [sys.executable, "-m", "redservo.cli.main", "warmup"],
+        [sys.executable, "-m", "redservo.cli.entry", "warmup"],
         env=env,
         capture_output=True,
         text=True,

@@ -1,6 +1,6 @@
 """What the ``redservo`` commands share: usage errors, option types, progress and summary lines.
 
-Imported by :mod:`redservo.cli.main` (the entry point), :mod:`redservo.cli.parser` (the
+Imported by :mod:`redservo.cli.entry` (the entry point), :mod:`redservo.cli.parser` (the
 parser), :mod:`redservo.cli.commands` and :mod:`redservo.cli.tools` (the commands); it
 imports none of them, so that the command line has no import cycle.
 """

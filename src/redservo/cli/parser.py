@@ -3,7 +3,7 @@
 :func:`build_parser` assembles the parser; each ``_add_*`` function adds one command (its
 options, help text and the function that runs it, :mod:`redservo.cli.commands`;
 ``plot``/``replay``/``view``/``animate`` come from :func:`redservo.cli.tools.register`).
-Commands that run control steps set ``compiles=True``: :func:`redservo.cli.main.main` then says
+Commands that run control steps set ``compiles=True``: :func:`redservo.cli.entry.main` then says
 once when the numba kernels are being compiled (:mod:`redservo.bench.warmup`).
 """
 
