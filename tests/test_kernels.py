@@ -22,6 +22,7 @@ from redservo.redundancy.packs import limits_pack
 
 numba = pytest.importorskip("numba", reason="the compiled path needs numba (redservo[fast])")
 
+from redservo.kernels import bls as kbls  # noqa: E402
 from redservo.kernels import (  # noqa: E402
     directional,
     events,
@@ -169,7 +170,7 @@ def test_law_kernels_compiled_and_plain_agree(seed: int) -> None:
     raw = sec * 30.0
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, raw, False)
     both(safety.apply_safety, raw, q, lp, has_v, has_a, 0.04, p["prev"], True, True, sec, True)
-    both(qp.bls_reduce, J1, e, -v, v, sec, 1e-6)
+    both(kbls.bls_reduce, J1, e, -v, v, sec, 1e-6)
 
 
 @SETTINGS

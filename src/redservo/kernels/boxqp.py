@@ -4,7 +4,7 @@
 
     min_y  ½ yᵀ P y + cᵀ y    s.t.  lo <= y <= hi,      P symmetric positive definite
 
-(``P = Jfᵀ Jf + ε I``, ``c = -(Jfᵀ rf + ε zf)``: :func:`redservo.kernels.qp.bls_reduce`).
+(``P = Jfᵀ Jf + ε I``, ``c = -(Jfᵀ rf + ε zf)``: :func:`redservo.kernels.bls.bls_reduce`).
 :func:`box_qp` is the primal active-set method of Nocedal & Wright (*Numerical
 Optimization*, 2nd ed., §16.5) specialised to bounds: the working set is a set of variables
 held at one of their bounds; each iteration solves the equality-constrained problem on the
@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.qp import bls_reduce, qp_complete
+from redservo.kernels.bls import bls_reduce
+from redservo.kernels.qp import qp_complete
 
 __all__ = [
     "FAILED",
@@ -227,7 +228,7 @@ def qp_solve(
 ) -> Any:
     """The ``qp`` law's solve without a secondary command, from its bounds ``lo``, ``hi``
     (rad/s or m/s), ``ẋ`` and ``σ_max(J1)`` (:func:`redservo.kernels.qp.qp_prepare`):
-    the relative ``eps`` made absolute, :func:`~redservo.kernels.qp.bls_reduce` and
+    the relative ``eps`` made absolute, :func:`~redservo.kernels.bls.bls_reduce` and
     :func:`qp_solve_reduced`, as :func:`~redservo.kernels.qp.qp_setup` and the law do."""
     eps_abs = eps * smax * smax if smax > 0.0 else eps
     z = np.zeros(q.shape[0])

@@ -22,9 +22,9 @@ from redservo.kernels import lazy
 from redservo.redundancy.linalg import DEFAULT_RCOND
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
-    from redservo.kernels import qp as _K
+    from redservo.kernels import bls as _K
 else:
-    _K = lazy("qp")
+    _K = lazy("bls")
 
 __all__ = [
     "PREFERRED_QP_SOLVERS",
