@@ -120,7 +120,8 @@ def test_run_and_compare_figures_have_units_titles_and_fit(
 
 
 def test_campaign_figures_name_n_and_the_methods(tmp_path: Path, checked: list[Any]) -> None:
-    from redservo.campaign.stats import _figures, method_stats
+    from redservo.campaign.figures import campaign_figures
+    from redservo.campaign.stats import method_stats
 
     rows = [
         {"sample": i, "method": m, "success": i % 2 == 0, "iterations": 50 + i, "outcome": "x"}
@@ -147,7 +148,7 @@ def test_campaign_figures_name_n_and_the_methods(tmp_path: Path, checked: list[A
         method_stats(m, [r for r in rows if r["method"] == m])
         for m in ("classical", "iterative-smooth")
     ]
-    paths = _figures(stats, rows, tmp_path, name="demo")
+    paths = campaign_figures(stats, rows, tmp_path, name="demo")
     assert [p.name for p in paths] == ["success_rate.png", "iterations.png"]
     titles = " ".join(t for _, ts in checked for t in ts)
     assert "Campaign demo" in titles and "N = 6" in titles

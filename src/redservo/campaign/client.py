@@ -32,6 +32,7 @@ from redservo.campaign.engine import (
     fallback_lines,
     make_jobs,
 )
+from redservo.campaign.figures import campaign_figures
 from redservo.campaign.rowfile import (
     RowFile,
     RowView,
@@ -41,7 +42,7 @@ from redservo.campaign.rowfile import (
     temporary_file,
 )
 from redservo.campaign.rows import _columns
-from redservo.campaign.stats import MethodStats, _figures, _heading, flag_table, stats_table
+from redservo.campaign.stats import MethodStats, _heading, flag_table, stats_table
 from redservo.campaign.storage import _Store
 from redservo.campaign.table import RunTable
 
@@ -308,7 +309,7 @@ def _write(result: CampaignResult, out_dir: Path, store: _Store, table: RunTable
     defn = result.definition
     if result.complete:
         tracking = not defn.scenario.data.get("simulation", {}).get("stop_at_convergence", True)
-        figures = _figures(
+        figures = campaign_figures(
             list(result.stats.values()),
             (),
             out_dir,

@@ -128,7 +128,8 @@ def _campaign_rows(path: Path) -> list[dict[str, Any]]:
 
 
 def _campaign(path: Path, out: Path) -> list[Path]:
-    from redservo.campaign.stats import _figures, method_stats
+    from redservo.campaign.figures import campaign_figures
+    from redservo.campaign.stats import method_stats
 
     meta = json.loads((path / "campaign.json").read_text())
     n, methods = int(meta["samples"]), list(meta["methods"])
@@ -139,7 +140,9 @@ def _campaign(path: Path, out: Path) -> list[Path]:
     if definition.is_file():
         scenario = json.loads(definition.read_text()).get("scenario", {})
         tracking = not scenario.get("simulation", {}).get("stop_at_convergence", True)
-    return list(_figures(stats, rows, out, tracking=tracking, name=str(meta.get("campaign", ""))))
+    return list(
+        campaign_figures(stats, rows, out, tracking=tracking, name=str(meta.get("campaign", "")))
+    )
 
 
 def summary_from_dict(data: dict[str, Any]) -> Any:
