@@ -120,7 +120,8 @@ def sns_rows_solve(
         free[sat] = False
         s, j = _scaling(C @ a, C @ b, low, up, free)
         if j < 0:
-            return RowSolution(np.clip(a + b, lo, hi), 1.0, tuple(sorted(sat)), it)
+            q, f = _keep_rows(np.clip(a + b, lo, hi), lo, hi, G, gb)
+            return RowSolution(q, f, tuple(sorted(sat)), it)
         if s > best[0]:
             best = (s, a, b)
         v = float(C[j] @ (a + b))
@@ -128,7 +129,24 @@ def sns_rows_solve(
         vals.append(float(up[j]) if v > up[j] else float(low[j]))
     s, a, b = best
     s = max(s, 0.0)
-    return RowSolution(np.clip(s * a + b, lo, hi), s, tuple(sorted(sat)), it)
+    q, f = _keep_rows(np.clip(s * a + b, lo, hi), lo, hi, G, gb)
+    return RowSolution(q, s * f, tuple(sorted(sat)), it)
+
+
+def _keep_rows(
+    qdot: FloatArray, lo: FloatArray, hi: FloatArray, G: FloatArray, gb: FloatArray
+) -> tuple[FloatArray, float]:
+    """``(f q̇, f)`` with the largest ``f`` in [0, 1] that keeps every distance row
+    ``G q̇ ≥ gb`` (m/s), when the restored or clipped command breaks one and the zero command
+    keeps them all (every ``gb ≤ 0`` and ``lo ≤ 0 ≤ hi``: a uniform scaling towards zero then
+    keeps the joint bounds too); ``(q̇, 1)`` otherwise (the distance shield after the law
+    still guards a row zero cannot keep)."""
+    g = G @ qdot
+    broken = g < gb
+    if not broken.any() or np.any(gb > 0.0) or np.any(lo > 0.0) or np.any(hi < 0.0):
+        return qdot, 1.0
+    f = float(np.clip(np.min(gb[broken] / g[broken]), 0.0, 1.0))
+    return f * qdot, f
 
 
 def with_rows(
