@@ -186,3 +186,25 @@ def test_the_object_path_benchmark_states_the_ratios_to_visp() -> None:
     assert (
         lines[-1].startswith("compiled measured / ViSP (7.3 µs): 2.00x") and "missed" in lines[-1]
     )
+
+
+def test_the_control_step_benchmark_states_the_compiled_steps_ratio_to_visp() -> None:
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "benchmarks" / "bench_control_step.py"
+    spec = importlib.util.spec_from_file_location("bench_control_step", path)
+    assert spec is not None and spec.loader is not None
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    rows = [
+        {"case": "afma6-4points", "path": "compiled", "method": "classical", "median_us": 9.49},
+        {"case": "afma6-4points", "path": "compiled", "method": "qp", "median_us": 11.0},
+        {"case": "afma6-4points", "path": "reference", "method": "qp", "median_us": 99.0},
+        {"case": "panda-6d-bounds", "path": "compiled", "method": "qp", "median_us": 20.0},
+    ]
+    lines = bench.visp_check({"rows": rows}, visp_us=7.3)
+    assert lines == [
+        "afma6-4points, classical: 9.5 µs = 1.30x ViSP (7.3 µs; target ≤ 1.3x): met",
+        "afma6-4points, qp: 11.0 µs = 1.51x ViSP (7.3 µs; target ≤ 1.6x): met",
+    ]
