@@ -162,24 +162,23 @@ def _run(
     what the caller may change afterwards, or None when the kernel's input check fails."""
     J1, e1, q = arrays
     law_pack, limits_t, gains, inputs = packs
-    size, parts = _slices(q.shape[0])
-    return _into(law, J1, e1, q, limits, law_pack, limits_t, gains, inputs, size, parts)
+    return _into(law, (J1, e1, q), limits, (law_pack, limits_t), gains, inputs, _slices(q.shape[0]))
 
 
 def _into(
     law: Law,
-    J1: FloatArray,
-    e1: FloatArray,
-    q: FloatArray,
+    arrays: tuple[FloatArray, FloatArray, FloatArray],
     limits: JointLimits,
-    law_pack: Any,
-    limits_t: Any,
+    bound: tuple[Any, Any],
     gains: tuple[float, float],
     inputs: tuple[FloatArray, ...],
-    size: int,
-    parts: tuple[slice, ...],
+    layout: tuple[int, tuple[slice, ...]],
 ) -> tuple[FloatArray, DiagnoseArgs] | None:
-    """:func:`_run` with its packs and buffer layout unpacked (the hot path: one call)."""
+    """:func:`_run` with the packs ``bound`` ``(law pack, limits pack)`` and the buffer
+    ``layout`` ``(size, parts)`` already found (the hot path)."""
+    J1, e1, q = arrays
+    law_pack, limits_t = bound
+    size, parts = layout
     buf = np.empty(size)
     lmask, smask, vec = _KC.law_into(q, J1, e1, law_pack, limits_t, gains, inputs, buf)
     if lmask < 0:
@@ -262,7 +261,7 @@ def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs
             inputs = (_EMPTY, _EMPTY, qdot_prev, _EMPTY)
         else:
             return _first_call(law, args)
-        return _into(law, J1, e1, q, limits, *seen[5], (lam, dt), inputs, *seen[6])
+        return _into(law, (J1, e1, q), limits, seen[5], (lam, dt), inputs, seen[6])
     return _first_call(law, args)
 
 
@@ -296,4 +295,4 @@ def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseAr
         return None
     layout = _slices(n)
     law.__dict__[_SEEN] = (limits, law.__dict__[_PACK], (m, n), (m,), (n,), bound, layout)
-    return _into(law, J1, e1, q, limits, *bound, (lam, dt), inputs, *layout)
+    return _into(law, (J1, e1, q), limits, bound, (lam, dt), inputs, layout)
