@@ -50,6 +50,11 @@ from redservo.bench.cases import bench_cases
 
 TARGETS_US = {"task.evaluate": 10.0, "law classical": 15.0, "path classical": 30.0}
 """Issue 18's targets (µs, medians) for the items that have one."""
+VISP_US = 7.3
+"""ViSP 3.5's ``vpServo`` step on the same 4-point Afma6 case (µs), as issue 29 measured it
+side by side on this machine (a hidden harness: ViSP is not a dependency)."""
+VISP_TARGETS = {"path classical": 2.5, "path iterative-smooth": 2.5, "compiled measured": 1.3}
+"""Issue 29's targets as ratios to :data:`VISP_US`."""
 
 
 def items() -> list[tuple[str, Callable[[], Any]]]:
@@ -160,6 +165,16 @@ def timing_args(description: str) -> tuple[argparse.Namespace, tuple[float, floa
     return args, load
 
 
+def visp_lines(res: dict[str, dict[str, float]], visp_us: float = VISP_US) -> list[str]:
+    """The items with an issue-29 target as ratios to ViSP's step (``visp_us``, µs)."""
+    out = []
+    for name, target in VISP_TARGETS.items():
+        ratio = res[name]["median_us"] / visp_us
+        mark = "met" if ratio <= target else "missed"
+        out.append(f"{name} / ViSP ({visp_us:g} µs): {ratio:.2f}x (target ≤ {target:g}x: {mark})")
+    return out
+
+
 def main() -> None:
     args, load = timing_args(__doc__.split("\n\n")[0])
     res = measure(items(), args.rounds, args.batch, args.clock == "cpu")
@@ -180,6 +195,9 @@ def main() -> None:
     ratio = res["Controller.step"]["median_us"] / compiled
     mark = "met" if ratio <= 1.3 else "missed"
     print(f"\nController.step / compiled measured step: {ratio:.2f}x (target ≤ 1.3x: {mark})")
+    print()
+    for line in visp_lines(res):
+        print(line)
     if args.json is not None:
         data = {
             "case": "afma6-4points",

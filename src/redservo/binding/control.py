@@ -42,6 +42,9 @@ if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run tim
 else:
     _K = lazy("control")
 _NO_C = np.zeros((0, 0))
+_F64 = np.dtype(np.float64)
+_new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
+"""``TaskState(...)`` from its six fields in order, without the keyword handling (hot path)."""
 _EMPTY = np.zeros(0)
 
 
@@ -75,6 +78,14 @@ class CompiledControl:
     """The parts ``qdot``, ``e``, ``e1``, ``J1``, ``L`` of the kernel's buffer (the command
     and the task state), found by name in the layout."""
     size: int
+    shapes: tuple[int, int, int]
+    """``(m, n, k)``: the task's rows, the joints and the point coordinates."""
+    iz_shape: tuple[int]
+    """``(N,)``: one inverse depth per point."""
+    depth_option: bool
+    """The inverse depths go through the task's depth option or the depth scale."""
+    no_C: bool
+    """The task has no combination matrix (``e1 = e``)."""
 
     def step(
         self,
@@ -99,22 +110,27 @@ class CompiledControl:
         if iz is None:
             return None  # the object path checks them
         meas = (s, iz, self.s_star, self.C)
-        n = q.shape[0]
         if qdot_prev is None:
             prev = _EMPTY
-        elif qdot_prev.shape == (n,) and qdot_prev.dtype == np.float64:
+        elif qdot_prev.shape == self.shapes[1:2] and qdot_prev.dtype == _F64:
             prev = np.ascontiguousarray(qdot_prev)
         else:
             return None  # the object path checks it
-        ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
-        sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
+        if de1_dt is None and secondary is None:
+            inputs = (_EMPTY, _EMPTY, prev)
+        else:
+            ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
+            sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
+            inputs = (ff, sec, prev)
         buf = np.empty(self.size)
         gains = self.gains if self.adaptive is None else self._adapted(s)
-        packs = (self.law_pack, self.limits_pack, gains, (ff, sec, prev), buf)
         if J is None and self.kernel is not None:
-            lmask, smask, vec = self.kernel(q, self.robot, meas, *packs)
+            lmask, smask, vec = self.kernel(
+                q, self.robot, meas, self.law_pack, self.limits_pack, gains, inputs, buf
+            )
         else:
             Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
+            packs = (self.law_pack, self.limits_pack, gains, inputs, buf)
             lmask, smask, vec = _K.measured_control(q, Jm, meas, *packs)
         if lmask < 0:
             return None
@@ -130,13 +146,18 @@ class CompiledControl:
         """The points' inverse depths (N,) as ``L`` uses them (the task's depth option), or
         None when they are not one number per point."""
         try:
-            iz = np.concatenate(inv_depth).astype(np.float64, copy=False)
+            iz = np.concatenate(inv_depth)
         except (ValueError, TypeError):
             return None
-        if iz.shape != (len(self.task.terms),):
+        if iz.dtype != _F64:
+            try:
+                iz = iz.astype(np.float64)
+            except (ValueError, TypeError):
+                return None
+        if iz.shape != self.iz_shape:
             return None
-        task = self.task
-        if task.depth != "current" or self.depth_scale != 1.0:
+        if self.depth_option:
+            task = self.task
             star = task._group.star  # type: ignore[union-attr]
             iz = plan.depth_option(iz, star, task.depth, self.depth_scale)
         return iz
@@ -155,10 +176,12 @@ class CompiledControl:
         built when first read (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the
         buffer (``qdot`` to ``ssrc``), the law's options as they are now, and copies of
         ``q`` and ``q̇`` when the safety layer raised events."""
-        qdot, e, e1, J1, L = (buf[sl] for sl in self.task_slices)
-        m = e1.shape[0]
-        e1 = e if self.C.shape[0] == 0 else e1
-        state = TaskState(s, e, e1, L.reshape(-1, 6), J1.reshape(m, q.shape[0]), inv_depth)
+        sq, se, se1, sJ1, sL = self.task_slices
+        qdot, e = buf[sq], buf[se]
+        m, n, k = self.shapes
+        e1 = e if self.no_C else buf[se1]
+        L, J1 = buf[sL].reshape(k, 6), buf[sJ1].reshape(m, n)
+        state = _new_state(TaskState, (s, e, e1, L, J1, inv_depth))
         law = self.law
         safety = (q.copy(), qdot.copy(), self.gains[1], self.limits) if smask else None
         masks = (lmask, smask, vec)
@@ -221,4 +244,8 @@ def bind_controller(
         law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
         task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
         size=size,
+        shapes=(m, robot.n, task.k),
+        iz_shape=(len(task.terms),),
+        depth_option=task.depth != "current" or float(depth_scale) != 1.0,
+        no_C=task.C is None,
     )

@@ -4,6 +4,7 @@ one compiled call."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -103,10 +104,11 @@ def compiled_step(
     """:meth:`Controller.step <redservo.control.Controller.step>` in one compiled call, or
     None to take the object path (an input the kernel's check rejects: the object path
     raises the error naming it). Units: as the step's (rad or m, s)."""
-    assert ctrl._compiled is not None
+    compiled = ctrl._compiled
+    assert compiled is not None
     ctrl.stage = "task"
     s = getattr(measurement, "s", None)
-    if not is_float_vector(s, ctrl.task.k):  # the kernel checks the values, this the rest
+    if not is_float_vector(s, compiled.shapes[2]):  # the kernel checks the values, this the rest
         s = ctrl._measured_s(measurement)
     Ja = None if J is None else ctrl.jacobian(q, J)
     ctrl.stage = "feed-forward"
@@ -114,9 +116,18 @@ def compiled_step(
     de1_dt = ctrl._feedforward_known(t, context) if ctrl.feedforward == "known" else None
     ctrl.stage = "law"
     iz = getattr(measurement, "inv_depth", None)  # checked by the kernel's binding
-    res = ctrl._compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
+    res = compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
     if res is None:
         return None
     qdot, state, diag = res
-    qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
-    return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
+    if ctrl.qdot_saturation is None and ctrl.image_motion is None and ctrl.collision is None:
+        ctrl.stage = "guard"  # the output stage has nothing to do (shape_output's no-op)
+        saturated = False
+    else:
+        qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
+    return _new_step(ControlStep, (qdot, state, diag, None, de1_dt, None, saturated))
+
+
+_new_step: Callable[[type[ControlStep], tuple[object, ...]], ControlStep] = tuple.__new__
+"""``ControlStep(...)`` from its seven fields in order, without the keyword handling of its
+``__new__`` (the compiled step's hot path)."""

@@ -36,7 +36,7 @@ __all__ = ["CommandHistory", "present"]
 _EPS = 1e-9  # s
 
 
-@dataclass
+@dataclass(slots=True)
 class _Command:
     t: float
     q: FloatArray

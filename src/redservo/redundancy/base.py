@@ -37,6 +37,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.kernels.lawopts import F_ROBUST, I_FIRST, I_SHIELD
 from redservo.limits import JointLimits
+from redservo.redundancy import kernel_call as kc
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.redundancy.inputs import LawInputs, validate_inputs
@@ -136,6 +137,11 @@ class LawResult(NamedTuple):
     """(n,) joint velocity command (rad/s or m/s per axis)."""
     diagnostics: Diagnostics
     """What the law did, see :class:`Diagnostics`."""
+
+
+_new_result: Callable[[type[LawResult], tuple[object, ...]], LawResult] = tuple.__new__
+"""``LawResult(qdot, diagnostics)`` without the keyword handling of its ``__new__`` (the
+law call's hot path)."""
 
 
 SAFETY_OPTIONS: tuple[str, ...] = ("shield", "robust", "scaling")
@@ -311,12 +317,10 @@ class Law(abc.ABC):
         """
         kernel = self.scaling == "uniform" and self._kernel_step
         if kernel:  # the checked signature: no Python check of the values (kernel_call)
-            from redservo.redundancy.kernel_call import diagnose, fast_call
-
             args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
-            done = fast_call(self, args)
+            done = kc.fast_call(self, args)
             if done is not None:
-                return LawResult(done[0], lazy_diagnostics(diagnose, *done[1]))
+                return _new_result(LawResult, (done[0], lazy_diagnostics(kc.diagnose, *done[1])))
         x = validate_inputs(
             J1=J1,
             e1=e1,
@@ -329,11 +333,9 @@ class Law(abc.ABC):
             qdot_prev=qdot_prev,
         )
         if kernel:
-            from redservo.redundancy.kernel_call import diagnose, kernel_call
-
-            done = kernel_call(self, x)
+            done = kc.kernel_call(self, x)
             if done is not None:
-                return LawResult(done[0], lazy_diagnostics(diagnose, *done[1]))
+                return LawResult(done[0], lazy_diagnostics(kc.diagnose, *done[1]))
         result = self.compute(x)
         task = self.task_command(x) if self.scaling == "secondary-first" else None
         safe = apply_safety(
