@@ -83,8 +83,8 @@ def register_robot(name: str, factory: Callable[..., Robot]) -> None:
     ``robot.model`` (a new robot kind: its module and this one line, docs/extending.md).
 
     Raises:
-        ConfigurationError: ``name`` is not a lower-case identifier, or is already a
-            model with another factory.
+        ConfigurationError: ``name`` is not lower-case letters, digits, ``_`` and ``-``
+            starting with a letter, or is already a model with another factory.
     """
     global ROBOTS
     if not (isinstance(name, str) and re.fullmatch(r"[a-z][a-z0-9_-]*", name)):
