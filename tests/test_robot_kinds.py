@@ -51,8 +51,10 @@ def test_a_bad_kind_declaration_or_pack_is_one_clear_error() -> None:
         RobotKind("scara")
     with pytest.raises(ConfigurationError, match="kernel 'nowhere' is not 'module:function'"):
         RobotKind("x", "nowhere")
+    with pytest.raises(ConfigurationError, match=r"no kernel 'redservo\.kernels\.chain:nothing'"):
+        RobotKind("x", "redservo.kernels.chain:nothing")
     with pytest.raises(ConfigurationError, match="'afma6' is already declared with kernel"):
-        RobotKind("afma6", "my.module:kinematics")
+        RobotKind("afma6", "redservo.kernels.chain:chain_robot")
     with pytest.raises(ConfigurationError, match="scalars has 2 dimension"):
         RobotKind("afma6").pack(np.eye(4), np.eye(6), scalars=np.zeros((1, 2)))
 

@@ -24,6 +24,7 @@ signature serves every robot of a given joint count. The kind kernel's signature
 
 from __future__ import annotations
 
+import importlib
 import warnings
 from typing import Any
 
@@ -51,7 +52,8 @@ class RobotKind:
 
     Raises:
         ConfigurationError: an unknown shipped kind, a kernel not written
-            ``"module:function"``, or a name already declared with another kernel.
+            ``"module:function"`` or not found (define it before the declaration), or a
+            name already declared with another kernel.
     """
 
     def __init__(self, name: str, kernel: str | None = None) -> None:
@@ -64,12 +66,8 @@ class RobotKind:
                 argument="name",
             )
         self.kernel = kernel or shipped[name]
-        module, _, func = self.kernel.partition(":")
-        if not module or not func.isidentifier():
-            raise ConfigurationError(
-                f"RobotKind {name!r}: kernel {self.kernel!r} is not 'module:function'",
-                argument="kernel",
-            )
+        if kernel is not None:
+            _check_kernel(name, kernel)
         try:
             known = robot_kinds.register(name, self.kernel)
         except ValueError as exc:
@@ -123,3 +121,21 @@ def _part(a: ArrayLike | None, name: str, ndim: int) -> Any:
             argument=name,
         )
     return out
+
+
+def _check_kernel(name: str, kernel: str) -> None:
+    """The kernel ``"module:function"`` of a declared kind exists (its module imported)."""
+    module, _, func = kernel.partition(":")
+    if not module or not func.isidentifier():
+        raise ConfigurationError(
+            f"RobotKind {name!r}: kernel {kernel!r} is not 'module:function'", argument="kernel"
+        )
+    try:
+        found = callable(getattr(importlib.import_module(module), func))
+    except (ImportError, AttributeError):
+        found = False
+    if not found:
+        raise ConfigurationError(
+            f"RobotKind {name!r}: no kernel {kernel!r} (define the kernel before the declaration)",
+            argument="kernel",
+        )
