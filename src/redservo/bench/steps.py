@@ -221,10 +221,9 @@ def _measure(
 
 
 def _moment_features_items(case: BenchCase) -> list[tuple[str, str, str, Callable[[], Any]]]:
-    from redservo.kernels import lazy
+    from redservo.kernels import moment_interaction as ki
+    from redservo.kernels import moments as km
 
-    km = lazy("moments")
-    ki = lazy("moment_interaction")
     feat = case.task.terms[0].feature
     bMc = case.robot.fkine(case.q)
     cMo = np.ascontiguousarray(case.scene.cMo("t", bMc, 0.0))

@@ -12,6 +12,7 @@ from typing import Any
 
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.features.base import Feature, Measurement, wrap_angle
+from redservo.features.kinds import FeatureKind, feature_kinds, object_adapter
 from redservo.features.line import (
     CylinderFeature,
     CylinderProjection,
@@ -57,6 +58,7 @@ __all__ = [
     "CylinderFeature",
     "CylinderProjection",
     "Feature",
+    "FeatureKind",
     "ImageMoments",
     "LineFeature",
     "LineProjection",
@@ -77,11 +79,13 @@ __all__ = [
     "cylinder_lines",
     "ellipse_moment_interaction",
     "feature_class",
+    "feature_kinds",
     "image_moments",
     "line_interaction",
     "make_feature",
     "moment_features",
     "moment_features_interaction",
+    "object_adapter",
     "object_plane",
     "point_interaction",
     "project_line",
@@ -95,38 +99,18 @@ __all__ = [
     "wrap_angle",
 ]
 
-_CLASSES: dict[str, type[Feature]] = {
-    "point": PointFeature,
-    "line": LineFeature,
-    "cylinder": CylinderFeature,
-    "sphere": SphereFeature,
-    "moments": MomentFeatures,
-    "pose_translation": PoseTranslation,
-    "pose_thetau": PoseThetaU,
-    "log_depth": LogDepth,
-}
-
-FEATURES: tuple[str, ...] = (
-    "point",
-    "line",
-    "cylinder",
-    "sphere",
-    "moments",
-    "pose_translation",
-    "pose_thetau",
-    "log_depth",
-)
-"""Feature kinds accepted by :func:`make_feature`."""
+FEATURES: tuple[str, ...] = tuple(feature_kinds())
+"""Feature kinds accepted by :func:`make_feature` (the shipped ones; the declared kinds are
+:func:`redservo.features.kinds.feature_kinds`)."""
 
 
 def feature_class(kind: str) -> type[Feature]:
     """Return the class of feature ``kind``; :class:`UnknownNameError` lists the known kinds."""
-    try:
-        return _CLASSES[kind]
-    except KeyError:
-        raise UnknownNameError(
-            f"unknown feature kind {kind!r}; allowed: {', '.join(FEATURES)}"
-        ) from None
+    kinds = feature_kinds()
+    if kind not in kinds:
+        raise UnknownNameError(f"unknown feature kind {kind!r}; allowed: {', '.join(kinds)}")
+    cls: type[Feature] = kinds[kind].feature
+    return cls
 
 
 def make_feature(kind: str, **options: Any) -> Feature:

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import GeometryError
 from redservo.features.base import Feature, Measurement
+from redservo.features.kinds import FeatureKind
 from redservo.kernels import lazy
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
@@ -267,3 +268,26 @@ class CylinderFeature(Feature):
             f"CylinderFeature(radius={self.radius}, axis={self.axis.tolist()}, "
             f"point={self.point.tolist()})"
         )
+
+
+LINE_KIND = FeatureKind(
+    "line",
+    LineFeature,
+    schema="redservo.schema.features:LineSpec",
+    obj="redservo.scene:Line",
+    render="redservo.vision.shapes:_line_layer",
+    mujoco="redservo.physics.scenes:line_geoms",
+    viewer="redservo.viewer.playback:line_primitive",
+)
+"""The line kind and the adapters of its lines (:mod:`redservo.features.kinds`)."""
+
+CYLINDER_KIND = FeatureKind(
+    "cylinder",
+    CylinderFeature,
+    schema="redservo.schema.features:CylinderSpec",
+    obj="redservo.scene:Cylinder",
+    render="redservo.vision.shapes:_cylinder_layer",
+    mujoco="redservo.physics.scenes:cylinder_geoms",
+    viewer="redservo.viewer.playback:cylinder_primitive",
+)
+"""The cylinder kind and the adapters of its cylinders (:mod:`redservo.features.kinds`)."""

@@ -82,6 +82,7 @@ from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.camera import MIN_DEPTH, project_points
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.base import Feature, Measurement, wrap_angle
+from redservo.features.kinds import FeatureKind
 from redservo.features.moment_math import (
     _BEHIND,
     _COLLINEAR,
@@ -288,3 +289,12 @@ class MomentFeatures(Feature):
             f"MomentFeatures({self.points_o.shape[0]} points, desired_area={self.desired_area:.6g}, "
             f"desired_depth={self.desired_depth:.6g}, rotation_features={self.rotation_features!r})"
         )
+
+
+KIND = FeatureKind(
+    "moments",
+    MomentFeatures,
+    schema="redservo.schema.features:MomentsSpec",
+    obj="redservo.scene:PointSet",
+)
+"""The moments kind; it observes point sets, drawn by the point kind (:mod:`redservo.features.kinds`)."""

@@ -11,6 +11,7 @@ from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.camera import MIN_DEPTH
 from redservo.errors import GeometryError
 from redservo.features.base import Feature, Measurement
+from redservo.features.kinds import FeatureKind
 from redservo.kernels import lazy
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
@@ -89,3 +90,15 @@ class PointFeature(Feature):
 
     def __repr__(self) -> str:
         return f"PointFeature(point_o={self.point_o.tolist()})"
+
+
+KIND = FeatureKind(
+    "point",
+    PointFeature,
+    schema="redservo.schema.features:PointSpec",
+    obj="redservo.scene:PointSet",
+    render="redservo.vision.shapes:_point_layers",
+    mujoco="redservo.physics.scenes:points_geoms",
+    viewer="redservo.viewer.playback:points_primitive",
+)
+"""The point kind and the adapters of the point sets it observes (:mod:`redservo.features.kinds`)."""

@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import ConfigurationError
 from redservo.features.base import Feature, Measurement
+from redservo.features.kinds import FeatureKind
 from redservo.spatial import inverse, matrix_to_rotvec, rotvec_to_matrix, skew
 
 __all__ = [
@@ -216,3 +217,20 @@ class LogDepth(Feature):
 
     def __repr__(self) -> str:
         return f"LogDepth(point_o={self.point_o.tolist()})"
+
+
+TRANSLATION_KIND = FeatureKind(
+    "pose_translation", PoseTranslation, schema="redservo.schema.features:PoseTranslationSpec"
+)
+"""The translation of a pose (no scene object of its own; :mod:`redservo.features.kinds`)."""
+THETAU_KIND = FeatureKind(
+    "pose_thetau", PoseThetaU, schema="redservo.schema.features:PoseThetaUSpec"
+)
+"""The rotation of a pose (no scene object of its own)."""
+LOG_DEPTH_KIND = FeatureKind(
+    "log_depth",
+    LogDepth,
+    schema="redservo.schema.features:LogDepthSpec",
+    obj="redservo.scene:PointSet",
+)
+"""The log-depth of a point; it observes point sets, drawn by the point kind."""

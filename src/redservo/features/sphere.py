@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.base import Feature, Measurement
+from redservo.features.kinds import FeatureKind
 from redservo.kernels import lazy
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
@@ -252,3 +253,15 @@ class SphereFeature(Feature):
             f"SphereFeature(radius={self.radius}, center={self.center.tolist()}, "
             f"variant={self.variant!r})"
         )
+
+
+KIND = FeatureKind(
+    "sphere",
+    SphereFeature,
+    schema="redservo.schema.features:SphereSpec",
+    obj="redservo.scene:Sphere",
+    render="redservo.vision.shapes:_sphere_layer",
+    mujoco="redservo.physics.scenes:sphere_geoms",
+    viewer="redservo.viewer.playback:sphere_primitive",
+)
+"""The sphere kind and the adapters of its spheres (:mod:`redservo.features.kinds`)."""

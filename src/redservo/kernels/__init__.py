@@ -8,7 +8,11 @@ these kernels and wrap the results into typed objects.
 
 Importing this package is cheap: numba is imported, and the kernels compiled or loaded
 from the on-disk cache, only when a submodule is first used. The public modules hold
-their kernels through :func:`lazy`, so that ``import redservo`` does not load numba.
+their kernels through :func:`lazy`, so that ``import redservo`` does not load numba; each
+handle is the kernel module itself for the type checker (``if TYPE_CHECKING: from
+redservo.kernels import features as _K`` / ``else: _K = lazy("features")``), so that mypy
+checks every kernel call against the kernel's signature and go-to-definition reaches it
+(``tests/test_kernel_handles.py`` keeps every handle so).
 """
 
 from __future__ import annotations

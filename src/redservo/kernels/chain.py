@@ -30,7 +30,7 @@ import numpy as np
 from redservo.kernels._jit import kernel
 from redservo.kernels.kinematics import matmul
 
-__all__ = ["PRISMATIC", "chain_forward", "chain_jacobe", "chain_kinematics"]
+__all__ = ["PRISMATIC", "chain_forward", "chain_jacobe", "chain_kinematics", "chain_robot"]
 
 PRISMATIC = 3
 """Column of ``joints`` holding the prismatic flag (1.0 prismatic, 0.0 revolute)."""
@@ -140,3 +140,11 @@ def chain_kinematics(q: Any, frames: Any, joints: Any, eMc: Any, cVe: Any) -> An
     (6, n), with ``v_c = J q̇`` the camera twist in the camera frame."""
     bMe, Z, P = chain_forward(q, frames, joints)
     return matmul(bMe, eMc), matmul(cVe, chain_jacobe(bMe, Z, P, joints))
+
+
+@kernel
+def chain_robot(q: Any, eMc: Any, cVe: Any, scalars: Any, table: Any, frames: Any) -> Any:
+    """The chain kind of the robot pack (:mod:`redservo.kernels.robot_kinds`): ``table`` the
+    (n, 4) joint axes, ``frames`` the (n + 1, 3, 4) fixed transforms; ``(bMc, J)`` as
+    :func:`chain_kinematics`."""
+    return chain_kinematics(q, frames, table, eMc, cVe)

@@ -23,9 +23,11 @@ __all__ = [
     "afma6_fkine_ee",
     "afma6_jacobe",
     "afma6_kinematics",
+    "afma6_robot",
     "dh_chain",
     "dh_jacobe",
     "dh_kinematics",
+    "dh_robot",
     "matmul",
 ]
 
@@ -214,3 +216,18 @@ def dh_kinematics(
     """``(bMc, J)`` of a DH chain: camera pose ``bMe eMc`` and ``J = cVe eJe``."""
     bMe, Z, P = dh_chain(q, par, base, flange, standard)
     return matmul(bMe, eMc), matmul(cVe, dh_jacobe(bMe, Z, P, par))
+
+
+@kernel
+def afma6_robot(q: Any, eMc: Any, cVe: Any, scalars: Any, table: Any, frames: Any) -> Any:
+    """The Afma6 kind of the robot pack (:mod:`redservo.kernels.robot_kinds`): ``scalars``
+    is ``(coupling, offset)`` (1, m); ``(bMc, J)`` as :func:`afma6_kinematics`."""
+    return afma6_kinematics(q, eMc, cVe, scalars[0], scalars[1])
+
+
+@kernel
+def dh_robot(q: Any, eMc: Any, cVe: Any, scalars: Any, table: Any, frames: Any) -> Any:
+    """The DH kind of the robot pack: ``scalars`` is ``(standard,)`` (1.0 or 0.0), ``table``
+    the (8, n) DH table, ``frames`` (2, 4, 4) the base and flange transforms (m);
+    ``(bMc, J)`` as :func:`dh_kinematics`."""
+    return dh_kinematics(q, table, frames[0], frames[1], scalars[0] != 0.0, eMc, cVe)

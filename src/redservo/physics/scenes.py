@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.features import object_adapter
 from redservo.physics.meshes import cylinder_mesh, sphere_mesh
 from redservo.physics.mjcf import _vec, xml_pose
 from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere, Tag
@@ -47,9 +48,13 @@ __all__ = [
     "LINE_ROD_RADIUS",
     "PAPER_HALF_THICKNESS",
     "SHAPE_RGBA",
+    "cylinder_geoms",
     "dot_radius",
+    "line_geoms",
+    "points_geoms",
     "scene_bodies",
     "set_poses",
+    "sphere_geoms",
     "tag_texture",
 ]
 
@@ -169,26 +174,49 @@ def _matte(name: str) -> str:
 def _object_geoms(
     obj: object, name: str, files: dict[str, bytes], paper_margin: float
 ) -> tuple[list[str] | None, str]:
-    """The geoms of one object in its own frame (None: not drawn) and its ``<asset>`` entries."""
+    """The geoms of one object in its own frame (None: not drawn) and its ``<asset>`` entries:
+    the ``mujoco`` adapter its feature kind declares (:mod:`redservo.features.kinds`)."""
     if isinstance(obj, Tag):
         asset, geom = _tag_geom(obj, files)
         return [geom], asset
-    if isinstance(obj, PointSet):
-        return _points_body(obj, paper_margin), ""
-    if isinstance(obj, Sphere):
-        mesh = sphere_mesh(f"{name}/mesh", obj.radius, obj.center)
-        return [_shape_geom(name, "sphere")], mesh + _matte(name)
-    if isinstance(obj, Line):  # a thin rod along the line
-        a, b = obj.point - obj.direction, obj.point + obj.direction
-        return [_shape_geom(name, "rod")], cylinder_mesh(
-            f"{name}/mesh", LINE_ROD_RADIUS, a, b
-        ) + _matte(name)
-    if isinstance(obj, Cylinder):
-        a, b = obj.point - obj.axis, obj.point + obj.axis
-        return [_shape_geom(name, "cylinder")], cylinder_mesh(
-            f"{name}/mesh", obj.radius, a, b
-        ) + _matte(name)
-    return None, ""
+    adapter = object_adapter(obj, "mujoco")
+    if adapter is None:
+        return None, ""
+    geoms: tuple[list[str] | None, str] = adapter(obj, name, files, paper_margin)
+    return geoms
+
+
+def points_geoms(
+    obj: PointSet, name: str, files: dict[str, bytes], paper_margin: float
+) -> tuple[list[str] | None, str]:
+    """A point set: its dots on their paper (the point kind's ``mujoco`` adapter)."""
+    return _points_body(obj, paper_margin), ""
+
+
+def sphere_geoms(
+    obj: Sphere, name: str, files: dict[str, bytes], paper_margin: float
+) -> tuple[list[str], str]:
+    """A sphere: a matte mesh (the sphere kind's ``mujoco`` adapter)."""
+    mesh = sphere_mesh(f"{name}/mesh", obj.radius, obj.center)
+    return [_shape_geom(name, "sphere")], mesh + _matte(name)
+
+
+def line_geoms(
+    obj: Line, name: str, files: dict[str, bytes], paper_margin: float
+) -> tuple[list[str], str]:
+    """A line: a thin rod along it (the line kind's ``mujoco`` adapter)."""
+    a, b = obj.point - obj.direction, obj.point + obj.direction
+    mesh = cylinder_mesh(f"{name}/mesh", LINE_ROD_RADIUS, a, b)
+    return [_shape_geom(name, "rod")], mesh + _matte(name)
+
+
+def cylinder_geoms(
+    obj: Cylinder, name: str, files: dict[str, bytes], paper_margin: float
+) -> tuple[list[str], str]:
+    """A cylinder: a matte mesh (the cylinder kind's ``mujoco`` adapter)."""
+    a, b = obj.point - obj.axis, obj.point + obj.axis
+    mesh = cylinder_mesh(f"{name}/mesh", obj.radius, a, b)
+    return [_shape_geom(name, "cylinder")], mesh + _matte(name)
 
 
 def scene_bodies(

@@ -17,6 +17,7 @@ first use, with :func:`shipped_urdf` for the shipped ``"panda"`` and ``"ur5e"`` 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Final
 
@@ -45,6 +46,7 @@ __all__ = [
     "Robot",
     "URDFRobot",
     "make_robot",
+    "register_robot",
     "shipped_mjcf",
     "shipped_urdf",
 ]
@@ -72,8 +74,33 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-ROBOTS: Final[tuple[str, ...]] = tuple(_FACTORIES)
-"""Names accepted by :func:`make_robot`."""
+ROBOTS: tuple[str, ...] = tuple(_FACTORIES)
+"""Names accepted by :func:`make_robot` (and by a scenario's ``robot.model``)."""
+
+
+def register_robot(name: str, factory: Callable[..., Robot]) -> None:
+    """Make ``factory`` the robot model ``name`` of :func:`make_robot` and of a scenario's
+    ``robot.model`` (a new robot kind: its module and this one line, docs/extending.md).
+
+    Raises:
+        ConfigurationError: ``name`` is not lower-case letters, digits, ``_`` and ``-``
+            starting with a letter, or is already a model with another factory.
+    """
+    global ROBOTS
+    if not (isinstance(name, str) and re.fullmatch(r"[a-z][a-z0-9_-]*", name)):
+        raise ConfigurationError(
+            f"register_robot: name {name!r}: allowed are lower-case letters, digits, '_' and"
+            " '-', starting with a letter",
+            argument="name",
+        )
+    if _FACTORIES.get(name, factory) is not factory:
+        raise ConfigurationError(
+            f"register_robot: robot {name!r} is already registered; known robots: "
+            f"{', '.join(ROBOTS)}",
+            argument="name",
+        )
+    _FACTORIES[name] = factory
+    ROBOTS = tuple(_FACTORIES)
 
 
 def make_robot(name: str, **options: Any) -> Robot:

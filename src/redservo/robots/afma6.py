@@ -44,7 +44,7 @@ from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
-from redservo.robots.pack import AFMA6, RobotPack, robot_pack
+from redservo.robots.pack import RobotKind, RobotPack
 from redservo.spatial import make_transform
 
 __all__ = ["AFMA6_JOINT_LIMITS", "AFMA6_QDDOT_MAX", "AFMA6_QDOT_MAX", "AFMA6_TOOLS", "Afma6"]
@@ -100,6 +100,8 @@ class Afma6(Robot):
 
     JOINT_NAMES: ClassVar[tuple[str, ...]] = ("x", "y", "z", "A", "B", "C")
     """Gantry x, y, z (m), then the wrist rotations A, B, C (rad)."""
+    KIND: ClassVar[RobotKind] = RobotKind("afma6")
+    """Its compiled kinematics (:mod:`redservo.robots.pack`)."""
 
     def __init__(
         self,
@@ -181,7 +183,7 @@ class Afma6(Robot):
         """The Afma6 as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
         if type(self).kinematics is not Afma6.kinematics:
             return None
-        return robot_pack(AFMA6, 6, self._eMc, self._cVe, coupling=COUPLING, offset=OFFSET)
+        return self.KIND.pack(self._eMc, self._cVe, scalars=(COUPLING, OFFSET))
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

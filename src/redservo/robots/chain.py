@@ -25,7 +25,7 @@ bytes of ``q``, and ``fkine(q)``/``jacobian(q)`` are bit for bit the two outputs
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,7 +35,7 @@ from redservo.errors import ConfigurationError, ShapeError
 from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
 from redservo.robots.dh import check_q_named
-from redservo.robots.pack import CHAIN, RobotPack, robot_pack
+from redservo.robots.pack import RobotKind, RobotPack
 
 __all__ = ["ChainPack", "ChainRobot", "chain_pack"]
 
@@ -139,6 +139,9 @@ class ChainRobot(Robot):
         ShapeError, ConfigurationError: see :func:`chain_pack` and :class:`Robot`.
     """
 
+    KIND: ClassVar[RobotKind] = RobotKind("chain")
+    """Its compiled kinematics (:mod:`redservo.robots.pack`)."""
+
     def __init__(
         self,
         origins: Sequence[ArrayLike],
@@ -215,7 +218,7 @@ class ChainRobot(Robot):
         if type(self).kinematics is not ChainRobot.kinematics:
             return None
         pack = self._chain_pack
-        return robot_pack(CHAIN, self.n, self._eMc, self._cVe, chain=(pack.frames, pack.joints))
+        return self.KIND.pack(self._eMc, self._cVe, table=pack.joints, frames=pack.frames)
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -41,7 +41,7 @@ from redservo._validation import FloatArray, as_transform, as_vector
 from redservo.errors import ConfigurationError, JointLimitError, ShapeError
 from redservo.kernels import lazy
 from redservo.robots.base import JointType, Robot
-from redservo.robots.pack import DH, RobotPack, robot_pack
+from redservo.robots.pack import RobotKind, RobotPack
 
 __all__ = ["DHConvention", "DHLink", "DHRobot"]
 
@@ -189,6 +189,9 @@ class DHRobot(Robot):
         ShapeError: ``base``, ``flange`` or ``eMc`` is not a rigid transform.
     """
 
+    KIND: ClassVar[RobotKind] = RobotKind("dh")
+    """Its compiled kinematics (:mod:`redservo.robots.pack`)."""
+
     def __init__(
         self,
         links: Sequence[DHLink],
@@ -335,8 +338,11 @@ class DHRobot(Robot):
         """The DH chain as the compiled engine takes it (:mod:`redservo.robots.pack`)."""
         if type(self).kinematics is not DHRobot.kinematics:
             return None
-        dh = (self._par, self._base, self._flange, self._convention == "standard")
-        return robot_pack(DH, self.n, self._eMc, self._cVe, dh=dh)
+        standard = 1.0 if self._convention == "standard" else 0.0
+        frames = np.stack((self._base, self._flange))
+        return self.KIND.pack(
+            self._eMc, self._cVe, scalars=(standard,), table=self._par, frames=frames
+        )
 
     def kinematics(
         self, q: ArrayLike, *, check_limits: bool = True

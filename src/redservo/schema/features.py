@@ -3,9 +3,8 @@
 Each spec has a ``kind`` literal, its keys, the object kind it observes, its size (known
 without building, so that ``components`` and ``task.desired`` are checked when the file is
 validated) and :meth:`FeatureSpec.features`, which builds the runtime features through
-:func:`redservo.features.make_feature`. A new feature kind is its class in
-:mod:`redservo.features` (registered in ``FEATURES``) plus one spec here, listed in
-:data:`FEATURE_KINDS`.
+:func:`redservo.features.make_feature`. A feature kind declares its spec
+(``FeatureKind.schema``, :mod:`redservo.features.kinds`); :data:`FEATURE_KINDS` lists them.
 """
 
 from __future__ import annotations
@@ -17,7 +16,9 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from redservo._validation import FloatArray
+from redservo.features import feature_kinds
 from redservo.features.base import Feature
+from redservo.features.kinds import resolve
 from redservo.features.moments import RotationFeatures
 from redservo.features.pose import RotationVariant, TranslationVariant
 from redservo.features.sphere import SphereVariant
@@ -237,17 +238,10 @@ class PoseThetaUSpec(_PoseSpec):
 
 
 FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
-    "point": PointSpec,
-    "line": LineSpec,
-    "cylinder": CylinderSpec,
-    "sphere": SphereSpec,
-    "moments": MomentsSpec,
-    "pose_translation": PoseTranslationSpec,
-    "pose_thetau": PoseThetaUSpec,
-    "log_depth": LogDepthSpec,
+    name: resolve(kind.schema) for name, kind in feature_kinds().items()
 }
-"""Feature kinds of ``[[features]]``, by ``kind`` (the kinds of :data:`redservo.features.FEATURES`):
-a new kind is one entry here."""
+"""Feature kinds of ``[[features]]``, by ``kind``: the spec each declared feature kind names
+(``FeatureKind.schema``, :mod:`redservo.features.kinds`)."""
 if TYPE_CHECKING:
     AnyFeature = FeatureSpec
 else:

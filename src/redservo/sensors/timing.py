@@ -46,7 +46,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.task import VisualTask
 
-_KI = lazy("interp")  # imported on first use: the command line starts without numba
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.kernels import interp as _KI
+else:
+    _KI = lazy("interp")  # the command line starts without numba
 
 __all__ = [
     "EXPOSURE_SAMPLES",

@@ -20,12 +20,24 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
+from redservo.features import object_adapter
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.experiment.build import Experiment
     from redservo.runs.load import Run
+    from redservo.scene import Cylinder, Line, PointSet, Sphere
 
-__all__ = ["LIMIT_COLORS", "Frame", "Playback", "limit_color", "limit_level"]
+__all__ = [
+    "LIMIT_COLORS",
+    "Frame",
+    "Playback",
+    "cylinder_primitive",
+    "limit_color",
+    "limit_level",
+    "line_primitive",
+    "points_primitive",
+    "sphere_primitive",
+]
 
 LIMIT_COLORS = ((0, 114, 178), (230, 159, 0), (213, 94, 0))
 """RGB of a joint far from its limits (blue), at its threshold (orange), at a limit
@@ -150,20 +162,15 @@ class Playback:
 
     @cached_property
     def _geometry(self) -> list[tuple[str, str, Any]]:
-        from redservo.scene import Cylinder, Line, PointSet, Sphere
-
+        """``(name, primitive, geometry)`` of the drawn objects: the ``viewer`` adapter their
+        feature kind declares (:mod:`redservo.features.kinds`)."""
         out: list[tuple[str, str, Any]] = []
         scene = self.exp.scene
         for name in scene.names:
             obj = scene.object(name)
-            if isinstance(obj, PointSet):
-                out.append((name, "points", np.asarray(obj.points)))
-            elif isinstance(obj, Sphere):
-                out.append((name, "sphere", (np.asarray(obj.center), float(obj.radius))))
-            elif isinstance(obj, Cylinder):
-                out.append((name, "cylinder", (obj.point, obj.axis, float(obj.radius))))
-            elif isinstance(obj, Line):
-                out.append((name, "line", (obj.point, obj.direction, 0.0)))
+            adapter = object_adapter(obj, "viewer")
+            if adapter is not None:
+                out.append((name, *adapter(obj)))
         return out
 
     def _objects(self, t: float) -> list[tuple[str, str, Any]]:
@@ -245,3 +252,23 @@ class Playback:
             front = Pc[:, 2] > 1e-6
             out.append((kind, Pc[front, :2] / Pc[front, 2:3]))
         return out
+
+
+def points_primitive(obj: PointSet) -> tuple[str, Any]:
+    """A point set: its points (k, 3; m) (the point kind's ``viewer`` adapter)."""
+    return "points", np.asarray(obj.points)
+
+
+def sphere_primitive(obj: Sphere) -> tuple[str, Any]:
+    """A sphere: ``(centre (3,), radius)`` (m) (the sphere kind's ``viewer`` adapter)."""
+    return "sphere", (np.asarray(obj.center), float(obj.radius))
+
+
+def cylinder_primitive(obj: Cylinder) -> tuple[str, Any]:
+    """A cylinder: ``(point, axis, radius)`` (m) (the cylinder kind's ``viewer`` adapter)."""
+    return "cylinder", (obj.point, obj.axis, float(obj.radius))
+
+
+def line_primitive(obj: Line) -> tuple[str, Any]:
+    """A line: ``(point, direction, 0)`` (m) (the line kind's ``viewer`` adapter)."""
+    return "line", (obj.point, obj.direction, 0.0)

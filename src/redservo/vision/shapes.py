@@ -36,6 +36,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
+from redservo.features import object_adapter
 from redservo.features.sphere import sphere_ellipse
 from redservo.scene import Cylinder, Line, PointSet, Scene, Sphere, Tag
 from redservo.vision.optics import Optics
@@ -245,19 +246,8 @@ def scene_layers(
 
             layers.extend(Layer(*parts) for parts in tag_layers(obj, cMo, optics))
             continue
-        if isinstance(obj, PointSet):
-            layers.extend(_point_layers(obj, cMo, optics, levels))
-            continue
-        layer: Layer | None
-        if isinstance(obj, Sphere):
-            layer = _sphere_layer(obj, cMo, optics, levels)
-        elif isinstance(obj, Cylinder):
-            layer = _cylinder_layer(obj, cMo, optics, levels)
-        elif isinstance(obj, Line):
-            layer = _line_layer(obj, cMo, optics, levels)
-        else:  # pragma: no cover - every SceneObject kind is handled above
-            layer = None
-        if layer is not None:
-            layers.append(layer)
+        render = object_adapter(obj, "render")  # its feature kind's (redservo.features.kinds)
+        drawn = None if render is None else render(obj, cMo, optics, levels)
+        layers.extend(drawn if isinstance(drawn, list) else [] if drawn is None else [drawn])
     layers.sort(key=lambda ly: -ly.depth)
     return layers
