@@ -61,7 +61,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
-from redservo.vision.fastdot import similarity_prediction, window_blob
+from redservo.vision.fastdot import similarity_prediction, track_tracked, window_blob
 from redservo.vision.lazyframe import LazyFrame, window
 from redservo.vision.optics import require_cv2
 
@@ -205,6 +205,8 @@ class ImageDotTracker:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
         img = _check_image(image)
         moves = self._moves(shift)
+        if track_tracked(self, img, moves):  # every dot at once (the common frame)
+            return self._state([""] * self.n_dots)
         reasons = [""] * self.n_dots
         taken: dict[int, tuple[FloatArray, float]] = {}
         before = {i: _copy(d) for i, d in enumerate(self._dots) if d.lost == 0}
