@@ -399,7 +399,7 @@ def tracker_cpu_us(kind: str, frames: int, fast: bool = True) -> float:
     real, frame = tracking.window_blob, tracking.track_tracked
     if not fast:
         tracking.window_blob = lambda *a, **k: None  # type: ignore[assignment]
-        tracking.track_tracked = lambda *a: False  # type: ignore[assignment]
+        tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
     try:
         best = np.inf
         for _ in range(3):
@@ -456,7 +456,7 @@ def image_campaign_rate(
         timed.read = timed_read  # type: ignore[method-assign]
         hooks = (tracking.track_tracked, motion_blur._dot_frame)
         if not frame_kernels:
-            tracking.track_tracked = lambda *a: False  # type: ignore[assignment]
+            tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
             motion_blur._dot_frame = lambda *a: None  # type: ignore[assignment]
         try:
             cpu = time.process_time()

@@ -46,7 +46,7 @@ def _counting(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
         return out
 
     monkeypatch.setattr(tracking, "window_blob", counted)
-    monkeypatch.setattr(tracking, "track_tracked", lambda *a: False)  # dot by dot
+    monkeypatch.setattr(tracking, "track_tracked", lambda *a: None)  # dot by dot
     return calls
 
 

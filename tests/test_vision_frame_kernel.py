@@ -31,12 +31,12 @@ def _tracks(frames: list, uv0: np.ndarray, kernel: bool, monkeypatch: pytest.Mon
     counted = {"accepted": 0}
     real = tracking.track_tracked
 
-    def frame(*args: object) -> bool:
-        ok = real(*args)  # type: ignore[arg-type]
-        counted["accepted"] += ok
-        return ok
+    def frame(*args: object) -> object:
+        out = real(*args)  # type: ignore[arg-type]
+        counted["accepted"] += out is not None
+        return out
 
-    monkeypatch.setattr(tracking, "track_tracked", frame if kernel else (lambda *a: False))
+    monkeypatch.setattr(tracking, "track_tracked", frame if kernel else (lambda *a: None))
     tracker = ImageDotTracker(4)
     tracker.start(frames[0], uv0)
     out = []

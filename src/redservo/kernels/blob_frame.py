@@ -94,7 +94,14 @@ def _off_geometry(uv: Any, sizes: Any, ref: Any, tol: float) -> bool:
 def track_frame(
     pixels: Any,
     lazy: bool,
-    parts: Any,
+    bgb: Any,
+    field: Any,
+    offset: Any,
+    sigma: float,
+    boxes: Any,
+    deltas: Any,
+    gain: Any,
+    has_gain: bool,
     dots: Any,
     moves: Any,
     settings: Any,
@@ -105,9 +112,9 @@ def track_frame(
 
     Args:
         pixels: (H, W) uint8 the frame (when ``lazy``: its buffer, composed here where read).
-        lazy: Compose the windows from ``parts`` first.
-        parts: ``(bgb, field, offset, sigma, boxes, deltas, gain, has_gain)`` of
-            :func:`compose_region` (any when not ``lazy``).
+        lazy: Compose the windows from the frame's parts first.
+        bgb, field, offset, sigma, boxes, deltas, gain, has_gain: The frame's parts, as
+            :func:`compose_region` takes them (any when not ``lazy``).
         dots: (N, 6) each dot's ``u, v, level, background, area, size`` (finite).
         moves: (N, 2) each dot's predicted motion.
         settings: (14,) ``p, slack, max_jump, polarity (1 bright), min_size, max_size,
@@ -119,7 +126,6 @@ def track_frame(
         ``(accepted, found, rects)``: ``found`` (N, 7) per dot ``code, u, v, area, size,
         level, background``; ``rects`` (N, 4) the windows composed (rows, then columns).
     """
-    bgb, field, offset, sigma, boxes, deltas, gain, has_gain = parts
     n = dots.shape[0]
     h, w = pixels.shape
     found = np.zeros((n, 7))

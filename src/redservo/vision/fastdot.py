@@ -25,6 +25,7 @@ from redservo._validation import FloatArray
 from redservo.kernels.blob import FOUND, window_dot
 from redservo.kernels.blob_frame import track_frame
 from redservo.vision.blobs import Blob, _disc
+from redservo.vision.dots import DotTrack
 from redservo.vision.lazyframe import LazyFrame
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -59,15 +60,17 @@ _NO_PARTS = (
 """Frame parts of an image given whole (:func:`track_tracked` composes nothing)."""
 
 
-def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> bool:
+def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> DotTrack | None:
     """Every dot of ``tracker`` found in ``img`` by one compiled call, when all were found
-    in the last frame (:func:`redservo.kernels.blob_frame.track_frame`): True and the dots
-    updated as :meth:`~redservo.vision.tracking.ImageDotTracker.update` would, or False
+    in the last frame (:func:`redservo.kernels.blob_frame.track_frame`): the dots updated as
+    :meth:`~redservo.vision.tracking.ImageDotTracker.update` would and its result, or None
     and nothing changed (the caller runs its update). ``moves``: (N, 2) pixels."""
     dots = tracker._dots
-    state = np.array([(*d.uv, d.level, d.background, d.area, d.size, d.lost) for d in dots])
-    if state[:, 6].any() or not (np.isfinite(state).all() and np.isfinite(moves).all()):
-        return False
+    if any(d.lost for d in dots):
+        return None
+    state = np.array([(d.uv[0], d.uv[1], d.level, d.background, d.area, d.size) for d in dots])
+    if not (np.isfinite(state).all() and np.isfinite(moves).all()):
+        return None
     lim = tracker.shape
     settings = np.array(
         [
@@ -92,30 +95,31 @@ def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> bool
         pix = img.pixels
     else:
         parts, pix = _NO_PARTS, np.ascontiguousarray(img)
-    ref = tracker._ref if tracker._ref is not None else state[:, :2]
+    ref = state[:, :2] if tracker._ref is None else tracker._ref
     ok, found, rects = track_frame(
         pix,
         lazy,
-        parts,
-        state[:, :6].copy(),
+        *parts,
+        state,
         np.ascontiguousarray(moves, dtype=float),
         settings,
         _discs(int(settings[0])),
-        np.ascontiguousarray(ref, dtype=float),
+        ref,
     )
     if lazy:  # the windows composed are the frame's pixels now
-        img._done.extend((int(a), int(b), int(c), int(e)) for a, b, c, e in rects if a < b)
+        img._done.extend(tuple(r) for r in rects.tolist() if r[0] < r[1])
     if not ok:
-        return False
-    for d, out in zip(dots, found):
-        old, d.uv = d.uv, out[1:3].copy()
-        d.level, d.background = out[5], out[6]
+        return None
+    uv = found[:, 1:3].copy()
+    for d, out, row in zip(dots, found.tolist(), uv):
+        new = row.copy()
+        d.vel, d.uv = new - d.uv, new
+        d.level, d.background = found.dtype.type(out[5]), found.dtype.type(out[6])
         d.area, d.size = float(int(out[3])), float(int(out[4]))
-        d.lost = 0
-        d.vel = d.uv - old
-    tracker._ref = np.array([d.uv for d in dots])
+    tracker._ref = uv.copy()
     tracker._ref_c = [complex(x, y) for x, y in tracker._ref.tolist()]
-    return True
+    n = len(dots)
+    return DotTrack(uv.copy(), np.ones(n, bool), np.zeros(n, int), n, (), ("",) * n)
 
 
 def window_blob(

@@ -204,8 +204,9 @@ class ImageDotTracker:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
         img = frame_or_array(image)
         moves = self._moves(shift)
-        if track_tracked(self, img, moves):  # every dot at once (the common frame)
-            return self._state([""] * self.n_dots)
+        fast = track_tracked(self, img, moves)  # every dot at once (the common frame)
+        if fast is not None:
+            return fast
         reasons = [""] * self.n_dots
         taken: dict[int, tuple[FloatArray, float]] = {}
         before = {i: _copy(d) for i, d in enumerate(self._dots) if d.lost == 0}
