@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from redservo._validation import FloatArray, as_transform
+from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
 from redservo.kernels._jit import COMPILED
 from redservo.kernels.blob_expose import expose_dots
@@ -122,10 +122,7 @@ def _dot_geometry(
             np.concatenate(
                 [obj.points @ cMo[:3, :3].T + cMo[:3, 3] for obj, cMo in zip(objs, cMos)]
             )
-            for cMos in (
-                [scene.cMo(name, as_transform(bMc, "bMc"), t) for name in scene.names]
-                for bMc, t in samples
-            )
+            for cMos in ([scene.cMo(name, bMc, t) for name in scene.names] for bMc, t in samples)
         ]
     )  # (instants, dots, 3) in the camera frame
     names = [f"{obj.name}[{k}]" for obj in objs for k in range(len(obj.points))]
