@@ -13,6 +13,7 @@ cv2 = pytest.importorskip(
     "cv2", reason="the image pipeline needs OpenCV: pip install 'redservo[vision]'"
 )
 
+from redservo.kernels._jit import COMPILED  # noqa: E402
 from redservo.kernels.blob_frame import _geometry  # noqa: E402
 from redservo.vision import tracking  # noqa: E402
 from redservo.vision.dotseq import dot_sequence  # noqa: E402
@@ -57,6 +58,7 @@ def _same(a: list, b: list) -> None:
         assert np.array_equal(x[4], y[4], equal_nan=True), f"frame {k + 1}: dot states differ"
 
 
+@pytest.mark.skipif(not COMPILED, reason="the frame kernel runs compiled only")
 @pytest.mark.parametrize(
     "kind", ["nested", "gradient", "motion_blur", "occlusion", "bright_merge", "digits"]
 )
@@ -72,6 +74,7 @@ def test_the_frame_kernel_tracks_bit_for_bit_as_dot_by_dot(
     assert accepted >= 0.4 * (len(frames) - 1), f"{kind}: the frame kernel took {accepted}"
 
 
+@pytest.mark.skipif(not COMPILED, reason="the frame kernel runs compiled only")
 def test_the_frame_kernel_on_lazy_frames_reads_the_full_frames_pixels(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -101,6 +104,7 @@ def test_the_frame_kernel_on_lazy_frames_reads_the_full_frames_pixels(
     _same(fast, slow)
 
 
+@pytest.mark.skipif(not COMPILED, reason="compiled only: plain Python's math.hypot is not libm's")
 def test_the_geometry_is_pythons_complex_arithmetic() -> None:
     rng = np.random.default_rng(2)
     for _ in range(200):

@@ -10,6 +10,8 @@ found dots give it, :func:`redservo.vision.fastdot.similarity_prediction`, in Py
 complex arithmetic written out: the same operations in the same order). The kernel only
 accepts the whole frame: a dot it cannot decide, a merged dot or a dot off the geometry
 returns ``accepted = False`` and the caller runs the tracker's own update, unchanged.
+Compiled only: ``math.hypot`` here is libm's ``hypot`` under numba, the one Python's
+``abs(complex)`` uses; plain Python's ``math.hypot`` rounds otherwise.
 Units: pixels, gray levels.
 """
 

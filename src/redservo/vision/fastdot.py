@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
+from redservo.kernels._jit import COMPILED
 from redservo.kernels.blob import FOUND, window_dot
 from redservo.kernels.blob_frame import track_frame
 from redservo.vision.blobs import Blob, _disc
@@ -62,11 +63,13 @@ _NO_PARTS = (
 
 def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> DotTrack | None:
     """Every dot of ``tracker`` found in ``img`` by one compiled call, when all were found
-    in the last frame (:func:`redservo.kernels.blob_frame.track_frame`): the dots updated as
+    in the last frame (:func:`redservo.kernels.blob_frame.track_frame`, compiled only: its
+    geometry check is Python's complex arithmetic with libm's ``hypot``, as numba calls it,
+    where plain Python's ``math.hypot`` rounds otherwise): the dots updated as
     :meth:`~redservo.vision.tracking.ImageDotTracker.update` would and its result, or None
     and nothing changed (the caller runs its update). ``moves``: (N, 2) pixels."""
     dots = tracker._dots
-    if any(d.lost for d in dots):
+    if not COMPILED or any(d.lost for d in dots):  # plain Python: hypot is not libm's
         return None
     state = np.array([(d.uv[0], d.uv[1], d.level, d.background, d.area, d.size) for d in dots])
     if not (np.isfinite(state).all() and np.isfinite(moves).all()):
