@@ -396,9 +396,10 @@ def tracker_cpu_us(kind: str, frames: int, fast: bool = True) -> float:
     from redservo.vision.dotseq import dot_sequence
 
     seq = list(dot_sequence(kind, frames, size=(640, 480), seed=k_seed(kind)))
-    real = tracking.window_blob
+    real, frame = tracking.window_blob, tracking.track_tracked
     if not fast:
         tracking.window_blob = lambda *a, **k: None  # type: ignore[assignment]
+        tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
     try:
         best = np.inf
         for _ in range(3):
@@ -409,7 +410,7 @@ def tracker_cpu_us(kind: str, frames: int, fast: bool = True) -> float:
                 tracker.update(fr.image)
             best = min(best, (time.process_time() - t0) / (len(seq) - 1))
     finally:
-        tracking.window_blob = real
+        tracking.window_blob, tracking.track_tracked = real, frame
     return 1e6 * best
 
 
@@ -417,10 +418,14 @@ VPDOT2_US = 25.7
 """ViSP's ``vpDot2``: CPU µs per 640x480 frame tracking four dots (issue 28, item 6)."""
 
 
-def image_campaign_rate(samples: int, camera: str = "realistic") -> dict[str, float]:
+def image_campaign_rate(
+    samples: int, camera: str = "realistic", frame_kernels: bool = True
+) -> dict[str, Any]:
     """Control steps per CPU second of the image campaign of the module docstring, through
     the camera preset ``camera`` (``"image"``: ``sensor.kind="image"`` alone, untimed), and
-    the CPU µs per sensor read (the sensor's share of a step)."""
+    the CPU µs per sensor read (the sensor's share of a step). ``frame_kernels=False``:
+    without the compiled frame of the tracker and of the exposure (the dot-by-dot and
+    layer-by-layer path they replace, for a before/after in one process)."""
     import tempfile
     from dataclasses import replace
 
@@ -428,6 +433,7 @@ def image_campaign_rate(samples: int, camera: str = "realistic") -> dict[str, fl
     from redservo.experiment.camera_presets import camera_overrides
     from redservo.scenario import apply_overrides
     from redservo.sensors import timing as sensor_timing
+    from redservo.vision import motion_blur, tracking
     from redservo.vision import sensor as image_sensor
 
     sets = ['sensor.kind="image"'] if camera == "image" else camera_overrides(camera)
@@ -448,19 +454,26 @@ def image_campaign_rate(samples: int, camera: str = "realistic") -> dict[str, fl
         kw: dict[str, Any] = {"methods": ["wln"], "workers": 1, "progress": False}
         run_campaign(defn, samples=1, out=Path(tmp) / "warm", **kw)
         timed.read = timed_read  # type: ignore[method-assign]
+        hooks = (tracking.track_tracked, motion_blur._dot_frame)
+        if not frame_kernels:
+            tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
+            motion_blur._dot_frame = lambda *a: None  # type: ignore[assignment]
         try:
             cpu = time.process_time()
             res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
             cpu = time.process_time() - cpu
         finally:
             timed.read = read  # type: ignore[method-assign]
-        steps = sum(int(r["iterations"]) for r in res.rows)  # rows read from the run's files
+            tracking.track_tracked, motion_blur._dot_frame = hooks
+        rows = [dict(r) for r in res.rows]  # rows read from the run's files
+        steps = sum(int(r["iterations"]) for r in rows)
     return {
         "steps": steps,
         "cpu_s": cpu,
         "steps_per_cpu_s": steps / cpu,
         "sensor_us_per_step": 1e6 * spent[0] / max(steps, 1),
         "rest_us_per_step": 1e6 * (cpu - spent[0]) / max(steps, 1),
+        "rows": rows,
     }
 
 
@@ -481,15 +494,21 @@ def run_speed(args: argparse.Namespace) -> dict[str, Any]:
         )
     out: dict[str, Any] = {"tracker_cpu_us": rows, "vpdot2_us": VPDOT2_US}
     for camera in ("image", "realistic"):
-        camp = image_campaign_rate(10, camera)
-        print(
-            f"image campaign (panda-near-limits, 10 samples, wln, {camera}): {camp['steps']:.0f} "
-            f"steps in {camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU "
-            f"second; per step {camp['sensor_us_per_step']:.0f} µs in the sensor, "
-            f"{camp['rest_us_per_step']:.0f} µs elsewhere (load average "
-            f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
-        )
-        out[f"image_campaign_{camera}"] = camp
+        rows: dict[bool, Any] = {}
+        for kernels in (False, True):  # before/after, side by side under the same load
+            camp = image_campaign_rate(10, camera, kernels)
+            print(
+                f"image campaign (panda-near-limits, 10 samples, wln, {camera}, frame kernels "
+                f"{'on' if kernels else 'off'}): {camp['steps']:.0f} steps in "
+                f"{camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU "
+                f"second; per step {camp['sensor_us_per_step']:.0f} µs in the sensor, "
+                f"{camp['rest_us_per_step']:.0f} µs elsewhere (load average "
+                f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+            )
+            rows[kernels] = camp.pop("rows")
+            out[f"image_campaign_{camera}{'' if kernels else '_off'}"] = camp
+        same = repr(rows[True]) == repr(rows[False])  # NaN fields compare by their text
+        print(f"  the same rows with and without the frame kernels: {same}")
     return out
 
 

@@ -45,7 +45,8 @@ def _label(mask: Any) -> Any:
     """8-connected labels (0 = background) of ``mask`` and per label ``x0, y0, x1, y1, n``."""
     h, w = mask.shape
     labels = np.zeros((h, w), np.int32)
-    stats = np.zeros((h * w // 2 + 2, 5), np.int64)
+    stats = np.empty((h * w // 2 + 2, 5), np.int64)  # rows set as labels are made
+    stats[0] = 0
     stack = np.empty(h * w, np.int64)
     n = 0
     for i0 in range(h):
@@ -55,6 +56,7 @@ def _label(mask: Any) -> Any:
             n += 1
             labels[i0, j0] = n
             stats[n, 0], stats[n, 1], stats[n, 2], stats[n, 3] = j0, i0, j0, i0
+            stats[n, 4] = 0
             top = 0
             stack[0] = i0 * w + j0
             while top >= 0:
@@ -74,12 +76,6 @@ def _label(mask: Any) -> Any:
                             top += 1
                             stack[top] = a * w + b
     return labels, stats[: n + 1]
-
-
-@kernel
-def _upper_median(x: Any) -> float:
-    """The upper median of ``x`` (``np.partition(x, n // 2)[n // 2]``)."""
-    return float(np.sort(x)[x.size // 2])
 
 
 @kernel
@@ -114,18 +110,30 @@ def _dilate(own: Any, disc: Any) -> Any:
 
 
 @kernel
+def _hist_median(hist: Any, n: int) -> float:
+    """The upper median (the ``n // 2``-th smallest, ``np.partition(x, n // 2)[n // 2]``)
+    of ``n`` gray levels counted in ``hist`` (256,), without sorting them."""
+    k, seen = n // 2, 0
+    for v in range(256):
+        seen += hist[v]
+        if seen > k:
+            return float(v)
+    return 255.0
+
+
+@kernel
 def _levels(roi: Any, own: Any, ring: Any, bright: bool) -> Any:
     """Plateau (upper median of ``own`` eroded by 3 x 3, else its extreme), background
     (upper median of the ring, else of the pixels outside ``own``) and the ring's std."""
     h, w = own.shape
-    core = np.empty(h * w, np.float64)
+    hists = np.zeros((3, 256), np.int64)  # core, ring, rest
     ring_v = np.empty(h * w, np.float64)
-    rest = np.empty(h * w, np.float64)
     nc = nr = no = 0
     ext = -1.0 if bright else 256.0
     for i in range(h):
         for j in range(w):
-            v = float(roi[i, j])
+            g = roi[i, j]
+            v = float(g)
             if own[i, j]:
                 ext = max(ext, v) if bright else min(ext, v)
                 inner = 0 < i < h - 1 and 0 < j < w - 1
@@ -133,16 +141,17 @@ def _levels(roi: Any, own: Any, ring: Any, bright: bool) -> Any:
                     for b in range(-1, 2):
                         inner = inner and own[i + a, j + b]
                 if inner:
-                    core[nc] = v
+                    hists[0, g] += 1
                     nc += 1
             else:
-                rest[no] = v
+                hists[2, g] += 1
                 no += 1
             if ring[i, j]:
                 ring_v[nr] = v
+                hists[1, g] += 1
                 nr += 1
-    level = _upper_median(core[:nc]) if nc else ext
-    bg = _upper_median(ring_v[:nr]) if nr >= 4 else _upper_median(rest[:no])
+    level = _hist_median(hists[0], nc) if nc else ext
+    bg = _hist_median(hists[1], nr) if nr >= 4 else _hist_median(hists[2], no)
     std = float(np.std(ring_v[:nr])) if nr >= 4 else 0.0
     return level, bg, std
 

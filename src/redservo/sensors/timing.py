@@ -145,6 +145,8 @@ class TimedSensor:
                 argument="exposure",
             )
         self.sensor, self.timing, self.dt = sensor, timing, float(dt)
+        self._offsets = (np.linspace(-0.5, 0.5, EXPOSURE_SAMPLES) * timing.exposure).tolist()
+        """The exposure's instants relative to its middle (s)."""
         self.reset()
 
     def __getattr__(self, name: str) -> object:
@@ -208,8 +210,7 @@ class TimedSensor:
             bMc, tw = self._pose(t_j)
             reading = self.sensor.read(task, scene, bMc, tw)
         else:
-            offsets = np.linspace(-0.5, 0.5, EXPOSURE_SAMPLES) * self.timing.exposure
-            samples = [self._pose(t_j + dt) for dt in offsets]
+            samples = [self._pose(t_j + dt) for dt in self._offsets]
             reading = self._exposed(task, scene, samples)
         return reading._replace(stamp=t_j)
 

@@ -16,20 +16,23 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
+from redservo.kernels._jit import COMPILED
 from redservo.kernels.blob import FOUND, window_dot
+from redservo.kernels.blob_frame import track_frame
 from redservo.vision.blobs import Blob, _disc
+from redservo.vision.dots import DotTrack
 from redservo.vision.lazyframe import LazyFrame
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.vision.tracking import ImageDotTracker, _Dot
 
-__all__ = ["FAST_SLACK_PX", "similarity_prediction", "window_blob"]
+__all__ = ["FAST_SLACK_PX", "similarity_prediction", "track_tracked", "window_blob"]
 
 FAST_SLACK_PX = 3.0
 """How far (pixels) a dot may be from its prediction and still be found on the fast path."""
@@ -43,6 +46,83 @@ def _discs(p: int) -> NDArray[np.uint8]:
     out[0, 2:-2, 2:-2] = _disc(p)
     out[1] = _disc(p + 2)
     return out
+
+
+_NO_PARTS = (
+    np.zeros((1, 1), np.float32),
+    np.zeros((1, 1), np.float32),
+    np.zeros(2, np.int64),
+    0.0,
+    np.zeros((0, 5), np.int64),
+    np.zeros(0, np.float32),
+    np.zeros((1, 1), np.float32),
+    False,
+)
+"""Frame parts of an image given whole (:func:`track_tracked` composes nothing)."""
+
+
+def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> DotTrack | None:
+    """Every dot of ``tracker`` found in ``img`` by one compiled call, when all were found
+    in the last frame (:func:`redservo.kernels.blob_frame.track_frame`, compiled only: its
+    geometry check is Python's complex arithmetic with libm's ``hypot``, as numba calls it,
+    where plain Python's ``math.hypot`` rounds otherwise): the dots updated as
+    :meth:`~redservo.vision.tracking.ImageDotTracker.update` would and its result, or None
+    and nothing changed (the caller runs its update). ``moves``: (N, 2) pixels."""
+    dots = tracker._dots
+    if not COMPILED or any(d.lost for d in dots):  # plain Python: hypot is not libm's
+        return None
+    state = np.array([(d.uv[0], d.uv[1], d.level, d.background, d.area, d.size) for d in dots])
+    if not (np.isfinite(state).all() and np.isfinite(moves).all()):
+        return None
+    lim = tracker.shape
+    settings = np.array(
+        [
+            max(math.ceil(tracker.pad_px), 1),
+            FAST_SLACK_PX,
+            tracker.max_jump_px,
+            float(tracker.polarity == "bright"),
+            tracker.min_size_px,
+            tracker.max_size_px,
+            tracker.size_precision**2,
+            tracker.pad_px,
+            *((0.0, 0.0, 0.0, 0.0) if lim is None else (1.0, *lim)),
+            float(tracker._ref is not None),
+            tracker.geometry_tol,
+        ]
+    )
+    lazy = isinstance(img, LazyFrame)
+    if lazy:
+        p = img.parts
+        gain = _NO_PARTS[6] if p.gain is None else p.gain
+        parts = (p.bgb, p.field, p.offset, p.sigma, p.boxes, p.deltas, gain, p.gain is not None)
+        pix = img.pixels
+    else:
+        parts, pix = _NO_PARTS, np.ascontiguousarray(img)
+    ref = state[:, :2] if tracker._ref is None else tracker._ref
+    ok, found, rects = track_frame(
+        pix,
+        lazy,
+        *parts,
+        state,
+        np.ascontiguousarray(moves, dtype=float),
+        settings,
+        _discs(int(settings[0])),
+        ref,
+    )
+    if lazy:  # the windows composed are the frame's pixels now
+        img._done.extend(tuple(r) for r in rects.tolist() if r[0] < r[1])
+    if not ok:
+        return None
+    uv = found[:, 1:3].copy()
+    for d, out, row in zip(dots, found.tolist(), uv):
+        new = row.copy()
+        d.vel, d.uv = new - d.uv, new
+        d.level, d.background = found.dtype.type(out[5]), found.dtype.type(out[6])
+        d.area, d.size = float(int(out[3])), float(int(out[4]))
+    tracker._ref = uv.copy()
+    tracker._ref_c = [complex(x, y) for x, y in tracker._ref.tolist()]
+    n = len(dots)
+    return DotTrack(uv.copy(), np.ones(n, bool), np.zeros(n, int), n, (), ("",) * n)
 
 
 def window_blob(

@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from redservo.errors import ShapeError
 from redservo.kernels.compose import compose_region
 
-__all__ = ["FrameParts", "LazyFrame", "pixels", "window"]
+__all__ = ["FrameParts", "LazyFrame", "frame_or_array", "pixels", "window"]
 
 _NO_GAIN = np.ones((1, 1), np.float32)
 
@@ -117,3 +118,17 @@ def window(image: Any, r0: int, r1: int, c0: int, c1: int) -> NDArray[np.uint8]:
         return image.region(r0, r1, c0, c1)
     out: NDArray[np.uint8] = image[r0:r1, c0:c1]
     return out
+
+
+def frame_or_array(image: Any) -> Any:
+    """``image`` as a 2-D uint8 array, or the :class:`LazyFrame` itself (read by windows).
+
+    Raises:
+        ShapeError: ``image`` is neither.
+    """
+    if isinstance(image, LazyFrame):
+        return image
+    img = np.asarray(image)
+    if img.ndim != 2 or img.dtype != np.uint8:
+        raise ShapeError(f"image must be a 2-D uint8 array, got {img.dtype} of shape {img.shape}")
+    return img

@@ -20,10 +20,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from redservo._validation import FloatArray, as_transform
+from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
+from redservo.kernels._jit import COMPILED
+from redservo.kernels.blob_expose import expose_dots
 from redservo.scene import PointSet
-from redservo.vision.lazyframe import LazyFrame, pixels
+from redservo.vision.lazyframe import FrameParts, LazyFrame, pixels
 from redservo.vision.shapes import Layer, disc_coverage
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -81,6 +83,9 @@ def exposed_frame(
 ) -> LazyFrame | NDArray[np.uint8]:
     """:func:`exposed_image`, computed where it is read
     (:meth:`~redservo.vision.render.Renderer.lazy`)."""
+    frame = _dot_frame(renderer, scene, samples)
+    if frame is not None:
+        return frame
     layers = _dot_layers(renderer, scene, samples)
     if layers is None:
         groups: dict[tuple[str, str, int], list[Layer]] = {}
@@ -95,13 +100,14 @@ def exposed_frame(
     return renderer.lazy(layers)
 
 
-def _dot_layers(
+def _dot_geometry(
     renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
-) -> list[Layer] | None:
-    """The mean layers of a scene of point sets only, every instant's dots projected at
-    once: the layers of the general path (the same numbers, groups in the same order),
-    without a layer object per dot and instant. None for any other scene or a renderer
-    with its own :meth:`~redservo.vision.render.Renderer.layers`."""
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_], list[str]] | None:
+    """Every instant's dots of a scene of point sets only, projected at once: their camera
+    points ``P`` (instants, dots, 3), pixels ``UV`` (instants, dots, 2), discs' rectangles
+    ``lo``, ``hi`` (2, instants, dots: rows, then columns), whether each is drawn and the
+    dots' names. None for any other scene or a renderer with its own
+    :meth:`~redservo.vision.render.Renderer.layers`."""
     from redservo.vision.render import Renderer
 
     if type(renderer).layers is not Renderer.layers:
@@ -109,18 +115,14 @@ def _dot_layers(
     objs = [obj for obj in map(scene.object, scene.names) if isinstance(obj, PointSet)]
     if len(objs) != len(scene.names):
         return None
-    optics, lv = renderer.optics, renderer.options.levels
-    R = lv.dot_radius_px
+    optics, R = renderer.optics, renderer.options.levels.dot_radius_px
     h, w = optics.shape
     P = np.stack(
         [
             np.concatenate(
                 [obj.points @ cMo[:3, :3].T + cMo[:3, 3] for obj, cMo in zip(objs, cMos)]
             )
-            for cMos in (
-                [scene.cMo(name, as_transform(bMc, "bMc"), t) for name in scene.names]
-                for bMc, t in samples
-            )
+            for cMos in ([scene.cMo(name, bMc, t) for name in scene.names] for bMc, t in samples)
         ]
     )  # (instants, dots, 3) in the camera frame
     names = [f"{obj.name}[{k}]" for obj in objs for k in range(len(obj.points))]
@@ -131,6 +133,58 @@ def _dot_layers(
         lo = np.maximum(np.floor(box[0::2]), 0.0)
         hi = np.minimum(np.ceil(box[1::2]), [[[h]], [[w]]])
         seen = front & np.isfinite(UV).all(axis=-1) & (lo < hi).all(axis=0)
+    return P, UV, lo, hi, seen, names
+
+
+def _dot_frame(
+    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+) -> LazyFrame | None:
+    """The exposed frame of a scene of point sets in one compiled call
+    (:func:`redservo.kernels.blob_expose.expose_dots`: the layers of :func:`_dot_layers`
+    composited as :meth:`~redservo.vision.render.Renderer.lazy` does, bit for bit), the
+    patches blurred here; None where that does not apply (no numba, another scene, a
+    renderer with its own compositing)."""
+    from redservo.vision.render import Renderer
+
+    kind = type(renderer)
+    if (
+        not COMPILED
+        or kind.lazy is not Renderer.lazy
+        or kind.render_layers is not Renderer.render_layers
+    ):
+        return None
+    geo = _dot_geometry(renderer, scene, samples)
+    if geo is None:
+        return None
+    P, UV, lo, hi, seen, _ = geo
+    opt = renderer.options
+    bg, bg_blurred = renderer._background()
+    field_, offset = renderer._noise_offset() if opt.noise_px > 0.0 else (bg_blurred, (0, 0))
+    m = int(np.ceil(3.0 * opt.blur_px)) + 1 if opt.blur_px > 0.0 else 0
+    k = np.array([opt.levels.dot_radius_px, opt.levels.point, len(samples), m], dtype=float)
+    z = np.ascontiguousarray(P[..., 2])
+    boxes, deltas = expose_dots(UV, z, seen, lo, hi, bg, k)
+    patches, start = [], 0
+    for r0, r1, c0, c1 in boxes.tolist():
+        n = (r1 - r0) * (c1 - c0)
+        delta = deltas[start : start + n].reshape(r1 - r0, c1 - c0)
+        patches.append(((r0, r1, c0, c1), renderer._blur(delta)))
+        start += n
+    return LazyFrame(FrameParts(bg_blurred, field_, offset, opt.noise_px, patches, renderer.gain))
+
+
+def _dot_layers(
+    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+) -> list[Layer] | None:
+    """The mean layers of a scene of point sets only, every instant's dots projected at
+    once: the layers of the general path (the same numbers, groups in the same order),
+    without a layer object per dot and instant. None for any other scene or a renderer
+    with its own :meth:`~redservo.vision.render.Renderer.layers`."""
+    geo = _dot_geometry(renderer, scene, samples)
+    if geo is None:
+        return None
+    P, UV, lo, hi, seen, names = geo
+    lv = renderer.options.levels
     members: dict[int, list[int]] = {}  # dot -> its instants, in the general path's order
     for i in range(len(samples)):
         k = np.flatnonzero(seen[i])
@@ -145,7 +199,7 @@ def _dot_layers(
             int(hi[1, inst, j].max()),
         )
         depth = float(np.mean([P[i, j, 2] for i in inst]))
-        cov = _disc_mean(UV[inst, j, 0], UV[inst, j, 1], R, len(samples))
+        cov = _disc_mean(UV[inst, j, 0], UV[inst, j, 1], lv.dot_radius_px, len(samples))
         layers.append(Layer(names[j], "point", depth, lv.point, rect, cov))
     return layers
 

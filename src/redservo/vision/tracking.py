@@ -52,7 +52,6 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -61,8 +60,8 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, ShapeError
 from redservo.vision.blobs import Blob, ShapeLimits, components, measure_blob, shape_reason
 from redservo.vision.dots import DotTrack, Polarity
-from redservo.vision.fastdot import similarity_prediction, window_blob
-from redservo.vision.lazyframe import LazyFrame, window
+from redservo.vision.fastdot import similarity_prediction, track_tracked, window_blob
+from redservo.vision.lazyframe import frame_or_array, window
 from redservo.vision.optics import require_cv2
 
 __all__ = ["LOSS_REASONS", "ImageDotTracker"]
@@ -168,7 +167,7 @@ class ImageDotTracker:
         brighter background); its
         gray levels and area become its references. Returns the state, as :meth:`update`.
         """
-        img = _check_image(image)
+        img = frame_or_array(image)
         p = np.asarray(uv, dtype=float)
         if p.shape != (self.n_dots, 2):
             raise ShapeError(
@@ -203,8 +202,11 @@ class ImageDotTracker:
         """
         if not self._dots:
             raise ConfigurationError("ImageDotTracker.update called before start(image, uv)")
-        img = _check_image(image)
+        img = frame_or_array(image)
         moves = self._moves(shift)
+        fast = track_tracked(self, img, moves)  # every dot at once (the common frame)
+        if fast is not None:
+            return fast
         reasons = [""] * self.n_dots
         taken: dict[int, tuple[FloatArray, float]] = {}
         before = {i: _copy(d) for i, d in enumerate(self._dots) if d.lost == 0}
@@ -413,13 +415,3 @@ class ImageDotTracker:
 def _copy(d: _Dot) -> _Dot:
     """A shallow copy of ``d`` (its arrays are replaced, never changed in place)."""
     return _Dot(d.uv, d.vel, d.level, d.background, d.area, d.size, d.lost)
-
-
-def _check_image(image: Any) -> Any:
-    """``image`` as a 2-D uint8 array, or the :class:`LazyFrame` itself (read by windows)."""
-    if isinstance(image, LazyFrame):
-        return image
-    img = np.asarray(image)
-    if img.ndim != 2 or img.dtype != np.uint8:
-        raise ShapeError(f"image must be a 2-D uint8 array, got {img.dtype} of shape {img.shape}")
-    return img
