@@ -97,14 +97,21 @@ def task_scaling(a: Any, b: Any, lo: Any, hi: Any, free: Any, tol: Any) -> Any:
 
 
 @kernel
-def _masked_solution(J: Any, w: Any, xdot: Any, qn: Any, s: float, rcond: float) -> Any:
-    """``(q̇, rank, pinv)`` with ``q̇ = q̇_N + (J W)⁺ (s ẋ - J q̇_N)``."""
+def _masked_pinv(J: Any, w: Any, rcond: float) -> Any:
+    """``(rank, (J W)⁺)`` with ``W = diag(w)``."""
     m, n = J.shape
     JW = np.empty((m, n))
     for i in range(m):
         for j in range(n):
             JW[i, j] = J[i, j] * w[j]
     _, _, _, rank, pinv, _ = task_svd(JW, rcond, 0.0)
+    return rank, pinv
+
+
+@kernel
+def _solution(J: Any, pinv: Any, xdot: Any, qn: Any, s: float) -> Any:
+    """``q̇ = q̇_N + (J W)⁺ (s ẋ - J q̇_N)`` with ``pinv = (J W)⁺``."""
+    m, n = J.shape
     Jq = matvec(J, qn)
     rhs = np.empty(m)
     for i in range(m):
@@ -113,7 +120,7 @@ def _masked_solution(J: Any, w: Any, xdot: Any, qn: Any, s: float, rcond: float)
     qdot = np.empty(n)
     for i in range(n):
         qdot[i] = qn[i] + corr[i]
-    return qdot, rank, pinv
+    return qdot
 
 
 @kernel
@@ -159,8 +166,10 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
     best_qn = np.zeros(n)  # fallback: q̇ = 0
     restored = False
     iterations = 0
-    qdot, rank, pinv = _masked_solution(J, w, xdot, qn, s, rcond)
+    rank, pinv = _masked_pinv(J, w, rcond)
+    qdot = _solution(J, pinv, xdot, qn, s)
     rank_J = rank  # W = I here: the decomposition of J itself
+    best_rank, best_pinv = rank, pinv  # (J W)⁺ of best_w: restoring needs no new SVD
     for it in range(1, n + 2):
         iterations = it
         violated = False
@@ -180,6 +189,7 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
             best_s = sf
             best_w = w.copy()
             best_qn = qn.copy()
+            best_rank, best_pinv = rank, pinv
         if j < 0:  # no free joint left
             restored = True
         else:
@@ -190,14 +200,16 @@ def sns_solve(J: Any, xdot: Any, lo: Any, hi: Any, pref: Any, has_pref: bool, rc
                 qn[j] = lo[j]
             else:
                 qn[j] = hi[j] if a[j] > 0.0 else lo[j]
-            qdot, rank, pinv = _masked_solution(J, w, xdot, qn, s, rcond)
+            rank, pinv = _masked_pinv(J, w, rcond)
+            qdot = _solution(J, pinv, xdot, qn, s)
             restored = rank < rank_J
         if restored or it == n + 1:
             restored = True
             s = best_s
             w = best_w
             qn = best_qn
-            qdot, rank, pinv = _masked_solution(J, w, xdot, qn, s, rcond)
+            rank, pinv = best_rank, best_pinv
+            qdot = _solution(J, pinv, xdot, qn, s)
             break
     out, clipped, saturated, free_count = clip_to_box(qdot, lo, hi, w)
     return out, s, saturated, iterations, free_count - rank, restored, clipped, rank_J
