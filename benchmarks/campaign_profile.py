@@ -39,7 +39,7 @@ from redservo.kernels.sensed import law_bits, qp_law, sense
 __all__ = ["main", "profile_campaign"]
 
 
-@njit(cache=True)
+@njit
 def _t_kin(Q: Any, robot: Any, reps: int) -> float:
     acc = 0.0
     for _ in range(reps):
@@ -48,7 +48,7 @@ def _t_kin(Q: Any, robot: Any, reps: int) -> float:
     return acc
 
 
-@njit(cache=True)
+@njit
 def _t_sense(Q: Any, robot: Any, scene: Any, task: Any, sim: Any, reps: int) -> float:
     acc = 0.0
     for _ in range(reps):
@@ -57,7 +57,7 @@ def _t_sense(Q: Any, robot: Any, scene: Any, task: Any, sim: Any, reps: int) -> 
     return acc
 
 
-@njit(cache=True)
+@njit
 def _t_svd(J1s: Any, rcond: float, robust: float, reps: int) -> float:
     acc = 0.0
     for _ in range(reps):
@@ -66,7 +66,7 @@ def _t_svd(J1s: Any, rcond: float, robust: float, reps: int) -> float:
     return acc
 
 
-@njit(cache=True)
+@njit
 def _t_law(*args: Any) -> float:
     J1s, e1s, ffs, has_ff, Q, P, law, limits, sim, reps = args
     acc = 0.0
@@ -78,7 +78,7 @@ def _t_law(*args: Any) -> float:
     return acc
 
 
-@njit(cache=True)
+@njit
 def _t_qp(*args: Any) -> float:
     J1s, e1s, ffs, has_ff, Q, P, law, limits, sim, solve, reps = args
     acc = 0.0

@@ -85,7 +85,22 @@ def _generate(laws: list[BoundLaw]) -> tuple[str, dict[str, Any], bytes]:
     raw = [(i, f"{ref(b.kernel)}({b.args})") for i, b in enumerate(laws)]
     ev = [(i, f"{ref(b.events)}({b.event_args})") for i, b in enumerate(laws)]
     source = _RAW_HEAD + _branches(raw) + "\n\n" + _EVENTS_HEAD + _branches(ev)
-    return source, found, source.encode() + b"".join(b.stamp for b in laws)
+    own = _kernel_sources(found.values())
+    return source, found, source.encode() + b"".join(b.stamp for b in laws) + own
+
+
+def _kernel_sources(fns: Any) -> bytes:
+    """The sources of the modules of :mod:`redservo.kernels` that the kernels ``fns`` come
+    from and of every kernel module those import (the laws' kernels and what they call,
+    down to the SVD): part of the cache stamp, so that an edit of any of them recompiles
+    the dispatch and its callers instead of linking their cached, older code."""
+    here = Path(__file__).resolve().parent
+    mods: set[str] = set()
+    for fn in fns:
+        package, _, stem = getattr(fn, "__module__", "").rpartition(".")
+        if package == "redservo.kernels":
+            mods.update(_jit._closure(stem))  # the stamp rule of _jit itself
+    return b"".join(m.encode() + (here / f"{m}.py").read_bytes() for m in sorted(mods))
 
 
 _LAWS = bound_laws()
