@@ -116,6 +116,7 @@ def _loop_rates(defn: Any, exps: list[Any], repeat: int) -> dict[str, tuple[floa
         campaign_law,
         fast_reason,
     )
+    from redservo.campaign.loop_avoid import collision_pack
 
     out: dict[str, tuple[float, int]] = {}
     for method in defn.methods:
@@ -127,7 +128,8 @@ def _loop_rates(defn: Any, exps: list[Any], repeat: int) -> dict[str, tuple[floa
             p = _packed(exp)
             assert not isinstance(p, str), p
             logs = _buffers(exp.options.max_iterations, exp.robot.n)
-            args = (p.robot, p.scene, p.task, _law_args(law, exp.robot.n), p.limits, p.sim, logs)
+            la = _law_args(law, exp.robot.n)
+            args = (p.robot, p.scene, p.task, la, p.limits, p.sim, logs, collision_pack(exp, law))
             _run_loop(exp, law, args)  # warm-up (compile or load, first solver import)
             t = time.process_time()
             for _ in range(repeat):

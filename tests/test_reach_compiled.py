@@ -61,7 +61,7 @@ def test_the_pose_search_is_compiled(name: str, monkeypatch: pytest.MonkeyPatch)
         raise AssertionError("the Python search ran")
 
     monkeypatch.setattr(reach, "solve_ik", python_search)
-    monkeypatch.setattr(reach, "_feature_goal", python_search)
+    monkeypatch.setattr(reach, "feature_solution", python_search)
     assert reach.reachable(_sample(name, "F")) is False
     assert reach.reachable(_sample(name, "T")) is True
 
@@ -72,7 +72,7 @@ def test_the_feature_stage_is_compiled(monkeypatch: pytest.MonkeyPatch) -> None:
     def python_search(*args: object, **kw: object) -> None:
         raise AssertionError("the Python search ran")
 
-    monkeypatch.setattr(reach, "_feature_goal", python_search)
+    monkeypatch.setattr(reach, "feature_solution", python_search)
     assert reach.reachable(_sample("mc05-joint-limits", "F")) is False
 
 
