@@ -60,7 +60,13 @@ def off_pack(n: int) -> tuple[Any, ...]:
     e2, e3 = np.zeros((0, 2), dtype=np.int64), np.zeros((0, 4, 4))
     arm = (np.zeros((8, n)), np.eye(4), np.eye(4), True)
     geom = (e2, np.zeros(0), np.zeros(0, dtype=np.int64), e3, np.zeros((0, 3)), e2)
-    return (False, arm, geom, np.ones(5), np.zeros(6, dtype=np.int64), np.zeros(n), *_logs(0, 0))
+    head = (False, arm, geom, np.ones(5), np.zeros(6, dtype=np.int64), np.zeros(n))
+    return (*head, *_logs(0, 0), _cache(n, 0))
+
+
+def _cache(n: int, P: int) -> tuple[Any, ...]:
+    """The shield check's last measurement (:mod:`redservo.kernels.loop_avoid`)."""
+    return (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
 
 
 def _logs(N: int, P: int) -> tuple[Any, ...]:
@@ -100,7 +106,7 @@ def collision_pack(exp: Experiment, law: Any) -> tuple[Any, ...]:
     N, P = exp.options.max_iterations, len(geo.names)
     logs = _logs(N, P)
     logs[4][:] = [0 if k == "environment" else 1 for k in geo.kinds]
-    return (True, geo.arm, geo.geom, fopt, iopt, qdd, *logs)
+    return (True, geo.arm, geo.geom, fopt, iopt, qdd, *logs, _cache(n, P))
 
 
 def collision_fields(exp: Experiment, coll: tuple[Any, ...], rows: int) -> dict[str, Any]:

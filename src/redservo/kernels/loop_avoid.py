@@ -17,7 +17,10 @@ pack ``coll`` on (packed by :mod:`redservo.campaign.loop_avoid`), in the object 
    and, when the scaling breaks ``q̈_max``, ``acceleration-exceeded``.
 
 Pack ``coll``: ``(on, arm, geom, fopt, iopt, qddot_max (n,), MD (N,), CP (N,) int64,
-tally (3,), contact (3,), kinds (P,) int64)``; ``fopt = (d_safe, d_influence, xi, damping,
+tally (3,), contact (3,), kinds (P,) int64, cache)``, ``cache = (q (n,), d (P,), J (P, n),
+valid (1,))`` the shield check's last measurement, which step 1 of the next iteration
+reuses when it was taken at the very ``q`` reached (the shield left the command alone: the
+same numbers, one query fewer); ``fopt = (d_safe, d_influence, xi, damping,
 dt)``; ``iopt = (repel, law takes a secondary, shield, shield bit, acceleration bit, has
 q̈_max)``; ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
 ``contact = (pair, distance, iteration)``, pair -1 without contact; ``kinds`` 0 environment,
@@ -43,8 +46,13 @@ COLLISION = 5
 def collide_check(it: int, q: Any, coll: Any, tally: bool) -> Any:
     """Step 1: ``(d (P,), J_d (P, n), contact)``; the step is tallied unless ``tally`` is
     False (an iteration resumed after a Python solve was tallied before)."""
-    _, arm, geom, fopt, _, _, MD, CP, tl, contact, kinds = coll
-    d, J, _, _ = measure_arm(q, arm, geom)
+    _, arm, geom, fopt, _, _, MD, CP, tl, contact, kinds, cache = coll
+    qc, dc, Jc, valid = cache
+    if valid[0] != 0 and np.all(qc == q):  # measured there by the last step's shield check
+        d, J = dc.copy(), Jc.copy()
+    else:
+        d, J, _, _ = measure_arm(q, arm, geom)
+    valid[0] = 0
     if d.shape[0] == 0:
         return d, J, False
     k = np.argmin(d)
@@ -74,12 +82,12 @@ def secondary(d: Any, J: Any, coll: Any) -> Any:
 @kernel
 def shield_step(q: Any, qd: Any, bits: int, prev: Any, d: Any, J: Any, coll: Any) -> Any:
     """Step 3 on the law's command ``qd``: ``(q̇, bits)``."""
-    _, arm, geom, fopt, iopt, acc, _, _, _, _, _ = coll
+    _, arm, geom, fopt, iopt, acc, _, _, _, _, _, cache = coll
     if not (coll[0] and iopt[2] != 0) or d.shape[0] == 0:
         return qd, bits
     dt, d_safe = fopt[4], fopt[0]
     s, k = shield_scale(qd, d, J, np.zeros(d.shape[0]), dt, d_safe)
-    s, k = exact_scale(q, qd, d, J, s, k, dt, d_safe, fopt[1], arm, geom)
+    s, k = exact_scale(q, qd, d, J, s, k, dt, d_safe, fopt[1], arm, geom, cache)
     if k < 0:
         return qd, bits
     cmd = qd * s

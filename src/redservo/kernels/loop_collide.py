@@ -203,18 +203,26 @@ def exact_scale(
     d_influence: float,
     arm: Any,
     geom: Any,
+    cache: Any,
 ) -> Any:
     """The shield's ``(s, k)`` checked on the true geometry at ``q + dt s q̇`` (static
     obstacles): while a pair would land under ``min(d_s, d_k)``, ``s`` shrinks by 0.6 (at
-    most 8 times, then 0)."""
+    most 8 times, then 0). ``cache = (q, d, J, valid)``: where the last measurement was
+    taken and what it gave (the campaign loop's next step starts there when the shield
+    left the command alone); zero-size arrays keep nothing."""
     if s <= 0.0:
         return s, k
     ahead = d + dt * s * np.dot(J, qd)
     if not np.any(ahead < d_influence):
         return s, k
     floor = np.minimum(d_safe, d)
+    qc, dc, Jc, valid = cache
     for _ in range(_TRIES):
-        gap = measure_arm(q + dt * s * qd, arm, geom)[0] - floor
+        qa = q + dt * s * qd
+        dm, Jm, _, _ = measure_arm(qa, arm, geom)
+        if qc.shape[0] == qa.shape[0]:
+            qc[:], dc[:], Jc[:, :], valid[0] = qa, dm, Jm, 1
+        gap = dm - floor
         j = int(np.argmin(gap))
         if gap[j] >= 0.0:
             return s, k
