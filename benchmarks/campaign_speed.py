@@ -34,7 +34,7 @@ numbers depressed; compare within a line), each line from ``campaign_row(name, 2
 * mc05-joint-limits 27 700 / 26 000 → 43 800 / 37 800 (loop alone 54 000 / 44 000)
 * panda-near-limits 31 200 / 27 100 → 39 600 / 39 500 (loop alone 62 000 / 59 000)
 * panda-urdf-near-limits 24 100 / 28 100 → 36 500 / 38 900 (loop alone 67 000 / 66 000)
-* panda-posts: no method on the compiled loop (obstacles: the loop measures no distance)
+* panda-posts: now on the compiled loop except qp/sns avoiding (docs/results.md, panda-posts)
 
 Still below 100 000: the loop alone is, wherever ``J1`` has 6 rows or more (LAPACK
 ``dgesvd`` of a 6x6 matrix: 5.3 µs per step); docs/scaling.md says where the rest goes.
