@@ -34,7 +34,7 @@ numbers depressed; compare within a line), each line from ``campaign_row(name, 2
 * mc05-joint-limits 27 700 / 26 000 → 43 800 / 37 800 (loop alone 54 000 / 44 000)
 * panda-near-limits 31 200 / 27 100 → 39 600 / 39 500 (loop alone 62 000 / 59 000)
 * panda-urdf-near-limits 24 100 / 28 100 → 36 500 / 38 900 (loop alone 67 000 / 66 000)
-* panda-posts: no method on the compiled loop (obstacles: the loop measures no distance)
+* panda-posts: now on the compiled loop except qp/sns avoiding (docs/results.md, panda-posts)
 
 Still below 100 000: the loop alone is, wherever ``J1`` has 6 rows or more (LAPACK
 ``dgesvd`` of a 6x6 matrix: 5.3 µs per step); docs/scaling.md says where the rest goes.
@@ -116,6 +116,7 @@ def _loop_rates(defn: Any, exps: list[Any], repeat: int) -> dict[str, tuple[floa
         campaign_law,
         fast_reason,
     )
+    from redservo.campaign.loop_avoid import collision_pack
 
     out: dict[str, tuple[float, int]] = {}
     for method in defn.methods:
@@ -127,7 +128,8 @@ def _loop_rates(defn: Any, exps: list[Any], repeat: int) -> dict[str, tuple[floa
             p = _packed(exp)
             assert not isinstance(p, str), p
             logs = _buffers(exp.options.max_iterations, exp.robot.n)
-            args = (p.robot, p.scene, p.task, _law_args(law, exp.robot.n), p.limits, p.sim, logs)
+            la = _law_args(law, exp.robot.n)
+            args = (p.robot, p.scene, p.task, la, p.limits, p.sim, logs, collision_pack(exp, law))
             _run_loop(exp, law, args)  # warm-up (compile or load, first solver import)
             t = time.process_time()
             for _ in range(repeat):

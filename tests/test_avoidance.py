@@ -281,14 +281,21 @@ def test_obstacle_campaign_counts_collisions_per_method(tmp_path: Path) -> None:
     assert "| 0 | 1 |" in stats_table([col])
 
 
-def test_a_campaign_run_with_obstacles_leaves_the_compiled_loop() -> None:
-    from redservo.campaign.task import NO_DISTANCES, _run_task, _Task
+def test_a_campaign_run_with_obstacles_measures_them_in_the_compiled_loop() -> None:
+    """The compiled loop measures the pairs (kernels/loop_avoid.py): the run that drives
+    through the ball ends with ``collision`` there, as on the object path."""
+    pytest.importorskip("numba", reason="the compiled campaign loop needs numba")
+    from redservo.campaign.engine import FAST_PATH
+    from redservo.campaign.task import _run_task, _Task
 
     data = _post_data()
     data["collision"]["enabled"] = False
     row = _run_task(_Task(0, "gpm", data, "post.toml", None, {}, fast=True))
-    # The compiled loop measures no distance: it would have driven through the ball.
-    assert row["_path"] == NO_DISTANCES and row["outcome"] == "collision"
+    slow = _run_task(_Task(0, "gpm", data, "post.toml", None, {}, fast=False))
+    assert row["_path"] == FAST_PATH and row["outcome"] == "collision"
+    assert {k: repr(v) for k, v in row.items() if k != "_path"} == {
+        k: repr(v) for k, v in slow.items() if k != "_path"
+    }
 
 
 # ------------------------------------------------------------------------------ servo loop

@@ -14,8 +14,9 @@ not covered:
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
-  gain, a camera-motion limit (the Controller applies it: the object path), obstacles
-  (distances and their shield are the Controller's);
+  gain, a camera-motion limit (the Controller applies it: the object path);
+* obstacles the loop does not measure, or ``qp``/``sns`` avoiding with their
+  velocity-damper rows (:mod:`redservo.campaign.loop_avoid`);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -34,6 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from redservo.campaign.loop_avoid import collision_fields, collision_pack, collision_reason
 from redservo.campaign.looppack import (
     robot_args,
     robot_reason,
@@ -57,7 +59,14 @@ __all__ = [
     "law_reason",
 ]
 
-_OUTCOMES: tuple[Outcome, ...] = ("max_iterations", "converged", "joint_limit", "target_lost")
+_OUTCOMES: tuple[Outcome, ...] = (
+    "max_iterations",
+    "converged",
+    "joint_limit",
+    "target_lost",
+    "max_iterations",  # NEED_SOLVE: never an outcome
+    "collision",
+)
 """Outcome names by the kernel's codes (:mod:`redservo.campaign.loop_kernel`)."""
 _BUFFERS = threading.local()
 """Per-thread reuse: the log buffers, the packed arguments of the last experiment (a
@@ -114,7 +123,6 @@ def experiment_reason(exp: Experiment) -> str | None:
         (opt.feedforward == "estimated", "feed-forward 'estimated'"),
         (isinstance(opt.lam, AdaptiveGain), "adaptive gain"),
         (opt.image_motion is not None, "camera-motion limit"),
-        (opt.collision is not None, "obstacles (the compiled loop measures no distance)"),
     )
     for failed, reason in checks:
         if failed:
@@ -124,7 +132,7 @@ def experiment_reason(exp: Experiment) -> str | None:
 
 def fast_reason(exp: Experiment, law: Law) -> str | None:
     """Why the compiled loop cannot run ``law`` on ``exp`` (None: it can); module docstring."""
-    return law_reason(law) or experiment_reason(exp)
+    return law_reason(law) or experiment_reason(exp) or collision_reason(exp, law)
 
 
 def _buffers(N: int, n: int) -> tuple[Any, ...]:
@@ -157,7 +165,9 @@ def _constant(value: float, shape: tuple[int, ...]) -> Any:
     return buf[: shape[0]]
 
 
-def _summary(exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, ...]) -> RunSummary:
+def _summary(
+    exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, ...], coll: tuple[Any, ...]
+) -> RunSummary:
     """The run's :class:`RunSummary`, by :func:`summarize` on the logged arrays (views of
     the loop's buffers: the summary keeps numbers, not arrays)."""
     Q, QD, TW, EN, FL = logs
@@ -169,6 +179,7 @@ def _summary(exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, 
         _constant(np.nan, (rows,)),
     )
     zeros_n = _constant(0.0, (rows, n))
+    pairs = collision_fields(exp, coll, rows)
     log = SimulationLog(
         t=np.arange(rows, dtype=np.float64) * opt.dt,
         q=Q[:rows],
@@ -188,10 +199,20 @@ def _summary(exp: Experiment, rows: int, code: int, axis: int, logs: tuple[Any, 
         gamma=zeros_n,
         scale=nan,
         flags=np.where(bits != 0, 1.0, np.nan),
+        **pairs["log"],
     )
     outcome = _OUTCOMES[code]
     hit = {"axis": axis, "iteration": rows - 1} if outcome == "joint_limit" else None
-    return summarize(log, outcome, exp.limits, hit, dt=opt.dt, min_margin=opt.min_margin)
+    return summarize(
+        log,
+        outcome,
+        exp.limits,
+        hit,
+        dt=opt.dt,
+        min_margin=opt.min_margin,
+        collision=pairs["collision"],
+        distances=pairs["distances"],
+    )
 
 
 def _law_args(law: Law, n: int) -> tuple[Any, ...]:
@@ -234,10 +255,10 @@ def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, in
     solve = (pJ, pe, px, pend, pf)
     q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
     prev = np.zeros(n)  # the robot starts at rest
-    robot, scene, task, law_args, limits, sim, logs = args
+    robot, scene, task, law_args, limits, sim, logs, coll = args
     while True:
         rows, code, axis, abort = closed_loop(
-            q, prev, robot, scene, task, law_args, limits, sim, logs, solve
+            q, prev, robot, scene, task, law_args, limits, sim, logs, solve, coll
         )
         if code != NEED_SOLVE:
             return int(rows), int(code), int(axis), int(abort)
@@ -306,17 +327,20 @@ def fast_summary(exp: Experiment, law: Law) -> RunSummary | None:
     packed = _packed(exp)
     if isinstance(packed, str) or law_reason(law) is not None:
         return None
+    if collision_reason(exp, law) is not None:
+        return None
     try:
         law_args = _law_args(law, exp.robot.n)
     except ConfigurationError:
         return None
     logs = _buffers(exp.options.max_iterations, exp.robot.n)
     p = packed
-    args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs)
+    coll = collision_pack(exp, law)
+    args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs, coll)
     rows, code, axis, abort = _run_loop(exp, law, args)
     if abort:
         return None
-    return _summary(exp, rows, code, axis, logs)
+    return _summary(exp, rows, code, axis, logs, coll)
 
 
 def fast_run(

@@ -44,12 +44,13 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
+from redservo.kernels.loop_avoid import COLLISION, collide_check, secondary, shield_step
 from redservo.kernels.sensed import (
     ABORT_INFEASIBLE,
     ABORT_NON_FINITE,
     ABORT_RAISES,
     QP,
-    law_bits,
+    law_bits_sec,
     qp_law,
     sense,
 )
@@ -60,6 +61,7 @@ __all__ = [
     "ABORT_INFEASIBLE",
     "ABORT_NON_FINITE",
     "ABORT_RAISES",
+    "COLLISION",
     "CONVERGED",
     "JOINT_LIMIT",
     "MAX_ITERATIONS",
@@ -70,7 +72,7 @@ __all__ = [
 ]
 
 MAX_ITERATIONS, CONVERGED, JOINT_LIMIT, TARGET_LOST, NEED_SOLVE = 0, 1, 2, 3, 4
-"""Outcome codes (``ABORT_*``: :mod:`redservo.kernels.sensed`)."""
+"""Outcome codes (``ABORT_*``: :mod:`redservo.kernels.sensed`; :data:`COLLISION` 5)."""
 _WLN = LAW_IDS["wln"]
 
 
@@ -129,6 +131,7 @@ def closed_loop(
     sim: Any,
     logs: Any,
     solve: Any,
+    coll: Any,
 ) -> Any:
     """Run the closed loop from ``q`` (module docstring), from iteration ``solve[3][2]``.
 
@@ -149,6 +152,9 @@ def closed_loop(
             iteration cap.
         solve: ``(J1, e1, q̇, pend, ff)``: a ``qp`` step for Python and the command it got;
             ``pend`` = (command given, its flag bits, first iteration, has ff).
+        coll: the obstacles' pack (:mod:`redservo.kernels.loop_avoid`): the pairs measured
+            before sensing (outcome :data:`COLLISION` on a contact), the repulsive
+            secondary, the distance shield after the law.
 
     Returns:
         ``(rows, outcome, limit_axis, abort)``; outcome :data:`NEED_SOLVE` asks for a solve.
@@ -159,7 +165,13 @@ def closed_loop(
     hist = np.zeros(n)
     has_hist = False
     history = law_id == _WLN and iopt[2] != 0
-    for it in range(solve[3][2], max_it):
+    start = solve[3][2]
+    dd, Jd = np.zeros(0), np.zeros((0, n))
+    for it in range(start, max_it):
+        if coll[0]:  # a resumed iteration was tallied before its solve
+            dd, Jd, hit = collide_check(it, q, coll, it != start or solve[3][0] == 0)
+            if hit:
+                return it, COLLISION, -1, 0
         J, e1, J1, ff, has_ff, outcome, abort = sense(it, q, robot, scene, task, sim)
         if outcome >= 0:
             return it, outcome, -1, abort
@@ -169,13 +181,15 @@ def closed_loop(
                 solve[3][2] = it
                 return it, NEED_SOLVE, -1, 0
         else:
-            args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim)
-            qd, bits, axf, abort = law_bits(*args)
+            sec = secondary(dd, Jd, coll)
+            args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec)
+            qd, bits, axf, abort = law_bits_sec(*args)
             if abort:
                 return it, MAX_ITERATIONS, -1, abort
             if history:
                 hist = axf
                 has_hist = True
+        qd, bits = shield_step(q, qd, bits, prev, dd, Jd, coll)
         rows, outcome, axis = _advance(it, q, prev, qd, bits, J, e1, limits, sim, logs)
         if outcome >= 0:
             return rows, outcome, axis, 0

@@ -24,8 +24,9 @@ A reachable goal is not a promise that a method can get there (the path matters)
 unreachable one is a goal this search did not find within the success margin (a search can
 miss one: the campaign report counts the successes on samples called unreachable, and with
 :data:`RANDOM_SEEDS` = 60 there was none on the shipped campaigns, docs/results.md), so that
-the campaign tables report the success rate among the reachable samples too.
-Units: metres, radians.
+the campaign tables report the success rate among the reachable samples too. With
+obstacles, the goal configuration must also be clear of them by ``d_safe``
+(:mod:`redservo.campaign.reach_obstacles`). Units: metres, radians.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.campaign.reach_obstacles import clear_search, goal_clearance
 from redservo.robots.ik import Stall, projected_step, solve_ik
 from redservo.spatial import inverse
 
@@ -43,6 +45,7 @@ __all__ = [
     "RANDOM_SEEDS",
     "compile_search",
     "desired_camera_pose",
+    "feature_solution",
     "reachable",
     "reachable_column",
     "solve_ik",
@@ -83,12 +86,15 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
     seeds += [np.clip(seeds[0] + gen.normal(0.0, 0.15, rng.shape) * rng, lo, hi) for _ in range(4)]
     seeds += [gen.uniform(lo, hi) for _ in range(RANDOM_SEEDS)]
     tol = 0.5 * exp.options.tolerance
+    clear = goal_clearance(exp)  # obstacles: the goal configuration clear by d_safe
+    if clear is not None:
+        return clear_search(exp, target, seeds, lo, hi, tol, clear)
     compiled = _compiled_search(exp, target, np.array(seeds), lo, hi, tol)
     if compiled is not None:
         return compiled
     if any(solve_ik(exp.robot, target, s, lo, hi) is not None for s in seeds):
         return True
-    return any(_feature_goal(exp, s, lo, hi, tol) for s in seeds)
+    return any(feature_solution(exp, s, lo, hi, tol) is not None for s in seeds)
 
 
 def _compiled_search(
@@ -115,7 +121,7 @@ def _compiled_search(
         if pose_search(robot, c(target, dtype=np.float64), seeds, lo, hi) >= 0:
             return True
         if scene_reason(exp) is not None:
-            return any(_feature_goal(exp, s, lo, hi, tol) for s in seeds)
+            return any(feature_solution(exp, s, lo, hi, tol) is not None for s in seeds)
         scene = scene_args(exp)
         scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
         return bool(feature_search(robot, scene, task_args(exp), seeds, lo, hi, tol) >= 0)
@@ -135,9 +141,11 @@ def compile_search(exp: Any) -> None:
     _compiled_search(exp, far, seeds, lim.q_min, lim.q_max, 0.5 * exp.options.tolerance)
 
 
-def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, tol: float) -> bool:
+def feature_solution(
+    exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, tol: float
+) -> FloatArray | None:
     """Projected damped least squares on the task error ``e1(q)`` itself (the scene at t = 0):
-    True if some ``q`` within ``[lo, hi]`` reaches ``‖e1‖ < tol``."""
+    the ``q`` within ``[lo, hi]`` reaching ``‖e1‖ < tol`` from ``seed``, or None."""
     from redservo.errors import GeometryError
 
     q = np.clip(np.asarray(seed, dtype=float), lo, hi)
@@ -147,19 +155,19 @@ def _feature_goal(exp: Any, seed: FloatArray, lo: FloatArray, hi: FloatArray, to
         try:
             st = exp.task.evaluate(exp.scene, bMc, J, 0.0)
         except GeometryError:
-            return False
+            return None
         size = float(np.linalg.norm(st.e1))
         if size < tol:
-            return True
+            return q
         if stalled(size):  # stuck against the bounds or in a local minimum
-            return False
+            return None
         if not np.all(np.isfinite(st.J1)):
-            return False
+            return None
         nxt = projected_step(st.J1, -st.e1, q, lo, hi, 1e-3, 0.3)
         if nxt is None:
-            return False
+            return None
         q = nxt
-    return False
+    return None
 
 
 def reachable_column(values: Sequence[str]) -> np.ndarray | None:

@@ -117,9 +117,7 @@ def _run_task(task: _Task) -> dict[str, Any]:
     try:
         exp = task.exp if task.exp is not None else build(Scenario(task.data, task.source))
         summary, row["_path"] = None, ASKED
-        if task.fast and exp.options.collision is not None:
-            row["_path"] = NO_DISTANCES  # the compiled loop measures no distance
-        elif task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
+        if task.fast and not exp.timing.perfect:  # the compiled loop has no camera timing
             row["_path"] = "camera timing"
         elif task.fast:
             from redservo.campaign.fastloop import fast_run
@@ -205,8 +203,6 @@ def merge(results: Sequence[JobResult]) -> JobResult:
 
 ASKED = "fast=False asked for"
 """The ``_path`` note of a run the caller sent to the object path (no line is printed)."""
-NO_DISTANCES = "obstacles or self pairs (the compiled loop measures no distance)"
-"""The ``_path`` note of a run with a collision set-up (:mod:`redservo.control.avoidance`)."""
 
 
 def fallback_lines(paths: dict[tuple[str, str], int]) -> list[str]:

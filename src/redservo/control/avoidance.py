@@ -41,6 +41,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.collision.pack import CompiledGeometry, compiled_geometry
 from redservo.collision.query import distances
 from redservo.collision.robot import LinkCapsule, link_capsules
 from redservo.collision.shapes import Obstacle
@@ -133,6 +134,9 @@ class Collision:
     shield: bool = True
     capsules: tuple[LinkCapsule, ...] | None = None
     _last: tuple[Any, PairDistances] | None = field(default=None, init=False, repr=False)
+    _geometry: tuple[int, CompiledGeometry | None] | None = field(
+        default=None, init=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         self.obstacles = tuple(self.obstacles)
@@ -179,13 +183,30 @@ class Collision:
         except ConfigurationError as exc:
             raise ConfigurationError(str(exc), argument="collision") from None
 
+    def compiled(self, robot: Robot) -> CompiledGeometry | None:
+        """The compiled geometry of ``robot``'s arm among the obstacles
+        (:mod:`redservo.collision.pack`), None when coal measures it."""
+        arm = collision_arm(robot)
+        if self._geometry is None or self._geometry[0] != id(arm):
+            geo = compiled_geometry(arm, self.obstacles, self.self_collision, self.capsules)
+            self._geometry = (id(arm), geo)
+        return self._geometry[1]
+
     def measure(self, robot: Robot, q: FloatArray, t: float) -> PairDistances:
-        """Every pair's distance and Jacobian at ``q`` (rad or m) and time ``t`` (s)."""
+        """Every pair's distance and Jacobian at ``q`` (rad or m) and time ``t`` (s): the
+        compiled kernels (:mod:`redservo.kernels.loop_collide`) when they cover the set-up,
+        else coal (:func:`redservo.collision.distances`)."""
         arm = collision_arm(robot)
         qa = np.asarray(q, dtype=float)
         key = (id(arm), qa.tobytes(), float(t))
         if self._last is not None and self._last[0] == key:
             return self._last[1]
+        geo = self.compiled(robot)
+        if geo is not None:
+            d, J = geo.measure(qa)
+            out = PairDistances(d, J, np.zeros(d.shape[0]), geo.names, geo.kinds)
+            self._last = (key, out)
+            return out
         recs = distances(
             arm, qa, self.obstacles, t=t, self_collision=self.self_collision, capsules=self.capsules
         )
@@ -250,13 +271,10 @@ def repulsive_command(
         xi: Separating speed at ``d_s`` (m/s).
         damping: ``μ`` (m/rad) of the damped inverse ``J_kᵀ / (‖J_k‖² + μ²)``.
     """
-    near = d < d_influence
-    if not np.any(near):
-        return np.zeros(J.shape[1])
-    Jn = J[near]
-    v = xi * (d_influence - d[near]) / (d_influence - d_safe)
-    w = v / (np.einsum("ij,ij->i", Jn, Jn) + damping**2)
-    return np.asarray(w @ Jn)
+    from redservo.kernels.loop_collide import repulsive
+
+    d, J = np.ascontiguousarray(d, dtype=float), np.ascontiguousarray(J, dtype=float)
+    return np.asarray(repulsive(d, J, d_safe, d_influence, xi, damping))
 
 
 def distance_shield(
@@ -293,19 +311,12 @@ def distance_shield(
     Returns:
         ``(s, k)``: the scale and the pair that bounds it (-1 when ``s = 1``).
     """
-    rate = J @ qdot
-    rest = d if drift is None else d + dt * drift
-    closing = rate < 0.0
-    if not np.any(closing):
-        return 1.0, -1
-    room = np.where(rest >= d_safe, rest - d_safe, 0.0)
-    with np.errstate(divide="ignore", over="ignore"):  # a tiny rate: no bound (inf)
-        bound = np.where(closing, room / (-dt * np.where(closing, rate, -1.0)), np.inf)
-    k = int(np.argmin(bound))
-    if bound[k] >= 1.0:
-        return 1.0, -1
-    # One ulp below the bound, so that rounding does not land the prediction under d_s.
-    return (max(float(np.nextafter(bound[k], -np.inf)), 0.0) if bound[k] > 0.0 else 0.0), k
+    from redservo.kernels.loop_collide import shield_scale
+
+    d, J = np.ascontiguousarray(d, dtype=float), np.ascontiguousarray(J, dtype=float)
+    dr = np.zeros(d.shape[0]) if drift is None else np.ascontiguousarray(drift, dtype=float)
+    s, k = shield_scale(np.ascontiguousarray(qdot, dtype=float), d, J, dr, dt, d_safe)
+    return float(s), int(k)
 
 
 def shield_command(
@@ -359,6 +370,9 @@ def exact_scale(
     (a link swinging past a post by several cm a period lands up to 0.2 mm under ``d_s``);
     while a pair would land under ``min(d_s, its distance at rest)``, ``s`` shrinks by 0.6
     (at most 8 times, then 0). Returns ``(s, k)`` as :func:`distance_shield` does."""
+    geo = c.compiled(robot)
+    if geo is not None:  # static obstacles: the kernel, as the compiled loop does
+        return geo.exact_scale(q, qdot, pd.d, pd.J, (s, k), (dt, c.d_safe, c.d_influence))
     rest = pd.d + dt * pd.drift
     if s <= 0.0 or not np.any(rest + dt * s * (pd.J @ qdot) < c.d_influence):
         return s, k

@@ -10,9 +10,10 @@ reference these are tested against (tests/test_collision_kernels.py).
 * capsule/capsule: the closest points of two segments (Ericson, *Real-Time Collision
   Detection*, §5.1.9), exact;
 * capsule/plane: the lower end of the segment, exact;
-* capsule/box: the signed distance of a point to a box is convex, hence so is its value
-  along the segment: a golden-section search of the segment parameter (:data:`GOLDEN_ITERATIONS`
-  steps, interval below 1e-16 of the segment), then the point's distance, exact for it.
+* capsule/box and capsule/cylinder: the signed distance of a point to a convex solid is
+  convex, hence so is its value along the segment: a golden-section search of the segment
+  parameter (:data:`GOLDEN_ITERATIONS` steps, interval below 1e-16 of the segment), then the
+  point's distance, exact for it.
 """
 
 from __future__ import annotations
@@ -23,7 +24,14 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 
-__all__ = ["GOLDEN_ITERATIONS", "capsule_box", "capsule_capsule", "capsule_plane", "segments"]
+__all__ = [
+    "GOLDEN_ITERATIONS",
+    "capsule_box",
+    "capsule_capsule",
+    "capsule_cylinder",
+    "capsule_plane",
+    "segments",
+]
 
 GOLDEN_ITERATIONS = 90
 _EPS = 1e-300
@@ -119,35 +127,80 @@ def _point_box(p: Any, R: Any, t: Any, half: Any) -> Any:
 
 
 @kernel
-def capsule_box(a0: Any, a1: Any, r: float, M: Any, half: Any) -> Any:
-    """Capsule against the box of pose ``M`` (4x4) and half extents ``half`` (3,)."""
+def _point_cylinder(p: Any, R: Any, t: Any, size: Any) -> Any:
+    """Signed distance (m) of ``p`` to the cylinder ``(R, t)`` of radius ``size[0]`` and axis
+    length ``size[1]`` (along its z, centred), and its nearest point."""
+    local = R.T @ (p - t)
+    radius, h = size[0], 0.5 * size[1]
+    rho = np.sqrt(local[0] * local[0] + local[1] * local[1])
+    dr, dz = rho - radius, abs(local[2]) - h
+    near = local.copy()
+    if dr <= 0.0 and dz <= 0.0:  # inside: the nearer of the side and the caps
+        if dz >= dr:
+            near[2] = h if local[2] >= 0.0 else -h
+            return dz, R @ near + t
+        ux, uy = (local[0] / rho, local[1] / rho) if rho > 1e-15 else (1.0, 0.0)
+        near[0], near[1] = radius * ux, radius * uy
+        return dr, R @ near + t
+    if dr > 0.0:
+        near[0], near[1] = local[0] * (radius / rho), local[1] * (radius / rho)
+    if dz > 0.0:
+        near[2] = h if local[2] >= 0.0 else -h
+    v = local - near
+    return np.sqrt(np.dot(v, v)), R @ near + t
+
+
+@kernel
+def _point_solid(p: Any, R: Any, t: Any, size: Any, cylinder: bool) -> Any:
+    """:func:`_point_box` (``size`` the half extents) or :func:`_point_cylinder`."""
+    if cylinder:
+        return _point_cylinder(p, R, t, size)
+    return _point_box(p, R, t, size)
+
+
+@kernel
+def _capsule_solid(a0: Any, a1: Any, r: float, M: Any, size: Any, cylinder: bool) -> Any:
+    """Capsule against a convex solid (module docstring): golden section on the segment."""
     R = np.ascontiguousarray(M[:3, :3])
     t = np.ascontiguousarray(M[:3, 3])
     g = 0.5 * (np.sqrt(5.0) - 1.0)
     lo, hi = 0.0, 1.0
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    f1 = _point_box(a0 + x1 * (a1 - a0), R, t, half)[0]
-    f2 = _point_box(a0 + x2 * (a1 - a0), R, t, half)[0]
+    f1 = _point_solid(a0 + x1 * (a1 - a0), R, t, size, cylinder)[0]
+    f2 = _point_solid(a0 + x2 * (a1 - a0), R, t, size, cylinder)[0]
     for _ in range(GOLDEN_ITERATIONS):
         if f1 <= f2:
             hi, x2, f2 = x2, x1, f1
             x1 = hi - g * (hi - lo)
-            f1 = _point_box(a0 + x1 * (a1 - a0), R, t, half)[0]
+            f1 = _point_solid(a0 + x1 * (a1 - a0), R, t, size, cylinder)[0]
         else:
             lo, x1, f1 = x1, x2, f2
             x2 = lo + g * (hi - lo)
-            f2 = _point_box(a0 + x2 * (a1 - a0), R, t, half)[0]
-    best_s, best_f = 0.5 * (lo + hi), 0.0
-    best_f = _point_box(a0 + best_s * (a1 - a0), R, t, half)[0]
+            f2 = _point_solid(a0 + x2 * (a1 - a0), R, t, size, cylinder)[0]
+    best_s = 0.5 * (lo + hi)
+    best_f = _point_solid(a0 + best_s * (a1 - a0), R, t, size, cylinder)[0]
     for s in (0.0, 1.0):  # the minimum may sit on an end
-        f = _point_box(a0 + s * (a1 - a0), R, t, half)[0]
+        f = _point_solid(a0 + s * (a1 - a0), R, t, size, cylinder)[0]
         if f < best_f:
             best_s, best_f = s, f
     c = a0 + best_s * (a1 - a0)
-    d, near = _point_box(c, R, t, half)
+    d, near = _point_solid(c, R, t, size, cylinder)
     v = near - c
     norm = np.sqrt(np.dot(v, v))
     n = v / norm if norm > 1e-15 else _fallback_normal(a1 - a0)
     if d < 0.0:
         n = -n  # inside: the nearest face is away from the outward direction
     return d - r, c + r * n, near
+
+
+@kernel
+def capsule_box(a0: Any, a1: Any, r: float, M: Any, half: Any) -> Any:
+    """Capsule against the box of pose ``M`` (4x4) and half extents ``half`` (3,)."""
+    return _capsule_solid(a0, a1, r, M, half, False)
+
+
+@kernel
+def capsule_cylinder(a0: Any, a1: Any, r: float, M: Any, size: Any) -> Any:
+    """Capsule against the cylinder of pose ``M`` (4x4), ``size = (radius, length, 0)`` (m;
+    the axis along the cylinder's z, centred on its origin)."""
+    return _capsule_solid(a0, a1, r, M, size, True)

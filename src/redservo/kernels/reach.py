@@ -27,7 +27,7 @@ from redservo.kernels.kinematics import matmul
 from redservo.kernels.loop_task import inverse, loop_task
 from redservo.kernels.robot import robot_kinematics
 
-__all__ = ["feature_search", "pose_search", "projected_step", "theta_u"]
+__all__ = ["feature_search", "pose_search", "pose_solution", "projected_step", "theta_u"]
 
 POS_TOL, ROT_TOL = 1e-4, 1e-3
 """:data:`redservo.robots.ik.POS_TOL` (m) and :data:`redservo.robots.ik.ROT_TOL` (rad)."""
@@ -121,6 +121,14 @@ def _pose_seed(
     robot: Any, target: Any, seed: Any, lo: Any, hi: Any, iterations: int, damping: float
 ) -> bool:
     """:func:`redservo.robots.ik.solve_ik` from one seed: True when it reaches ``target``."""
+    return pose_solution(robot, target, seed, lo, hi, iterations, damping)[0]
+
+
+@kernel
+def pose_solution(
+    robot: Any, target: Any, seed: Any, lo: Any, hi: Any, iterations: int, damping: float
+) -> Any:
+    """``(reached, q)``: :func:`redservo.robots.ik.solve_ik` from one seed and where it ends."""
     q = np.minimum(np.maximum(seed.copy(), lo), hi)
     best, since = np.inf, 0
     for _ in range(iterations):
@@ -130,18 +138,18 @@ def _pose_seed(
         err[:3] = cMt[:3, 3]
         err[3:] = theta_u(np.ascontiguousarray(cMt[:3, :3]))
         if np.linalg.norm(err[:3]) < POS_TOL and np.linalg.norm(err[3:]) < ROT_TOL:
-            return True
+            return True, q
         size = float(np.linalg.norm(err))
         if size < STALL_GAIN * best:
             best, since = size, 0
         else:
             since += 1
             if since >= STALL_ITERATIONS:
-                return False
+                return False, q
         q, ok = projected_step(J, err, q, lo, hi, damping, 0.5)
         if not ok:
-            return False
-    return False
+            return False, q
+    return False, q
 
 
 @kernel

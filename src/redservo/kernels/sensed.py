@@ -4,7 +4,7 @@
 the features of an ideal sensor and their interaction matrix
 (:mod:`redservo.kernels.loop_task`), ``e1`` and ``J1`` (CM01 eq. 25, the step kernel's
 :func:`~redservo.kernels.control.task_rows`) and the known feed-forward; :func:`law_bits`
-runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
+(:func:`law_bits_sec` with a secondary) runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
 its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's step with its compiled
 solver (:mod:`redservo.kernels.boxqp`).
 The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
@@ -37,6 +37,7 @@ __all__ = [
     "QP",
     "TARGET_LOST",
     "law_bits",
+    "law_bits_sec",
     "qp_law",
     "sense",
     "sensed_step",
@@ -129,13 +130,32 @@ def law_bits(
     limits: Any,
     sim: Any,
 ) -> Any:
+    """:func:`law_bits_sec` without a secondary."""
+    return law_bits_sec(J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, q[:0])
+
+
+@kernel
+def law_bits_sec(
+    J1: Any,
+    e1: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    prev: Any,
+    hist: Any,
+    has_hist: bool,
+    law: Any,
+    limits: Any,
+    sim: Any,
+    sec: Any,
+) -> Any:
     """Step 4 for a law of ``law_step``: the step kernel's law part
-    (:func:`redservo.kernels.control.law_core`, feed-forward ``ff`` when ``has_ff``):
-    ``(q̇, bits, abs_grad, abort)``."""
+    (:func:`redservo.kernels.control.law_core`, feed-forward ``ff`` when ``has_ff``, the
+    secondary ``sec`` (n,) or empty: none): ``(q̇, bits, abs_grad, abort)``."""
     law_id, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     none = q[:0]
-    inputs = (ff if has_ff else e1[:0], none, prev, hist if has_hist else none)
+    inputs = (ff if has_ff else e1[:0], sec, prev, hist if has_hist else none)
     packs = ((law_id, fopt, iopt, vopt), (lp, has_v, has_a), (sim[0], sim[1]))
     ok, out, lev, sev = law_core(q, J1, e1, *packs, inputs)
     if not ok:

@@ -1,0 +1,230 @@
+"""Collision pairs in compiled code: one implementation for the Controller and the campaign loop.
+
+A robot whose collision model is one capsule per link of a DH chain
+(:mod:`redservo.collision.robot`) among static primitive obstacles is measured here:
+:func:`dh_points` gives the link-frame origins and their Jacobians, :func:`pair_distances`
+every pair's signed distance and Jacobian ``J_d = nᵀ (J_p(a) − J_p(b))`` with the primitive
+kernels of :mod:`redservo.kernels.collide`. :class:`~redservo.control.avoidance.Collision`
+measures with these kernels when it can (:mod:`redservo.collision.pack`), and so does the
+compiled campaign loop (:mod:`redservo.kernels.loop_avoid`): both paths get the same
+numbers to the bit. :func:`repulsive`, :func:`shield_scale` and :func:`exact_scale` are the
+arithmetic of :mod:`redservo.control.avoidance` (its docstrings give the equations).
+
+Packs: ``arm = (par, base, flange, standard)`` (:mod:`redservo.kernels.kinematics`);
+``geom = (cap_ab (C, 2) frame indices, cap_r (C,) radii, ob_kind (K,), ob_M (K, 4, 4),
+ob_size (K, 3), self_ab (S, 2) capsule indices)``; obstacle kinds :data:`SPHERE`,
+:data:`CAPSULE`, :data:`CYLINDER`, :data:`BOX`, :data:`PLANE`; ``ob_size`` is ``(radius,
+length, 0)`` or a box's half extents. Pairs: every capsule against each obstacle in turn,
+then the self pairs. Units: m, rad, s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redservo.kernels._jit import kernel
+from redservo.kernels.collide import (
+    capsule_box,
+    capsule_capsule,
+    capsule_cylinder,
+    capsule_plane,
+)
+from redservo.kernels.kinematics import dh_links, matmul
+
+__all__ = [
+    "BOX",
+    "CAPSULE",
+    "CYLINDER",
+    "PLANE",
+    "SPHERE",
+    "dh_points",
+    "exact_scale",
+    "measure_arm",
+    "pair_distances",
+    "repulsive",
+    "shield_scale",
+]
+
+SPHERE, CAPSULE, CYLINDER, BOX, PLANE = 0, 1, 2, 3, 4
+"""Obstacle kinds of the ``geom`` pack."""
+_SHRINK, _TRIES = 0.6, 8
+""":func:`exact_scale`: the factor and the number of reductions before the scale is 0."""
+
+
+@kernel
+def dh_points(q: Any, arm: Any) -> Any:
+    """``(O, JO)``: the origins (F, 3) of the frames ``base, joint 1 … n, ee`` of a DH chain
+    (m, base frame) and their Jacobians (F, 3, n), column ``j`` of frame ``k`` being
+    ``z_j × (o_k − p_j)`` (revolute) or ``z_j`` (prismatic) for ``j < k``, else 0."""
+    par, base, flange, standard = arm
+    n = q.shape[0]
+    links = dh_links(q, par, standard)
+    O = np.zeros((n + 2, 3))
+    Z = np.empty((n, 3))
+    P = np.empty((n, 3))
+    M = base.copy()
+    O[0] = M[:3, 3]
+    for i in range(n):
+        if standard:
+            Z[i], P[i] = M[:3, 2], M[:3, 3]
+        M = matmul(M, links[i])
+        if not standard:
+            Z[i], P[i] = M[:3, 2], M[:3, 3]
+        O[i + 1] = M[:3, 3]
+    O[n + 1] = matmul(M, flange)[:3, 3]
+    JO = np.zeros((n + 2, 3, n))
+    for k in range(n + 2):
+        for j in range(min(k, n)):
+            if par[7, j] != 0.0:  # prismatic
+                JO[k, :, j] = Z[j]
+            else:
+                r = O[k] - P[j]
+                JO[k, 0, j] = Z[j, 1] * r[2] - Z[j, 2] * r[1]
+                JO[k, 1, j] = Z[j, 2] * r[0] - Z[j, 0] * r[2]
+                JO[k, 2, j] = Z[j, 0] * r[1] - Z[j, 1] * r[0]
+    return O, JO
+
+
+@kernel
+def _axis_jacobian(p: Any, A: Any, B: Any, JA: Any, JB: Any) -> Any:
+    """(3, n) velocity of the point of the axis ``A B`` nearest to ``p``."""
+    ab = B - A
+    s = min(max(np.dot(p - A, ab) / np.dot(ab, ab), 0.0), 1.0)
+    return (1.0 - s) * JA + s * JB
+
+
+@kernel
+def _obstacle(A: Any, B: Any, r: float, kind: int, M: Any, size: Any) -> Any:
+    """``(d, wa, wb)`` of the capsule ``(A, B, r)`` against one obstacle."""
+    if kind == BOX:
+        return capsule_box(A, B, r, M, size)
+    if kind == CYLINDER:
+        return capsule_cylinder(A, B, r, M, size)
+    if kind == PLANE:
+        return capsule_plane(A, B, r, np.ascontiguousarray(M[:3, 3]), M[:3, 2].copy())
+    c = np.ascontiguousarray(M[:3, 3])
+    if kind == SPHERE:
+        return capsule_capsule(A, B, r, c, c, size[0])
+    half = 0.5 * size[1] * M[:3, 2]
+    return capsule_capsule(A, B, r, c - half, c + half, size[0])
+
+
+@kernel
+def _normal(d: float, a: Any, b: Any, fallback: Any) -> Any:
+    """Unit vector from ``b`` towards ``a`` (away from ``b`` when they overlap)."""
+    v = a - b
+    norm = np.sqrt(np.dot(v, v))
+    if norm < 1e-12:
+        return fallback / np.sqrt(np.dot(fallback, fallback))
+    return v / norm if d >= 0.0 else -v / norm
+
+
+@kernel
+def pair_distances(O: Any, JO: Any, geom: Any) -> Any:
+    """``(d (P,), J (P, n), wb (P, 3), normal (P, 3))`` of every pair (module docstring)."""
+    cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
+    C, K, S = cap_ab.shape[0], ob_kind.shape[0], self_ab.shape[0]
+    n = JO.shape[2]
+    P = C * K + S
+    d, J = np.empty(P), np.zeros((P, n))
+    wb, nrm = np.zeros((P, 3)), np.zeros((P, 3))
+    for p in range(P):
+        c = p % C if p < C * K else self_ab[p - C * K, 0]
+        A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
+        JA, JB = JO[cap_ab[c, 0]], JO[cap_ab[c, 1]]
+        if p < C * K:
+            o = p // C
+            dk, a, b = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])
+            Jb = np.zeros((3, n))
+        else:
+            e = self_ab[p - C * K, 1]
+            A2, B2 = O[cap_ab[e, 0]], O[cap_ab[e, 1]]
+            dk, a, b = capsule_capsule(A, B, cap_r[c], A2, B2, cap_r[e])
+            Jb = _axis_jacobian(b, A2, B2, JO[cap_ab[e, 0]], JO[cap_ab[e, 1]])
+        nv = _normal(dk, a, b, 0.5 * (A + B) - b)
+        d[p], wb[p], nrm[p] = dk, b, nv
+        J[p] = np.dot(nv, _axis_jacobian(a, A, B, JA, JB) - Jb)
+    return d, J, wb, nrm
+
+
+@kernel
+def measure_arm(q: Any, arm: Any, geom: Any) -> Any:
+    """:func:`pair_distances` at ``q`` (n,) of the DH chain ``arm``: ``(d, J, wb, normal)``."""
+    O, JO = dh_points(q, arm)
+    return pair_distances(O, JO, geom)
+
+
+@kernel
+def repulsive(d: Any, J: Any, d_safe: float, d_influence: float, xi: float, mu: float) -> Any:
+    """``q̇_rep = Σ_k J_kᵀ v_k / (‖J_k‖² + μ²)`` over the pairs closer than ``d_i``, with
+    ``v_k = ξ (d_i − d_k)/(d_i − d_s)`` (m/s): the repulsive command (n,), rad/s or m/s."""
+    n = J.shape[1]
+    out = np.zeros(n)
+    for k in range(d.shape[0]):
+        if d[k] < d_influence:
+            v = xi * (d_influence - d[k]) / (d_influence - d_safe)
+            w = v / (np.dot(J[k], J[k]) + mu * mu)
+            for j in range(n):
+                out[j] += w * J[k, j]
+    return out
+
+
+@kernel
+def shield_scale(qd: Any, d: Any, J: Any, drift: Any, dt: float, d_safe: float) -> Any:
+    """``(s, k)``: the largest scale of ``qd`` keeping every pair's first-order prediction at
+    ``d_s`` one period ahead (or never closer inside it); ``k`` the bounding pair, -1 at 1."""
+    rate = np.dot(J, qd)
+    best, k = np.inf, -1
+    for p in range(d.shape[0]):
+        if rate[p] < 0.0:
+            rest = d[p] + dt * drift[p]
+            room = rest - d_safe if rest >= d_safe else 0.0
+            bound = room / (-dt * rate[p])
+            if bound < best:
+                best, k = bound, p
+    if k < 0 or best >= 1.0:
+        return 1.0, -1
+    # One ulp below the bound, so that rounding does not land the prediction under d_s.
+    return (max(np.nextafter(best, -np.inf), 0.0) if best > 0.0 else 0.0), k
+
+
+@kernel
+def exact_scale(
+    q: Any,
+    qd: Any,
+    d: Any,
+    J: Any,
+    s: float,
+    k: int,
+    dt: float,
+    d_safe: float,
+    d_influence: float,
+    arm: Any,
+    geom: Any,
+    cache: Any,
+) -> Any:
+    """The shield's ``(s, k)`` checked on the true geometry at ``q + dt s q̇`` (static
+    obstacles): while a pair would land under ``min(d_s, d_k)``, ``s`` shrinks by 0.6 (at
+    most 8 times, then 0). ``cache = (q, d, J, valid)``: where the last measurement was
+    taken and what it gave (the campaign loop's next step starts there when the shield
+    left the command alone); zero-size arrays keep nothing."""
+    if s <= 0.0:
+        return s, k
+    ahead = d + dt * s * np.dot(J, qd)
+    if not np.any(ahead < d_influence):
+        return s, k
+    floor = np.minimum(d_safe, d)
+    qc, dc, Jc, valid = cache
+    for _ in range(_TRIES):
+        qa = q + dt * s * qd
+        dm, Jm, _, _ = measure_arm(qa, arm, geom)
+        if qc.shape[0] == qa.shape[0]:
+            qc[:], dc[:], Jc[:, :], valid[0] = qa, dm, Jm, 1
+        gap = dm - floor
+        j = int(np.argmin(gap))
+        if gap[j] >= 0.0:
+            return s, k
+        s, k = _SHRINK * s, j
+    return 0.0, k
