@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +38,7 @@ from redservo.records import outcome_text
 from redservo.scene import SceneObject
 from redservo.schema.features import FeatureSpec
 from redservo.schema.scene import ObjectSpec
-from redservo.vision.depth import set_depth
+from redservo.vision.depth import DepthPolicy, set_depth
 from redservo.vision.measure import measured_dots
 from redservo.vision.terms import TermState, dots_term
 
@@ -102,7 +102,7 @@ class SegmentSpec(FeatureSpec):
         return 4
 
     def features(self, obj: SceneObject, desired: Mapping[str, FloatArray] | None) -> list[Feature]:
-        pts = np.asarray(obj.points, dtype=float)
+        pts = np.asarray(cast(Any, obj).points, dtype=np.float64)
         if not all(0 <= k < len(pts) for k in self.ends):
             raise ConfigurationError(
                 f"[[features]] segment: ends must be point indices in [0, {len(pts) - 1}], "
@@ -116,10 +116,10 @@ class SegmentSpec(FeatureSpec):
 
 
 def segment_term(
-    i: int, f: SegmentFeature, target: str, scene: Any, sets: dict[str, Any], depth: str
+    i: int, f: SegmentFeature, target: str, scene: Any, sets: dict[str, Any], depth: DepthPolicy
 ) -> TermState:
     """Plan term ``i`` on the dots of its two ends (:func:`~redservo.vision.terms.dots_term`)."""
-    return dots_term(i, "segment", f.points_o, target, scene, sets, depth)  # type: ignore[arg-type]
+    return dots_term(i, "segment", f.points_o, target, scene, sets, depth)
 
 
 def measure_segment(
@@ -188,7 +188,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs (tests)")
     args = parser.parse_args(argv)
-    iters = {"max_iterations": 40} if args.quick else {}
+    iters: dict[str, Any] = {"max_iterations": 40} if args.quick else {}
     for sensor in ("ideal", "image"):
         overrides = {"sensor.kind": sensor}
         result = redservo.run(SCENARIO, overrides=overrides, **iters)

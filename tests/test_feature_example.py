@@ -69,10 +69,20 @@ def test_the_kind_is_declared_with_its_spec(example: ModuleType) -> None:
     assert [f["kind"] for f in sc.data["features"]] == ["segment", "segment"]
 
 
-def test_a_bad_segment_entry_is_one_scenario_error(example: ModuleType) -> None:
-    table = {**example.SCENARIO, "features": [{"kind": "segment", "object": "target"}]}
-    with pytest.raises(ScenarioError, match=r"features\[0\]\.ends"):
-        redservo.load_scenario(table)
+@pytest.mark.parametrize(
+    ("entry", "match"),
+    [
+        ({}, r"features\[0\]\.ends"),
+        ({"ends": [0, 7]}, r"features\[0\].*ends must be point indices in \[0, 3\], got \[0, 7\]"),
+        ({"ends": [1, 1]}, r"features\[0\].*two distinct finite ends"),
+    ],
+)
+def test_a_bad_segment_entry_is_one_scenario_error(
+    example: ModuleType, entry: dict[str, Any], match: str
+) -> None:
+    table = {**example.SCENARIO, "features": [{"kind": "segment", "object": "target", **entry}]}
+    with pytest.raises(ScenarioError, match=match):
+        redservo.run(table, max_iterations=1)
 
 
 @pytest.mark.parametrize("sensor", ["ideal", "image"])
@@ -104,13 +114,13 @@ def test_a_kind_declared_after_the_schema_is_built_joins_it(example: ModuleType)
 
     assert ScenarioSpec is not None
 
-    class LateSpec(example.SegmentSpec):  # type: ignore[name-defined,misc]
-        kind: Literal["segment_late"]  # type: ignore[assignment]
+    class LateSpec(example.SegmentSpec):  # type: ignore[name-defined]
+        kind: Literal["segment_late"]
 
     globals()["LateSpec"] = LateSpec  # a module attribute, as register_feature wants
     LateSpec.__qualname__ = "LateSpec"
 
-    class LateSegment(example.SegmentFeature):  # type: ignore[name-defined,misc]
+    class LateSegment(example.SegmentFeature):  # type: ignore[name-defined]
         pass
 
     register_feature("segment_late", LateSegment, schema=LateSpec)
@@ -133,7 +143,7 @@ def test_a_bad_declaration_is_one_configuration_error_and_declares_nothing(
     with pytest.raises(ConfigurationError, match=r"unknown adapter role.*measure"):
         register_feature("segment_c", example.SegmentFeature, schema="m:a", measure=len)
     with pytest.raises(ConfigurationError, match="not a module-level"):
-        register_feature("segment_d", example.SegmentFeature, schema=lambda: None)
+        register_feature("segment_d", example.SegmentFeature, schema=lambda: None)  # type: ignore[arg-type]
 
 
 def test_depth_estimated_uses_the_kinds_adapter(example: ModuleType) -> None:
