@@ -39,8 +39,8 @@ from redservo.scene import SceneObject
 from redservo.schema.features import FeatureSpec
 from redservo.schema.scene import ObjectSpec
 from redservo.vision.depth import DepthPolicy, set_depth
-from redservo.vision.measure import measured_dots
-from redservo.vision.terms import TermState, dots_term
+from redservo.vision.measure import dots_term, measured_dots
+from redservo.vision.terms import TermState
 
 FloatArray = NDArray[np.float64]
 
@@ -118,7 +118,7 @@ class SegmentSpec(FeatureSpec):
 def segment_term(
     i: int, f: SegmentFeature, target: str, scene: Any, sets: dict[str, Any], depth: DepthPolicy
 ) -> TermState:
-    """Plan term ``i`` on the dots of its two ends (:func:`~redservo.vision.terms.dots_term`)."""
+    """Plan term ``i`` on the dots of its two ends (:func:`~redservo.vision.measure.dots_term`)."""
     return dots_term(i, "segment", f.points_o, target, scene, sets, depth)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 from typing import Any, Literal
@@ -17,24 +18,27 @@ import pytest
 import redservo
 from redservo.errors import ConfigurationError, ScenarioError
 from redservo.features import FEATURES, register_feature
-from redservo.features.kinds import feature_kinds
+from redservo.features.kinds import feature_kinds, forget_feature
 from redservo.spatial import exp_twist, inverse, make_transform, rotvec_to_matrix
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "custom_feature_segment.py"
 
 
 @pytest.fixture(scope="module")
-def example() -> ModuleType:
-    """The example, imported once as a module (it declares the kind ``segment``)."""
+def example() -> Iterator[ModuleType]:
+    """The example, imported as a module (it declares the kind ``segment``), forgotten after
+    this module's tests (the other tests see the shipped kinds only)."""
     name = "custom_feature_segment"
-    if name in sys.modules:
-        return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, EXAMPLE)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        forget_feature("segment")
+        sys.modules.pop(name, None)
 
 
 def _fd(feat: Any, cMo: np.ndarray, h: float = 1e-6) -> np.ndarray:
@@ -126,9 +130,14 @@ def test_a_kind_declared_after_the_schema_is_built_joins_it(example: ModuleType)
     register_feature("segment_late", LateSegment, schema=LateSpec)
     table = {**example.SCENARIO, "features": [{**example.SCENARIO["features"][0]}]}
     table["features"][0]["kind"] = "segment_late"
-    sc = redservo.load_scenario(table)
-    assert sc.data["features"][0]["kind"] == "segment_late"
-    assert issubclass(LateSpec, FeatureSpec)
+    try:
+        sc = redservo.load_scenario(table)
+        assert sc.data["features"][0]["kind"] == "segment_late"
+        assert issubclass(LateSpec, FeatureSpec)
+    finally:
+        forget_feature("segment_late")
+    with pytest.raises(ScenarioError, match="unknown feature kind 'segment_late'"):
+        redservo.load_scenario(table)
 
 
 def test_a_bad_declaration_is_one_configuration_error_and_declares_nothing(
@@ -153,3 +162,12 @@ def test_depth_estimated_uses_the_kinds_adapter(example: ModuleType) -> None:
     xy = np.array([[0.0, 0.0], [0.2, 0.0]])  # 0.1 m seen as 0.2: Z = 0.5 m
     d = estimate_inv_depth(feat, np.zeros(4), set_points=feat.points_o, set_xy=xy)
     np.testing.assert_allclose(d, [2.0, 2.0])
+
+
+def test_forgetting_a_kind_restores_the_shipped_schema(example: ModuleType) -> None:
+    from redservo.schema.features import FEATURE_KINDS
+
+    with pytest.raises(ConfigurationError, match="'sphere' is a shipped feature kind"):
+        forget_feature("sphere")
+    forget_feature("never_declared")  # nothing
+    assert tuple(FEATURE_KINDS) == (*FEATURES, "segment")

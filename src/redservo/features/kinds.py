@@ -25,7 +25,7 @@ that importing a feature never imports pydantic, MuJoCo, the viewer or the rende
 
   - ``image_term(i, feature, target, scene, sets, depth) -> TermState``: how the image
     sensor plans term ``i`` (:mod:`redservo.vision.sensor`; ``sets``: the point sets whose
-    dots the sensor tracks, :func:`redservo.vision.terms.dots_term`);
+    dots the sensor tracks, :func:`redservo.vision.measure.dots_term`);
   - ``measure_image(sensor, feature, st, image, set_xy, truth, notes, i) -> s | None``: its
     value in the image (:mod:`redservo.vision.measure`); ``measure_mujoco``: the same in the
     MuJoCo camera's image when it differs (:mod:`redservo.physics.camera`);
@@ -54,8 +54,9 @@ __all__ = [
     "feature_adapter",
     "feature_kind",
     "feature_kinds",
+    "forget_feature",
     "object_adapter",
-    "on_declare",
+    "on_change",
     "register_feature",
     "resolve",
 ]
@@ -114,17 +115,14 @@ class FeatureKind:
                 argument="name",
             )
         _KINDS[self.name] = self
-        _ADAPTERS.clear()
-        _FEATURE_ADAPTERS.clear()
         try:
-            for listener in _LISTENERS:
-                listener(self)
+            _changed()
         except BaseException:  # not declared after all: as it was before
             if known is None:
                 del _KINDS[self.name]
             else:
                 _KINDS[self.name] = known
-            _FEATURE_ADAPTERS.clear()
+            _changed()
             raise
 
 
@@ -144,13 +142,34 @@ docs); kinds declared elsewhere follow in declaration order."""
 _KINDS: dict[str, FeatureKind] = {}
 _ADAPTERS: dict[tuple[type, str], Callable[..., Any] | None] = {}
 _FEATURE_ADAPTERS: dict[tuple[type, str], Callable[..., Any] | None] = {}
-_LISTENERS: list[Callable[[FeatureKind], None]] = []
+_LISTENERS: list[Callable[[], None]] = []
 
 
-def on_declare(listener: Callable[[FeatureKind], None]) -> None:
-    """Call ``listener(kind)`` for every kind declared from now on (the scenario schema adds
-    the kind's spec to its ``[[features]]`` union: :mod:`redservo.schema.features`)."""
+def on_change(listener: Callable[[], None]) -> None:
+    """Call ``listener()`` whenever a kind is declared or forgotten from now on (the scenario
+    schema rebuilds its ``[[features]]`` union: :mod:`redservo.schema.features`); what it
+    raises refuses the declaration."""
     _LISTENERS.append(listener)
+
+
+def _changed() -> None:
+    _ADAPTERS.clear()
+    _FEATURE_ADAPTERS.clear()
+    for listener in _LISTENERS:
+        listener()
+
+
+def forget_feature(name: str) -> None:
+    """Undeclare the kind ``name`` (a user's kind, e.g. at the end of a test); nothing when it
+    is not declared.
+
+    Raises:
+        ConfigurationError: ``name`` is a shipped kind (:data:`SHIPPED`).
+    """
+    if name in SHIPPED:
+        raise ConfigurationError(f"{name!r} is a shipped feature kind", argument="name")
+    if _KINDS.pop(name, None) is not None:
+        _changed()
 
 
 def _is_ref(ref: str) -> bool:

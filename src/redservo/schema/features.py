@@ -20,7 +20,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.features import feature_kinds
 from redservo.features.base import Feature
-from redservo.features.kinds import FeatureKind, on_declare, resolve
+from redservo.features.kinds import FeatureKind, on_change, resolve
 from redservo.features.moments import RotationFeatures
 from redservo.features.pose import RotationVariant, TranslationVariant
 from redservo.features.sphere import SphereVariant
@@ -244,22 +244,19 @@ FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
 }
 """Feature kinds of ``[[features]]``, by ``kind``: the spec each declared feature kind names
 (``FeatureKind.schema``, :mod:`redservo.features.kinds`); a kind declared later joins it
-(:func:`_declared`)."""
+(:func:`_changed`)."""
 if TYPE_CHECKING:
     AnyFeature = FeatureSpec
 else:
     AnyFeature = tagged_union(FEATURE_KINDS, default=None, what="feature kind")
 
 
-def _declared(kind: FeatureKind) -> None:
-    """A kind declared after this module was imported (a user's file): its spec joins
-    :data:`FEATURE_KINDS`, :data:`AnyFeature` is rebuilt and so is the scenario's schema
-    when it is built already (:class:`redservo.schema.scenario.ScenarioSpec`).
+def _spec(kind: FeatureKind) -> type[FeatureSpec]:
+    """The spec ``kind`` names.
 
     Raises:
-        ConfigurationError: the spec is not a :class:`FeatureSpec` of ``kind = <its name>``.
+        ConfigurationError: it is not a :class:`FeatureSpec` of ``kind = <its name>``.
     """
-    global AnyFeature
     spec = resolve(kind.schema)
     literal = getattr(getattr(spec, "model_fields", {}).get("kind"), "annotation", None)
     if not (isinstance(spec, type) and issubclass(spec, FeatureSpec)) or get_args(literal) != (
@@ -270,7 +267,22 @@ def _declared(kind: FeatureKind) -> None:
             f"redservo.schema.features.FeatureSpec with kind: Literal[{kind.name!r}]",
             argument="schema",
         )
-    FEATURE_KINDS[kind.name] = spec
+    return spec
+
+
+def _changed() -> None:
+    """The declared kinds changed after this module was imported (a user's file declared or
+    forgot one): :data:`FEATURE_KINDS` follows, :data:`AnyFeature` is rebuilt and so is the
+    scenario's schema when it is built already (:class:`redservo.schema.scenario.ScenarioSpec`).
+
+    Raises:
+        ConfigurationError: a spec is not a :class:`FeatureSpec` of its kind's name (nothing
+            changes).
+    """
+    global AnyFeature
+    specs = {name: _spec(kind) for name, kind in feature_kinds().items()}
+    FEATURE_KINDS.clear()
+    FEATURE_KINDS.update(specs)
     AnyFeature = tagged_union(FEATURE_KINDS, default=None, what="feature kind")
     scenario = sys.modules.get("redservo.schema.scenario")
     if scenario is not None:
@@ -279,4 +291,4 @@ def _declared(kind: FeatureKind) -> None:
         model.model_rebuild(force=True)
 
 
-on_declare(_declared)
+on_change(_changed)

@@ -2,7 +2,7 @@
 (``image_term`` and ``measure_image``, :mod:`redservo.features.kinds`).
 
 * a point or the moments of a point set: the dots of its points among the dots the sensor
-  tracks (:func:`~redservo.vision.terms.dots_term`); its value from their normalized
+  tracks (:func:`dots_term`); its value from their normalized
   positions (:func:`measured_dots`, which a feature measured on dots reuses);
 * a sphere: its ellipse (:func:`~redservo.vision.terms.measure_sphere`);
 * a cylinder's limbs, a line's centre line: :func:`~redservo.vision.terms.measure_lines`.
@@ -24,15 +24,17 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, GeometryError
 from redservo.features.kinds import feature_kind
+from redservo.scene import PointSet
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.moments import dot_moment_features
-from redservo.vision.terms import TermState, dots_term, measure_lines, measure_sphere
+from redservo.vision.terms import TermState, measure_lines, measure_sphere
 
 if TYPE_CHECKING:  # pragma: no cover
     from redservo.features import LineFeature, MomentFeatures, PointFeature, SphereFeature
     from redservo.scene import Scene
 
 __all__ = [
+    "dots_term",
     "line_term",
     "measure_dot_moments",
     "measure_dot_point",
@@ -43,6 +45,48 @@ __all__ = [
     "point_term",
     "shape_term",
 ]
+
+
+def dots_term(
+    i: int,
+    kind: str,
+    pts: FloatArray,
+    target: str,
+    scene: Scene,
+    sets: dict[str, FloatArray],
+    depth: DepthPolicy,
+) -> TermState:
+    """The state of task term ``i``, a feature of ``kind`` measured on the points ``pts``
+    (k, 3) (m, object frame) of the point set ``target``: the indices of its dots among the
+    dots of ``sets`` (each point set's dots, in order; ``target``'s added if new) as one
+    dot tracker follows them.
+
+    Raises:
+        ConfigurationError: ``target`` is not a point set, a point is not one of its dots, or
+            ``depth='estimated'`` with a single dot.
+    """
+    obj = scene.object(target)
+    if not isinstance(obj, PointSet):
+        raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
+    if target not in sets:
+        sets[target] = obj.points
+    offset = 0
+    for name, pts_ in sets.items():
+        if name == target:
+            break
+        offset += len(pts_)
+    idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
+    if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
+        raise ConfigurationError(
+            f"term {i}: a point of the feature is not a dot of point set {target!r}; "
+            "the image sensor measures only drawn dots"
+        )
+    if depth == "estimated" and len(obj.points) < 2:
+        raise ConfigurationError(
+            f"term {i}: depth='estimated' needs a point set of at least 2 dots "
+            f"({target!r} has 1); use depth='desired' or 'true'"
+        )
+    return TermState(kind, np.array(idx) + offset)
 
 
 def point_term(

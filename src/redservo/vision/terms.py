@@ -21,7 +21,6 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.scene import PointSet, Scene
 from redservo.vision.depth import DepthPolicy, estimate_inv_depth
 from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
@@ -39,7 +38,6 @@ __all__ = [
     "TermState",
     "count_dot_blobs",
     "dot_tracker",
-    "dots_term",
     "flat_field",
     "gray_threshold",
     "measure_lines",
@@ -79,7 +77,7 @@ class TermState:
 
     @property
     def on_dots(self) -> bool:
-        """Whether it is measured on the tracked dots (:func:`dots_term`)."""
+        """Whether it is measured on the tracked dots (:func:`redservo.vision.measure.dots_term`)."""
         return bool(self.dots.size)
 
 
@@ -170,48 +168,6 @@ def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageD
         max_size_px=hi,
         pad_px=pad,
     )
-
-
-def dots_term(
-    i: int,
-    kind: str,
-    pts: FloatArray,
-    target: str,
-    scene: Scene,
-    sets: dict[str, FloatArray],
-    depth: DepthPolicy,
-) -> TermState:
-    """The state of task term ``i``, a feature of ``kind`` measured on the points ``pts``
-    (k, 3) (m, object frame) of the point set ``target``: the indices of its dots among the
-    dots of ``sets`` (each point set's dots, in order; ``target``'s added if new) as one
-    dot tracker follows them.
-
-    Raises:
-        ConfigurationError: ``target`` is not a point set, a point is not one of its dots, or
-            ``depth='estimated'`` with a single dot.
-    """
-    obj = scene.object(target)
-    if not isinstance(obj, PointSet):
-        raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
-    if target not in sets:
-        sets[target] = obj.points
-    offset = 0
-    for name, pts_ in sets.items():
-        if name == target:
-            break
-        offset += len(pts_)
-    idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
-    if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
-        raise ConfigurationError(
-            f"term {i}: a point of the feature is not a dot of point set {target!r}; "
-            "the image sensor measures only drawn dots"
-        )
-    if depth == "estimated" and len(obj.points) < 2:
-        raise ConfigurationError(
-            f"term {i}: depth='estimated' needs a point set of at least 2 dots "
-            f"({target!r} has 1); use depth='desired' or 'true'"
-        )
-    return TermState(kind, np.array(idx) + offset)
 
 
 def track_dots(
