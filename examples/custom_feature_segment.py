@@ -11,8 +11,8 @@ interaction matrices ``L1``, ``L2`` (CM01 eq. 26):
 Everything a feature kind needs is below: the feature (:class:`~redservo.features.Feature`),
 its ``[[features]]`` entry (a :class:`~redservo.schema.features.FeatureSpec`) and its
 declaration (:func:`~redservo.features.register_feature`) with the image sensor's adapters:
-how a term is planned on the tracked dots, measured from them and its depth estimated
-(docs/extending.md, "Add a feature kind"). The point set is drawn by the point kind, so the
+how a term is planned on the tracked dots, measured from them, its depth estimated and
+drawn in the video (docs/extending.md, "Add a feature kind"). The point set is drawn by the point kind, so the
 renderer, MuJoCo and the viewer need nothing new. Register the kind before loading a
 scenario that uses it (here: at import).
 
@@ -40,6 +40,8 @@ from redservo.schema.features import FeatureSpec
 from redservo.schema.scene import ObjectSpec
 from redservo.vision.depth import DepthPolicy, set_depth
 from redservo.vision.measure import dots_term, measured_dots
+from redservo.vision.optics import require_cv2
+from redservo.vision.overlay import px
 from redservo.vision.terms import TermState
 
 FloatArray = NDArray[np.float64]
@@ -151,6 +153,14 @@ def segment_depth(
     return np.full(2, 1.0 / set_depth(set_points, set_xy))
 
 
+def draw_segment(img: Any, optics: Any, f: SegmentFeature, s: FloatArray, color: Any) -> None:
+    """The video overlay (:mod:`redservo.vision.video`): the segment between its ends."""
+    u = np.array([np.cos(s[3]), np.sin(s[3])])
+    ends = s[:2] + 0.5 * s[2] * np.array([-u, u])
+    (u1, v1), (u2, v2) = px(optics, ends)
+    require_cv2().line(img, (int(u1), int(v1)), (int(u2), int(v2)), color, 2)
+
+
 KIND = register_feature(
     "segment",
     SegmentFeature,
@@ -159,6 +169,7 @@ KIND = register_feature(
     image_term=segment_term,
     measure_image=measure_segment,
     depth=segment_depth,
+    draw=draw_segment,
 )
 
 SCENARIO: dict[str, Any] = {

@@ -171,3 +171,19 @@ def test_forgetting_a_kind_restores_the_shipped_schema(example: ModuleType) -> N
         forget_feature("sphere")
     forget_feature("never_declared")  # nothing
     assert tuple(FEATURE_KINDS) == (*FEATURES, "segment")
+
+
+def test_the_video_draws_the_segment_through_its_adapter(example: ModuleType) -> None:
+    from redservo.experiment.build import build
+    from redservo.vision.optics import Optics
+    from redservo.vision.video import compose_frame
+
+    exp = build(redservo.load_scenario(example.SCENARIO))
+    s, _ = exp.task.measure(exp.scene, exp.robot.fkine(exp.q0), 0.0)
+    image = np.zeros((exp.camera.height, exp.camera.width), dtype=np.uint8)
+    optics = Optics(exp.camera)
+    blank = compose_frame(image, optics)
+    frame = compose_frame(image, optics, task=exp.task, detected=s)
+    changed = np.argwhere((frame != blank).any(axis=2))
+    uv = optics.to_pixel(s[:2].reshape(1, 2))[0]  # the first segment's midpoint
+    assert np.min(np.linalg.norm(changed[:, ::-1] - uv, axis=1)) < 2.0

@@ -3,7 +3,10 @@
 :class:`ImageSensor` implements :class:`redservo.sensors.Sensor`. Each
 ``read(task, scene, bMc, t)`` renders the image (:class:`~redservo.vision.render.Renderer`),
 detects every task term in it in the features' own conventions and order, and
-attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`):
+attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`).
+Each term is planned and measured by its feature kind's adapters (``image_term``,
+``measure_image``, :mod:`redservo.features.kinds`; the shipped ones in
+:mod:`redservo.vision.measure`); a kind without them is refused. The shipped kinds:
 
 * ``PointFeature``, ``MomentFeatures``: the dots of the term's point set (all
   sets tracked in the image by one :class:`~redservo.vision.tracking.ImageDotTracker`,
