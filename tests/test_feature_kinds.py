@@ -5,15 +5,26 @@ up instead of testing types."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pytest
 
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.features import FEATURES, SphereFeature, feature_class, make_feature
-from redservo.features.kinds import SHIPPED, FeatureKind, feature_kinds, object_adapter
+from redservo.features.kinds import (
+    SHIPPED,
+    FeatureKind,
+    feature_kinds,
+    forget_feature,
+    object_adapter,
+)
 from redservo.scene import Cylinder, Line, PointSet, Sphere, Tag
+from redservo.schema.features import SphereSpec
+
+
+class _RingSpec(SphereSpec):
+    kind: Literal["ring"]  # type: ignore[assignment]
 
 
 def test_the_shipped_kinds_are_declared_beside_their_classes_in_one_order() -> None:
@@ -72,7 +83,7 @@ def test_a_new_kind_reaches_every_site_through_its_declaration() -> None:
     FeatureKind(
         "ring",
         type("RingFeature", (SphereFeature,), {}),
-        schema="redservo.schema.features:SphereSpec",
+        schema=f"{__name__}:_RingSpec",
         obj=f"{__name__}:_Ring",
         mujoco=f"{__name__}:_ring_geoms",
         viewer=f"{__name__}:_ring_primitive",
@@ -93,10 +104,7 @@ def test_a_new_kind_reaches_every_site_through_its_declaration() -> None:
         assert isinstance(make_feature("ring", radius=0.1), SphereFeature)
         assert "ring" in feature_kinds()
     finally:
-        from redservo.features import kinds
-
-        kinds._KINDS.pop("ring")
-        kinds._ADAPTERS.clear()
+        forget_feature("ring")
 
 
 def test_a_bad_declaration_is_one_clear_error() -> None:

@@ -38,7 +38,7 @@ from redservo.features.point import point_interaction
 from redservo.limits import JointLimits
 from redservo.redundancy.costs import joint_limit_force, occlusion_force
 from redservo.robots.base import Robot
-from redservo.scene import PointSet, Scene, Sphere
+from redservo.scene import Scene, Sphere
 from redservo.task import TaskState
 
 __all__ = [
@@ -133,7 +133,7 @@ def visible_points(scene: Scene, name: str, bMc: FloatArray, t: float) -> FloatA
     """Camera-frame points whose image must stay in view for object ``name`` (N, 3), m."""
     obj = scene.object(name)
     cMo = scene.cMo(name, bMc, t)
-    if isinstance(obj, PointSet):
+    if hasattr(obj, "points"):  # a point set, a tag or any object of points
         pts = np.asarray(obj.points, dtype=float)
     elif hasattr(obj, "center"):
         pts = np.asarray(obj.center, dtype=float)[None, :]

@@ -12,7 +12,7 @@ from typing import Any
 
 from redservo.errors import ConfigurationError, UnknownNameError
 from redservo.features.base import Feature, Measurement, wrap_angle
-from redservo.features.kinds import FeatureKind, feature_kinds, object_adapter
+from redservo.features.kinds import FeatureKind, feature_kinds, object_adapter, register_feature
 from redservo.features.line import (
     CylinderFeature,
     CylinderProjection,
@@ -90,6 +90,7 @@ __all__ = [
     "point_interaction",
     "project_line",
     "project_point",
+    "register_feature",
     "rotation_invariants",
     "sphere_ellipse",
     "sphere_interaction",

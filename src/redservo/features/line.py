@@ -278,6 +278,10 @@ LINE_KIND = FeatureKind(
     render="redservo.vision.shapes:_line_layer",
     mujoco="redservo.physics.scenes:line_geoms",
     viewer="redservo.viewer.playback:line_primitive",
+    image_term="redservo.vision.measure:line_term",
+    measure_image="redservo.vision.measure:measure_image_lines",
+    measure_mujoco="redservo.physics.camera:measure_mujoco_line",
+    draw="redservo.vision.overlay:draw_line_term",
 )
 """The line kind and the adapters of its lines (:mod:`redservo.features.kinds`)."""
 
@@ -289,5 +293,10 @@ CYLINDER_KIND = FeatureKind(
     render="redservo.vision.shapes:_cylinder_layer",
     mujoco="redservo.physics.scenes:cylinder_geoms",
     viewer="redservo.viewer.playback:cylinder_primitive",
+    image_term="redservo.vision.measure:shape_term",
+    measure_image="redservo.vision.measure:measure_image_lines",
+    measure_mujoco="redservo.physics.camera:measure_mujoco_cylinder",
+    depth="redservo.vision.depth:cylinder_depth",
+    draw="redservo.vision.overlay:draw_cylinder",
 )
 """The cylinder kind and the adapters of its cylinders (:mod:`redservo.features.kinds`)."""

@@ -296,5 +296,9 @@ KIND = FeatureKind(
     MomentFeatures,
     schema="redservo.schema.features:MomentsSpec",
     obj="redservo.scene:PointSet",
+    image_term="redservo.vision.measure:moments_term",
+    measure_image="redservo.vision.measure:measure_dot_moments",
+    depth="redservo.vision.depth:moments_depth",
+    draw="redservo.vision.overlay:draw_moments",
 )
 """The moments kind; it observes point sets, drawn by the point kind (:mod:`redservo.features.kinds`)."""

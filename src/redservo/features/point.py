@@ -100,5 +100,9 @@ KIND = FeatureKind(
     render="redservo.vision.shapes:_point_layers",
     mujoco="redservo.physics.scenes:points_geoms",
     viewer="redservo.viewer.playback:points_primitive",
+    image_term="redservo.vision.measure:point_term",
+    measure_image="redservo.vision.measure:measure_dot_point",
+    depth="redservo.vision.depth:point_depth",
+    draw="redservo.vision.overlay:draw_point_term",
 )
 """The point kind and the adapters of the point sets it observes (:mod:`redservo.features.kinds`)."""

@@ -263,5 +263,10 @@ KIND = FeatureKind(
     render="redservo.vision.shapes:_sphere_layer",
     mujoco="redservo.physics.scenes:sphere_geoms",
     viewer="redservo.viewer.playback:sphere_primitive",
+    image_term="redservo.vision.measure:shape_term",
+    measure_image="redservo.vision.measure:measure_image_sphere",
+    measure_mujoco="redservo.physics.camera:measure_mujoco_sphere",
+    depth="redservo.vision.depth:sphere_depth",
+    draw="redservo.vision.overlay:draw_sphere",
 )
 """The sphere kind and the adapters of its spheres (:mod:`redservo.features.kinds`)."""

@@ -37,23 +37,20 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
-from redservo.features import (
-    CylinderFeature,
-    LineFeature,
-    MomentFeatures,
-    PointFeature,
-    SphereFeature,
-)
+from redservo.features import CylinderFeature
+from redservo.features.kinds import feature_adapter, feature_kind, resolve
 from redservo.physics.arm import MujocoArm
 from redservo.physics.scenes import LINE_ROD_RADIUS
 from redservo.physics.shapes import RodTerm, limb_signs, measure_rod, measure_sphere_term
-from redservo.scene import Cylinder, Line, Scene, Sphere, Tag
+from redservo.scene import Line, Scene, Tag
 from redservo.sensors import SensorReading
 from redservo.vision.depth import DepthPolicy
 from redservo.vision.dots import detect_dots
+from redservo.vision.measure import noted
 from redservo.vision.optics import require_cv2
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.sensor import ImageSensor
+from redservo.vision.tag_sensor import TagTerm
 from redservo.vision.terms import TermState
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -66,12 +63,6 @@ DOT_THRESHOLD = 55.0
 lights of :mod:`redservo.physics.arm`): ink (reflectance 0.04) in full light is about 10,
 paper (0.93) in the arm's shadow (ambient 0.2 + head light 0.25) about 107, the background
 about 115; 55 is halfway between ink and shadowed paper."""
-
-_MEASURED = (PointFeature, MomentFeatures, SphereFeature, CylinderFeature, LineFeature)
-"""The features measured on drawn objects other than tags."""
-
-_SHAPES: dict[type, type] = {SphereFeature: Sphere, CylinderFeature: Cylinder, LineFeature: Line}
-"""The object a sphere, cylinder or line feature is measured on."""
 
 POSE_TOLERANCE = 1e-6
 """How far (m, and rad per matrix entry) ``bMc`` may be from the arm's camera pose."""
@@ -153,9 +144,13 @@ class MujocoCamera(ImageSensor):
         self._frame: tuple[Scene, FloatArray, float] | None = None
 
     def _plan(self, task: VisualTask, scene: Scene) -> None:
+        """As the image sensor's, after checking that each term's object is drawn and is
+        of the kind its feature observes (``FeatureKind.obj``) or is a tag."""
         for i, term in enumerate(task.terms):
-            on_tag = isinstance(scene.object(term.target), Tag)
-            if not (on_tag or isinstance(term.feature, _MEASURED)):
+            obj = scene.object(term.target)
+            on_tag = isinstance(obj, Tag)
+            kind = feature_kind(term.feature)
+            if not (on_tag or feature_adapter(term.feature, "measure_image")):
                 raise ConfigurationError(
                     f"term {i}: the MuJoCo camera measures point and moment features of dot "
                     "targets, spheres, cylinders, lines and the features of tags, not "
@@ -168,19 +163,14 @@ class MujocoCamera(ImageSensor):
                     "(only coplanar point sets, tags, spheres, cylinders and lines are)",
                     argument="features",
                 )
-            shape = _SHAPES.get(type(term.feature))
-            if shape is not None and not isinstance(scene.object(term.target), shape):
+            shape = resolve(kind.obj) if kind is not None and kind.obj and not on_tag else None
+            if shape is not None and not isinstance(obj, shape):
                 raise ConfigurationError(
                     f"term {i}: a {type(term.feature).__name__} is measured on a drawn "
-                    f"{shape.__name__}; {term.target!r} is a "
-                    f"{type(scene.object(term.target)).__name__}",
+                    f"{shape.__name__}; {term.target!r} is a {type(obj).__name__}",
                     argument="features",
                 )
-        self._rods = {
-            i: RodTerm(CylinderFeature(LINE_ROD_RADIUS, obj.direction, obj.point), term.target)
-            for i, term in enumerate(task.terms)
-            if isinstance(obj := scene.object(term.target), Line)
-        }
+        self._rods = {}
         super()._plan(task, scene)
 
     live = True
@@ -203,25 +193,15 @@ class MujocoCamera(ImageSensor):
         notes: list[str],
         i: int,
     ) -> FloatArray | None:
-        """A sphere by its edge (:mod:`redservo.physics.shapes`); a cylinder's limbs with
-        their edge signs known from the dark paint (:func:`~redservo.physics.shapes.limb_signs`);
+        """The kind's MuJoCo measurement (``measure_mujoco``: a sphere by its edge, a
+        cylinder's limbs with their edge signs known from the dark paint, a line as a rod);
         other terms as the base."""
-        if st.kind == "cylinder" and not st.signs and truth is not None:
-            st.signs = limb_signs(truth)
-        if st.kind == "line":
-            rod = self._rods[i]
-            assert self._frame is not None  # set by read()
-            scene, bMc, t = self._frame
-            cMo = scene.cMo(rod.target, bMc, t) if rod.state.s is None else None
-            s, why = measure_rod(image, self.renderer, rod, cMo, truth if st.s is None else st.s)
-        elif st.kind != "sphere":
+        measure = None if isinstance(st, TagTerm) else feature_adapter(feature, "measure_mujoco")
+        if measure is None:
             return super()._measure(feature, st, image, set_xy, truth, notes, i)
-        else:
-            blur = self.renderer.options.blur_px
-            s, why = measure_sphere_term(image, self.renderer.optics, st, feature, truth, blur)
-        if s is None:
-            notes.append(f"term {i} ({st.kind}): {why}")
-        return s
+        st.lost_dots = False
+        out: FloatArray | None = measure(self, feature, st, image, set_xy, truth, notes, i)
+        return out
 
     def _read_dots(
         self,
@@ -254,3 +234,61 @@ class MujocoCamera(ImageSensor):
         self._detected = track.detected
         self.dots_uv = track.uv
         return self.renderer.optics.to_normalized(track.uv)
+
+
+def measure_mujoco_sphere(
+    sensor: MujocoCamera,
+    feature: Any,
+    st: TermState,
+    image: NDArray[np.uint8],
+    set_xy: FloatArray,
+    truth: FloatArray | None,
+    notes: list[str],
+    i: int,
+) -> FloatArray | None:
+    """A sphere by its edge (:func:`~redservo.physics.shapes.measure_sphere_term`)."""
+    blur = sensor.renderer.options.blur_px
+    s, why = measure_sphere_term(image, sensor.renderer.optics, st, feature, truth, blur)
+    return noted(s, why, st, notes, i)
+
+
+def measure_mujoco_cylinder(
+    sensor: MujocoCamera,
+    feature: Any,
+    st: TermState,
+    image: NDArray[np.uint8],
+    set_xy: FloatArray,
+    truth: FloatArray | None,
+    notes: list[str],
+    i: int,
+) -> FloatArray | None:
+    """A cylinder's limbs with their edge signs known from the dark paint
+    (:func:`~redservo.physics.shapes.limb_signs`), then as the image sensor."""
+    if not st.signs and truth is not None:
+        st.signs = limb_signs(truth)
+    return ImageSensor._measure(sensor, feature, st, image, set_xy, truth, notes, i)
+
+
+def measure_mujoco_line(
+    sensor: MujocoCamera,
+    feature: Any,
+    st: TermState,
+    image: NDArray[np.uint8],
+    set_xy: FloatArray,
+    truth: FloatArray | None,
+    notes: list[str],
+    i: int,
+) -> FloatArray | None:
+    """A line drawn as a thin dark rod: the image of its axis from its two limbs
+    (:func:`~redservo.physics.shapes.measure_rod`)."""
+    assert sensor._frame is not None  # set by read()
+    scene, bMc, t = sensor._frame
+    if i not in sensor._rods:
+        obj = scene.object(st.target)
+        assert isinstance(obj, Line)  # checked when planned: a line feature observes a line
+        rod_feature = CylinderFeature(LINE_ROD_RADIUS, obj.direction, obj.point)
+        sensor._rods[i] = RodTerm(rod_feature, st.target)
+    rod = sensor._rods[i]
+    cMo = scene.cMo(rod.target, bMc, t) if rod.state.s is None else None
+    s, why = measure_rod(image, sensor.renderer, rod, cMo, truth if st.s is None else st.s)
+    return noted(s, why, st, notes, i)

@@ -9,16 +9,18 @@ validated) and :meth:`FeatureSpec.features`, which builds the runtime features t
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, cast
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, cast, get_args
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
 from redservo.features import feature_kinds
 from redservo.features.base import Feature
-from redservo.features.kinds import resolve
+from redservo.features.kinds import FeatureKind, on_change, resolve
 from redservo.features.moments import RotationFeatures
 from redservo.features.pose import RotationVariant, TranslationVariant
 from redservo.features.sphere import SphereVariant
@@ -241,8 +243,52 @@ FEATURE_KINDS: dict[str, type[FeatureSpec]] = {
     name: resolve(kind.schema) for name, kind in feature_kinds().items()
 }
 """Feature kinds of ``[[features]]``, by ``kind``: the spec each declared feature kind names
-(``FeatureKind.schema``, :mod:`redservo.features.kinds`)."""
+(``FeatureKind.schema``, :mod:`redservo.features.kinds`); a kind declared later joins it
+(:func:`_changed`)."""
 if TYPE_CHECKING:
     AnyFeature = FeatureSpec
 else:
     AnyFeature = tagged_union(FEATURE_KINDS, default=None, what="feature kind")
+
+
+def _spec(kind: FeatureKind) -> type[FeatureSpec]:
+    """The spec ``kind`` names.
+
+    Raises:
+        ConfigurationError: it is not a :class:`FeatureSpec` of ``kind = <its name>``.
+    """
+    spec = resolve(kind.schema)
+    literal = getattr(getattr(spec, "model_fields", {}).get("kind"), "annotation", None)
+    if not (isinstance(spec, type) and issubclass(spec, FeatureSpec)) or get_args(literal) != (
+        kind.name,
+    ):
+        raise ConfigurationError(
+            f"FeatureKind {kind.name!r}: schema {kind.schema!r} must be a subclass of "
+            f"redservo.schema.features.FeatureSpec with kind: Literal[{kind.name!r}]",
+            argument="schema",
+        )
+    return spec
+
+
+def _changed() -> None:
+    """The declared kinds changed after this module was imported (a user's file declared or
+    forgot one): :data:`FEATURE_KINDS` follows, :data:`AnyFeature` is rebuilt and so is the
+    scenario's schema when it is built already (:class:`redservo.schema.scenario.ScenarioSpec`).
+
+    Raises:
+        ConfigurationError: a spec is not a :class:`FeatureSpec` of its kind's name (nothing
+            changes).
+    """
+    global AnyFeature
+    specs = {name: _spec(kind) for name, kind in feature_kinds().items()}
+    FEATURE_KINDS.clear()
+    FEATURE_KINDS.update(specs)
+    AnyFeature = tagged_union(FEATURE_KINDS, default=None, what="feature kind")
+    scenario = sys.modules.get("redservo.schema.scenario")
+    if scenario is not None:
+        model = scenario.ScenarioSpec
+        model.model_fields["features"].annotation = list[AnyFeature]
+        model.model_rebuild(force=True)
+
+
+on_change(_changed)

@@ -37,25 +37,34 @@ offers three documented choices (``depth=``):
 
 from __future__ import annotations
 
-from typing import Literal, get_args
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_vector
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.features.base import Feature
-from redservo.features.line import CylinderFeature
-from redservo.features.moments import MomentFeatures
-from redservo.features.point import PointFeature
-from redservo.features.sphere import SphereFeature, sphere_moments_from_area
+from redservo.features.kinds import feature_adapter
+from redservo.features.sphere import sphere_moments_from_area
+
+if TYPE_CHECKING:  # pragma: no cover
+    from redservo.features.base import Feature
+    from redservo.features.line import CylinderFeature
+    from redservo.features.moments import MomentFeatures
+    from redservo.features.point import PointFeature
+    from redservo.features.sphere import SphereFeature
 
 __all__ = [
     "DEPTH_POLICIES",
     "DepthPolicy",
+    "cylinder_depth",
     "cylinder_plane",
     "estimate_inv_depth",
+    "moments_depth",
+    "point_depth",
     "point_set_depth",
+    "set_depth",
+    "sphere_depth",
     "sphere_plane",
 ]
 
@@ -143,24 +152,73 @@ def estimate_inv_depth(
         ConfigurationError: the feature kind has no known size (a line).
         GeometryError: the estimate is impossible here (too few dots, degenerate image).
     """
-    if isinstance(feature, SphereFeature):
-        sv = np.asarray(s, dtype=float)
-        if feature.variant != "moments":
-            n20, n11, n02 = sphere_moments_from_area(sv[0], sv[1], sv[2])
-            sv = np.array([sv[0], sv[1], n20, n11, n02])
-        return sphere_plane(sv, feature.radius)
-    if isinstance(feature, CylinderFeature):
-        return cylinder_plane(s, feature.radius)
-    if isinstance(feature, PointFeature | MomentFeatures):
-        if set_points is None or set_xy is None:
-            raise ConfigurationError(
-                "depth='estimated' for a point or moment feature needs the point set's dots"
-            )
-        Z = point_set_depth(set_points, set_xy)
-        if isinstance(feature, PointFeature):
-            return np.array([1.0 / Z])
-        return np.array([0.0, 0.0, 1.0 / Z])
-    raise ConfigurationError(
-        f"depth='estimated' is not available for {type(feature).__name__} (no known size); "
-        "use depth='desired' or 'true'"
-    )
+    estimate = feature_adapter(feature, "depth")
+    if estimate is None:
+        raise ConfigurationError(
+            f"depth='estimated' is not available for {type(feature).__name__} (no known size); "
+            "use depth='desired' or 'true'"
+        )
+    out: FloatArray = estimate(feature, s, set_points=set_points, set_xy=set_xy)
+    return out
+
+
+def sphere_depth(
+    feature: SphereFeature,
+    s: FloatArray,
+    *,
+    set_points: ArrayLike | None = None,
+    set_xy: ArrayLike | None = None,
+) -> FloatArray:
+    """A sphere's ``(A, B, C)`` from its ellipse (:func:`sphere_plane`), either variant."""
+    sv = np.asarray(s, dtype=float)
+    if feature.variant != "moments":
+        n20, n11, n02 = sphere_moments_from_area(sv[0], sv[1], sv[2])
+        sv = np.array([sv[0], sv[1], n20, n11, n02])
+    return sphere_plane(sv, feature.radius)
+
+
+def cylinder_depth(
+    feature: CylinderFeature,
+    s: FloatArray,
+    *,
+    set_points: ArrayLike | None = None,
+    set_xy: ArrayLike | None = None,
+) -> FloatArray:
+    """A cylinder's ``(A, B, C)/D`` from its limbs (:func:`cylinder_plane`)."""
+    return cylinder_plane(s, feature.radius)
+
+
+def set_depth(set_points: ArrayLike | None, set_xy: ArrayLike | None) -> float:
+    """``Ẑ`` (m), the fronto-parallel depth of a point set from its detected dots
+    (:func:`point_set_depth`), for a feature measured on them.
+
+    Raises:
+        ConfigurationError: the point set's dots are not given.
+    """
+    if set_points is None or set_xy is None:
+        raise ConfigurationError(
+            "depth='estimated' for a point or moment feature needs the point set's dots"
+        )
+    return point_set_depth(set_points, set_xy)
+
+
+def point_depth(
+    feature: PointFeature,
+    s: FloatArray,
+    *,
+    set_points: ArrayLike | None = None,
+    set_xy: ArrayLike | None = None,
+) -> FloatArray:
+    """A point's ``1/Ẑ`` (1/m; :func:`set_depth`)."""
+    return np.array([1.0 / set_depth(set_points, set_xy)])
+
+
+def moments_depth(
+    feature: MomentFeatures,
+    s: FloatArray,
+    *,
+    set_points: ArrayLike | None = None,
+    set_xy: ArrayLike | None = None,
+) -> FloatArray:
+    """The moments' plane ``(0, 0, 1/Ẑ)`` (1/m; :func:`set_depth`)."""
+    return np.array([0.0, 0.0, 1.0 / set_depth(set_points, set_xy)])

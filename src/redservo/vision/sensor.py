@@ -3,7 +3,10 @@
 :class:`ImageSensor` implements :class:`redservo.sensors.Sensor`. Each
 ``read(task, scene, bMc, t)`` renders the image (:class:`~redservo.vision.render.Renderer`),
 detects every task term in it in the features' own conventions and order, and
-attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`):
+attaches the inverse-depth parameters of the ``depth`` policy (:mod:`redservo.vision.depth`).
+Each term is planned and measured by its feature kind's adapters (``image_term``,
+``measure_image``, :mod:`redservo.features.kinds`; the shipped ones in
+:mod:`redservo.vision.measure`); a kind without them is refused. The shipped kinds:
 
 * ``PointFeature``, ``MomentFeatures``: the dots of the term's point set (all
   sets tracked in the image by one :class:`~redservo.vision.tracking.ImageDotTracker`,
@@ -40,29 +43,19 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH, Camera
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.features import (
-    CylinderFeature,
-    LineFeature,
-    MomentFeatures,
-    PointFeature,
-    SphereFeature,
-)
+from redservo.features.kinds import feature_adapter
 from redservo.sensors import SensorReading
 from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy
 from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.lazyframe import pixels
-from redservo.vision.moments import dot_moment_features
 from redservo.vision.motion import camera_shift
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 from redservo.vision.terms import (
     TermState,
     dot_gate_px,
-    dot_term,
     dot_tracker,
-    measure_lines,
-    measure_sphere,
     term_inv_depths,
     track_dots,
 )
@@ -73,9 +66,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from redservo.task import VisualTask
 
 __all__ = ["FEATURE_LOST", "ImageSensor", "tracking_gate_px"]
-
-_KINDS: dict[type, str] = {SphereFeature: "sphere", CylinderFeature: "cylinder"}
-_KINDS[LineFeature] = "line"
 
 FEATURE_LOST = "feature_lost"
 """Prefix of ``SensorReading.reason`` when a feature is lost for good."""
@@ -206,15 +196,10 @@ class ImageSensor:
             f = term.feature
             if (tag := tag_term(i, f, scene.object(term.target))) is not None:
                 self._terms.append(tag)
-            elif isinstance(f, PointFeature | MomentFeatures):
-                self._terms.append(dot_term(i, f, term.target, scene, self._sets, self.depth))
-            elif isinstance(f, SphereFeature | CylinderFeature | LineFeature):
-                if self.depth == "estimated" and isinstance(f, LineFeature):
-                    raise ConfigurationError(
-                        f"term {i}: depth='estimated' is not available for a line (no known "
-                        "size); use depth='desired' or 'true'"
-                    )
-                self._terms.append(TermState(_KINDS[type(f)]))
+            elif (plan := feature_adapter(f, "image_term")) and feature_adapter(f, "measure_image"):
+                st = plan(i, f, term.target, scene, self._sets, self.depth)
+                st.target = term.target
+                self._terms.append(st)
             else:
                 raise ConfigurationError(
                     f"term {i}: the image sensor cannot measure {type(f).__name__}"
@@ -227,9 +212,7 @@ class ImageSensor:
             # the blob-position tracker, for subclasses that detect blobs themselves
             self._tracker = DotTracker(n_dots, 25.0 + 3.0 * opt.blur_px, self.max_lost_frames)
         self._task_id = id(task)
-        self._dots_only = all(
-            st.kind in ("point", "moments") and not isinstance(st, TagTerm) for st in self._terms
-        )
+        self._dots_only = all(st.on_dots and not isinstance(st, TagTerm) for st in self._terms)
 
     def _truth_uv(self, scene: Scene, bMc: FloatArray, t: float) -> FloatArray:
         """True pixel positions of every tracked dot (NaN behind the camera)."""
@@ -275,7 +258,7 @@ class ImageSensor:
                     gone.append(i)
                 lost.append(i)
             else:
-                if st.kind in ("point", "moments") and st.lost_dots:
+                if st.on_dots and st.lost_dots:
                     lost.append(i)
                     st.lost += 1
                     if st.lost > self.max_lost_frames:
@@ -331,32 +314,19 @@ class ImageSensor:
         notes: list[str],
         i: int,
     ) -> FloatArray | None:
-        """One term's value, or None when it was not detected (the reason goes to ``notes``)."""
+        """One term's value, or None when it was not detected (the reason goes to ``notes``):
+        a tag's (:mod:`redservo.vision.tag_sensor`), else the one its feature kind measures
+        (``measure_image``, :mod:`redservo.vision.measure`)."""
         st.lost_dots = False
-        if st.kind in ("point", "moments"):
-            st.lost_dots = not bool(self._detected[st.dots].all())
-            xy = set_xy[st.dots]
-            if not np.isfinite(xy).all():
-                notes.append(f"term {i}: a dot was never seen")
-                return None
-            if st.lost_dots:
-                notes.append(f"term {i}: dot(s) lost, using their predicted positions")
-            if st.kind == "point":
-                return np.asarray(xy[0], dtype=float)
-            try:
-                return dot_moment_features(xy, feature)
-            except GeometryError as exc:
-                notes.append(f"term {i}: {exc}")
-                return None
         if isinstance(st, TagTerm):
             s, why = measure_tag(image, self.renderer.optics, st, feature)
-        elif st.kind == "sphere":
-            s, why = measure_sphere(image, self.renderer, st, feature, self.ellipse_method, truth)
-        else:
-            s, why = measure_lines(image, self.renderer, st, truth)
-        if s is None:
-            notes.append(f"term {i} ({st.kind}): {why}")
-        return s
+            if s is None:
+                notes.append(f"term {i} ({st.kind}): {why}")
+            return s
+        measure = feature_adapter(feature, "measure_image")
+        assert measure is not None  # checked when the task is planned
+        out: FloatArray | None = measure(self, feature, st, image, set_xy, truth, notes, i)
+        return out
 
 
 def tracking_gate_px(sensor: Any) -> float | None:

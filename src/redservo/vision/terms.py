@@ -21,8 +21,6 @@ from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError, GeometryError
-from redservo.features import MomentFeatures, PointFeature, SphereFeature
-from redservo.scene import PointSet, Scene
 from redservo.vision.depth import DepthPolicy, estimate_inv_depth
 from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
@@ -33,12 +31,12 @@ from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tracking import ImageDotTracker
 
 if TYPE_CHECKING:  # pragma: no cover
+    from redservo.features import SphereFeature
     from redservo.task import VisualTask
 
 __all__ = [
     "TermState",
     "count_dot_blobs",
-    "dot_term",
     "dot_tracker",
     "flat_field",
     "gray_threshold",
@@ -54,7 +52,8 @@ class TermState:
     """Detection state of one task term between frames."""
 
     kind: str
-    """``"point"``, ``"moments"``, ``"sphere"``, ``"cylinder"`` or ``"line"``."""
+    """Its feature kind's name (``"point"``, ``"sphere"``, ...; :mod:`redservo.features.kinds`)
+    or ``"tag"``."""
     dots: NDArray[np.int_] = field(default_factory=lambda: np.zeros(0, dtype=int))
     """Indices of the term's dots in the sensor's dot tracker."""
     s: FloatArray | None = None
@@ -73,6 +72,13 @@ class TermState:
     """Last inverse-depth parameters."""
     gain: float | None = None
     """Light's gain at a sphere (:func:`measure_sphere`; None = not measured yet)."""
+    target: str = ""
+    """The name of the object it observes."""
+
+    @property
+    def on_dots(self) -> bool:
+        """Whether it is measured on the tracked dots (:func:`redservo.vision.measure.dots_term`)."""
+        return bool(self.dots.size)
 
 
 def gray_threshold(level: float, background: float, others: list[float], span: float) -> float:
@@ -162,48 +168,6 @@ def dot_tracker(n_dots: int, opt: RenderOptions, max_lost_frames: int) -> ImageD
         max_size_px=hi,
         pad_px=pad,
     )
-
-
-def dot_term(
-    i: int,
-    f: PointFeature | MomentFeatures,
-    target: str,
-    scene: Scene,
-    sets: dict[str, FloatArray],
-    depth: DepthPolicy,
-) -> TermState:
-    """The state of task term ``i``, a point or moment feature ``f`` on the point set
-    ``target``: the indices of its dots among the dots of ``sets`` (each point set's dots,
-    in order; ``target``'s added if new) as one dot tracker follows them.
-
-    Raises:
-        ConfigurationError: ``target`` is not a point set, a point of ``f`` is not one of its
-            dots, or ``depth='estimated'`` with a single dot.
-    """
-    obj = scene.object(target)
-    if not isinstance(obj, PointSet):
-        raise ConfigurationError(f"term {i}: target {target!r} is not a point set")
-    if target not in sets:
-        sets[target] = obj.points
-    offset = 0
-    for name, pts_ in sets.items():
-        if name == target:
-            break
-        offset += len(pts_)
-    pts = f.point_o[None, :] if isinstance(f, PointFeature) else f.points_o
-    idx = [int(np.argmin(np.linalg.norm(obj.points - p, axis=1))) for p in pts]
-    if any(np.linalg.norm(obj.points[j] - p) > 1e-9 for j, p in zip(idx, pts)):
-        raise ConfigurationError(
-            f"term {i}: a point of the feature is not a dot of point set {target!r}; "
-            "the image sensor measures only drawn dots"
-        )
-    if depth == "estimated" and len(obj.points) < 2:
-        raise ConfigurationError(
-            f"term {i}: depth='estimated' needs a point set of at least 2 dots "
-            f"({target!r} has 1); use depth='desired' or 'true'"
-        )
-    kind = "point" if isinstance(f, PointFeature) else "moments"
-    return TermState(kind, np.array(idx) + offset)
 
 
 def track_dots(
@@ -400,7 +364,7 @@ def term_inv_depths(
         d: FloatArray | None = truth_d[i]
         if policy == "estimated" and st.s is not None and st.kind != "tag":
             kw: dict[str, Any] = {}
-            if st.kind in ("point", "moments"):
+            if st.on_dots:
                 name = term.target
                 kw = {"set_points": sets[name], "set_xy": set_dots(sets, detected, name, xy)}
             try:

@@ -32,16 +32,10 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError, ShapeError
-from redservo.features import (
-    CylinderFeature,
-    LineFeature,
-    MomentFeatures,
-    PointFeature,
-    SphereFeature,
-    sphere_moments_from_area,
-)
+from redservo.features.kinds import feature_adapter
 from redservo.plots.style import role_rgb
 from redservo.vision.optics import Optics, require_cv2
+from redservo.vision.overlay import DESIRED, draw_point, px
 from redservo.vision.videopanel import error_panel
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -50,73 +44,26 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["Progress", "compose_frame", "write_gif", "write_video"]
 
 _CURRENT = role_rgb("current")
-_DESIRED = role_rgb("desired")
+_DESIRED = DESIRED
 _DOT = role_rgb("target")
-
-
-def _px(optics: Optics, xy: ArrayLike) -> NDArray[np.int32]:
-    uv = optics.to_pixel(np.asarray(xy, dtype=float).reshape(-1, 2))
-    uv = np.where(np.isfinite(uv), uv, -1e4)
-    return np.clip(np.round(uv), -1e4, 1e4).astype(np.int32)
-
-
-def _draw_line(
-    img: NDArray[np.uint8], optics: Optics, rho: float, theta: float, color: Any
-) -> None:
-    cv2 = require_cv2()
-    n = np.array([np.cos(theta), np.sin(theta)])
-    d = np.array([-n[1], n[0]])
-    t = np.linspace(-3.0, 3.0, 241)
-    pts = _px(optics, rho * n + t[:, None] * d)
-    cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, color, 2, cv2.LINE_AA)
-
-
-def _draw_point(img: NDArray[np.uint8], u: int, v: int, color: Any) -> None:
-    """A current point as a circle, a desired one as a cross (the viewer's shapes)."""
-    cv2 = require_cv2()
-    if color == _DESIRED:
-        cv2.drawMarker(img, (u, v), color, cv2.MARKER_CROSS, 16, 2, cv2.LINE_AA)
-    else:
-        cv2.circle(img, (u, v), 7, color, 2, cv2.LINE_AA)
 
 
 def _draw_term(
     img: NDArray[np.uint8], optics: Optics, feature: Any, s: FloatArray, color: Any
 ) -> None:
-    cv2 = require_cv2()
-    if isinstance(feature, PointFeature):
-        ((u, v),) = _px(optics, s[:2])
-        _draw_point(img, int(u), int(v), color)
-    elif isinstance(feature, SphereFeature):
-        if feature.variant == "moments":
-            xc, yc, n20, n11, n02 = s
-        else:
-            xc, yc = s[0], s[1]
-            n20, n11, n02 = sphere_moments_from_area(s[0], s[1], s[2])
-        evals, evecs = np.linalg.eigh(4.0 * np.array([[n20, n11], [n11, n02]]))
-        t = np.linspace(0.0, 2.0 * np.pi, 73)
-        axes = evecs * np.sqrt(np.maximum(evals, 0.0))
-        pts = _px(optics, np.array([xc, yc]) + (axes @ np.stack([np.cos(t), np.sin(t)])).T)
-        cv2.polylines(img, [pts.reshape(-1, 1, 2)], True, color, 2, cv2.LINE_AA)
-    elif isinstance(feature, CylinderFeature):
-        _draw_line(img, optics, float(s[0]), float(s[1]), color)
-        _draw_line(img, optics, float(s[2]), float(s[3]), color)
-    elif isinstance(feature, LineFeature):
-        _draw_line(img, optics, float(s[0]), float(s[1]), color)
-    elif isinstance(feature, MomentFeatures):
-        xg, yg, alpha = s[0] / s[2], s[1] / s[2], s[3]
-        c = _px(optics, [xg, yg])[0]
-        _draw_point(img, int(c[0]), int(c[1]), color)
-        tip = c + np.round(40.0 * np.array([np.cos(alpha), np.sin(alpha)])).astype(np.int32)
-        cv2.line(img, (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), color, 2, cv2.LINE_AA)
+    """The term's overlay its feature kind declares (``draw``, :mod:`redservo.vision.overlay`);
+    nothing for a kind that declares none (a pose)."""
+    draw = feature_adapter(feature, "draw")
+    if draw is not None:
+        draw(img, optics, feature, s, color)
 
 
 def _draw_features(
     img: NDArray[np.uint8], optics: Optics, task: VisualTask | None, s: FloatArray, color: Any
 ) -> None:
     if task is None:
-        for u, v in _px(optics, s.reshape(-1, 2)):
-            _draw_point(img, int(u), int(v), color)
+        for u, v in px(optics, s.reshape(-1, 2)):
+            draw_point(img, int(u), int(v), color)
         return
     i = 0
     for term, size in zip(task.terms, task.sizes):
