@@ -131,3 +131,20 @@ def test_the_moment_model_takes_the_pnp_pose_of_the_frame_it_is_given() -> None:
     poses.frame(dots[:3], 0.0)  # not the target's four dots
     assert poses.target_pose(exp.robot, feature.points_o, qs[-1], dt, exp.camera) is None
     assert poses.failures == 2
+
+
+MC05_CAMERA_SAMPLE = 0
+"""An mc05-joint-limits start (seed 0) that predictive through the realistic camera lost
+(the features' pose: the target's tilt ambiguous, the goal wrong, the target out of the
+image at iteration 69) and solves with the PnP pose of the dots (44 iterations)."""
+
+
+def test_predictive_through_the_camera_solves_mc05_with_the_pnp_pose() -> None:
+    from redservo.campaign.definition import load_campaign
+    from redservo.campaign.sampling import draw_sample
+
+    sc = draw_sample(load_campaign("mc05-joint-limits"), 0, MC05_CAMERA_SAMPLE).scenario
+    exp = build(apply_overrides(sc, camera_overrides("realistic")))
+    summary = exp.run(method="predictive").summary
+    assert summary.success and summary.outcome == "converged", summary.outcome
+    assert summary.velocity_violations == 0 and summary.acceleration_violations == 0
