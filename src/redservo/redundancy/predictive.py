@@ -296,7 +296,9 @@ class Predictive(Law):
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
-        info = (f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",)
+        info: tuple[str, ...] = (
+            f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",
+        )
         if self.dot_poses.last_failed:
             info += (
                 "predictive: no PnP pose of the tracked dots; the model's pose is the features'",

@@ -23,16 +23,17 @@ coordinates for the dots (undistorted; the intrinsics turn them into ideal pixel
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.vision.optics import require_cv2
 
-__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose"]
+__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose", "pose_inv_depth", "pose_term_depth"]
 
 MAX_RMS_PX = 2.0
 """Largest RMS reprojection error (pixels) of an accepted pose: a few times the trackers'
@@ -141,3 +142,49 @@ def _fresh(cv2: Any, P: FloatArray, uv: FloatArray, K: FloatArray) -> DotPose | 
         if cand is not None and (best is None or cand.rms_px < best.rms_px):
             best = cand
     return best
+
+
+def pose_inv_depth(
+    feature: Any, set_points: FloatArray, set_xy: FloatArray, guess: FloatArray | None
+) -> tuple[FloatArray, FloatArray] | None:
+    """The image sensor's ``depth = "pose"`` (:mod:`redservo.vision.depth`): the inverse-depth
+    parameters of a point or moment ``feature`` (its 1/Z, 1/m; the plane ``(A, B, C)``) at
+    the PnP pose of its point set (``set_points`` (N, 3), m; ``set_xy`` (N, 2) normalized,
+    NaN for a dot not detected: at least four detected), warm-started at ``guess``:
+    ``(inv_depth, cMo)``, or None (no accepted pose: the caller keeps the last one). The
+    reprojection error is judged with the default camera's focal length (600 px)."""
+    P = np.asarray(set_points, dtype=float).reshape(-1, 3)
+    p = np.asarray(set_xy, dtype=float).reshape(-1, 2)
+    ok = np.isfinite(p).all(axis=1)
+    pose = dot_pose(P[ok], p[ok], None, guess)
+    if pose is None:
+        return None
+    return np.asarray(feature.measure(pose.cMo).inv_depth, dtype=float), pose.cMo
+
+
+def pose_term_depth(
+    task: Any,
+    i: int,
+    st: Any,
+    sets: Mapping[str, FloatArray],
+    detected: NDArray[np.bool_],
+    xy: FloatArray,
+) -> FloatArray | None:
+    """``depth = "pose"`` for term ``i`` of ``task`` in the image sensor (its
+    :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
+    point set, the dots detected this frame and every dot's normalized position): a point
+    or moment term's parameters at its point set's PnP pose (:func:`pose_inv_depth`,
+    warm-started at ``st.pose``, which it updates); else (another feature, no pose) None,
+    the caller keeping the last parameters, or the desired ones when there are none yet."""
+    from redservo.vision.terms import set_dots
+
+    term = task.terms[i]
+    if st.kind in ("point", "moments") and st.s is not None:
+        dots = set_dots(sets, detected, term.target, xy)
+        got = pose_inv_depth(term.feature, sets[term.target], dots, st.pose)
+        if got is not None:
+            st.pose = got[1]
+            return got[0]
+    if st.inv_depth is None and task.inv_depth_star is not None:
+        return np.asarray(task.inv_depth_star[i], dtype=float)
+    return None
