@@ -148,3 +148,30 @@ def test_predictive_through_the_camera_solves_mc05_with_the_pnp_pose() -> None:
     summary = exp.run(method="predictive").summary
     assert summary.success and summary.outcome == "converged", summary.outcome
     assert summary.velocity_violations == 0 and summary.acceleration_violations == 0
+
+
+def test_the_simulation_hands_the_law_the_dots_of_the_frame_in_use() -> None:
+    """Each period the loop gives the law the dots of the measurement the controller uses
+    (``SensorReading.dots``) and its age: at least the 66 ms latency, at most one frame
+    (1/30 s) and one period more; never a frame that is not available yet."""
+    from redservo import make_law
+    from redservo.simulation.loop import simulate
+
+    sets = [*camera_overrides("realistic"), "simulation.max_iterations=8"]
+    exp = build(apply_overrides(load_scenario("panda-4points"), sets))
+    law = make_law("predictive")
+    calls: list[tuple[np.ndarray, float]] = []
+    law.observe_dots = lambda dots, age: calls.append((np.array(dots), age))  # type: ignore[attr-defined]
+    simulate(
+        exp.robot,
+        exp.scene,
+        exp.task,
+        law,
+        exp.q0,
+        options=exp.options,
+        camera=exp.camera,
+        sensor=exp.sensor,
+    )
+    assert len(calls) == 8 and all(d.shape == (4, 2) for d, _ in calls)
+    ages = [a for _, a in calls]
+    assert min(ages) >= 0.066 - 1e-9 and max(ages) <= 0.066 + 1.0 / 30.0 + 0.04 + 1e-9, ages
