@@ -78,6 +78,7 @@ from redservo.redundancy.predictive_model import (
 )
 from redservo.redundancy.predictive_moments import MomentModel, moment_model
 from redservo.redundancy.predictive_options import OPTIONS
+from redservo.redundancy.predictive_pnp import DotPoses
 from redservo.redundancy.predictive_pose import PosePoints
 from redservo.redundancy.predictive_qp import horizon_qp, solve_horizon
 
@@ -147,6 +148,9 @@ class Predictive(Law):
         self._obs: Callable[[FloatArray, FloatArray | None], Model | None] | None = None
         self._moments: MomentModel | None = None
         self._pose = PosePoints()
+        self.dot_poses = DotPoses()
+        """The moment model's target pose by PnP of the tracked dots (:meth:`observe_dots`)."""
+        self._dt = 0.0
         self.last_start: FloatArray | None = None
         """The linearisation point ``Ū`` (Nc, n) of the last solve (the warm start)."""
         self.last_plan: FloatArray | None = None
@@ -176,6 +180,7 @@ class Predictive(Law):
         self._gain.reset()
         self._moments = None
         self._pose.reset()
+        self.dot_poses.reset()
         self._calls = 0
         self._started = None
         self.last_start = self.last_plan = None
@@ -216,6 +221,12 @@ class Predictive(Law):
             camera=self._camera,
         )
 
+    def observe_dots(self, dots: FloatArray, age: float) -> None:
+        """A loop's hook with the frame in use: its tracked dots (N, 2; normalized) exposed
+        ``age`` seconds ago. The moment model then takes the target's pose from them by PnP
+        (:mod:`redservo.redundancy.predictive_pnp`)."""
+        self.dot_poses.frame(dots, age)
+
     def observe(self, robot: Any, task: Any, state: Any) -> None:
         """The :class:`~redservo.Controller`'s hook before each call: the model robot, the
         task and its evaluated state (``s``, ``inv_depth``). For a task of image points of
@@ -238,7 +249,8 @@ class Predictive(Law):
 
             def build(q: FloatArray, seen: FloatArray | None) -> MomentModel | None:
                 bMc = robot.kinematics(q if seen is None else seen, check_limits=False)[0]
-                self._moments = moment_model(robot, feature, task, state, prev, bMc)
+                bMo = self.dot_poses.target_pose(robot, feature.points_o, q, self._dt, self._camera)
+                self._moments = moment_model(robot, feature, task, state, prev, bMc, bMo)
                 return self._moments
 
             self._obs = build
@@ -254,6 +266,7 @@ class Predictive(Law):
         hz = self._hz
         start = self.last_start = self._start(x, x.q.shape[0])
         seen = self._seen.push(x.q, x.dt)
+        self._dt = x.dt
         model = None if obs is None or dl.passed() else obs(x.q, seen)
         if model is not None and self.goal_weight > 0 and not dl.passed():
             self._update_goal(model, x, dl)
@@ -283,7 +296,13 @@ class Predictive(Law):
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
-        info = (f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",)
+        info: tuple[str, ...] = (
+            f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",
+        )
+        if self.dot_poses.last_failed:
+            info += (
+                "predictive: no PnP pose of the tracked dots; the model's pose is the features'",
+            )
         rank = int(np.linalg.matrix_rank(x.J1, tol=self.rcond * float(np.max(np.abs(x.J1)))))
         d = Diagnostics(
             method=self.name, task_rank=rank, rank_deficient=rank < x.J1.shape[0], info=info

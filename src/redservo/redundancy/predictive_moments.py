@@ -254,16 +254,22 @@ FIT_TOL = 1e-7
 
 
 def moment_model(
-    robot: Robot, feature: Any, task: Any, state: Any, prev: MomentModel | None, bMc: FloatArray
+    robot: Robot,
+    feature: Any,
+    task: Any,
+    state: Any,
+    prev: MomentModel | None,
+    bMc: FloatArray,
+    bMo: FloatArray | None = None,
 ) -> MomentModel | None:
     """The :class:`MomentModel` of the current measurement, or None (no pose estimate).
     ``prev``: the previous period's model (its ``bMo`` warm-starts the estimate and its
-    ``cMo*`` is reused while ``s*`` is the same)."""
+    ``cMo*`` is reused while ``s*`` is the same). ``bMo``: the target's pose (4, 4; base
+    frame, m) when known otherwise (a PnP of the tracked dots,
+    :mod:`redservo.redundancy.predictive_pnp`): the model takes it instead of its estimate
+    from the features and the plane."""
     from redservo.features import MomentFeatures
 
-    s = np.asarray(state.s, dtype=float)
-    plane = np.asarray(state.inv_depth[0], dtype=float).reshape(-1)
-    s_star = np.asarray(task.s_star, dtype=float)
     own = (
         prev.feature
         if prev is not None
@@ -274,11 +280,17 @@ def moment_model(
             rotation_features=feature.rotation_features,
         )
     )
-    guess = None if prev is None else _inverse(bMc) @ prev.bMo
     weight = PLANE_WEIGHT if prev is None else prev.plane_weight
-    cMo, weight = pose_and_weight(own, s, plane, guess, weight)
+    if bMo is not None:
+        cMo: FloatArray | None = _inverse(bMc) @ bMo
+    else:
+        s = np.asarray(state.s, dtype=float)
+        plane = np.asarray(state.inv_depth[0], dtype=float).reshape(-1)
+        guess = None if prev is None else _inverse(bMc) @ prev.bMo
+        cMo, weight = pose_and_weight(own, s, plane, guess, weight)
     if cMo is None:
         return None
+    s_star = np.asarray(task.s_star, dtype=float)
     star = None
     if prev is not None and np.array_equal(prev.s_star, s_star):
         star = prev.cMo_star

@@ -39,10 +39,11 @@ class SensorSpec(Table):
         float | list[float],
         PerJoint(ge=-10.0, le=10.0, doc="number k1 or array [k1, k2], each in [-10, 10]"),
     ] = Field(0.0, description="radial distortion k1, or [k1, k2]")
-    depth: Literal["desired", "estimated", "true"] = choice(
+    depth: Literal["desired", "estimated", "true", "pose"] = choice(
         "desired",
         what="sensor depth",
-        description="depth given to the controller: desired | estimated (from the image) | true",
+        description="depth given to the controller: desired | estimated (from the image) | "
+        "true | pose (from the dots' PnP pose)",
     )
     seed: int = integer(0, ge=0, le=_SEED_MAX, description="seed of the image noise and texture")
     max_lost_frames: int = integer(

@@ -51,6 +51,10 @@ class SensorReading(NamedTuple):
     stamp: float | None = None
     """When the image was exposed (s, the middle of the exposure), or None: at the instant
     it was read (an untimed sensor; :mod:`redservo.sensors.timing`)."""
+    dots: FloatArray | None = None
+    """(N, 2) the normalized image positions of the dots tracked in this frame (the image
+    sensor's, in the order of its point sets; a lost dot at its predicted position), or None:
+    no dots. A model-based law estimates the target's pose from them (:mod:`redservo.vision.pnp`)."""
 
 
 @runtime_checkable

@@ -256,6 +256,7 @@ class _Run:
         track = getattr(ctrl.law, "bind_tracker", None)  # and its camera-motion limit
         if track is not None:
             track(_tracking_gate(sensor))
+        self.frames = getattr(ctrl.law, "observe_dots", None)  # its target pose by PnP
         self.rng = np.random.default_rng(opt.seed)
         self.noise = FrameNoise(opt.noise_std, self.rng)  # a held frame keeps its noise
         self.targets = sorted({term.target for term in ctrl.task.terms})
@@ -318,6 +319,8 @@ class _Run:
         reading = self.sensor.read(ctrl.task, self.scene, bMc, t)
         if reading.s is None:
             return _lost_outcome(reading), None
+        if self.frames is not None and reading.dots is not None:
+            self.frames(reading.dots, t - (t if reading.stamp is None else reading.stamp))
         s = self.noise(reading)
         meas = Measurement(s, tuple(reading.inv_depth), reading.stamp)
         if opt.check_image and not all(

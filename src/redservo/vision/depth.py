@@ -33,6 +33,11 @@ offers three documented choices (``depth=``):
 
 * ``"true"``: the exact parameters from the true pose (for comparison only:
   no real sensor has them).
+* ``"pose"``: for a point or moment feature, the parameters at the pose of its point set
+  estimated from the detected dots by PnP (:func:`redservo.vision.pnp.pose_inv_depth`,
+  warm-started at the previous frame's pose; at least four dots): a measured 1/Z per point
+  and the measured object plane, as the ideal sensor gives them; the other features (and a
+  frame without a pose) keep the last parameters, the desired ones at first.
 """
 
 from __future__ import annotations
@@ -68,7 +73,7 @@ __all__ = [
     "sphere_plane",
 ]
 
-DepthPolicy = Literal["desired", "estimated", "true"]
+DepthPolicy = Literal["desired", "estimated", "true", "pose"]
 DEPTH_POLICIES: tuple[str, ...] = get_args(DepthPolicy)
 
 

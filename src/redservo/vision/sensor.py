@@ -281,7 +281,8 @@ class ImageSensor:
         if inv_depth is None:
             notes.append(f"no {self.depth} depth available yet")
             return SensorReading(None, (), tuple(lost), "; ".join(notes), image)
-        return SensorReading(s_all, inv_depth, tuple(lost), "; ".join(notes), image)
+        reading = SensorReading(s_all, inv_depth, tuple(lost), "; ".join(notes), image)
+        return reading._replace(dots=set_xy.copy()) if len(set_xy) else reading
 
     def _read_dots(
         self,

@@ -27,6 +27,7 @@ from redservo.vision.ellipse import EllipseMethod, detect_ellipse
 from redservo.vision.lazyframe import pixels
 from redservo.vision.lines import orient_like, refine_line
 from redservo.vision.optics import require_cv2
+from redservo.vision.pnp import pose_term_depth
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tracking import ImageDotTracker
 
@@ -70,6 +71,8 @@ class TermState:
     """Some of the term's dots were not found in this frame."""
     inv_depth: FloatArray | None = None
     """Last inverse-depth parameters."""
+    pose: FloatArray | None = None
+    """The point set's last PnP pose ``cMo`` (4, 4; ``depth = "pose"``), the next one's start."""
     gain: float | None = None
     """Light's gain at a sphere (:func:`measure_sphere`; None = not measured yet)."""
     target: str = ""
@@ -361,7 +364,7 @@ def term_inv_depths(
     sets, detected, xy = dots
     out = []
     for i, (term, st) in enumerate(zip(task.terms, terms)):
-        d: FloatArray | None = truth_d[i]
+        d = truth_d[i] if policy != "pose" else pose_term_depth(task, i, st, sets, detected, xy)
         if policy == "estimated" and st.s is not None and st.kind != "tag":
             kw: dict[str, Any] = {}
             if st.on_dots:

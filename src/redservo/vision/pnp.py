@@ -1,0 +1,190 @@
+"""A target's pose from its tracked dots: PnP of the known points (OpenCV ``solvePnP``).
+
+A model-based law (the ``predictive`` law's moment model, docs/predictive.md) needs the
+target's pose ``cMo``; through a camera it is not measured, but the image sensor tracks the
+target's dots, whose positions on the object (``points_o``) the task knows. :func:`dot_pose`
+solves the Perspective-n-Point problem on them with the camera's intrinsics:
+
+* with a ``guess`` (the previous frame's pose brought to this camera): OpenCV's
+  Levenberg-Marquardt refinement from it (``solvePnPRefineLM``, the iterative method with
+  an extrinsic guess, run to :data:`_CRITERIA`), which follows the pose from frame to frame
+  and keeps the branch it was on;
+* without one, or when that fails: ``SOLVEPNP_IPPE`` for coplanar points (both of its
+  solutions, the one with the smaller reprojection error, refined by LM) or
+  ``SOLVEPNP_SQPNP`` otherwise.
+
+A pose is accepted when every point lies in front of the camera and the RMS reprojection
+error is at most ``max_rms_px`` (default :data:`MAX_RMS_PX`); otherwise, with fewer than
+four dots, or with a non-finite dot, the answer is None (the caller's typed fallback).
+
+Units: metres (points, translation), pixels (reprojection error), normalized image
+coordinates for the dots (undistorted; the intrinsics turn them into ideal pixels).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from redservo._validation import FloatArray
+from redservo.camera import Camera
+from redservo.vision.optics import require_cv2
+
+__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose", "pose_inv_depth", "pose_term_depth"]
+
+MAX_RMS_PX = 2.0
+"""Largest RMS reprojection error (pixels) of an accepted pose: a few times the trackers'
+noise (0.1-0.3 px with the ``realistic`` preset's image noise), far below what a wrong
+correspondence or a wrong branch leaves (tens of pixels)."""
+
+_CRITERIA = (3, 50, 1e-12)
+"""LM's stop: ``COUNT | EPS``, 50 iterations or a step below 1e-12 (OpenCV's default, 20
+and ``FLT_EPSILON``, leaves 1e-7 m on exact dots)."""
+_PLANAR = 1e-6
+"""Points whose smallest principal extent (m) is below this are treated as coplanar."""
+
+
+class DotPose(NamedTuple):
+    """An accepted PnP pose."""
+
+    cMo: FloatArray
+    """(4, 4) the target's frame in the camera frame (m)."""
+    rms_px: float
+    """RMS reprojection error of the dots (pixels)."""
+
+
+def dot_pose(
+    points_o: ArrayLike,
+    xy: ArrayLike,
+    camera: Camera | None = None,
+    guess: FloatArray | None = None,
+    *,
+    max_rms_px: float = MAX_RMS_PX,
+) -> DotPose | None:
+    """The pose of the target whose points ``points_o`` (p, 3; m, its frame) are seen at
+    the normalized image coordinates ``xy`` (p, 2), with ``camera``'s focal lengths and
+    principal point (default :class:`~redservo.camera.Camera`), warm-started at ``guess``
+    (4, 4) when given (module docstring). None when no pose is accepted."""
+    P = np.ascontiguousarray(points_o, dtype=np.float64).reshape(-1, 3)
+    p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if P.shape[0] < 4 or p.shape[0] != P.shape[0] or not np.all(np.isfinite(p)):
+        return None
+    cam = camera if camera is not None else Camera()
+    K = np.array([[cam.px, 0.0, cam.u0], [0.0, cam.py, cam.v0], [0.0, 0.0, 1.0]])
+    uv = np.ascontiguousarray(p * [cam.px, cam.py] + [cam.u0, cam.v0])
+    cv2 = require_cv2()
+    best: DotPose | None = None
+    if guess is not None and np.all(np.isfinite(guess)):
+        best = _iterative(cv2, P, uv, K, guess)
+    if best is None or best.rms_px > max_rms_px:
+        fresh = _fresh(cv2, P, uv, K)
+        if fresh is not None and (best is None or fresh.rms_px < best.rms_px):
+            best = fresh
+    if best is None or not best.rms_px <= max_rms_px:
+        return None
+    return best
+
+
+def _pose(cv2: Any, rvec: Any, tvec: Any) -> FloatArray:
+    T = np.eye(4)
+    T[:3, :3] = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3))[0]
+    T[:3, 3] = np.asarray(tvec, dtype=np.float64).reshape(3)
+    return T
+
+
+def _checked(P: FloatArray, uv: FloatArray, K: FloatArray, T: FloatArray) -> DotPose | None:
+    """``T`` with its RMS reprojection error (pixels), None when a point is not in front."""
+    if not np.all(np.isfinite(T)):
+        return None
+    Pc = P @ T[:3, :3].T + T[:3, 3]
+    if not np.all(Pc[:, 2] > 1e-6):
+        return None
+    proj = Pc[:, :2] / Pc[:, 2:3] * [K[0, 0], K[1, 1]] + [K[0, 2], K[1, 2]]
+    return DotPose(T, float(np.sqrt(np.mean(np.sum((proj - uv) ** 2, axis=1)))))
+
+
+def _iterative(
+    cv2: Any, P: FloatArray, uv: FloatArray, K: FloatArray, guess: FloatArray
+) -> DotPose | None:
+    """LM from ``guess`` (the iterative method with the extrinsic guess)."""
+    rvec = cv2.Rodrigues(np.ascontiguousarray(guess[:3, :3], dtype=np.float64))[0]
+    tvec = np.ascontiguousarray(guess[:3, 3], dtype=np.float64).reshape(3, 1)
+    if guess[2, 3] <= 0.0:  # the target behind the camera: no start for LM
+        return None
+    try:
+        rvec, tvec = cv2.solvePnPRefineLM(P, uv, K, None, rvec, tvec, _CRITERIA)
+    except cv2.error:
+        return None
+    return _checked(P, uv, K, _pose(cv2, rvec, tvec))
+
+
+def _fresh(cv2: Any, P: FloatArray, uv: FloatArray, K: FloatArray) -> DotPose | None:
+    """Without a guess: IPPE (coplanar points; the better of its two solutions) or SQPnP,
+    refined by LM."""
+    spread = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)
+    method = cv2.SOLVEPNP_IPPE if spread[-1] < _PLANAR else cv2.SOLVEPNP_SQPNP
+    try:
+        n, rvecs, tvecs, _ = cv2.solvePnPGeneric(P, uv, K, None, flags=method)
+    except cv2.error:
+        return None
+    best: DotPose | None = None
+    for k in range(int(n)):
+        try:
+            rvec, tvec = cv2.solvePnPRefineLM(
+                P, uv, K, None, rvecs[k].copy(), tvecs[k].copy(), _CRITERIA
+            )
+        except cv2.error:
+            rvec, tvec = rvecs[k], tvecs[k]
+        cand = _checked(P, uv, K, _pose(cv2, rvec, tvec))
+        if cand is not None and (best is None or cand.rms_px < best.rms_px):
+            best = cand
+    return best
+
+
+def pose_inv_depth(
+    feature: Any, set_points: FloatArray, set_xy: FloatArray, guess: FloatArray | None
+) -> tuple[FloatArray, FloatArray] | None:
+    """The image sensor's ``depth = "pose"`` (:mod:`redservo.vision.depth`): the inverse-depth
+    parameters of a point or moment ``feature`` (its 1/Z, 1/m; the plane ``(A, B, C)``) at
+    the PnP pose of its point set (``set_points`` (N, 3), m; ``set_xy`` (N, 2) normalized,
+    NaN for a dot not detected: at least four detected), warm-started at ``guess``:
+    ``(inv_depth, cMo)``, or None (no accepted pose: the caller keeps the last one). The
+    reprojection error is judged with the default camera's focal length (600 px)."""
+    P = np.asarray(set_points, dtype=float).reshape(-1, 3)
+    p = np.asarray(set_xy, dtype=float).reshape(-1, 2)
+    ok = np.isfinite(p).all(axis=1)
+    pose = dot_pose(P[ok], p[ok], None, guess)
+    if pose is None:
+        return None
+    return np.asarray(feature.measure(pose.cMo).inv_depth, dtype=float), pose.cMo
+
+
+def pose_term_depth(
+    task: Any,
+    i: int,
+    st: Any,
+    sets: Mapping[str, FloatArray],
+    detected: NDArray[np.bool_],
+    xy: FloatArray,
+) -> FloatArray | None:
+    """``depth = "pose"`` for term ``i`` of ``task`` in the image sensor (its
+    :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
+    point set, the dots detected this frame and every dot's normalized position): a point
+    or moment term's parameters at its point set's PnP pose (:func:`pose_inv_depth`,
+    warm-started at ``st.pose``, which it updates); else (another feature, no pose) None,
+    the caller keeping the last parameters, or the desired ones when there are none yet."""
+    from redservo.vision.terms import set_dots
+
+    term = task.terms[i]
+    if st.kind in ("point", "moments") and st.s is not None:
+        dots = set_dots(sets, detected, term.target, xy)
+        got = pose_inv_depth(term.feature, sets[term.target], dots, st.pose)
+        if got is not None:
+            st.pose = got[1]
+            return got[0]
+    if st.inv_depth is None and task.inv_depth_star is not None:
+        return np.asarray(task.inv_depth_star[i], dtype=float)
+    return None
