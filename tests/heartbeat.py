@@ -8,10 +8,12 @@ As a pytest plugin for ``make test`` (``-p tests.heartbeat``):
 
 ``pytest -q`` prints a dot when a test ends, so a test that compiles the numba kernels, or
 the collection of 2400 tests on two busy cores, can leave the terminal silent for a minute.
-This plugin prints one line every :data:`EVERY` seconds while the collection or one test runs
-on: ``… still running tests/test_x.py::test_y (20 s)``. It writes to a copy of the original
-stderr taken when pytest loads it (before pytest captures the output of the tests), and it
-changes nothing else: the tests themselves never see it.
+This plugin prints one line every :data:`EVERY` seconds for the collection and for each test
+that has run that long: ``… still running tests/test_x.py::test_y (20 s)``. Under pytest-xdist
+(``-n 2``) it talks in the controller only, which hears when each worker's tests start and end,
+so two long tests give two lines. It writes to a copy of the original stderr taken when pytest
+loads it (before pytest captures the output of the tests), and it changes nothing else: the
+tests themselves never see it.
 """
 
 from __future__ import annotations
@@ -32,20 +34,25 @@ try:
 except OSError:  # pragma: no cover - no stderr
     _OUT = None
 _lock = threading.Lock()
-_state: dict[str, Any] = {"what": "collecting the tests", "since": time.monotonic()}
+_state: dict[str, Any] = {"collecting": time.monotonic(), "running": {}}
+"""``collecting``: monotonic start of the collection, or None once a test started;
+``running``: ``{nodeid: monotonic start}`` of the tests running now (two or more under
+pytest-xdist, whose controller hears every worker's test start and end)."""
 _stop = threading.Event()
 
 
-def _set(what: str | None) -> None:
-    with _lock:
-        _state["what"], _state["since"] = what, time.monotonic()
-
-
 def line(now: float) -> str | None:
-    """The line to print at time ``now`` (``time.monotonic``), or None when nothing runs."""
+    """The lines to print at time ``now`` (``time.monotonic``): the collection while it runs,
+    and every test running for :data:`EVERY` s or more (the others still print their dot
+    within :data:`EVERY` s); None when there is nothing to say."""
     with _lock:
-        what, since = _state["what"], _state["since"]
-    return f"\n  … {what} ({now - since:.0f} s)\n" if what else None
+        collecting, running = _state["collecting"], dict(_state["running"])
+    items = [] if collecting is None else [("collecting the tests", collecting)]
+    items += [(f"still running {nodeid}", since) for nodeid, since in running.items()]
+    long = [
+        f"\n  … {what} ({now - since:.0f} s)\n" for what, since in items if now - since >= EVERY
+    ]
+    return "".join(long) or None
 
 
 def _beat() -> None:
@@ -59,19 +66,30 @@ def _beat() -> None:
 
 
 def pytest_configure(config: Any) -> None:
-    threading.Thread(target=_beat, daemon=True, name="pytest-heartbeat").start()
+    # An xdist worker's stderr is not the terminal; the controller hears its tests.
+    if not hasattr(config, "workerinput"):
+        threading.Thread(target=_beat, daemon=True, name="pytest-heartbeat").start()
 
 
 def pytest_collection_finish(session: Any) -> None:
-    _set(None)
+    with _lock:
+        _state["collecting"] = None
 
 
 def pytest_runtest_logstart(nodeid: str, location: Any) -> None:
-    _set(f"still running {nodeid}")
+    with _lock:
+        _state["collecting"] = None
+        _state["running"][nodeid] = time.monotonic()
 
 
 def pytest_runtest_logfinish(nodeid: str, location: Any) -> None:
-    _set(None)
+    with _lock:
+        _state["running"].pop(nodeid, None)
+
+
+def pytest_runtest_logreport(report: Any) -> None:
+    if report.when not in ("setup", "call"):  # teardown, or xdist's report of a crashed worker
+        pytest_runtest_logfinish(report.nodeid, None)
 
 
 def pytest_unconfigure(config: Any) -> None:
