@@ -73,7 +73,7 @@ demo: $(STAMP) egl
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
 	@$(MAKE) --no-print-directory -j2 typecheck warm
-	@$(MAKE) --no-print-directory pytest
+	@$(MAKE) --no-print-directory pytest WARMED=1
 
 lint: $(TSTAMP)
 	@echo "== lint: ruff check and ruff format --check (a few seconds)"
@@ -93,8 +93,9 @@ warm: $(TSTAMP)
 
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
+# `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
 PYTEST_WORKERS ?= 2
-pytest: $(TSTAMP) chromium egl warm
+pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
 	$(BIN)/python -m pytest -q -p tests.heartbeat -n $(PYTEST_WORKERS) --dist loadgroup
 
