@@ -164,6 +164,7 @@ def test_the_heartbeat_names_the_long_step(monkeypatch: pytest.MonkeyPatch) -> N
 
     monkeypatch.setitem(heartbeat._state, "collecting", None)
     monkeypatch.setitem(heartbeat._state, "running", {})
+    monkeypatch.setitem(heartbeat._state, "quiet", 0.0)
     heartbeat.pytest_runtest_logstart("tests/test_x.py::test_y", None)
     since = heartbeat._state["running"]["tests/test_x.py::test_y"]
     assert heartbeat.line(since + 20.2) == "\n  … still running tests/test_x.py::test_y (20 s)\n"

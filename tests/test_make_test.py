@@ -16,9 +16,11 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture
 def quiet_heartbeat(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The plugin's state as after the collection, with no test running."""
+    """The plugin's state as after the collection, with no test running and the terminal
+    silent since long ago."""
     monkeypatch.setitem(heartbeat._state, "collecting", None)
     monkeypatch.setitem(heartbeat._state, "running", {})
+    monkeypatch.setitem(heartbeat._state, "quiet", 0.0)
 
 
 def test_the_heartbeat_names_each_long_test_of_two_workers(quiet_heartbeat: None) -> None:
@@ -38,11 +40,18 @@ def test_the_heartbeat_names_each_long_test_of_two_workers(quiet_heartbeat: None
     )
 
 
-def test_the_heartbeat_is_quiet_while_short_tests_print_their_dots(quiet_heartbeat: None) -> None:
-    heartbeat.pytest_runtest_logstart("tests/test_a.py::test_short", None)
-    start = heartbeat._state["running"]["tests/test_a.py::test_short"]
-    assert heartbeat.line(start + heartbeat.EVERY - 0.5) is None
-    assert heartbeat.line(start + heartbeat.EVERY + 0.5) is not None
+def test_the_heartbeat_speaks_after_ten_silent_seconds_whatever_runs(quiet_heartbeat: None) -> None:
+    """A line once the terminal has had no dot for EVERY s, even when each of the running tests
+    started less than EVERY s ago; none while dots come."""
+    heartbeat.pytest_runtest_logstart("tests/test_a.py::test_one", None)
+    heartbeat.pytest_runtest_logfinish("tests/test_a.py::test_one", None)  # its dot
+    dot = heartbeat._state["quiet"]
+    heartbeat.pytest_runtest_logstart("tests/test_a.py::test_two", None)
+    heartbeat._state["running"]["tests/test_a.py::test_two"] = dot + 4.5
+    assert heartbeat.line(dot + heartbeat.EVERY - 0.5) is None
+    assert heartbeat.line(dot + heartbeat.EVERY + 0.5) == (
+        "\n  … still running tests/test_a.py::test_two (6 s)\n"
+    )
 
 
 def test_a_crashed_worker_does_not_leave_its_test_running(quiet_heartbeat: None) -> None:
