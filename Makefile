@@ -8,7 +8,7 @@ DSTAMP := $(VENV)/.installed-docs
 OUT    ?= out
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: demo test lint typecheck pytest bench clean chromium egl docs
+.PHONY: demo test lint typecheck warm pytest bench clean chromium egl docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -68,9 +68,12 @@ egl:
 demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
-## make test: create the environment, install, lint (ruff), type-check (mypy) and run the tests
+## make test: create the environment, install, lint (ruff), type-check (mypy) while the numba
+## kernels compile on the other core, and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
-test: lint typecheck pytest
+test: lint
+	@$(MAKE) --no-print-directory -j2 typecheck warm
+	@$(MAKE) --no-print-directory pytest WARMED=1
 
 lint: $(TSTAMP)
 	@echo "== lint: ruff check and ruff format --check (a few seconds)"
@@ -81,9 +84,20 @@ typecheck: $(TSTAMP)
 	@echo "== type-check: mypy on src/redservo (about a minute the first time, cached after)"
 	$(BIN)/python -m tests.heartbeat $(BIN)/mypy
 
-pytest: $(TSTAMP) chromium egl
-	@echo "== tests: pytest collects the tests, then prints a dot per test (and a line every 10 s while one runs long: the first ones compile the numba kernels)"
-	$(BIN)/python -m pytest -q -p tests.heartbeat
+# The kernels the tests run compiled (tests/conftest.py), once, before the workers start: each
+# worker would otherwise compile the same kernels at the same time. A warm cache takes seconds.
+# MUJOCO_GL=egl: a MJCF robot imports mujoco before redservo.physics sets it (the src bug is reported).
+warm: $(TSTAMP)
+	@echo "== warm-up: redservo warmup compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/redservo warmup
+
+# Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
+# one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
+# `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
+PYTEST_WORKERS ?= 2
+pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
+	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
+	$(BIN)/python -m pytest -q -p tests.heartbeat -n $(PYTEST_WORKERS) --dist loadgroup
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
 ## into site/, strictly: a broken link or reference fails the build

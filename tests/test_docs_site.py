@@ -158,12 +158,15 @@ def test_every_make_step_says_what_it_does() -> None:
     assert "docs" in re.search(r"^\.PHONY:(.*)$", makefile, re.M).group(1).split()
 
 
-def test_the_heartbeat_names_the_long_step() -> None:
+def test_the_heartbeat_names_the_long_step(monkeypatch: pytest.MonkeyPatch) -> None:
     """make test's pytest plugin (tests/heartbeat.py) says what runs, and for how long."""
     from tests import heartbeat
 
+    monkeypatch.setitem(heartbeat._state, "collecting", None)
+    monkeypatch.setitem(heartbeat._state, "running", {})
+    monkeypatch.setitem(heartbeat._state, "quiet", 0.0)
     heartbeat.pytest_runtest_logstart("tests/test_x.py::test_y", None)
-    since = heartbeat._state["since"]
+    since = heartbeat._state["running"]["tests/test_x.py::test_y"]
     assert heartbeat.line(since + 20.2) == "\n  … still running tests/test_x.py::test_y (20 s)\n"
     heartbeat.pytest_runtest_logfinish("tests/test_x.py::test_y", None)
     assert heartbeat.line(since + 30.0) is None
