@@ -86,10 +86,9 @@ typecheck: $(TSTAMP)
 
 # The kernels the tests run compiled (tests/conftest.py), once, before the workers start: each
 # worker would otherwise compile the same kernels at the same time. A warm cache takes seconds.
-# MUJOCO_GL=egl: a MJCF robot imports mujoco before redservo.physics sets it (the src bug is reported).
 warm: $(TSTAMP)
 	@echo "== warm-up: redservo warmup compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/redservo warmup
+	$(BIN)/redservo warmup
 
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.

@@ -309,3 +309,27 @@ def test_every_file_attribute_and_include_stays_inside_the_models_folder(tmp_pat
     )
     with pytest.raises(GeometryError, match=r"arm\.xml: <mesh file='\.\./\.\./secret\.png'>"):
         MJCFRobot(model / "main.xml", tip="tip")
+
+
+def test_a_mjcf_robot_imports_mujoco_with_the_offscreen_default() -> None:
+    """MuJoCo reads MUJOCO_GL at its first import: a MJCF robot loaded first in a process
+    must leave the default of redservo.physics (egl) in place, or a MuJoCo simulator or
+    camera built later in the same process cannot render (redservo warmup stopped at
+    panda-mujoco-4points after menagerie-panda-4points)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import os, sys\n"
+        "from redservo.robots.mjcf import MJCFRobot, shipped_mjcf\n"
+        "MJCFRobot(shipped_mjcf('ur5e'), tip='camera')\n"
+        "assert 'mujoco' in sys.modules\n"
+        "print(os.environ.get('MUJOCO_GL'))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "egl"

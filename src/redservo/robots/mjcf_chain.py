@@ -50,6 +50,10 @@ _ASSET_DIRS = {
 
 
 def _mujoco() -> Any:
+    # MuJoCo reads MUJOCO_GL once, at its first import: the default of redservo.physics
+    # (egl, offscreen) must be in place before a MJCF robot imports it first, or a later
+    # MuJoCo simulator or camera of the same process cannot render (physics/_mj.py)
+    os.environ.setdefault("MUJOCO_GL", "egl")
     try:
         import mujoco
     except ImportError as exc:  # pragma: no cover - mujoco is a dependency of the extra
