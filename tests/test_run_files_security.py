@@ -127,3 +127,14 @@ def test_meshes_of_the_robot_package_are_copied(tmp_path: Path) -> None:
         report = bundle_files(out, {"robot": {"urdf": str(source)}})
         assert report["refused"] == [] and report["missing"] == []
         assert len(report["copied"]) == 4
+
+
+def test_a_mesh_that_cannot_be_found_is_said_not_only_listed(tmp_path: Path) -> None:
+    """A referenced file that is not found is not copied; the user is told (a campaign keeps
+    no report of the copy, so a list alone would be lost)."""
+    urdf = _robot(tmp_path / "user", ["meshes/base.stl", "meshes/gone.stl"])
+    out = tmp_path / "run"
+    with pytest.warns(RunFileWarning, match=r"1 referenced file\(s\) not found.*gone\.stl"):
+        report = bundle_files(out, {"robot": {"urdf": str(urdf)}})
+    assert report["missing"] == ["robot.urdf: mesh meshes/gone.stl"]
+    assert _copied_files(out) == {"files/robot.urdf", "files/meshes/base.stl"}

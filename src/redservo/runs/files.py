@@ -247,6 +247,14 @@ def bundle_files(out: Path, table: dict[str, Any]) -> dict[str, list[str]]:
             report["copied"].append(dest.relative_to(out).as_posix())
         assert isinstance(sub, dict)
         sub[key] = dest.relative_to(out).as_posix()
+    if report["missing"]:  # said, not only listed: a campaign keeps no report
+        warnings.warn(
+            f"{len(report['missing'])} referenced file(s) not found, so not copied into "
+            f"{out / FOLDER} (a replay of the moved directory will not have them): "
+            + "; ".join(report["missing"]),
+            RunFileWarning,
+            stacklevel=2,
+        )
     return report
 
 
