@@ -8,7 +8,7 @@ DSTAMP := $(VENV)/.installed-docs
 OUT    ?= out
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: demo test lint typecheck warm pytest bench clean chromium egl docs
+.PHONY: demo test lint typecheck warm warm-examples pytest bench clean chromium egl docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -72,7 +72,7 @@ demo: $(STAMP) egl
 ## kernels compile on the other core, and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
-	@$(MAKE) --no-print-directory -j2 typecheck warm
+	@$(MAKE) --no-print-directory -j2 typecheck warm warm-examples
 	@$(MAKE) --no-print-directory pytest WARMED=1
 
 lint: $(TSTAMP)
@@ -90,11 +90,16 @@ warm: $(TSTAMP)
 	@echo "== warm-up: redservo warmup compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
 	$(BIN)/redservo warmup
 
+# The worked extension examples (a law, a robot kind) compile a step chain of their own, once,
+# into examples/__pycache__/numba-examples (tests/examples_cache.py), on the core mypy frees.
+warm-examples: $(TSTAMP)
+	$(BIN)/python -m tests.examples_cache
+
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
 PYTEST_WORKERS ?= 2
-pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
+pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm warm-examples)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
 	$(BIN)/python -m pytest -q -p tests.heartbeat -n $(PYTEST_WORKERS) --dist loadgroup
 

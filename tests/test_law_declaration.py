@@ -24,6 +24,7 @@ from redservo.redundancy.declare import (
     law_slots,
 )
 from redservo.redundancy.options import COMMON_SLOTS, RCOND, Option, slotted
+from tests.examples_cache import run_example
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "custom_law_damped.py"
@@ -132,18 +133,7 @@ def test_only_a_class_declaring_its_kernel_or_defined_beside_it_runs_it() -> Non
     assert kernel_class(law_class("qp")) is None
 
 
-def _run_example(env: dict[str, str]) -> str:
-    done = subprocess.run(
-        [sys.executable, str(EXAMPLE), "--quick"],
-        env={**os.environ, "PYTHONPATH": str(ROOT / "src"), **env},
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
-    return done.stdout
-
-
+@pytest.mark.xdist_group("examples")  # one compiled chain (tests/examples_cache.py)
 def test_a_new_law_is_one_file_and_runs_compiled() -> None:
     """The example's law (one file) has an id, runs on the compiled step through ``run``
     (hence ``simulate``) and on the campaign's compiled loop, beside a shipped law."""
@@ -151,10 +141,10 @@ def test_a_new_law_is_one_file_and_runs_compiled() -> None:
 
     if not compiled():
         pytest.skip("numba is not installed")
-    # its own numba cache: a process with another set of laws recompiles the step (the
-    # generated dispatch is in its callers' stamp); this one keeps its compiled step here
-    cache = EXAMPLE.parent / "__pycache__" / "numba-custom-law"
-    text = _run_example({"NUMBA_CACHE_DIR": str(cache)})
+    # its own numba cache, shared with the robot-kind example (tests/examples_cache.py)
+    done = run_example("custom_law_damped")
+    assert done.returncode == 0, done.stderr
+    text = done.stdout
     assert "engine compiled" in text
     assert "campaign: classical" in text and "campaign: damped" in text
     assert "Engine: 4 run(s) computed by this call on the compiled loop." in text

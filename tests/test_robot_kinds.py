@@ -17,6 +17,7 @@ import pytest
 from redservo.errors import ConfigurationError
 from redservo.robots import Afma6, Humanoid9, Panda, make_robot, register_robot
 from redservo.robots.pack import AFMA6, CHAIN, DH, RobotKind
+from tests.examples_cache import run_example
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "scara_robot.py"
@@ -126,6 +127,7 @@ def test_the_example_kind_matches_its_finite_differences_on_the_reference_path()
     assert done.stdout.split() == ["ok", "3"]
 
 
+@pytest.mark.xdist_group("examples")  # one compiled chain (tests/examples_cache.py)
 def test_a_new_robot_kind_is_one_file_and_runs_compiled() -> None:
     """The example's SCARA (one file: kernel, declaration, pack, one registry line) gets the
     next kind code and runs on the compiled step through ``run`` and on the campaign's
@@ -134,15 +136,8 @@ def test_a_new_robot_kind_is_one_file_and_runs_compiled() -> None:
 
     if not compiled():
         pytest.skip("numba is not installed")
-    # its own numba cache: the generated dispatch (with the SCARA) is in its callers' stamp
-    cache = EXAMPLE.parent / "__pycache__" / "numba-scara-robot"
-    done = subprocess.run(
-        [sys.executable, str(EXAMPLE), "--quick"],
-        env={**os.environ, "PYTHONPATH": str(ROOT / "src"), "NUMBA_CACHE_DIR": str(cache)},
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+    # its own numba cache, shared with the law example (tests/examples_cache.py)
+    done = run_example("scara_robot")
     assert done.returncode == 0, done.stderr
     text = done.stdout
     assert "kind: scara code 3" in text

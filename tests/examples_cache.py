@@ -1,0 +1,61 @@
+"""The worked extension examples run compiled, in one numba cache of their own.
+
+``examples/custom_law_damped.py`` (a law) and ``examples/scara_robot.py`` (a robot kind)
+each add a branch to a generated dispatch (laws, robot kinds), which is part of the cache
+stamp of every step that calls it: a process with either extension compiles its own step
+chain, which must not overwrite the test session's cache. Both run here in processes that
+declare both extensions (each example is still one file), so they share one compiled chain
+in :data:`CACHE` instead of compiling two (about 150-190 CPU-s each on a cold cache).
+
+``python -m tests.examples_cache`` compiles it ahead of the tests (``make test`` runs it on
+the core that mypy leaves free while ``redservo warmup`` runs on the other); a warm cache
+takes seconds.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+CACHE = EXAMPLES / "__pycache__" / "numba-examples"
+"""The examples' numba cache (gitignored with ``__pycache__``)."""
+NAMES = ("custom_law_damped", "scara_robot")
+
+
+def run_example(name: str) -> subprocess.CompletedProcess[str]:
+    """Run ``examples/<name>.py --quick`` compiled, in a process that declares both
+    extensions, with :data:`CACHE` as its numba cache."""
+    code = (
+        "import sys\n"
+        f"sys.path.insert(0, {str(EXAMPLES)!r})\n"
+        f"import {', '.join(NAMES)}\n"
+        f"sys.exit({name}.main(['--quick']))\n"
+    )
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT / "src"),
+        "NUMBA_CACHE_DIR": str(CACHE),
+        "REDSERVO_KERNELS": "compiled",
+    }
+    return subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False
+    )
+
+
+def main() -> int:
+    """Compile the examples' chain (one line per example)."""
+    for name in NAMES:
+        print(f"== examples: {name} --quick, compiled into {CACHE.relative_to(ROOT)}", flush=True)
+        done = run_example(name)
+        if done.returncode != 0:
+            print(done.stdout + done.stderr, file=sys.stderr)
+            return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
