@@ -65,7 +65,9 @@ def test_the_culled_measurement_gives_the_full_outputs_bit_for_bit(seed: int) ->
         assert np.all(J[~done] == 0.0) and np.all(df[~done] > D_I)
         culled_seen += int(np.sum(~done))
         assert _records(d, kinds) == _records(df, kinds)
-        assert _same(repulsive(d, J, D_SAFE, D_I, 0.3, 0.01), repulsive(df, Jf, D_SAFE, D_I, 0.3, 0.01))
+        assert _same(
+            repulsive(d, J, D_SAFE, D_I, 0.3, 0.01), repulsive(df, Jf, D_SAFE, D_I, 0.3, 0.01)
+        )
         for scale in (0.5, 3.0, 30.0):  # rad/s: slow to far beyond the limits
             qd = rng.normal(size=robot.n) * scale
             dc, Jc = d.copy(), J.copy()
