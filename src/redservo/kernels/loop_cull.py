@@ -1,7 +1,7 @@
 """Broad phase: the pairs the campaign loop and the shield check need, and no others.
 
 The capsule/box and capsule/cylinder distances are searches (:mod:`redservo.kernels.collide`,
-tens of µs); the other pairs are closed forms. :func:`measure_culled` gives every pair's
+tens of µs); the other pairs are closed forms, whose Jacobians still cost allocations. :func:`measure_culled` gives every pair's
 distance and Jacobian exactly as :func:`~redservo.kernels.loop_collide.pair_distances` does
 (the same kernel, :func:`~redservo.kernels.loop_collide.pair_one`, so the same bits) for
 the pairs it computes, and ``d = inf``, ``J = 0`` for the pairs it skips. Why the skipped
@@ -12,8 +12,10 @@ pairs change nothing that is used:
   convex ``A ⊂ B`` the signed distance of a point to ``A`` is at least its signed distance to
   ``B``, so the capsule/capsule distance to the enclosing capsule is at most the true pair
   distance, and the search returns the distance at *some* point of the segment, at least the
-  minimum. :func:`pair_bounds` subtracts :data:`MARGIN` (1 nm, far above the rounding of
-  either computation at workspace scale) and gives ``lb ≤ d`` as computed, strictly.
+  minimum. A sphere, capsule or plane's bound is the pair's own distance (the same call as
+  :func:`~redservo.kernels.loop_collide.pair_one`'s): skipping saves its Jacobian.
+  :func:`pair_bounds` subtracts :data:`MARGIN` (1 nm, far above the rounding of either
+  computation at workspace scale) and gives ``lb < d`` as computed, strictly.
 * **The records** (:func:`redservo.kernels.loop_avoid.collide_check`: the smallest distance,
   its pair, the minimum per kind, the steps within ``d_i``, a contact at ``d ≤ 0``): per
   kind, the pairs are taken in ascending ``lb`` and computed until the next one has ``lb >
@@ -44,7 +46,7 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.collide import capsule_capsule
-from redservo.kernels.loop_collide import BOX, CYLINDER, dh_points, pair_one
+from redservo.kernels.loop_collide import BOX, CYLINDER, _obstacle, dh_points, pair_one
 
 __all__ = ["MARGIN", "exact_scale", "fill_for_shield", "measure_culled", "pair_bounds"]
 
@@ -70,16 +72,18 @@ def _hull(kind: int, M: Any, size: Any) -> Any:
 @kernel
 def pair_bounds(O: Any, geom: Any) -> Any:
     """``lb (P,)``: a lower bound of each pair's distance (m) at the frame origins ``O``;
-    ``-inf`` for the pairs in closed form (always computed)."""
+    ``-inf`` for the self pairs (always computed)."""
     cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
     C, K = cap_ab.shape[0], ob_kind.shape[0]
     lb = np.full(C * K + self_ab.shape[0], -np.inf)
     for p in range(C * K):
         o, c = p // C, p % C
+        A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
         if ob_kind[o] == BOX or ob_kind[o] == CYLINDER:
             e0, e1, R = _hull(ob_kind[o], ob_M[o], ob_size[o])
-            A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
             lb[p] = capsule_capsule(A, B, cap_r[c], e0, e1, R)[0] - MARGIN
+        else:
+            lb[p] = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])[0] - MARGIN
     return lb
 
 
