@@ -49,7 +49,7 @@ class CompiledGeometry(NamedTuple):
     ) -> tuple[float, int]:
         """The shield's scale and pair ``sk`` checked on the geometry (:func:`exact_scale`);
         ``lim`` is ``(dt, d_safe, d_influence)`` (s, m, m)."""
-        from redservo.kernels.loop_collide import exact_scale
+        from redservo.kernels.loop_cull import exact_scale
 
         qa, qv = (np.ascontiguousarray(x, dtype=np.float64) for x in (q, qd))
         dt, d_safe, d_i = (float(x) for x in lim)

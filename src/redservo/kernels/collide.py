@@ -159,28 +159,79 @@ def _point_solid(p: Any, R: Any, t: Any, size: Any, cylinder: bool) -> Any:
 
 
 @kernel
+def _box_gap(local: Any, half: Any, v: Any) -> float:
+    """The distance of :func:`_point_box` from ``local = Rᵀ (p − t)``, by the same
+    operations (m); ``v`` (3,) is scratch."""
+    inside = True
+    for k in range(3):
+        if abs(local[k]) > half[k]:
+            inside = False
+    if not inside:
+        for k in range(3):
+            v[k] = local[k] - min(max(local[k], -half[k]), half[k])
+        return np.sqrt(np.dot(v, v))
+    depth = half[0] - abs(local[0])
+    for k in range(1, 3):
+        if half[k] - abs(local[k]) < depth:
+            depth = half[k] - abs(local[k])
+    return -depth
+
+
+@kernel
+def _cylinder_gap(local: Any, size: Any, v: Any) -> float:
+    """The distance of :func:`_point_cylinder` from ``local = Rᵀ (p − t)``, by the same
+    operations (m); ``v`` (3,) is scratch."""
+    radius, h = size[0], 0.5 * size[1]
+    rho = np.sqrt(local[0] * local[0] + local[1] * local[1])
+    dr, dz = rho - radius, abs(local[2]) - h
+    if dr <= 0.0 and dz <= 0.0:
+        return dz if dz >= dr else dr
+    v[:] = 0.0
+    if dr > 0.0:
+        v[0] = local[0] - local[0] * (radius / rho)
+        v[1] = local[1] - local[1] * (radius / rho)
+    if dz > 0.0:
+        v[2] = local[2] - (h if local[2] >= 0.0 else -h)
+    return np.sqrt(np.dot(v, v))
+
+
+@kernel
+def _gap(x: float, a0: Any, ab: Any, R: Any, t: Any, size: Any, cylinder: bool, w: Any) -> float:
+    """``_point_solid(a0 + x ab, …)[0]`` without the nearest point: the search's objective,
+    element for element the operations of the full form; ``w`` (2, 3) is scratch."""
+    for k in range(3):
+        w[0, k] = (a0[k] + x * ab[k]) - t[k]
+    local = R.T @ w[0]
+    if cylinder:
+        return _cylinder_gap(local, size, w[1])
+    return _box_gap(local, size, w[1])
+
+
+@kernel
 def _capsule_solid(a0: Any, a1: Any, r: float, M: Any, size: Any, cylinder: bool) -> Any:
     """Capsule against a convex solid (module docstring): golden section on the segment."""
     R = np.ascontiguousarray(M[:3, :3])
     t = np.ascontiguousarray(M[:3, 3])
+    ab = a1 - a0  # the same difference at every point: the iterates of the full form
+    w = np.empty((2, 3))
     g = 0.5 * (np.sqrt(5.0) - 1.0)
     lo, hi = 0.0, 1.0
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    f1 = _point_solid(a0 + x1 * (a1 - a0), R, t, size, cylinder)[0]
-    f2 = _point_solid(a0 + x2 * (a1 - a0), R, t, size, cylinder)[0]
+    f1 = _gap(x1, a0, ab, R, t, size, cylinder, w)
+    f2 = _gap(x2, a0, ab, R, t, size, cylinder, w)
     for _ in range(GOLDEN_ITERATIONS):
         if f1 <= f2:
             hi, x2, f2 = x2, x1, f1
             x1 = hi - g * (hi - lo)
-            f1 = _point_solid(a0 + x1 * (a1 - a0), R, t, size, cylinder)[0]
+            f1 = _gap(x1, a0, ab, R, t, size, cylinder, w)
         else:
             lo, x1, f1 = x1, x2, f2
             x2 = lo + g * (hi - lo)
-            f2 = _point_solid(a0 + x2 * (a1 - a0), R, t, size, cylinder)[0]
+            f2 = _gap(x2, a0, ab, R, t, size, cylinder, w)
     best_s = 0.5 * (lo + hi)
-    best_f = _point_solid(a0 + best_s * (a1 - a0), R, t, size, cylinder)[0]
+    best_f = _gap(best_s, a0, ab, R, t, size, cylinder, w)
     for s in (0.0, 1.0):  # the minimum may sit on an end
-        f = _point_solid(a0 + s * (a1 - a0), R, t, size, cylinder)[0]
+        f = _gap(s, a0, ab, R, t, size, cylinder, w)
         if f < best_f:
             best_s, best_f = s, f
     c = a0 + best_s * (a1 - a0)

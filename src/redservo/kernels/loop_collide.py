@@ -6,9 +6,11 @@ A robot whose collision model is one capsule per link of a DH chain
 every pair's signed distance and Jacobian ``J_d = nᵀ (J_p(a) − J_p(b))`` with the primitive
 kernels of :mod:`redservo.kernels.collide`. :class:`~redservo.control.avoidance.Collision`
 measures with these kernels when it can (:mod:`redservo.collision.pack`), and so does the
-compiled campaign loop (:mod:`redservo.kernels.loop_avoid`): both paths get the same
-numbers to the bit. :func:`repulsive`, :func:`shield_scale` and :func:`exact_scale` are the
-arithmetic of :mod:`redservo.control.avoidance` (its docstrings give the equations).
+compiled campaign loop (:mod:`redservo.kernels.loop_avoid`, which skips the pairs that
+cannot matter: :mod:`redservo.kernels.loop_cull`): both paths get the same numbers to the
+bit. :func:`repulsive`, :func:`shield_scale` and
+:func:`redservo.kernels.loop_cull.exact_scale` are the arithmetic of
+:mod:`redservo.control.avoidance` (its docstrings give the equations).
 
 Packs: ``arm = (par, base, flange, standard)`` (:mod:`redservo.kernels.kinematics`);
 ``geom = (cap_ab (C, 2) frame indices, cap_r (C,) radii, ob_kind (K,), ob_M (K, 4, 4),
@@ -40,17 +42,15 @@ __all__ = [
     "PLANE",
     "SPHERE",
     "dh_points",
-    "exact_scale",
     "measure_arm",
     "pair_distances",
+    "pair_one",
     "repulsive",
     "shield_scale",
 ]
 
 SPHERE, CAPSULE, CYLINDER, BOX, PLANE = 0, 1, 2, 3, 4
 """Obstacle kinds of the ``geom`` pack."""
-_SHRINK, _TRIES = 0.6, 8
-""":func:`exact_scale`: the factor and the number of reductions before the scale is 0."""
 
 
 @kernel
@@ -122,30 +122,38 @@ def _normal(d: float, a: Any, b: Any, fallback: Any) -> Any:
 
 
 @kernel
+def pair_one(p: int, O: Any, JO: Any, geom: Any) -> Any:
+    """``(d, J_d (n,), wb (3,), normal (3,))`` of pair ``p`` (module docstring)."""
+    cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
+    C, K = cap_ab.shape[0], ob_kind.shape[0]
+    n = JO.shape[2]
+    c = p % C if p < C * K else self_ab[p - C * K, 0]
+    A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
+    JA, JB = JO[cap_ab[c, 0]], JO[cap_ab[c, 1]]
+    if p < C * K:
+        o = p // C
+        dk, a, b = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])
+        Jb = np.zeros((3, n))
+    else:
+        e = self_ab[p - C * K, 1]
+        A2, B2 = O[cap_ab[e, 0]], O[cap_ab[e, 1]]
+        dk, a, b = capsule_capsule(A, B, cap_r[c], A2, B2, cap_r[e])
+        Jb = _axis_jacobian(b, A2, B2, JO[cap_ab[e, 0]], JO[cap_ab[e, 1]])
+    nv = _normal(dk, a, b, 0.5 * (A + B) - b)
+    return dk, np.dot(nv, _axis_jacobian(a, A, B, JA, JB) - Jb), b, nv
+
+
+@kernel
 def pair_distances(O: Any, JO: Any, geom: Any) -> Any:
     """``(d (P,), J (P, n), wb (P, 3), normal (P, 3))`` of every pair (module docstring)."""
-    cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
-    C, K, S = cap_ab.shape[0], ob_kind.shape[0], self_ab.shape[0]
+    cap_ab, ob_kind, self_ab = geom[0], geom[2], geom[5]
+    P = cap_ab.shape[0] * ob_kind.shape[0] + self_ab.shape[0]
     n = JO.shape[2]
-    P = C * K + S
     d, J = np.empty(P), np.zeros((P, n))
     wb, nrm = np.zeros((P, 3)), np.zeros((P, 3))
     for p in range(P):
-        c = p % C if p < C * K else self_ab[p - C * K, 0]
-        A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
-        JA, JB = JO[cap_ab[c, 0]], JO[cap_ab[c, 1]]
-        if p < C * K:
-            o = p // C
-            dk, a, b = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])
-            Jb = np.zeros((3, n))
-        else:
-            e = self_ab[p - C * K, 1]
-            A2, B2 = O[cap_ab[e, 0]], O[cap_ab[e, 1]]
-            dk, a, b = capsule_capsule(A, B, cap_r[c], A2, B2, cap_r[e])
-            Jb = _axis_jacobian(b, A2, B2, JO[cap_ab[e, 0]], JO[cap_ab[e, 1]])
-        nv = _normal(dk, a, b, 0.5 * (A + B) - b)
-        d[p], wb[p], nrm[p] = dk, b, nv
-        J[p] = np.dot(nv, _axis_jacobian(a, A, B, JA, JB) - Jb)
+        dk, Jk, bk, nk = pair_one(p, O, JO, geom)
+        d[p], J[p], wb[p], nrm[p] = dk, Jk, bk, nk
     return d, J, wb, nrm
 
 
@@ -188,43 +196,3 @@ def shield_scale(qd: Any, d: Any, J: Any, drift: Any, dt: float, d_safe: float) 
         return 1.0, -1
     # One ulp below the bound, so that rounding does not land the prediction under d_s.
     return (max(np.nextafter(best, -np.inf), 0.0) if best > 0.0 else 0.0), k
-
-
-@kernel
-def exact_scale(
-    q: Any,
-    qd: Any,
-    d: Any,
-    J: Any,
-    s: float,
-    k: int,
-    dt: float,
-    d_safe: float,
-    d_influence: float,
-    arm: Any,
-    geom: Any,
-    cache: Any,
-) -> Any:
-    """The shield's ``(s, k)`` checked on the true geometry at ``q + dt s q̇`` (static
-    obstacles): while a pair would land under ``min(d_s, d_k)``, ``s`` shrinks by 0.6 (at
-    most 8 times, then 0). ``cache = (q, d, J, valid)``: where the last measurement was
-    taken and what it gave (the campaign loop's next step starts there when the shield
-    left the command alone); zero-size arrays keep nothing."""
-    if s <= 0.0:
-        return s, k
-    ahead = d + dt * s * np.dot(J, qd)
-    if not np.any(ahead < d_influence):
-        return s, k
-    floor = np.minimum(d_safe, d)
-    qc, dc, Jc, valid = cache
-    for _ in range(_TRIES):
-        qa = q + dt * s * qd
-        dm, Jm, _, _ = measure_arm(qa, arm, geom)
-        if qc.shape[0] == qa.shape[0]:
-            qc[:], dc[:], Jc[:, :], valid[0] = qa, dm, Jm, 1
-        gap = dm - floor
-        j = int(np.argmin(gap))
-        if gap[j] >= 0.0:
-            return s, k
-        s, k = _SHRINK * s, j
-    return 0.0, k
