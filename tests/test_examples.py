@@ -20,6 +20,8 @@ ELSEWHERE = {
     "real_robot.py": "tests/test_servo_loop.py runs it",
     "calibration_demo.py": "writes calibration images for redservo calibrate (docs/vision.md)",
     "custom_law_damped.py": "tests/test_law_declaration.py runs it (a new process: it adds a law)",
+    "scara_robot.py": "tests/test_robot_kinds.py runs it (a new process: it adds a robot kind)",
+    "custom_feature_segment.py": "tests/test_feature_example.py runs it (it adds a feature kind)",
 }
 """Examples not run here, and why."""
 

@@ -88,7 +88,7 @@ def reachable(exp: Any, *, margin: float | None = None, nominal: Any = None) -> 
     tol = 0.5 * exp.options.tolerance
     clear = goal_clearance(exp)  # obstacles: the goal configuration clear by d_safe
     if clear is not None:
-        return clear_search(exp, target, seeds, lo, hi, tol, clear)
+        return clear_search(exp, target, seeds, lo, hi, tol, clear, feature_solution)
     compiled = _compiled_search(exp, target, np.array(seeds), lo, hi, tol)
     if compiled is not None:
         return compiled

@@ -49,10 +49,12 @@ def clear_search(
     hi: FloatArray,
     tol: float,
     clear: Callable[[FloatArray], bool],
+    feature_solution: Callable[..., FloatArray | None],
 ) -> bool:
-    """Whether some seed's solution meets the goal and is ``clear`` (module docstring)."""
+    """Whether some seed's solution meets the goal and is ``clear`` (module docstring);
+    ``feature_solution(exp, seed, lo, hi, tol)`` is the feature-space search of
+    :mod:`redservo.campaign.reach` (passed in: that module imports this one)."""
     from redservo.campaign.looppack import robot_args, robot_reason
-    from redservo.campaign.reach import feature_solution
     from redservo.robots.ik import solve_ik
 
     pose: Callable[[FloatArray], FloatArray | None]

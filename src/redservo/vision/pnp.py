@@ -31,9 +31,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
+from redservo.errors import ConfigurationError
 from redservo.vision.optics import require_cv2
 
-__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose", "pose_inv_depth", "pose_term_depth"]
+__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose", "pose_inv_depth", "pose_term_depth", "set_dots"]
 
 MAX_RMS_PX = 2.0
 """Largest RMS reprojection error (pixels) of an accepted pose: a few times the trackers'
@@ -162,6 +163,21 @@ def pose_inv_depth(
     return np.asarray(feature.measure(pose.cMo).inv_depth, dtype=float), pose.cMo
 
 
+def set_dots(
+    sets: Mapping[str, FloatArray], detected: NDArray[np.bool_], name: str, xy: FloatArray
+) -> FloatArray:
+    """Normalized dots (N, 2) of point set ``name`` among ``xy`` (the dots of every set of
+    ``sets``, in order); NaN for the dots not ``detected`` this frame."""
+    start = 0
+    for other, pts in sets.items():
+        if other == name:
+            out = xy[start : start + len(pts)].copy()
+            out[~detected[start : start + len(pts)]] = np.nan
+            return out
+        start += len(pts)
+    raise ConfigurationError(f"no point set {name!r}")  # pragma: no cover
+
+
 def pose_term_depth(
     task: Any,
     i: int,
@@ -176,8 +192,6 @@ def pose_term_depth(
     or moment term's parameters at its point set's PnP pose (:func:`pose_inv_depth`,
     warm-started at ``st.pose``, which it updates); else (another feature, no pose) None,
     the caller keeping the last parameters, or the desired ones when there are none yet."""
-    from redservo.vision.terms import set_dots
-
     term = task.terms[i]
     if st.kind in ("point", "moments") and st.s is not None:
         dots = set_dots(sets, detected, term.target, xy)

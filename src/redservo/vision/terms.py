@@ -20,14 +20,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError, GeometryError
+from redservo.errors import GeometryError
 from redservo.vision.depth import DepthPolicy, estimate_inv_depth
 from redservo.vision.dots import DotDetection, DotTrack, binarize, detect_dots
 from redservo.vision.ellipse import EllipseMethod, detect_ellipse
 from redservo.vision.lazyframe import pixels
 from redservo.vision.lines import orient_like, refine_line
 from redservo.vision.optics import require_cv2
-from redservo.vision.pnp import pose_term_depth
+from redservo.vision.pnp import pose_term_depth, set_dots
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tracking import ImageDotTracker
 
@@ -326,21 +326,6 @@ def measure_lines(
         rho, theta = orient_like(meas.rho, meas.theta, float(ref[2 * k]), float(ref[2 * k + 1]))
         out[2 * k : 2 * k + 2] = (rho, theta)
     return out, ""
-
-
-def set_dots(
-    sets: Mapping[str, FloatArray], detected: NDArray[np.bool_], name: str, xy: FloatArray
-) -> FloatArray:
-    """Normalized dots (N, 2) of point set ``name`` among ``xy`` (the dots of every set of
-    ``sets``, in order); NaN for the dots not ``detected`` this frame."""
-    start = 0
-    for other, pts in sets.items():
-        if other == name:
-            out = xy[start : start + len(pts)].copy()
-            out[~detected[start : start + len(pts)]] = np.nan
-            return out
-        start += len(pts)
-    raise ConfigurationError(f"no point set {name!r}")  # pragma: no cover
 
 
 def term_inv_depths(
