@@ -233,25 +233,7 @@ def draw_run(log: SimulationLog, ctx: FigureContext, method: str, out: Path) -> 
     units = set(ctx.joint_units)
     vunit = " or ".join(sorted(f"{u}/s" for u in units)) or "rad/s"
     paths = [
-        plot_joints(
-            logs,
-            range(len(ctx.joint_names)),
-            out / "joints.png",
-            rho=ctx.rho,
-            names=ctx.joint_names,
-            title=f"{where}: normalized joint positions",
-            xlabel=x,
-        ),
-        plot_error(logs, out / "error.png", title=f"{where}: task error", xlabel=x),
-        plot_series(
-            logs,
-            "qdot",
-            out / "joint_velocities.png",
-            labels=_velocity_labels(ctx),
-            title=f"{ctx.scenario}: joint velocities",
-            ylabel=f"q̇ ({vunit})",
-            xlabel=x,
-        ),
+        *_joint_figures(logs, ctx, out, f"{where}:", vunit),
         plot_series(
             logs,
             "camera_twist",
@@ -279,6 +261,14 @@ def draw_run(log: SimulationLog, ctx: FigureContext, method: str, out: Path) -> 
 def draw_compare(logs: Mapping[str, SimulationLog], ctx: FigureContext, out: Path) -> list[Path]:
     """Overlaid figures of several runs of one scenario."""
     where = f"{ctx.scenario}: {len(logs)} methods"
+    return _joint_figures(logs, ctx, out, f"{where},", "rad/s or m/s")
+
+
+def _joint_figures(
+    logs: Mapping[str, SimulationLog], ctx: FigureContext, out: Path, where: str, vunit: str
+) -> list[Path]:
+    """The figures a run and a comparison share: normalized joint positions, task error and
+    joint velocities (``vunit``, e.g. ``"rad/s"``), titled after ``where``."""
     x = _xlabel(ctx)
     return [
         plot_joints(
@@ -287,17 +277,17 @@ def draw_compare(logs: Mapping[str, SimulationLog], ctx: FigureContext, out: Pat
             out / "joints.png",
             rho=ctx.rho,
             names=ctx.joint_names,
-            title=f"{where}, normalized joint positions",
+            title=f"{where} normalized joint positions",
             xlabel=x,
         ),
-        plot_error(logs, out / "error.png", title=f"{where}, task error", xlabel=x),
+        plot_error(logs, out / "error.png", title=f"{where} task error", xlabel=x),
         plot_series(
             logs,
             "qdot",
             out / "joint_velocities.png",
             labels=_velocity_labels(ctx),
             title=f"{ctx.scenario}: joint velocities",
-            ylabel="q̇ (rad/s or m/s)",
+            ylabel=f"q̇ ({vunit})",
             xlabel=x,
         ),
     ]
