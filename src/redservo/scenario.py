@@ -286,12 +286,45 @@ def parse_scenario(
 
     table = copy.deepcopy(dict(data))
     _resolve_urdf(table, source, base_dir, key_prefix)
-    from redservo.calibration.files import resolve_camera_file
-
-    resolve_camera_file(table, source, base_dir, key_prefix)
+    for section, key in (("camera", "file"), ("collision", "srdf")):
+        resolve_file_key(table, section, key, source, base_dir, key_prefix)
     scenario = Scenario(table, source)
     scenario._spec = validate(ScenarioSpec, table, source, key_prefix)
     return scenario
+
+
+def resolve_file_key(
+    table: dict[str, Any],
+    section: str,
+    key: str,
+    source: str,
+    base_dir: Path | None,
+    prefix: str = "",
+) -> None:
+    """Make a scenario's relative file path ``[section] key`` (``camera.file``, an intrinsics
+    file; ``collision.srdf``, the robot's SRDF) absolute, relative to the scenario file
+    (``base_dir`` None: the current directory), and check that it exists.
+
+    Raises:
+        ScenarioError: the file does not exist (names the scenario and the key).
+    """
+    sub = table.get(section)
+    if not isinstance(sub, dict) or not isinstance(sub.get(key), str):
+        return
+    path = Path(sub[key]).expanduser()
+    relative = not path.is_absolute()
+    if relative:
+        path = (base_dir or Path.cwd()) / path
+    if not path.is_file():
+        where = "is a directory" if path.is_dir() else "does not exist"
+        if relative:  # an absolute path is not read relative to anything
+            folder = "the scenario file's folder" if base_dir is not None else "the current folder"
+            where += f"; {sub[key]!r} is read relative to {folder}"
+        raise ScenarioError(
+            f"{source}: key '{prefix}{section}.{key}': no such file {str(path)!r} ({where})",
+            argument=f"{prefix}{section}.{key}",
+        )
+    sub[key] = str(path.resolve())
 
 
 _INDEXED_KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_-]*)\[([0-9]+)\]")

@@ -188,33 +188,3 @@ def save_camera(path: str | os.PathLike[str], camera: Camera, **extra: float | i
     finally:
         fs.release()
     return p
-
-
-def resolve_camera_file(
-    table: dict[str, Any], source: str, base_dir: Path | None, prefix: str = ""
-) -> None:
-    """Make a scenario's relative ``camera.file`` absolute (relative to the scenario file;
-    ``base_dir`` None: the current directory) and check that it exists.
-
-    Raises:
-        ScenarioError: the file does not exist (names the scenario and the key).
-    """
-    from redservo.errors import ScenarioError
-
-    camera = table.get("camera")
-    if not isinstance(camera, dict) or not isinstance(camera.get("file"), str):
-        return
-    path = Path(camera["file"]).expanduser()
-    relative = not path.is_absolute()
-    if relative:
-        path = (base_dir or Path.cwd()) / path
-    if not path.is_file():
-        where = "is a directory" if path.is_dir() else "does not exist"
-        if relative:  # an absolute path is not read relative to anything
-            folder = "the scenario file's folder" if base_dir is not None else "the current folder"
-            where += f"; {camera['file']!r} is read relative to {folder}"
-        raise ScenarioError(
-            f"{source}: key '{prefix}camera.file': no such file {str(path)!r} ({where})",
-            argument=f"{prefix}camera.file",
-        )
-    camera["file"] = str(path.resolve())

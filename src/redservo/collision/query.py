@@ -12,6 +12,7 @@ to ``n`` and adds nothing to ``ḋ``). Distances come from `coal` (docs/decision
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -73,6 +74,7 @@ def distances(
     self_collision: bool = False,
     capsules: Sequence[LinkCapsule] | None = None,
     exclude: Iterable[tuple[str, str]] = (),
+    srdf: str | Path | None = None,
 ) -> list[DistanceRecord]:
     """Every robot-obstacle pair (and self pair) at configuration ``q`` and time ``t``.
 
@@ -99,13 +101,19 @@ def distances(
         self_collision: Also the self pairs of :func:`~redservo.collision.pairs.self_pairs`.
         capsules: The robot's capsules (default :func:`link_capsules`).
         exclude: More self pairs to skip, as (link, link) names.
+        srdf: A URDF robot's SRDF file: its ``<disable_collisions>`` pairs are skipped
+            (:func:`~redservo.collision.urdf_pairs.urdf_self_pairs`).
 
     Returns:
         One record per pair: every link against every obstacle, then the self pairs.
     """
     qa = robot.check_q(q, check_limits=False)
     if capsules is None and is_urdf(robot):  # its own <collision> elements
-        return list(urdf_distances(robot, qa, obstacles, t=t, self_collision=self_collision))
+        return list(
+            urdf_distances(
+                robot, qa, obstacles, t=t, self_collision=self_collision, srdf=srdf, exclude=exclude
+            )
+        )
     caps = tuple(capsules) if capsules is not None else link_capsules(robot)
     O, J = point_jacobians(robot, qa)
     links = [_Link(c, O, J) for c in caps]

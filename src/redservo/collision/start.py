@@ -89,9 +89,10 @@ def scenario_collision(
     except ConfigurationError as exc:
         if spec is None:
             return None
-        raise sc.error("collision.enabled", str(exc)) from None
+        key = "collision.srdf" if exc.argument == "srdf" else "collision.enabled"
+        raise sc.error(key, str(exc)) from None
     if coll.self_collision:
-        own = Collision(self_collision=True)
+        own = Collision(self_collision=True, srdf=coll.srdf)
         pd = own.measure(robot, q0, 0.0)
         k = int(pd.d.argmin()) if pd.names else -1
         if k >= 0 and pd.d[k] <= 0.0:

@@ -117,6 +117,8 @@ class Collision:
         repel: With ``avoid``, the repulsive objective acts (False: the rows alone).
         shield: The distance shield (:func:`distance_shield`) in the controller.
         capsules: The robot's capsules (default :func:`~redservo.collision.link_capsules`).
+        srdf: A URDF robot's SRDF file: its ``<disable_collisions>`` pairs are not self
+            pairs (:func:`~redservo.collision.urdf_pairs.urdf_self_pairs`).
 
     Raises:
         ConfigurationError: a value out of range (``argument`` names it).
@@ -133,6 +135,7 @@ class Collision:
     repel: bool = True
     shield: bool = True
     capsules: tuple[LinkCapsule, ...] | None = None
+    srdf: str | None = None
     _last: tuple[Any, PairDistances] | None = field(default=None, init=False, repr=False)
     _geometry: tuple[int, CompiledGeometry | None] | None = field(
         default=None, init=False, repr=False
@@ -178,8 +181,15 @@ class Collision:
         """Raise a :class:`ConfigurationError` (``argument="collision"``) if ``robot`` has no
         collision model."""
         arm = collision_arm(robot)
+        urdf = is_urdf(arm) and self.capsules is None
+        if self.srdf is not None and not urdf:
+            raise ConfigurationError(
+                f"srdf: an SRDF names the self pairs of a URDF robot; {arm.name!r} is not one "
+                "(its own pairs are redservo.collision.self_pairs')",
+                argument="srdf",
+            )
         try:
-            urdf_elements(arm) if is_urdf(arm) and self.capsules is None else link_capsules(arm)
+            urdf_elements(arm) if urdf else link_capsules(arm)
         except ConfigurationError as exc:
             raise ConfigurationError(str(exc), argument="collision") from None
 
@@ -208,7 +218,13 @@ class Collision:
             self._last = (key, out)
             return out
         recs = distances(
-            arm, qa, self.obstacles, t=t, self_collision=self.self_collision, capsules=self.capsules
+            arm,
+            qa,
+            self.obstacles,
+            t=t,
+            self_collision=self.self_collision,
+            capsules=self.capsules,
+            srdf=self.srdf,
         )
         by_name = {ob.name: ob for ob in self.obstacles}
         drift = np.zeros(len(recs))

@@ -21,7 +21,7 @@ self-contained: moved to another folder or machine, ``redservo run DIR/scenario.
 * ``robot.file`` of an MJCF robot when it is a file (a shipped name stays a name), with every
   ``file=`` its assets and includes name, in the same layout: MuJoCo only loaded it if they
   all lie inside its folder (:func:`redservo.robots.mjcf_chain.load_model`);
-* ``camera.file`` (an intrinsics file);
+* ``camera.file`` (an intrinsics file) and ``collision.srdf`` (the robot's SRDF);
 
 and rewrites those keys of the resolved scenario table to the copies' paths relative to
 the run directory (a scenario's relative paths are read relative to its own file).
@@ -45,7 +45,7 @@ __all__ = [
     "relocate",
 ]
 
-FILE_KEYS = (("robot", "urdf"), ("robot", "file"), ("camera", "file"))
+FILE_KEYS = (("robot", "urdf"), ("robot", "file"), ("camera", "file"), ("collision", "srdf"))
 """The scenario keys that name a file (table, key)."""
 
 FOLDER = "files"

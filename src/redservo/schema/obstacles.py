@@ -106,6 +106,11 @@ class CollisionSpec(Table):
         0.10, gt=0.0, le=BIG, description="influence distance (m): avoidance starts, > d_safe"
     )
     self: bool = Field(False, description="also the robot's self pairs")
+    srdf: str | None = Field(
+        None,
+        description="a URDF robot's SRDF file (relative to the scenario): its "
+        "<disable_collisions> pairs are not checked for self-collision",
+    )
     xi: float = num(0.05, gt=0.0, le=BIG, description="separating speed asked for at d_safe (m/s)")
     avoid: bool = Field(
         True, description="avoid: the repulsive secondary term and the qp/sns/predictive rows"
