@@ -19,17 +19,17 @@ from redservo.collision import distances
 from redservo.collision.urdf_pairs import rigid_bodies, urdf_self_pairs
 from redservo.errors import GeometryError, ScenarioError, UnknownNameError
 from redservo.robots import shipped_urdf
+from tests.test_collision_urdf_distances import _CAPS
 
 pytest.importorskip("coal")
 pytest.importorskip("pinocchio", reason="URDF robots need Pinocchio (redservo[urdf])")
 
-_ELEMENTS = {
-    "panda_link3": '<origin xyz="0 0 -0.05"/><geometry><cylinder radius="0.06" length="0.2"/>',
+_ELEMENTS = {  # the other URDF test's elements, with links 4 and 8 for adjacency and fixed joints
+    **_CAPS,
     "panda_link4": '<geometry><sphere radius="0.06"/>',
-    "panda_link5": '<origin xyz="0 0.04 -0.12"/><geometry><box size="0.1 0.1 0.24"/>',
-    "panda_link7": '<geometry><sphere radius="0.05"/>',
     "panda_link8": '<origin xyz="0 0 0.05"/><geometry><sphere radius="0.04"/>',
 }
+_ELEMENTS = {k: _ELEMENTS[k] for k in sorted(_ELEMENTS)}  # file (link) order
 _READY = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 
 
