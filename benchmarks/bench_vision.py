@@ -427,6 +427,7 @@ VPDOT2_US = 25.7
 STEP_PARTS = (
     ("sensor", "redservo.sensors.timing", "TimedSensor", "read"),
     ("exposure", "redservo.vision.motion_blur", None, "exposed_frame"),
+    ("image sensor", "redservo.vision.sensor", "ImageSensor", "read"),
     ("tracker", "redservo.vision.tracking", "ImageDotTracker", "update"),
     ("image motion", "redservo.vision.sensor", None, "camera_shift"),
     ("depth (PnP)", "redservo.vision.sensor", None, "term_inv_depths"),
@@ -434,7 +435,9 @@ STEP_PARTS = (
     ("latency comp.", "redservo.control.controller", None, "present"),
 )
 """The parts of a step timed around their calls (name, module, class or None, attribute):
-the sensor's read contains the next four, the controller's step the last."""
+the timed sensor's read (the camera's timing) contains the exposure and the image sensor's
+read (untimed: the whole sensor), which contains the next three; the controller's step
+contains the latency compensation."""
 
 
 @contextmanager

@@ -1,7 +1,8 @@
 """What an image campaign's step computes once (issue 28, image campaigns' speed): the
 PnP pose of a point set is solved once per frame for all the terms of that set, with the
 very depths each term got from its own solve; the latency compensation reads only the
-commands the camera has not seen, with the same sum."""
+commands the camera has not seen, with the same sum; the predicted image motion normalizes
+the dots once."""
 
 from __future__ import annotations
 
@@ -19,6 +20,9 @@ from redservo.experiment.build import build
 from redservo.experiment.camera_presets import camera_overrides
 from redservo.scenario import apply_overrides, load_scenario
 from redservo.vision import pnp, terms
+from redservo.vision.motion import camera_shift, predicted_shift
+from redservo.vision.optics import Optics
+from redservo.vision.terms import TermState
 
 
 def _reads(exp: Any, frames: int) -> list[Any]:
@@ -114,3 +118,36 @@ def _sum_all(h: CommandHistory, stamp: float, now: float) -> FloatArray:
         if overlap > 1e-9:
             total += (h.jacobian(cmd.q) @ cmd.qdot) * overlap
     return total
+
+
+def test_the_predicted_image_motion_normalizes_the_dots_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``camera_shift`` turns the dots' pixels into normalized coordinates once (twice
+    before: for the depths and again for the motion), with the same shifts as the general
+    path (a dot without a depth, a dot behind the new camera) bit for bit."""
+    optics = Optics()
+    uv = np.array([[300.0, 200.0], [340.0, 260.0], [280.0, 250.0], [330.0, 190.0]])
+    st = TermState(kind="point", dots=np.arange(4))
+    st.inv_depth = np.array([2.0])
+    b0 = np.eye(4)
+    b1 = np.eye(4)
+    b1[:3, 3] = [0.01, -0.02, 0.005]
+    calls = [0]
+    real = Optics.to_normalized
+
+    def counted(self: Optics, x: Any) -> Any:
+        calls[0] += 1
+        return real(self, x)
+
+    monkeypatch.setattr(Optics, "to_normalized", counted)
+    got = camera_shift([st], optics, uv, b0, b1)
+    assert calls[0] == 1, calls
+    rho = np.full(4, 2.0)
+    rho[1] = np.nan  # no depth: NaN, the tracker's own prediction
+    partial = predicted_shift(optics, uv, rho, b0, b1)
+    assert got is not None and np.isfinite(got).all()
+    assert np.array_equal(partial[[0, 2, 3]], got[[0, 2, 3]]) and np.isnan(partial[1]).all()
+    far = b1.copy()
+    far[2, 3] = 0.6  # the camera moved 0.6 m forward: the dots (at 0.5 m) behind it
+    assert np.isnan(predicted_shift(optics, uv, np.full(4, 2.0), b0, far)).all()
