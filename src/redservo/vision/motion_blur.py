@@ -15,7 +15,7 @@ Used by :class:`redservo.sensors.timing.TimedSensor` with an image sensor's ``re
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,8 +112,9 @@ def _dot_geometry(
 
     if type(renderer).layers is not Renderer.layers:
         return None
-    sets = [(name, scene.object(name)) for name in scene.names]
-    if not all(isinstance(obj, PointSet) for _, obj in sets):
+    objs = [(name, scene.object(name)) for name in scene.names]
+    sets = [(name, obj) for name, obj in objs if isinstance(obj, PointSet)]
+    if len(sets) != len(objs):
         return None
     optics, R = renderer.optics, renderer.options.levels.dot_radius_px
     h, w = optics.shape
@@ -123,7 +124,7 @@ def _dot_geometry(
         at = 0
         for name, obj in sets:
             cMo = scene.cMo(name, bMc, t)
-            pts = cast(PointSet, obj).points
+            pts = obj.points
             P[i, at : at + len(pts)] = pts @ cMo[:3, :3].T + cMo[:3, 3]
             at += len(pts)
     front = P[..., 2] > MIN_DEPTH
