@@ -34,8 +34,11 @@ window search and with the reference search alone, beside ViSP's ``vpDot2`` (25.
 frame of four dots, the issue's figure: the ratio is printed); then the image campaigns'
 control steps per CPU second, as ``redservo campaign panda-near-limits --samples 10 --seed 0
 --methods wln --workers 1 --no-plot`` with ``--set sensor.kind="image"`` and with
-``--camera realistic``, in this process (after a 1-sample warm-up, so that compilation is
-not counted), and how much of a step the sensor takes. Figures, never timed tests.
+``--camera realistic`` (and mc05-joint-limits through ``--camera realistic``), in this
+process (after a 1-sample warm-up, so that compilation is not counted), each beside the code
+it replaced (``CAMPAIGN_CASES``: without the compiled frames, without the per-frame sharing)
+with the rows compared, and the CPU µs per step of each part of a step (``STEP_PARTS``,
+timed around their calls in a second pass). Figures, never timed tests.
 
 Section ``dots`` (issue 19): :class:`redservo.vision.tracking.ImageDotTracker`
 on each sequence of :mod:`redservo.vision.dotseq` (640x480, ``--frames`` frames,
@@ -50,9 +53,12 @@ px, no centroid outside its dot.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -418,63 +424,127 @@ VPDOT2_US = 25.7
 """ViSP's ``vpDot2``: CPU µs per 640x480 frame tracking four dots (issue 28, item 6)."""
 
 
+STEP_PARTS = (
+    ("sensor", "redservo.sensors.timing", "TimedSensor", "read"),
+    ("exposure", "redservo.vision.motion_blur", None, "exposed_frame"),
+    ("image sensor", "redservo.vision.sensor", "ImageSensor", "read"),
+    ("tracker", "redservo.vision.tracking", "ImageDotTracker", "update"),
+    ("image motion", "redservo.vision.sensor", None, "camera_shift"),
+    ("depth (PnP)", "redservo.vision.sensor", None, "term_inv_depths"),
+    ("controller", "redservo.control.controller", "Controller", "step"),
+    ("latency comp.", "redservo.control.controller", None, "present"),
+)
+"""The parts of a step timed around their calls (name, module, class or None, attribute):
+the timed sensor's read (the camera's timing) contains the exposure and the image sensor's
+read (untimed: the whole sensor), which contains the next three; the controller's step
+contains the latency compensation."""
+
+
+@contextmanager
+def _timed_parts(spent: dict[str, float]) -> Iterator[None]:
+    """CPU seconds spent in each of :data:`STEP_PARTS` while the block runs, into ``spent``."""
+    undo = []
+    for name, module, cls, attr in STEP_PARTS:
+        mod = importlib.import_module(module)
+        owner = getattr(mod, cls) if cls else mod
+        real = getattr(owner, attr)
+        spent[name] = 0.0
+
+        def timed(*a: Any, _real: Any = real, _name: str = name, **k: Any) -> Any:
+            t0 = time.process_time()
+            try:
+                return _real(*a, **k)
+            finally:
+                spent[_name] += time.process_time() - t0
+
+        setattr(owner, attr, timed)
+        undo.append((owner, attr, real))
+    try:
+        yield
+    finally:
+        for owner, attr, real in undo:
+            setattr(owner, attr, real)
+
+
+@contextmanager
+def _before(frame_kernels: bool, shared: bool) -> Iterator[None]:
+    """The code the image campaigns ran before: without the compiled frames of the tracker
+    and the exposure (``frame_kernels=False``), or without this session's per-frame
+    sharing (``shared=False``: a PnP solve per term, the latency compensation reading every
+    command), for a before/after in one process under the same load."""
+    from redservo.control.latency import CommandHistory
+    from redservo.vision import motion_blur, terms, tracking
+
+    saved = (tracking.track_tracked, motion_blur._dot_frame, terms.pose_term_depth)
+    first = CommandHistory._first_after
+    if not frame_kernels:
+        tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
+        motion_blur._dot_frame = lambda *a: None  # type: ignore[assignment]
+    if not shared:
+        solve = saved[2]
+        terms.pose_term_depth = lambda *a: solve(*a[:6])  # type: ignore[assignment]
+        CommandHistory._first_after = lambda self, stamp: 0  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        tracking.track_tracked, motion_blur._dot_frame, terms.pose_term_depth = saved
+        CommandHistory._first_after = first  # type: ignore[method-assign]
+
+
 def image_campaign_rate(
-    samples: int, camera: str = "realistic", frame_kernels: bool = True
+    samples: int,
+    camera: str = "realistic",
+    frame_kernels: bool = True,
+    shared: bool = True,
+    campaign: str = "panda-near-limits",
 ) -> dict[str, Any]:
     """Control steps per CPU second of the image campaign of the module docstring, through
     the camera preset ``camera`` (``"image"``: ``sensor.kind="image"`` alone, untimed), and
-    the CPU µs per sensor read (the sensor's share of a step). ``frame_kernels=False``:
-    without the compiled frame of the tracker and of the exposure (the dot-by-dot and
-    layer-by-layer path they replace, for a before/after in one process)."""
+    the CPU µs per step of each part (:data:`STEP_PARTS`, from a second, timed pass).
+    ``frame_kernels``, ``shared``: :func:`_before`."""
     import tempfile
     from dataclasses import replace
 
     from redservo.campaign import load_campaign, run_campaign
     from redservo.experiment.camera_presets import camera_overrides
+    from redservo.plots.style import figure_formats
     from redservo.scenario import apply_overrides
-    from redservo.sensors import timing as sensor_timing
-    from redservo.vision import motion_blur, tracking
-    from redservo.vision import sensor as image_sensor
 
     sets = ['sensor.kind="image"'] if camera == "image" else camera_overrides(camera)
-    defn = load_campaign("panda-near-limits")
+    defn = load_campaign(campaign)
     defn = replace(defn, scenario=apply_overrides(defn.scenario, sets))
-    timed = sensor_timing.TimedSensor if camera != "image" else image_sensor.ImageSensor
-    spent, reads, read = [0.0], [0], timed.read
-
-    def timed_read(self: Any, *args: Any) -> Any:
-        t0 = time.process_time()
-        try:
-            return read(self, *args)
-        finally:
-            spent[0] += time.process_time() - t0
-            reads[0] += 1
-
-    with tempfile.TemporaryDirectory() as tmp:
+    spent: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp, figure_formats(()):  # as with --no-plot
         kw: dict[str, Any] = {"methods": ["wln"], "workers": 1, "progress": False}
         run_campaign(defn, samples=1, out=Path(tmp) / "warm", **kw)
-        timed.read = timed_read  # type: ignore[method-assign]
-        hooks = (tracking.track_tracked, motion_blur._dot_frame)
-        if not frame_kernels:
-            tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
-            motion_blur._dot_frame = lambda *a: None  # type: ignore[assignment]
-        try:
+        with _before(frame_kernels, shared):
             cpu = time.process_time()
             res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
             cpu = time.process_time() - cpu
-        finally:
-            timed.read = read  # type: ignore[method-assign]
-            tracking.track_tracked, motion_blur._dot_frame = hooks
+            with _timed_parts(spent):
+                run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "parts", **kw)
         rows = [dict(r) for r in res.rows]  # rows read from the run's files
         steps = sum(int(r["iterations"]) for r in rows)
     return {
         "steps": steps,
         "cpu_s": cpu,
         "steps_per_cpu_s": steps / cpu,
-        "sensor_us_per_step": 1e6 * spent[0] / max(steps, 1),
-        "rest_us_per_step": 1e6 * (cpu - spent[0]) / max(steps, 1),
+        "part_us_per_step": {k: 1e6 * v / max(steps, 1) for k, v in spent.items()},
         "rows": rows,
     }
+
+
+CAMPAIGN_CASES = (
+    ("panda-near-limits", "image", False, True),
+    ("panda-near-limits", "image", True, True),
+    ("panda-near-limits", "realistic", False, True),
+    ("panda-near-limits", "realistic", True, False),
+    ("panda-near-limits", "realistic", True, True),
+    ("mc05-joint-limits", "realistic", True, False),
+    ("mc05-joint-limits", "realistic", True, True),
+)
+"""(campaign, camera, frame kernels, shared) of each throughput measured; the cases of one
+campaign and camera must give the same rows."""
 
 
 def run_speed(args: argparse.Namespace) -> dict[str, Any]:
@@ -492,23 +562,26 @@ def run_speed(args: argparse.Namespace) -> dict[str, Any]:
             f"  {kind:12s} {fast:8.1f} µs = {fast / VPDOT2_US:4.1f}x vpDot2 ({VPDOT2_US} µs) "
             f"(reference search alone {ref:8.1f} µs)"
         )
-    out: dict[str, Any] = {"tracker_cpu_us": rows, "vpdot2_us": VPDOT2_US}
-    for camera in ("image", "realistic"):
-        rows: dict[bool, Any] = {}
-        for kernels in (False, True):  # before/after, side by side under the same load
-            camp = image_campaign_rate(10, camera, kernels)
-            print(
-                f"image campaign (panda-near-limits, 10 samples, wln, {camera}, frame kernels "
-                f"{'on' if kernels else 'off'}): {camp['steps']:.0f} steps in "
-                f"{camp['cpu_s']:.2f} CPU s = {camp['steps_per_cpu_s']:.0f} steps per CPU "
-                f"second; per step {camp['sensor_us_per_step']:.0f} µs in the sensor, "
-                f"{camp['rest_us_per_step']:.0f} µs elsewhere (load average "
-                f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
-            )
-            rows[kernels] = camp.pop("rows")
-            out[f"image_campaign_{camera}{'' if kernels else '_off'}"] = camp
-        same = repr(rows[True]) == repr(rows[False])  # NaN fields compare by their text
-        print(f"  the same rows with and without the frame kernels: {same}")
+    out: dict[str, Any] = {"tracker_cpu_us": rows, "vpdot2_us": VPDOT2_US, "campaigns": []}
+    seen: dict[tuple[str, str], Any] = {}
+    for campaign, camera, kernels, shared in CAMPAIGN_CASES:
+        camp = image_campaign_rate(10, camera, kernels, shared, campaign)
+        parts = ", ".join(f"{k} {v:.0f}" for k, v in camp["part_us_per_step"].items())
+        print(
+            f"image campaign ({campaign}, 10 samples, wln, {camera}, frame kernels "
+            f"{'on' if kernels else 'off'}, per-frame sharing {'on' if shared else 'off'}): "
+            f"{camp['steps']:.0f} steps in {camp['cpu_s']:.2f} CPU s = "
+            f"{camp['steps_per_cpu_s']:.0f} steps per CPU second (load average "
+            f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)\n  CPU µs per step: {parts}"
+        )
+        rows_ = repr(camp.pop("rows"))  # NaN fields compare by their text
+        same = seen.setdefault((campaign, camera), rows_) == rows_
+        print(f"  the same rows as the first case of this campaign and camera: {same}")
+        out["campaigns"].append(
+            {"campaign": campaign, "camera": camera, "frame_kernels": kernels, "shared": shared}
+            | camp
+            | {"same_rows": same}
+        )
     return out
 
 

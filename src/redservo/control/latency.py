@@ -60,13 +60,17 @@ class CommandHistory:
     ) -> None:
         self.period, self.jacobian, self.horizon = float(period), jacobian, float(horizon)
         self._cmds: deque[_Command] = deque()
+        self._ordered = True  # every command later than the one before
 
     def reset(self) -> None:
         """Forget every command (start of a run)."""
         self._cmds.clear()
+        self._ordered = True
 
     def record(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
+        if self._cmds and float(t) < self._cmds[-1].t:
+            self._ordered = False
         self._cmds.append(_Command(float(t), q.copy(), qdot.copy()))
         while self._cmds[0].t < t - self.horizon:
             self._cmds.popleft()
@@ -75,8 +79,9 @@ class CommandHistory:
         """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
         displacement (m, rad) the commands made between ``stamp`` and ``now`` (s)."""
         total = np.zeros(6)
-        cmds = list(self._cmds)
-        for i, cmd in enumerate(cmds):
+        cmds = self._cmds
+        for i in range(self._first_after(stamp), len(cmds)):
+            cmd = cmds[i]
             end = cmds[i + 1].t if i + 1 < len(cmds) else cmd.t + self.period
             overlap = min(end, now) - max(cmd.t, stamp)
             if overlap <= _EPS:
@@ -85,6 +90,21 @@ class CommandHistory:
                 cmd.twist = self.jacobian(cmd.q) @ cmd.qdot
             total += cmd.twist * overlap
         return total
+
+    def _first_after(self, stamp: float) -> int:
+        """The first command that may end after ``stamp`` (s): those before it end by the
+        stamp (their overlap is empty) when the commands came in time order, found from
+        the newest; 0 otherwise (every command is looked at)."""
+        cmds = self._cmds
+        if not self._ordered:
+            return 0
+        first = len(cmds)
+        while first > 0:
+            end = cmds[first].t if first < len(cmds) else cmds[-1].t + self.period
+            if end <= stamp + _EPS:
+                break
+            first -= 1
+        return first
 
 
 def present(

@@ -44,22 +44,35 @@ def dot_inv_depths(terms: Sequence[TermState], n_dots: int, xy: FloatArray) -> F
 
 
 def predicted_shift(
-    optics: Optics, uv: FloatArray, inv_depth: FloatArray, bMc_prev: FloatArray, bMc: FloatArray
+    optics: Optics,
+    uv: FloatArray,
+    inv_depth: FloatArray,
+    bMc_prev: FloatArray,
+    bMc: FloatArray,
+    xy: FloatArray | None = None,
 ) -> FloatArray:
     """Image motion (N, 2) in pixels of the dots at ``uv`` (N, 2, pixels) with inverse depths
-    ``inv_depth`` (N,) (1/m) when the camera moves from ``bMc_prev`` to ``bMc`` (4x4, m)."""
+    ``inv_depth`` (N,) (1/m) when the camera moves from ``bMc_prev`` to ``bMc`` (4x4, m);
+    ``xy``: ``optics.to_normalized(uv)`` when the caller has it (row by row the same)."""
     rho = np.asarray(inv_depth, dtype=float)
     ok = np.isfinite(rho) & (rho > 0.0) & np.isfinite(uv).all(axis=1)
-    out = np.full(uv.shape, np.nan)
-    if not ok.any():
-        return out
-    xy = optics.to_normalized(uv[ok])
-    P = np.column_stack([xy, np.ones(len(xy))]) / rho[ok, None]
+    every = bool(ok.all())  # the common frame: no row to pick
+    if not every and not ok.any():
+        return np.full(uv.shape, np.nan)
+    uv_ok = uv if every else uv[ok]
+    if xy is None:
+        xy = optics.to_normalized(uv_ok)
+    elif not every:
+        xy = xy[ok]
+    P = np.column_stack([xy, np.ones(len(xy))]) / (rho if every else rho[ok])[:, None]
     cMc = np.linalg.solve(bMc, bMc_prev)  # old camera frame -> new camera frame
     Q = P @ cMc[:3, :3].T + cMc[:3, 3]
     front = Q[:, 2] > MIN_DEPTH
+    if every and front.all():
+        return np.asarray(optics.to_pixel(Q[:, :2] / Q[:, 2:]) - uv, dtype=float)
+    out = np.full(uv.shape, np.nan)
     moved = np.full((len(Q), 2), np.nan)
-    moved[front] = optics.to_pixel(Q[front, :2] / Q[front, 2:]) - uv[ok][front]
+    moved[front] = optics.to_pixel(Q[front, :2] / Q[front, 2:]) - uv_ok[front]
     out[ok] = moved
     return out
 
@@ -75,5 +88,6 @@ def camera_shift(
     depth parameters and the camera's motion since ``bMc_prev`` (None: no last frame)."""
     if bMc_prev is None:
         return None
-    rho = dot_inv_depths(terms, len(uv), optics.to_normalized(uv))
-    return predicted_shift(optics, uv, rho, bMc_prev, bMc)
+    xy = optics.to_normalized(uv)
+    rho = dot_inv_depths(terms, len(uv), xy)
+    return predicted_shift(optics, uv, rho, bMc_prev, bMc, xy)

@@ -112,20 +112,21 @@ def _dot_geometry(
 
     if type(renderer).layers is not Renderer.layers:
         return None
-    objs = [obj for obj in map(scene.object, scene.names) if isinstance(obj, PointSet)]
-    if len(objs) != len(scene.names):
+    objs = [(name, scene.object(name)) for name in scene.names]
+    sets = [(name, obj) for name, obj in objs if isinstance(obj, PointSet)]
+    if len(sets) != len(objs):
         return None
     optics, R = renderer.optics, renderer.options.levels.dot_radius_px
     h, w = optics.shape
-    P = np.stack(
-        [
-            np.concatenate(
-                [obj.points @ cMo[:3, :3].T + cMo[:3, 3] for obj, cMo in zip(objs, cMos)]
-            )
-            for cMos in ([scene.cMo(name, bMc, t) for name in scene.names] for bMc, t in samples)
-        ]
-    )  # (instants, dots, 3) in the camera frame
-    names = [f"{obj.name}[{k}]" for obj in objs for k in range(len(obj.points))]
+    names = [f"{obj.name}[{k}]" for _, obj in sets for k in range(len(obj.points))]
+    P = np.empty((len(samples), len(names), 3))  # (instants, dots, 3) in the camera frame
+    for i, (bMc, t) in enumerate(samples):
+        at = 0
+        for name, obj in sets:
+            cMo = scene.cMo(name, bMc, t)
+            pts = obj.points
+            P[i, at : at + len(pts)] = pts @ cMo[:3, :3].T + cMo[:3, 3]
+            at += len(pts)
     front = P[..., 2] > MIN_DEPTH
     UV = optics.to_pixel(P[..., :2] / np.where(front, P[..., 2], 1.0)[..., None])
     box = np.stack([UV[..., 1] - R - 2, UV[..., 1] + R + 2, UV[..., 0] - R - 2, UV[..., 0] + R + 2])

@@ -34,7 +34,15 @@ from redservo.camera import Camera
 from redservo.errors import ConfigurationError
 from redservo.vision.optics import require_cv2
 
-__all__ = ["MAX_RMS_PX", "DotPose", "dot_pose", "pose_inv_depth", "pose_term_depth", "set_dots"]
+__all__ = [
+    "MAX_RMS_PX",
+    "DotPose",
+    "dot_pose",
+    "pose_inv_depth",
+    "pose_term_depth",
+    "set_dots",
+    "set_pose",
+]
 
 MAX_RMS_PX = 2.0
 """Largest RMS reprojection error (pixels) of an accepted pose: a few times the trackers'
@@ -154,13 +162,23 @@ def pose_inv_depth(
     NaN for a dot not detected: at least four detected), warm-started at ``guess``:
     ``(inv_depth, cMo)``, or None (no accepted pose: the caller keeps the last one). The
     reprojection error is judged with the default camera's focal length (600 px)."""
+    cMo = set_pose(set_points, set_xy, guess)
+    if cMo is None:
+        return None
+    return np.asarray(feature.measure(cMo).inv_depth, dtype=float), cMo
+
+
+def set_pose(
+    set_points: FloatArray, set_xy: FloatArray, guess: FloatArray | None
+) -> FloatArray | None:
+    """The PnP pose ``cMo`` (4, 4; m) of a point set (``set_points`` (N, 3), m) from its
+    detected dots (``set_xy`` (N, 2) normalized, NaN where not detected), warm-started at
+    ``guess``; None when no pose is accepted (:func:`dot_pose`)."""
     P = np.asarray(set_points, dtype=float).reshape(-1, 3)
     p = np.asarray(set_xy, dtype=float).reshape(-1, 2)
     ok = np.isfinite(p).all(axis=1)
     pose = dot_pose(P[ok], p[ok], None, guess)
-    if pose is None:
-        return None
-    return np.asarray(feature.measure(pose.cMo).inv_depth, dtype=float), pose.cMo
+    return None if pose is None else pose.cMo
 
 
 def set_dots(
@@ -185,20 +203,31 @@ def pose_term_depth(
     sets: Mapping[str, FloatArray],
     detected: NDArray[np.bool_],
     xy: FloatArray,
+    poses: dict[Any, FloatArray | None] | None = None,
 ) -> FloatArray | None:
     """``depth = "pose"`` for term ``i`` of ``task`` in the image sensor (its
     :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
     point set, the dots detected this frame and every dot's normalized position): a point
     or moment term's parameters at its point set's PnP pose (:func:`pose_inv_depth`,
     warm-started at ``st.pose``, which it updates); else (another feature, no pose) None,
-    the caller keeping the last parameters, or the desired ones when there are none yet."""
+    the caller keeping the last parameters, or the desired ones when there are none yet.
+
+    ``poses``: the poses solved in this frame, by point set and warm start (the caller's
+    dict, empty at each frame): the terms of one point set (four point terms of one
+    target) share one PnP solve, the one each would get (same dots, same start)."""
     term = task.terms[i]
     if st.kind in ("point", "moments") and st.s is not None:
-        dots = set_dots(sets, detected, term.target, xy)
-        got = pose_inv_depth(term.feature, sets[term.target], dots, st.pose)
-        if got is not None:
-            st.pose = got[1]
-            return got[0]
+        key = (term.target, None if st.pose is None else st.pose.tobytes())
+        if poses is not None and key in poses:
+            cMo = poses[key]
+        else:
+            dots = set_dots(sets, detected, term.target, xy)
+            cMo = set_pose(sets[term.target], dots, st.pose)
+            if poses is not None:
+                poses[key] = cMo
+        if cMo is not None:
+            st.pose = cMo
+            return np.asarray(term.feature.measure(cMo).inv_depth, dtype=float)
     if st.inv_depth is None and task.inv_depth_star is not None:
         return np.asarray(task.inv_depth_star[i], dtype=float)
     return None

@@ -348,8 +348,12 @@ def term_inv_depths(
         return task.inv_depth_star
     sets, detected, xy = dots
     out = []
+    poses: dict[Any, FloatArray | None] = {}  # one PnP solve per point set and frame
     for i, (term, st) in enumerate(zip(task.terms, terms)):
-        d = truth_d[i] if policy != "pose" else pose_term_depth(task, i, st, sets, detected, xy)
+        if policy == "pose":
+            d = pose_term_depth(task, i, st, sets, detected, xy, poses)
+        else:
+            d = truth_d[i]
         if policy == "estimated" and st.s is not None and st.kind != "tag":
             kw: dict[str, Any] = {}
             if st.on_dots:
