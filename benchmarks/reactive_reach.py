@@ -95,7 +95,7 @@ def _pct(pair: tuple[int, int]) -> str:
 def split_lines(result: Mapping[str, Split]) -> list[str]:
     """:func:`split` as a markdown table."""
     lines = [
-        "| method | success among reachable | among locally reachable | among the others |",
+        "| method | success among reachable | among reachable from the start | among the others |",
         "|---|---:|---:|---:|",
     ]
     for method, s in result.items():
