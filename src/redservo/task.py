@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -39,9 +39,13 @@ from redservo.scene import Scene
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import features as _K
+    from redservo.kernels import points_task as _KT
 else:
     _K = lazy("features")
+    _KT = lazy("points_task")
 _SCENE_CMO = Scene.cMo
+_F64 = np.dtype(np.float64)
+_NO_C = np.zeros((0, 0))
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
 DepthMode = Literal["current", "desired", "mean"]
@@ -296,7 +300,12 @@ class VisualTask:
         """
         group = self._group
         if group is not None and noise is None and type(scene).cMo is _SCENE_CMO:
-            # The hot path: the points of one target (docs/speed.md, "Public object path").
+            # The hot path: the points of one target (docs/speed.md, "Public object path"),
+            # in one compiled call when the kernels are compiled and the inputs fit it.
+            if depth_scale == 1.0 and self.depth == "current" and _KT.COMPILED:
+                done = self._points_kernel(cast(Scene, scene), group, bMc, J, t)
+                if done is not None:
+                    return done
             cMo = scene.cMo(group.target_name, bMc, t)
             s, iz, bad = _K.points_measure(cMo, group.points)
             if bad >= 0:
@@ -321,6 +330,33 @@ class VisualTask:
         if group is not None:
             return self._points_state(s, parts[0], inv_depth, J, depth_scale)
         return self._state(s, inv_depth, parts, J, depth_scale)
+
+    def _points_kernel(
+        self, scene: Scene, group: plan.PointGroup, bMc: FloatArray, J: FloatArray, t: float
+    ) -> TaskState | None:
+        """:meth:`evaluate`'s hot path in one compiled call
+        (:func:`redservo.kernels.points_task.points_task`, the numpy path's numbers to the
+        bit), or None when an array is not as the kernel takes it (float64, C-contiguous) or
+        a point is behind the camera: the numpy path then runs (and raises)."""
+        s_star, C = self.s_star, self.C
+        if not (
+            type(J) is np.ndarray
+            and J.ndim == 2
+            and J.shape[0] == 6
+            and J.dtype == _F64
+            and J.flags.c_contiguous
+            and s_star.flags.c_contiguous
+            and (C is None or (C.dtype == _F64 and C.flags.c_contiguous))
+        ):
+            return None
+        T, bMw, wMo = scene._pose_parts(group.target_name, bMc, t)
+        if not (T.flags.c_contiguous and wMo.dtype == _F64 and wMo.flags.c_contiguous):
+            return None
+        Ck = _NO_C if C is None else C
+        s, iz, bad, e, e1, L, J1 = _KT.points_task(T, bMw, wMo, group.points, s_star, Ck, J)
+        if bad >= 0:
+            return None
+        return _new_state(TaskState, (s, e, e if C is None else e1, L, J1, group.split(iz)))
 
     def evaluate_measured(
         self,
