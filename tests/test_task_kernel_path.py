@@ -13,6 +13,7 @@ import pytest
 
 import redservo.robots.afma6 as afma6_mod
 import redservo.robots.dh as dh_mod
+import redservo.scene as scene_mod
 import redservo.task as task_mod
 from redservo import ConfigurationError, GeometryError, JointLimitError, ShapeError
 from redservo.bench.cases import dh_chain
@@ -88,6 +89,7 @@ def test_evaluate_runs_one_kernel_call_on_the_common_task(monkeypatch: pytest.Mo
 
     monkeypatch.setattr(task_mod._KT, "points_task", spy)
     monkeypatch.setattr(task_mod._K, "points_interaction", None)  # not called any more
+    monkeypatch.setattr(scene_mod, "as_transform", None)  # bMc is checked in the kernel
     task.evaluate(scene, bMc, J, 0.0)
     assert calls == [7]
 
@@ -164,3 +166,51 @@ def test_a_valid_float64_q_is_checked_in_compiled_code(
     assert robot.check_q(q) is q
     with pytest.raises(AssertionError, match="Python joint check"):
         robot.kinematics(q.tolist())  # a list still goes through the Python check
+
+
+def _perturbed(bMc: np.ndarray, row_scale: float = 1.0, bottom: float = 0.0) -> np.ndarray:
+    T = bMc.copy()
+    T[0, :3] *= row_scale  # |row 0|² - 1 ≈ 2 (row_scale - 1)
+    T[3, 0] = bottom
+    return T
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"row_scale": 1 + 0.35e-6},  # within as_transform's 1e-6, outside the kernel's 0.5e-6
+        {"bottom": 0.7e-9},  # within 1e-9, outside the kernel's 0.5e-9
+        {"bottom": -1e-9},  # at as_transform's tolerance
+        {"row_scale": 1 + 0.1e-6},  # within both
+    ],
+)
+def test_a_pose_within_the_full_tolerances_is_accepted_with_the_numpy_numbers(
+    monkeypatch: pytest.MonkeyPatch, change: dict[str, float]
+) -> None:
+    robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=2)
+    bMc, J = robot.kinematics(q)
+    T = _perturbed(bMc, **change)
+    fast = _bits(task.evaluate(scene, T, J))
+    monkeypatch.setattr(task_mod, "_KT", NUMPY)
+    assert _bits(task.evaluate(scene, T, J)) == fast
+
+
+def test_a_bad_pose_gets_the_python_checks_error_in_their_order() -> None:
+    robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=2)
+    bMc, J = robot.kinematics(q)
+    for T in (
+        _perturbed(bMc, row_scale=1 + 2e-6),
+        _perturbed(bMc, bottom=2e-9),
+        bMc @ np.diag([1.0, 1.0, -1.0, 1.0]),  # a reflection
+    ):
+        with pytest.raises(ShapeError, match="bMc must be a homogeneous transform"):
+            task.evaluate(scene, T, J)
+    T = bMc.copy()
+    T[1, 3] = np.inf
+    with pytest.raises(ShapeError, match="bMc must be finite"):
+        task.evaluate(scene, T, J)
+    other = Scene([PointSet("other", PTS)])  # the task's target is missing: bMc named first
+    with pytest.raises(ShapeError, match="bMc must be finite"):
+        task.evaluate(other, T, J)
+    with pytest.raises(ShapeError, match="bMc must be finite"):
+        task.evaluate(scene, T, J, float("nan"))

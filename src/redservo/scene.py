@@ -392,6 +392,15 @@ class Scene:
             ConfigurationError: ``t`` is not a finite number.
         """
         T = as_transform(bMc, "bMc")
+        return (T, *self._target_pose(name, t))
+
+    def _target_pose(self, name: str, t: float) -> tuple[FloatArray, FloatArray]:
+        """``(bMw, wMo)`` of :meth:`_pose_parts`, for a caller that checks ``bMc`` itself.
+
+        Raises:
+            UnknownNameError: no object ``name``.
+            ConfigurationError: ``t`` is not a finite number.
+        """
         obj = self._objects.get(name)
         traj = (self.object(name) if obj is None else obj).trajectory
         if type(traj) is Static:
@@ -400,7 +409,7 @@ class Scene:
             wMo = traj.wMo
         else:
             wMo = traj.pose(t)
-        return T, (_NO_BASE if self._base_at_origin else self._bMw), wMo
+        return (_NO_BASE if self._base_at_origin else self._bMw), wMo
 
     def _cMw(self, bMc: ArrayLike) -> FloatArray:
         """``cMw = inv(bMc) @ bMw`` for a camera pose ``bMc`` given by the caller (validated)."""

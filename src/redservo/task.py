@@ -336,8 +336,10 @@ class VisualTask:
     ) -> TaskState | None:
         """:meth:`evaluate`'s hot path in one compiled call
         (:func:`redservo.kernels.points_task.points_task`, the numpy path's numbers to the
-        bit), or None when an array is not as the kernel takes it (float64, C-contiguous) or
-        a point is behind the camera: the numpy path then runs (and raises)."""
+        bit), or None when an array is not as the kernel takes it (float64, C-contiguous), a
+        point is behind the camera, ``bMc`` fails the kernel's sufficient test of a
+        transform or the target's pose cannot be read: the numpy path then runs, with its
+        checks in their order (and raises)."""
         s_star, C = self.s_star, self.C
         if not (
             type(J) is np.ndarray
@@ -345,16 +347,23 @@ class VisualTask:
             and J.shape[0] == 6
             and J.dtype == _F64
             and J.flags.c_contiguous
+            and type(bMc) is np.ndarray
+            and bMc.shape == (4, 4)
+            and bMc.dtype == _F64
+            and bMc.flags.c_contiguous
             and s_star.flags.c_contiguous
             and (C is None or (C.dtype == _F64 and C.flags.c_contiguous))
         ):
             return None
-        T, bMw, wMo = scene._pose_parts(group.target_name, bMc, t)
-        if not (T.flags.c_contiguous and wMo.dtype == _F64 and wMo.flags.c_contiguous):
+        try:  # bMc is checked by the kernel; the numpy path raises in the documented order
+            bMw, wMo = scene._target_pose(group.target_name, t)
+        except Exception:
+            return None
+        if not (wMo.dtype == _F64 and wMo.flags.c_contiguous):
             return None
         Ck = _NO_C if C is None else C
-        s, iz, bad, e, e1, L, J1 = _KT.points_task(T, bMw, wMo, group.points, s_star, Ck, J)
-        if bad >= 0:
+        s, iz, bad, e, e1, L, J1 = _KT.points_task(bMc, bMw, wMo, group.points, s_star, Ck, J)
+        if bad != -1:  # a point behind the camera, or bMc not surely valid
             return None
         return _new_state(TaskState, (s, e, e if C is None else e1, L, J1, group.split(iz)))
 
