@@ -13,7 +13,7 @@ so the numbers are those of the numpy path to the bit (tests/test_task_kernel_pa
    :func:`redservo.spatial.inverse`; products by BLAS as numpy's ``@``);
 2. the points' ``s`` and ``1/Z`` (:func:`redservo.kernels.features.points_measure`) and
    ``L`` (:func:`~redservo.kernels.features.points_interaction`);
-3. ``e = s − s*``, then CM01 eq. 25 by the step kernel's
+3. ``e = s − s*``, then the task rows by the step kernel's
    :func:`redservo.kernels.control.task_rows` (``e1 = C e``, ``J1 = (C L) J``).
 
 ``COMPILED`` (re-exported from :mod:`redservo.kernels._jit`) tells the caller whether the
