@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+import redservo.features.compiled_points as cp_mod
 import redservo.robots.afma6 as afma6_mod
 import redservo.robots.dh as dh_mod
 import redservo.scene as scene_mod
@@ -69,7 +70,7 @@ def test_the_kernel_path_equals_the_numpy_path_to_the_bit(
         bMc, J = robot.kinematics(q)
         t = float(rng.uniform(0.0, 2.0))
         cases.append((bMc, J, t, _bits(task.evaluate(scene, bMc, J, t))))
-    monkeypatch.setattr(task_mod, "_KT", NUMPY)
+    monkeypatch.setattr(cp_mod, "_KT", NUMPY)
     for bMc, J, t, fast in cases:
         assert _bits(task.evaluate(scene, bMc, J, t)) == fast
     if not combine:  # e1 is e itself, as on the numpy path
@@ -80,14 +81,14 @@ def test_the_kernel_path_equals_the_numpy_path_to_the_bit(
 def test_evaluate_runs_one_kernel_call_on_the_common_task(monkeypatch: pytest.MonkeyPatch) -> None:
     robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=0)
     bMc, J = robot.kinematics(q)
-    real = task_mod._KT.points_task
+    real = cp_mod._KT.points_task
     calls = []
 
     def spy(*args: Any) -> Any:
         calls.append(len(args))
         return real(*args)
 
-    monkeypatch.setattr(task_mod._KT, "points_task", spy)
+    monkeypatch.setattr(cp_mod._KT, "points_task", spy)
     monkeypatch.setattr(task_mod._K, "points_interaction", None)  # not called any more
     monkeypatch.setattr(scene_mod, "as_transform", None)  # bMc is checked in the kernel
     task.evaluate(scene, bMc, J, 0.0)
@@ -104,7 +105,7 @@ def test_inputs_the_kernel_does_not_take_get_the_numpy_path_and_its_errors(
     inputs.append((np.asfortranarray(bMc), np.asfortranarray(J), 0.0))
     fast = [_bits(task.evaluate(scene, *x)) for x in inputs]
     with monkeypatch.context() as m:
-        m.setattr(task_mod, "_KT", NUMPY)
+        m.setattr(cp_mod, "_KT", NUMPY)
         assert fast == [_bits(task.evaluate(scene, *x)) for x in inputs]
     # Malformed input: the one error of the Python checks.
     with pytest.raises(ShapeError, match="bMc must be finite"):
@@ -191,7 +192,7 @@ def test_a_pose_within_the_full_tolerances_is_accepted_with_the_numpy_numbers(
     bMc, J = robot.kinematics(q)
     T = _perturbed(bMc, **change)
     fast = _bits(task.evaluate(scene, T, J))
-    monkeypatch.setattr(task_mod, "_KT", NUMPY)
+    monkeypatch.setattr(cp_mod, "_KT", NUMPY)
     assert _bits(task.evaluate(scene, T, J)) == fast
 
 
@@ -214,3 +215,60 @@ def test_a_bad_pose_gets_the_python_checks_error_in_their_order() -> None:
         task.evaluate(other, T, J)
     with pytest.raises(ShapeError, match="bMc must be finite"):
         task.evaluate(scene, T, J, float("nan"))
+
+
+@pytest.mark.parametrize("depth", ["current", "desired", "mean"])
+@pytest.mark.parametrize("combine", [False, True], ids=["no-C", "C"])
+def test_evaluate_measured_and_depth_options_give_the_numpy_numbers(
+    monkeypatch: pytest.MonkeyPatch, depth: str, combine: bool
+) -> None:
+    robot, scene, base, q0, rng = _setup(moving=False, base=False, combine=True, seed=4)
+    task = VisualTask(
+        base.terms, base.s_star, inv_depth_star=base.inv_depth_star, depth=depth, C=base.C
+    )
+    if not combine:
+        task = VisualTask(base.terms, base.s_star, inv_depth_star=base.inv_depth_star, depth=depth)
+        task.C = None
+    lim = robot.limits()
+    cases = []
+    for _ in range(100):
+        q = np.clip(q0 + rng.normal(scale=0.05, size=6) * lim.range / 2, lim.q_min, lim.q_max)
+        bMc, J = robot.kinematics(q)
+        st = task.evaluate(scene, bMc, J)
+        scale = float(rng.choice([1.0, 0.8, 1.3]))
+        s = st.s + rng.normal(scale=1e-3, size=st.s.shape)
+        cases.append((bMc, J, s, st.inv_depth, scale))
+    got = [
+        (
+            _bits(task.evaluate(scene, b, J, depth_scale=d)),
+            _bits(task.evaluate_measured(s, iz, J, depth_scale=d)),
+        )
+        for b, J, s, iz, d in cases
+    ]
+    monkeypatch.setattr(cp_mod, "_KT", NUMPY)
+    want = [
+        (
+            _bits(task.evaluate(scene, b, J, depth_scale=d)),
+            _bits(task.evaluate_measured(s, iz, J, depth_scale=d)),
+        )
+        for b, J, s, iz, d in cases
+    ]
+    assert got == want
+
+
+def test_evaluate_measured_runs_one_kernel_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=0)
+    bMc, J = robot.kinematics(q)
+    st = task.evaluate(scene, bMc, J)
+    real = cp_mod._KT.points_rows
+    calls = []
+
+    def spy(*args: Any) -> Any:
+        calls.append(len(args))
+        return real(*args)
+
+    monkeypatch.setattr(cp_mod._KT, "points_rows", spy)
+    monkeypatch.setattr(task_mod._K, "points_interaction", None)  # not called any more
+    again = task.evaluate_measured(st.s, st.inv_depth, J)
+    assert calls == [5]
+    assert _bits(again) == _bits(st)

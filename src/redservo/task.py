@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, ShapeError
+from redservo.features import compiled_points as _CP
 from redservo.features import plan as plan
 from redservo.features.base import Feature
 from redservo.kernels import lazy
@@ -39,13 +40,9 @@ from redservo.scene import Scene
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import features as _K
-    from redservo.kernels import points_task as _KT
 else:
     _K = lazy("features")
-    _KT = lazy("points_task")
 _SCENE_CMO = Scene.cMo
-_F64 = np.dtype(np.float64)
-_NO_C = np.zeros((0, 0))
 __all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
 
 DepthMode = Literal["current", "desired", "mean"]
@@ -302,10 +299,10 @@ class VisualTask:
         if group is not None and noise is None and type(scene).cMo is _SCENE_CMO:
             # The hot path: the points of one target (docs/speed.md, "Public object path"),
             # in one compiled call when the kernels are compiled and the inputs fit it.
-            if depth_scale == 1.0 and self.depth == "current" and _KT.COMPILED:
-                done = self._points_kernel(cast(Scene, scene), group, bMc, J, t)
+            if depth_scale == 1.0 and self.depth == "current" and _CP.compiled():
+                done = _CP.evaluate(cast(Scene, scene), group, bMc, J, t, (self.s_star, self.C))
                 if done is not None:
-                    return done
+                    return _new_state(TaskState, (done[0], *done[2], group.split(done[1])))
             cMo = scene.cMo(group.target_name, bMc, t)
             s, iz, bad = _K.points_measure(cMo, group.points)
             if bad >= 0:
@@ -330,42 +327,6 @@ class VisualTask:
         if group is not None:
             return self._points_state(s, parts[0], inv_depth, J, depth_scale)
         return self._state(s, inv_depth, parts, J, depth_scale)
-
-    def _points_kernel(
-        self, scene: Scene, group: plan.PointGroup, bMc: FloatArray, J: FloatArray, t: float
-    ) -> TaskState | None:
-        """:meth:`evaluate`'s hot path in one compiled call
-        (:func:`redservo.kernels.points_task.points_task`, the numpy path's numbers to the
-        bit), or None when an array is not as the kernel takes it (float64, C-contiguous), a
-        point is behind the camera, ``bMc`` fails the kernel's sufficient test of a
-        transform or the target's pose cannot be read: the numpy path then runs, with its
-        checks in their order (and raises)."""
-        s_star, C = self.s_star, self.C
-        if not (
-            type(J) is np.ndarray
-            and J.ndim == 2
-            and J.shape[0] == 6
-            and J.dtype == _F64
-            and J.flags.c_contiguous
-            and type(bMc) is np.ndarray
-            and bMc.shape == (4, 4)
-            and bMc.dtype == _F64
-            and bMc.flags.c_contiguous
-            and s_star.flags.c_contiguous
-            and (C is None or (C.dtype == _F64 and C.flags.c_contiguous))
-        ):
-            return None
-        try:  # bMc is checked by the kernel; the numpy path raises in the documented order
-            bMw, wMo = scene._target_pose(group.target_name, t)
-        except Exception:
-            return None
-        if not (wMo.dtype == _F64 and wMo.flags.c_contiguous):
-            return None
-        Ck = _NO_C if C is None else C
-        s, iz, bad, e, e1, L, J1 = _KT.points_task(bMc, bMw, wMo, group.points, s_star, Ck, J)
-        if bad != -1:  # a point behind the camera, or bMc not surely valid
-            return None
-        return _new_state(TaskState, (s, e, e if C is None else e1, L, J1, group.split(iz)))
 
     def evaluate_measured(
         self,
@@ -406,9 +367,12 @@ class VisualTask:
             J = as_matrix(J, "J", 6)
         if self.depth != "current" or depth_scale != 1.0:
             iz = plan.depth_option(iz, self._group.star, self.depth, depth_scale)  # type: ignore[union-attr]
+        C = self.C
+        done = _CP.rows(s, iz, J, (self.s_star, C)) if _CP.compiled() else None
+        if done is not None:
+            return _new_state(TaskState, (s, *done, inv_depth))
         L = _K.points_interaction(s, iz)
         e = s - self.s_star
-        C = self.C
         if C is None:
             return _new_state(TaskState, (s, e, e, L, L @ J, inv_depth))
         return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, inv_depth))

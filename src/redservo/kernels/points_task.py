@@ -2,7 +2,8 @@
 
 :meth:`redservo.task.VisualTask.evaluate` on the common task (the points of one target,
 current depth, no noise) calls :func:`points_task` once instead of six numpy and kernel
-calls. It chains the kernels the compiled steps already share, in the object path's order,
+calls; :meth:`~redservo.task.VisualTask.evaluate_measured` (and ``evaluate`` with another
+depth option) calls :func:`points_rows`, its steps 2-3 from measured points. It chains the kernels the compiled steps already share, in the object path's order,
 so the numbers are those of the numpy path to the bit (tests/test_task_kernel_path.py):
 
 0. a test that ``bMc`` is a valid transform (:func:`transform_ok`: a sufficient condition
@@ -32,7 +33,7 @@ from redservo.kernels.control import task_rows
 from redservo.kernels.features import points_interaction, points_measure
 from redservo.kernels.loop_task import inverse
 
-__all__ = ["COMPILED", "points_task", "transform_ok"]
+__all__ = ["COMPILED", "points_rows", "points_task", "transform_ok"]
 
 BOTTOM_TOL, ROTATION_TOL = 0.5e-9, 0.5e-6
 """Half the tolerances of ``as_transform`` (bottom row; ``R Rᵀ = I`` per entry): a rounding
@@ -88,12 +89,22 @@ def points_task(bMc: Any, bMw: Any, wMo: Any, pts: Any, s_star: Any, C: Any, J: 
         cMw = np.dot(cMw, bMw)
     cMo = np.dot(cMw, wMo)
     s, iz, bad = points_measure(cMo, pts)
-    k = s.shape[0]
     if bad >= 0:
         return s, iz, bad, s, s, np.empty((0, 6)), np.empty((0, J.shape[1]))
+    e, e1, L, J1 = points_rows(s, iz, s_star, C, J)
+    return s, iz, bad, e, e1, L, J1
+
+
+@kernel
+def points_rows(s: Any, iz: Any, s_star: Any, C: Any, J: Any) -> Any:
+    """``(e, e1, L, J1)`` of N points at ``s`` (2N,) with the inverse depths ``iz`` (N,;
+    1/m, as ``L`` uses them): steps 2-3 of the module docstring (what
+    :meth:`~redservo.task.VisualTask.evaluate_measured` computes); ``s_star``, ``C`` and
+    ``J`` as :func:`points_task` takes them."""
     L = points_interaction(s, iz)
+    k = s.shape[0]
     e = np.empty(k)
     for i in range(k):
         e[i] = s[i] - s_star[i]
     e1, J1 = task_rows(e, L, C, J)
-    return s, iz, bad, e, e1, L, J1
+    return e, e1, L, J1
