@@ -219,7 +219,7 @@ def test_a_bad_pose_gets_the_python_checks_error_in_their_order() -> None:
 
 @pytest.mark.parametrize("depth", ["current", "desired", "mean"])
 @pytest.mark.parametrize("combine", [False, True], ids=["no-C", "C"])
-def test_evaluate_measured_and_depth_options_give_the_numpy_numbers(
+def test_depth_options_and_measured_features_give_the_numpy_numbers(
     monkeypatch: pytest.MonkeyPatch, depth: str, combine: bool
 ) -> None:
     robot, scene, base, q0, rng = _setup(moving=False, base=False, combine=True, seed=4)
@@ -254,21 +254,3 @@ def test_evaluate_measured_and_depth_options_give_the_numpy_numbers(
         for b, J, s, iz, d in cases
     ]
     assert got == want
-
-
-def test_evaluate_measured_runs_one_kernel_call(monkeypatch: pytest.MonkeyPatch) -> None:
-    robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=0)
-    bMc, J = robot.kinematics(q)
-    st = task.evaluate(scene, bMc, J)
-    real = cp_mod._KT.points_rows
-    calls = []
-
-    def spy(*args: Any) -> Any:
-        calls.append(len(args))
-        return real(*args)
-
-    monkeypatch.setattr(cp_mod._KT, "points_rows", spy)
-    monkeypatch.setattr(task_mod._K, "points_interaction", None)  # not called any more
-    again = task.evaluate_measured(st.s, st.inv_depth, J)
-    assert calls == [5]
-    assert _bits(again) == _bits(st)

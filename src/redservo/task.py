@@ -367,12 +367,9 @@ class VisualTask:
             J = as_matrix(J, "J", 6)
         if self.depth != "current" or depth_scale != 1.0:
             iz = plan.depth_option(iz, self._group.star, self.depth, depth_scale)  # type: ignore[union-attr]
-        C = self.C
-        done = _CP.rows(s, iz, J, (self.s_star, C)) if _CP.compiled() else None
-        if done is not None:
-            return _new_state(TaskState, (s, *done, inv_depth))
         L = _K.points_interaction(s, iz)
         e = s - self.s_star
+        C = self.C
         if C is None:
             return _new_state(TaskState, (s, e, e, L, L @ J, inv_depth))
         return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, inv_depth))

@@ -1,14 +1,15 @@
 """The compiled evaluation of a task of image points (the object path's hot path).
 
-:meth:`redservo.task.VisualTask.evaluate` and ``evaluate_measured`` call these on the
-common task (the points of one target) when the kernels are compiled: :func:`evaluate`
-runs :func:`redservo.kernels.points_task.points_task` (camera pose to ``J1`` in one call),
-:func:`rows` runs :func:`~redservo.kernels.points_task.points_rows` (measured points to
-``J1``). Both give the numpy path's numbers to the bit and return None whenever an input is
-not as the kernel takes it (float64, C-contiguous), a point is behind the camera, ``bMc``
-fails the kernel's sufficient test of a transform or the target's pose cannot be read:
-the task then runs its numpy path, whose checks accept the input or raise the one error
-naming it, in their documented order. Units: m, rad, 1/m; normalized image units.
+:meth:`redservo.task.VisualTask.evaluate` calls :func:`evaluate` on the common task (the
+points of one target, current depth, no noise) when the kernels are compiled: one call of
+:func:`redservo.kernels.points_task.points_task`, from the camera pose to ``J1``, with the
+numpy path's numbers to the bit. It returns None whenever an input is not as the kernel
+takes it (float64, C-contiguous), a point is behind the camera, ``bMc`` fails the
+kernel's sufficient test of a transform or the target's pose cannot be read: the task then
+runs its numpy path, whose checks accept the input or raise the one error naming it, in
+their documented order. (``evaluate_measured`` keeps its numpy calls: the same kernel from
+measured points saved nothing measurable, its checks of the inputs cost what it saved.)
+Units: m, rad, 1/m; normalized image units.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
 else:
     _KT = lazy("points_task")
 
-__all__ = ["compiled", "evaluate", "rows"]
+__all__ = ["compiled", "evaluate"]
 
 _F64 = np.dtype(np.float64)
 _NO_C = np.zeros((0, 0))
@@ -81,16 +82,3 @@ def evaluate(
     if bad != -1:  # a point behind the camera, or bMc not surely valid
         return None
     return s, iz, (e, e if C is None else e1, L, J1)
-
-
-def rows(
-    s: FloatArray, iz: FloatArray, J: FloatArray, task: tuple[FloatArray, FloatArray | None]
-) -> Rows | None:
-    """``(e, e1, L, J1)`` of the points at ``s`` (2N,) with the inverse depths ``iz`` (N,;
-    1/m, as ``L`` uses them), ``J`` (6, n) checked for its shape by the caller and the
-    task's ``(s*, C)``, or None (module docstring)."""
-    s_star, C = task
-    if not _ready(s, iz, J, s_star, C):
-        return None
-    e, e1, L, J1 = _KT.points_rows(s, iz, s_star, _NO_C if C is None else C, J)
-    return e, e if C is None else e1, L, J1

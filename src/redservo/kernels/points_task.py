@@ -2,8 +2,7 @@
 
 :meth:`redservo.task.VisualTask.evaluate` on the common task (the points of one target,
 current depth, no noise) calls :func:`points_task` once instead of six numpy and kernel
-calls; :meth:`~redservo.task.VisualTask.evaluate_measured` (and ``evaluate`` with another
-depth option) calls :func:`points_rows`, its steps 2-3 from measured points. It chains the kernels the compiled steps already share, in the object path's order,
+calls. It chains the kernels the compiled steps already share, in the object path's order,
 so the numbers are those of the numpy path to the bit (tests/test_task_kernel_path.py):
 
 0. a test that ``bMc`` is a valid transform (:func:`transform_ok`: a sufficient condition
@@ -98,9 +97,8 @@ def points_task(bMc: Any, bMw: Any, wMo: Any, pts: Any, s_star: Any, C: Any, J: 
 @kernel
 def points_rows(s: Any, iz: Any, s_star: Any, C: Any, J: Any) -> Any:
     """``(e, e1, L, J1)`` of N points at ``s`` (2N,) with the inverse depths ``iz`` (N,;
-    1/m, as ``L`` uses them): steps 2-3 of the module docstring (what
-    :meth:`~redservo.task.VisualTask.evaluate_measured` computes); ``s_star``, ``C`` and
-    ``J`` as :func:`points_task` takes them."""
+    1/m, as ``L`` uses them): the end of steps 2-3 of the module docstring; ``s_star``,
+    ``C`` and ``J`` as :func:`points_task` takes them."""
     L = points_interaction(s, iz)
     k = s.shape[0]
     e = np.empty(k)
