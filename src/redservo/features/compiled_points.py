@@ -42,12 +42,9 @@ def compiled() -> bool:
     return bool(_KT.COMPILED)
 
 
-def _ready(*arrays: object) -> bool:
-    """Each of ``arrays`` is None or a C-contiguous float64 array."""
-    return all(
-        a is None or (type(a) is np.ndarray and a.dtype == _F64 and a.flags.c_contiguous)
-        for a in arrays
-    )
+def _ready(a: FloatArray) -> bool:
+    """``a`` is a C-contiguous float64 array (as the kernel takes it without a copy)."""
+    return a.dtype == _F64 and a.flags.c_contiguous
 
 
 def evaluate(
@@ -68,14 +65,19 @@ def evaluate(
         and J.shape[0] == 6
         and type(bMc) is np.ndarray
         and bMc.shape == (4, 4)
-        and _ready(J, bMc, s_star, C)
+        and J.dtype == _F64
+        and J.flags.c_contiguous
+        and bMc.dtype == _F64
+        and bMc.flags.c_contiguous
+        and _ready(s_star)
+        and (C is None or (type(C) is np.ndarray and _ready(C)))
     ):
         return None
     try:  # bMc is checked by the kernel; the numpy path raises in the documented order
         bMw, wMo = scene._target_pose(group.target_name, t)
     except Exception:
         return None
-    if not _ready(wMo):
+    if not (type(wMo) is np.ndarray and _ready(wMo)):
         return None
     Ck = _NO_C if C is None else C
     s, iz, bad, e, e1, L, J1 = _KT.points_task(bMc, bMw, wMo, group.points, s_star, Ck, J)
