@@ -171,6 +171,32 @@ def test_the_compiled_step_keeps_the_output_stage_when_it_is_set() -> None:
     assert np.max(np.abs(got.qdot)) <= 1e-3
 
 
+@pytest.mark.parametrize("saturation", [None, 1e-3])
+def test_the_history_keeps_one_copy_of_each_command_shared_with_the_diagnostics(
+    saturation: float | None,
+) -> None:
+    """A compiled step whose safety layer raised events copies ``q`` and ``q̇`` once, for its
+    lazy diagnostics and the command history alike (on today's main each copied them
+    again); the history holds what was sent, whatever the caller writes afterwards."""
+    ctl, q, meas = _controller(qdot_saturation=saturation)
+    ref, _, _ = _controller(qdot_saturation=saturation, engine="python")
+    q = q.copy()
+    got, want = ctl.step(q, meas, 0.5, qdot_prev=None), ref.step(q, meas, 0.5, qdot_prev=None)
+    sent = got.qdot.copy()
+    (cmd,) = ctl.history._cmds
+    (ref_cmd,) = ref.history._cmds
+    safety = got.diagnostics._build[1][6]  # the lazy diagnostics' (q, q̇, dt, limits)
+    assert safety is not None  # this case's safety layer scales the velocity
+    if saturation is None:
+        assert cmd.q is safety[0] and cmd.qdot is safety[1]
+    got.qdot[:] = 9.0
+    q[:] = 0.0
+    assert cmd.t == ref_cmd.t == 0.5
+    assert cmd.q.tobytes() == ref_cmd.q.tobytes() and cmd.q is not q
+    assert cmd.qdot.tobytes() == sent.tobytes() == want.qdot.tobytes()
+    _same_diag(got.diagnostics, want.diagnostics)
+
+
 def test_the_object_path_benchmark_states_the_ratios_to_visp() -> None:
     import importlib.util
     from pathlib import Path

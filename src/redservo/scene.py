@@ -59,6 +59,9 @@ __all__ = [
     "Waypoints",
 ]
 
+_NO_BASE = np.zeros((0, 0))
+"""``bMw`` of :meth:`Scene._pose_parts` when the base is at the world origin (no product)."""
+
 
 def _time(t: float) -> float:
     value = float(t)
@@ -368,16 +371,45 @@ class Scene:
 
     def cMo(self, name: str, bMc: ArrayLike, t: float = 0.0) -> FloatArray:
         """Pose (4x4) of object ``name`` in the camera frame, for the camera pose ``bMc`` (4x4)."""
-        cMw = inverse(as_transform(bMc, "bMc"))
-        if not self._base_at_origin:
-            cMw = cMw @ self._bMw
+        T, bMw, wMo = self._pose_parts(name, bMc, t)
+        cMw = inverse(T)
+        if bMw.shape[0] != 0:
+            cMw = cMw @ bMw
+        return cMw @ wMo  # wMo read, not copied: the product is the fresh array
+
+    def _pose_parts(
+        self, name: str, bMc: ArrayLike, t: float = 0.0
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The factors of :meth:`cMo`, ``cMo = inverse(bMc) · bMw · wMo``: ``(bMc, bMw, wMo)``
+        (4x4 each; ``bMc`` validated, ``bMw`` a (0, 0) array when the base is at the world
+        origin and the product is skipped, ``wMo`` the object's pose at ``t`` (s), read, not
+        copied: do not write into it). What a compiled caller multiplies itself
+        (:func:`redservo.kernels.points_task.points_task`, with the same operations).
+
+        Raises:
+            ShapeError: ``bMc`` is not a homogeneous transform.
+            UnknownNameError: no object ``name``.
+            ConfigurationError: ``t`` is not a finite number.
+        """
+        T = as_transform(bMc, "bMc")
+        return (T, *self._target_pose(name, t))
+
+    def _target_pose(self, name: str, t: float) -> tuple[FloatArray, FloatArray]:
+        """``(bMw, wMo)`` of :meth:`_pose_parts`, for a caller that checks ``bMc`` itself.
+
+        Raises:
+            UnknownNameError: no object ``name``.
+            ConfigurationError: ``t`` is not a finite number.
+        """
         obj = self._objects.get(name)
         traj = (self.object(name) if obj is None else obj).trajectory
         if type(traj) is Static:
             if type(t) is not float or not math.isfinite(t):
                 _time(t)  # what Static.pose checks (an int is fine, NaN and inf raise)
-            return cMw @ traj.wMo  # read, not copied: the product is the fresh array
-        return cMw @ traj.pose(t)
+            wMo = traj.wMo
+        else:
+            wMo = traj.pose(t)
+        return (_NO_BASE if self._base_at_origin else self._bMw), wMo
 
     def _cMw(self, bMc: ArrayLike) -> FloatArray:
         """``cMw = inv(bMc) @ bMw`` for a camera pose ``bMc`` given by the caller (validated)."""

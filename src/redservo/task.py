@@ -25,13 +25,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_matrix, as_transform, as_vector
 from redservo.errors import ConfigurationError, ShapeError
+from redservo.features import compiled_points as _CP
 from redservo.features import plan as plan
 from redservo.features.base import Feature
 from redservo.kernels import lazy
@@ -296,7 +297,12 @@ class VisualTask:
         """
         group = self._group
         if group is not None and noise is None and type(scene).cMo is _SCENE_CMO:
-            # The hot path: the points of one target (docs/speed.md, "Public object path").
+            # The hot path: the points of one target (docs/speed.md, "Public object path"),
+            # in one compiled call when the kernels are compiled and the inputs fit it.
+            if depth_scale == 1.0 and self.depth == "current" and _CP.compiled():
+                done = _CP.evaluate(cast(Scene, scene), group, bMc, J, t, (self.s_star, self.C))
+                if done is not None:
+                    return _new_state(TaskState, (done[0], *done[2], group.split(done[1])))
             cMo = scene.cMo(group.target_name, bMc, t)
             s, iz, bad = _K.points_measure(cMo, group.points)
             if bad >= 0:

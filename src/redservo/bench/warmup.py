@@ -240,6 +240,7 @@ def _controllers(cases: dict[str, Any]) -> None:
         c = cases[name]
         ctl = Controller(c.robot, c.task, make_law("classical"), c.limits, lam=0.5, dt=0.04)
         bMc, J = c.robot.kinematics(c.q)
+        c.task.evaluate(c.scene, bMc, J, 0.0)  # the object path's task kernel (points_task)
         meas = Measurement(*c.task.measure(c.scene, bMc, 0.0))
         prev = ctl.step(c.q, meas, 0.0, qdot_prev=None).qdot.copy()
         ctl.step(c.q, meas, 0.0, qdot_prev=prev, J=J)

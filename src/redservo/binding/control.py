@@ -97,10 +97,12 @@ class CompiledControl:
         J: FloatArray | None = None,
         de1_dt: FloatArray | None = None,
         secondary: FloatArray | None = None,
-    ) -> tuple[FloatArray, TaskState, Diagnostics] | None:
-        """``(q̇, task state, diagnostics)`` of one step, or None when an input fails the
-        kernel's conservative check (NaN, a joint outside its limits, ...): the controller
-        then runs the object path, which raises the error that names the input.
+    ) -> tuple[FloatArray, TaskState, Diagnostics, tuple[FloatArray, FloatArray] | None] | None:
+        """``(q̇, task state, diagnostics, copies)`` of one step, or None when an input fails
+        the kernel's conservative check (NaN, a joint outside its limits, ...): the
+        controller then runs the object path, which raises the error that names the input.
+        ``copies`` are the copies of ``q`` and ``q̇`` the diagnostics keep when the safety
+        layer raised events (read only: the command history may keep them too), or None.
 
         Args: as :meth:`redservo.control.Controller.step` (``J`` the model Jacobian (6, n)
         when the caller has it; ``de1_dt`` (m,) and ``secondary`` (n,) as the law takes
@@ -171,7 +173,7 @@ class CompiledControl:
         lmask: int,
         smask: int,
         vec: FloatArray,
-    ) -> tuple[FloatArray, TaskState, Diagnostics]:
+    ) -> tuple[FloatArray, TaskState, Diagnostics, tuple[FloatArray, FloatArray] | None]:
         """Views of the kernel's buffer as the object path's results; the diagnostics are
         built when first read (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the
         buffer (``qdot`` to ``ssrc``), the law's options as they are now, and copies of
@@ -183,10 +185,11 @@ class CompiledControl:
         L, J1 = buf[sL].reshape(k, 6), buf[sJ1].reshape(m, n)
         state = _new_state(TaskState, (s, e, e1, L, J1, inv_depth))
         law = self.law
-        safety = (q.copy(), qdot.copy(), self.gains[1], self.limits) if smask else None
+        copies = (q.copy(), qdot.copy()) if smask else None
+        safety = None if copies is None else (*copies, self.gains[1], self.limits)
         masks = (lmask, smask, vec)
         args = (type(law), dict(law.__dict__), m, buf, self.law_slices, masks, safety)
-        return qdot, state, lazy_diagnostics(diagnose, *args)
+        return qdot, state, lazy_diagnostics(diagnose, *args), copies
 
 
 def bind_controller(

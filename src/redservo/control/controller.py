@@ -252,17 +252,14 @@ class Controller:
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)
             measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
-        done = None
-        qa = cast(FloatArray, q)
-        if self._compiled is not None and is_float_vector(
-            q, self._n
-        ):  # the kernel checks the values
-            done = compiled_step(self, qa, measurement, t, qdot_prev, J, context)
-        if done is None:
-            qa = as_vector(q, "q", self._n)
-            Ja = self.jacobian(qa, J)
-            state = self.evaluate(measurement, Ja)
-            done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
+        if self._compiled is not None and is_float_vector(q, self._n):  # the kernel checks values
+            done = compiled_step(self, cast(FloatArray, q), measurement, t, qdot_prev, J, context)
+            if done is not None:
+                return done  # its command is in the history already
+        qa = as_vector(q, "q", self._n)
+        Ja = self.jacobian(qa, J)
+        state = self.evaluate(measurement, Ja)
+        done = self._command(qa, state, t, qdot_prev=qdot_prev, J=Ja, context=context)
         self.history.record(t, qa, done.qdot)
         return done
 

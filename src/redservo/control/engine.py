@@ -101,9 +101,10 @@ def compiled_step(
     J: ArrayLike | None,
     context: SceneContext | None,
 ) -> ControlStep | None:
-    """:meth:`Controller.step <redservo.control.Controller.step>` in one compiled call, or
-    None to take the object path (an input the kernel's check rejects: the object path
-    raises the error naming it). Units: as the step's (rad or m, s)."""
+    """:meth:`Controller.step <redservo.control.Controller.step>` in one compiled call, its
+    command recorded in the controller's history, or None to take the object path (an input
+    the kernel's check rejects: the object path raises the error naming it). Units: as the
+    step's (rad or m, s)."""
     compiled = ctrl._compiled
     assert compiled is not None
     ctrl.stage = "task"
@@ -119,12 +120,17 @@ def compiled_step(
     res = compiled.step(q, s, iz, prev, J=Ja, de1_dt=de1_dt)  # type: ignore[arg-type]
     if res is None:
         return None
-    qdot, state, diag = res
+    qdot, state, diag, copies = res
     if ctrl.qdot_saturation is None and ctrl.image_motion is None and ctrl.collision is None:
         ctrl.stage = "guard"  # the output stage has nothing to do (shape_output's no-op)
         saturated = False
+        if copies is not None:  # the diagnostics' copies of q and q̇ serve the history too
+            ctrl.history.keep(t, *copies)
+        else:
+            ctrl.history.record(t, q, qdot)
     else:
         qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
+        ctrl.history.record(t, q, qdot)
     return _new_step(ControlStep, (qdot, state, diag, None, de1_dt, None, saturated))
 
 

@@ -69,9 +69,14 @@ class CommandHistory:
 
     def record(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
-        if self._cmds and float(t) < self._cmds[-1].t:
+        self.keep(float(t), q.copy(), qdot.copy())
+
+    def keep(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
+        """:meth:`record` with copies the caller already made (no one writes into them; the
+        Controller's compiled step shares those of its lazy diagnostics): kept as given."""
+        if self._cmds and t < self._cmds[-1].t:
             self._ordered = False
-        self._cmds.append(_Command(float(t), q.copy(), qdot.copy()))
+        self._cmds.append(_Command(t, q, qdot))
         while self._cmds[0].t < t - self.horizon:
             self._cmds.popleft()
 

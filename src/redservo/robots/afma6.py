@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, ClassVar, Final
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray
+from redservo._validation import FloatArray, is_float_vector
 from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
 from redservo.robots.base import Robot
@@ -58,9 +58,11 @@ AFMA6_QDDOT_MAX: Final = (1.0, 1.0, 1.0, 3.0, 3.0, 3.0)
 gantry reaches its velocity limit in 0.2 s and the wrist in about 0.23 s."""
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import joint_check as _KJ
     from redservo.kernels import kinematics as _K
 else:
     _K = lazy("kinematics")
+    _KJ = lazy("joint_check")
 
 COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""
@@ -189,7 +191,14 @@ class Afma6(Robot):
         self, q: ArrayLike, *, check_limits: bool = True
     ) -> tuple[FloatArray, FloatArray]:
         """Return ``(fkine(q), jacobian(q))`` in one kernel call (hot path; the products with
-        ``eMc`` and ``cVe`` included)."""
+        ``eMc`` and ``cVe`` included). A C-contiguous float64 (6,) ``q`` strictly within its
+        limits is checked inside the kernel (:func:`redservo.kernels.joint_check.afma6_checked`);
+        anything else first gets :meth:`check_q`, which accepts it or names the joint."""
+        if is_float_vector(q, 6) and type(self).check_q is Afma6.check_q and _KJ.COMPILED:
+            args = (bool(check_limits), self._eMc, self._cVe, COUPLING, OFFSET)
+            bMc, J, ok = _KJ.afma6_checked(q, self.q_min, self.q_max, *args)
+            if ok:
+                return bMc, J
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         bMc, J = _K.afma6_kinematics(qa, self._eMc, self._cVe, COUPLING, OFFSET)
         return bMc, J

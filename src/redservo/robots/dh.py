@@ -47,12 +47,15 @@ __all__ = ["DHConvention", "DHLink", "DHRobot"]
 
 DHConvention = Literal["standard", "modified"]
 
+_F64 = np.dtype(np.float64)
 _LIMIT_TOL = 1e-9  # allowed excess beyond a limit, joint units (same as JointLimits.check)
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
+    from redservo.kernels import joint_check as _KJ
     from redservo.kernels import kinematics as _K
 else:
     _K = lazy("kinematics")
+    _KJ = lazy("joint_check")
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +124,15 @@ def check_q_named(robot: Robot, q: ArrayLike, check_limits: bool) -> FloatArray:
         ShapeError: ``q`` is not a finite (n,) vector.
         JointLimitError: some ``q_i`` is outside ``[q_min,i, q_max,i]`` (beyond 1e-9).
     """
+    if (
+        type(q) is np.ndarray
+        and q.dtype == _F64
+        and q.shape == (robot.n,)
+        and q.flags.c_contiguous
+        and _KJ.COMPILED
+    ):  # hot path: one compiled test accepts what the checks below accept, or defers to them
+        if _KJ.joints_inside(q, robot.q_min, robot.q_max, bool(check_limits)):
+            return q
     try:
         qa = as_vector(q, "q", robot.n)
     except (TypeError, ValueError) as exc:
