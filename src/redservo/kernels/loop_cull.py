@@ -1,7 +1,8 @@
 """Broad phase: the pairs the campaign loop and the shield check need, and no others.
 
 The capsule/box and capsule/cylinder distances are searches (:mod:`redservo.kernels.collide`,
-tens of µs); the other pairs are closed forms, whose Jacobians still cost allocations. :func:`measure_culled` gives every pair's
+about 2 µs); the other pairs are closed forms, whose Jacobians still cost allocations.
+:func:`measure_culled` gives every pair's
 distance and Jacobian exactly as :func:`~redservo.kernels.loop_collide.pair_distances` does
 (the same kernel, :func:`~redservo.kernels.loop_collide.pair_one`, so the same bits) for
 the pairs it computes, and ``d = inf``, ``J = 0`` for the pairs it skips. Why the skipped
@@ -12,10 +13,13 @@ pairs change nothing that is used:
   convex ``A ⊂ B`` the signed distance of a point to ``A`` is at least its signed distance to
   ``B``, so the capsule/capsule distance to the enclosing capsule is at most the true pair
   distance, and the search returns the distance at *some* point of the segment, at least the
-  minimum. A sphere, capsule or plane's bound is the pair's own distance (the same call as
-  :func:`~redservo.kernels.loop_collide.pair_one`'s): skipping saves its Jacobian.
-  :func:`pair_bounds` subtracts :data:`MARGIN` (1 nm, far above the rounding of either
-  computation at workspace scale) and gives ``lb < d`` as computed, strictly.
+  minimum. A sphere, capsule or plane's bound is the pair's own distance (the same closed
+  form): skipping saves its Jacobian. :func:`pair_bounds` computes them in scalars, without
+  a temporary array (the segment distance of
+  :func:`~redservo.kernels.collide.segment_distance`, the plane's heights), which rounds
+  differently from the pair's own kernel in the last bits; it subtracts :data:`MARGIN` (1 nm,
+  far above the rounding of either computation at workspace scale) and gives ``lb < d`` as
+  computed, strictly.
 * **The records** (:func:`redservo.kernels.loop_avoid.collide_check`: the smallest distance,
   its pair, the minimum per kind, the steps within ``d_i``, a contact at ``d ≤ 0``): per
   kind, the pairs are taken in ascending ``lb`` and computed until the next one has ``lb >
@@ -45,8 +49,8 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.collide import capsule_capsule
-from redservo.kernels.loop_collide import BOX, CYLINDER, _obstacle, dh_points, pair_one
+from redservo.kernels.collide import segment_distance
+from redservo.kernels.loop_collide import BOX, PLANE, SPHERE, dh_points, pair_one
 
 __all__ = ["MARGIN", "exact_scale", "fill_for_shield", "measure_culled", "pair_bounds"]
 
@@ -57,33 +61,53 @@ _SHRINK, _TRIES = 0.6, 8
 
 
 @kernel
-def _hull(kind: int, M: Any, size: Any) -> Any:
-    """``(e0, e1, radius)``: the capsule enclosing a cylinder or a box (module docstring)."""
-    c = np.ascontiguousarray(M[:3, 3])
-    if kind == CYLINDER:
-        half = 0.5 * size[1] * M[:3, 2]
-        return c - half, c + half, size[0]
-    k = int(np.argmax(size))
-    i, j = (k + 1) % 3, (k + 2) % 3
-    half = size[k] * M[:3, k]
-    return c - half, c + half, np.sqrt(size[i] * size[i] + size[j] * size[j])
+def _hulls(geom: Any) -> Any:
+    """``(ends (K, 2, 3), radius (K,))``: each obstacle as a capsule, the obstacle itself
+    (a sphere: a point) or the capsule enclosing a cylinder or a box (module docstring);
+    planes are measured as planes."""
+    ob_kind, ob_M, ob_size = geom[2], geom[3], geom[4]
+    K = ob_kind.shape[0]
+    ends, radius = np.zeros((K, 2, 3)), np.zeros(K)
+    for o in range(K):
+        M, size, axis, radius[o] = ob_M[o], ob_size[o], 2, ob_size[o][0]
+        half = 0.0 if ob_kind[o] == SPHERE else 0.5 * size[1]
+        if ob_kind[o] == BOX:
+            axis = int(np.argmax(size))
+            i, j = (axis + 1) % 3, (axis + 2) % 3
+            half, radius[o] = size[axis], np.sqrt(size[i] * size[i] + size[j] * size[j])
+        for k in range(3):
+            ends[o, 0, k] = M[k, 3] - half * M[k, axis]
+            ends[o, 1, k] = M[k, 3] + half * M[k, axis]
+    return ends, radius
+
+
+@kernel
+def _plane_gap(A: Any, B: Any, M: Any) -> float:
+    """The lower height (m) of the points ``A``, ``B`` above the plane of pose ``M``."""
+    h0 = h1 = 0.0
+    for k in range(3):
+        h0 += (A[k] - M[k, 3]) * M[k, 2]
+        h1 += (B[k] - M[k, 3]) * M[k, 2]
+    return min(h0, h1)
 
 
 @kernel
 def pair_bounds(O: Any, geom: Any) -> Any:
     """``lb (P,)``: a lower bound of each pair's distance (m) at the frame origins ``O``;
-    ``-inf`` for the self pairs (always computed)."""
-    cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
+    ``-inf`` for the self pairs (always computed). Scalar closed forms, no temporaries
+    per pair (their rounding differs from the pair's own by far less than :data:`MARGIN`)."""
+    cap_ab, cap_r, ob_kind, ob_M, self_ab = geom[0], geom[1], geom[2], geom[3], geom[5]
     C, K = cap_ab.shape[0], ob_kind.shape[0]
     lb = np.full(C * K + self_ab.shape[0], -np.inf)
+    ends, radius = _hulls(geom)
     for p in range(C * K):
         o, c = p // C, p % C
         A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
-        if ob_kind[o] == BOX or ob_kind[o] == CYLINDER:
-            e0, e1, R = _hull(ob_kind[o], ob_M[o], ob_size[o])
-            lb[p] = capsule_capsule(A, B, cap_r[c], e0, e1, R)[0] - MARGIN
+        if ob_kind[o] == PLANE:
+            gap = _plane_gap(A, B, ob_M[o])
         else:
-            lb[p] = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])[0] - MARGIN
+            gap = segment_distance(A, B, ends[o, 0], ends[o, 1]) - radius[o]
+        lb[p] = gap - cap_r[c] - MARGIN
     return lb
 
 
