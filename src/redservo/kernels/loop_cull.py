@@ -153,12 +153,14 @@ def fill_for_shield(qd: Any, d: Any, J: Any, scratch: Any, geom: Any, dt: float,
     cap_ab = geom[0]
     C, CK = cap_ab.shape[0], cap_ab.shape[0] * geom[2].shape[0]
     filled = 0
+    speed = np.full(C, -1.0)  # each capsule's bound, computed once (when a pair needs it)
     for p in range(CK):
         if d[p] != np.inf:
             continue
         c = p % C
-        v = _speed_bound(qd, JO[cap_ab[c, 0]], JO[cap_ab[c, 1]])
-        if lb[p] - d_i >= dt * v * (1.0 + 1e-6) + 1e-12:
+        if speed[c] < 0.0:
+            speed[c] = _speed_bound(qd, JO[cap_ab[c, 0]], JO[cap_ab[c, 1]])
+        if lb[p] - d_i >= dt * speed[c] * (1.0 + 1e-6) + 1e-12:
             continue
         dk, Jk, _, _ = pair_one(p, O, JO, geom)
         d[p], J[p] = dk, Jk
@@ -183,21 +185,23 @@ def exact_scale(
 ) -> Any:
     """The shield's ``(s, k)`` checked on the true geometry at ``q + dt s q̇`` (static
     obstacles): while a pair would land under ``min(d_s, d_k)``, ``s`` shrinks by 0.6 (at
-    most 8 times, then 0). ``cache = (q, d, J, valid)``: where the last measurement
-    (:func:`measure_culled`) was taken and what it gave (the campaign loop's next step
-    starts there when the shield left the command alone); zero-size arrays keep nothing."""
+    most 8 times, then 0). ``cache = (q, d, J, valid, lb, O, JO)``: where the last
+    measurement (:func:`measure_culled`) was taken and what it gave (the campaign loop's
+    next step starts there when the shield left the command alone); zero-size arrays keep
+    nothing."""
     if s <= 0.0:
         return s, k
     ahead = d + dt * s * np.dot(J, qd)
     if not np.any(ahead < d_influence):
         return s, k
     floor = np.minimum(d_safe, d)
-    qc, dc, Jc, valid = cache
+    qc, dc, Jc, valid, lbc, Oc, JOc = cache
     for _ in range(_TRIES):
         qa = q + dt * s * qd
-        dm, Jm, _, _, _ = measure_culled(qa, arm, geom, d_influence)
+        dm, Jm, lb, O, JO = measure_culled(qa, arm, geom, d_influence)
         if qc.shape[0] == qa.shape[0]:
             qc[:], dc[:], Jc[:, :], valid[0] = qa, dm, Jm, 1
+            lbc[:], Oc[:, :], JOc[:, :, :] = lb, O, JO
         gap = dm - floor
         j = int(np.argmin(gap))
         if gap[j] >= 0.0:
