@@ -75,10 +75,13 @@ def test_the_culled_measurement_gives_the_full_outputs_bit_for_bit(seed: int) ->
             filled_seen += fill_for_shield(qd, dc, Jc, (lb, O, JO), geo.geom, DT, D_I)
             sk = shield_scale(qd, dc, Jc, np.zeros(dc.shape[0]), DT, D_SAFE)
             assert sk == shield_scale(qd, df, Jf, np.zeros(df.shape[0]), DT, D_SAFE)
-            none = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
-            none += (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 0)))
+            kept = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
+            none = (*kept, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 0)))  # nothing kept
             args = (DT, D_SAFE, D_I, geo.arm, geo.geom, none)
-            assert exact_scale(q, qd, dc, Jc, *sk, *args) == exact_scale(q, qd, df, Jf, *sk, *args)
+            s, k = sk
+            assert exact_scale(q, qd, dc, Jc, s, k, *args) == exact_scale(
+                q, qd, df, Jf, s, k, *args
+            )
     assert culled_seen > 0 and filled_seen > 0  # both branches exercised
 
 
@@ -122,8 +125,8 @@ def test_the_shield_checks_measurement_is_kept_with_its_bounds_and_frames() -> N
         q = lim.q_min + (lim.q_max - lim.q_min) * rng.uniform(0.0, 1.0, n)
         qd = rng.normal(size=n) * 0.5
         d, J, _, _, _ = measure_culled(q, geo.arm, geo.geom, D_I)
-        cache = (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
-        cache += (np.zeros(P), np.zeros((n + 2, 3)), np.zeros((n + 2, 3, n)))
+        head = (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
+        cache = (*head, np.zeros(P), np.zeros((n + 2, 3)), np.zeros((n + 2, 3, n)))
         exact_scale(q, qd, d, J, 1.0, -1, DT, D_SAFE, D_I, geo.arm, geo.geom, cache)
         if cache[3][0] == 0:  # no pair predicted within d_influence: nothing measured
             continue

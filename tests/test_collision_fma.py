@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from redservo.kernels._jit import COMPILED, kernel
+from redservo.kernels.collide import _gap
 from redservo.kernels.fma import _fma_exact, dot3, fma, rtw3, sq3
+from redservo.spatial import make_transform
 
 
 @kernel
@@ -63,3 +65,48 @@ def test_the_fused_multiply_add_rounds_once() -> None:
     assert fma(a, b, -1.0) == -(2.0**-60) == _fma_exact(a, b, -1.0)
     assert np.signbit(_fma_exact(-0.0, 1.0, -0.0)) and not np.signbit(_fma_exact(-0.0, 1.0, 0.0))
     assert np.isnan(_fma_exact(np.inf, 0.0, 1.0)) and _fma_exact(np.inf, 2.0, 1.0) == np.inf
+
+
+@kernel
+def _gap_blas(x: float, a0: Any, ab: Any, R: Any, t: Any, size: Any, cylinder: bool) -> float:
+    """The search's objective as it was written before kernels/fma.py: numpy's products."""
+    w = (a0 + x * ab) - t
+    local = R.T @ w
+    v = np.zeros(3)
+    if cylinder:
+        radius, h = size[0], 0.5 * size[1]
+        rho = np.sqrt(local[0] * local[0] + local[1] * local[1])
+        dr, dz = rho - radius, abs(local[2]) - h
+        if dr <= 0.0 and dz <= 0.0:
+            return dz if dz >= dr else dr
+        if dr > 0.0:
+            v[0] = local[0] - local[0] * (radius / rho)
+            v[1] = local[1] - local[1] * (radius / rho)
+        if dz > 0.0:
+            v[2] = local[2] - (h if local[2] >= 0.0 else -h)
+        return np.sqrt(np.dot(v, v))
+    if np.all(np.abs(local) <= size):
+        return -np.min(size - np.abs(local))
+    for k in range(3):
+        v[k] = local[k] - min(max(local[k], -size[k]), size[k])
+    return np.sqrt(np.dot(v, v))
+
+
+@pytest.mark.skipif(not COMPILED, reason="compares compiled products")
+def test_the_search_objective_is_the_blas_forms_to_the_bit() -> None:
+    rng = np.random.default_rng(2)
+    seen_inside = 0
+    for i in range(20_000):
+        M = make_transform(rotvec=rng.normal(0.0, 1.0, 3), t=rng.normal(0.0, 0.3, 3))
+        R, t = np.ascontiguousarray(M[:3, :3]), np.ascontiguousarray(M[:3, 3])
+        a0 = rng.normal(0.0, 0.3, 3)
+        ab = rng.normal(0.0, 0.3, 3)
+        cylinder = i % 2 == 0
+        size = np.array([rng.uniform(0.01, 0.2), rng.uniform(0.1, 1.0), 0.0])
+        if not cylinder:
+            size = rng.uniform(0.01, 0.3, 3)
+        x = rng.uniform(0.0, 1.0)
+        got = _gap(x, a0, ab, R, t, size, cylinder)
+        assert got == _gap_blas(x, a0, ab, R, t, size, cylinder)
+        seen_inside += got < 0.0
+    assert seen_inside > 100  # both branches of both solids

@@ -13,7 +13,14 @@ reference these are tested against (tests/test_collision_kernels.py).
 * capsule/box and capsule/cylinder: the signed distance of a point to a convex solid is
   convex, hence so is its value along the segment: a golden-section search of the segment
   parameter (:data:`GOLDEN_ITERATIONS` steps, interval below 1e-16 of the segment), then the
-  point's distance, exact for it.
+  point's distance, exact for it. The search's objective is scalar code: the products that
+  numpy hands to BLAS (``Rᵀ w``, ``v·v``) are written out as the fused multiply-add chains
+  OpenBLAS computes them with (:mod:`redservo.kernels.fma`), so the iterates and the result
+  are the BLAS form's to the bit (tests/test_collision_fma.py), at about 2 µs per
+  capsule/cylinder pair instead of 14.
+
+:func:`segment_distance` is the capsule/capsule distance in scalars (no temporary array)
+for the broad phase's lower bounds (:mod:`redservo.kernels.loop_cull`).
 """
 
 from __future__ import annotations

@@ -40,8 +40,7 @@ if COMPILED:
     from numba.core import cgutils
     from numba.extending import intrinsic
 
-    @intrinsic
-    def _llvm_fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+    def _fma_typer(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
         sig = types.float64(types.float64, types.float64, types.float64)
 
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
@@ -50,6 +49,8 @@ if COMPILED:
             return builder.call(fn, args)
 
         return sig, codegen
+
+    _llvm_fma: Any = intrinsic(_fma_typer)
 
     @kernel
     def fma(a: float, b: float, c: float) -> float:
