@@ -1,7 +1,7 @@
 """Benchmark: where the obstacles' share of a compiled campaign step goes, and the rates.
 
     .venv/bin/python benchmarks/collision_profile.py [--campaign panda-posts] [--samples 8] \
-        [--reps 5] [--rounds 2]
+        [--reps 5] [--rounds 2] [--campaign-samples 10] [--skip-profile]
 
 For each compiled method of the campaign (``qp``/``sns`` avoiding run on the object path),
 runs its first ``--samples`` samples on the compiled loop, keeps every visited ``q`` and
@@ -15,12 +15,15 @@ control step, ``time.process_time``):
 * ``avoid``: the loop's three collision steps on the visited states
   (:mod:`redservo.kernels.loop_avoid`: the check, the repulsion, the shield and its check on
   the logged command), with a fresh pack per run as the loop has;
-* ``searches``: capsule/box and capsule/cylinder pairs computed per step by ``avoid``.
+* ``searches/step``, ``pairs/step``: the capsule/box and capsule/cylinder pairs, and all
+  pairs, that step 1 computes (:func:`~redservo.kernels.loop_cull.measure_culled`).
 
 Then, ``--rounds`` times alternated in the same minutes: the loop alone (steps per CPU s) on
 the same samples with obstacles and with ``obstacles = []`` (the obstacle-free campaign), and
 the whole campaign in this process (``workers=1``, ``--campaign-samples`` samples after a
-1-sample warm-up), with and without obstacles. docs/scaling.md gives the numbers.
+1-sample warm-up), with and without obstacles, and the reachability search of those samples
+alone (its obstacle stage, :mod:`redservo.campaign.reach_obstacles`, is part of the
+campaign's cost). docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations
@@ -204,6 +207,23 @@ def _campaign_rate(defn: Any, samples: int, methods: list[str]) -> float:
     return sum(int(r["iterations"]) for r in res.rows) / cpu
 
 
+def _reach_cpu(defn: Any, samples: int) -> float:
+    """CPU seconds of the reachability search of samples 1 … ``samples`` (sample 0 warms up;
+    with obstacles: :mod:`redservo.campaign.reach_obstacles`)."""
+    from redservo.campaign import draw_sample
+    from redservo.campaign.reach import reachable
+    from redservo.experiment.build import build
+    from redservo.kernels.blas import one_blas_thread
+
+    exps = [build(draw_sample(defn, 0, i).scenario) for i in range(samples + 1)]
+    with one_blas_thread():
+        reachable(exps[0])
+        cpu = time.process_time()
+        for exp in exps[1:]:
+            reachable(exp)
+        return time.process_time() - cpu
+
+
 def _compiled_methods(defn: Any) -> list[str]:
     """The methods whose first sample runs on the compiled loop."""
     from redservo.campaign import draw_sample
@@ -231,6 +251,8 @@ def rates(defn: Any, free: Any, samples: int, campaign_samples: int, rounds: int
             cf = _campaign_rate(free, campaign_samples, methods)
             share = 100 * c / cf
             print(f"  whole campaign: {c:,.0f} with obstacles, {cf:,.0f} without ({share:.0f} %)")
+            r, rf = _reach_cpu(defn, campaign_samples), _reach_cpu(free, campaign_samples)
+            print(f"  reachability search: {r:.3f} CPU s with obstacles, {rf:.3f} without")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
