@@ -21,9 +21,9 @@ def _mismatches(Rs: Any, ws: Any) -> Any:
     for k in range(Rs.shape[0]):
         ref = Rs[k].T @ ws[k]
         w0, w1, w2 = ws[k, 0], ws[k, 1], ws[k, 2]
+        local = rtw3(Rs[k], w0, w1, w2)
         for i in range(3):
-            got = rtw3(Rs[k], i, w0, w1, w2)
-            if got != ref[i] or np.signbit(got) != np.signbit(ref[i]):
+            if local[i] != ref[i] or np.signbit(local[i]) != np.signbit(ref[i]):
                 bad_mv += 1
         d, e = sq3(w0, w1, w2), np.dot(ws[k], ws[k])
         if d != e or dot3(ws[k], ws[k]) != e:

@@ -239,7 +239,7 @@ def _gap(x: float, a0: Any, ab: Any, R: Any, t: Any, size: Any, cylinder: bool) 
     w0 = (a0[0] + x * ab[0]) - t[0]
     w1 = (a0[1] + x * ab[1]) - t[1]
     w2 = (a0[2] + x * ab[2]) - t[2]
-    l0, l1, l2 = rtw3(R, 0, w0, w1, w2), rtw3(R, 1, w0, w1, w2), rtw3(R, 2, w0, w1, w2)
+    l0, l1, l2 = rtw3(R, w0, w1, w2)
     if cylinder:
         return _cylinder_gap(l0, l1, l2, size)
     return _box_gap(l0, l1, l2, size)

@@ -6,17 +6,22 @@ operations. The x86-64 kernels of OpenBLAS (the numpy and scipy wheels) compute 
 chains of fused multiply-adds from 0 (``dot = 0; dot += x[i] * y[i]``, contracted to one
 rounding per term), so the written-out chains below give the very same bits where OpenBLAS
 runs those kernels (tests/test_collision_fma.py compares them with ``np.dot`` on a million
-random cases), and the same bits on every machine, with or without the BLAS.
+random cases), and the same bits on every machine in compiled code.
 
 :func:`fma` is ``round(a b + c)`` with one rounding: LLVM's ``llvm.fma.f64`` in compiled
 code (one instruction on a CPU with FMA, libm's exact ``fma`` otherwise), an exact rational
 computation on the reference path (``REDSERVO_NO_NUMBA``; Python 3.11 has no ``math.fma``).
+On that path :data:`dot3`, :data:`sq3` and :data:`rtw3` are numpy's own products (the BLAS
+calls the code made before, at their speed: an exact rational chain would cost 16 times
+more per capsule/cylinder search), so the reference path keeps its previous numbers.
 """
 
 from __future__ import annotations
 
 from fractions import Fraction
 from typing import Any
+
+import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
 
@@ -62,19 +67,42 @@ else:
 
 
 @kernel
-def dot3(x: Any, y: Any) -> float:
-    """``np.dot(x, y)`` of two 3-vectors, as OpenBLAS's ``ddot`` computes it."""
+def _dot3_chain(x: Any, y: Any) -> float:
     return fma(x[2], y[2], fma(x[1], y[1], fma(x[0], y[0], 0.0)))
 
 
 @kernel
-def sq3(v0: float, v1: float, v2: float) -> float:
-    """``np.dot(v, v)`` of ``v = (v0, v1, v2)`` (:func:`dot3`), from scalars."""
+def _sq3_chain(v0: float, v1: float, v2: float) -> float:
     return fma(v2, v2, fma(v1, v1, fma(v0, v0, 0.0)))
 
 
 @kernel
-def rtw3(R: Any, i: int, w0: float, w1: float, w2: float) -> float:
-    """``(R.T @ w)[i]`` for a C-contiguous 3x3 ``R`` and ``w = (w0, w1, w2)``, as
-    OpenBLAS's ``dgemv`` computes it."""
-    return fma(R[2, i], w2, fma(R[1, i], w1, fma(R[0, i], w0, 0.0)))
+def _rtw3_chain(R: Any, w0: float, w1: float, w2: float) -> tuple[float, float, float]:
+    return (
+        fma(R[2, 0], w2, fma(R[1, 0], w1, fma(R[0, 0], w0, 0.0))),
+        fma(R[2, 1], w2, fma(R[1, 1], w1, fma(R[0, 1], w0, 0.0))),
+        fma(R[2, 2], w2, fma(R[1, 2], w1, fma(R[0, 2], w0, 0.0))),
+    )
+
+
+def _dot3_blas(x: Any, y: Any) -> float:
+    return float(np.dot(x, y))
+
+
+def _sq3_blas(v0: float, v1: float, v2: float) -> float:
+    v = np.array((v0, v1, v2))
+    return float(np.dot(v, v))
+
+
+def _rtw3_blas(R: Any, w0: float, w1: float, w2: float) -> tuple[float, float, float]:
+    local = R.T @ np.array((w0, w1, w2))
+    return float(local[0]), float(local[1]), float(local[2])
+
+
+dot3: Any = _dot3_chain if COMPILED else _dot3_blas
+"""``np.dot(x, y)`` of two 3-vectors, as OpenBLAS's ``ddot`` computes it."""
+sq3: Any = _sq3_chain if COMPILED else _sq3_blas
+"""``np.dot(v, v)`` of ``v = (v0, v1, v2)``, from scalars (:data:`dot3`)."""
+rtw3: Any = _rtw3_chain if COMPILED else _rtw3_blas
+"""``R.T @ w`` for a C-contiguous 3x3 ``R`` and ``w = (w0, w1, w2)``, a tuple of three
+floats, as OpenBLAS's ``dgemv`` computes it."""
