@@ -42,7 +42,7 @@ def _cases(n: int, seed: int) -> tuple[Any, Any]:
     return R, w
 
 
-@pytest.mark.skipif(not COMPILED, reason="the compiled chains (the reference path is slow)")
+@pytest.mark.skipif(not COMPILED, reason="the compiled chains (plain Python: numpy's own products)")
 def test_the_written_out_products_are_the_blas_bits_on_a_million_cases() -> None:
     R, w = _cases(1_000_000, 0)
     assert _mismatches(R, w) == (0, 0)
