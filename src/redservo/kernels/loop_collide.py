@@ -195,7 +195,11 @@ def shield_scale(qd: Any, d: Any, J: Any, drift: Any, dt: float, d_safe: float) 
         if rate[p] < 0.0:
             rest = d[p] + dt * drift[p]
             room = rest - d_safe if rest >= d_safe else 0.0
-            bound = room / (-dt * rate[p])
+            approach = -dt * rate[p]  # m in one period: 0 when the product underflows
+            if approach > 0.0:
+                bound = room / approach
+            else:  # no representable approach: no bound, except for a pair at or inside d_s
+                bound = np.inf if room > 0.0 else 0.0
             if bound < best:
                 best, k = bound, p
     if k < 0 or best >= 1.0:
