@@ -79,6 +79,13 @@ def test_shield_never_lets_a_predicted_distance_below_d_safe(
     assert np.all(rate[~clear] >= -1e-15)
 
 
+def test_shield_takes_an_approach_that_underflows_without_dividing_by_zero() -> None:
+    # J q̇ = -5e-324 m/s: dt J q̇ underflows to 0 (this raised ZeroDivisionError).
+    J, qdot = np.array([[-5e-324]]), np.array([1.0])
+    assert distance_shield(qdot, np.array([0.0]), J, dt=0.0625, d_safe=0.0) == (0.0, 0)
+    assert distance_shield(qdot, np.array([0.1]), J, dt=0.0625, d_safe=0.02) == (1.0, -1)
+
+
 def test_shield_leaves_a_command_alone_when_nothing_comes_too_close() -> None:
     J = np.array([[1.0, 0.0], [0.0, -1.0]])
     qdot = np.array([0.5, -0.5])  # both pairs separate

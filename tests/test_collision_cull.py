@@ -10,8 +10,9 @@ import pytest
 
 from redservo.collision import Obstacle, Shape
 from redservo.collision.pack import compiled_geometry
+from redservo.kernels.collide import capsule_capsule, segment_distance
 from redservo.kernels.loop_collide import measure_arm, repulsive, shield_scale
-from redservo.kernels.loop_cull import exact_scale, fill_for_shield, measure_culled
+from redservo.kernels.loop_cull import MARGIN, exact_scale, fill_for_shield, measure_culled
 from redservo.robots import make_robot
 from redservo.scene import Static
 from redservo.spatial import make_transform
@@ -74,9 +75,13 @@ def test_the_culled_measurement_gives_the_full_outputs_bit_for_bit(seed: int) ->
             filled_seen += fill_for_shield(qd, dc, Jc, (lb, O, JO), geo.geom, DT, D_I)
             sk = shield_scale(qd, dc, Jc, np.zeros(dc.shape[0]), DT, D_SAFE)
             assert sk == shield_scale(qd, df, Jf, np.zeros(df.shape[0]), DT, D_SAFE)
-            none = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
+            kept = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
+            none = (*kept, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 0)))  # nothing kept
             args = (DT, D_SAFE, D_I, geo.arm, geo.geom, none)
-            assert exact_scale(q, qd, dc, Jc, *sk, *args) == exact_scale(q, qd, df, Jf, *sk, *args)
+            s, k = sk
+            assert exact_scale(q, qd, dc, Jc, s, k, *args) == exact_scale(
+                q, qd, df, Jf, s, k, *args
+            )
     assert culled_seen > 0 and filled_seen > 0  # both branches exercised
 
 
@@ -94,3 +99,39 @@ def test_the_records_of_a_pair_near_the_post_come_from_its_exact_distance() -> N
         assert _same(d[near], df[near])  # every pair within d_influence is computed
         hits += int(np.any(near & environment))
     assert hits > 0
+
+
+def test_the_scalar_segment_distance_is_the_capsule_kernels_to_rounding() -> None:
+    rng = np.random.default_rng(5)
+    worst = 0.0
+    for i in range(3000):
+        p1, p2 = rng.normal(0.0, 0.3, 3), rng.normal(0.0, 0.3, 3)
+        q1 = p1 + rng.normal(0.0, 0.2, 3) * (i % 5 != 0)  # every 5th: a point
+        q2 = p2 + rng.normal(0.0, 0.2, 3) * (i % 7 != 0)
+        if i % 11 == 0:  # parallel segments
+            q2 = p2 + rng.uniform(-2.0, 2.0) * (q1 - p1)
+        ref = capsule_capsule(p1, q1, 0.0, p2, q2, 0.0)[0]
+        worst = max(worst, abs(segment_distance(p1, q1, p2, q2) - ref))
+    assert worst < 1e-14  # m: far below the broad phase's margin
+    assert MARGIN > 1e4 * worst
+
+
+def test_the_shield_checks_measurement_is_kept_with_its_bounds_and_frames() -> None:
+    rng = np.random.default_rng(3)
+    robot, geo = _scene(rng)
+    lim, n, P = robot.limits(), robot.n, len(geo.names)
+    kept = 0
+    for _ in range(60):
+        q = lim.q_min + (lim.q_max - lim.q_min) * rng.uniform(0.0, 1.0, n)
+        qd = rng.normal(size=n) * 0.5
+        d, J, _, _, _ = measure_culled(q, geo.arm, geo.geom, D_I)
+        head = (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
+        cache = (*head, np.zeros(P), np.zeros((n + 2, 3)), np.zeros((n + 2, 3, n)))
+        exact_scale(q, qd, d, J, 1.0, -1, DT, D_SAFE, D_I, geo.arm, geo.geom, cache)
+        if cache[3][0] == 0:  # no pair predicted within d_influence: nothing measured
+            continue
+        kept += 1
+        again = measure_culled(cache[0], geo.arm, geo.geom, D_I)
+        for got, want in zip(cache[1:3] + cache[4:], again, strict=True):
+            assert _same(got, want)
+    assert kept > 0

@@ -61,12 +61,13 @@ def off_pack(n: int) -> tuple[Any, ...]:
     arm = (np.zeros((8, n)), np.eye(4), np.eye(4), True)
     geom = (e2, np.zeros(0), np.zeros(0, dtype=np.int64), e3, np.zeros((0, 3)), e2)
     head = (False, arm, geom, np.ones(5), np.zeros(6, dtype=np.int64), np.zeros(n))
-    return (*head, *_logs(0, 0), _cache(n, 0), _scratch(n, 0, 0))
+    return (*head, *_logs(0, 0), _cache(n, 0, 0), _scratch(n, 0, 0))
 
 
-def _cache(n: int, P: int) -> tuple[Any, ...]:
+def _cache(n: int, P: int, F: int) -> tuple[Any, ...]:
     """The shield check's last measurement (:mod:`redservo.kernels.loop_avoid`)."""
-    return (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
+    head = (np.zeros(n), np.zeros(P), np.zeros((P, n)), np.zeros(1, dtype=np.int64))
+    return (*head, *_scratch(n, P, F))
 
 
 def _scratch(n: int, P: int, F: int) -> tuple[Any, ...]:
@@ -111,8 +112,8 @@ def collision_pack(exp: Experiment, law: Any) -> tuple[Any, ...]:
     N, P = exp.options.max_iterations, len(geo.names)
     logs = _logs(N, P)
     logs[4][:] = [0 if k == "environment" else 1 for k in geo.kinds]
-    scratch = _scratch(n, P, n + 2)  # the frames base, joint 1 … n, ee (dh_points)
-    return (True, geo.arm, geo.geom, fopt, iopt, qdd, *logs, _cache(n, P), scratch)
+    F = n + 2  # the frames base, joint 1 … n, ee (dh_points)
+    return (True, geo.arm, geo.geom, fopt, iopt, qdd, *logs, _cache(n, P, F), _scratch(n, P, F))
 
 
 def collision_fields(exp: Experiment, coll: tuple[Any, ...], rows: int) -> dict[str, Any]:

@@ -54,7 +54,8 @@ class CompiledGeometry(NamedTuple):
         qa, qv = (np.ascontiguousarray(x, dtype=np.float64) for x in (q, qd))
         dt, d_safe, d_i = (float(x) for x in lim)
         s, k = float(sk[0]), int(sk[1])
-        none = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
+        kept = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros(1, dtype=np.int64))
+        none = (*kept, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 0)))  # nothing kept
         out = exact_scale(qa, qv, d, J, s, k, dt, d_safe, d_i, self.arm, self.geom, none)
         return float(out[0]), int(out[1])
 

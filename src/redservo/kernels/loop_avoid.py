@@ -20,9 +20,10 @@ pack ``coll`` on (packed by :mod:`redservo.campaign.loop_avoid`), in the object 
 
 Pack ``coll``: ``(on, arm, geom, fopt, iopt, qddot_max (n,), MD (N,), CP (N,) int64,
 tally (3,), contact (3,), kinds (P,) int64, cache, scratch)``, ``cache = (q (n,), d (P,),
-J (P, n), valid (1,))`` the shield check's last measurement, which step 1 of the next iteration
-reuses when it was taken at the very ``q`` reached (the shield left the command alone: the
-same numbers, one query fewer); ``fopt = (d_safe, d_influence, xi, damping,
+J (P, n), valid (1,), lb (P,), O (F, 3), JO (F, 3, n))`` the shield check's last measurement
+with its bounds and frames, which step 1 of the next iteration reuses when it was taken at
+the very ``q`` reached (the shield left the command alone: the same numbers, one query
+fewer); ``fopt = (d_safe, d_influence, xi, damping,
 dt)``; ``iopt = (repel, law takes a secondary, shield, shield bit, acceleration bit, has
 q̈_max)``; ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
 ``contact = (pair, distance, iteration)``, pair -1 without contact; ``kinds`` 0 environment,
@@ -37,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.loop_collide import dh_points, repulsive, shield_scale
-from redservo.kernels.loop_cull import exact_scale, fill_for_shield, measure_culled, pair_bounds
+from redservo.kernels.loop_collide import repulsive, shield_scale
+from redservo.kernels.loop_cull import exact_scale, fill_for_shield, measure_culled
 
 __all__ = ["COLLISION", "collide_check", "secondary", "shield_step"]
 
@@ -51,15 +52,14 @@ def collide_check(it: int, q: Any, coll: Any, tally: bool) -> Any:
     """Step 1: ``(d (P,), J_d (P, n), contact)``; the step is tallied unless ``tally`` is
     False (an iteration resumed after a Python solve was tallied before)."""
     _, arm, geom, fopt, _, _, MD, CP, tl, contact, kinds, cache, scratch = coll
-    qc, dc, Jc, valid = cache
+    qc, dc, Jc, valid, lbc, Oc, JOc = cache
     if valid[0] != 0 and np.all(qc == q):  # measured there by the last step's shield check
         d, J = dc.copy(), Jc.copy()
-        O, JO = dh_points(q, arm)
-        lb = pair_bounds(O, geom)
+        scratch[0][:], scratch[1][:, :], scratch[2][:, :, :] = lbc, Oc, JOc
     else:
         d, J, lb, O, JO = measure_culled(q, arm, geom, fopt[1])
+        scratch[0][:], scratch[1][:, :], scratch[2][:, :, :] = lb, O, JO
     valid[0] = 0
-    scratch[0][:], scratch[1][:, :], scratch[2][:, :, :] = lb, O, JO
     if d.shape[0] == 0:
         return d, J, False
     k = np.argmin(d)

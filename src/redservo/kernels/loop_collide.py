@@ -89,10 +89,15 @@ def dh_points(q: Any, arm: Any) -> Any:
 
 @kernel
 def _axis_jacobian(p: Any, A: Any, B: Any, JA: Any, JB: Any) -> Any:
-    """(3, n) velocity of the point of the axis ``A B`` nearest to ``p``."""
+    """(3, n) velocity of the point of the axis ``A B`` nearest to ``p``: ``(1 − s) J_A +
+    s J_B``, element by element in one array (numpy's operations, without temporaries)."""
     ab = B - A
     s = min(max(np.dot(p - A, ab) / np.dot(ab, ab), 0.0), 1.0)
-    return (1.0 - s) * JA + s * JB
+    out = np.empty(JA.shape)
+    for i in range(3):
+        for j in range(JA.shape[1]):
+            out[i, j] = (1.0 - s) * JA[i, j] + s * JB[i, j]
+    return out
 
 
 @kernel
@@ -112,11 +117,13 @@ def _obstacle(A: Any, B: Any, r: float, kind: int, M: Any, size: Any) -> Any:
 
 
 @kernel
-def _normal(d: float, a: Any, b: Any, fallback: Any) -> Any:
-    """Unit vector from ``b`` towards ``a`` (away from ``b`` when they overlap)."""
+def _normal(d: float, a: Any, b: Any, A: Any, B: Any) -> Any:
+    """Unit vector from ``b`` towards ``a`` (away from ``b`` when they overlap; from ``b``
+    towards the middle of the axis ``A B`` when they coincide)."""
     v = a - b
     norm = np.sqrt(np.dot(v, v))
     if norm < 1e-12:
+        fallback = 0.5 * (A + B) - b
         return fallback / np.sqrt(np.dot(fallback, fallback))
     return v / norm if d >= 0.0 else -v / norm
 
@@ -126,20 +133,19 @@ def pair_one(p: int, O: Any, JO: Any, geom: Any) -> Any:
     """``(d, J_d (n,), wb (3,), normal (3,))`` of pair ``p`` (module docstring)."""
     cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
     C, K = cap_ab.shape[0], ob_kind.shape[0]
-    n = JO.shape[2]
     c = p % C if p < C * K else self_ab[p - C * K, 0]
     A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
     JA, JB = JO[cap_ab[c, 0]], JO[cap_ab[c, 1]]
-    if p < C * K:
+    if p < C * K:  # a static obstacle: J_b = 0, and x - 0 is x
         o = p // C
         dk, a, b = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])
-        Jb = np.zeros((3, n))
-    else:
-        e = self_ab[p - C * K, 1]
-        A2, B2 = O[cap_ab[e, 0]], O[cap_ab[e, 1]]
-        dk, a, b = capsule_capsule(A, B, cap_r[c], A2, B2, cap_r[e])
-        Jb = _axis_jacobian(b, A2, B2, JO[cap_ab[e, 0]], JO[cap_ab[e, 1]])
-    nv = _normal(dk, a, b, 0.5 * (A + B) - b)
+        nv = _normal(dk, a, b, A, B)
+        return dk, np.dot(nv, _axis_jacobian(a, A, B, JA, JB)), b, nv
+    e = self_ab[p - C * K, 1]
+    A2, B2 = O[cap_ab[e, 0]], O[cap_ab[e, 1]]
+    dk, a, b = capsule_capsule(A, B, cap_r[c], A2, B2, cap_r[e])
+    Jb = _axis_jacobian(b, A2, B2, JO[cap_ab[e, 0]], JO[cap_ab[e, 1]])
+    nv = _normal(dk, a, b, A, B)
     return dk, np.dot(nv, _axis_jacobian(a, A, B, JA, JB) - Jb), b, nv
 
 
@@ -189,7 +195,11 @@ def shield_scale(qd: Any, d: Any, J: Any, drift: Any, dt: float, d_safe: float) 
         if rate[p] < 0.0:
             rest = d[p] + dt * drift[p]
             room = rest - d_safe if rest >= d_safe else 0.0
-            bound = room / (-dt * rate[p])
+            approach = -dt * rate[p]  # m in one period: 0 when the product underflows
+            if approach > 0.0:
+                bound = room / approach
+            else:  # no representable approach: no bound, except for a pair at or inside d_s
+                bound = np.inf if room > 0.0 else 0.0
             if bound < best:
                 best, k = bound, p
     if k < 0 or best >= 1.0:

@@ -1,7 +1,8 @@
 """Broad phase: the pairs the campaign loop and the shield check need, and no others.
 
 The capsule/box and capsule/cylinder distances are searches (:mod:`redservo.kernels.collide`,
-tens of µs); the other pairs are closed forms, whose Jacobians still cost allocations. :func:`measure_culled` gives every pair's
+about 2 µs); the other pairs are closed forms, whose Jacobians still cost allocations.
+:func:`measure_culled` gives every pair's
 distance and Jacobian exactly as :func:`~redservo.kernels.loop_collide.pair_distances` does
 (the same kernel, :func:`~redservo.kernels.loop_collide.pair_one`, so the same bits) for
 the pairs it computes, and ``d = inf``, ``J = 0`` for the pairs it skips. Why the skipped
@@ -12,10 +13,13 @@ pairs change nothing that is used:
   convex ``A ⊂ B`` the signed distance of a point to ``A`` is at least its signed distance to
   ``B``, so the capsule/capsule distance to the enclosing capsule is at most the true pair
   distance, and the search returns the distance at *some* point of the segment, at least the
-  minimum. A sphere, capsule or plane's bound is the pair's own distance (the same call as
-  :func:`~redservo.kernels.loop_collide.pair_one`'s): skipping saves its Jacobian.
-  :func:`pair_bounds` subtracts :data:`MARGIN` (1 nm, far above the rounding of either
-  computation at workspace scale) and gives ``lb < d`` as computed, strictly.
+  minimum. A sphere, capsule or plane's bound is the pair's own distance (the same closed
+  form): skipping saves its Jacobian. :func:`pair_bounds` computes them in scalars, without
+  a temporary array (the segment distance of
+  :func:`~redservo.kernels.collide.segment_distance`, the plane's heights), which rounds
+  differently from the pair's own kernel in the last bits; it subtracts :data:`MARGIN` (1 nm,
+  far above the rounding of either computation at workspace scale) and gives ``lb < d`` as
+  computed, strictly.
 * **The records** (:func:`redservo.kernels.loop_avoid.collide_check`: the smallest distance,
   its pair, the minimum per kind, the steps within ``d_i``, a contact at ``d ≤ 0``): per
   kind, the pairs are taken in ascending ``lb`` and computed until the next one has ``lb >
@@ -45,8 +49,8 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.collide import capsule_capsule
-from redservo.kernels.loop_collide import BOX, CYLINDER, _obstacle, dh_points, pair_one
+from redservo.kernels.collide import segment_distance
+from redservo.kernels.loop_collide import BOX, PLANE, SPHERE, dh_points, pair_one
 
 __all__ = ["MARGIN", "exact_scale", "fill_for_shield", "measure_culled", "pair_bounds"]
 
@@ -57,33 +61,53 @@ _SHRINK, _TRIES = 0.6, 8
 
 
 @kernel
-def _hull(kind: int, M: Any, size: Any) -> Any:
-    """``(e0, e1, radius)``: the capsule enclosing a cylinder or a box (module docstring)."""
-    c = np.ascontiguousarray(M[:3, 3])
-    if kind == CYLINDER:
-        half = 0.5 * size[1] * M[:3, 2]
-        return c - half, c + half, size[0]
-    k = int(np.argmax(size))
-    i, j = (k + 1) % 3, (k + 2) % 3
-    half = size[k] * M[:3, k]
-    return c - half, c + half, np.sqrt(size[i] * size[i] + size[j] * size[j])
+def _hulls(geom: Any) -> Any:
+    """``(ends (K, 2, 3), radius (K,))``: each obstacle as a capsule, the obstacle itself
+    (a sphere: a point) or the capsule enclosing a cylinder or a box (module docstring);
+    planes are measured as planes."""
+    ob_kind, ob_M, ob_size = geom[2], geom[3], geom[4]
+    K = ob_kind.shape[0]
+    ends, radius = np.zeros((K, 2, 3)), np.zeros(K)
+    for o in range(K):
+        M, size, axis, radius[o] = ob_M[o], ob_size[o], 2, ob_size[o][0]
+        half = 0.0 if ob_kind[o] == SPHERE else 0.5 * size[1]
+        if ob_kind[o] == BOX:
+            axis = int(np.argmax(size))
+            i, j = (axis + 1) % 3, (axis + 2) % 3
+            half, radius[o] = size[axis], np.sqrt(size[i] * size[i] + size[j] * size[j])
+        for k in range(3):
+            ends[o, 0, k] = M[k, 3] - half * M[k, axis]
+            ends[o, 1, k] = M[k, 3] + half * M[k, axis]
+    return ends, radius
+
+
+@kernel
+def _plane_gap(A: Any, B: Any, M: Any) -> float:
+    """The lower height (m) of the points ``A``, ``B`` above the plane of pose ``M``."""
+    h0 = h1 = 0.0
+    for k in range(3):
+        h0 += (A[k] - M[k, 3]) * M[k, 2]
+        h1 += (B[k] - M[k, 3]) * M[k, 2]
+    return min(h0, h1)
 
 
 @kernel
 def pair_bounds(O: Any, geom: Any) -> Any:
     """``lb (P,)``: a lower bound of each pair's distance (m) at the frame origins ``O``;
-    ``-inf`` for the self pairs (always computed)."""
-    cap_ab, cap_r, ob_kind, ob_M, ob_size, self_ab = geom
+    ``-inf`` for the self pairs (always computed). Scalar closed forms, no temporaries
+    per pair (their rounding differs from the pair's own by far less than :data:`MARGIN`)."""
+    cap_ab, cap_r, ob_kind, ob_M, self_ab = geom[0], geom[1], geom[2], geom[3], geom[5]
     C, K = cap_ab.shape[0], ob_kind.shape[0]
     lb = np.full(C * K + self_ab.shape[0], -np.inf)
+    ends, radius = _hulls(geom)
     for p in range(C * K):
         o, c = p // C, p % C
         A, B = O[cap_ab[c, 0]], O[cap_ab[c, 1]]
-        if ob_kind[o] == BOX or ob_kind[o] == CYLINDER:
-            e0, e1, R = _hull(ob_kind[o], ob_M[o], ob_size[o])
-            lb[p] = capsule_capsule(A, B, cap_r[c], e0, e1, R)[0] - MARGIN
+        if ob_kind[o] == PLANE:
+            gap = _plane_gap(A, B, ob_M[o])
         else:
-            lb[p] = _obstacle(A, B, cap_r[c], ob_kind[o], ob_M[o], ob_size[o])[0] - MARGIN
+            gap = segment_distance(A, B, ends[o, 0], ends[o, 1]) - radius[o]
+        lb[p] = gap - cap_r[c] - MARGIN
     return lb
 
 
@@ -129,12 +153,14 @@ def fill_for_shield(qd: Any, d: Any, J: Any, scratch: Any, geom: Any, dt: float,
     cap_ab = geom[0]
     C, CK = cap_ab.shape[0], cap_ab.shape[0] * geom[2].shape[0]
     filled = 0
+    speed = np.full(C, -1.0)  # each capsule's bound, computed once (when a pair needs it)
     for p in range(CK):
         if d[p] != np.inf:
             continue
         c = p % C
-        v = _speed_bound(qd, JO[cap_ab[c, 0]], JO[cap_ab[c, 1]])
-        if lb[p] - d_i >= dt * v * (1.0 + 1e-6) + 1e-12:
+        if speed[c] < 0.0:
+            speed[c] = _speed_bound(qd, JO[cap_ab[c, 0]], JO[cap_ab[c, 1]])
+        if lb[p] - d_i >= dt * speed[c] * (1.0 + 1e-6) + 1e-12:
             continue
         dk, Jk, _, _ = pair_one(p, O, JO, geom)
         d[p], J[p] = dk, Jk
@@ -159,21 +185,23 @@ def exact_scale(
 ) -> Any:
     """The shield's ``(s, k)`` checked on the true geometry at ``q + dt s q̇`` (static
     obstacles): while a pair would land under ``min(d_s, d_k)``, ``s`` shrinks by 0.6 (at
-    most 8 times, then 0). ``cache = (q, d, J, valid)``: where the last measurement
-    (:func:`measure_culled`) was taken and what it gave (the campaign loop's next step
-    starts there when the shield left the command alone); zero-size arrays keep nothing."""
+    most 8 times, then 0). ``cache = (q, d, J, valid, lb, O, JO)``: where the last
+    measurement (:func:`measure_culled`) was taken and what it gave (the campaign loop's
+    next step starts there when the shield left the command alone); zero-size arrays keep
+    nothing."""
     if s <= 0.0:
         return s, k
     ahead = d + dt * s * np.dot(J, qd)
     if not np.any(ahead < d_influence):
         return s, k
     floor = np.minimum(d_safe, d)
-    qc, dc, Jc, valid = cache
+    qc, dc, Jc, valid, lbc, Oc, JOc = cache
     for _ in range(_TRIES):
         qa = q + dt * s * qd
-        dm, Jm, _, _, _ = measure_culled(qa, arm, geom, d_influence)
+        dm, Jm, lb, O, JO = measure_culled(qa, arm, geom, d_influence)
         if qc.shape[0] == qa.shape[0]:
             qc[:], dc[:], Jc[:, :], valid[0] = qa, dm, Jm, 1
+            lbc[:], Oc[:, :], JOc[:, :, :] = lb, O, JO
         gap = dm - floor
         j = int(np.argmin(gap))
         if gap[j] >= 0.0:
