@@ -120,3 +120,66 @@ def test_no_plan_passes_through_the_obstacle(seed: int, monkeypatch: pytest.Monk
     # Linearised at the previous plan (at rest, the first time): the plan may dip a few
     # mm under d_safe where the distance curves, never into the ball.
     assert worst > 0.0, worst
+
+
+@pytest.mark.parametrize("sample", [42, 80])
+def test_the_joint_goal_is_clear_of_the_obstacles(
+    sample: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """panda-posts samples (seed 0) whose nearest exact goal has the wrist in a ball: the
+    goal search passed it over, the law converges (it was held at d_safe until the cap)."""
+    from redservo.campaign.definition import load_campaign
+    from redservo.campaign.sampling import draw_built
+
+    _, exp = draw_built(load_campaign("panda-posts"), 0, sample)
+    coll = exp.options.collision
+    goals: list[np.ndarray] = []
+    compute = Predictive.compute
+
+    def spy(self: Predictive, x: Any) -> Any:
+        res = compute(self, x)
+        if self._goal is not None:
+            goals.append(self._goal.copy())
+        return res
+
+    monkeypatch.setattr(Predictive, "compute", spy)
+    res = exp.run(method="predictive")
+    assert res.outcome == "converged"
+    assert goals
+    for g in goals:
+        assert float(np.min(coll.probe(exp.robot, g, 0.0).d)) >= coll.d_safe
+
+
+def test_goal_search_skips_what_is_not_clear(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The search's ``clear``: nothing clear, no goal; the free search's goal ruled out,
+    another one (or none)."""
+    from redservo.redundancy.predictive_goal import search_steps
+
+    exp = build(load_scenario("panda-4points"))
+    models: list[Any] = []
+    compute = Predictive.compute
+
+    def spy(self: Predictive, x: Any) -> Any:
+        res = compute(self, x)
+        models.append(self.last_model)
+        return res
+
+    monkeypatch.setattr(Predictive, "compute", spy)
+    exp.run(method="predictive", max_iterations=2)
+    model = next(m for m in models if m is not None)
+    lo, hi = exp.limits.q_min + 0.02, exp.limits.q_max - 0.02
+    seeds = [exp.q0 + 0.1 * k for k in range(3)]
+
+    def run(clear: Any) -> Any:
+        steps = search_steps(model, exp.q0, seeds, lo, hi, clear)
+        try:
+            while True:
+                next(steps)
+        except StopIteration as stop:
+            return stop.value
+
+    free = run(None)
+    assert free is not None
+    assert run(lambda q: False) is None
+    other = run(lambda q: bool(np.max(np.abs(q - free[1])) > 1e-6))
+    assert other is None or np.max(np.abs(other[1] - free[1])) > 1e-6

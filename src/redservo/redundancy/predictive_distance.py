@@ -22,6 +22,7 @@ Units: metres, seconds, radians.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -34,7 +35,13 @@ if TYPE_CHECKING:
     from redservo.redundancy.predictive_model import QP, Horizon
     from redservo.robots.base import Robot
 
-__all__ = ["HorizonRows", "distance_source", "horizon_distance_rows", "with_horizon_rows"]
+__all__ = [
+    "HorizonRows",
+    "distance_source",
+    "goal_clearance",
+    "horizon_distance_rows",
+    "with_horizon_rows",
+]
 
 _INF = 1e30
 """daqp's infinite bound."""
@@ -109,3 +116,22 @@ def with_horizon_rows(
         blo=np.concatenate([qp.blo, rows.b]),
         bhi=np.concatenate([qp.bhi, np.full(rows.b.size, _INF)]),
     )
+
+
+def goal_clearance(law: object) -> Callable[[FloatArray], bool] | None:
+    """``clear(q)`` for the law's joint-goal search
+    (:func:`~redservo.redundancy.predictive_goal.search_steps`): every pair at least
+    ``d_safe`` apart at ``q`` (rad or m), the criterion of the campaigns' reachability
+    (:mod:`redservo.campaign.reach_obstacles`); None when the law is not avoiding. A goal
+    inside an obstacle pulls the plan, through the terminal cost, against the distance rows,
+    where the arm stays held at ``d_safe``."""
+    src = distance_source(law)
+    if src is None:
+        return None
+    c, robot = src
+
+    def clear(q: FloatArray) -> bool:
+        d = c.probe(robot, q, c.last_time).d
+        return bool(d.size == 0 or float(np.min(d)) >= c.d_safe)
+
+    return clear
