@@ -183,3 +183,9 @@ def test_goal_search_skips_what_is_not_clear(monkeypatch: pytest.MonkeyPatch) ->
     assert run(lambda q: False) is None
     other = run(lambda q: bool(np.max(np.abs(q - free[1])) > 1e-6))
     assert other is None or np.max(np.abs(other[1] - free[1])) > 1e-6
+
+
+def test_the_obstacle_campaign_compares_the_predictive_law() -> None:
+    from redservo.campaign.definition import load_campaign
+
+    assert "predictive" in load_campaign("panda-posts").methods
