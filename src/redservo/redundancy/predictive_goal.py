@@ -221,8 +221,8 @@ def search_steps(
                     if len(found) == CANDIDATES:
                         break
                 best = min(best, (r, qp), key=lambda b: b[0])
-    if found:  # the nearest, in fractions of each joint's range between the bounds
-        near = min(found, key=lambda g: float(np.max(np.abs(g - q) / (hi - lo))))
+    if found:  # the nearest (fractions of each range), a clear straight path first
+        near = min(found, key=lambda g: (not _clear_path(ok, q, g), _spread(g, q, lo, hi)))
         return goal_error(model, near), near
     for seed in seeds:
         r, qp = yield from _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
@@ -235,6 +235,22 @@ def search_steps(
         return best[0], best[1]
     return None
 
+
+def _spread(g: FloatArray, q: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+    """The largest joint step from ``q`` to ``g`` in fractions of ``[lo, hi]``."""
+    return float(np.max(np.abs(g - q) / (hi - lo)))
+
+
+def _clear_path(ok: Clear, q: FloatArray, g: FloatArray) -> bool:
+    """Whether ``ok`` holds at :data:`PATH_POINTS` configurations evenly spaced on the
+    straight joint-space segment from ``q`` (excluded) to ``g`` (included): the terminal
+    cost pulls the plan roughly along it, and an obstacle across it holds the arm at
+    ``d_safe`` (the horizon is too short to plan round)."""
+    return all(ok(q + f * (g - q)) for f in np.linspace(0.0, 1.0, PATH_POINTS + 1)[1:])
+
+
+PATH_POINTS = 10
+"""Configurations checked on the straight path to a candidate goal (:func:`_clear_path`)."""
 
 CANDIDATES = 4
 """Exact goals collected before the nearest to ``q`` is chosen (a far goal takes a long
