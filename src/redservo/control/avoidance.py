@@ -244,6 +244,16 @@ class Collision:
         self._last = (key, out)
         return out
 
+    def probe(self, robot: Robot, q: FloatArray, t: float) -> PairDistances:
+        """:meth:`measure` at ``(q, t)`` leaving the cache (and :attr:`last_time`) as they
+        were: for a plan's predicted configurations, which the step's own measurement (the
+        objective, the rows, the shield, the records) must not lose."""
+        saved = self._last
+        try:
+            return self.measure(robot, q, t)
+        finally:
+            self._last = saved
+
 
 def check_collision(collision: object, robot: Robot, law: object = None) -> Collision | None:
     """``collision`` checked for a controller of ``robot``: None or a :class:`Collision`

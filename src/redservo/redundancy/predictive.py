@@ -68,6 +68,7 @@ from redservo.redundancy.predictive_camera import (
     MotionLimit,
     limited,
 )
+from redservo.redundancy.predictive_distance import goal_clearance
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
@@ -334,7 +335,8 @@ class Predictive(Law):
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
         due = self._started is None or self._calls - self._started >= self.replan
         if due and not self._search.running:
-            self._search.start(model, x.q, lo, hi, x.limits.q_max - x.limits.q_min)
+            span, clear = x.limits.q_max - x.limits.q_min, goal_clearance(self)
+            self._search.start(model, x.q, lo, hi, span, clear)
             self._started = self._calls
         if not self._search.running:
             return

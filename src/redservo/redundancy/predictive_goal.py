@@ -47,6 +47,14 @@ __all__ = [
 STALL = 15
 """Iterations without progress after which :func:`feature_ik` gives up a seed."""
 
+Clear = Callable[[FloatArray], bool]
+"""Whether a configuration (rad or m) may be the goal (clear of the obstacles)."""
+
+
+def _anywhere(q: FloatArray) -> bool:
+    """Without obstacles every configuration within the bounds may be the goal."""
+    return True
+
 
 def camera_goal(model: PointModel, bMc: FloatArray, iterations: int = 50) -> FloatArray | None:
     """``bMc*`` (4, 4): the camera pose at which the model's points project at ``s*``
@@ -114,13 +122,15 @@ class GoalSearch:
         lo: FloatArray,
         hi: FloatArray,
         span: FloatArray,
+        clear: Clear | None = None,
     ) -> None:
         """Seeds: ``q``, six around it (normal, 15 % of each joint's range ``span``) and
-        :attr:`random_seeds` uniform within ``[lo, hi]``, a generator seeded with 0."""
+        :attr:`random_seeds` uniform within ``[lo, hi]``, a generator seeded with 0;
+        ``clear`` as :func:`search_steps`'s."""
         gen = np.random.default_rng(0)
         seeds = [q] + [q + gen.normal(0.0, 0.15, q.shape) * span for _ in range(6)]
         seeds += [gen.uniform(lo, hi) for _ in range(self.random_seeds)]
-        self._steps = search_steps(model, q, seeds, lo, hi)
+        self._steps = search_steps(model, q, seeds, lo, hi, clear)
 
     def advance(
         self,
@@ -178,10 +188,13 @@ def search_steps(
     seeds: list[FloatArray],
     lo: FloatArray,
     hi: FloatArray,
+    clear: Clear | None = None,
 ) -> Generator[None, None, tuple[float, FloatArray] | None]:
     """The search of :func:`joint_goal`, yielding after each iteration of its inverse
     kinematics (one kinematics evaluation and one step: so that it can be spread over periods
-    in equal small parts); its return value is the result.
+    in equal small parts); its return value is the result. With ``clear`` (collision
+    avoidance on: :func:`~redservo.redundancy.predictive_distance.goal_clearance`), a
+    configuration that is not clear of the obstacles is never the goal.
 
     The pose IK of the desired camera pose from each seed (module docstring), the nearest
     of the first :data:`CANDIDATES` exact goals; then the feature-space search from every seed (the task may be met at other poses than
@@ -193,6 +206,7 @@ def search_steps(
 
     bMc = model.robot.kinematics(q, check_limits=False)[0]
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
+    ok: Clear = _anywhere if clear is None else clear
     best: tuple[float, FloatArray | None] = (np.inf, None)
     found: list[FloatArray] = []
     if target is not None:
@@ -200,16 +214,20 @@ def search_steps(
             qs = yield from ik_steps(model.robot, target, seed, lo, hi)
             if qs is not None:
                 r, qp = yield from _ik_from(model, qs, lo, hi, 30, TOL)
+                if qp is not None and not ok(qp):
+                    continue
                 if r < TOL and qp is not None:
                     found.append(qp)
                     if len(found) == CANDIDATES:
                         break
                 best = min(best, (r, qp), key=lambda b: b[0])
-    if found:  # the nearest, in fractions of each joint's range between the bounds
-        near = min(found, key=lambda g: float(np.max(np.abs(g - q) / (hi - lo))))
+    if found:  # the nearest (fractions of each range), a clear straight path first
+        near = min(found, key=lambda g: (not _clear_path(ok, q, g), _spread(g, q, lo, hi)))
         return goal_error(model, near), near
     for seed in seeds:
         r, qp = yield from _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
+        if qp is not None and not ok(qp):
+            continue
         if r < TOL and qp is not None:
             return r, qp
         best = min(best, (r, qp), key=lambda b: b[0])
@@ -217,6 +235,22 @@ def search_steps(
         return best[0], best[1]
     return None
 
+
+def _spread(g: FloatArray, q: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+    """The largest joint step from ``q`` to ``g`` in fractions of ``[lo, hi]``."""
+    return float(np.max(np.abs(g - q) / (hi - lo)))
+
+
+def _clear_path(ok: Clear, q: FloatArray, g: FloatArray) -> bool:
+    """Whether ``ok`` holds at :data:`PATH_POINTS` configurations evenly spaced on the
+    straight joint-space segment from ``q`` (excluded) to ``g`` (included): the terminal
+    cost pulls the plan roughly along it, and an obstacle across it holds the arm at
+    ``d_safe`` (the horizon is too short to plan round)."""
+    return all(ok(q + f * (g - q)) for f in np.linspace(0.0, 1.0, PATH_POINTS + 1)[1:])
+
+
+PATH_POINTS = 10
+"""Configurations checked on the straight path to a candidate goal (:func:`_clear_path`)."""
 
 CANDIDATES = 4
 """Exact goals collected before the nearest to ``q`` is chosen (a far goal takes a long

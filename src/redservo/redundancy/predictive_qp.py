@@ -3,7 +3,8 @@
 :func:`horizon_qp` builds the QP of one step of :class:`~redservo.redundancy.predictive.
 Predictive` (the model's prediction over the horizon, the joint bounds less the band, the
 rate limits, the image bounds, the effort, the joint goal, the camera-motion rows and, with
-collision avoidance on, the velocity-damper rows on the first command);
+collision avoidance on, the velocity-damper rows on the first command and the distance
+rows over the horizon, :mod:`redservo.redundancy.predictive_distance`);
 :func:`solve_horizon` solves it with daqp. Units: rad or m, s; commands in rad/s or m/s.
 """
 
@@ -19,6 +20,7 @@ from redservo.redundancy.base import LawInputs
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.distance_rows import distance_rows
 from redservo.redundancy.predictive_camera import MotionLimit, motion_rows
+from redservo.redundancy.predictive_distance import with_horizon_rows
 from redservo.redundancy.predictive_model import QP, Prediction, build_qp, local_prediction
 from redservo.redundancy.safety import position_box
 
@@ -79,7 +81,7 @@ def horizon_qp(
         s_now=s_now,
         u0_box=position_box(x.q, lim, x.dt) if law.shield else None,
     )
-    qp = with_distance_rows(qp, law, x.q)
+    qp = with_horizon_rows(with_distance_rows(qp, law, x.q), law, x.q, U, hz, x.dt)
     if motion is None or pred.s is None or s_now is None:
         return qp
     rows, blo, bhi = motion_rows(pred, hz, x.dt, U, s_now, motion)

@@ -1,0 +1,137 @@
+"""The ``predictive`` law's distance rows over its whole horizon (issue 30; docs/predictive.md).
+
+With collision avoidance on, the law already has the velocity-damper rows on its first
+command (:mod:`redservo.redundancy.distance_rows`). Those see one period ahead only: the
+plan's later blocks may run a link into a post, and the law finds out when the damper and
+the shield stop it there. Here every predicted period ``k = 1…N`` gets the pairs' distance,
+measured by the same kernel (:meth:`~redservo.control.avoidance.Collision.measure`) at the
+linearisation point ``q̄_k = q_0 + dt Σ_j M[k-1, j] ū_j`` (the warm start ``Ū``) and
+linearised there, as the image points are::
+
+    d_k(U) ≈ d̄_k + J_k (q_k − q̄_k) = d̄_k + dt J_k Σ_j M[k-1, j] (u_j − ū_j)  ≥  d_s
+
+for every pair within ``d_influence`` at ``q̄_k`` (``d`` in m, ``J_k`` in m/rad or m/m,
+``d_s`` = ``d_safe``). The bound is capped so that rest (``U = 0``, the joints where they
+are) always meets it: a row never asks more than "no closer along this linearisation than
+standing still", so the rows cannot make the horizon infeasible where the robot at rest
+is feasible. The linearisation is the plan's, not a guarantee: the first-command damper
+rows and the distance shield (on the true geometry) still guard the command applied.
+
+Units: metres, seconds, radians.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from redservo._validation import FloatArray
+from redservo.redundancy.distance_rows import _SOURCE
+
+if TYPE_CHECKING:
+    from redservo.control.avoidance import Collision
+    from redservo.redundancy.predictive_model import QP, Horizon
+    from redservo.robots.base import Robot
+
+__all__ = [
+    "HorizonRows",
+    "distance_source",
+    "goal_clearance",
+    "horizon_distance_rows",
+    "with_horizon_rows",
+]
+
+_INF = 1e30
+"""daqp's infinite bound."""
+
+
+class HorizonRows(NamedTuple):
+    """``A U ≥ b`` on the stacked blocks ``U`` (Nc n,) for the pairs near the plan."""
+
+    A: FloatArray
+    """(r, Nc n) ``dt J_k [M[k-1, 0], …, M[k-1, Nc-1]]`` per row (m per rad/s or m/s)."""
+    b: FloatArray
+    """(r,) the bounds (m), at most 0 (rest meets them)."""
+    steps: tuple[int, ...]
+    """(r,) the predicted period ``k`` (1…N) of each row."""
+    names: tuple[str, ...]
+    """(r,) the pairs."""
+
+
+def distance_source(law: object) -> tuple[Collision, Robot] | None:
+    """The collision set-up and robot bound to ``law`` (None: not avoiding)."""
+    src: tuple[Collision, Robot] | None = getattr(law, _SOURCE, None)
+    return src
+
+
+def horizon_distance_rows(
+    law: Any, q0: FloatArray, Ubar: FloatArray, hz: Horizon, dt: float
+) -> HorizonRows | None:
+    """The rows of the module docstring for ``law`` (bound by
+    :func:`~redservo.redundancy.distance_rows.bind_distances`) at ``q0`` (n,) with the warm
+    start ``Ubar`` (Nc, n), horizon ``hz`` and period ``dt`` (s); None when the law is not
+    avoiding or no pair comes within ``d_influence`` along the predicted path."""
+    src = distance_source(law)
+    if src is None:
+        return None
+    c, robot = src
+    t0 = c.last_time
+    ub = Ubar.reshape(-1)
+    A_rows: list[FloatArray] = []
+    b_rows: list[FloatArray] = []
+    steps: list[int] = []
+    names: list[str] = []
+    for k in range(1, hz.N + 1):
+        w = dt * hz.M[k - 1]  # (Nc,)
+        qk = q0 + w @ Ubar
+        pd = c.probe(robot, qk, t0 + k * dt)
+        near = pd.d < c.d_influence
+        if not np.any(near):
+            continue
+        Jk = pd.J[near]
+        Ak = np.concatenate([wj * Jk for wj in w], axis=1)
+        # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
+        bk = np.minimum(c.d_safe - pd.d[near] + Ak @ ub, 0.0)
+        A_rows.append(Ak)
+        b_rows.append(bk)
+        steps += [k] * int(bk.size)
+        names += [nm for nm, m in zip(pd.names, near, strict=True) if m]
+    if not A_rows:
+        return None
+    return HorizonRows(np.vstack(A_rows), np.concatenate(b_rows), tuple(steps), tuple(names))
+
+
+def with_horizon_rows(
+    qp: QP, law: Any, q0: FloatArray, Ubar: FloatArray, hz: Horizon, dt: float
+) -> QP:
+    """``qp`` (:class:`~redservo.redundancy.predictive_model.QP`) with the rows of
+    :func:`horizon_distance_rows` (``b ≤ A U``, no upper bound); unchanged without them."""
+    rows = horizon_distance_rows(law, q0, Ubar, hz, dt)
+    if rows is None:
+        return qp
+    return qp._replace(
+        A=np.vstack([qp.A, rows.A]),
+        blo=np.concatenate([qp.blo, rows.b]),
+        bhi=np.concatenate([qp.bhi, np.full(rows.b.size, _INF)]),
+    )
+
+
+def goal_clearance(law: object) -> Callable[[FloatArray], bool] | None:
+    """``clear(q)`` for the law's joint-goal search
+    (:func:`~redservo.redundancy.predictive_goal.search_steps`): every pair at least
+    ``d_safe`` apart at ``q`` (rad or m), the criterion of the campaigns' reachability
+    (:mod:`redservo.campaign.reach_obstacles`); None when the law is not avoiding. A goal
+    inside an obstacle pulls the plan, through the terminal cost, against the distance rows,
+    where the arm stays held at ``d_safe``."""
+    src = distance_source(law)
+    if src is None:
+        return None
+    c, robot = src
+
+    def clear(q: FloatArray) -> bool:
+        d = c.probe(robot, q, c.last_time).d
+        return bool(d.size == 0 or float(np.min(d)) >= c.d_safe)
+
+    return clear
