@@ -333,8 +333,14 @@ def fast_summary(exp: Experiment, law: Law) -> RunSummary | None:
         law_args = _law_args(law, exp.robot.n)
     except ConfigurationError:
         return None
+    return _covered_summary(exp, law, packed, law_args)
+
+
+def _covered_summary(
+    exp: Experiment, law: Law, p: _Packed, law_args: tuple[Any, ...]
+) -> RunSummary | None:
+    """:func:`fast_summary` of a run known to be covered, its packs given."""
     logs = _buffers(exp.options.max_iterations, exp.robot.n)
-    p = packed
     coll = collision_pack(exp, law)
     args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs, coll)
     rows, code, axis, abort = _run_loop(exp, law, args)
@@ -358,19 +364,50 @@ def fast_run(
         ctl.robust,
         ctl.scaling,
     )
-    laws: dict[tuple[Any, ...], Law] | None = getattr(_BUFFERS, "laws", None)
-    if laws is None or len(laws) > 64:
-        laws = _BUFFERS.laws = {}
-    law = laws.get(key)
-    if law is None:
-        law = laws[key] = campaign_law(exp, method, law_options)
-    reason = fast_reason(exp, law)
+    law, args = _campaign_law(key, exp, method, law_options)
+    reason = law_reason(law)  # not cached: the kernel mode may change between runs
+    packed = _packed(exp)  # the experiment's reason, or its packs (cached for its methods)
+    if reason is None and isinstance(packed, str):
+        reason = packed
+    reason = reason or collision_reason(exp, law)
     if reason is not None:
         return None, reason
     from redservo.campaign.rows import FAST_PATH
 
+    assert not isinstance(packed, str)
     try:
-        summary = fast_summary(exp, law)
+        summary = None
+        law_args = _cached_law_args(law, exp.robot.n, args)
+        if law_args is not None:  # None: the law's options raise (the object path says so)
+            summary = _covered_summary(exp, law, packed, law_args)
     except Exception as exc:  # the object path runs it again and records what happens
         return None, f"the compiled loop raised {type(exc).__name__}"
     return summary, FAST_PATH if summary is not None else "the object path would raise"
+
+
+def _campaign_law(
+    key: tuple[Any, ...], exp: Experiment, method: str, law_options: Mapping[str, Any] | None
+) -> tuple[Law, dict[int, Any]]:
+    """The law of a campaign method, made once per thread and method, with its loop
+    arguments by number of joints (filled by :func:`_cached_law_args`; the loop only reads
+    them)."""
+    laws: dict[tuple[Any, ...], Any] | None = getattr(_BUFFERS, "laws", None)
+    if laws is None or len(laws) > 64:
+        laws = _BUFFERS.laws = {}
+    entry = laws.get(key)
+    if entry is None:
+        entry = laws[key] = (campaign_law(exp, method, law_options), {})
+    out: tuple[Law, dict[int, Any]] = entry
+    return out
+
+
+def _cached_law_args(law: Law, n: int, cache: dict[int, Any]) -> tuple[Any, ...] | None:
+    """:func:`_law_args` of a covered law for ``n`` joints, kept in ``cache``; None when
+    its options raise :class:`ConfigurationError`."""
+    if n not in cache:
+        try:
+            cache[n] = _law_args(law, n)
+        except ConfigurationError:
+            cache[n] = None
+    out: tuple[Any, ...] | None = cache[n]
+    return out

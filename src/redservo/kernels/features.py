@@ -17,11 +17,13 @@ import numpy as np
 from redservo.kernels._jit import kernel
 
 __all__ = [
+    "camera_point",
     "cylinder_interaction",
     "cylinder_lines",
     "ellipse_moment_interaction",
     "line_interaction",
     "point_interaction",
+    "point_interaction_into",
     "points_interaction",
     "points_measure",
     "project_line",
@@ -50,19 +52,26 @@ def wrap_angle(a: float) -> float:
 def point_interaction(x: float, y: float, inv_z: float) -> Any:
     """(2, 6) interaction matrix of a normalized image point (CM01 eq. 26)."""
     L = np.empty((2, 6))
-    L[0, 0] = -inv_z
-    L[0, 1] = 0.0
-    L[0, 2] = x * inv_z
-    L[0, 3] = x * y
-    L[0, 4] = -(1.0 + x * x)
-    L[0, 5] = y
-    L[1, 0] = 0.0
-    L[1, 1] = -inv_z
-    L[1, 2] = y * inv_z
-    L[1, 3] = 1.0 + y * y
-    L[1, 4] = -x * y
-    L[1, 5] = -x
+    point_interaction_into(x, y, inv_z, L, 0)
     return L
+
+
+@kernel
+def point_interaction_into(x: float, y: float, inv_z: float, L: Any, row: int) -> None:
+    """:func:`point_interaction` written into rows ``row`` and ``row + 1`` of ``L`` (k, 6)
+    (no temporary: what the compiled loop calls at every step); ``inv_z`` in 1/m."""
+    L[row, 0] = -inv_z
+    L[row, 1] = 0.0
+    L[row, 2] = x * inv_z
+    L[row, 3] = x * y
+    L[row, 4] = -(1.0 + x * x)
+    L[row, 5] = y
+    L[row + 1, 0] = 0.0
+    L[row + 1, 1] = -inv_z
+    L[row + 1, 2] = y * inv_z
+    L[row + 1, 3] = 1.0 + y * y
+    L[row + 1, 4] = -x * y
+    L[row + 1, 5] = -x
 
 
 @kernel
@@ -74,6 +83,16 @@ def project_point(X: float, Y: float, Z: float) -> Any:
 
 
 @kernel
+def camera_point(cMo: Any, pts: Any, k: int) -> Any:
+    """``(X, Y, Z)`` (m) of point ``k`` of ``pts`` (N, 3, object frame) in the camera frame
+    ``cMo`` (4, 4): ``cMo[:3, :3] p + cMo[:3, 3]``, each row summed left to right."""
+    X = cMo[0, 0] * pts[k, 0] + cMo[0, 1] * pts[k, 1] + cMo[0, 2] * pts[k, 2] + cMo[0, 3]
+    Y = cMo[1, 0] * pts[k, 0] + cMo[1, 1] * pts[k, 1] + cMo[1, 2] * pts[k, 2] + cMo[1, 3]
+    Z = cMo[2, 0] * pts[k, 0] + cMo[2, 1] * pts[k, 1] + cMo[2, 2] * pts[k, 2] + cMo[2, 3]
+    return X, Y, Z
+
+
+@kernel
 def points_measure(cMo: Any, pts: Any) -> Any:
     """``(s, 1/Z, bad)`` of N points (N, 3) of the object frame seen at ``cMo``: s (2N,) the
     stacked ``(x, y)``, 1/Z (N,), and the first point at or behind the camera (-1 if none)."""
@@ -82,9 +101,7 @@ def points_measure(cMo: Any, pts: Any) -> Any:
     iz = np.empty(n)
     bad = -1
     for k in range(n):
-        X = cMo[0, 0] * pts[k, 0] + cMo[0, 1] * pts[k, 1] + cMo[0, 2] * pts[k, 2] + cMo[0, 3]
-        Y = cMo[1, 0] * pts[k, 0] + cMo[1, 1] * pts[k, 1] + cMo[1, 2] * pts[k, 2] + cMo[1, 3]
-        Z = cMo[2, 0] * pts[k, 0] + cMo[2, 1] * pts[k, 1] + cMo[2, 2] * pts[k, 2] + cMo[2, 3]
+        X, Y, Z = camera_point(cMo, pts, k)
         if Z <= MIN_DEPTH:
             if bad < 0:
                 bad = k
@@ -101,7 +118,7 @@ def points_interaction(s: Any, inv_z: Any) -> Any:
     n = inv_z.shape[0]
     L = np.empty((2 * n, 6))
     for k in range(n):
-        L[2 * k : 2 * k + 2] = point_interaction(s[2 * k], s[2 * k + 1], inv_z[k])
+        point_interaction_into(s[2 * k], s[2 * k + 1], inv_z[k], L, 2 * k)
     return L
 
 
