@@ -17,8 +17,8 @@ import pytest
 
 pytest.importorskip("numba", reason="the compiled kernels need numba (redservo[fast])")
 
-from redservo.campaign import fastloop, load_campaign, run_campaign
-from redservo.kernels import directional, features, lapack, loop_task, moments
+from redservo.campaign import load_campaign, looplaw, run_campaign
+from redservo.kernels import directional, features, lapack, loop_task, moments, points
 from redservo.kernels.linalg import task_svd
 
 
@@ -60,7 +60,7 @@ def test_the_moment_plane_is_the_one_of_the_full_svd() -> None:
         P = np.c_[rng.normal(size=(n, 2)) * 0.1, np.zeros(n)] @ R.T + [0.01, -0.02, 0.6]
         plane, code, _ = moments.fit_plane(P)
         Q = P - P.sum(axis=0) / n
-        _, sv, Vt, _ = scipy_lapack.dgesvd(np.ascontiguousarray(Q))
+        _, _, Vt, _ = scipy_lapack.dgesvd(np.ascontiguousarray(Q))
         c = P.sum(axis=0) / n
         d = Vt[2, 0] * c[0] + Vt[2, 1] * c[1] + Vt[2, 2] * c[2]
         if code == moments.OK:
@@ -87,11 +87,11 @@ def test_points_measured_without_temporaries_are_points_measure() -> None:
         pts = rng.normal(size=(3, 3)) * 0.1
         s, iz, bad = features.points_measure(cMo, pts)
         for k in range(3):
-            X, Y, Z = features.camera_point(cMo, pts, k)
+            X, Y, Z = points.camera_point(cMo, pts, k)
             assert (X / Z, Y / Z, 1.0 / Z) == (s[2 * k], s[2 * k + 1], iz[k]) or bad >= 0
         L = np.empty((6, 6))
         for k in range(3):
-            features.point_interaction_into(s[2 * k], s[2 * k + 1], iz[k], L, 2 * k)
+            points.point_interaction_into(s[2 * k], s[2 * k + 1], iz[k], L, 2 * k)
         assert L.tobytes() == features.points_interaction(s, iz).tobytes()
         assert L[:2].tobytes() == features.point_interaction(s[0], s[1], iz[0]).tobytes()
 
@@ -111,14 +111,14 @@ def test_the_finiteness_test_of_the_loop(bad: float) -> None:
 
 def test_a_law_is_packed_once_per_method_not_per_run(monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[str] = []
-    real = fastloop._law_args
+    real = looplaw.law_args
 
     def counted(law: Any, n: int) -> Any:
         calls.append(law.name)
         return real(law, n)
 
-    monkeypatch.setattr(fastloop, "_law_args", counted)
-    monkeypatch.setattr(fastloop._BUFFERS, "laws", {}, raising=False)
+    monkeypatch.setattr(looplaw, "law_args", counted)
+    monkeypatch.setattr(looplaw._LAWS, "laws", {}, raising=False)
     res = run_campaign(
         load_campaign("cm01-gaze"),
         samples=3,

@@ -15,15 +15,14 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
+from redservo.kernels.points import camera_point, point_interaction_into
 
 __all__ = [
-    "camera_point",
     "cylinder_interaction",
     "cylinder_lines",
     "ellipse_moment_interaction",
     "line_interaction",
     "point_interaction",
-    "point_interaction_into",
     "points_interaction",
     "points_measure",
     "project_line",
@@ -57,39 +56,11 @@ def point_interaction(x: float, y: float, inv_z: float) -> Any:
 
 
 @kernel
-def point_interaction_into(x: float, y: float, inv_z: float, L: Any, row: int) -> None:
-    """:func:`point_interaction` written into rows ``row`` and ``row + 1`` of ``L`` (k, 6)
-    (no temporary: what the compiled loop calls at every step); ``inv_z`` in 1/m."""
-    L[row, 0] = -inv_z
-    L[row, 1] = 0.0
-    L[row, 2] = x * inv_z
-    L[row, 3] = x * y
-    L[row, 4] = -(1.0 + x * x)
-    L[row, 5] = y
-    L[row + 1, 0] = 0.0
-    L[row + 1, 1] = -inv_z
-    L[row + 1, 2] = y * inv_z
-    L[row + 1, 3] = 1.0 + y * y
-    L[row + 1, 4] = -x * y
-    L[row + 1, 5] = -x
-
-
-@kernel
 def project_point(X: float, Y: float, Z: float) -> Any:
     """``(x, y, 1/Z, ok)`` of a camera-frame point; ``ok`` False when ``Z <= MIN_DEPTH``."""
     if Z <= MIN_DEPTH:
         return 0.0, 0.0, 0.0, False
     return X / Z, Y / Z, 1.0 / Z, True
-
-
-@kernel
-def camera_point(cMo: Any, pts: Any, k: int) -> Any:
-    """``(X, Y, Z)`` (m) of point ``k`` of ``pts`` (N, 3, object frame) in the camera frame
-    ``cMo`` (4, 4): ``cMo[:3, :3] p + cMo[:3, 3]``, each row summed left to right."""
-    X = cMo[0, 0] * pts[k, 0] + cMo[0, 1] * pts[k, 1] + cMo[0, 2] * pts[k, 2] + cMo[0, 3]
-    Y = cMo[1, 0] * pts[k, 0] + cMo[1, 1] * pts[k, 1] + cMo[1, 2] * pts[k, 2] + cMo[1, 3]
-    Z = cMo[2, 0] * pts[k, 0] + cMo[2, 1] * pts[k, 1] + cMo[2, 2] * pts[k, 2] + cMo[2, 3]
-    return X, Y, Z
 
 
 @kernel

@@ -32,14 +32,10 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.features import (
-    MIN_DEPTH,
-    camera_point,
-    point_interaction_into,
-    wrap_angle,
-)
+from redservo.kernels.features import MIN_DEPTH, wrap_angle
 from redservo.kernels.moment_interaction import moment_features_interaction
 from redservo.kernels.moments import moment_measure
+from redservo.kernels.points import camera_point, point_interaction_into
 
 __all__ = [
     "MOMENTS",
