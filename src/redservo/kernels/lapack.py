@@ -11,6 +11,14 @@ results are bit-for-bit those of the laws before the kernel layer.
   the calling kernels cacheable). No numpy wrapper, no Python object per call.
 * Reference path (no numba): scipy's own f2py wrapper of the same routine.
 
+``gesvd_sv(A)`` returns ``(σ, V, info)``: the same routine without the left vectors
+(``jobu = 'N'``), for callers that use σ and V only (the moments' plane). LAPACK takes the
+same steps on A either way (QR then bidiagonalisation, then the same implicit QR
+iteration on the bidiagonal, since the right vectors are still asked for), applying the
+rotations to U only when U is asked for, so σ and V are the bits of :func:`gesvd`
+(tests/test_campaign_speedups.py, thousands of random, near-planar, scaled and
+rank-deficient matrices).
+
 This is the binding of one external routine for two calling conventions, not a second
 implementation of any kernel.
 """
