@@ -92,13 +92,14 @@ def _t_qp(*args: Any) -> float:
 def _states(exp: Any, law: Any) -> tuple[Any, ...] | None:
     """Run ``law`` on ``exp`` in the loop; the visited states and the loop's CPU time."""
     from redservo.campaign.fastloop import _buffers, _law_args, _packed, _run_loop
+    from redservo.campaign.loop_avoid import collision_pack
 
     p = _packed(exp)
     if isinstance(p, str):
         return None
     logs = _buffers(exp.options.max_iterations, exp.robot.n)
     la = _law_args(law, exp.robot.n)
-    args = (p.robot, p.scene, p.task, la, p.limits, p.sim, logs)
+    args = (p.robot, p.scene, p.task, la, p.limits, p.sim, logs, collision_pack(exp, law))
     _run_loop(exp, law, args)
     t = time.process_time()
     rows = _run_loop(exp, law, args)[0]

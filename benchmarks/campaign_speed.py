@@ -22,22 +22,23 @@ whole campaign in this process (the marginal rate: after a 1-sample warm-up), on
 (:func:`all_campaigns`; a campaign with no compiled method gets a row saying why).
 docs/scaling.md gives the numbers.
 
-Last figures (2026-11-29, issue 29 item 4: ``qp``'s solver compiled into the loop, one build
-and a compiled start check per sample), steps per CPU second end to end, 20 samples, two
-rounds, main (02103a2) → this code, on a machine at load average 18-20 on 2 CPUs (absolute
-numbers depressed; compare within a line), each line from ``campaign_row(name, 20, 5)`` as
-``--all --samples 20 --loop-samples 5`` calls it:
+Last figures (2026-11-29, issue 29 item 4, second pass: the same bits with less work per
+step and per run), steps per CPU second end to end, 20 samples, main (a9c5087) / this code
+alternated campaign by campaign, two rounds, load average 14-23 on 2 CPUs (absolute numbers
+depressed; compare within a line), each from ``campaign_row(name, 20, 5)`` as ``--all
+--samples 20 --loop-samples 5`` calls it:
 
-* afma6-gaze-demo 33 400 / 27 400 → 48 100 / 40 900 (loop alone 128 000 / 84 000)
-* cm01-gaze 60 000 / 60 000 → 79 800 / 63 000 (loop alone 108 000 / 115 000)
-* cm01-humanoid-tracking 40 500 / 35 100 → 55 900 / 53 300 (loop alone 65 000 / 60 000)
-* mc05-joint-limits 27 700 / 26 000 → 43 800 / 37 800 (loop alone 54 000 / 44 000)
-* panda-near-limits 31 200 / 27 100 → 39 600 / 39 500 (loop alone 62 000 / 59 000)
-* panda-urdf-near-limits 24 100 / 28 100 → 36 500 / 38 900 (loop alone 67 000 / 66 000)
-* panda-posts: now on the compiled loop except qp/sns avoiding (docs/results.md, panda-posts)
+* afma6-gaze-demo 43 400 / 38 800 → 41 900 / 39 200 (loop alone 106 000 / 105 000 → 97 000 / 96 000)
+* cm01-gaze 69 300 / 70 300 → 78 200 / 64 100 (loop alone 96 000 / 95 000 → 113 000 / 101 000)
+* cm01-humanoid-tracking 54 900 / 55 000 → 57 400 / 56 500 (loop alone 64 000 / 65 000 → 68 000 / 71 000)
+* mc05-joint-limits 42 700 / 42 900 → 44 000 / 45 600 (loop alone 54 000 / 56 000 → 56 000 / 59 000)
+* panda-near-limits 42 600 / 45 300 → 44 400 / 46 300 (loop alone 68 000 / 68 000 → 67 000 / 69 000)
+* panda-urdf-near-limits 42 000 / 40 800 → 43 500 / 43 800 (loop alone 69 000 / 68 000 → 72 000 / 72 000)
+* panda-posts 13 900 / 14 700 → 14 400 / 13 900 (loop alone 18 700 / 18 700 → 19 000 / 19 300)
 
-Still below 100 000: the loop alone is, wherever ``J1`` has 6 rows or more (LAPACK
-``dgesvd`` of a 6x6 matrix: 5.3 µs per step); docs/scaling.md says where the rest goes.
+Still below 100 000 end to end: the loop alone is, wherever ``J1`` has 6 rows or more
+(LAPACK ``dgesvd`` of a 6x6 matrix: 5.3 µs per step, kept: it is every law's SVD on every
+path); docs/scaling.md says where the rest goes.
 """
 
 from __future__ import annotations

@@ -36,6 +36,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from redservo.campaign.loop_avoid import collision_fields, collision_pack, collision_reason
+from redservo.campaign.looplaw import cached_law_args, method_law
+from redservo.campaign.looplaw import law_args as _law_args
 from redservo.campaign.looppack import (
     robot_args,
     robot_reason,
@@ -69,9 +71,8 @@ _OUTCOMES: tuple[Outcome, ...] = (
 )
 """Outcome names by the kernel's codes (:mod:`redservo.campaign.loop_kernel`)."""
 _BUFFERS = threading.local()
-"""Per-thread reuse: the log buffers, the packed arguments of the last experiment (a
-sample's methods run one after the other on it) and the laws (one per method and options:
-the compiled loop only reads their options)."""
+"""Per-thread reuse: the log buffers and the packed arguments of the last experiment (a
+sample's methods run one after the other on it); the laws: :mod:`redservo.campaign.looplaw`."""
 
 
 def campaign_law(exp: Experiment, method: str, law_options: Mapping[str, Any] | None) -> Law:
@@ -215,27 +216,6 @@ def _summary(
     )
 
 
-def _law_args(law: Law, n: int) -> tuple[Any, ...]:
-    """``(law_id, fopt, iopt, vopt, has_cap)`` of the loop (:mod:`redservo.campaign.loop_kernel`)."""
-    from redservo.campaign.loop_kernel import QP
-    from redservo.redundancy.kio import law_options
-
-    if law.name != "qp":
-        o = law_options(law, n)
-        return o.law_id, o.fopt, o.iopt, o.vopt, getattr(law, "alpha_max", None) is not None
-    from redservo.redundancy.qp import ACTIVE_SET, BoundedLeastSquares, _v_per_joint
-
-    assert isinstance(law, BoundedLeastSquares)
-    v = law.v_max
-    vopt = np.zeros((2, n))
-    if v is not None:
-        vopt[0] = _v_per_joint(v, n)
-    fopt = np.array([law.rcond, law.eps, law.k_p, law.margin])
-    in_kernel = law._resolve_backend() == ACTIVE_SET  # the solver runs in the loop
-    iopt = np.array([int(law.shield), int(in_kernel), int(v is not None), 0], dtype=np.int64)
-    return QP, fopt, iopt, vopt, False
-
-
 def _flag_bits(events: Iterable[Event]) -> int:
     """The loop's bit mask (bit ``j`` is ``FLAGS[j]``) of a law's typed events."""
     bits = 0
@@ -333,8 +313,14 @@ def fast_summary(exp: Experiment, law: Law) -> RunSummary | None:
         law_args = _law_args(law, exp.robot.n)
     except ConfigurationError:
         return None
+    return _covered_summary(exp, law, packed, law_args)
+
+
+def _covered_summary(
+    exp: Experiment, law: Law, p: _Packed, law_args: tuple[Any, ...]
+) -> RunSummary | None:
+    """:func:`fast_summary` of a run known to be covered, its packs given."""
     logs = _buffers(exp.options.max_iterations, exp.robot.n)
-    p = packed
     coll = collision_pack(exp, law)
     args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs, coll)
     rows, code, axis, abort = _run_loop(exp, law, args)
@@ -358,19 +344,22 @@ def fast_run(
         ctl.robust,
         ctl.scaling,
     )
-    laws: dict[tuple[Any, ...], Law] | None = getattr(_BUFFERS, "laws", None)
-    if laws is None or len(laws) > 64:
-        laws = _BUFFERS.laws = {}
-    law = laws.get(key)
-    if law is None:
-        law = laws[key] = campaign_law(exp, method, law_options)
-    reason = fast_reason(exp, law)
+    law, args = method_law(key, lambda: campaign_law(exp, method, law_options))
+    reason = law_reason(law)  # not cached: the kernel mode may change between runs
+    packed = _packed(exp)  # the experiment's reason, or its packs (cached for its methods)
+    if reason is None and isinstance(packed, str):
+        reason = packed
+    reason = reason or collision_reason(exp, law)
     if reason is not None:
         return None, reason
     from redservo.campaign.rows import FAST_PATH
 
+    assert not isinstance(packed, str)
     try:
-        summary = fast_summary(exp, law)
+        summary = None
+        law_args = cached_law_args(law, exp.robot.n, args)
+        if law_args is not None:  # None: the law's options raise (the object path says so)
+            summary = _covered_summary(exp, law, packed, law_args)
     except Exception as exc:  # the object path runs it again and records what happens
         return None, f"the compiled loop raised {type(exc).__name__}"
     return summary, FAST_PATH if summary is not None else "the object path would raise"

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
+from redservo.kernels.points import camera_point, point_interaction_into
 
 __all__ = [
     "cylinder_interaction",
@@ -50,18 +51,7 @@ def wrap_angle(a: float) -> float:
 def point_interaction(x: float, y: float, inv_z: float) -> Any:
     """(2, 6) interaction matrix of a normalized image point (CM01 eq. 26)."""
     L = np.empty((2, 6))
-    L[0, 0] = -inv_z
-    L[0, 1] = 0.0
-    L[0, 2] = x * inv_z
-    L[0, 3] = x * y
-    L[0, 4] = -(1.0 + x * x)
-    L[0, 5] = y
-    L[1, 0] = 0.0
-    L[1, 1] = -inv_z
-    L[1, 2] = y * inv_z
-    L[1, 3] = 1.0 + y * y
-    L[1, 4] = -x * y
-    L[1, 5] = -x
+    point_interaction_into(x, y, inv_z, L, 0)
     return L
 
 
@@ -82,9 +72,7 @@ def points_measure(cMo: Any, pts: Any) -> Any:
     iz = np.empty(n)
     bad = -1
     for k in range(n):
-        X = cMo[0, 0] * pts[k, 0] + cMo[0, 1] * pts[k, 1] + cMo[0, 2] * pts[k, 2] + cMo[0, 3]
-        Y = cMo[1, 0] * pts[k, 0] + cMo[1, 1] * pts[k, 1] + cMo[1, 2] * pts[k, 2] + cMo[1, 3]
-        Z = cMo[2, 0] * pts[k, 0] + cMo[2, 1] * pts[k, 1] + cMo[2, 2] * pts[k, 2] + cMo[2, 3]
+        X, Y, Z = camera_point(cMo, pts, k)
         if Z <= MIN_DEPTH:
             if bad < 0:
                 bad = k
@@ -101,7 +89,7 @@ def points_interaction(s: Any, inv_z: Any) -> Any:
     n = inv_z.shape[0]
     L = np.empty((2 * n, 6))
     for k in range(n):
-        L[2 * k : 2 * k + 2] = point_interaction(s[2 * k], s[2 * k + 1], inv_z[k])
+        point_interaction_into(s[2 * k], s[2 * k + 1], inv_z[k], L, 2 * k)
     return L
 
 

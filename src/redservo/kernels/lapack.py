@@ -11,6 +11,14 @@ results are bit-for-bit those of the laws before the kernel layer.
   the calling kernels cacheable). No numpy wrapper, no Python object per call.
 * Reference path (no numba): scipy's own f2py wrapper of the same routine.
 
+``gesvd_sv(A)`` returns ``(σ, V, info)``: the same routine without the left vectors
+(``jobu = 'N'``), for callers that use σ and V only (the moments' plane). LAPACK takes the
+same steps on A either way (QR then bidiagonalisation, then the same implicit QR
+iteration on the bidiagonal, since the right vectors are still asked for), applying the
+rotations to U only when U is asked for, so σ and V are the bits of :func:`gesvd`
+(tests/test_campaign_speedups.py, thousands of random, near-planar, scaled and
+rank-deficient matrices).
+
 This is the binding of one external routine for two calling conventions, not a second
 implementation of any kernel.
 """
@@ -23,7 +31,7 @@ import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
 
-__all__ = ["gesvd", "gesvd_lwork"]
+__all__ = ["gesvd", "gesvd_lwork", "gesvd_sv"]
 
 
 @kernel
@@ -88,6 +96,50 @@ if COMPILED:
                 U[i, j] = ut[j, i]
         return U, s, v, int(ip[6])
 
+    @kernel
+    def gesvd_sv(A: Any) -> Any:
+        """``(σ, V, info)`` of ``A`` (m, n) by ``dgesvd`` without the left vectors
+        (``jobu = 'N'``): the same σ and V as :func:`gesvd` (module docstring)."""
+        m, n = A.shape
+        k = min(m, n)
+        a = np.empty((n, m))  # C-order A^T = Fortran-order A (overwritten by LAPACK)
+        for i in range(m):
+            for j in range(n):
+                a[j, i] = A[i, j]
+        v = np.empty((n, n))  # Fortran V^T = C-order V
+        s = np.empty(k)
+        lwork = gesvd_lwork(m, n)
+        work = np.empty(lwork)
+        ip = np.empty(7, dtype=np.int32)
+        ip[0] = m
+        ip[1] = n
+        ip[2] = max(m, 1)
+        ip[3] = 1
+        ip[4] = max(n, 1)
+        ip[5] = lwork
+        ip[6] = 0
+        job = np.empty(2, dtype=np.uint8)
+        job[0] = 78  # 'N': no column of U
+        job[1] = 65  # 'A': every row of V^T
+        u = np.empty(1)
+        _dgesvd(
+            job[0:].ctypes,
+            job[1:].ctypes,
+            ip[0:].ctypes,
+            ip[1:].ctypes,
+            a.ctypes,
+            ip[2:].ctypes,
+            s.ctypes,
+            u.ctypes,
+            ip[3:].ctypes,
+            v.ctypes,
+            ip[4:].ctypes,
+            work.ctypes,
+            ip[5:].ctypes,
+            ip[6:].ctypes,
+        )
+        return s, v, int(ip[6])
+
 else:
 
     def gesvd(A: Any) -> Any:
@@ -96,3 +148,8 @@ else:
 
         U, s, Vt, info = lapack.dgesvd(A)
         return np.ascontiguousarray(U), s, np.ascontiguousarray(Vt.T), int(info)
+
+    def gesvd_sv(A: Any) -> Any:
+        """``(σ, V, info)`` of ``A`` (m, n) by ``dgesvd`` (scipy's wrapper computes U too)."""
+        _, s, V, info = gesvd(A)
+        return s, V, info

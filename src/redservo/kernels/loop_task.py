@@ -26,19 +26,43 @@ Units: m, rad, s; features in normalized image units.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.features import point_interaction, points_measure, wrap_angle
+from redservo.kernels.features import MIN_DEPTH, wrap_angle
 from redservo.kernels.moment_interaction import moment_features_interaction
 from redservo.kernels.moments import moment_measure
+from redservo.kernels.points import camera_point, point_interaction_into
 
-__all__ = ["MOMENTS", "POINT", "inverse", "known_feedforward", "loop_task", "target_poses"]
+__all__ = [
+    "MOMENTS",
+    "POINT",
+    "all_finite",
+    "inverse",
+    "known_feedforward",
+    "loop_task",
+    "target_poses",
+]
 
 POINT, MOMENTS = 0, 1
 """Term kinds of the task pack."""
+
+
+@kernel
+def all_finite(J1: Any, e1: Any) -> bool:
+    """``np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))`` for ``J1`` (m, n) and ``e1``
+    (m,), without the temporary arrays."""
+    for i in range(J1.shape[0]):
+        for j in range(J1.shape[1]):
+            if not math.isfinite(J1[i, j]):
+                return False
+    for i in range(e1.shape[0]):
+        if not math.isfinite(e1[i]):
+            return False
+    return True
 
 
 @kernel
@@ -145,13 +169,14 @@ def target_poses(cMw: Any, scene: Any, t: float) -> Any:
 def _point_rows(cMo: Any, pt: Any, j: int, row: int, s: Any, L: Any, depth_scale: float) -> bool:
     """Point term ``j``: its ``s`` (2 rows from ``row``) and ``L`` (current depth); False when
     the point is at or behind the camera."""
-    sj, iz, bad = points_measure(cMo, np.ascontiguousarray(pt[j : j + 1]))
-    if bad >= 0:
+    X, Y, Z = camera_point(cMo, pt, j)  # points_measure's arithmetic, no temporaries
+    if Z <= MIN_DEPTH:
         return False
-    s[row] = sj[0]
-    s[row + 1] = sj[1]
-    d = iz[0] if depth_scale == 1.0 else iz[0] / depth_scale
-    L[row : row + 2] = point_interaction(sj[0], sj[1], d)
+    x, y, iz = X / Z, Y / Z, 1.0 / Z
+    s[row] = x
+    s[row + 1] = y
+    d = iz if depth_scale == 1.0 else iz / depth_scale
+    point_interaction_into(x, y, d, L, row)
     return True
 
 

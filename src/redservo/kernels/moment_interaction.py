@@ -113,10 +113,11 @@ def moment_features_interaction(
     x = _inv_inputs(mu)
     grad = np.empty((2, 7))
     h = 1e-30
+    xc = x.astype(np.complex128)  # one work array: each step moves one entry, then resets it
     for k in range(7):
-        xc = x.astype(np.complex128)
         xc[k] += 1j * h
         r = rotation_invariants(xc, kind)
+        xc[k] = x[k]
         grad[0, k] = r[0].imag / h
         grad[1, k] = r[1].imag / h
     L = np.empty((6, 6))

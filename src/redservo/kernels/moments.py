@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.lapack import gesvd
+from redservo.kernels.lapack import gesvd_sv
 
 __all__ = [
     "check_moments",
@@ -93,7 +93,7 @@ def fit_plane(P: Any) -> Any:
     for k in range(n):
         for r in range(3):
             Q[k, r] = P[k, r] - c[r]
-    _, sv, V, _ = gesvd(Q)
+    sv, V, _ = gesvd_sv(Q)  # dgesvd without U: the same σ and V (kernels/lapack.py)
     plane = np.zeros(3)
     if sv[0] <= 0.0 or sv[1] <= PLANE_TOL * sv[0]:
         return plane, COLLINEAR, 0.0

@@ -23,7 +23,7 @@ from redservo.kernels._jit import kernel
 from redservo.kernels.boxqp import SOLVED, qp_solve
 from redservo.kernels.control import law_core, task_rows
 from redservo.kernels.events import qp_events, safety_events
-from redservo.kernels.loop_task import known_feedforward, loop_task
+from redservo.kernels.loop_task import all_finite, known_feedforward, loop_task
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.robot import robot_kinematics
 from redservo.kernels.safety import apply_safety
@@ -177,7 +177,7 @@ def sense(it: int, q: Any, robot: Any, scene: Any, task: Any, sim: Any) -> Any:
     if lost:
         return J, e, L, e, False, TARGET_LOST, 0
     e1, J1 = task_rows(e, L, task[8], J)  # CM01 eq. 25, the step kernel's
-    if not (np.all(np.isfinite(J1)) and np.all(np.isfinite(e1))):
+    if not all_finite(J1, e1):
         return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
     if not np.isfinite(np.sum(J1) + np.sum(e1)):
         return J, e1, J1, e1, False, MAX_ITERATIONS, ABORT_NON_FINITE
