@@ -14,6 +14,7 @@ from redservo.campaign.reach import desired_camera_pose, reachable
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import Collision
 from redservo.experiment.build import build
+from redservo.kernels import reach as reach_kernels
 from redservo.scene import Static
 from redservo.spatial import inverse, make_transform
 
@@ -40,6 +41,7 @@ def test_a_goal_met_only_in_collision_is_not_reachable(monkeypatch: pytest.Monke
     flange = (bMc @ inverse(exp.robot.eMc))[:3, 3]
     # The pose stage alone: the feature stage may meet e1 = C (s - s*) ≈ 0 at another pose.
     monkeypatch.setattr(reach, "feature_solution", lambda *a: None)
+    monkeypatch.setattr(reach_kernels, "feature_solution", lambda *a: (False, a[3]))  # compiled
     assert reachable(_with(exp, Shape("sphere", radius=0.01), flange)) is False
     # 6 cm above the flange: at most 1 cm from the ee capsule (radius 4 cm), inside d_safe
     above = flange + np.array([0.0, 0.0, 0.06])

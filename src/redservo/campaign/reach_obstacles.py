@@ -54,30 +54,65 @@ def clear_search(
     """Whether some seed's solution meets the goal and is ``clear`` (module docstring);
     ``feature_solution(exp, seed, lo, hi, tol)`` is the feature-space search of
     :mod:`redservo.campaign.reach` (passed in: that module imports this one)."""
-    from redservo.campaign.looppack import robot_args, robot_reason
+    pose, feature = _stages(exp, target, lo, hi, tol, feature_solution)
+    for stage in (pose, feature):
+        for seed in seeds:
+            q = stage(seed)
+            if q is not None and clear(q):
+                return True
+    return False
+
+
+Stage = Callable[[FloatArray], FloatArray | None]
+
+
+def _stages(
+    exp: Any,
+    target: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    tol: float,
+    feature_solution: Callable[..., FloatArray | None],
+) -> tuple[Stage, Stage]:
+    """The pose and feature searches from one seed, each returning where it reaches the goal
+    (or None): the compiled kernels of :mod:`redservo.kernels.reach` when the robot (and,
+    for the feature stage, the scene) has a compiled form, as the obstacle-free search runs
+    them (same steps; last bits of numpy's arithmetic may differ, not the verdicts:
+    tests/test_reach_compiled.py); else the Python searches."""
+    from redservo.campaign.looppack import (
+        robot_args,
+        robot_reason,
+        scene_args,
+        scene_reason,
+        task_args,
+    )
     from redservo.robots.ik import solve_ik
 
-    pose: Callable[[FloatArray], FloatArray | None]
-    if robot_reason(exp) is None:
-        from redservo.kernels.reach import pose_solution
+    def py_pose(seed: FloatArray) -> FloatArray | None:
+        return solve_ik(exp.robot, target, seed, lo, hi)
 
-        robot, c = robot_args(exp), np.ascontiguousarray
-        lo_c, hi_c, tg = c(lo, dtype=np.float64), c(hi, dtype=np.float64), c(target, float)
+    def py_feature(seed: FloatArray) -> FloatArray | None:
+        return feature_solution(exp, seed, lo, hi, tol)
 
-        def pose(seed: FloatArray) -> FloatArray | None:
-            ok, q = pose_solution(robot, tg, c(seed, dtype=np.float64), lo_c, hi_c, 300, 1e-3)
-            return np.asarray(q) if ok else None
-    else:
+    if robot_reason(exp) is not None:
+        return py_pose, py_feature
+    from redservo.kernels import reach as kr
 
-        def pose(seed: FloatArray) -> FloatArray | None:
-            return solve_ik(exp.robot, target, seed, lo, hi)
+    robot, c = robot_args(exp), np.ascontiguousarray
+    lo_c, hi_c, tg = c(lo, dtype=np.float64), c(hi, dtype=np.float64), c(target, float)
 
-    for seed in seeds:
-        q = pose(seed)
-        if q is not None and clear(q):
-            return True
-    for seed in seeds:
-        q = feature_solution(exp, seed, lo, hi, tol)
-        if q is not None and clear(q):
-            return True
-    return False
+    def pose(seed: FloatArray) -> FloatArray | None:
+        ok, q = kr.pose_solution(robot, tg, c(seed, dtype=np.float64), lo_c, hi_c, 300, 1e-3)
+        return np.asarray(q) if ok else None
+
+    if scene_reason(exp) is not None:
+        return pose, py_feature
+    scene = scene_args(exp)
+    scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
+    task = task_args(exp)
+
+    def feature(seed: FloatArray) -> FloatArray | None:
+        ok, q = kr.feature_solution(robot, scene, task, c(seed, dtype=np.float64), lo_c, hi_c, tol)
+        return np.asarray(q) if ok else None
+
+    return pose, feature

@@ -27,7 +27,14 @@ from redservo.kernels.kinematics import matmul
 from redservo.kernels.loop_task import inverse, loop_task
 from redservo.kernels.robot import robot_kinematics
 
-__all__ = ["feature_search", "pose_search", "pose_solution", "projected_step", "theta_u"]
+__all__ = [
+    "feature_search",
+    "feature_solution",
+    "pose_search",
+    "pose_solution",
+    "projected_step",
+    "theta_u",
+]
 
 POS_TOL, ROT_TOL = 1e-4, 1e-3
 """:data:`redservo.robots.ik.POS_TOL` (m) and :data:`redservo.robots.ik.ROT_TOL` (rad)."""
@@ -168,29 +175,38 @@ def _feature_seed(
     robot: Any, scene: Any, task: Any, seed: Any, lo: Any, hi: Any, tol: float
 ) -> bool:
     """The feature search of :mod:`redservo.campaign.reach` from one seed."""
+    return feature_solution(robot, scene, task, seed, lo, hi, tol)[0]
+
+
+@kernel
+def feature_solution(
+    robot: Any, scene: Any, task: Any, seed: Any, lo: Any, hi: Any, tol: float
+) -> Any:
+    """``(reached, q)``: the feature search of :mod:`redservo.campaign.reach` from one seed
+    (:func:`redservo.campaign.reach.feature_solution`) and where it ends (rad or m)."""
     q = np.minimum(np.maximum(seed.copy(), lo), hi)
     best, since = np.inf, 0
     for _ in range(150):
         bMc, J = robot_kinematics(q, robot)
         e, L, _, lost = loop_task(bMc, scene, task, 0.0)
         if lost:  # a feature cannot be measured (GeometryError on the object path)
-            return False
+            return False, q
         e1, J1 = task_rows(e, L, task[8], J)  # CM01 eq. 25, the step kernel's
         size = float(np.linalg.norm(e1))
         if size < tol:
-            return True
+            return True, q
         if size < STALL_GAIN * best:
             best, since = size, 0
         else:
             since += 1
             if since >= STALL_ITERATIONS:
-                return False
+                return False, q
         if not np.all(np.isfinite(J1)):
-            return False
+            return False, q
         q, ok = projected_step(np.ascontiguousarray(J1), -e1, q, lo, hi, 1e-3, 0.3)
         if not ok:
-            return False
-    return False
+            return False, q
+    return False, q
 
 
 @kernel
