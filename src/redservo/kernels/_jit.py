@@ -33,6 +33,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
+from redservo.kernels import _cache_lock
+
 __all__ = ["COMPILED", "DISABLE_ENV", "add_stamp", "kernel", "numba_version"]
 
 DISABLE_ENV = "REDSERVO_NO_NUMBA"
@@ -133,6 +135,7 @@ def _install_locators(numba: Any) -> None:
 
     impl._locator_classes = [*(stamped(b) for b in bases), *impl._locator_classes]
     impl._redservo = True
+    _cache_lock.install(caching)  # concurrent compilers keep every index entry
 
 
 _NUMBA = _load_numba()
