@@ -14,7 +14,7 @@ fcntl = pytest.importorskip("fcntl")
 
 from numba.core import caching  # noqa: E402
 
-import redservo.kernels._jit  # noqa: E402, F401  (installs the lock)
+import redservo.kernels._jit  # noqa: E402  (installs the lock)
 from redservo.kernels._cache_lock import LOCK_NAME  # noqa: E402
 
 pytestmark = pytest.mark.skipif(
