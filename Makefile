@@ -86,9 +86,11 @@ typecheck: $(TSTAMP)
 
 # The kernels the tests run compiled (tests/conftest.py), once, before the workers start: each
 # worker would otherwise compile the same kernels at the same time. A warm cache takes seconds.
+# WARM_JOBS processes share the compilations (redservo warmup --jobs).
+WARM_JOBS ?= 2
 warm: $(TSTAMP)
-	@echo "== warm-up: redservo warmup compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
-	$(BIN)/redservo warmup
+	@echo "== warm-up: redservo warmup --jobs $(WARM_JOBS) compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
+	$(BIN)/redservo warmup --jobs $(WARM_JOBS)
 
 # The worked extension examples (a law, a robot kind) compile a step chain of their own, once,
 # into examples/__pycache__/numba-examples (tests/examples_cache.py), on the core mypy frees.
@@ -98,10 +100,13 @@ warm-examples: $(TSTAMP)
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
+# The summary lists the 30 slowest tests and the kernels the tests still compiled (the
+# warm-up's gaps, tests/compile_report.py).
 PYTEST_WORKERS ?= 2
 pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm warm-examples)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
-	$(BIN)/python -m pytest -q -p tests.heartbeat -n $(PYTEST_WORKERS) --dist loadgroup
+	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report --durations=30 \
+		-n $(PYTEST_WORKERS) --dist loadgroup
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
 ## into site/, strictly: a broken link or reference fails the build

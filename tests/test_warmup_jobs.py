@@ -96,3 +96,16 @@ def test_the_command_line_refuses_zero_jobs(capsys: pytest.CaptureFixture[str]) 
     assert err == [
         "redservo: error: argument --jobs: must be in [1, 64], got 0 (see 'redservo warmup --help')"
     ]
+
+
+def test_make_test_warms_up_on_two_processes_and_reports_the_gaps() -> None:
+    """`make test` compiles on both cores, then its summary names the kernels the tests still
+    compiled (tests/compile_report.py) and the slowest tests."""
+    import re
+
+    makefile = (Path(__file__).resolve().parent.parent / "Makefile").read_text(encoding="utf-8")
+    assert re.search(r"^WARM_JOBS \?= 2$", makefile, re.M)
+    assert "$(BIN)/redservo warmup --jobs $(WARM_JOBS)\n" in makefile
+    recipe = re.search(r"^pytest:[^\n]*\n((?:\t[^\n]*\n)+)", makefile, re.M)
+    assert recipe is not None
+    assert "-p tests.compile_report" in recipe.group(1) and "--durations=" in recipe.group(1)
