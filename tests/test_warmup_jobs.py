@@ -29,10 +29,14 @@ needs_fork_numba = pytest.mark.skipif(
 
 def _groups(log: Path) -> tuple[wu.Group, ...]:
     """Two groups with parts and one without; each part compiles a new function once and
-    writes the pid of the process it ran in."""
+    writes the pid of the process it ran in; the first part is done before any other starts
+    (it compiles what they all call)."""
 
     def run_part(part: str, note: wu.Note) -> None:
         import numba
+
+        if part != "a1" and not (log / "a1.pid").exists():
+            raise AssertionError(f"{part} started before the first part was done")
 
         @numba.njit(cache=False)
         def f(x: float) -> float:

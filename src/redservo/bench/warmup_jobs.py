@@ -1,12 +1,14 @@
 """``redservo warmup --jobs N``: the warm-up's parts on N processes at once.
 
-A cold warm-up is hundreds of numba compilations, each on one core; the groups' parts (a
-law, a scenario, a campaign: :attr:`redservo.bench.warmup.Group.parts`) compile mostly
-different kernels, so N worker processes take them from one queue, the longest groups first,
-and numba's on-disk cache is shared: a kernel one worker has saved is loaded, not compiled,
-by the other. Two workers may still compile the same signature at the same moment (a kernel
-both parts call): the work is then done twice, never lost, and numba's cache index keeps
-every entry (:mod:`redservo.kernels._cache_lock` serialises its updates).
+A cold warm-up is hundreds of numba compilations, each on one core. The first part (the
+first law) runs alone: it compiles what every part calls (the laws' generated dispatch, the
+step, about a third of the whole), which would otherwise be compiled by every worker at
+once. Then N worker processes take the other parts (a law, a scenario, a campaign:
+:attr:`redservo.bench.warmup.Group.parts`) from one queue, and share numba's on-disk cache:
+a kernel one worker has saved is loaded, not compiled, by the other. Two workers may still
+compile the same signature at the same moment (a kernel both parts call): the work is then
+done twice, never lost, and numba's cache index keeps every entry
+(:mod:`redservo.kernels._cache_lock` serialises its updates).
 
 One line per part done on stderr (its wall seconds and compilations), each worker's numba
 progress every 8 s while it compiles, then a line per group and the verdict; the marker of a
@@ -20,7 +22,7 @@ import multiprocessing
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import IO, NamedTuple
 
 from redservo.bench.compile_progress import Progress
@@ -100,26 +102,33 @@ def warmup_jobs(
     _GROUPS = groups
     tasks = _tasks(groups)
     say(f"warmup: {len(tasks)} parts of {len(groups)} groups on {jobs} processes ...")
-    seconds = {g.name: 0.0 for g in groups}
-    compiled = {g.name: 0 for g in groups}
+    report = WarmupReport({g.name: 0.0 for g in groups}, {g.name: 0 for g in groups}, True)
     t0 = time.perf_counter()
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-        pending: set[Future[PartDone]] = {pool.submit(_run_part, i, p, quiet) for i, p in tasks}
+        # The first part alone: it compiles the kernels every part calls (the laws' dispatch,
+        # the step), which the others then load from the cache instead of compiling each.
+        pending = {pool.submit(_run_part, *tasks[0], quiet)}
+        later, finished = tasks[1:], 0
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
                 r = future.result()  # a part that failed raises here, as without --jobs
-                name = groups[r.group].name
-                seconds[name] += r.seconds
-                compiled[name] += r.compiled
-                for text in r.notes:
-                    say(f"  {name}: {text}")
-                n = len(tasks) - len(pending)
-                say(
-                    f"  [{n}/{len(tasks)}] {name}: {r.part}: {r.seconds:.1f} s, {r.compiled} compiled"
-                )
-    return _finish(WarmupReport(seconds, compiled, True), time.perf_counter() - t0, say)
+                finished += 1
+                _add(report, groups[r.group].name, r, f"{finished}/{len(tasks)}", say)
+            pending |= {pool.submit(_run_part, i, p, quiet) for i, p in later}
+            later = []
+    return _finish(report, time.perf_counter() - t0, say)
+
+
+def _add(report: WarmupReport, name: str, r: PartDone, n: str, say: Callable[[str], None]) -> None:
+    """Add a part's seconds and compilations to its group's; its notes and one line (``n``:
+    how many parts are done, of how many)."""
+    report.seconds[name] += r.seconds
+    report.compiled[name] += r.compiled
+    for text in r.notes:
+        say(f"  {name}: {text}")
+    say(f"  [{n}] {name}: {r.part}: {r.seconds:.1f} s, {r.compiled} compiled")
 
 
 def _finish(report: WarmupReport, wall: float, say: Callable[[str], None]) -> WarmupReport:
