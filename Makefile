@@ -68,8 +68,8 @@ egl:
 demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
-## make test: create the environment, install, lint (ruff), type-check (mypy) while the numba
-## kernels compile on the other core, and run the tests on two pytest-xdist workers
+## make test: create the environment, install, lint (ruff), compile the numba kernels on both
+## cores (mypy beside them), and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
 	@$(MAKE) --no-print-directory -j2 typecheck warm warm-examples
@@ -93,8 +93,9 @@ warm: $(TSTAMP)
 	$(BIN)/redservo warmup --jobs $(WARM_JOBS)
 
 # The worked extension examples (a law, a robot kind) compile a step chain of their own, once,
-# into examples/__pycache__/numba-examples (tests/examples_cache.py), on the core mypy frees.
-warm-examples: $(TSTAMP)
+# into examples/__pycache__/numba-examples (tests/examples_cache.py), after the warm-up, whose
+# cache they copy and share for every kernel their extensions leave unchanged.
+warm-examples: $(TSTAMP) warm
 	$(BIN)/python -m tests.examples_cache
 
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to

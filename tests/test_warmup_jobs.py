@@ -113,3 +113,26 @@ def test_make_test_warms_up_on_two_processes_and_reports_the_gaps() -> None:
     recipe = re.search(r"^pytest:[^\n]*\n((?:\t[^\n]*\n)+)", makefile, re.M)
     assert recipe is not None
     assert "-p tests.compile_report" in recipe.group(1) and "--durations=" in recipe.group(1)
+
+
+def test_the_examples_cache_is_seeded_where_numba_looks_and_keeps_its_own(tmp_path: Path) -> None:
+    """tests/examples_cache.py copies the package's cached kernels to the directory numba
+    reads under NUMBA_CACHE_DIR, every index and data file, never one the examples wrote."""
+    from tests.examples_cache import seed
+
+    src = tmp_path / "pkg" / "kernels"
+    (src / "__pycache__").mkdir(parents=True)
+    for name in ("k.f-1.py311.nbi", "k.f-1.py311.1.nbc", "k.cpython-311.pyc"):
+        (src / "__pycache__" / name).write_bytes(b"package")
+    cache = tmp_path / "cache"
+    numba = pytest.importorskip("numba")
+    from numba.core.caching import _CacheLocator
+
+    dest = cache / _CacheLocator.get_suitable_cache_subpath(str(src / "k.py"))
+    dest.mkdir(parents=True)
+    (dest / "k.f-1.py311.nbi").write_bytes(b"examples")  # the examples' own index
+    assert numba and seed(cache, (src,)) == 1
+    assert sorted(p.name for p in dest.iterdir()) == ["k.f-1.py311.1.nbc", "k.f-1.py311.nbi"]
+    assert (dest / "k.f-1.py311.nbi").read_bytes() == b"examples"
+    assert (dest / "k.f-1.py311.1.nbc").read_bytes() == b"package"
+    assert seed(cache, (src,)) == 0
