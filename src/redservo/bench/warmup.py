@@ -260,13 +260,15 @@ def _step(part: str, note: Note) -> None:
     if part == "controllers":
         _controllers(cases)
         return
-    c = cases["afma6-4points" if part == "qp" else part]
     if part == "qp":
+        c = cases["afma6-4points"]
         law = make_law("qp")
-        step = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-    else:
-        law = make_law("classical")
-        step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+        qp = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+        qp(c.q, qp(c.q))
+        return
+    c = cases[part]
+    law = make_law("classical")
+    step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
     step(c.q, step(c.q).copy())
 
 
