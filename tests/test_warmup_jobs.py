@@ -30,12 +30,13 @@ needs_fork_numba = pytest.mark.skipif(
 def _groups(log: Path) -> tuple[wu.Group, ...]:
     """Two groups with parts and one without; each part compiles a new function once and
     writes the pid of the process it ran in; the first part is done before any other starts
-    (it compiles what they all call)."""
+    (it compiles what they all call), and the parts of a family (``a-``, ``b-``) share a
+    worker."""
 
     def run_part(part: str, note: wu.Note) -> None:
         import numba
 
-        if part != "a1" and not (log / "a1.pid").exists():
+        if part != "a-1" and not (log / "a-1.pid").exists():
             raise AssertionError(f"{part} started before the first part was done")
 
         @numba.njit(cache=False)
@@ -44,10 +45,10 @@ def _groups(log: Path) -> tuple[wu.Group, ...]:
 
         f(1.0)
         (log / f"{part}.pid").write_text(str(os.getpid()))
-        if part == "b2":
-            note("b2 skipped half: needs nothing")
+        if part == "b-2":
+            note("b-2 skipped half: needs nothing")
 
-    parts_a, parts_b = ("a1", "a2", "a3"), ("b1", "b2")
+    parts_a, parts_b = ("a-1", "a-2", "a-3"), ("b-1", "b-2")
     return (
         wu.Group("A", "first", lambda note: None, lambda: parts_a, run_part),
         wu.Group("B", "second", lambda note: None, lambda: parts_b, run_part),
@@ -60,15 +61,16 @@ def test_jobs_run_every_part_in_worker_processes_and_sum_per_group(tmp_path: Pat
     buf = io.StringIO()
     report = wj.warmup_jobs(2, groups=_groups(tmp_path), stream=buf)
     pids = {p.stem: int(p.read_text()) for p in tmp_path.glob("*.pid")}
-    assert set(pids) == {"a1", "a2", "a3", "b1", "b2", "C"}  # nothing skipped
+    assert set(pids) == {"a-1", "a-2", "a-3", "b-1", "b-2", "C"}  # nothing skipped
     assert os.getpid() not in pids.values()  # none ran in this process
+    assert pids["a-2"] == pids["a-3"] and pids["b-1"] == pids["b-2"]  # a family, one worker
     assert report.numba and report.compiled == {"A": 3, "B": 2, "C": 1}
     assert set(report.seconds) == {"A", "B", "C"}
     lines = buf.getvalue().splitlines()
     assert lines[0] == "warmup: 6 parts of 3 groups on 2 processes ..."
     done = sorted(line.split("]")[0] for line in lines if line.startswith("  ["))
     assert done == sorted(f"  [{n}/6" for n in range(1, 7))
-    assert "  B: b2 skipped half: needs nothing" in lines
+    assert "  B: b-2 skipped half: needs nothing" in lines
     assert "  A: " in "\n".join(lines) and "3 compilation(s)" in buf.getvalue()
     assert lines[-1].startswith("warmup: done in ") and "6 kernel compilation(s)" in lines[-1]
 

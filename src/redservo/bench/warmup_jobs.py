@@ -4,10 +4,11 @@ A cold warm-up is hundreds of numba compilations, each on one core. The first pa
 first law) runs alone: it compiles what every part calls (the laws' generated dispatch, the
 step, about a third of the whole), which would otherwise be compiled by every worker at
 once. Then N worker processes take the other parts (a law, a scenario, a campaign:
-:attr:`redservo.bench.warmup.Group.parts`) from one queue, and share numba's on-disk cache:
-a kernel one worker has saved is loaded, not compiled, by the other. Two workers may still
-compile the same signature at the same moment (a kernel both parts call): the work is then
-done twice, never lost, and numba's cache index keeps every entry
+:attr:`redservo.bench.warmup.Group.parts`) from one queue, a robot's parts together
+(:func:`family`: they compile the same step chain), and share numba's on-disk cache: a
+kernel one worker has saved is loaded, not compiled, by the other. Two workers may still
+compile the same signature at the same moment (a kernel both families call): the work is
+then done twice, never lost, and numba's cache index keeps every entry
 (:mod:`redservo.kernels._cache_lock` serialises its updates).
 
 One line per part done on stderr (its wall seconds and compilations), each worker's numba
@@ -29,7 +30,7 @@ from redservo.bench.compile_progress import Progress
 from redservo.bench.warmup import GROUPS, CompileCounter, Group, WarmupReport, verdict, warmup
 from redservo.errors import ConfigurationError
 
-__all__ = ["PartDone", "warmup_jobs"]
+__all__ = ["PartDone", "family", "warmup_jobs"]
 
 _GROUPS: tuple[Group, ...] = GROUPS  # the worker's groups (set before the fork)
 
@@ -62,6 +63,26 @@ def _run_part(group: int, part: str, quiet: bool) -> PartDone:
         if counter.progress is not None:
             counter.progress.finish()
     return PartDone(group, part, time.perf_counter() - t0, counter.count, tuple(notes))
+
+
+def _run_family(tasks: list[tuple[int, str]], quiet: bool) -> list[PartDone]:
+    """In a worker: run parts of one family, one after the other."""
+    return [_run_part(i, p, quiet) for i, p in tasks]
+
+
+def family(part: str) -> str:
+    """The robot a part is about, the first word of its name (``afma6``, ``panda``, ``cm01``;
+    a law's name otherwise): the parts of a family compile mostly the same step chain, so one
+    worker runs them (two would compile it at the same time, each)."""
+    return part.split("-")[0]
+
+
+def _families(tasks: list[tuple[int, str]]) -> list[list[tuple[int, str]]]:
+    """The tasks by :func:`family`, the largest families first (the queue's long ones)."""
+    by: dict[str, list[tuple[int, str]]] = {}
+    for task in tasks:
+        by.setdefault(family(task[1]), []).append(task)
+    return sorted(by.values(), key=len, reverse=True)
 
 
 def _tasks(groups: tuple[Group, ...]) -> list[tuple[int, str]]:
@@ -108,15 +129,15 @@ def warmup_jobs(
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
         # The first part alone: it compiles the kernels every part calls (the laws' dispatch,
         # the step), which the others then load from the cache instead of compiling each.
-        pending = {pool.submit(_run_part, *tasks[0], quiet)}
-        later, finished = tasks[1:], 0
+        pending = {pool.submit(_run_family, tasks[:1], quiet)}
+        later, finished = _families(tasks[1:]), 0
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
-                r = future.result()  # a part that failed raises here, as without --jobs
-                finished += 1
-                _add(report, groups[r.group].name, r, f"{finished}/{len(tasks)}", say)
-            pending |= {pool.submit(_run_part, i, p, quiet) for i, p in later}
+                for r in future.result():  # a part that failed raises here, as without --jobs
+                    finished += 1
+                    _add(report, groups[r.group].name, r, f"{finished}/{len(tasks)}", say)
+            pending |= {pool.submit(_run_family, f, quiet) for f in later}
             later = []
     return _finish(report, time.perf_counter() - t0, say)
 
