@@ -68,8 +68,8 @@ egl:
 demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
-## make test: create the environment, install, lint (ruff), type-check (mypy) while the numba
-## kernels compile on the other core, and run the tests on two pytest-xdist workers
+## make test: create the environment, install, lint (ruff), compile the numba kernels on both
+## cores (mypy beside them), and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
 	@$(MAKE) --no-print-directory -j2 typecheck warm warm-examples
@@ -86,22 +86,28 @@ typecheck: $(TSTAMP)
 
 # The kernels the tests run compiled (tests/conftest.py), once, before the workers start: each
 # worker would otherwise compile the same kernels at the same time. A warm cache takes seconds.
+# WARM_JOBS processes share the compilations (redservo warmup --jobs).
+WARM_JOBS ?= 2
 warm: $(TSTAMP)
-	@echo "== warm-up: redservo warmup compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
-	$(BIN)/redservo warmup
+	@echo "== warm-up: redservo warmup --jobs $(WARM_JOBS) compiles the numba kernels once into their on-disk cache (a few minutes on a fresh clone, seconds after)"
+	$(BIN)/redservo warmup --jobs $(WARM_JOBS)
 
 # The worked extension examples (a law, a robot kind) compile a step chain of their own, once,
-# into examples/__pycache__/numba-examples (tests/examples_cache.py), on the core mypy frees.
-warm-examples: $(TSTAMP)
+# into examples/__pycache__/numba-examples (tests/examples_cache.py), after the warm-up, whose
+# cache they copy and share for every kernel their extensions leave unchanged.
+warm-examples: $(TSTAMP) warm
 	$(BIN)/python -m tests.examples_cache
 
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
+# The summary lists the 30 slowest tests and the kernels the tests still compiled (the
+# warm-up's gaps, tests/compile_report.py).
 PYTEST_WORKERS ?= 2
 pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm warm-examples)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
-	$(BIN)/python -m pytest -q -p tests.heartbeat -n $(PYTEST_WORKERS) --dist loadgroup
+	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report --durations=30 \
+		-n $(PYTEST_WORKERS) --dist loadgroup
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)
 ## into site/, strictly: a broken link or reference fails the build

@@ -7,14 +7,20 @@ chain, which must not overwrite the test session's cache. Both run here in proce
 declare both extensions (each example is still one file), so they share one compiled chain
 in :data:`CACHE` instead of compiling two (about 150-190 CPU-s each on a cold cache).
 
-``python -m tests.examples_cache`` compiles it ahead of the tests (``make test`` runs it on
-the core that mypy leaves free while ``redservo warmup`` runs on the other); a warm cache
-takes seconds.
+Only the kernels that call the extended dispatch differ from the package's: :func:`seed`
+first copies the package's warm cache (``redservo warmup``'s, in ``__pycache__`` beside the
+kernels) into :data:`CACHE`, so that the examples load every other kernel (numba checks each
+entry's source stamp and recompiles a stale one, in :data:`CACHE` only).
+
+``python -m tests.examples_cache`` compiles it ahead of the tests (``make test`` runs it
+after the warm-up, beside mypy); a warm cache takes seconds.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -24,6 +30,25 @@ EXAMPLES = ROOT / "examples"
 CACHE = EXAMPLES / "__pycache__" / "numba-examples"
 """The examples' numba cache (gitignored with ``__pycache__``)."""
 NAMES = ("custom_law_damped", "scara_robot")
+PACKAGE_KERNELS = (ROOT / "src" / "redservo" / "kernels", ROOT / "src" / "redservo" / "campaign")
+"""The directories of the package's cached kernels (their ``__pycache__``)."""
+
+
+def seed(cache: Path = CACHE, sources: tuple[Path, ...] = PACKAGE_KERNELS) -> int:
+    """Copy each source directory's numba cache files (``__pycache__/*.nbi``, ``*.nbc``) to
+    where numba looks for them under ``NUMBA_CACHE_DIR=cache`` (its
+    ``UserProvidedCacheLocator``: ``<dir name>_<sha1 of the dir path>``), without replacing
+    a file already there; returns how many were copied."""
+    copied = 0
+    for src in sources:
+        where = str(src.resolve())
+        dest = cache / f"{src.name}_{hashlib.sha1(where.encode()).hexdigest()}"
+        for f in sorted((src / "__pycache__").glob("*.nb[ic]")):
+            if not (dest / f.name).exists():
+                dest.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(f, dest / f.name)
+                copied += 1
+    return copied
 
 
 def run_example(name: str) -> subprocess.CompletedProcess[str]:
@@ -47,7 +72,8 @@ def run_example(name: str) -> subprocess.CompletedProcess[str]:
 
 
 def main() -> int:
-    """Compile the examples' chain (one line per example)."""
+    """Compile the examples' chain (one line per example), after seeding :data:`CACHE`."""
+    print(f"== examples: {seed()} package kernel cache files copied to share", flush=True)
     for name in NAMES:
         print(f"== examples: {name} --quick, compiled into {CACHE.relative_to(ROOT)}", flush=True)
         done = run_example(name)

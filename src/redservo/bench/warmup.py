@@ -37,6 +37,7 @@ __all__ = [
     "WarmupReport",
     "announce_compilation",
     "end_compilation_report",
+    "verdict",
     "warmup",
 ]
 
@@ -162,39 +163,76 @@ def end_compilation_report() -> None:
 # --------------------------------------------------------------------------- the groups
 
 
+Note = Callable[[str], None]
+"""Prints a note of a group (e.g. a part skipped and why)."""
+
+
 class Group(NamedTuple):
     """A group of kernels compiled together by running what uses them."""
 
     name: str
     what: str
-    run: Callable[[Callable[[str], None]], None]
+    run: Callable[[Note], None]
     """Runs the group; its argument prints a note (e.g. a part skipped and why)."""
+    parts: Callable[[], tuple[str, ...]] | None = None
+    """The group's independent parts (its laws, scenarios...), which ``redservo warmup
+    --jobs N`` spreads over processes (:mod:`redservo.bench.warmup_jobs`); None: one part."""
+    run_part: Callable[[str, Note], None] | None = None
+    """Runs one of :attr:`parts` (``run`` runs them all in order)."""
 
 
-def _laws(note: Callable[[str], None]) -> None:
-    from redservo import METHODS, JointLimits, make_law
+def _parted(
+    name: str,
+    what: str,
+    parts: Callable[[], tuple[str, ...]],
+    run_part: Callable[[str, Note], None],
+) -> Group:
+    def run(note: Note) -> None:
+        for part in parts():
+            run_part(part, note)
+
+    return Group(name, what, run, parts, run_part)
+
+
+def _law_parts() -> tuple[str, ...]:
+    from redservo import METHODS
+
+    return tuple(METHODS)
+
+
+def _law(method: str, note: Note) -> None:
+    from redservo import JointLimits, make_law
 
     rng = np.random.default_rng(0)
     lim = JointLimits(-np.ones(7), np.ones(7), qdot_max=1.0, qddot_max=5.0)
     J1, e1, q = rng.normal(size=(6, 7)), rng.normal(size=6), rng.uniform(-0.5, 0.5, 7)
-    for method in METHODS:
-        law = make_law(method)
-        first = law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04)
-        law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04, qdot_prev=first.qdot)
+    law = make_law(method)
+    first = law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04)
+    law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04, qdot_prev=first.qdot)
 
 
-def _scenarios(note: Callable[[str], None]) -> None:
+_SPHERES = "sphere variants"
+
+
+def _scenario_parts() -> tuple[str, ...]:
+    from redservo.scenario import shipped_scenarios
+
+    return (*shipped_scenarios(), _SPHERES)
+
+
+def _scenario(name: str, note: Note) -> None:
     from redservo.experiment.build import build
-    from redservo.scenario import load_scenario, shipped_scenarios
+    from redservo.scenario import load_scenario
 
-    for name in shipped_scenarios():
-        try:
-            exp = build(load_scenario(name))
-        except ImportError as exc:  # an optional extra (e.g. Pinocchio for a URDF robot)
-            note(f"{name} skipped: {' '.join(str(exc).split())}")
-            continue
-        exp.run(max_iterations=3)
-    _feature_variants()
+    if name == _SPHERES:
+        _feature_variants()
+        return
+    try:
+        exp = build(load_scenario(name))
+    except ImportError as exc:  # an optional extra (e.g. Pinocchio for a URDF robot)
+        note(f"{name} skipped: {' '.join(str(exc).split())}")
+        return
+    exp.run(max_iterations=3)
 
 
 def _feature_variants() -> None:
@@ -210,24 +248,28 @@ def _feature_variants() -> None:
         feature.interaction(s, inv_depth)
 
 
-def _steps(note: Callable[[str], None]) -> None:
+_STEP_PARTS = ("afma6-4points", "afma6-moments", "panda-6d-free", "controllers", "qp")
 
+
+def _step(part: str, note: Note) -> None:
     from redservo.bench.cases import bench_cases
     from redservo.binding import compiled_qp_step, compiled_step
     from redservo.redundancy import make_law
 
     cases = {c.name: c for c in bench_cases(scaling=())}
-    for name in ("afma6-4points", "afma6-moments", "panda-6d-free"):
-        c = cases[name]
-        law = make_law("classical")
-        step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-        step(c.q, step(c.q).copy())
-    _controllers(cases)
-    c = cases["afma6-4points"]
-    qp = compiled_qp_step(
-        c.robot, c.scene, c.task, make_law("qp"), limits=c.limits, lam=0.5, dt=0.04
-    )
-    qp(c.q, qp(c.q))
+    if part == "controllers":
+        _controllers(cases)
+        return
+    if part == "qp":
+        c = cases["afma6-4points"]
+        law = make_law("qp")
+        qp = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+        qp(c.q, qp(c.q))
+        return
+    c = cases[part]
+    law = make_law("classical")
+    step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+    step(c.q, step(c.q).copy())
 
 
 def _controllers(cases: dict[str, Any]) -> None:
@@ -246,35 +288,46 @@ def _controllers(cases: dict[str, Any]) -> None:
         ctl.step(c.q, meas, 0.0, qdot_prev=prev, J=J)
 
 
-def _campaign_loop(note: Callable[[str], None]) -> None:
-    from redservo.campaign.definition import load_campaign, shipped_campaigns
+def _campaign_parts() -> tuple[str, ...]:
+    from redservo.campaign.definition import shipped_campaigns
+
+    return tuple(shipped_campaigns())
+
+
+def _campaign(name: str, note: Note) -> None:
+    from redservo.campaign.definition import load_campaign
     from redservo.campaign.fastloop import campaign_law, fast_reason, fast_summary
     from redservo.campaign.reach import compile_search
     from redservo.campaign.sampling import draw_sample
     from redservo.experiment.build import build
 
-    for name in shipped_campaigns():
-        defn = load_campaign(name)
-        try:
-            exp = build(draw_sample(defn, 0, 0).scenario)
-        except ImportError as exc:
-            note(f"{name} skipped: {' '.join(str(exc).split())}")
-            continue
-        compile_search(exp)  # the reachability search of every sample
-        for method in defn.methods:
-            law = campaign_law(exp, method, defn.method_options.get(method))
-            if fast_reason(exp, law) is None:
-                fast_summary(exp, law)
+    defn = load_campaign(name)
+    try:
+        exp = build(draw_sample(defn, 0, 0).scenario)
+    except ImportError as exc:
+        note(f"{name} skipped: {' '.join(str(exc).split())}")
+        return
+    compile_search(exp)  # the reachability search of every sample
+    for method in defn.methods:
+        law = campaign_law(exp, method, defn.method_options.get(method))
+        if fast_reason(exp, law) is None:
+            fast_summary(exp, law)
 
 
 GROUPS: tuple[Group, ...] = (
-    Group("laws", "every method through the public API", _laws),
-    Group("scenarios", "every shipped scenario, 3 iterations", _scenarios),
-    Group("compiled steps", "Afma6 points and moments, Panda points, qp, controllers", _steps),
-    Group(
+    _parted("laws", "every method through the public API", _law_parts, _law),
+    _parted("scenarios", "every shipped scenario, 3 iterations", _scenario_parts, _scenario),
+    _parted(
+        "compiled steps",
+        "Afma6 points and moments, Panda points, qp, controllers",
+        lambda: _STEP_PARTS,
+        _step,
+    ),
+    _parted(
         "campaign loop",
         "every shipped campaign, one sample per method, its reachability search",
-        _campaign_loop,
+        _campaign_parts,
+        _campaign,
     ),
 )
 """What :func:`warmup` runs, in order."""
@@ -335,7 +388,7 @@ def warmup(
         from redservo.bench.kernel_mode import mark_warm
 
         mark_warm()
-    say(_verdict(report))
+    say(verdict(report))
     return report
 
 
@@ -348,16 +401,16 @@ def _prefixed(say: Callable[[str], None], prefix: str) -> Callable[[str], None]:
     return note
 
 
-def _verdict(report: WarmupReport) -> str:
+def verdict(report: WarmupReport, wall: float | None = None) -> str:
+    """The warm-up's last line: how long (``wall`` seconds, default the groups' sum) and
+    how many compilations, or that the cache was warm or numba off."""
     total = sum(report.compiled.values())
+    took = report.total if wall is None else wall
     if not report.numba:
-        return f"warmup: done in {report.total:.1f} s (plain Python: nothing compiled)"
+        return f"warmup: done in {took:.1f} s (plain Python: nothing compiled)"
     if total == 0:
-        return (
-            f"warmup: done in {report.total:.1f} s: the kernel cache was already warm "
-            "(nothing compiled)"
-        )
+        return f"warmup: done in {took:.1f} s: the kernel cache was already warm (nothing compiled)"
     return (
-        f"warmup: done in {report.total:.1f} s: {total} kernel compilation(s), now cached on "
+        f"warmup: done in {took:.1f} s: {total} kernel compilation(s), now cached on "
         "disk; later runs load them"
     )

@@ -278,7 +278,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_warmup(args: argparse.Namespace) -> int:
     """``redservo warmup``: compile every kernel ahead of use, with progress on stderr."""
-    from redservo.bench.warmup import warmup
+    from redservo.bench.warmup_jobs import warmup_jobs
 
-    warmup(quiet=args.quiet)
+    warmup_jobs(args.jobs, quiet=args.quiet)
     return 0

@@ -33,6 +33,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
+from redservo.kernels import _cache_lock
+
 __all__ = ["COMPILED", "DISABLE_ENV", "add_stamp", "kernel", "numba_version"]
 
 DISABLE_ENV = "REDSERVO_NO_NUMBA"
@@ -133,6 +135,7 @@ def _install_locators(numba: Any) -> None:
 
     impl._locator_classes = [*(stamped(b) for b in bases), *impl._locator_classes]
     impl._redservo = True
+    _cache_lock.install(caching)  # concurrent compilers keep every index entry
 
 
 _NUMBA = _load_numba()
@@ -153,9 +156,29 @@ def kernel(fn: F) -> F:
 
     The compiled dispatcher keeps the plain function as ``.py_func``. Compiled code is
     cached on disk (``__pycache__`` next to the source), so the compile cost is paid once
-    per machine and signature (docs/speed.md gives the numbers).
+    per machine and signature (docs/speed.md gives the numbers). A kernel called by another
+    kernel is compiled for the plain types of the arguments (:func:`_plain_calls`).
     """
     if _NUMBA is None:
         return fn
     compiled: F = _NUMBA.njit(cache=True, nogil=True)(fn)
+    _plain_calls(compiled)
     return compiled
+
+
+def _plain_calls(dispatcher: Any) -> None:
+    """Type a call from another kernel with its arguments' plain types (``int64``, ``bool``),
+    not numba's literal types of the constants written at the call site (``Literal[int](3)``):
+    numba would compile one specialisation per distinct constant (30 of ``events._raise``,
+    one per flag value elsewhere) where one serves them all, with the same numbers (the same
+    code; the constant is an argument instead of folded in). Calls from Python already
+    pass plain types."""
+    from numba.core import types
+
+    template = dispatcher.get_call_template
+
+    def get_call_template(args: tuple[Any, ...], kws: dict[str, Any]) -> Any:
+        plain = {k: types.unliteral(v) for k, v in kws.items()}
+        return template(tuple(types.unliteral(a) for a in args), plain)
+
+    dispatcher.get_call_template = get_call_template

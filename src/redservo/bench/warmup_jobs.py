@@ -1,0 +1,163 @@
+"""``redservo warmup --jobs N``: the warm-up's parts on N processes at once.
+
+A cold warm-up is hundreds of numba compilations, each on one core. The first part (the
+first law) runs alone: it compiles what every part calls (the laws' generated dispatch, the
+step, about a third of the whole), which would otherwise be compiled by every worker at
+once. Then N worker processes take the other parts (a law, a scenario, a campaign:
+:attr:`redservo.bench.warmup.Group.parts`) from one queue, a robot's parts together
+(:func:`family`: they compile the same step chain), and share numba's on-disk cache: a
+kernel one worker has saved is loaded, not compiled, by the other. Two workers may still
+compile the same signature at the same moment (a kernel both families call): the work is
+then done twice, never lost, and numba's cache index keeps every entry
+(:mod:`redservo.kernels._cache_lock` serialises its updates).
+
+One line per part done on stderr (its wall seconds and compilations), each worker's numba
+progress every 8 s while it compiles, then a line per group and the verdict; the marker of a
+complete warm-up is left only when every part ran. Workers are forked (POSIX); elsewhere, or
+with N = 1, the parts run in this process (:func:`redservo.bench.warmup.warmup`).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import IO, NamedTuple
+
+from redservo.bench.compile_progress import Progress
+from redservo.bench.warmup import GROUPS, CompileCounter, Group, WarmupReport, verdict, warmup
+from redservo.errors import ConfigurationError
+
+__all__ = ["PartDone", "family", "warmup_jobs"]
+
+_GROUPS: tuple[Group, ...] = GROUPS  # the worker's groups (set before the fork)
+
+
+class PartDone(NamedTuple):
+    """What a worker reports for one part."""
+
+    group: int
+    part: str
+    seconds: float
+    compiled: int
+    notes: tuple[str, ...]
+
+
+def _run_part(group: int, part: str, quiet: bool) -> PartDone:
+    """In a worker: run one part, counting its compilations (numba progress on stderr)."""
+    g = _GROUPS[group]
+    counter = CompileCounter(progress=None if quiet else Progress(f"warmup {part}"))
+    installed = counter.install()
+    notes: list[str] = []
+    t0 = time.perf_counter()
+    try:
+        if g.run_part is None:
+            g.run(notes.append)
+        else:
+            g.run_part(part, notes.append)
+    finally:
+        if installed:
+            counter.uninstall()
+        if counter.progress is not None:
+            counter.progress.finish()
+    return PartDone(group, part, time.perf_counter() - t0, counter.count, tuple(notes))
+
+
+def _run_family(tasks: list[tuple[int, str]], quiet: bool) -> list[PartDone]:
+    """In a worker: run parts of one family, one after the other."""
+    return [_run_part(i, p, quiet) for i, p in tasks]
+
+
+def family(part: str) -> str:
+    """The robot a part is about, the first word of its name (``afma6``, ``panda``, ``cm01``;
+    a law's name otherwise): the parts of a family compile mostly the same step chain, so one
+    worker runs them (two would compile it at the same time, each)."""
+    return part.split("-")[0]
+
+
+def _families(tasks: list[tuple[int, str]]) -> list[list[tuple[int, str]]]:
+    """The tasks by :func:`family`, the largest families first (the queue's long ones)."""
+    by: dict[str, list[tuple[int, str]]] = {}
+    for task in tasks:
+        by.setdefault(family(task[1]), []).append(task)
+    return sorted(by.values(), key=len, reverse=True)
+
+
+def _tasks(groups: tuple[Group, ...]) -> list[tuple[int, str]]:
+    """Every (group index, part), the groups in order (a group without parts: one task)."""
+    return [
+        (i, part)
+        for i, g in enumerate(groups)
+        for part in (g.parts() if g.parts is not None else (g.name,))
+    ]
+
+
+def warmup_jobs(
+    jobs: int,
+    *,
+    quiet: bool = False,
+    groups: tuple[Group, ...] = GROUPS,
+    stream: IO[str] | None = None,
+) -> WarmupReport:
+    """The warm-up of ``groups`` on ``jobs`` forked processes (module docstring); the report
+    gives each group's seconds summed over its parts (CPU-bound: about its CPU time).
+
+    Raises:
+        ConfigurationError: ``jobs`` < 1 (``argument="--jobs"``).
+    """
+    if jobs < 1:
+        raise ConfigurationError(f"--jobs must be at least 1, got {jobs}", argument="--jobs")
+    from redservo.kernels import compiled
+
+    if jobs == 1 or not compiled() or "fork" not in multiprocessing.get_all_start_methods():
+        return warmup(quiet=quiet, groups=groups, stream=stream)
+    out = stream or sys.stderr
+
+    def say(text: str) -> None:
+        if not quiet:
+            print(text, file=out, flush=True)
+
+    global _GROUPS
+    _GROUPS = groups
+    tasks = _tasks(groups)
+    say(f"warmup: {len(tasks)} parts of {len(groups)} groups on {jobs} processes ...")
+    report = WarmupReport({g.name: 0.0 for g in groups}, {g.name: 0 for g in groups}, True)
+    t0 = time.perf_counter()
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+        # The first part alone: it compiles the kernels every part calls (the laws' dispatch,
+        # the step), which the others then load from the cache instead of compiling each.
+        pending = {pool.submit(_run_family, tasks[:1], quiet)}
+        later, finished = _families(tasks[1:]), 0
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                for r in future.result():  # a part that failed raises here, as without --jobs
+                    finished += 1
+                    _add(report, groups[r.group].name, r, f"{finished}/{len(tasks)}", say)
+            pending |= {pool.submit(_run_family, f, quiet) for f in later}
+            later = []
+    return _finish(report, time.perf_counter() - t0, say)
+
+
+def _add(report: WarmupReport, name: str, r: PartDone, n: str, say: Callable[[str], None]) -> None:
+    """Add a part's seconds and compilations to its group's; its notes and one line (``n``:
+    how many parts are done, of how many)."""
+    report.seconds[name] += r.seconds
+    report.compiled[name] += r.compiled
+    for text in r.notes:
+        say(f"  {name}: {text}")
+    say(f"  [{n}] {name}: {r.part}: {r.seconds:.1f} s, {r.compiled} compiled")
+
+
+def _finish(report: WarmupReport, wall: float, say: Callable[[str], None]) -> WarmupReport:
+    """Each group's totals, the marker of a complete warm-up, the verdict."""
+    from redservo.bench.kernel_mode import mark_warm
+
+    for name in report.seconds:
+        say(f"  {name}: {report.seconds[name]:.1f} s, {report.compiled[name]} compilation(s)")
+    mark_warm()
+    say(verdict(report, wall))
+    return report
