@@ -17,10 +17,8 @@ from redservo.scenario import apply_overrides
 from redservo.schema.sensor import SensorSpec
 
 
-def test_the_margin_is_a_default_dot_footprint() -> None:
-    dot = SensorSpec.model_fields["dot_radius_px"].default
-    assert REALISTIC_IMAGE_MARGIN_PX == pytest.approx(dot + 3.0 * 0.8)
-    assert "sensor.blur_px=0.8" in camera_overrides("realistic")
+def test_the_margin_is_a_default_dot_radius() -> None:
+    assert REALISTIC_IMAGE_MARGIN_PX == SensorSpec.model_fields["dot_radius_px"].default
     assert f"simulation.image_margin_px={REALISTIC_IMAGE_MARGIN_PX!r}" in camera_overrides(
         "realistic"
     )
