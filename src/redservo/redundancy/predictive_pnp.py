@@ -93,12 +93,14 @@ class DotPoses:
             return None
         finite = int(np.isfinite(self.dots).all(axis=1).sum())
         if self.dots.shape[0] != points_o.shape[0] or finite < self.dots.shape[0]:
-            return self._failed(fb.POSE_FEW_DOTS, finite, points_o.shape[0])
+            self._failed(fb.POSE_FEW_DOTS, finite, points_o.shape[0])
+            return None
         bMc = robot.kinematics(q_exp, check_limits=False)[0]
         guess = None if self.bMo is None else np.linalg.inv(bMc) @ self.bMo
         pose = dot_pose(points_o, self.dots, camera, guess)
         if pose is None:
-            return self._failed(fb.POSE_REJECTED, finite, points_o.shape[0])
+            self._failed(fb.POSE_REJECTED, finite, points_o.shape[0])
+            return None
         self.poses += 1
         self.in_a_row = 0
         self.bMo = bMc @ pose.cMo
