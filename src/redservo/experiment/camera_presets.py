@@ -16,7 +16,11 @@ scenario overrides before the user's own ``--set`` (which therefore win):
   :mod:`redservo.vision.pnp`): through the desired depths instead, the laws' ``L`` differed
   from the ideal sensor's (true current depths, the scenarios' ``task.depth = "current"``)
   and the reactive laws stalled where they converge ideally (mc05-joint-limits, seed 0,
-  sample 0: ``qp`` at ‖e1‖ = 0.087 after 600 iterations; converged in 285 with the pose).
+  sample 0: ``qp`` at ‖e1‖ = 0.087 after 600 iterations; converged in 285 with the pose);
+  and a target whose dot touches the image border has left the image
+  (``simulation.image_margin_px`` = :data:`REALISTIC_IMAGE_MARGIN_PX`): the run ends
+  ``target_lost``, as on the ideal sensor, not ``feature_lost`` when the tracker then refuses
+  the cut dot (``at_border``) for four frames.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from redservo.sensors.timing import CameraTiming
 
 __all__ = [
     "CAMERA_PRESETS",
+    "REALISTIC_IMAGE_MARGIN_PX",
     "REALISTIC_MOTION_LIMIT",
     "REALISTIC_TIMING",
     "REALISTIC_TOLERANCE_PX",
@@ -48,6 +53,16 @@ REALISTIC_TOLERANCE_PX = 1.0
 (0.075 px) of the stacked error's noise at rest with the preset's image noise, measured on
 panda-4points (docs/camera-timing.md)."""
 
+REALISTIC_IMAGE_MARGIN_PX = 4.0
+"""The ``realistic`` preset's ``simulation.image_margin_px`` (px): the default radius of a
+rendered dot (``sensor.dot_radius_px`` = 4 px). A point closer to the border has its dot cut
+by the border, which the dot tracker refuses (``at_border``; measured: lost at 4.0 px, found
+at 4.1 px): through the camera the target has left the image (``target_lost``), as the
+ideal sensor says when the point itself leaves it (margin 0). Without it, panda-near-limits
+(seed 0) samples 11 (``qp``) and 71 (``predictive``) ended ``feature_lost`` with a dot
+drifting out of the image, the tracker exact until then. A margin of 6.4 px (the radius and 3σ of the blur) ended two
+runs that converge (samples 88 and 129) where a dot passed 4-6 px from the border."""
+
 CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
     "ideal": (),
     "realistic": (
@@ -60,6 +75,7 @@ CAMERA_PRESETS: dict[str, tuple[str, ...]] = {
         f"simulation.tolerance_px={REALISTIC_TOLERANCE_PX!r}",
         f"sensor.motion_limit={REALISTIC_MOTION_LIMIT!r}",
         'sensor.depth="pose"',
+        f"simulation.image_margin_px={REALISTIC_IMAGE_MARGIN_PX!r}",
     ),
 }
 """Each preset's ``--set`` overrides, in order."""

@@ -37,8 +37,9 @@ __all__ = ["N_FLAGS"]
     SOLVER_ITERATIONS,
     CAMERA_MOTION_LIMITED,
     DISTANCE_SHIELD,
-) = range(22)
-N_FLAGS = 22
+    NO_POSE,
+) = range(23)
+N_FLAGS = 23
 
 # -- sources (bits of src[flag]) -----------------------------------------------------------------
 ONLY = 1
@@ -63,3 +64,6 @@ ACC_RELEASED, ACC_KEPT_POSITION = 1, 2
 the position limit."""
 BY_ITERATIONS, BY_TIME_BUDGET = 1, 2
 """SOLVER_ITERATIONS (``predictive``): the solver's iteration limit; the solve's time budget."""
+POSE_FEW_DOTS, POSE_REJECTED = 1, 2
+"""NO_POSE: fewer tracked dots than the target's points (or a dot not finite); PnP gave no
+acceptable pose of the dots."""

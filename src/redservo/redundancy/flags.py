@@ -74,6 +74,11 @@ class Flag(enum.Enum):
     DISTANCE_SHIELD = "distance-shield-acted"
     """The distance shield (:mod:`redservo.control.avoidance`) scaled the command so that no
     collision pair comes closer than ``d_safe`` within one period [the scale in [0, 1)]."""
+    NO_POSE = "no-pose"
+    """A frame's tracked dots gave no pose of the target (PnP, :mod:`redservo.vision.pnp`:
+    fewer dots than the target's points, or no pose within the reprojection tolerance); the
+    ``predictive`` law's model used its estimate from the features instead [frames in a row
+    without a pose]."""
 
     @property
     def label(self) -> str:

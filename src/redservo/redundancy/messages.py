@@ -110,6 +110,12 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         "between two frames (limit {limit_px:.3g} px)",
     },
     Flag.DISTANCE_SHIELD: {fb.ONLY: "distance shield scaled q̇ by {v:.3g}"},
+    Flag.NO_POSE: {
+        fb.POSE_FEW_DOTS: "no PnP pose of the target: {dots} finite tracked dot(s) for its "
+        "{points} point(s) ({v:g} frame(s) in a row); the model's pose is the features'",
+        fb.POSE_REJECTED: "no PnP pose of the target's {dots} tracked dots within the "
+        "reprojection tolerance ({v:g} frame(s) in a row); the model's pose is the features'",
+    },
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""
 

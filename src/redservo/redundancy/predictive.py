@@ -293,22 +293,20 @@ class Predictive(Law):
         if by_budget:
             why, value = fb.SOLVER_ITERATIONS, elapsed
         if why:
-            return limited(self._fall_back(x, why, value, by_budget, safe), x, model, lim)
+            res = self._fall_back(x, why, value, by_budget, safe)
+            return self.dot_poses.flagged(limited(res, x, model, lim))
         self._U = U
         self.last_plan = U.copy()
         what = "global" if model is not None else "local"
         info: tuple[str, ...] = (
             f"predictive: {what} model, N = {hz.N}, Nc = {hz.Nc}, daqp {iters} iteration(s)",
         )
-        if self.dot_poses.last_failed:
-            info += (
-                "predictive: no PnP pose of the tracked dots; the model's pose is the features'",
-            )
         rank = int(np.linalg.matrix_rank(x.J1, tol=self.rcond * float(np.max(np.abs(x.J1)))))
         d = Diagnostics(
             method=self.name, task_rank=rank, rank_deficient=rank < x.J1.shape[0], info=info
         )
-        return limited(LawResult(np.ascontiguousarray(U[0]), d), x, model, lim)
+        res = limited(LawResult(np.ascontiguousarray(U[0]), d), x, model, lim)
+        return self.dot_poses.flagged(res)
 
     def _start(self, x: LawInputs, n: int) -> FloatArray:
         """The warm start ``Ū``: the previous solution shifted by one period (its last block

@@ -18,19 +18,25 @@ OpenCV with the bound camera's intrinsics, warm-started at the previous frame's 
   model robot's kinematics bring the camera of every predicted period;
 * a frame whose pose PnP cannot give (fewer than four dots, a dot behind the camera, a
   reprojection error above :data:`~redservo.vision.pnp.MAX_RMS_PX`) is counted
-  (:attr:`DotPoses.failures`), said in the step's ``info``, and the model falls back to
-  its documented estimate from the features.
+  (:attr:`DotPoses.failures`) and flagged: the step's result carries the typed event
+  :attr:`~redservo.redundancy.flags.Flag.NO_POSE` (:meth:`DotPoses.flagged`; value: the
+  frames in a row without a pose), which the run's log, summary and the campaign's flag
+  counts keep; the model falls back to its documented estimate from the features.
 
 Units: metres, seconds, normalized image coordinates.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import flagbits as fb
+from redservo.redundancy.base import LawResult
+from redservo.redundancy.messages import events
 
 __all__ = ["DotPoses"]
 
@@ -53,6 +59,9 @@ class DotPoses:
         self.failures = 0
         """Frames whose pose PnP could not give (the model fell back to the features)."""
         self.last_failed = False
+        self.in_a_row = 0
+        """Calls in a row whose frame gave no pose (0 after a pose)."""
+        self._why = (0, 0, 0)  # the last failure's source bit, finite dots, target points
 
     def frame(self, dots: FloatArray, age: float) -> None:
         """The dots (N, 2; normalized) of the frame in use, exposed ``age`` seconds ago."""
@@ -82,17 +91,38 @@ class DotPoses:
         self.last_failed = False
         if self.dots is None:
             return None
-        if self.dots.shape[0] != points_o.shape[0]:
-            self.failures += 1
-            self.last_failed = True
+        finite = int(np.isfinite(self.dots).all(axis=1).sum())
+        if self.dots.shape[0] != points_o.shape[0] or finite < self.dots.shape[0]:
+            self._failed(fb.POSE_FEW_DOTS, finite, points_o.shape[0])
             return None
         bMc = robot.kinematics(q_exp, check_limits=False)[0]
         guess = None if self.bMo is None else np.linalg.inv(bMc) @ self.bMo
         pose = dot_pose(points_o, self.dots, camera, guess)
         if pose is None:
-            self.failures += 1
-            self.last_failed = True
+            self._failed(fb.POSE_REJECTED, finite, points_o.shape[0])
             return None
         self.poses += 1
+        self.in_a_row = 0
         self.bMo = bMc @ pose.cMo
         return self.bMo
+
+    def _failed(self, why: int, dots: int, points: int) -> None:
+        self.failures += 1
+        self.in_a_row += 1
+        self.last_failed = True
+        self._why = (why, dots, points)
+
+    def flagged(self, res: LawResult) -> LawResult:
+        """``res`` with the ``no-pose`` event (:attr:`~redservo.redundancy.flags.Flag.NO_POSE`)
+        when the frame of this call gave no pose (the failure is then consumed: a later call
+        without a PnP attempt is not flagged); ``res`` itself otherwise."""
+        if not self.last_failed:
+            return res
+        self.last_failed = False
+        why, dots, points = self._why
+        vals = np.zeros(fb.N_FLAGS)
+        src = np.zeros(fb.N_FLAGS, dtype=np.int64)
+        vals[fb.NO_POSE], src[fb.NO_POSE] = float(self.in_a_row), why
+        ev = events(1 << fb.NO_POSE, vals, src, dots=dots, points=points)
+        d = res.diagnostics
+        return LawResult(res.qdot, dataclasses.replace(d, events=(*d.events, *ev)))
