@@ -212,12 +212,13 @@ def _law(method: str, note: Note) -> None:
 
 
 _SPHERES = "sphere variants"
+_CAMERA = "realistic camera"
 
 
 def _scenario_parts() -> tuple[str, ...]:
     from redservo.scenario import shipped_scenarios
 
-    return (*shipped_scenarios(), _SPHERES)
+    return (*shipped_scenarios(), _SPHERES, _CAMERA)
 
 
 def _scenario(name: str, note: Note) -> None:
@@ -227,12 +228,37 @@ def _scenario(name: str, note: Note) -> None:
     if name == _SPHERES:
         _feature_variants()
         return
+    if name == _CAMERA:
+        _realistic_camera(note)
+        return
     try:
         exp = build(load_scenario(name))
     except ImportError as exc:  # an optional extra (e.g. Pinocchio for a URDF robot)
         note(f"{name} skipped: {' '.join(str(exc).split())}")
         return
     exp.run(max_iterations=3)
+
+
+def _realistic_camera(note: Note) -> None:
+    """The image pipeline behind ``--camera realistic`` (exposure, tracker, PnP depths,
+    latency compensation, the image border): a panda-near-limits sample whose dot leaves the
+    image (110 periods, ``qp``) and a few periods of mc05-joint-limits' moments."""
+    from dataclasses import replace
+
+    from redservo.campaign import draw_sample, load_campaign
+    from redservo.experiment.build import build
+    from redservo.experiment.camera_presets import camera_overrides
+    from redservo.scenario import apply_overrides
+
+    for name, sample, iterations in (("panda-near-limits", 11, 110), ("mc05-joint-limits", 0, 5)):
+        defn = load_campaign(name)
+        scenario = apply_overrides(defn.scenario, camera_overrides("realistic"))
+        try:
+            exp = build(draw_sample(replace(defn, scenario=scenario), 0, sample).scenario)
+        except ImportError as exc:  # OpenCV (redservo[vision]) renders and tracks the dots
+            note(f"{_CAMERA} skipped: {' '.join(str(exc).split())}")
+            return
+        exp.run(method="qp", max_iterations=iterations)
 
 
 def _feature_variants() -> None:
