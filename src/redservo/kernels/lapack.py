@@ -51,15 +51,18 @@ if COMPILED:
     _dgesvd: Any = _types.ExternalFunction(_SYMBOL, _types.void(*([_types.voidptr] * 14)))
 
     @kernel
-    def gesvd(A: Any) -> Any:
-        """Full SVD of ``A`` (m, n) by LAPACK ``dgesvd`` (module docstring)."""
+    def _run_dgesvd(A: Any, jobu: int) -> Any:
+        """``(Uᵀ, σ, V, info)``: ``dgesvd`` on a Fortran copy of ``A`` (m, n), every row of
+        ``Vᵀ``; ``jobu`` 65 (``'A'``, Uᵀ (m, m) in C order) or 78 (``'N'``, no column of U:
+        Uᵀ a (1, 1) placeholder LAPACK does not touch)."""
         m, n = A.shape
         k = min(m, n)
         a = np.empty((n, m))  # C-order A^T = Fortran-order A (overwritten by LAPACK)
         for i in range(m):
             for j in range(n):
                 a[j, i] = A[i, j]
-        ut = np.empty((m, m))  # Fortran U = C-order U^T
+        mu = m if jobu == 65 else 1
+        ut = np.empty((mu, mu))  # Fortran U = C-order U^T
         v = np.empty((n, n))  # Fortran V^T = C-order V
         s = np.empty(k)
         lwork = gesvd_lwork(m, n)
@@ -68,15 +71,16 @@ if COMPILED:
         ip[0] = m
         ip[1] = n
         ip[2] = max(m, 1)
-        ip[3] = max(m, 1)
+        ip[3] = max(mu, 1)
         ip[4] = max(n, 1)
         ip[5] = lwork
         ip[6] = 0
-        job = np.empty(1, dtype=np.uint8)
-        job[0] = 65  # 'A': all columns of U and rows of V^T
+        job = np.empty(2, dtype=np.uint8)
+        job[0] = jobu
+        job[1] = 65  # 'A': every row of V^T
         _dgesvd(
-            job.ctypes,
-            job.ctypes,
+            job[0:].ctypes,
+            job[1:].ctypes,
             ip[0:].ctypes,
             ip[1:].ctypes,
             a.ctypes,
@@ -90,55 +94,25 @@ if COMPILED:
             ip[5:].ctypes,
             ip[6:].ctypes,
         )
+        return ut, s, v, int(ip[6])
+
+    @kernel
+    def gesvd(A: Any) -> Any:
+        """Full SVD of ``A`` (m, n) by LAPACK ``dgesvd`` (module docstring)."""
+        ut, s, v, info = _run_dgesvd(A, 65)
+        m = A.shape[0]
         U = np.empty((m, m))
         for i in range(m):
             for j in range(m):
                 U[i, j] = ut[j, i]
-        return U, s, v, int(ip[6])
+        return U, s, v, info
 
     @kernel
     def gesvd_sv(A: Any) -> Any:
         """``(σ, V, info)`` of ``A`` (m, n) by ``dgesvd`` without the left vectors
         (``jobu = 'N'``): the same σ and V as :func:`gesvd` (module docstring)."""
-        m, n = A.shape
-        k = min(m, n)
-        a = np.empty((n, m))  # C-order A^T = Fortran-order A (overwritten by LAPACK)
-        for i in range(m):
-            for j in range(n):
-                a[j, i] = A[i, j]
-        v = np.empty((n, n))  # Fortran V^T = C-order V
-        s = np.empty(k)
-        lwork = gesvd_lwork(m, n)
-        work = np.empty(lwork)
-        ip = np.empty(7, dtype=np.int32)
-        ip[0] = m
-        ip[1] = n
-        ip[2] = max(m, 1)
-        ip[3] = 1
-        ip[4] = max(n, 1)
-        ip[5] = lwork
-        ip[6] = 0
-        job = np.empty(2, dtype=np.uint8)
-        job[0] = 78  # 'N': no column of U
-        job[1] = 65  # 'A': every row of V^T
-        u = np.empty(1)
-        _dgesvd(
-            job[0:].ctypes,
-            job[1:].ctypes,
-            ip[0:].ctypes,
-            ip[1:].ctypes,
-            a.ctypes,
-            ip[2:].ctypes,
-            s.ctypes,
-            u.ctypes,
-            ip[3:].ctypes,
-            v.ctypes,
-            ip[4:].ctypes,
-            work.ctypes,
-            ip[5:].ctypes,
-            ip[6:].ctypes,
-        )
-        return s, v, int(ip[6])
+        _, s, v, info = _run_dgesvd(A, 78)
+        return s, v, info
 
 else:
 
