@@ -23,6 +23,7 @@ from __future__ import annotations
 import atexit
 import math
 import time
+import warnings
 import weakref
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -38,7 +39,10 @@ from redservo.ros2.naming import validate_topic
 from redservo.ros2.stamps import EpochStamps
 from redservo.ros2.transport import COMMANDS, SENSOR_DATA, Ros2Node
 
-__all__ = ["Ros2Robot", "check_joint_names"]
+__all__ = ["CLOSE_ACK_TIMEOUT", "Ros2Robot", "check_joint_names"]
+
+CLOSE_ACK_TIMEOUT = 1.0
+"""The longest :meth:`Ros2Robot.close` waits for the subscribers to acknowledge its zero (s)."""
 
 
 def check_joint_names(joints: object, key: str = "joints") -> list[str]:
@@ -244,10 +248,20 @@ class Ros2Robot:
         self._moving = False
 
     def close(self) -> None:
-        """Send zero if the last command was not zero, then release the topics (and the node
-        when owned). Safe to call twice."""
+        """Send zero if the last command was not zero, wait until every matched reader has
+        acknowledged it (at most :data:`CLOSE_ACK_TIMEOUT` s: a writer released at once may
+        take the unsent zero with it, and the arm keeps its last velocity until its own
+        watchdog; a zero not acknowledged in time is warned about), then release the topics
+        (and the node when owned). Safe to call twice."""
         if self._writer is not None and self._moving:
             self.stop()
+            if not self._writer.wait_for_acks(int(CLOSE_ACK_TIMEOUT * 1e9)):
+                warnings.warn(
+                    f"{self.command}: the zero velocity sent on close was not "
+                    f"acknowledged by every subscriber within {CLOSE_ACK_TIMEOUT:g} s",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
         self._writer = None
         atexit.unregister(self._atexit)
         if self.own_node:
