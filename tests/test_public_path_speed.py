@@ -198,14 +198,9 @@ def test_the_history_keeps_one_copy_of_each_command_shared_with_the_diagnostics(
 
 
 def test_the_object_path_benchmark_states_the_ratios_to_visp() -> None:
-    import importlib.util
-    from pathlib import Path
+    from tests.load_module import load_module
 
-    path = Path(__file__).parents[1] / "benchmarks" / "bench_object_path.py"
-    spec = importlib.util.spec_from_file_location("bench_object_path", path)
-    assert spec is not None and spec.loader is not None
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_module("benchmarks/bench_object_path.py")
     res = {name: {"median_us": 14.6} for name in bench.VISP_TARGETS}
     lines = bench.visp_lines(res, visp_us=7.3)
     assert lines[0] == "path classical / ViSP (7.3 µs): 2.00x (target ≤ 2.5x: met)"

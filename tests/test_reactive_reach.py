@@ -3,20 +3,15 @@ from the start alone (docs/results.md, "Why the reactive laws stop near 70 %")."
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 from types import ModuleType
 
 import pytest
 
+from tests.load_module import load_module
+
 
 def _bench() -> ModuleType:
-    path = Path(__file__).parents[1] / "benchmarks" / "reactive_reach.py"
-    spec = importlib.util.spec_from_file_location("reactive_reach", path)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_module("benchmarks/reactive_reach.py")
 
 
 def _row(sample: int, method: str, reachable: str, success: str, outcome: str) -> dict[str, str]:
