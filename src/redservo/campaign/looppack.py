@@ -15,7 +15,14 @@ from typing import Any
 from redservo.binding.packs import scene_pack, scene_targets, task_pack
 from redservo.experiment.build import Experiment
 
-__all__ = ["robot_args", "robot_reason", "scene_args", "scene_reason", "task_args"]
+__all__ = [
+    "robot_args",
+    "robot_reason",
+    "scene_args",
+    "scene_reason",
+    "search_scene_args",
+    "task_args",
+]
 
 
 def robot_reason(exp: Experiment) -> str | None:
@@ -66,3 +73,10 @@ def scene_args(exp: Experiment) -> tuple[Any, ...]:
 def task_args(exp: Experiment) -> tuple[Any, ...]:
     """The task pack of :mod:`redservo.kernels.loop_task` (:func:`redservo.binding.packs.task_pack`)."""
     return task_pack(exp.task, float(exp.options.depth_scale))
+
+
+def search_scene_args(exp: Experiment) -> tuple[Any, ...]:
+    """:func:`scene_args` with the image check off: the reachability search's scene (the
+    task error alone, :mod:`redservo.kernels.reach`)."""
+    scene = scene_args(exp)
+    return (*scene[:5], False, *scene[6:])

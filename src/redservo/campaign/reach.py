@@ -106,8 +106,8 @@ def _compiled_search(
     from redservo.campaign.looppack import (
         robot_args,
         robot_reason,
-        scene_args,
         scene_reason,
+        search_scene_args,
         task_args,
     )
     from redservo.kernels.blas import one_blas_thread
@@ -122,8 +122,7 @@ def _compiled_search(
             return True
         if scene_reason(exp) is not None:
             return any(feature_solution(exp, s, lo, hi, tol) is not None for s in seeds)
-        scene = scene_args(exp)
-        scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
+        scene = search_scene_args(exp)
         return bool(feature_search(robot, scene, task_args(exp), seeds, lo, hi, tol) >= 0)
 
 

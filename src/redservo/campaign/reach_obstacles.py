@@ -82,8 +82,8 @@ def _stages(
     from redservo.campaign.looppack import (
         robot_args,
         robot_reason,
-        scene_args,
         scene_reason,
+        search_scene_args,
         task_args,
     )
     from redservo.robots.ik import solve_ik
@@ -107,9 +107,7 @@ def _stages(
 
     if scene_reason(exp) is not None:
         return pose, py_feature
-    scene = scene_args(exp)
-    scene = (*scene[:5], False, *scene[6:])  # no image check: the task error alone
-    task = task_args(exp)
+    scene, task = search_scene_args(exp), task_args(exp)
 
     def feature(seed: FloatArray) -> FloatArray | None:
         ok, q = kr.feature_solution(robot, scene, task, c(seed, dtype=np.float64), lo_c, hi_c, tol)
