@@ -131,14 +131,19 @@ def items(case: Any = None) -> list[tuple[str, Callable[[], Any]]]:
 
 def _measured_kernel(ctl: Any, q: Any, meas: Any) -> Callable[[], Any]:
     """The compiled kernel of ``ctl``'s step on ``meas`` with its packs made once (what
-    :meth:`redservo.binding.control.CompiledControl.step` calls, without its Python)."""
+    :meth:`redservo.binding.control.CompiledControl.step` calls, without its Python): at its
+    entry point (:mod:`redservo.kernels.entry`) once the Controller's steps found it."""
     eng = ctl._compiled
     iz = eng._inverse_depths(meas.inv_depth)
     packs = ((meas.s, iz, eng.s_star, eng.C), eng.law_pack, eng.limits_pack, eng.gains)
     none = np.zeros(0)
 
-    def run() -> Any:
-        return eng.kernel(q, eng.robot, *packs, (none, none, none), np.empty(eng.size))
+    def run() -> Any:  # the entry point once the Controller's steps found it, as they call it
+        entry, args = (
+            getattr(eng, "entry", [None])[0],
+            (*packs, (none, none, none), np.empty(eng.size)),
+        )
+        return eng.kernel(q, eng.robot, *args) if entry is None else entry(q, eng.robot, args)
 
     return run
 
