@@ -137,3 +137,25 @@ def test_only_writeable_aligned_arrays_take_the_law_calls_entry() -> None:
     ro.setflags(write=False)
     assert not kc._plain(ro, (4,))
     assert not kc._plain(a, (3,))
+
+
+def test_a_kernel_without_an_entry_is_looked_up_once_and_runs_through_its_dispatcher(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """No entry (numba off, or types it has no version for): one look-up, then the
+    dispatcher (or the plain function) at every step, with the same numbers."""
+    import redservo.binding.control as bc
+
+    looked: list[int] = []
+
+    def none(*_: Any) -> None:
+        looked.append(1)
+
+    monkeypatch.setattr(bc, "entry_of", none)
+    ctl, q, meas = _controller()
+    ref, _, _ = _controller(engine="python")
+    for k in range(3):
+        got, want = (c.step(q, meas, 0.04 * k, qdot_prev=None) for c in (ctl, ref))
+        assert got.qdot.tobytes() == want.qdot.tobytes()
+    assert ctl._compiled is not None and ctl._compiled.entry[0] is False
+    assert looked == [1]

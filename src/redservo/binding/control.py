@@ -87,9 +87,10 @@ class CompiledControl:
     """The inverse depths go through the task's depth option or the depth scale."""
     no_C: bool
     """The task has no combination matrix (``e1 = e``)."""
-    entry: list[Callable[..., Any] | None] = field(default_factory=lambda: [None])
-    """The compiled version of :attr:`kernel` for this set-up's argument types, once a
-    step found it (:func:`redservo.kernels.entry.entry_of`); None before."""
+    entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
+    """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
+    types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
+    False when there is none (no numba)."""
 
     def step(
         self,
@@ -154,12 +155,12 @@ class CompiledControl:
         dispatcher's first such call finds it), else through the dispatcher. The same
         machine code either way."""
         entry = self.entry[0]
-        if plain and entry is not None:
-            return entry(q, self.robot, packs)
+        if plain and entry:
+            return entry(q, self.robot, packs)  # type: ignore[operator]  # truthy: callable
         assert self.kernel is not None  # the caller's condition
         out = self.kernel(q, self.robot, *packs)
-        if plain and entry is None:
-            self.entry[0] = entry_of(self.kernel, (q, self.robot, packs))
+        if plain and entry is None:  # looked up once: False when there is none
+            self.entry[0] = entry_of(self.kernel, (q, self.robot, packs)) or False
         return out
 
     def _adapted(self, s: FloatArray) -> tuple[float, float]:

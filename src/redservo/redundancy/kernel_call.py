@@ -186,12 +186,12 @@ def _into(
     size, parts = layout
     buf = np.empty(size)
     args = (q, J1, e1, law_pack, limits_t, gains, inputs, buf)
-    if entry is not None and entry[0] is not None:
+    if entry is not None and entry[0]:
         lmask, smask, vec = entry[0](*args)
     else:
         lmask, smask, vec = _KC.law_into(*args)
-        if entry is not None:
-            entry[0] = entry_of(_KC.law_into, args)
+        if entry is not None and entry[0] is None:  # looked up once: False when there is none
+            entry[0] = entry_of(_KC.law_into, args) or False
     if lmask < 0:
         return None
     qdot = buf[parts[0]]
