@@ -247,8 +247,13 @@ def with_visp(
 
     try:
         harness = VispStep(path, case)
-        agree = agreement(case, harness.check())
     except (HarnessError, OSError) as err:
+        print(f"bench_object_path.py: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
+    try:
+        agree = agreement(case, harness.check())
+    except HarnessError as err:
+        harness.close(kill=True)
         print(f"bench_object_path.py: {err}", file=sys.stderr)
         raise SystemExit(2) from None
     return [*named, (VISP_ITEM, harness)], harness, agree

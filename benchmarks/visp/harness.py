@@ -79,8 +79,12 @@ class VispStep:
             text=True,
             env={**os.environ, **ONE_THREAD},
         )
-        self.version = self._ask("version")
-        self._ask(setup_line(case), expect="ok")
+        try:
+            self.version = self._ask("version")
+            self._ask(setup_line(case), expect="ok")
+        except HarnessError:
+            self.close(kill=True)
+            raise
 
     def _ask(self, line: str | None, expect: str | None = None) -> str:
         """Send ``line`` (None: none) and read one answer line."""
@@ -116,11 +120,16 @@ class VispStep:
             line = self._ask(None)
         return out
 
-    def close(self) -> None:
-        """End the harness (its stdin closed: it returns)."""
+    def close(self, kill: bool = False) -> None:
+        """End the harness: its stdin closed (it returns), or (``kill``) killed."""
         proc = self._proc
+        if kill:
+            proc.kill()
         if proc.stdin is not None:
-            proc.stdin.close()
+            try:
+                proc.stdin.close()
+            except BrokenPipeError:
+                pass
         proc.wait(timeout=10)
         if proc.stdout is not None:
             proc.stdout.close()
