@@ -22,7 +22,8 @@ optical axis; m = 6, n = 6):
   directly with its packs, no Python around it: the ratios ``path / compiled`` and
   ``Controller.step / compiled`` use it;
 * ``Controller.step`` / ``Controller.step python``: :meth:`redservo.Controller.step` on the
-  measured features, on its compiled engine and on the object path (``engine="python"``);
+  measured features at ``t = 0, dt, 2 dt, ...``, on its compiled engine and on the object
+  path (``engine="python"``);
   target (issue 29): the compiled engine ≤ 1.3x the compiled kernel.
 
 * ``compiled qp``: the compiled step of ``qp`` (:func:`redservo.binding.compiled_qp_step`:
@@ -45,6 +46,7 @@ classical law call ≤ 15 µs, the path ≤ 30 µs.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import sys
@@ -124,9 +126,21 @@ def items(case: Any = None) -> list[tuple[str, Callable[[], Any]]]:
         ("compiled classical", lambda: step(q)),
         ("compiled measured", _measured_kernel(ctl["auto"], q, meas)),
         ("compiled qp", lambda: qp_step(q)),
-        ("Controller.step", lambda: ctl["auto"].step(q, meas, 0.0, qdot_prev=None)),
-        ("Controller.step python", lambda: ctl["python"].step(q, meas, 0.0, qdot_prev=None)),
+        ("Controller.step", _stepping(ctl["auto"], q, meas, dt)),
+        ("Controller.step python", _stepping(ctl["python"], q, meas, dt)),
     ]
+
+
+def _stepping(ctl: Any, q: Any, meas: Any, dt: float) -> Callable[[], Any]:
+    """``ctl.step`` on ``meas`` at ``t = 0, dt, 2 dt, ...`` (s), as a loop calls it: the
+    controller's command history then keeps its last second of commands, as in a run (at a
+    fixed ``t`` it would grow by one entry per call, and the garbage collector's work with it)."""
+    clock = itertools.count()
+
+    def run() -> Any:
+        return ctl.step(q, meas, dt * next(clock), qdot_prev=None)
+
+    return run
 
 
 def _measured_kernel(ctl: Any, q: Any, meas: Any) -> Callable[[], Any]:
