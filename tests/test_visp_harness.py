@@ -167,3 +167,22 @@ def test_visp_and_redservo_agree_on_the_same_case() -> None:
     finally:
         step.close()
     assert max(agree.values()) < 1e-12, agree
+
+
+def test_the_control_step_benchmark_times_visp_in_the_same_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    control = load_module("benchmarks/bench_control_step.py")
+    fake = _fake(tmp_path, _ours(_case()))
+    assert control.visp_rounds(fake, 3, 100) == [7.0, 7.0, 7.0]
+    rows = [{"case": "afma6-4points", "path": "compiled", "method": "qp", "median_us": 11.2}]
+    saved = tmp_path / "bench.json"
+    saved.write_text(json.dumps({"rows": rows, "visp": {"median_us": 7.0}}))
+    monkeypatch.setattr(sys, "argv", ["bench_control_step.py", "--from", str(saved)])
+    control.main()
+    out = capsys.readouterr().out
+    assert "ViSP's, measured in this run" in out
+    assert "afma6-4points, qp: 11.2 µs = 1.60x ViSP (7 µs; target ≤ 1.6x): met" in out
+    with pytest.raises(SystemExit) as info:
+        control.visp_rounds(tmp_path / "absent", 1, 1)
+    assert info.value.code == 2
