@@ -10,9 +10,10 @@ compiled path. The machine is shared and its load varies: run it more than once 
 read the load average printed in the first line; the figures are medians over
 interleaved rounds. With ``--visp PATH`` (the optional ViSP harness, ``sh
 benchmarks/visp/build.sh``) ViSP's step on the same 4-point case is timed in the same run,
-``--rounds`` batches of ``--repeat`` steps before and as many after ``redservo bench``, and
-the ratios use its median (else :data:`VISP_US`); ``benchmarks/bench_object_path.py
---visp`` interleaves it with the items in every round.
+``--rounds`` batches of ``--repeat`` steps before and as many after ``redservo bench``, on
+the wall clock as ``redservo bench`` times redservo's, and the ratios use its median (else
+:data:`VISP_US`). On a loaded machine prefer ``benchmarks/bench_object_path.py --visp PATH
+--clock cpu``, which interleaves ViSP with the items in every round on the CPU clock.
 """
 
 from __future__ import annotations
@@ -60,8 +61,9 @@ def visp_check(data: dict[str, Any], visp_us: float = VISP_US) -> list[str]:
 
 
 def visp_rounds(path: Path, rounds: int, batch: int) -> list[float]:
-    """ViSP's step (µs, CPU time of the harness thread) in ``rounds`` batches of ``batch``
-    steps, by the harness at ``path`` (:mod:`visp.harness` of this folder).
+    """ViSP's step (µs, wall clock, as ``redservo bench`` times redservo's) in ``rounds``
+    batches of ``batch`` steps, by the harness at ``path`` (:mod:`visp.harness` of this
+    folder).
 
     Raises:
         SystemExit: (code 2, one line on stderr) the harness is missing or fails.
@@ -73,7 +75,7 @@ def visp_rounds(path: Path, rounds: int, batch: int) -> list[float]:
     try:
         step = VispStep(path, the_case())
         try:
-            return [step.per_call_us(batch, cpu=True) for _ in range(rounds)]
+            return [step.per_call_us(batch, cpu=False) for _ in range(rounds)]
         finally:
             step.close()
     except (HarnessError, OSError) as err:

@@ -174,7 +174,7 @@ def test_the_control_step_benchmark_times_visp_in_the_same_run(
 ) -> None:
     control = load_module("benchmarks/bench_control_step.py")
     fake = _fake(tmp_path, _ours(_case()))
-    assert control.visp_rounds(fake, 3, 100) == [7.0, 7.0, 7.0]
+    assert control.visp_rounds(fake, 3, 100) == [9.0, 9.0, 9.0]  # the wall clock, as redservo bench
     rows = [{"case": "afma6-4points", "path": "compiled", "method": "qp", "median_us": 11.2}]
     saved = tmp_path / "bench.json"
     saved.write_text(json.dumps({"rows": rows, "visp": {"median_us": 7.0}}))
