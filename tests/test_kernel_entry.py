@@ -15,7 +15,7 @@ from redservo import make_law
 from redservo.binding.control import CompiledControl
 from redservo.kernels import compiled
 from redservo.kernels.entry import entry_of, plain
-from tests.test_public_path_speed import _controller, _inputs, _same, _same_diag
+from tests.test_public_path_speed import LAWS, _controller, _inputs, _same, _same_diag
 
 needs_numba = pytest.mark.skipif(not compiled(), reason="entry points are numba's")
 
@@ -159,3 +159,35 @@ def test_a_kernel_without_an_entry_is_looked_up_once_and_runs_through_its_dispat
         assert got.qdot.tobytes() == want.qdot.tobytes()
     assert ctl._compiled is not None and ctl._compiled.entry[0] is False
     assert looked == [1]
+
+
+@needs_numba
+@pytest.mark.parametrize("method", LAWS)
+def test_repeated_calls_at_the_entry_equal_a_fresh_laws_on_new_values(
+    method: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Same limits object and shapes, new values at every call (joints near their limits,
+    rate limits: the safety layer's events), the dispatcher refused once the entry is found:
+    command and diagnostics bit for bit those of a fresh law on the full path."""
+    rng = np.random.default_rng(7)
+    kw = _inputs(3, True)
+    m, n = kw["J1"].shape
+    law = make_law(method)
+    law(**kw)
+    law(**kw)  # the entry is found here
+
+    class Refusing:
+        law_into = staticmethod(_refuse)
+
+    for _ in range(20):
+        kw = {
+            **kw,
+            "J1": rng.normal(size=(m, n)),
+            "e1": 5.0 * rng.normal(size=m),
+            "q": rng.uniform(-0.99, 0.99, n),
+            "qdot_prev": rng.uniform(-0.3, 0.3, n) if rng.random() < 0.7 else None,
+        }
+        monkeypatch.setattr(kc, "_KC", Refusing)
+        got = law(**kw)
+        monkeypatch.undo()
+        _same(got, make_law(method)(**kw))
