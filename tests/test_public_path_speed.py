@@ -203,10 +203,12 @@ def test_the_object_path_benchmark_states_the_ratios_to_visp() -> None:
     bench = load_module("benchmarks/bench_object_path.py")
     res = {name: {"median_us": 14.6} for name in bench.VISP_TARGETS}
     lines = bench.visp_lines(res, visp_us=7.3)
-    assert lines[0] == "path classical / ViSP (7.3 µs): 2.00x (target ≤ 2.5x: met)"
-    assert (
-        lines[-1].startswith("compiled measured / ViSP (7.3 µs): 2.00x") and "missed" in lines[-1]
-    )
+    assert lines[0] == "path classical / ViSP (7.30 µs, issue 29): 2.00x (target ≤ 2.5x: met)"
+    assert lines[2].startswith("compiled measured / ViSP (7.30 µs, issue 29): 2.00x")
+    assert "missed" in lines[2]
+    assert lines[3] == "compiled qp / ViSP (7.30 µs, issue 29): 2.00x (target ≤ 1.6x: missed)"
+    measured = bench.visp_lines(res, visp_us=8.0, measured=True)
+    assert measured[0] == "path classical / ViSP (8.00 µs, this run): 1.82x (target ≤ 2.5x: met)"
 
 
 def test_the_control_step_benchmark_states_the_compiled_steps_ratio_to_visp() -> None:

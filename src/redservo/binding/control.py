@@ -17,7 +17,7 @@ Python), the laws with a compiled step and a ``diagnose`` method, a fixed or ada
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,6 +26,7 @@ from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.features import plan as plan
 from redservo.kernels import lazy
+from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, law_class, lazy_diagnostics
 from redservo.redundancy.gain import AdaptiveGain, gain_value
@@ -86,6 +87,10 @@ class CompiledControl:
     """The inverse depths go through the task's depth option or the depth scale."""
     no_C: bool
     """The task has no combination matrix (``e1 = e``)."""
+    entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
+    """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
+    types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
+    False when there is none (no numba)."""
 
     def step(
         self,
@@ -120,23 +125,43 @@ class CompiledControl:
             return None  # the object path checks it
         if de1_dt is None and secondary is None:
             inputs = (_EMPTY, _EMPTY, prev)
+            plain = prev.flags.carray and q.flags.carray and s.flags.carray
         else:
             ff = _EMPTY if de1_dt is None else np.ascontiguousarray(de1_dt, dtype=np.float64)
             sec = _EMPTY if secondary is None else np.ascontiguousarray(secondary, dtype=np.float64)
-            inputs = (ff, sec, prev)
+            inputs, plain = (ff, sec, prev), False
         buf = np.empty(self.size)
         gains = self.gains if self.adaptive is None else self._adapted(s)
         if J is None and self.kernel is not None:
-            lmask, smask, vec = self.kernel(
-                q, self.robot, meas, self.law_pack, self.limits_pack, gains, inputs, buf
-            )
+            packs = (meas, self.law_pack, self.limits_pack, gains, inputs, buf)
+            lmask, smask, vec = self.run_kernel(q, packs, plain)
         else:
             Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
-            packs = (self.law_pack, self.limits_pack, gains, inputs, buf)
-            lmask, smask, vec = _K.measured_control(q, Jm, meas, *packs)
+            rest = (self.law_pack, self.limits_pack, gains, inputs, buf)
+            lmask, smask, vec = _K.measured_control(q, Jm, meas, *rest)
         if lmask < 0:
             return None
         return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)
+
+    def run_kernel(
+        self, q: FloatArray, packs: tuple[Any, ...], plain: bool = False
+    ) -> tuple[int, int, FloatArray]:
+        """:attr:`kernel` on ``q`` (n,) and ``packs`` (``meas, law, limits, gains, inputs,
+        buf``, module docstring of :mod:`redservo.kernels.control`). ``plain``: the caller's
+        arrays (``q``, ``s``, ``qdot_prev``) are float64 (n,), (k,), (n,) or empty, C-contiguous,
+        aligned and writeable, and there is no feed-forward or secondary input (the other
+        arrays are this binding's own or fresh): the kernel's compiled version for these
+        types is then called at its entry point (:mod:`redservo.kernels.entry`; the
+        dispatcher's first such call finds it), else through the dispatcher. The same
+        machine code either way."""
+        entry = self.entry[0]
+        if plain and entry:
+            return entry(q, self.robot, packs)  # type: ignore[operator]  # truthy: callable
+        assert self.kernel is not None  # the caller's condition
+        out = self.kernel(q, self.robot, *packs)
+        if plain and entry is None:  # looked up once: False when there is none
+            self.entry[0] = entry_of(self.kernel, (q, self.robot, packs)) or False
+        return out
 
     def _adapted(self, s: FloatArray) -> tuple[float, float]:
         """``(λ(‖e1‖∞), dt)`` with ``e1 = C (s − s*)`` computed as the object path does."""

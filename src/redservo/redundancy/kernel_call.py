@@ -23,6 +23,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
+from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
 from redservo.redundancy.flags import Event
 from redservo.redundancy.gain import AdaptiveGain, gain_value
@@ -173,14 +174,24 @@ def _into(
     gains: tuple[float, float],
     inputs: tuple[FloatArray, ...],
     layout: tuple[int, tuple[slice, ...]],
+    entry: list[Any] | None = None,
 ) -> tuple[FloatArray, DiagnoseArgs] | None:
     """:func:`_run` with the packs ``bound`` ``(law pack, limits pack)`` and the buffer
-    ``layout`` ``(size, parts)`` already found (the hot path)."""
+    ``layout`` ``(size, parts)`` already found (the hot path). ``entry``: when the arrays are
+    those of the signature kept on the law (:func:`fast_call`: C-contiguous, aligned,
+    writeable float64), its slot for the kernel's entry point (:mod:`redservo.kernels.entry`),
+    found by the first such call and then called directly: the same machine code."""
     J1, e1, q = arrays
     law_pack, limits_t = bound
     size, parts = layout
     buf = np.empty(size)
-    lmask, smask, vec = _KC.law_into(q, J1, e1, law_pack, limits_t, gains, inputs, buf)
+    args = (q, J1, e1, law_pack, limits_t, gains, inputs, buf)
+    if entry is not None and entry[0]:
+        lmask, smask, vec = entry[0](*args)
+    else:
+        lmask, smask, vec = _KC.law_into(*args)
+        if entry is not None and entry[0] is None:  # looked up once: False when there is none
+            entry[0] = entry_of(_KC.law_into, args) or False
     if lmask < 0:
         return None
     qdot = buf[parts[0]]
@@ -245,24 +256,32 @@ def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs
         and type(J1) is np.ndarray
         and J1.shape == seen[2]
         and J1.dtype == _F64
-        and J1.flags.c_contiguous
+        and J1.flags.carray
         and de1_dt is None
         and secondary is None
         and type(dt) is float
         and type(lam) is float
-        and _array(e1, seen[3])
-        and _array(q, seen[4])
+        and _plain(e1, seen[3])
+        and _plain(q, seen[4])
         and 0.0 < lam < math.inf
         and 0.0 < dt < math.inf
     ):
         if qdot_prev is None:
             inputs = _NO_INPUTS
-        elif _array(qdot_prev, seen[4]):
+        elif _plain(qdot_prev, seen[4]):
             inputs = (_EMPTY, _EMPTY, qdot_prev, _EMPTY)
         else:
             return _first_call(law, args)
-        return _into(law, (J1, e1, q), limits, seen[5], (lam, dt), inputs, seen[6])
+        return _into(law, (J1, e1, q), limits, seen[5], (lam, dt), inputs, seen[6], seen[7])
     return _first_call(law, args)
+
+
+def _plain(a: object, shape: tuple[int, ...]) -> bool:
+    """``a`` is a float64 array of shape ``shape``, C-contiguous, aligned and writeable (the
+    arrays of the signature :func:`fast_call` keeps, whose kernel entry it calls)."""
+    if type(a) is not np.ndarray:
+        return False
+    return a.dtype == _F64 and a.shape == shape and bool(a.flags.carray)
 
 
 def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
@@ -294,5 +313,6 @@ def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseAr
     else:
         return None
     layout = _slices(n)
-    law.__dict__[_SEEN] = (limits, law.__dict__[_PACK], (m, n), (m,), (n,), bound, layout)
+    entry: list[Any] = [None]  # the kernel's entry point, found by the first plain call
+    law.__dict__[_SEEN] = (limits, law.__dict__[_PACK], (m, n), (m,), (n,), bound, layout, entry)
     return _into(law, (J1, e1, q), limits, bound, (lam, dt), inputs, layout)
