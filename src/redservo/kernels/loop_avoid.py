@@ -25,7 +25,7 @@ with its bounds and frames, which step 1 of the next iteration reuses when it wa
 the very ``q`` reached (the shield left the command alone: the same numbers, one query
 fewer); ``fopt = (d_safe, d_influence, xi, damping,
 dt)``; ``iopt = (repel, law takes a secondary, shield, shield bit, acceleration bit, has
-q̈_max)``; ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
+q̈_max, the law solves with damper rows)`` (the last: :mod:`redservo.kernels.loop_rows`); ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
 ``contact = (pair, distance, iteration)``, pair -1 without contact; ``kinds`` 0 environment,
 1 self; ``scratch = (lb (P,), O (F, 3), JO (F, 3, n))`` step 1's lower bounds and frame
 origins, for step 3. Units: m, rad, s.
