@@ -48,7 +48,13 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
-from redservo.kernels.loop_avoid import COLLISION, collide_check, secondary, shield_step
+from redservo.kernels.loop_avoid import (
+    COLLISION,
+    collide_check,
+    keep_measurement,
+    secondary,
+    shield_step,
+)
 from redservo.kernels.loop_rows import damper_rows, hand_back, rows_met
 from redservo.kernels.sensed import (
     ABORT_INFEASIBLE,
@@ -192,6 +198,7 @@ def closed_loop(
             qd, bits, axf, code = _law(*args)
             if code == NEED_SOLVE:
                 hand_back(solve, J1, e1, ff, has_ff, sec, drows, it)
+                keep_measurement(q, dd, Jd, coll)
                 return it, NEED_SOLVE, -1, 0
             if code != 0:
                 return it, MAX_ITERATIONS, -1, code

@@ -13,7 +13,8 @@ iteration of :func:`redservo.campaign.loop_kernel.closed_loop` for these laws:
    sets to 0; the subtraction is kept, and exact.
 2. The law's compiled step runs; :func:`rows_met` says whether its command (``qp``: the
    unconstrained optimum, ``sns``: the safe command) meets every row by the object path's
-   tolerance (:data:`~redservo.redundancy.distance_rows.ROW_TOL`), with :data:`SLACK` to
+   tolerance (:data:`~redservo.kernels.row_tolerance.ROW_TOL`), with
+   :data:`~redservo.kernels.row_tolerance.SLACK` to
    spare. When it does not, the step is handed back to Python (:func:`hand_back`), which
    calls the law with these rows, exactly as the object path does, and the loop resumes
    with its command. A row met by less than the slack is handed back too: the law then
@@ -30,16 +31,13 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.redundancy.distance_rows import ROW_TOL
+from redservo.kernels.row_tolerance import ROW_TOL, SLACK
 
 __all__ = ["I_ROWS", "SLACK", "damper_rows", "hand_back", "rows_met"]
 
 I_ROWS = 6
 """The index in the collision pack's ``iopt`` (:mod:`redservo.kernels.loop_avoid`) of the
 flag: the law solves with the damper rows."""
-SLACK = 1e-12
-"""m/s: a row met by less than ``ROW_TOL`` + this is handed back to the law (module
-docstring); rounding of ``J_k q̇`` is about 1e-16 m/s at workspace scale."""
 
 
 @kernel

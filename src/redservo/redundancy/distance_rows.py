@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels.row_tolerance import ROW_TOL
 from redservo.redundancy.bls import daqp_once
 
 if TYPE_CHECKING:
@@ -51,9 +52,6 @@ _SOURCE = "_distance_source"
 """The attribute of a law holding its ``(collision, robot)`` (or None)."""
 _INF = 1e30
 """daqp's infinite bound."""
-ROW_TOL = 1e-9
-"""A row counts as satisfied when ``J_k q̇ ≥ b_k − 1e-9`` (m/s); the compiled loop's test
-too (:func:`redservo.kernels.loop_rows.rows_met`)."""
 
 
 class DistanceRows(NamedTuple):
