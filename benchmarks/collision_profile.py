@@ -241,12 +241,16 @@ def _compiled_methods(defn: Any) -> list[str]:
     ]
 
 
-def hand_backs(defn: Any, samples: int, methods: list[str]) -> None:
-    """Per method, the steps of ``samples`` samples on the loop that it hands back to Python."""
+def hand_backs(defn: Any, free: Any, samples: int, methods: list[str]) -> None:
+    """Per method, on the loop alone over ``samples`` samples: the steps it hands back to
+    Python, and its steps per CPU s with obstacles and without (``free``)."""
     from redservo.campaign import draw_sample, loop_handback
     from redservo.experiment.build import build
+    from redservo.kernels.blas import one_blas_thread
 
-    exps = [build(draw_sample(defn, 0, i).scenario) for i in range(samples)]
+    def built(d: Any) -> list[Any]:
+        return [build(draw_sample(d, 0, i).scenario) for i in range(samples)]
+
     counts: dict[str, int] = {}
     step = loop_handback.python_step
 
@@ -256,12 +260,19 @@ def hand_backs(defn: Any, samples: int, methods: list[str]) -> None:
 
     loop_handback.python_step = counted
     try:
-        rates = _loop_rates(replace(defn, methods=methods), exps, 1)
+        with one_blas_thread():
+            rates = _loop_rates(replace(defn, methods=methods), built(defn), 1)
     finally:
         loop_handback.python_step = step
-    for method, (_, steps) in rates.items():
+    with one_blas_thread():
+        rates_free = _loop_rates(replace(free, methods=methods), built(free), 1)
+    for method, (per, steps) in rates.items():
         k = counts.get(method, 0) // 2  # _loop_rates runs each sample twice (a warm-up)
-        print(f"  {method}: {k} of {steps} steps handed back to Python ({100 * k / steps:.1f} %)")
+        rf = 1.0 / rates_free[method][0]
+        print(
+            f"  {method}: {k} of {steps} steps handed back to Python ({100 * k / steps:.1f} %); "
+            f"{1.0 / per:,.0f} steps per CPU s with obstacles, {rf:,.0f} without"
+        )
 
 
 def rates(
@@ -271,7 +282,7 @@ def rates(
     the whole campaign with every method, not only the compiled ones."""
     methods = _compiled_methods(defn)
     print(f"compiled methods with obstacles: {', '.join(methods)}")
-    hand_backs(defn, samples, methods)
+    hand_backs(defn, free, samples, methods)
     whole = list(defn.methods) if every else methods
     for r in range(rounds):
         print(f"round {r + 1}: load average {_load()}")
