@@ -26,8 +26,9 @@ the obstacle-free campaign), and the whole campaign in this process (``workers=1
 ``--campaign-samples`` samples after a 1-sample warm-up; the compiled methods, or with
 ``--all-methods`` every method of the campaign, ``predictive``'s Python step included), with
 and without obstacles, and the reachability search of those samples alone (its obstacle
-stage, :mod:`redservo.campaign.reach_obstacles`, is part of the campaign's cost).
-docs/scaling.md gives the numbers.
+stage, :mod:`redservo.campaign.reach_obstacles`, is part of the campaign's cost). Last, the
+whole campaign of ``qp`` and ``sns`` with their rows on the loop against the object path
+(where they ran before), alternated. docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations
@@ -211,6 +212,28 @@ def _campaign_rate(defn: Any, samples: int, methods: list[str]) -> float:
     return sum(int(r["iterations"]) for r in res.rows) / cpu
 
 
+def _object_rate(defn: Any, samples: int, methods: list[str]) -> float:
+    """:func:`_campaign_rate` with every run on the object path (``fast=False``)."""
+    from redservo.campaign import run_campaign
+
+    run_campaign(defn, samples=1, methods=methods, workers=1, progress=False, fast=False)
+    cpu = time.process_time()
+    res = run_campaign(
+        defn, samples=samples, methods=methods, workers=1, progress=False, fast=False
+    )
+    cpu = time.process_time() - cpu
+    return sum(int(r["iterations"]) for r in res.rows) / cpu
+
+
+def rows_on_loop(defn: Any, samples: int, rounds: int) -> None:
+    """``qp`` and ``sns`` avoiding, whole campaigns: on the loop and on the object path (where
+    they ran before their rows were built in the loop), alternated."""
+    pair = ["qp", "sns"]
+    for r in range(rounds):
+        loop, obj = _campaign_rate(defn, samples, pair), _object_rate(defn, samples, pair)
+        print(f"  qp,sns round {r + 1}: {loop:,.0f} on the loop, {obj:,.0f} on the object path")
+
+
 def _reach_cpu(defn: Any, samples: int) -> float:
     """CPU seconds of the reachability search of samples 1 … ``samples`` (sample 0 warms up;
     with obstacles: :mod:`redservo.campaign.reach_obstacles`)."""
@@ -319,6 +342,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"CPU µs per step, {a.samples} samples")
         profile(defn, a.samples, a.reps)
     rates(defn, free, a.samples, a.campaign_samples, a.rounds, a.all_methods)
+    if a.campaign_samples:
+        rows_on_loop(defn, a.campaign_samples, a.rounds)
     print(f"load average after: {_load()}")
     return 0
 
