@@ -1,9 +1,9 @@
 """Benchmark: where the obstacles' share of a compiled campaign step goes, and the rates.
 
     .venv/bin/python benchmarks/collision_profile.py [--campaign panda-posts] [--samples 8] \
-        [--reps 5] [--rounds 2] [--campaign-samples 10] [--skip-profile]
+        [--reps 5] [--rounds 2] [--campaign-samples 10] [--skip-profile] [--all-methods]
 
-For each compiled method of the campaign (``qp``/``sns`` avoiding run on the object path),
+For each compiled method of the campaign (``qp`` and ``sns`` with their damper rows too),
 runs its first ``--samples`` samples on the compiled loop, keeps every visited ``q`` and
 command, and replays them through compiled timing loops (numba, ``--reps`` passes; CPU µs per
 control step, ``time.process_time``):
@@ -18,12 +18,17 @@ control step, ``time.process_time``):
 * ``searches/step``, ``pairs/step``: the capsule/box and capsule/cylinder pairs, and all
   pairs, that step 1 computes (:func:`~redservo.kernels.loop_cull.measure_culled`).
 
-Then, ``--rounds`` times alternated in the same minutes: the loop alone (steps per CPU s) on
-the same samples with obstacles and with ``obstacles = []`` (the obstacle-free campaign), and
-the whole campaign in this process (``workers=1``, ``--campaign-samples`` samples after a
-1-sample warm-up), with and without obstacles, and the reachability search of those samples
-alone (its obstacle stage, :mod:`redservo.campaign.reach_obstacles`, is part of the
-campaign's cost). docs/scaling.md gives the numbers.
+Then the steps the loop hands back to the law in Python (``qp`` and ``sns`` with damper rows
+their compiled step cannot honour: :mod:`redservo.campaign.loop_handback`), per method, and
+``--rounds`` times alternated in the same minutes: the loop alone (steps per CPU s) on the
+same samples with obstacles and without (``obstacles = []``, ``collision.enabled = false``:
+the obstacle-free campaign), and the whole campaign in this process (``workers=1``,
+``--campaign-samples`` samples after a 1-sample warm-up; the compiled methods, or with
+``--all-methods`` every method of the campaign, ``predictive``'s Python step included), with
+and without obstacles, and the reachability search of those samples alone (its obstacle
+stage, :mod:`redservo.campaign.reach_obstacles`, is part of the campaign's cost). Last, the
+whole campaign of ``qp`` and ``sns`` with their rows on the loop against the object path
+(where they ran before), alternated. docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations
@@ -207,6 +212,28 @@ def _campaign_rate(defn: Any, samples: int, methods: list[str]) -> float:
     return sum(int(r["iterations"]) for r in res.rows) / cpu
 
 
+def _object_rate(defn: Any, samples: int, methods: list[str]) -> float:
+    """:func:`_campaign_rate` with every run on the object path (``fast=False``)."""
+    from redservo.campaign import run_campaign
+
+    run_campaign(defn, samples=1, methods=methods, workers=1, progress=False, fast=False)
+    cpu = time.process_time()
+    res = run_campaign(
+        defn, samples=samples, methods=methods, workers=1, progress=False, fast=False
+    )
+    cpu = time.process_time() - cpu
+    return sum(int(r["iterations"]) for r in res.rows) / cpu
+
+
+def rows_on_loop(defn: Any, samples: int, rounds: int) -> None:
+    """``qp`` and ``sns`` avoiding, whole campaigns: on the loop and on the object path (where
+    they ran before their rows were built in the loop), alternated."""
+    pair = ["qp", "sns"]
+    for r in range(rounds):
+        loop, obj = _campaign_rate(defn, samples, pair), _object_rate(defn, samples, pair)
+        print(f"  qp,sns round {r + 1}: {loop:,.0f} on the loop, {obj:,.0f} on the object path")
+
+
 def _reach_cpu(defn: Any, samples: int) -> float:
     """CPU seconds of the reachability search of samples 1 … ``samples`` (sample 0 warms up;
     with obstacles: :mod:`redservo.campaign.reach_obstacles`)."""
@@ -237,18 +264,57 @@ def _compiled_methods(defn: Any) -> list[str]:
     ]
 
 
-def rates(defn: Any, free: Any, samples: int, campaign_samples: int, rounds: int) -> None:
-    """Loop alone and whole campaign, with and without obstacles, alternated."""
+def hand_backs(defn: Any, free: Any, samples: int, methods: list[str]) -> None:
+    """Per method, on the loop alone over ``samples`` samples: the steps it hands back to
+    Python, and its steps per CPU s with obstacles and without (``free``)."""
+    from redservo.campaign import draw_sample, loop_handback
+    from redservo.experiment.build import build
+    from redservo.kernels.blas import one_blas_thread
+
+    def built(d: Any) -> list[Any]:
+        return [build(draw_sample(d, 0, i).scenario) for i in range(samples)]
+
+    counts: dict[str, int] = {}
+    step = loop_handback.python_step
+
+    def counted(exp: Any, law: Any, *args: Any) -> None:
+        counts[law.name] = counts.get(law.name, 0) + 1
+        step(exp, law, *args)
+
+    loop_handback.python_step = counted
+    try:
+        with one_blas_thread():
+            rates = _loop_rates(replace(defn, methods=methods), built(defn), 1)
+    finally:
+        loop_handback.python_step = step
+    with one_blas_thread():
+        rates_free = _loop_rates(replace(free, methods=methods), built(free), 1)
+    for method, (per, steps) in rates.items():
+        k = counts.get(method, 0) // 2  # _loop_rates runs each sample twice (a warm-up)
+        rf = 1.0 / rates_free[method][0]
+        print(
+            f"  {method}: {k} of {steps} steps handed back to Python ({100 * k / steps:.1f} %); "
+            f"{1.0 / per:,.0f} steps per CPU s with obstacles, {rf:,.0f} without"
+        )
+
+
+def rates(
+    defn: Any, free: Any, samples: int, campaign_samples: int, rounds: int, every: bool
+) -> None:
+    """Loop alone and whole campaign, with and without obstacles, alternated; ``every``:
+    the whole campaign with every method, not only the compiled ones."""
     methods = _compiled_methods(defn)
     print(f"compiled methods with obstacles: {', '.join(methods)}")
+    hand_backs(defn, free, samples, methods)
+    whole = list(defn.methods) if every else methods
     for r in range(rounds):
         print(f"round {r + 1}: load average {_load()}")
         loop, loop_free = _rate(defn, samples, methods), _rate(free, samples, methods)
         share = 100 * loop / loop_free
         print(f"  loop alone: {loop:,.0f} with obstacles, {loop_free:,.0f} without ({share:.0f} %)")
         if campaign_samples:
-            c = _campaign_rate(defn, campaign_samples, methods)
-            cf = _campaign_rate(free, campaign_samples, methods)
+            c = _campaign_rate(defn, campaign_samples, whole)
+            cf = _campaign_rate(free, campaign_samples, whole)
             share = 100 * c / cf
             print(f"  whole campaign: {c:,.0f} with obstacles, {cf:,.0f} without ({share:.0f} %)")
             r, rf = _reach_cpu(defn, campaign_samples), _reach_cpu(free, campaign_samples)
@@ -266,14 +332,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--reps", type=int, default=5)
     p.add_argument("--rounds", type=int, default=2)
     p.add_argument("--skip-profile", action="store_true")
+    p.add_argument("--all-methods", action="store_true")
     a = p.parse_args(argv)
     defn = load_campaign(a.campaign)
-    free = replace(defn, scenario=apply_overrides(defn.scenario, ["obstacles=[]"]))
+    off = ["obstacles=[]", "collision.enabled=false"]
+    free = replace(defn, scenario=apply_overrides(defn.scenario, off))
     print(f"{a.campaign}: load average {_load()} on {os.cpu_count()} CPUs")
     if not a.skip_profile:
         print(f"CPU µs per step, {a.samples} samples")
         profile(defn, a.samples, a.reps)
-    rates(defn, free, a.samples, a.campaign_samples, a.rounds)
+    rates(defn, free, a.samples, a.campaign_samples, a.rounds, a.all_methods)
+    if a.campaign_samples:
+        rows_on_loop(defn, a.campaign_samples, a.rounds)
     print(f"load average after: {_load()}")
     return 0
 

@@ -359,7 +359,8 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
 
 def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> None:
     """Every shipped campaign, every method with a compiled step, two samples: every run on
-    the compiled loop (no fallback line, every row's path note the compiled loop's); the
+    the compiled loop (no fallback line, every row's path note the compiled loop's), among
+    obstacles too (panda-posts: ``qp`` and ``sns`` with their damper rows); the
     ``predictive`` method runs on the Python step, and the campaign says so in one line."""
     from redservo.campaign.definition import shipped_campaigns
 
@@ -367,8 +368,6 @@ def test_no_shipped_campaign_falls_back(capsys: pytest.CaptureFixture[str]) -> N
         d = load_campaign(name)
         if "urdf" in d.scenario.name and importlib.util.find_spec("pinocchio") is None:
             continue  # URDF robots are loaded by Pinocchio (checked where it is installed)
-        if d.scenario.spec.obstacles or d.scenario.spec.collision is not None:
-            continue  # the compiled loop measures no distance (test_avoidance.py)
         for i in range(2):
             exp = build(draw_sample(d, 0, i).scenario)
             for method in (m for m in d.methods if m in COMPILED):

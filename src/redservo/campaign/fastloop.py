@@ -10,13 +10,14 @@ not covered:
 * the kernels run uncompiled (numba not installed, or switched off:
   :func:`redservo.bench.kernel_mode.uncompiled_reason`): the loop would run as plain Python,
   slower than the object path;
-* a method without a compiled step (``qp``, a user-registered law) or with
+* a method without a compiled step (``predictive``, a user-registered law) or with
   ``scaling = "secondary-first"``;
 * an image sensor, an actuator model, an occlusion objective, feature noise, a hand-eye
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
   gain, a camera-motion limit (the Controller applies it: the object path);
-* obstacles the loop does not measure, or ``qp``/``sns`` avoiding with their
-  velocity-damper rows (:mod:`redservo.campaign.loop_avoid`);
+* obstacles the loop does not measure (:mod:`redservo.campaign.loop_avoid`; ``qp`` and
+  ``sns`` avoid on the loop with their velocity-damper rows, a step whose command the rows
+  change computed by the law in Python: :mod:`redservo.campaign.loop_handback`);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -30,12 +31,13 @@ from __future__ import annotations
 
 import threading
 import weakref
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from redservo.campaign.loop_avoid import collision_fields, collision_pack, collision_reason
+from redservo.campaign.loop_handback import flag_bits
 from redservo.campaign.looplaw import cached_law_args, method_law
 from redservo.campaign.looplaw import law_args as _law_args
 from redservo.campaign.looppack import (
@@ -49,7 +51,7 @@ from redservo.errors import ConfigurationError
 from redservo.experiment.build import Experiment
 from redservo.records import Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy import Law, make_law
-from redservo.redundancy.flags import FLAGS, Event
+from redservo.redundancy.flags import FLAGS
 from redservo.redundancy.gain import AdaptiveGain
 
 __all__ = [
@@ -70,6 +72,8 @@ _OUTCOMES: tuple[Outcome, ...] = (
     "collision",
 )
 """Outcome names by the kernel's codes (:mod:`redservo.campaign.loop_kernel`)."""
+_flag_bits = flag_bits
+"""The loop's bit mask of a law's typed events (:func:`~redservo.campaign.loop_handback.flag_bits`)."""
 _BUFFERS = threading.local()
 """Per-thread reuse: the log buffers and the packed arguments of the last experiment (a
 sample's methods run one after the other on it); the laws: :mod:`redservo.campaign.looplaw`."""
@@ -216,45 +220,24 @@ def _summary(
     )
 
 
-def _flag_bits(events: Iterable[Event]) -> int:
-    """The loop's bit mask (bit ``j`` is ``FLAGS[j]``) of a law's typed events."""
-    bits = 0
-    for ev in events:
-        bits |= 1 << FLAGS.index(ev.flag)
-    return bits
-
-
 def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, int, int, int]:
-    """Call the loop kernel until the run ends; a ``qp`` step with active bounds is computed
-    by the law itself (its solver is Python), exactly as the object path does."""
+    """Call the loop kernel until the run ends; a step it hands back (a ``qp`` step for a
+    Python solver or with damper rows, an ``sns`` command that breaks a row) is computed by
+    the law itself, exactly as the object path does (:mod:`redservo.campaign.loop_handback`)."""
+    from redservo.campaign import loop_handback
     from redservo.campaign.loop_kernel import NEED_SOLVE, closed_loop
 
-    m, n = exp.task.m, exp.robot.n
-    pJ, pe, px, pf = np.zeros((m, n)), np.zeros(m), np.zeros(n), np.zeros(m)
-    pend = np.zeros(4, dtype=np.int64)
-    solve = (pJ, pe, px, pend, pf)
-    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
-    prev = np.zeros(n)  # the robot starts at rest
     robot, scene, task, law_args, limits, sim, logs, coll = args
+    solve = loop_handback.solve_pack(exp, coll)
+    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
+    prev = np.zeros(exp.robot.n)  # the robot starts at rest
     while True:
         rows, code, axis, abort = closed_loop(
             q, prev, robot, scene, task, law_args, limits, sim, logs, solve, coll
         )
         if code != NEED_SOLVE:
             return int(rows), int(code), int(axis), int(abort)
-        res = law(
-            J1=pJ.copy(),
-            e1=pe.copy(),
-            q=q.copy(),
-            limits=exp.limits,
-            lam=sim[0],
-            dt=sim[1],
-            qdot_prev=prev.copy(),
-            de1_dt=pf.copy() if pend[3] else None,
-        )
-        px[:] = res.qdot
-        pend[0] = 1
-        pend[1] = _flag_bits(res.diagnostics.events)
+        loop_handback.python_step(exp, law, q, prev, sim, solve)
 
 
 class _Packed(NamedTuple):

@@ -3,12 +3,13 @@
 The loop measures the pairs, repels and shields with the kernels of
 :mod:`redservo.kernels.loop_avoid` (the same distance kernel as the object path's
 :class:`~redservo.control.avoidance.Collision`: :mod:`redservo.collision.pack`). Covered:
-a compiled collision geometry (a DH chain's capsules among static primitives), no output
-saturation (``qdot_max``: the object path guards a saturated command before the shield)
-and, with avoidance on, a law that avoids through its secondary term and the shield: the
-velocity-damper rows of ``qp`` and ``sns`` (:mod:`redservo.redundancy.distance_rows`) are
-solved on the object path. With ``[collision] enabled = false`` (the obstacles only
-measured) every compiled law is covered. Units: m, rad, s.
+a compiled collision geometry (a DH chain's capsules among static primitives) and no output
+saturation (``qdot_max``: the object path guards a saturated command before the shield).
+With avoidance on, the laws avoid through their secondary term and the shield and, for
+``qp`` and ``sns``, their velocity-damper rows (:mod:`redservo.redundancy.distance_rows`):
+the loop builds the rows and hands a step whose command they change to the law in Python
+(:mod:`redservo.kernels.loop_rows`). With ``[collision] enabled = false`` (the obstacles only
+measured) no law avoids. Units: m, rad, s.
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ import numpy as np
 
 from redservo.collision.pack import CompiledGeometry
 from redservo.experiment.build import Experiment
+from redservo.redundancy.bls import daqp_once
+from redservo.redundancy.distance_rows import ROW_LAWS
 from redservo.redundancy.flags import FLAGS, Flag
 
 __all__ = ["collision_fields", "collision_pack", "collision_reason", "off_pack"]
 
-_ROW_LAWS = ("qp", "sns", "predictive")
-"""Laws that solve with the velocity-damper rows (:data:`redservo.redundancy.distance_rows.ROW_LAWS`)."""
+_LOOP_ROW_LAWS = ("qp", "sns")
+"""Laws that solve with the velocity-damper rows in the loop (the other one of
+:data:`redservo.redundancy.distance_rows.ROW_LAWS`, ``predictive``, has no compiled step)."""
 
 
 def _geometry(exp: Experiment) -> CompiledGeometry | str | None:
@@ -50,9 +54,19 @@ def collision_reason(exp: Experiment, law: Any) -> str | None:
     if isinstance(geo, str):
         return geo
     c = exp.options.collision
-    if geo is not None and c is not None and c.enabled and c.avoid and law.name in _ROW_LAWS:
+    rowed = law.name in ROW_LAWS and law.name not in _LOOP_ROW_LAWS
+    if geo is not None and c is not None and c.enabled and c.avoid and rowed:
         return f"method {law.name!r} with obstacles: its velocity-damper rows (object path)"
     return None
+
+
+def _rows_flag(exp: Experiment, law: Any) -> int:
+    """1 when ``law`` solves with damper rows on ``exp`` (``bind_distances``' condition; ``qp``
+    drops them without daqp, with a note: :func:`~redservo.redundancy.distance_rows.solve_qp_rows`)."""
+    c = exp.options.collision
+    if c is None or not (c.enabled and c.avoid and c.active) or law.name not in _LOOP_ROW_LAWS:
+        return 0
+    return int(law.name != "qp" or daqp_once() is not None)
 
 
 def off_pack(n: int) -> tuple[Any, ...]:
@@ -60,7 +74,7 @@ def off_pack(n: int) -> tuple[Any, ...]:
     e2, e3 = np.zeros((0, 2), dtype=np.int64), np.zeros((0, 4, 4))
     arm = (np.zeros((8, n)), np.eye(4), np.eye(4), True)
     geom = (e2, np.zeros(0), np.zeros(0, dtype=np.int64), e3, np.zeros((0, 3)), e2)
-    head = (False, arm, geom, np.ones(5), np.zeros(6, dtype=np.int64), np.zeros(n))
+    head = (False, arm, geom, np.ones(5), np.zeros(7, dtype=np.int64), np.zeros(n))
     return (*head, *_logs(0, 0), _cache(n, 0, 0), _scratch(n, 0, 0))
 
 
@@ -105,6 +119,7 @@ def collision_pack(exp: Experiment, law: Any) -> tuple[Any, ...]:
             FLAGS.index(Flag.DISTANCE_SHIELD),
             FLAGS.index(Flag.ACCELERATION_EXCEEDED),
             int(acc is not None),
+            _rows_flag(exp, law),
         ],
         dtype=np.int64,
     )

@@ -15,10 +15,14 @@ operations of the object path, in the same order and with the same kernels:
 3. ``e1 = C (s - s*)``, ``J1 = (C L) J``; the image check of every target's points; the
    known feed-forward ``∂e1/∂t`` (:func:`~redservo.kernels.loop_task.known_feedforward`);
 4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` its
-   kernels and its compiled solver (:mod:`redservo.kernels.boxqp`), while a step the
-   kernel cannot finish (the law set to a Python solver library such as daqp, or the
-   compiled solver failing: the law's Python fallback) returns :data:`NEED_SOLVE`: Python
-   calls the law itself and calls the loop again from that iteration with the command;
+   kernels and its compiled solver (:mod:`redservo.kernels.boxqp`); with collision
+   avoidance on, the repulsive secondary and, for ``qp`` and ``sns``, the velocity-damper
+   rows (:mod:`redservo.kernels.loop_rows`). A step the kernel cannot finish (the law set
+   to a Python solver library such as daqp, the compiled solver failing: the law's Python
+   fallback; a ``qp`` step with damper rows its unconstrained optimum does not meet, an
+   ``sns`` command that breaks a row) returns :data:`NEED_SOLVE`: Python calls the law
+   itself (with the rows the loop built) and calls the loop again from that iteration
+   with the command;
 5. the actuator saturation, the camera twist ``J q̇``, ``‖e1‖``, the convergence test,
    the hard-limit test (``joint_limit``) and ``q ← clip(q + q̇ dt)``.
 
@@ -44,14 +48,21 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
-from redservo.kernels.loop_avoid import COLLISION, collide_check, secondary, shield_step
+from redservo.kernels.loop_avoid import (
+    COLLISION,
+    collide_check,
+    keep_measurement,
+    secondary,
+    shield_step,
+)
+from redservo.kernels.loop_rows import damper_rows, hand_back, rows_met
 from redservo.kernels.sensed import (
     ABORT_INFEASIBLE,
     ABORT_NON_FINITE,
     ABORT_RAISES,
     QP,
     law_bits_sec,
-    qp_law,
+    qp_step,
     sense,
 )
 from redservo.kernels.step import LAW_IDS
@@ -73,7 +84,7 @@ __all__ = [
 
 MAX_ITERATIONS, CONVERGED, JOINT_LIMIT, TARGET_LOST, NEED_SOLVE = 0, 1, 2, 3, 4
 """Outcome codes (``ABORT_*``: :mod:`redservo.kernels.sensed`; :data:`COLLISION` 5)."""
-_WLN = LAW_IDS["wln"]
+_WLN, _SNS = LAW_IDS["wln"], LAW_IDS["sns"]
 
 
 @kernel
@@ -150,8 +161,11 @@ def closed_loop(
         sim: ``(lam, dt, tolerance, stop_at_convergence, qsat (n,), has_qsat, known_ff)``.
         logs: ``(Q, QD, TW, EN, FL)``, (N, n), (N, n), (N, 6), (N,), (N,) int64; N is the
             iteration cap.
-        solve: ``(J1, e1, q̇, pend, ff)``: a ``qp`` step for Python and the command it got;
-            ``pend`` = (command given, its flag bits, first iteration, has ff).
+        solve: ``(J1, e1, q̇, pend, ff, secondary, G, b, pairs)``: a ``qp`` or ``sns`` step
+            for Python and the command it got (:func:`~redservo.kernels.loop_rows.hand_back`);
+            ``pend`` = (command given, its flag bits, first iteration, has ff, number of
+            damper rows, has secondary); ``G`` (P, n), ``b`` (P,), ``pairs`` (P,) int64 hold
+            the step's damper rows in their first rows.
         coll: the obstacles' pack (:mod:`redservo.kernels.loop_avoid`): the pairs measured
             before sensing (outcome :data:`COLLISION` on a contact), the repulsive
             secondary, the distance shield after the law.
@@ -175,17 +189,19 @@ def closed_loop(
         J, e1, J1, ff, has_ff, outcome, abort = sense(it, q, robot, scene, task, sim)
         if outcome >= 0:
             return it, outcome, -1, abort
-        if law_id == QP:
-            qd, bits, need = qp_law(J1, e1, ff, has_ff, q, prev, law, limits, sim, solve)
-            if need:
-                solve[3][2] = it
-                return it, NEED_SOLVE, -1, 0
+        if it == start and solve[3][0] != 0:  # resumed: the law's command, from Python
+            qd, bits = solve[2].copy(), solve[3][1]
+            solve[3][0] = 0
         else:
-            sec = secondary(dd, Jd, coll)
-            args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec)
-            qd, bits, axf, abort = law_bits_sec(*args)
-            if abort:
-                return it, MAX_ITERATIONS, -1, abort
+            sec, drows = secondary(dd, Jd, coll), damper_rows(dd, Jd, coll)
+            args = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec, drows)
+            qd, bits, axf, code = _law(*args)
+            if code == NEED_SOLVE:
+                hand_back(solve, J1, e1, ff, has_ff, sec, drows, it)
+                keep_measurement(q, dd, Jd, coll)
+                return it, NEED_SOLVE, -1, 0
+            if code != 0:
+                return it, MAX_ITERATIONS, -1, code
             if history:
                 hist = axf
                 has_hist = True
@@ -194,6 +210,23 @@ def closed_loop(
         if outcome >= 0:
             return rows, outcome, axis, 0
     return max_it, MAX_ITERATIONS, -1, 0
+
+
+@kernel
+def _law(*args: Any) -> Any:
+    """Step 4: ``(q̇, bits, abs_grad, code)``, ``code`` 0, an ``ABORT_*`` code or
+    :data:`NEED_SOLVE`: the step goes to Python (``qp``: its Python solver, or damper rows
+    to solve with; ``sns``: a damper row its command breaks, :mod:`redservo.kernels.loop_rows`)."""
+    J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec, rows = args
+    G, b, _ = rows
+    if law[0] == QP:
+        qd, bits, need = qp_step(J1, e1, ff, has_ff, q, prev, law, limits, sim, sec, G, b)
+        return qd, bits, q[:0], NEED_SOLVE if need else 0
+    step = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec)
+    qd, bits, axf, abort = law_bits_sec(*step)
+    if abort == 0 and law[0] == _SNS and not rows_met(G, b, qd):
+        return qd, bits, axf, NEED_SOLVE
+    return qd, bits, axf, abort
 
 
 def _stamp_with_sources(*dispatchers: Any) -> None:
@@ -223,4 +256,4 @@ def _stamp_with_sources(*dispatchers: Any) -> None:
             pass
 
 
-_stamp_with_sources(_advance, closed_loop)
+_stamp_with_sources(_advance, _law, closed_loop)

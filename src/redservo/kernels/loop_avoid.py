@@ -25,7 +25,7 @@ with its bounds and frames, which step 1 of the next iteration reuses when it wa
 the very ``q`` reached (the shield left the command alone: the same numbers, one query
 fewer); ``fopt = (d_safe, d_influence, xi, damping,
 dt)``; ``iopt = (repel, law takes a secondary, shield, shield bit, acceleration bit, has
-q̈_max)``; ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
+q̈_max, the law solves with damper rows)`` (the last: :mod:`redservo.kernels.loop_rows`); ``tally = (min environment, min self, steps within d_influence)`` (inf: none);
 ``contact = (pair, distance, iteration)``, pair -1 without contact; ``kinds`` 0 environment,
 1 self; ``scratch = (lb (P,), O (F, 3), JO (F, 3, n))`` step 1's lower bounds and frame
 origins, for step 3. Units: m, rad, s.
@@ -41,7 +41,7 @@ from redservo.kernels._jit import kernel
 from redservo.kernels.loop_collide import repulsive, shield_scale
 from redservo.kernels.loop_cull import exact_scale, fill_for_shield, measure_culled
 
-__all__ = ["COLLISION", "collide_check", "secondary", "shield_step"]
+__all__ = ["COLLISION", "collide_check", "keep_measurement", "secondary", "shield_step"]
 
 COLLISION = 5
 """The loop's outcome code of a run ended by a contact (:mod:`redservo.campaign.loop_kernel`)."""
@@ -105,3 +105,19 @@ def shield_step(q: Any, qd: Any, bits: int, prev: Any, d: Any, J: Any, coll: Any
         if np.any(excess > 1e-9 * acc):
             bits |= 1 << iopt[4]
     return cmd, bits
+
+
+@kernel
+def keep_measurement(q: Any, d: Any, J: Any, coll: Any) -> None:
+    """Keep step 1's measurement ``d``, ``J`` at ``q`` (and its bounds and frames) for the
+    same iteration resumed after a Python solve: its step 1 then takes these numbers, as
+    it takes the shield check's, instead of measuring again."""
+    if not coll[0] or d.shape[0] == 0:
+        return
+    qc, dc, Jc, valid, lbc, Oc, JOc = coll[11]
+    lb, O, JO = coll[12]
+    qc[:] = q
+    dc[:] = d
+    Jc[:, :] = J
+    lbc[:], Oc[:, :], JOc[:, :, :] = lb, O, JO
+    valid[0] = 1

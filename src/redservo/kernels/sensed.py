@@ -5,8 +5,9 @@ the features of an ideal sensor and their interaction matrix
 (:mod:`redservo.kernels.loop_task`), ``e1`` and ``J1`` (CM01 eq. 25, the step kernel's
 :func:`~redservo.kernels.control.task_rows`) and the known feed-forward; :func:`law_bits`
 (:func:`law_bits_sec` with a secondary) runs the step kernel's law part (:func:`~redservo.kernels.control.law_core`) and reduces
-its typed events to a bit mask; :func:`qp_law` is the ``qp`` law's step with its compiled
-solver (:mod:`redservo.kernels.boxqp`).
+its typed events to a bit mask; :func:`qp_step` is the ``qp`` law's step with its compiled
+solver (:mod:`redservo.kernels.boxqp`), its secondary and its velocity-damper rows
+(:mod:`redservo.kernels.loop_rows`), :func:`qp_law` the same without them.
 The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
 iteration, the benchmarks' step (:mod:`redservo.binding.step`) once per call
 (:func:`sensed_step`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.
@@ -20,9 +21,11 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.boxqp import SOLVED, qp_solve
+from redservo.kernels.bls import bls_reduce
+from redservo.kernels.boxqp import SOLVED, qp_solve_reduced
 from redservo.kernels.control import law_core, task_rows
 from redservo.kernels.events import qp_events, safety_events
+from redservo.kernels.loop_rows import rows_met
 from redservo.kernels.loop_task import all_finite, known_feedforward, loop_task
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.robot import robot_kinematics
@@ -39,6 +42,7 @@ __all__ = [
     "law_bits",
     "law_bits_sec",
     "qp_law",
+    "qp_step",
     "sense",
     "sensed_step",
 ]
@@ -67,46 +71,77 @@ def qp_law(
     sim: Any,
     solve: Any,
 ) -> Any:
+    """:func:`qp_step` without a secondary or rows: ``(q̇, bits, need_solve)``; a step the
+    kernel cannot finish puts ``J1``, ``e1`` and ``ff`` into ``solve`` (its first five
+    entries, :mod:`redservo.campaign.loop_kernel`) for Python."""
+    none, G = np.zeros(0), np.zeros((0, q.shape[0]))
+    qd, bits, need = qp_step(J1, e1, ff, has_ff, q, prev, law, limits, sim, none, G, none)
+    if need:
+        pJ, pe, pend, pf = solve[0], solve[1], solve[3], solve[4]
+        pJ[:, :] = J1
+        pe[:] = e1
+        pf[:] = ff
+        pend[3] = 1 if has_ff else 0
+    return qd, bits, need
+
+
+@kernel
+def qp_step(
+    J1: Any,
+    e1: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    prev: Any,
+    law: Any,
+    limits: Any,
+    sim: Any,
+    sec: Any,
+    G: Any,
+    b: Any,
+) -> Any:
     """The ``qp`` law (redundancy/qp.py) and its safety layer: ``(q̇, bits, need_solve)``.
 
-    The law's kernels on the effective error ``e1 + ff / λ``:
-    :func:`~redservo.kernels.qp.qp_prepare`, then where the unconstrained optimum lies
-    within the bounds ``qp_finish``, elsewhere the compiled solver
-    (:func:`~redservo.kernels.boxqp.qp_solve`, when ``iopt[1]``: the law's solver is
+    The law's kernels on the effective error ``e1 + ff / λ`` and the secondary ``sec`` (n,),
+    or none when empty: :func:`~redservo.kernels.qp.qp_prepare`, then where the
+    unconstrained optimum lies within the bounds ``qp_finish``, elsewhere the compiled
+    solver (:func:`~redservo.kernels.boxqp.qp_solve_reduced` on the problem
+    :func:`~redservo.kernels.qp.qp_setup` reduces, when ``iopt[1]``: the law's solver is
     ``"auto"``/``"active-set"``), then the safety layer. A step the kernel cannot finish
-    (another solver chosen, or the compiled one failed: the law's Python fallback) puts
-    ``J1``, ``e1`` and ``ff`` into ``solve`` and returns to Python, which calls the law itself
-    and hands its command and flags back (``pend``).
+    returns ``need_solve`` (the caller hands it to Python, which calls the law itself):
+    another solver chosen, the compiled one failed (the law's Python fallback), or damper
+    rows ``G q̇ ≥ b`` (r, n), (r,) that the unconstrained optimum does not meet or that a
+    bound-active step must solve with (the law's daqp solve:
+    :mod:`redservo.kernels.loop_rows`).
     """
     _, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
     lam, dt = sim[0], sim[1]
-    pJ, pe, px, pend, pf = solve
-    if pend[0] != 0:  # resumed at this iteration: the law's command, computed in Python
-        pend[0] = 0
-        return px.copy(), pend[1], False
     m, n = J1.shape
     e = np.empty(m)
     for i in range(m):
         e[i] = e1[i] + ff[i] / lam if has_ff else e1[i]  # LawInputs.e_eff
     zn = np.zeros(n)
+    has_sec = sec.shape[0] > 0
+    z = sec if has_sec else zn
     shield, has_vopt = iopt[0] != 0, iopt[2] != 0
-    rates = (q, lp, has_v, has_a, dt, prev, True, zn, False, lam)
+    rates = (q, lp, has_v, has_a, dt, prev, True, z, has_sec, lam)
     x, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
         J1, e, *rates, fopt[2], fopt[3], vopt[0], has_vopt, fopt[0], shield
     )
+    if b.shape[0] > 0 and not (inside and rows_met(G, b, x)):
+        return x, 0, True
     resid = -1.0
     if inside:
         fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
     else:
         status = SOLVED - 1
-        if iopt[1] != 0:
-            fixed, _, _, resid, status = qp_solve(J1, xdot, lo, hi, smax, fopt[1], q, dt, lp)
+        if iopt[1] != 0:  # qp_setup's reduction, the law's _solve
+            eps_abs = fopt[1] * smax * smax if smax > 0.0 else fopt[1]
+            xr, free, _, _, _, lof, hif, P, c = bls_reduce(J1, xdot, lo, hi, z, eps_abs)
+            sol = (xr, free, P, c, lof, hif, z, has_sec, q, dt, lp)
+            fixed, _, _, resid, status = qp_solve_reduced(J1, xdot, lo, hi, *sol)
         if status != SOLVED:
-            pJ[:, :] = J1
-            pe[:] = e1
-            pf[:] = ff
-            pend[3] = 1 if has_ff else 0
             return x, 0, True
     bits = qp_events(m, rank, conflicts, False, resid)[0]
     qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(

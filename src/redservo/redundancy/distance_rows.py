@@ -16,16 +16,21 @@ on its first command. The repulsive secondary and the distance shield stay in pl
 
 A law gets its rows through :func:`bind_distances` (the Controller's collision check calls
 it); :func:`distance_rows` measures them at the law's ``q``, at the time of the collision
-set-up's last measurement (the repulsive objective measures first in the same step).
+set-up's last measurement (the repulsive objective measures first in the same step). The
+compiled campaign loop builds the same rows itself (:mod:`redservo.kernels.loop_rows`) and,
+when a step needs the law's Python solve, calls the law with them (:func:`given_rows`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels.row_tolerance import ROW_TOL
 from redservo.redundancy.bls import daqp_once
 
 if TYPE_CHECKING:
@@ -34,9 +39,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ROW_LAWS",
+    "ROW_TOL",
     "DistanceRows",
     "bind_distances",
     "distance_rows",
+    "given_rows",
     "row_report",
     "solve_qp_rows",
 ]
@@ -45,8 +52,6 @@ _SOURCE = "_distance_source"
 """The attribute of a law holding its ``(collision, robot)`` (or None)."""
 _INF = 1e30
 """daqp's infinite bound."""
-_ROW_TOL = 1e-9
-"""A row counts as satisfied when ``J_k q̇ ≥ b_k − 1e-9`` (m/s)."""
 
 
 class DistanceRows(NamedTuple):
@@ -61,7 +66,7 @@ class DistanceRows(NamedTuple):
 
     def satisfied(self, qdot: FloatArray) -> bool:
         """Whether ``qdot`` (rad/s or m/s) meets every row."""
-        return bool(np.all(self.G @ qdot >= self.b - _ROW_TOL))
+        return bool(np.all(self.G @ qdot >= self.b - ROW_TOL))
 
 
 ROW_LAWS = ("qp", "sns", "predictive")
@@ -83,9 +88,9 @@ def bind_distances(law: object, collision: Collision | None, robot: Robot) -> No
 def distance_rows(law: object, q: FloatArray) -> DistanceRows | None:
     """The rows of ``law`` at ``q`` (rad or m): None without a bound collision set-up or when
     no pair is within ``d_influence``."""
-    src: tuple[Collision, Robot] | None = getattr(law, _SOURCE, None)
-    if src is None:
-        return None
+    src: tuple[Collision, Robot] | DistanceRows | None = getattr(law, _SOURCE, None)
+    if src is None or isinstance(src, DistanceRows):
+        return src
     c, robot = src
     pd = c.measure(robot, q, c.last_time)
     near = pd.d < c.d_influence
@@ -94,6 +99,19 @@ def distance_rows(law: object, q: FloatArray) -> DistanceRows | None:
     ramp = c.xi * (pd.d[near] - c.d_safe) / (c.d_influence - c.d_safe)
     names = tuple(nm for nm, k in zip(pd.names, near, strict=True) if k)
     return DistanceRows(np.ascontiguousarray(pd.J[near]), -ramp - pd.drift[near], names)
+
+
+@contextmanager
+def given_rows(law: object, rows: DistanceRows | None) -> Iterator[None]:
+    """Within the block, ``law``'s rows are ``rows`` (None: none), whatever its ``q``: the
+    rows the compiled campaign loop built at the ``q`` it calls the law at
+    (:mod:`redservo.kernels.loop_rows`). The law's own set-up is restored afterwards."""
+    saved = getattr(law, _SOURCE, None)
+    object.__setattr__(law, _SOURCE, rows)
+    try:
+        yield
+    finally:
+        object.__setattr__(law, _SOURCE, saved)
 
 
 def solve_qp_rows(

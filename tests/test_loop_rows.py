@@ -1,0 +1,162 @@
+"""Velocity-damper rows in the compiled campaign loop (kernels/loop_rows.py): the rows the loop
+builds are those of redundancy/distance_rows.py bit for bit, its test of a command never says
+"met" where the law's would not, and the loop's ``qp`` step with a secondary is the law's."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
+
+from redservo.collision import Obstacle, Shape
+from redservo.control.avoidance import Collision
+from redservo.kernels.loop_cull import measure_culled
+from redservo.kernels.loop_rows import I_ROWS, SLACK, damper_rows, rows_met
+from redservo.redundancy import make_law
+from redservo.redundancy.distance_rows import (
+    ROW_TOL,
+    DistanceRows,
+    bind_distances,
+    distance_rows,
+    given_rows,
+)
+from redservo.robots import make_robot
+from redservo.scene import Static
+from redservo.spatial import make_transform
+
+D_SAFE, D_I, XI, DT = 0.02, 0.15, 0.3, 0.04
+
+
+def _set_up(rng: np.random.Generator) -> tuple[Any, Collision, tuple[Any, ...]]:
+    """The Panda among a post, a box, a ball and a floor, self pairs on; the loop's pack."""
+    robot = make_robot("panda")
+
+    def pose(t: Any) -> Static:
+        return Static(make_transform(rotvec=rng.normal(0.0, 0.6, 3), t=t))
+
+    obstacles = [
+        Obstacle("post", Shape("cylinder", radius=0.03, length=1.0), pose([0.45, 0.0, 0.5])),
+        Obstacle("crate", Shape("box", size=(0.3, 0.1, 0.2)), pose(rng.normal(0.3, 0.2, 3))),
+        Obstacle("ball", Shape("sphere", radius=0.08), pose([0.3, 0.35, 0.5])),
+        Obstacle("floor", Shape("plane"), Static(make_transform(t=[0.0, 0.0, -0.3]))),
+    ]
+    c = Collision(obstacles, d_safe=D_SAFE, d_influence=D_I, self_collision=True, xi=XI)
+    geo = c.compiled(robot)
+    assert geo is not None
+    fopt = np.array([c.d_safe, c.d_influence, c.xi, c.damping, DT])
+    iopt = np.zeros(I_ROWS + 1, dtype=np.int64)
+    iopt[I_ROWS] = 1
+    return robot, c, (True, geo.arm, geo.geom, fopt, iopt)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_loops_rows_are_distance_rows_bit_for_bit(seed: int) -> None:
+    """At random configurations (most with pairs within d_influence): the same G, b and pair
+    names as the law's distance_rows, from the loop's culled measurement."""
+    rng = np.random.default_rng(seed)
+    robot, c, coll = _set_up(rng)
+    geo = c.compiled(robot)
+    assert geo is not None
+    law = make_law("sns")
+    bind_distances(law, c, robot)
+    lim = robot.limits()
+    rowed = 0
+    for _ in range(40):
+        q = lim.q_min + (lim.q_max - lim.q_min) * rng.uniform(0.05, 0.95, robot.n)
+        d, J, _, _, _ = measure_culled(q, geo.arm, geo.geom, c.d_influence)
+        G, b, pairs = damper_rows(d, J, coll)
+        ref = distance_rows(law, q)
+        if ref is None:
+            assert b.shape == (0,) and G.shape == (0, robot.n)
+            continue
+        rowed += 1
+        assert np.array_equal(G, ref.G) and np.array_equal(b, ref.b)
+        assert tuple(geo.names[int(p)] for p in pairs) == ref.names
+    assert rowed >= 10
+    off = (*coll[:4], np.zeros(I_ROWS + 1, dtype=np.int64))
+    assert damper_rows(d, J, off)[1].shape == (0,)
+
+
+def test_the_loop_says_met_only_where_the_law_does() -> None:
+    """rows_met implies DistanceRows.satisfied; a row met by less than the slack is left to
+    the law (handed back), which then decides as the object path does."""
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        r, n = int(rng.integers(1, 5)), 7
+        G, qd = rng.normal(0.0, 0.3, (r, n)), rng.normal(0.0, 1.0, n)
+        b = G @ qd + rng.normal(0.0, 1e-9, r) * rng.choice([0.0, 1.0, 1e3], r)
+        rows = DistanceRows(G, b, tuple("p" * (k + 1) for k in range(r)))
+        if rows_met(G, b, qd):
+            assert rows.satisfied(qd)
+    G = np.array([[0.3, -0.2, 0.1]])
+    qd = np.array([0.5, 0.25, -1.0])
+    g = float((G @ qd)[0])
+    for gap, met in ((0.0, True), (ROW_TOL - 10 * SLACK, True), (ROW_TOL - SLACK / 10, False)):
+        b = np.array([g + gap])
+        assert rows_met(G, b, qd) is met
+        assert DistanceRows(G, b, ("a",)).satisfied(qd)  # the law: met in each case
+    assert rows_met(np.zeros((0, 3)), np.zeros(0), qd)
+
+
+def test_given_rows_are_the_laws_rows_for_the_block_only() -> None:
+    """The hand-back's rows replace the law's set-up inside the block, then it is restored."""
+    robot, c, _ = _set_up(np.random.default_rng(0))
+    law = make_law("qp")
+    bind_distances(law, c, robot)
+    rows = DistanceRows(np.ones((1, robot.n)), np.zeros(1), ("x",))
+    q = robot.ready_configuration()
+    before = distance_rows(law, q)
+    with given_rows(law, rows):
+        assert distance_rows(law, q) is rows
+    with given_rows(law, None):
+        assert distance_rows(law, q) is None
+    after = distance_rows(law, q)
+    assert (before is None and after is None) or (
+        before is not None and after is not None and np.array_equal(before.b, after.b)
+    )
+
+
+def _random_step(rng: np.random.Generator, lim: Any) -> tuple[Any, ...]:
+    """A loop state of the Panda with bounds often active: ``(J1, e1, q, prev, lam, dt)``."""
+    n = lim.n
+    J1 = np.ascontiguousarray(rng.normal(0.0, 1.0, (8, n)))
+    e1 = rng.normal(0.0, 0.3, 8)
+    margin = rng.uniform(0.002, 0.15, n) * lim.range
+    q = np.where(rng.random(n) < 0.5, lim.q_max - margin, lim.q_min + margin)
+    q = np.where(rng.random(n) < 0.5, q, lim.q_min + rng.uniform(0.2, 0.8, n) * lim.range)
+    prev = rng.uniform(-0.8, 0.8, n) * lim.qdot_max
+    return J1, e1, q, prev, float(rng.choice([0.3, 1.0, 5.0])), float(rng.choice([0.04, 0.08]))
+
+
+def test_the_loops_qp_step_with_a_secondary_is_the_laws() -> None:
+    """kernels/sensed.py ``qp_step`` with a repulsive-like secondary and no rows: the law
+    object's command bit for bit and its flags, bounds active on most steps."""
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.kernels.sensed import qp_step
+    from redservo.redundancy.packs import limits_pack
+
+    rng = np.random.default_rng(12)
+    lim = make_robot("panda").limits(0.1)
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    n, inside = lim.n, 0
+    for opts in ({}, {"v_max": 0.3}):
+        law = make_law("qp", **opts)
+        args = _law_args(law, n)
+        for _ in range(60):
+            J1, e1, q, prev, lam, dt = _random_step(rng, lim)
+            sec = rng.normal(0.0, 0.2, n)
+            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            none = np.zeros(0)
+            qd, bits, need = qp_step(
+                J1, e1, e1, False, q, prev, args, limits, sim, sec, np.zeros((0, n)), none
+            )
+            res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev, secondary=sec)
+            assert not need
+            assert np.array_equal(qd, res.qdot), opts
+            assert bits == _flag_bits(res.diagnostics.events), opts
+            inside += "solver: none" in " ".join(res.diagnostics.info)
+    assert 0 < inside < 100
