@@ -32,11 +32,13 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
+from redservo.sensors import NoPose
 from redservo.vision.optics import require_cv2
 
 __all__ = [
     "MAX_RMS_PX",
     "DotPose",
+    "PoseMisses",
     "dot_pose",
     "pose_inv_depth",
     "pose_term_depth",
@@ -204,6 +206,7 @@ def pose_term_depth(
     detected: NDArray[np.bool_],
     xy: FloatArray,
     poses: dict[Any, FloatArray | None] | None = None,
+    tried: dict[str, tuple[int, int] | None] | None = None,
 ) -> FloatArray | None:
     """``depth = "pose"`` for term ``i`` of ``task`` in the image sensor (its
     :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
@@ -214,7 +217,11 @@ def pose_term_depth(
 
     ``poses``: the poses solved in this frame, by point set and warm start (the caller's
     dict, empty at each frame): the terms of one point set (four point terms of one
-    target) share one PnP solve, the one each would get (same dots, same start)."""
+    target) share one PnP solve, the one each would get (same dots, same start).
+
+    ``tried``: the caller's record of this frame's solves by point set (its target): None
+    for a pose, ``(detected dots, points)`` for none (the ``no-pose`` flag,
+    :mod:`redservo.sensors.flags`)."""
     term = task.terms[i]
     if st.kind in ("point", "moments") and st.s is not None:
         key = (term.target, None if st.pose is None else st.pose.tobytes())
@@ -225,9 +232,37 @@ def pose_term_depth(
             cMo = set_pose(sets[term.target], dots, st.pose)
             if poses is not None:
                 poses[key] = cMo
+            if tried is not None:
+                seen = int(np.isfinite(dots).all(axis=1).sum())
+                miss = None if cMo is not None else (seen, len(dots))
+                tried[term.target] = tried.get(term.target) or miss  # a miss is kept
         if cMo is not None:
             st.pose = cMo
             return np.asarray(term.feature.measure(cMo).inv_depth, dtype=float)
     if st.inv_depth is None and task.inv_depth_star is not None:
         return np.asarray(task.inv_depth_star[i], dtype=float)
     return None
+
+
+class PoseMisses:
+    """The image sensor's frames in a row without a PnP pose, per point set (``depth =
+    "pose"``; :mod:`redservo.sensors.flags`)."""
+
+    def __init__(self) -> None:
+        self.in_a_row: dict[str, int] = {}
+        """Per point set (its target), the frames in a row without a pose (0 after one)."""
+
+    def reset(self) -> None:
+        """Forget the counts (start of a run)."""
+        self.in_a_row.clear()
+
+    def frame(self, tried: Mapping[str, tuple[int, int] | None]) -> NoPose | None:
+        """Count this frame's solves (:func:`pose_term_depth`'s ``tried``); the point set
+        without a pose for longest, or None when every solve gave one."""
+        worst: NoPose | None = None
+        for name, miss in tried.items():
+            k = 0 if miss is None else self.in_a_row.get(name, 0) + 1
+            self.in_a_row[name] = k
+            if miss is not None and (worst is None or k > worst.frames):
+                worst = NoPose(k, name, *miss)
+        return worst
