@@ -36,7 +36,9 @@ def no_pose_event(miss: NoPose) -> Event:
     src = np.zeros(fb.N_FLAGS, dtype=np.int64)
     why = fb.SENSOR_FEW_DOTS if miss.dots < _MIN_DOTS else fb.SENSOR_REJECTED
     vals[fb.NO_POSE], src[fb.NO_POSE] = float(miss.frames), why
-    (ev,) = events(1 << fb.NO_POSE, vals, src, target=miss.target, dots=miss.dots, points=miss.points)
+    (ev,) = events(
+        1 << fb.NO_POSE, vals, src, target=miss.target, dots=miss.dots, points=miss.points
+    )
     return ev
 
 
