@@ -83,3 +83,45 @@ def test_an_exposed_frame_is_the_same_with_and_without_the_kernel(
     monkeypatch.setattr(motion_blur, "COMPILED", False)  # the layers' path, numpy's pixels
     monkeypatch.setattr(motion_blur, "dot_pixels", lambda *a: pytest.fail("kernel used"))
     assert np.array_equal(frame(), fast)
+
+
+@pytest.mark.skipif(not COMPILED, reason="the compiled path needs numba")
+@pytest.mark.parametrize("wMb", [None, "offset"])
+def test_dot_points_are_scene_cmo_products_bit_for_bit(
+    monkeypatch: pytest.MonkeyPatch, wMb: str | None
+) -> None:
+    """Two point sets, one moving, the base at the world origin or not: the compiled camera
+    points are the numpy products (Scene.cMo's, then ``pts Rᵀ + t``) bit for bit."""
+    from redservo.scene import ConstantVelocity, PointSet, Scene
+    from redservo.spatial import make_transform, rotvec_to_matrix
+
+    rng = np.random.default_rng(3)
+    base = (
+        None
+        if wMb is None
+        else make_transform(rotvec_to_matrix([0.1, -0.2, 0.3]), [0.3, -0.1, 0.05])
+    )
+    moving = ConstantVelocity(
+        make_transform(rotvec_to_matrix([0.2, 0.1, 0.0]), [0.1, 0.0, 0.9]),
+        [0.02, 0.0, -0.01],
+        [0.0, 0.3, 0.1],
+    )
+    scene = Scene(
+        [
+            PointSet("a", rng.uniform(-0.1, 0.1, (4, 3))),
+            PointSet("b", rng.uniform(-0.1, 0.1, (5, 3)), trajectory=moving),
+        ],
+        wMb=base,
+    )
+    sets = [(name, scene.object(name)) for name in scene.names]
+    samples = []
+    for k in range(5):
+        T = make_transform(rotvec_to_matrix(rng.normal(0.0, 0.3, 3)), rng.normal(0.0, 0.2, 3))
+        samples.append((T, 0.01 * k))
+    fast = motion_blur._dot_points(scene, sets, samples, 9)
+    monkeypatch.setattr(motion_blur, "COMPILED", False)
+    slow = motion_blur._dot_points(scene, sets, samples, 9)
+    assert fast.shape == slow.shape == (5, 9, 3) and fast.tobytes() == slow.tobytes()
+    for i, (T, t) in enumerate(samples):  # and Scene.cMo's own numbers
+        cMo = scene.cMo("b", T, t)
+        assert np.array_equal(slow[i, 4:], scene.object("b").points @ cMo[:3, :3].T + cMo[:3, 3])

@@ -1,10 +1,13 @@
-"""Compiled pixels of an exposure's dots: where each dot of each instant is drawn.
+"""Compiled geometry of an exposure's dots: where each dot of each instant is drawn.
 
-:func:`redservo.vision.motion_blur._dot_geometry` projects every instant's dots (their
-camera points ``P``) through a pinhole camera without distortion and bounds each dot's disc
-by a rectangle of pixels. :func:`dot_pixels` does it in one call with the operations of
-the numpy code it replaces, element by element in the same order (``x / z · px + u0``,
-``v − R − 2``, ``floor``/``ceil``, clipped to the image with numpy's NaN-propagating
+:func:`redservo.vision.motion_blur._dot_geometry` brings every instant's dots into the
+camera frame (``P``), projects them through a pinhole camera without distortion and bounds
+each dot's disc by a rectangle of pixels. :func:`dot_points` and :func:`dot_pixels` do it
+with the operations of the numpy code they replace: the products by BLAS in the same shapes
+(``cMo = inverse(bMc) [· bMw] · wMo`` per instant and point set, ``P = pts · Rᵀ + t`` per
+point set, as :meth:`redservo.scene.Scene.cMo` and the renderer compute them), the rest
+element by element in the same order (``x / z · px + u0``, ``v − R − 2``,
+``floor``/``ceil``, clipped to the image with numpy's NaN-propagating
 ``maximum``/``minimum``), so the frame is the same bit for bit
 (tests/test_vision_dot_pixels.py). Units: metres (``P``), pixels.
 """
@@ -16,8 +19,32 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
+from redservo.kernels.loop_task import inverse
 
-__all__ = ["dot_pixels"]
+__all__ = ["dot_pixels", "dot_points"]
+
+
+@kernel
+def dot_points(bMc: Any, wMo: Any, bMw: Any, has_base: bool, pts: Any, starts: Any) -> Any:
+    """The camera points ``P`` (instants, dots, 3; m) of the point sets whose points are
+    ``pts[starts[s]:starts[s + 1]]`` (their object frames, m), at the camera poses ``bMc``
+    (instants, 4, 4) and object poses ``wMo`` (instants, sets, 4, 4), with the base
+    ``bMw`` (4, 4) when ``has_base`` (else the base is the world)."""
+    n_i, n_s = wMo.shape[0], wMo.shape[1]
+    P = np.empty((n_i, pts.shape[0], 3))
+    for i in range(n_i):
+        cMw = inverse(np.ascontiguousarray(bMc[i]))
+        if has_base:
+            cMw = np.dot(cMw, bMw)
+        for s in range(n_s):
+            cMo = np.dot(cMw, np.ascontiguousarray(wMo[i, s]))
+            R = np.ascontiguousarray(cMo[:3, :3])
+            a, b = starts[s], starts[s + 1]
+            Q = np.dot(np.ascontiguousarray(pts[a:b]), R.T)
+            for j in range(b - a):
+                for c in range(3):
+                    P[i, a + j, c] = Q[j, c] + cMo[c, 3]
+    return P
 
 
 @kernel
