@@ -64,6 +64,8 @@ ACC_RELEASED, ACC_KEPT_POSITION = 1, 2
 the position limit."""
 BY_ITERATIONS, BY_TIME_BUDGET = 1, 2
 """SOLVER_ITERATIONS (``predictive``): the solver's iteration limit; the solve's time budget."""
-POSE_FEW_DOTS, POSE_REJECTED = 1, 2
-"""NO_POSE: fewer tracked dots than the target's points (or a dot not finite); PnP gave no
-acceptable pose of the dots."""
+POSE_FEW_DOTS, POSE_REJECTED, SENSOR_FEW_DOTS, SENSOR_REJECTED = 1, 2, 4, 8
+"""NO_POSE, the ``predictive`` law's PnP: fewer tracked dots than the target's points (or a
+dot not finite); PnP gave no acceptable pose of the dots. The image sensor's PnP of
+``depth = "pose"`` (:mod:`redservo.sensors.flags`): fewer than four detected dots of a point
+set; no acceptable pose of its detected dots."""

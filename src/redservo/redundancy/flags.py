@@ -76,9 +76,11 @@ class Flag(enum.Enum):
     collision pair comes closer than ``d_safe`` within one period [the scale in [0, 1)]."""
     NO_POSE = "no-pose"
     """A frame's tracked dots gave no pose of the target (PnP, :mod:`redservo.vision.pnp`:
-    fewer dots than the target's points, or no pose within the reprojection tolerance); the
-    ``predictive`` law's model used its estimate from the features instead [frames in a row
-    without a pose]."""
+    too few detected dots, or no pose within the reprojection tolerance). Raised by the
+    ``predictive`` law's own PnP (its model used its estimate from the features instead) and
+    by the image sensor's ``depth = "pose"`` (:mod:`redservo.sensors.flags`: the interaction
+    matrices kept the depths of the last pose, the desired ones before the first); the
+    message says which [frames in a row without a pose]."""
 
     @property
     def label(self) -> str:

@@ -115,6 +115,13 @@ MESSAGES: dict[Flag, dict[int, str]] = {
         "{points} point(s) ({v:g} frame(s) in a row); the model's pose is the features'",
         fb.POSE_REJECTED: "no PnP pose of the target's {dots} tracked dots within the "
         "reprojection tolerance ({v:g} frame(s) in a row); the model's pose is the features'",
+        fb.SENSOR_FEW_DOTS: "image sensor: no PnP pose of {target!r}: {dots} detected dot(s) of "
+        "its {points}, at least 4 needed ({v:g} frame(s) in a row); its terms' interaction "
+        "matrices keep the depths of the last pose (the desired depths before the first)",
+        fb.SENSOR_REJECTED: "image sensor: no PnP pose of {target!r} from its {dots} detected "
+        "dot(s) within the reprojection tolerance ({v:g} frame(s) in a row); its terms' "
+        "interaction matrices keep the depths of the last pose (the desired depths before the "
+        "first)",
     },
 }
 """Per flag, per source bit (:mod:`redservo.kernels.flagbits`), the message template."""

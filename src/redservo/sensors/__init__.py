@@ -30,7 +30,24 @@ if TYPE_CHECKING:  # pragma: no cover
     from redservo.scene import Scene
     from redservo.task import VisualTask
 
-__all__ = ["FrameNoise", "IdealSensor", "Sensor", "SensorReading"]
+__all__ = ["FrameNoise", "IdealSensor", "NoPose", "Sensor", "SensorReading"]
+
+
+class NoPose(NamedTuple):
+    """A frame in which the image sensor's PnP (``depth = "pose"``,
+    :func:`redservo.vision.pnp.pose_term_depth`) gave no pose of a point set: its terms'
+    interaction matrices keep the depths of the set's last pose (the desired depths before
+    the first). The loop raises :attr:`~redservo.redundancy.flags.Flag.NO_POSE` with it
+    (:mod:`redservo.sensors.flags`)."""
+
+    frames: int
+    """Frames in a row (this one included) without a pose of the point set, >= 1."""
+    target: str
+    """The point set's object (of the sets without a pose, the one without for longest)."""
+    dots: int
+    """Its dots detected in this frame."""
+    points: int
+    """Its points (PnP needs four detected dots at least)."""
 
 
 class SensorReading(NamedTuple):
@@ -55,6 +72,10 @@ class SensorReading(NamedTuple):
     """(N, 2) the normalized image positions of the dots tracked in this frame (the image
     sensor's, in the order of its point sets; a lost dot at its predicted position), or None:
     no dots. A model-based law estimates the target's pose from them (:mod:`redservo.vision.pnp`)."""
+    no_pose: NoPose | None = None
+    """The point set whose PnP pose this frame could not give (the image sensor's ``depth =
+    "pose"``; the depths it used are the last pose's), or None: every pose found, or none
+    sought."""
 
 
 @runtime_checkable

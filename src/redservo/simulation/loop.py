@@ -61,6 +61,7 @@ from redservo.redundancy.base import Law
 from redservo.robots.base import Robot
 from redservo.scene import Scene
 from redservo.sensors import FrameNoise, IdealSensor, Sensor, SensorReading
+from redservo.sensors.flags import sensor_flags
 from redservo.simulation.options import SimulationOptions
 from redservo.task import TaskState, VisualTask
 
@@ -340,7 +341,8 @@ class _Run:
             return cast(Outcome, step.stop), None
         assert step.diagnostics is not None
         state, qdot = step.state, step.qdot
-        buf.append(t, q, qdot, J_true @ qdot, state, lim, step.diagnostics, closest)
+        diagnostics = sensor_flags(step.diagnostics, reading)  # the image sensor's no-pose
+        buf.append(t, q, qdot, J_true @ qdot, state, lim, diagnostics, closest)
         self.margin.add(state.J1)
         err = float(np.linalg.norm(state.e1))
         if err < opt.tolerance and (opt.stop_at_convergence or it == opt.max_iterations - 1):

@@ -20,10 +20,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from redservo._validation import FloatArray
+from redservo._validation import FloatArray, as_transform
 from redservo.camera import MIN_DEPTH
 from redservo.kernels._jit import COMPILED
 from redservo.kernels.blob_expose import expose_dots
+from redservo.kernels.dot_pixels import dot_pixels, dot_points
 from redservo.scene import PointSet
 from redservo.vision.lazyframe import FrameParts, LazyFrame, pixels
 from redservo.vision.shapes import Layer, disc_coverage
@@ -112,21 +113,60 @@ def _dot_geometry(
 
     if type(renderer).layers is not Renderer.layers:
         return None
-    objs = [(name, scene.object(name)) for name in scene.names]
-    sets = [(name, obj) for name, obj in objs if isinstance(obj, PointSet)]
-    if len(sets) != len(objs):
-        return None
-    optics, R = renderer.optics, renderer.options.levels.dot_radius_px
-    h, w = optics.shape
+    sets = []
+    for name in scene.names:
+        obj = scene.object(name)
+        if not isinstance(obj, PointSet):
+            return None
+        sets.append((name, obj))
     names = [f"{obj.name}[{k}]" for _, obj in sets for k in range(len(obj.points))]
-    P = np.empty((len(samples), len(names), 3))  # (instants, dots, 3) in the camera frame
+    P = _dot_points(scene, sets, samples, len(names))
+    return (P, *_dot_pixels(renderer, P), names)
+
+
+def _dot_points(
+    scene: Scene,
+    sets: list[tuple[str, PointSet]],
+    samples: Sequence[tuple[FloatArray, float]],
+    n: int,
+) -> FloatArray:
+    """The ``n`` dots of the point sets ``sets`` in the camera frame (instants, dots, 3; m):
+    :meth:`~redservo.scene.Scene.cMo`'s products, in one compiled call
+    (:func:`redservo.kernels.dot_pixels.dot_points`, the same numbers) or here."""
+    if COMPILED and sets:
+        bMc = np.array([as_transform(T, "bMc") for T, _ in samples])
+        wMo = np.array([[scene._target_pose(name, t)[1] for name, _ in sets] for _, t in samples])
+        base = scene._target_pose(sets[0][0], samples[0][1])[0]
+        pts = np.concatenate([obj.points for _, obj in sets])
+        starts = np.cumsum([0] + [len(obj.points) for _, obj in sets])
+        bMw = base if base.shape[0] else np.eye(4)
+        out: FloatArray = dot_points(bMc, wMo, bMw, bool(base.shape[0]), pts, starts)
+        return out
+    P = np.empty((len(samples), n, 3))
     for i, (bMc, t) in enumerate(samples):
+        cMw = scene._cMw(bMc)  # once per instant: Scene.cMo's product, factor by factor
         at = 0
         for name, obj in sets:
-            cMo = scene.cMo(name, bMc, t)
+            cMo = cMw @ scene._target_pose(name, t)[1]
             pts = obj.points
             P[i, at : at + len(pts)] = pts @ cMo[:3, :3].T + cMo[:3, 3]
             at += len(pts)
+    return P
+
+
+def _dot_pixels(
+    renderer: Renderer, P: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """``(UV, lo, hi, seen)`` of :func:`_dot_geometry` from the camera points ``P``: in one
+    compiled call through a camera without distortion
+    (:func:`redservo.kernels.dot_pixels.dot_pixels`, the same numbers), else here."""
+    optics, R = renderer.optics, renderer.options.levels.dot_radius_px
+    h, w = optics.shape
+    if COMPILED and not optics.distorted:
+        c = optics.camera
+        k = np.array([c.px, c.py, c.u0, c.v0, R, h, w, MIN_DEPTH], dtype=float)
+        out: tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] = dot_pixels(P, k)
+        return out
     front = P[..., 2] > MIN_DEPTH
     UV = optics.to_pixel(P[..., :2] / np.where(front, P[..., 2], 1.0)[..., None])
     box = np.stack([UV[..., 1] - R - 2, UV[..., 1] + R + 2, UV[..., 0] - R - 2, UV[..., 0] + R + 2])
@@ -134,7 +174,7 @@ def _dot_geometry(
         lo = np.maximum(np.floor(box[0::2]), 0.0)
         hi = np.minimum(np.ceil(box[1::2]), [[[h]], [[w]]])
         seen = front & np.isfinite(UV).all(axis=-1) & (lo < hi).all(axis=0)
-    return P, UV, lo, hi, seen, names
+    return UV, lo, hi, seen
 
 
 def _dot_frame(

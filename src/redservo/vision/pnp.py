@@ -24,6 +24,7 @@ coordinates for the dots (undistorted; the intrinsics turn them into ideal pixel
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -32,11 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
+from redservo.sensors import NoPose
 from redservo.vision.optics import require_cv2
 
 __all__ = [
     "MAX_RMS_PX",
     "DotPose",
+    "PoseMisses",
     "dot_pose",
     "pose_inv_depth",
     "pose_term_depth",
@@ -81,9 +84,8 @@ def dot_pose(
     p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if P.shape[0] < 4 or p.shape[0] != P.shape[0] or not np.all(np.isfinite(p)):
         return None
-    cam = camera if camera is not None else Camera()
-    K = np.array([[cam.px, 0.0, cam.u0], [0.0, cam.py, cam.v0], [0.0, 0.0, 1.0]])
-    uv = np.ascontiguousarray(p * [cam.px, cam.py] + [cam.u0, cam.v0])
+    K = _intrinsics(camera if camera is not None else _DEFAULT_CAMERA)
+    uv = np.ascontiguousarray(p * K.focal + K.centre)
     cv2 = require_cv2()
     best: DotPose | None = None
     if guess is not None and np.all(np.isfinite(guess)):
@@ -97,6 +99,28 @@ def dot_pose(
     return best
 
 
+class _K(NamedTuple):
+    """A camera's intrinsics as OpenCV and the reprojection take them."""
+
+    matrix: FloatArray
+    """(3, 3) the camera matrix (pixels)."""
+    focal: FloatArray
+    """(2,) ``(px, py)`` (pixels)."""
+    centre: FloatArray
+    """(2,) ``(u0, v0)`` (pixels)."""
+
+
+_DEFAULT_CAMERA = Camera()
+
+
+@lru_cache(maxsize=16)
+def _intrinsics(cam: Camera) -> _K:
+    """``cam``'s intrinsics, built once per camera (a frame's solve reads them; the arrays
+    are never written)."""
+    matrix = np.array([[cam.px, 0.0, cam.u0], [0.0, cam.py, cam.v0], [0.0, 0.0, 1.0]])
+    return _K(matrix, np.array([cam.px, cam.py]), np.array([cam.u0, cam.v0]))
+
+
 def _pose(cv2: Any, rvec: Any, tvec: Any) -> FloatArray:
     T = np.eye(4)
     T[:3, :3] = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3))[0]
@@ -104,46 +128,44 @@ def _pose(cv2: Any, rvec: Any, tvec: Any) -> FloatArray:
     return T
 
 
-def _checked(P: FloatArray, uv: FloatArray, K: FloatArray, T: FloatArray) -> DotPose | None:
+def _checked(P: FloatArray, uv: FloatArray, K: _K, T: FloatArray) -> DotPose | None:
     """``T`` with its RMS reprojection error (pixels), None when a point is not in front."""
-    if not np.all(np.isfinite(T)):
+    if not np.isfinite(T).all():
         return None
     Pc = P @ T[:3, :3].T + T[:3, 3]
-    if not np.all(Pc[:, 2] > 1e-6):
+    if not (Pc[:, 2] > 1e-6).all():
         return None
-    proj = Pc[:, :2] / Pc[:, 2:3] * [K[0, 0], K[1, 1]] + [K[0, 2], K[1, 2]]
+    proj = Pc[:, :2] / Pc[:, 2:3] * K.focal + K.centre
     return DotPose(T, float(np.sqrt(np.mean(np.sum((proj - uv) ** 2, axis=1)))))
 
 
-def _iterative(
-    cv2: Any, P: FloatArray, uv: FloatArray, K: FloatArray, guess: FloatArray
-) -> DotPose | None:
+def _iterative(cv2: Any, P: FloatArray, uv: FloatArray, K: _K, guess: FloatArray) -> DotPose | None:
     """LM from ``guess`` (the iterative method with the extrinsic guess)."""
-    rvec = cv2.Rodrigues(np.ascontiguousarray(guess[:3, :3], dtype=np.float64))[0]
-    tvec = np.ascontiguousarray(guess[:3, 3], dtype=np.float64).reshape(3, 1)
     if guess[2, 3] <= 0.0:  # the target behind the camera: no start for LM
         return None
+    rvec = cv2.Rodrigues(np.ascontiguousarray(guess[:3, :3], dtype=np.float64))[0]
+    tvec = np.ascontiguousarray(guess[:3, 3], dtype=np.float64).reshape(3, 1)
     try:
-        rvec, tvec = cv2.solvePnPRefineLM(P, uv, K, None, rvec, tvec, _CRITERIA)
+        rvec, tvec = cv2.solvePnPRefineLM(P, uv, K.matrix, None, rvec, tvec, _CRITERIA)
     except cv2.error:
         return None
     return _checked(P, uv, K, _pose(cv2, rvec, tvec))
 
 
-def _fresh(cv2: Any, P: FloatArray, uv: FloatArray, K: FloatArray) -> DotPose | None:
+def _fresh(cv2: Any, P: FloatArray, uv: FloatArray, K: _K) -> DotPose | None:
     """Without a guess: IPPE (coplanar points; the better of its two solutions) or SQPnP,
     refined by LM."""
     spread = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)
     method = cv2.SOLVEPNP_IPPE if spread[-1] < _PLANAR else cv2.SOLVEPNP_SQPNP
     try:
-        n, rvecs, tvecs, _ = cv2.solvePnPGeneric(P, uv, K, None, flags=method)
+        n, rvecs, tvecs, _ = cv2.solvePnPGeneric(P, uv, K.matrix, None, flags=method)
     except cv2.error:
         return None
     best: DotPose | None = None
     for k in range(int(n)):
         try:
             rvec, tvec = cv2.solvePnPRefineLM(
-                P, uv, K, None, rvecs[k].copy(), tvecs[k].copy(), _CRITERIA
+                P, uv, K.matrix, None, rvecs[k].copy(), tvecs[k].copy(), _CRITERIA
             )
         except cv2.error:
             rvec, tvec = rvecs[k], tvecs[k]
@@ -204,6 +226,7 @@ def pose_term_depth(
     detected: NDArray[np.bool_],
     xy: FloatArray,
     poses: dict[Any, FloatArray | None] | None = None,
+    tried: dict[str, tuple[int, int] | None] | None = None,
 ) -> FloatArray | None:
     """``depth = "pose"`` for term ``i`` of ``task`` in the image sensor (its
     :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
@@ -214,7 +237,11 @@ def pose_term_depth(
 
     ``poses``: the poses solved in this frame, by point set and warm start (the caller's
     dict, empty at each frame): the terms of one point set (four point terms of one
-    target) share one PnP solve, the one each would get (same dots, same start)."""
+    target) share one PnP solve, the one each would get (same dots, same start).
+
+    ``tried``: the caller's record of this frame's solves by point set (its target): None
+    for a pose, ``(detected dots, points)`` for none (the ``no-pose`` flag,
+    :mod:`redservo.sensors.flags`)."""
     term = task.terms[i]
     if st.kind in ("point", "moments") and st.s is not None:
         key = (term.target, None if st.pose is None else st.pose.tobytes())
@@ -225,9 +252,37 @@ def pose_term_depth(
             cMo = set_pose(sets[term.target], dots, st.pose)
             if poses is not None:
                 poses[key] = cMo
+            if tried is not None:
+                seen = int(np.isfinite(dots).all(axis=1).sum())
+                miss = None if cMo is not None else (seen, len(dots))
+                tried[term.target] = tried.get(term.target) or miss  # a miss is kept
         if cMo is not None:
-            st.pose = cMo
-            return np.asarray(term.feature.measure(cMo).inv_depth, dtype=float)
+            st.pose = cMo  # a pose OpenCV's rotation vector made, checked finite: trusted
+            return np.asarray(term.feature._measure_trusted(cMo).inv_depth, dtype=float)
     if st.inv_depth is None and task.inv_depth_star is not None:
         return np.asarray(task.inv_depth_star[i], dtype=float)
     return None
+
+
+class PoseMisses:
+    """The image sensor's frames in a row without a PnP pose, per point set (``depth =
+    "pose"``; :mod:`redservo.sensors.flags`)."""
+
+    def __init__(self) -> None:
+        self.in_a_row: dict[str, int] = {}
+        """Per point set (its target), the frames in a row without a pose (0 after one)."""
+
+    def reset(self) -> None:
+        """Forget the counts (start of a run)."""
+        self.in_a_row.clear()
+
+    def frame(self, tried: Mapping[str, tuple[int, int] | None]) -> NoPose | None:
+        """Count this frame's solves (:func:`pose_term_depth`'s ``tried``); the point set
+        without a pose for longest, or None when every solve gave one."""
+        worst: NoPose | None = None
+        for name, miss in tried.items():
+            k = 0 if miss is None else self.in_a_row.get(name, 0) + 1
+            self.in_a_row[name] = k
+            if miss is not None and (worst is None or k > worst.frames):
+                worst = NoPose(k, name, *miss)
+        return worst

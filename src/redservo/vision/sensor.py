@@ -50,6 +50,7 @@ from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.lazyframe import pixels
 from redservo.vision.motion import camera_shift
+from redservo.vision.pnp import PoseMisses
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
 from redservo.vision.terms import (
@@ -147,6 +148,7 @@ class ImageSensor:
         self.dots_uv: FloatArray = np.zeros((0, 2))
         """Pixel positions (N, 2) of the tracked dots after the last read (for overlays)."""
         self._bMc: FloatArray | None = None  # the camera pose of the last frame
+        self._pose_misses = PoseMisses()  # depth = "pose": frames in a row without a pose
 
     @classmethod
     def from_config(cls, camera: Camera | None, table: Mapping[str, Any]) -> ImageSensor:
@@ -180,6 +182,7 @@ class ImageSensor:
         self._task_id = None
         self.feature_lost = False
         self.dots_uv = np.zeros((0, 2))
+        self._pose_misses.reset()
 
     # -- set-up ---------------------------------------------------------------------------------
 
@@ -277,11 +280,15 @@ class ImageSensor:
             return SensorReading(None, (), tuple(lost), reason, image)
         s_all = np.concatenate([st.s for st in self._terms if st.s is not None])
         dots = (self._sets, self._detected, set_xy)
-        inv_depth = term_inv_depths(self.depth, task, self._terms, truth_d, dots)
+        tried: dict[str, tuple[int, int] | None] = {}
+        inv_depth = term_inv_depths(self.depth, task, self._terms, truth_d, dots, tried)
         if inv_depth is None:
             notes.append(f"no {self.depth} depth available yet")
             return SensorReading(None, (), tuple(lost), "; ".join(notes), image)
-        reading = SensorReading(s_all, inv_depth, tuple(lost), "; ".join(notes), image)
+        no_pose = self._pose_misses.frame(tried)  # the depths kept said in the step's flag
+        reading = SensorReading(
+            s_all, inv_depth, tuple(lost), "; ".join(notes), image, no_pose=no_pose
+        )
         return reading._replace(dots=set_xy.copy()) if len(set_xy) else reading
 
     def _read_dots(

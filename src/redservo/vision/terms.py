@@ -334,13 +334,16 @@ def term_inv_depths(
     terms: list[TermState],
     truth_d: list[FloatArray | None],
     dots: tuple[Mapping[str, FloatArray], NDArray[np.bool_], FloatArray],
+    tried: dict[str, tuple[int, int] | None] | None = None,
 ) -> tuple[FloatArray, ...] | None:
     """Each term's inverse-depth parameters under the depth ``policy``
     (:mod:`redservo.vision.depth`), kept in ``TermState.inv_depth`` (the dots' predicted motion
     uses them, :mod:`redservo.vision.motion`); None while a term has none yet.
 
     ``truth_d``: the true parameters per term where measured; ``dots``: the point sets, the
-    dots detected this frame and every dot's normalized position (N, 2)."""
+    dots detected this frame and every dot's normalized position (N, 2); ``tried``: filled
+    with this frame's PnP solves by point set (``depth = "pose"``,
+    :func:`~redservo.vision.pnp.pose_term_depth`)."""
     if policy == "desired":
         assert task.inv_depth_star is not None  # checked when the sensor plans the task
         for st, star in zip(terms, task.inv_depth_star):
@@ -351,7 +354,7 @@ def term_inv_depths(
     poses: dict[Any, FloatArray | None] = {}  # one PnP solve per point set and frame
     for i, (term, st) in enumerate(zip(task.terms, terms)):
         if policy == "pose":
-            d = pose_term_depth(task, i, st, sets, detected, xy, poses)
+            d = pose_term_depth(task, i, st, sets, detected, xy, poses, tried)
         else:
             d = truth_d[i]
         if policy == "estimated" and st.s is not None and st.kind != "tag":
