@@ -126,8 +126,9 @@ class GoalSearch:
     def early(self) -> tuple[float, FloatArray] | None:
         """``(‖e(q*)‖, q*)`` under the search's model: the goal the running search would
         give if it ended now (the nearest of the pose stage's exact goals met so far, as its
-        end chooses among more, else the feature stage's), or None (none yet, or no search
-        running). The result at the end of the search is :meth:`advance`'s."""
+        end chooses among more, else the feature stage's) when its straight joint path from
+        the start is clear of the obstacles, or None (none yet, or no search running). The
+        result at the end of the search is :meth:`advance`'s."""
         if self._steps is None or self._early is None:
             return None
         count = len(self._met.pose) + (self._met.feature is not None)
@@ -156,9 +157,10 @@ class GoalSearch:
         self._met, self._early_of = met, 0
 
         def early() -> tuple[float, FloatArray] | None:
-            if met.pose:
-                return nearest_goal(model, met.pose, q, lo, hi, ok)
-            return met.feature
+            goal = nearest_goal(model, met.pose, q, lo, hi, ok) if met.pose else met.feature
+            # Among obstacles, only a goal with a clear straight path (_clear_path): the plan
+            # pulled towards one behind a ball stays held at d_safe (panda-posts sample 80).
+            return goal if goal is not None and _clear_path(ok, q, goal[1]) else None
 
         self._early = early
 
