@@ -141,6 +141,8 @@ class Predictive(Law):
         self._gain = MotionGain()
         self._U: FloatArray | None = None
         self._goal: FloatArray | None = None
+        self._prior: FloatArray | None = None
+        """The goal when the running search started (the one its result is judged against)."""
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
         self._calls = 0
         self._started: int | None = None
@@ -175,7 +177,7 @@ class Predictive(Law):
         """Forget the warm start and the observation."""
         self._U = None
         self._obs = None
-        self._goal = None
+        self._goal = self._prior = None
         self._search.reset()
         self._seen.reset()
         self._gain.reset()
@@ -335,17 +337,18 @@ class Predictive(Law):
         if due and not self._search.running:
             span, clear = x.limits.q_max - x.limits.q_min, goal_clearance(self)
             self._search.start(model, x.q, lo, hi, span, clear)
-            self._started = self._calls
+            self._started, self._prior = self._calls, self._goal
         if not self._search.running:
             return
         try:
             with np.errstate(all="ignore"):
                 done, found = self._search.advance(dl.at(0.5), dl.clock, self.goal_steps)
+                found = found if done else self._search.early()
         except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
             self._search.reset()
             return
-        if done:
-            self._goal = better_goal(model, self._goal, found)
+        if done or found is not None:
+            self._goal = better_goal(model, self._prior, found)
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:
         """``(U, why, value, iterations)``: :func:`~redservo.redundancy.predictive_qp.

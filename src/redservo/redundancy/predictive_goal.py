@@ -41,6 +41,7 @@ __all__ = [
     "camera_goal",
     "goal_error",
     "joint_goal",
+    "nearest_goal",
     "search_steps",
 ]
 
@@ -98,13 +99,18 @@ def better_goal(
 class GoalSearch:
     """A joint-goal search that can be spread over several periods (a servo loop's time
     budget): :meth:`start` draws the seeds, :meth:`advance` runs seeds until a deadline and
-    returns the goal once the search is over (:func:`search_steps`)."""
+    returns the goal once the search is over (:func:`search_steps`); :meth:`early` gives the
+    nearest exact goal met so far while it runs."""
 
     def __init__(self, random_seeds: int) -> None:
         self.random_seeds = random_seeds
         self.iterations = 0
         """The iterations run by the last :meth:`advance`."""
         self._steps: Generator[None, None, tuple[float, FloatArray] | None] | None = None
+        self._met = Met()
+        self._early: Callable[[], tuple[float, FloatArray] | None] | None = None
+        self._early_of = 0  # early(): computed when the search had met this many goals
+        self._early_goal: tuple[float, FloatArray] | None = None
 
     @property
     def running(self) -> bool:
@@ -114,6 +120,21 @@ class GoalSearch:
     def reset(self) -> None:
         """Drop a search under way."""
         self._steps = None
+        self._met, self._early = Met(), None
+        self._early_of, self._early_goal = 0, None
+
+    def early(self) -> tuple[float, FloatArray] | None:
+        """``(‖e(q*)‖, q*)`` under the search's model: the goal the running search would
+        give if it ended now (the nearest of the pose stage's exact goals met so far, as its
+        end chooses among more, else the feature stage's) when its straight joint path from
+        the start is clear of the obstacles, or None (none yet, or no search running). The
+        result at the end of the search is :meth:`advance`'s."""
+        if self._steps is None or self._early is None:
+            return None
+        count = len(self._met.pose) + (self._met.feature is not None)
+        if self._early_of != count:  # a goal met since the last call
+            self._early_of, self._early_goal = count, self._early()
+        return self._early_goal
 
     def start(
         self,
@@ -130,7 +151,18 @@ class GoalSearch:
         gen = np.random.default_rng(0)
         seeds = [q] + [q + gen.normal(0.0, 0.15, q.shape) * span for _ in range(6)]
         seeds += [gen.uniform(lo, hi) for _ in range(self.random_seeds)]
-        self._steps = search_steps(model, q, seeds, lo, hi, clear)
+        met = Met()
+        self._steps = search_steps(model, q, seeds, lo, hi, clear, met)
+        ok = _anywhere if clear is None else clear
+        self._met, self._early_of = met, 0
+
+        def early() -> tuple[float, FloatArray] | None:
+            goal = nearest_goal(model, met.pose, q, lo, hi, ok) if met.pose else met.feature
+            # Among obstacles, only a goal with a clear straight path (_clear_path): the plan
+            # pulled towards one behind a ball stays held at d_safe (panda-posts sample 80).
+            return goal if goal is not None and _clear_path(ok, q, goal[1]) else None
+
+        self._early = early
 
     def advance(
         self,
@@ -155,7 +187,7 @@ class GoalSearch:
                 if deadline is not None and clock() > deadline:
                     return False, None
         except StopIteration as stop:
-            self._steps = None
+            self.reset()
             return True, stop.value
 
 
@@ -189,51 +221,145 @@ def search_steps(
     lo: FloatArray,
     hi: FloatArray,
     clear: Clear | None = None,
+    met: Met | None = None,
 ) -> Generator[None, None, tuple[float, FloatArray] | None]:
     """The search of :func:`joint_goal`, yielding after each iteration of its inverse
     kinematics (one kinematics evaluation and one step: so that it can be spread over periods
     in equal small parts); its return value is the result. With ``clear`` (collision
     avoidance on: :func:`~redservo.redundancy.predictive_distance.goal_clearance`), a
-    configuration that is not clear of the obstacles is never the goal.
+    configuration that is not clear of the obstacles is never the goal. ``met`` (the
+    caller's): the exact goals are recorded in it as they are met, so that a search spread
+    over periods gives the nearest so far before it ends (:meth:`GoalSearch.early`).
 
-    The pose IK of the desired camera pose from each seed (module docstring), the nearest
-    of the first :data:`CANDIDATES` exact goals; then the feature-space search from every seed (the task may be met at other poses than
-    ``bMc*``, e.g. the moment features); when no seed reaches a zero error, the best
-    configuration met is the goal if its error is below a tenth of the error at ``q`` (the
-    goal lies just beyond the band: the law gets as close as the band allows).
+    Two stages (module docstring): the pose IK of the desired camera pose from each seed,
+    whose result is the nearest of the first :data:`CANDIDATES` exact goals, and the
+    feature-space search from each seed in turn, whose result is its first exact goal (the
+    task may be met at other poses than ``bMc*``, e.g. the moment features). The result is
+    the pose stage's if it met any exact goal, else the feature stage's; when no seed reaches
+    a zero error, the best configuration met is the goal if its error is below a tenth of the
+    error at ``q`` (the goal lies just beyond the band: the law gets as close as the band
+    allows). The two stages run one iteration each in turn, so that a goal only the feature
+    stage finds (mc05's desired camera pose is often beyond the bounds: its pose IK fails
+    from every seed, about 3 000 iterations) is met in the first periods; the result is the
+    one of the two stages run one after the other.
     """
-    from redservo.robots.ik import ik_steps  # scipy: not loaded by ``import redservo``
-
     bMc = model.robot.kinematics(q, check_limits=False)[0]
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
     ok: Clear = _anywhere if clear is None else clear
-    best: tuple[float, FloatArray | None] = (np.inf, None)
-    found: list[FloatArray] = []
+    met = Met() if met is None else met
+    stages = {"feature": _feature_stage(model, seeds, lo, hi, ok, met)}
     if target is not None:
-        for seed in seeds:
-            qs = yield from ik_steps(model.robot, target, seed, lo, hi)
-            if qs is not None:
-                r, qp = yield from _ik_from(model, qs, lo, hi, 30, TOL)
-                if qp is not None and not ok(qp):
-                    continue
-                if r < TOL and qp is not None:
-                    found.append(qp)
-                    if len(found) == CANDIDATES:
-                        break
-                best = min(best, (r, qp), key=lambda b: b[0])
-    if found:  # the nearest (fractions of each range), a clear straight path first
-        near = min(found, key=lambda g: (not _clear_path(ok, q, g), _spread(g, q, lo, hi)))
-        return goal_error(model, near), near
+        stages = {"pose": _pose_stage(model, target, seeds, lo, hi, ok, met), **stages}
+    bests = yield from _in_turn(stages, lambda ended: "pose" in ended and bool(met.pose))
+    if met.pose:
+        return nearest_goal(model, met.pose, q, lo, hi, ok)
+    if met.feature is not None:
+        return met.feature
+    best = min(bests, key=lambda b: b[0])  # the pose stage's first: it wins a tie
+    if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
+        return best[0], best[1]
+    return None
+
+
+class Met:
+    """The exact goals a running search has met (:func:`search_steps`): those of the pose
+    stage in the order met, and the feature stage's (its result, ``(‖e‖, q)``)."""
+
+    def __init__(self) -> None:
+        self.pose: list[FloatArray] = []
+        self.feature: tuple[float, FloatArray] | None = None
+
+
+Best = tuple[float, FloatArray | None]
+"""A stage's best configuration met ``(‖e‖, q)`` (``(inf, None)``: none)."""
+
+
+def _pose_stage(
+    model: PointModel | MomentModel,
+    target: FloatArray,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+    ok: Clear,
+    met: Met,
+) -> Generator[None, None, Best]:
+    """The pose IK of ``target`` from each seed, polished by feature-space IK: each exact
+    goal appended to ``met.pose``, until :data:`CANDIDATES` of them; returns the best
+    inexact configuration met."""
+    from redservo.robots.ik import ik_steps  # scipy: not loaded by ``import redservo``
+
+    best: Best = (np.inf, None)
+    for seed in seeds:
+        qs = yield from ik_steps(model.robot, target, seed, lo, hi)
+        if qs is None:
+            continue
+        r, qp = yield from _ik_from(model, qs, lo, hi, 30, TOL)
+        if qp is not None and not ok(qp):
+            continue
+        if r < TOL and qp is not None:
+            met.pose.append(qp)
+            if len(met.pose) == CANDIDATES:
+                break
+        best = min(best, (r, qp), key=lambda b: b[0])
+    return best
+
+
+def _feature_stage(
+    model: PointModel | MomentModel,
+    seeds: list[FloatArray],
+    lo: FloatArray,
+    hi: FloatArray,
+    ok: Clear,
+    met: Met,
+) -> Generator[None, None, Best]:
+    """Feature-space IK from each seed in turn until one reaches an exact goal (set as
+    ``met.feature``); returns the best configuration met before it."""
+    best: Best = (np.inf, None)
     for seed in seeds:
         r, qp = yield from _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
         if qp is not None and not ok(qp):
             continue
         if r < TOL and qp is not None:
-            return r, qp
+            met.feature = (r, qp)
+            break
         best = min(best, (r, qp), key=lambda b: b[0])
-    if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
-        return best[0], best[1]
-    return None
+    return best
+
+
+def _in_turn(
+    stages: dict[str, Generator[None, None, Best]], stop: Callable[[set[str]], bool]
+) -> Generator[None, None, list[Best]]:
+    """Run ``stages`` one iteration each in turn (one ``yield`` an iteration) until every
+    one has ended or ``stop`` (the names of those ended) holds; returns their values in
+    their order (a stage cut short: ``(inf, None)``)."""
+    ended: dict[str, Best] = {}
+    running = dict(stages)
+    while running:
+        for name, steps in list(running.items()):
+            try:
+                next(steps)
+            except StopIteration as end:
+                ended[name] = end.value
+                del running[name]
+                if stop(set(ended)):
+                    return [ended.get(n, (np.inf, None)) for n in stages]
+                continue
+            yield
+    return [ended[n] for n in stages]
+
+
+def nearest_goal(
+    model: PointModel | MomentModel,
+    found: list[FloatArray],
+    q: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    ok: Clear = _anywhere,
+) -> tuple[float, FloatArray]:
+    """``(‖e(q*)‖, q*)``: of the exact goals ``found`` (not empty), the one nearest to ``q``
+    in fractions of each range of ``[lo, hi]``, one with a clear straight path first."""
+    near = min(found, key=lambda g: (not _clear_path(ok, q, g), _spread(g, q, lo, hi)))
+    return goal_error(model, near), near
 
 
 def _spread(g: FloatArray, q: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
