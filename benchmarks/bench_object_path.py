@@ -12,9 +12,6 @@ optical axis; m = 6, n = 6):
 * ``law classical`` / ``law iterative-smooth``: ``law(J1=..., e1=..., q=..., limits=...,
   lam=0.5, dt=0.04)``;
 * ``path classical`` / ``path iterative-smooth``: the three calls in a row (the sum);
-* ``compiled classical``: the whole step through :func:`redservo.binding.compiled_step`,
-  with the campaign's ideal sensor (the features projected from the scene) and its flag
-  bits;
 * ``compiled measured``: the step a user's arm runs: the compiled kernel of the
   Controller (:func:`redservo.kernels.control.robot_control`: kinematics, ``L(s, 1/Z)``,
   CM01 eq. 25, the law, its safety layer and events) on measured features, called
@@ -59,8 +56,6 @@ VISP_TARGETS = {"path classical": 2.5, "path iterative-smooth": 2.5, "compiled m
 
 def items() -> list[tuple[str, Callable[[], Any]]]:
     """The named callables, built once on the ``afma6-4points`` case."""
-    from redservo.binding import compiled_step
-
     case = next(c for c in bench_cases(scaling=()) if c.name == "afma6-4points")
     robot, scene, task, q, limits = case.robot, case.scene, case.task, case.q, case.limits
     lam, dt = case.lam, case.dt
@@ -69,7 +64,6 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
     J1, e1 = st.J1, st.e1
     s, inv_depth = st.s, st.inv_depth
     laws = {m: make_law(m) for m in ("classical", "iterative-smooth")}
-    step = compiled_step(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
     from redservo import Controller
     from redservo.control import Measurement
 
@@ -98,7 +92,6 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
         ("law iterative-smooth", law_call(laws["iterative-smooth"])),
         ("path classical", path(laws["classical"])),
         ("path iterative-smooth", path(laws["iterative-smooth"])),
-        ("compiled classical", lambda: step(q)),
         ("compiled measured", _measured_kernel(ctl["auto"], q, meas)),
         ("Controller.step", lambda: ctl["auto"].step(q, meas, 0.0, qdot_prev=None)),
         ("Controller.step python", lambda: ctl["python"].step(q, meas, 0.0, qdot_prev=None)),

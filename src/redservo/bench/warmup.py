@@ -274,28 +274,11 @@ def _feature_variants() -> None:
         feature.interaction(s, inv_depth)
 
 
-_STEP_PARTS = ("afma6-4points", "afma6-moments", "panda-6d-free", "controllers", "qp")
-
-
 def _step(part: str, note: Note) -> None:
     from redservo.bench.cases import bench_cases
-    from redservo.binding import compiled_qp_step, compiled_step
-    from redservo.redundancy import make_law
 
     cases = {c.name: c for c in bench_cases(scaling=())}
-    if part == "controllers":
-        _controllers(cases)
-        return
-    if part == "qp":
-        c = cases["afma6-4points"]
-        law = make_law("qp")
-        qp = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-        qp(c.q, qp(c.q))
-        return
-    c = cases[part]
-    law = make_law("classical")
-    step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-    step(c.q, step(c.q).copy())
+    _controllers(cases)
 
 
 def _controllers(cases: dict[str, Any]) -> None:
@@ -345,8 +328,8 @@ GROUPS: tuple[Group, ...] = (
     _parted("scenarios", "every shipped scenario, 3 iterations", _scenario_parts, _scenario),
     _parted(
         "compiled steps",
-        "Afma6 points and moments, Panda points, qp, controllers",
-        lambda: _STEP_PARTS,
+        "the Controller's compiled step (Afma6, Panda)",
+        lambda: ("controllers",),
         _step,
     ),
     _parted(
