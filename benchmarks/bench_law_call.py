@@ -7,7 +7,8 @@ with the 8 point coordinates as the task (``J1 = L J``, 8x6, no combination matr
 with the case's own 6x6 combination (``J1 = C L J``), the laws ``classical``, ``gpm``,
 ``iterative-smooth``, ``directional`` and ``sns`` are called with their defaults (shield
 on, robust on) at the case's ``q``, ``λ = 0.5 1/s``, ``dt = 0.04 s``. The whole compiled
-step (:func:`redservo.binding.compiled_step`, classical, 6x6) is timed in the same rounds
+step (the campaign loop's iteration, :func:`redservo.bench.sensed.sensed_iteration`,
+classical, 6x6) is timed in the same rounds
 as a yardstick for the machine's load.
 
 Each item is timed in batches of ``--batch`` calls; the rounds interleave the items, so a
@@ -34,7 +35,7 @@ TARGET_US = 15.0
 
 def items() -> list[tuple[str, Callable[[], Any]]]:
     """The named callables, built once on the ``afma6-4points`` case."""
-    from redservo.binding import compiled_step
+    from redservo.bench.sensed import sensed_iteration
 
     case = next(c for c in bench_cases(scaling=()) if c.name == "afma6-4points")
     robot, scene, task, q, limits = case.robot, case.scene, case.task, case.q, case.limits
@@ -43,7 +44,7 @@ def items() -> list[tuple[str, Callable[[], Any]]]:
     st = task.evaluate(scene, bMc, J, 0.0)
     tasks = {"8x6": (np.ascontiguousarray(st.L @ J), st.e), "6x6": (st.J1, st.e1)}
     laws = {m: make_law(m) for m in METHODS}
-    step = compiled_step(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
+    step = sensed_iteration(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
 
     def call(law: Any, J1: np.ndarray, e1: np.ndarray) -> Callable[[], Any]:
         return lambda: law(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)

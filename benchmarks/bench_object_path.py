@@ -13,9 +13,6 @@ optical axis; m = 6, n = 6):
 * ``law classical`` / ``law iterative-smooth``: ``law(J1=..., e1=..., q=..., limits=...,
   lam=0.5, dt=0.04)``;
 * ``path classical`` / ``path iterative-smooth``: the three calls in a row (the sum);
-* ``compiled classical``: the whole step through :func:`redservo.binding.compiled_step`,
-  with the campaign's ideal sensor (the features projected from the scene) and its flag
-  bits;
 * ``compiled measured``: the step a user's arm runs: the compiled kernel of the
   Controller (:func:`redservo.kernels.control.robot_control`: kinematics, ``L(s, 1/Z)``,
   CM01 eq. 25, the law, its safety layer and events) on measured features, called
@@ -26,8 +23,9 @@ optical axis; m = 6, n = 6):
   path (``engine="python"``);
   target (issue 29): the compiled engine ≤ 1.3x the compiled kernel.
 
-* ``compiled qp``: the compiled step of ``qp`` (:func:`redservo.binding.compiled_qp_step`:
-  the compiled task, one kernel, the daqp solver, one kernel);
+* ``compiled qp``: the campaign loop's iteration with ``qp``
+  (:func:`redservo.bench.sensed.sensed_iteration`: kinematics, ideal sensor and CM01 eq. 25,
+  then the law's kernels and its compiled box-QP solver);
 * ``visp step`` (with ``--visp PATH``): ViSP 3.5's ``vpServo`` step on the same case, timed
   in batches by the optional harness ``benchmarks/visp/visp_step`` (build it with
   ``sh benchmarks/visp/build.sh``; ViSP is GPL: a separate program, never needed by
@@ -83,7 +81,7 @@ def the_case() -> Any:
 
 def items(case: Any = None) -> list[tuple[str, Callable[[], Any]]]:
     """The named callables, built once on the ``afma6-4points`` case."""
-    from redservo.binding import compiled_qp_step, compiled_step
+    from redservo.bench.sensed import sensed_iteration
 
     case = the_case() if case is None else case
     robot, scene, task, q, limits = case.robot, case.scene, case.task, case.q, case.limits
@@ -93,8 +91,7 @@ def items(case: Any = None) -> list[tuple[str, Callable[[], Any]]]:
     J1, e1 = st.J1, st.e1
     s, inv_depth = st.s, st.inv_depth
     laws = {m: make_law(m) for m in ("classical", "iterative-smooth")}
-    step = compiled_step(robot, scene, task, laws["classical"], limits=limits, lam=lam, dt=dt)
-    qp_step = compiled_qp_step(robot, scene, task, make_law("qp"), limits=limits, lam=lam, dt=dt)
+    qp_step = sensed_iteration(robot, scene, task, make_law("qp"), limits=limits, lam=lam, dt=dt)
     from redservo import Controller
     from redservo.control import Measurement
 
@@ -123,7 +120,6 @@ def items(case: Any = None) -> list[tuple[str, Callable[[], Any]]]:
         ("law iterative-smooth", law_call(laws["iterative-smooth"])),
         ("path classical", path(laws["classical"])),
         ("path iterative-smooth", path(laws["iterative-smooth"])),
-        ("compiled classical", lambda: step(q)),
         ("compiled measured", _measured_kernel(ctl["auto"], q, meas)),
         ("compiled qp", lambda: qp_step(q)),
         ("Controller.step", _stepping(ctl["auto"], q, meas, dt)),

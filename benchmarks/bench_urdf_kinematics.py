@@ -10,7 +10,8 @@ random q within the limits so that no cache helps):
   ``kinematics`` before the chain kernel, now the oracle);
 * ``Panda().kinematics`` (the DH model, for comparison);
 * the 4-point step of ``panda-urdf-4points`` (iterative-smooth): the public path
-  (``robot.kinematics`` + ``task.evaluate`` + ``law(...)``) and ``compiled_step``.
+  (``robot.kinematics`` + ``task.evaluate`` + ``law(...)``) and the campaign loop's compiled iteration
+  (:func:`redservo.bench.sensed.sensed_iteration`).
 
 Run on an older tree (``PYTHONPATH=<old>/src``) it times what that tree has: there,
 ``kinematics`` is Pinocchio and a URDF robot has no compiled step. The machine is shared:
@@ -58,12 +59,12 @@ def _step_functions(exp: Any) -> dict[str, Callable[[np.ndarray], Any]]:
 
     out: dict[str, Callable[[np.ndarray], Any]] = {"step, public path": public}
     try:
-        from redservo.binding import compiled_step
+        from redservo.bench.sensed import sensed_iteration
 
-        run = compiled_step(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
-        out["step, compiled_step"] = run
+        run = sensed_iteration(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
+        out["step, campaign iteration"] = run
     except (ImportError, ConfigurationError) as exc:
-        print(f"compiled_step: not available for this robot here ({exc})")
+        print(f"campaign iteration: not available for this robot here ({exc})")
     return out
 
 

@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/blas_threads.py [--n 100] [--calls 400] [--burners 2] \
         [--methods iterative-smooth large-projection classical]
 
-Times the compiled control step (:func:`redservo.binding.compiled_step`) of the 4-point
+Times the compiled control step (the campaign loop's iteration,
+:func:`redservo.bench.sensed.sensed_iteration`) of the 4-point
 task on a seeded chain of ``n`` revolute joints (:func:`redservo.bench.cases.scaling_case`)
 while ``burners`` processes spin on the CPUs (the load of a shared machine; default one per
 CPU, at the lowest priority so that the machine's other users keep theirs), per method, twice, the rounds interleaved:
@@ -55,11 +56,11 @@ def time_calls(fn: Callable[[], Any], calls: int) -> tuple[np.ndarray, np.ndarra
 
 def _step(n: int, method: str) -> Callable[[], Any]:
     from redservo.bench.cases import scaling_case
-    from redservo.binding import compiled_step
+    from redservo.bench.sensed import sensed_iteration
     from redservo.redundancy import make_law
 
     case = scaling_case(n)
-    step = compiled_step(
+    step = sensed_iteration(
         case.robot,
         case.scene,
         case.task,

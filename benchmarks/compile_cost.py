@@ -6,7 +6,8 @@ Each figure comes from a fresh Python process. ``NUMBA_CACHE_DIR`` points at a n
 directory, so the "cold" run compiles every kernel the run touches (without touching the
 shared ``__pycache__`` of the source tree); the "warm" run repeats it with that cache
 filled, which is what every later process pays. Measured: ``import redservo`` (no
-kernel loaded), one call of every law through the public API, and one compiled step.
+kernel loaded), one call of every law through the public API, and one compiled step (the
+campaign loop's iteration, :mod:`redservo.bench.sensed`).
 """
 
 from __future__ import annotations
@@ -34,9 +35,9 @@ for m in METHODS:
     laws[m] = time.perf_counter() - t
 t2 = time.perf_counter()
 from redservo.bench.cases import bench_cases
-from redservo.binding import compiled_step
+from redservo.bench.sensed import sensed_iteration
 c = bench_cases(scaling=())[0]
-s = compiled_step(c.robot, c.scene, c.task, make_law("classical"), limits=c.limits, lam=0.5, dt=0.04)
+s = sensed_iteration(c.robot, c.scene, c.task, make_law("classical"), limits=c.limits, lam=0.5, dt=0.04)
 t3 = time.perf_counter()
 s(c.q)
 t4 = time.perf_counter()

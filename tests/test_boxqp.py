@@ -238,7 +238,7 @@ def test_the_loops_qp_step_is_the_law_objects(robot: str) -> None:
             J1, e1, q, prev, lam, dt = _loop_step(rng, lim)
             m = e1.shape[0]
             solve = (np.zeros((m, n)), np.zeros(m), np.zeros(n), np.zeros(4, np.int64), e1 * 0)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = (lam, dt, 1e-3, True, np.ones(n), False, False)  # the campaign's types
             qd, bits, need = qp_law(J1, e1, e1, False, q, prev, args, limits, sim, solve)
             res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev)
             assert not need

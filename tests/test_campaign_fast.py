@@ -323,7 +323,7 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
     from redservo import make_law
     from redservo.campaign.fastloop import _flag_bits, _law_args
     from redservo.errors import InfeasibleError
-    from redservo.kernels.sensed import ABORT_INFEASIBLE, law_bits
+    from redservo.kernels.sensed import ABORT_INFEASIBLE, law_bits_sec
     from redservo.kernels.step import LAW_IDS
     from redservo.redundancy.packs import limits_pack
     from redservo.robots import make_robot
@@ -340,10 +340,10 @@ def test_step_commands_and_flags_match_the_law_objects(robot: str) -> None:
                 args = _law_args(law, lim.n)
                 for _ in range(25):
                     J1, e1, q, prev, lam, dt = _random_step(rng, lim)
-                    sim = (lam, dt, 1e-3, True, np.ones(lim.n), False)
+                    sim = (lam, dt, 1e-3, True, np.ones(lim.n), False, False)
                     z = np.zeros(lim.n)
-                    qd, bits, _, abort = law_bits(
-                        J1, e1, e1, False, q, prev, z, False, args, limits, sim
+                    qd, bits, _, abort = law_bits_sec(
+                        J1, e1, e1, False, q, prev, z, False, args, limits, sim, z[:0]
                     )
                     try:
                         res = law(J1=J1, e1=e1, q=q, limits=lim, lam=lam, dt=dt, qdot_prev=prev)

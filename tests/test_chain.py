@@ -284,15 +284,15 @@ def test_generated_urdf_is_a_real_test(tmp_path: Path) -> None:
     assert not np.allclose(moved.fkine_ee(q), robot.fkine_ee(q))
 
 
-# -- the binding: compiled_step on a URDF robot ---------------------------------------------------
+# -- the campaign's compiled iteration on a URDF robot -----------------------------------------------
 
 
-def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
-    """compiled_step binds a URDF robot (the chain kernels) and equals robot.kinematics +
+def test_the_campaigns_iteration_on_the_urdf_panda_gives_the_public_command() -> None:
+    """The campaign loop's kernels bind a URDF robot (the chain kernels) and equal robot.kinematics +
     task.evaluate + law(...) on the panda-urdf-4points task, step by step in a closed loop."""
     pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
     from redservo import METHODS
-    from redservo.binding import compiled_step
+    from redservo.bench.sensed import sensed_iteration
     from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
@@ -306,7 +306,7 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
         if method not in LAW_IDS:  # qp, predictive: a solver between kernels
             continue
         law = make_law(method)
-        run = compiled_step(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
+        run = sensed_iteration(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
         q, q_ref, prev, prev_ref = exp.q0.copy(), exp.q0.copy(), None, None
         for k in range(30):
             bMc, J = robot.kinematics(q_ref)
@@ -325,9 +325,9 @@ def test_compiled_step_on_the_urdf_panda_gives_the_public_command() -> None:
         assert not np.array_equal(q, exp.q0)  # the loop moved the arm
 
 
-def test_compiled_qp_step_on_the_urdf_panda_gives_the_public_command() -> None:
+def test_the_campaigns_qp_iteration_on_the_urdf_panda_gives_the_public_command() -> None:
     pytest.importorskip("pinocchio", reason="URDFRobot needs redservo[urdf]")
-    from redservo.binding import compiled_qp_step
+    from redservo.bench.sensed import sensed_iteration
     from redservo.experiment.build import build
     from redservo.scenario import load_scenario
 
@@ -335,7 +335,7 @@ def test_compiled_qp_step_on_the_urdf_panda_gives_the_public_command() -> None:
     robot, scene, task, limits = exp.robot, exp.scene, exp.task, exp.limits
     lam, dt = float(exp.options.lam), exp.options.dt  # type: ignore[arg-type]
     law = make_law("qp", v_max=1.5)
-    run = compiled_qp_step(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
+    run = sensed_iteration(robot, scene, task, law, limits=limits, lam=lam, dt=dt)
     prev = np.linspace(-0.05, 0.05, robot.n)
     state = task.evaluate(scene, *robot.kinematics(exp.q0), 0.0)
     ref = law(J1=state.J1, e1=state.e1, q=exp.q0, limits=limits, lam=lam, dt=dt, qdot_prev=prev)

@@ -97,9 +97,9 @@ def test_sign_differs_from_eye_in_hand() -> None:
 
 
 def test_no_compiled_kinematics() -> None:
-    """The compiled step and the campaign's compiled loop refuse it by type (never silently
-    with the carrier's eye-in-hand kinematics)."""
-    from redservo.binding import compiled_step
+    """The campaign's compiled loop (and its iteration the benchmarks time) refuse it by type
+    (never silently with the carrier's eye-in-hand kinematics)."""
+    from redservo.bench.sensed import sensed_iteration
     from redservo.campaign.fastloop import fast_run
     from redservo.errors import ConfigurationError
     from redservo.experiment.build import build
@@ -107,7 +107,9 @@ def test_no_compiled_kinematics() -> None:
 
     exp = build(load_scenario("panda-eye-to-hand"))
     with pytest.raises(ConfigurationError, match="EyeToHandRobot"):
-        compiled_step(exp.robot, exp.scene, exp.task, exp.law, limits=exp.limits, lam=0.5, dt=0.04)
+        sensed_iteration(
+            exp.robot, exp.scene, exp.task, exp.law, limits=exp.limits, lam=0.5, dt=0.04
+        )
     summary, path = fast_run(exp, "iterative-smooth", None)
     assert summary is None and "EyeToHandRobot" in path
 

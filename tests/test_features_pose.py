@@ -126,13 +126,16 @@ def test_pbvs_with_the_ideal_sensor_converges() -> None:
     assert res.outcome == "converged" and res.summary.success
 
 
-def test_the_compiled_step_refuses_pose_features_with_a_reason() -> None:
+def test_the_campaign_loop_refuses_pose_features_with_a_reason() -> None:
     """A campaign on pose features leaves the compiled loop with this one-line reason."""
-    from redservo.binding.step import compiled_step
+    from redservo.bench.sensed import sensed_iteration
+    from redservo.campaign.fastloop import experiment_reason
 
     e = _load("afma6-pbvs")
-    with pytest.raises(ConfigurationError, match="needs point features"):
-        compiled_step(e.robot, e.scene, e.task, e.law, limits=e.limits, lam=0.8, dt=0.04)
+    why = "only image points and moments are compiled"
+    assert why in str(experiment_reason(e))
+    with pytest.raises(ConfigurationError, match=why):
+        sensed_iteration(e.robot, e.scene, e.task, e.law, limits=e.limits, lam=0.8, dt=0.04)
 
 
 def test_log_depth_interaction_and_parameters() -> None:

@@ -1,5 +1,5 @@
-"""The kernel layer: compiled and plain-Python runs of one source agree; the compiled step
-gives the public objects' command; ``import redservo`` stays light."""
+"""The kernel layer: compiled and plain-Python runs of one source agree; the campaign loop's
+iteration (the step kernel on the ideal sensor) gives the public objects' command; ``import redservo`` stays light."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from redservo import METHODS, JointLimits, make_law
 from redservo.bench.cases import bench_cases
-from redservo.binding import compiled_qp_step, compiled_step
+from redservo.bench.sensed import sensed_iteration
 from redservo.redundancy.kio import law_options
 from redservo.redundancy.packs import limits_pack
 
@@ -276,7 +276,9 @@ def test_rotation_invariants_complex_steps_are_exact() -> None:
 @pytest.mark.parametrize(
     "case", ["afma6-4points", "afma6-gaze", "afma6-moments", "panda-6d-bounds"]
 )
-def test_compiled_step_gives_the_public_command(case: str) -> None:
+def test_the_campaigns_iteration_gives_the_public_command(case: str) -> None:
+    """The campaign loop's kernels at one q (sense, then the step kernel's law part) give
+    ``task.evaluate`` then ``law(...)`` for every law of the step kernel."""
     c = next(x for x in bench_cases(scaling=()) if x.name == case)
     bMc, J = c.robot.kinematics(c.q)
     state = c.task.evaluate(c.scene, bMc, J, 0.0)
@@ -288,7 +290,7 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
         ref = law(
             J1=state.J1, e1=state.e1, q=c.q, limits=c.limits, lam=c.lam, dt=c.dt, qdot_prev=prev
         )
-        run = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
+        run = sensed_iteration(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
         out = run(c.q, prev)
         assert np.allclose(out, ref.qdot, rtol=1e-9, atol=1e-12), method
         assert law_options(law, c.robot.n).law_id == step.LAW_IDS[method]
@@ -298,15 +300,16 @@ def test_compiled_step_gives_the_public_command(case: str) -> None:
 
 @pytest.mark.parametrize("shield", [True, False])
 @pytest.mark.parametrize("case", ["afma6-4points", "panda-6d-free", "panda-6d-bounds"])
-def test_compiled_qp_step_gives_the_public_command(case: str, shield: bool) -> None:
-    """Also with the shield off: the compiled step passes the law's ``shield`` on."""
+def test_the_campaigns_qp_iteration_gives_the_public_command(case: str, shield: bool) -> None:
+    """``qp`` with its compiled solver, also with the shield off: the campaign's iteration
+    passes the law's ``shield`` on."""
     c = next(x for x in bench_cases(scaling=()) if x.name == case)
     bMc, J = c.robot.kinematics(c.q)
     state = c.task.evaluate(c.scene, bMc, J, 0.0)
     law = make_law("qp", v_max=1.5, shield=shield)
     prev = np.linspace(-0.05, 0.05, c.robot.n)
     ref = law(J1=state.J1, e1=state.e1, q=c.q, limits=c.limits, lam=c.lam, dt=c.dt, qdot_prev=prev)
-    run = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
+    run = sensed_iteration(c.robot, c.scene, c.task, law, limits=c.limits, lam=c.lam, dt=c.dt)
     assert np.allclose(run(c.q, prev), ref.qdot, rtol=1e-9, atol=1e-12)
 
 

@@ -256,7 +256,7 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
     """The loop kernel's step (every compiled law, shield off and on) on the reproducer:
     the law's command bit for bit and the same flag bits, the new flag included."""
     from redservo.campaign.fastloop import _flag_bits, _law_args
-    from redservo.kernels.sensed import law_bits
+    from redservo.kernels.sensed import law_bits_sec
     from redservo.kernels.step import LAW_IDS
     from redservo.redundancy.packs import limits_pack
 
@@ -264,7 +264,7 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
     lim = kw["limits"]
     lp = limits_pack(lim)
     limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
-    sim = (1.0, dt, 1e-3, True, np.ones(lim.n), False)
+    sim = (1.0, dt, 1e-3, True, np.ones(lim.n), False, False)
     z = np.zeros(lim.n)
     seen = 0
     for method in LAW_IDS:
@@ -272,8 +272,8 @@ def test_the_campaign_loop_raises_the_same_flag(dt: float) -> None:
             law = make_law(method, shield=shield)
             args = _law_args(law, lim.n)
             ff = np.zeros(kw["e1"].shape[0])  # no feed-forward
-            qd, bits, _, abort = law_bits(kw["J1"], kw["e1"], ff, False, kw["q"], kw["qdot_prev"], z,
-                                      False, args, limits, sim)  # fmt: skip
+            inputs = (kw["J1"], kw["e1"], ff, False, kw["q"], kw["qdot_prev"], z, False)
+            qd, bits, _, abort = law_bits_sec(*inputs, args, limits, sim, z[:0])
             res = law(**kw)
             assert abort == 0
             assert np.array_equal(qd, res.qdot), (method, shield)
@@ -286,7 +286,7 @@ def test_the_campaign_loop_gives_sns_the_same_box_when_the_shield_box_is_empty()
     """The case of ``test_an_empty_position_box_does_not_send_the_joint_across`` through the
     loop kernel: the same command and flags as the law object."""
     from redservo.campaign.fastloop import _flag_bits, _law_args
-    from redservo.kernels.sensed import law_bits
+    from redservo.kernels.sensed import law_bits_sec
     from redservo.redundancy.packs import limits_pack
 
     lim = JointLimits([0.0, -1.0], [1.0, 1.0], 0.1, margin=0.05, qdot_max=2.0, qddot_max=100.0)
@@ -294,11 +294,11 @@ def test_the_campaign_loop_gives_sns_the_same_box_when_the_shield_box_is_empty()
     J1, e1 = np.array([[1.0, 0.1]]), np.array([-1.0])
     lp = limits_pack(lim)
     limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
-    sim = (1.0, dt, 1e-3, True, np.ones(2), False)
+    sim = (1.0, dt, 1e-3, True, np.ones(2), False, False)
     law = make_law("sns", shield=False)
     args = _law_args(law, 2)
-    qd, bits, _, _ = law_bits(
-        J1, e1, np.zeros(1), False, q, prev, np.zeros(2), False, args, limits, sim
+    qd, bits, _, _ = law_bits_sec(
+        J1, e1, np.zeros(1), False, q, prev, np.zeros(2), False, args, limits, sim, np.zeros(0)
     )
     res = law(J1=J1, e1=e1, q=q, limits=lim, lam=1.0, dt=dt, qdot_prev=prev)
     assert np.array_equal(qd, res.qdot) and bits == _flag_bits(res.diagnostics.events)

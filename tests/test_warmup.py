@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from redservo.bench import warmup as wu
+from redservo.bench import warmup_parts as wp
 from redservo.cli.entry import main
 
 
@@ -190,5 +191,5 @@ def test_the_scenario_group_warms_every_sphere_variant(monkeypatch: pytest.Monke
         return original(self, s, inv_depth)
 
     monkeypatch.setattr(SphereFeature, "interaction", interaction)
-    wu._feature_variants()
+    wp.feature_variants()
     assert sorted(set(seen)) == sorted(SPHERE_VARIANTS)

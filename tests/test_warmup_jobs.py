@@ -138,3 +138,48 @@ def test_the_examples_cache_is_seeded_where_numba_looks_and_keeps_its_own(tmp_pa
     assert (dest / "k.f-1.py311.nbi").read_bytes() == b"examples"
     assert (dest / "k.f-1.py311.1.nbc").read_bytes() == b"package"
     assert seed(cache, (src,)) == 0
+
+
+@needs_fork_numba
+def test_groups_without_a_step_start_beside_the_first_part_and_a_chain_keeps_one_worker(
+    tmp_path: Path,
+) -> None:
+    """A group that calls no step kernel (the reachability searches) compiles while the first
+    part does; a group that names its chain (the campaign loop) runs its first part, which
+    compiles the chain, before its others, whatever robot their names say."""
+    import time
+
+    def run_part(part: str, note: wu.Note) -> None:
+        if part == "a-1":  # the first part waits until the step-free group has started
+            for _ in range(600):
+                if (tmp_path / "r-1.pid").exists():
+                    break
+                time.sleep(0.1)
+            assert (tmp_path / "r-1.pid").exists(), "r-1 waited for the first part"
+        elif part.startswith(("x", "y")):
+            assert (tmp_path / "a-1.pid").exists(), f"{part} started before the first part"
+        if part == "y-1":
+            assert (tmp_path / "x-1.pid").exists(), "y-1 started before its chain's head"
+        (tmp_path / f"{part}.pid").write_text(str(os.getpid()))
+
+    groups = (
+        wu.Group("A", "first", lambda note: None, lambda: ("a-1", "a-2"), run_part),
+        wu.Group("R", "no step", lambda note: None, lambda: ("r-1",), run_part, "r", False),
+        wu.Group("C", "a chain", lambda note: None, lambda: ("x-1", "y-1"), run_part, "c"),
+    )
+    report = wj.warmup_jobs(2, groups=groups, stream=io.StringIO())
+    pids = {p.stem: int(p.read_text()) for p in tmp_path.glob("*.pid")}
+    assert set(pids) == {"a-1", "a-2", "r-1", "x-1", "y-1"}
+    assert pids["a-1"] != pids["r-1"]
+    assert set(report.seconds) == {"A", "R", "C"}
+
+
+def test_the_campaigns_share_one_worker_and_their_searches_need_no_step() -> None:
+    """The shipped warm-up: every campaign runs the one campaign-loop kernel and every
+    scenario the Controller's, so each group is a chain; the reachability searches call no
+    law, so they start at once."""
+    by_name = {g.name: g for g in wu.GROUPS}
+    assert by_name["campaign loop"].chain and by_name["campaign loop"].steps
+    assert by_name["scenarios"].chain not in ("", by_name["campaign loop"].chain)
+    assert by_name["reachability"].chain and not by_name["reachability"].steps
+    assert wu.GROUPS[0].steps  # the first part compiles the step: it runs first

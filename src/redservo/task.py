@@ -43,7 +43,7 @@ if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run tim
 else:
     _K = lazy("features")
 _SCENE_CMO = Scene.cMo
-__all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask"]
+__all__ = ["DepthMode", "TaskState", "TaskTerm", "VisualTask", "task_rows"]
 
 DepthMode = Literal["current", "desired", "mean"]
 _DEPTH_MODES = ("current", "desired", "mean")
@@ -91,6 +91,20 @@ class TaskState(NamedTuple):
 
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState`` from its six fields without the Python-level ``__new__`` (the hot path)."""
+
+
+def task_rows(
+    e: FloatArray, L: FloatArray, C: FloatArray | None, J: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """CM01 eq. 25 on the object path: ``(e1, J1) = (C e, C L J)``, or ``(e, L J)`` without a
+    combination matrix (``C`` None); ``e`` (k,), ``L`` (k, 6), ``J`` (6, n), ``C`` (m, k).
+
+    numpy's ``@`` in this order (``(C L) J``), as BLAS does it in the step kernel
+    (:func:`redservo.kernels.control.task_rows`), so that both agree to the last bit.
+    """
+    if C is None:
+        return e, L @ J
+    return C @ e, (C @ L) @ J
 
 
 class VisualTask:
@@ -313,10 +327,8 @@ class VisualTask:
                 J = as_matrix(J, "J", 6)
             L = _K.points_interaction(s, iz)
             e = s - self.s_star
-            C = self.C
-            if C is None:
-                return _new_state(TaskState, (s, e, e, L, L @ J, group.split(iz)))
-            return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, group.split(iz)))
+            e1, J1 = task_rows(e, L, self.C, J)
+            return _new_state(TaskState, (s, e, e1, L, J1, group.split(iz)))
         parts: Sequence[FloatArray] = ()
         if self._custom:
             s, inv_depth = self.measure(scene, bMc, t)
@@ -369,10 +381,8 @@ class VisualTask:
             iz = plan.depth_option(iz, self._group.star, self.depth, depth_scale)  # type: ignore[union-attr]
         L = _K.points_interaction(s, iz)
         e = s - self.s_star
-        C = self.C
-        if C is None:
-            return _new_state(TaskState, (s, e, e, L, L @ J, inv_depth))
-        return _new_state(TaskState, (s, e, C @ e, L, (C @ L) @ J, inv_depth))
+        e1, J1 = task_rows(e, L, self.C, J)
+        return _new_state(TaskState, (s, e, e1, L, J1, inv_depth))
 
     def _state(
         self,
@@ -391,9 +401,8 @@ class VisualTask:
             else plan.interaction(self._plan, s, parts, self.depth, depth_scale)
         )
         e = self.error(s)
-        if self.C is None:
-            return TaskState(s, e, e, L, L @ J, inv_depth)
-        return TaskState(s, e, self.C @ e, L, (self.C @ L) @ J, inv_depth)
+        e1, J1 = task_rows(e, L, self.C, J)
+        return TaskState(s, e, e1, L, J1, inv_depth)
 
     def interaction(
         self, s: FloatArray, inv_depth: Sequence[FloatArray], *, depth_scale: float = 1.0

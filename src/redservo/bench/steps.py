@@ -2,10 +2,9 @@
 
 For each case of :mod:`redservo.bench.cases` and each method, up to four paths are timed:
 
-* ``compiled``: the whole step (kinematics, features, ``J1``, law, safety) as one kernel
-  call (:func:`redservo.binding.compiled_step`); for ``qp`` the compiled task, one
-  kernel, the daqp solver (a Python library) and one kernel
-  (:func:`redservo.binding.compiled_qp_step`);
+* ``compiled``: the whole step (kinematics, ideal sensor, ``J1``, law, safety) as the
+  campaign loop runs it at each iteration, two calls of the step kernel's drivers
+  (:func:`redservo.bench.sensed.sensed_iteration`; ``qp`` with its compiled solver);
 * ``api``: the same step through the public objects, ``robot.kinematics`` then
   ``task.evaluate`` then ``law(...)`` (what :func:`redservo.simulation.simulate` runs);
 * ``law``: the law's public call alone, given ``J1`` and ``e1``;
@@ -156,23 +155,17 @@ def _items(
     case: BenchCase, method: str, paths: Sequence[str]
 ) -> list[tuple[str, Callable[[], Any]]]:
     """The callables to time for (case, method) on ``paths``."""
-    from redservo.binding import compiled_qp_step, compiled_step
+    from redservo.bench.sensed import sensed_iteration
 
     law = make_law(method)
     kw = {**_law_kwargs(case), "lam": case.lam, "dt": case.dt}
     robot, task, scene, q = case.robot, case.task, case.scene, case.q
     out: list[tuple[str, Callable[[], Any]]] = []
     if "compiled" in paths and method != "predictive":  # predictive: a Python step only
-        if method == "qp":
-            qp_step = compiled_qp_step(
-                robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
-            )
-            out.append(("compiled", lambda: qp_step(q)))
-        else:
-            step = compiled_step(
-                robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
-            )
-            out.append(("compiled", lambda: step(q)))
+        step = sensed_iteration(
+            robot, scene, task, law, limits=case.limits, lam=case.lam, dt=case.dt
+        )
+        out.append(("compiled", lambda: step(q)))
     if "api" in paths:
 
         def api() -> Any:
@@ -274,9 +267,9 @@ def _first_call() -> dict[str, float]:
     code = (
         "import time; t0 = time.perf_counter(); import redservo; t1 = time.perf_counter()\n"
         "from redservo.bench.cases import bench_cases; from redservo.redundancy import make_law\n"
-        "from redservo.binding import compiled_step\n"
+        "from redservo.bench.sensed import sensed_iteration\n"
         "c = bench_cases(scaling=())[0]\n"
-        "s = compiled_step(c.robot, c.scene, c.task, make_law('iterative-smooth'), "
+        "s = sensed_iteration(c.robot, c.scene, c.task, make_law('iterative-smooth'), "
         "limits=c.limits, lam=c.lam, dt=c.dt)\n"
         "t2 = time.perf_counter(); s(c.q); t3 = time.perf_counter()\n"
         "print(t1 - t0, t3 - t2)"
@@ -287,7 +280,7 @@ def _first_call() -> dict[str, float]:
 
 
 def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
-    from redservo.binding import compiled_step
+    from redservo.bench.sensed import sensed_iteration
     from redservo.simulation import SimulationOptions, simulate
 
     opt = SimulationOptions(
@@ -298,7 +291,7 @@ def _throughput(case: BenchCase, steps: int) -> dict[str, float]:
         t0 = time.perf_counter()
         res = simulate(case.robot, case.scene, case.task, make_law(name), case.q, options=opt)
         out[f"simulate(), {case.name}, {name}"] = len(res.log) / (time.perf_counter() - t0)
-        step = compiled_step(
+        step = sensed_iteration(
             case.robot,
             case.scene,
             case.task,

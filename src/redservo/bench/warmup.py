@@ -22,11 +22,11 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from typing import IO, Any, NamedTuple, cast
+from typing import IO, Any, NamedTuple
 
-import numpy as np
-
+from redservo.bench import warmup_parts as wp
 from redservo.bench.compile_progress import Progress, kernel_name
+from redservo.bench.warmup_parts import Note
 
 __all__ = [
     "COLD_SECONDS",
@@ -34,6 +34,7 @@ __all__ = [
     "NOTICE",
     "CompileCounter",
     "Group",
+    "Note",
     "WarmupReport",
     "announce_compilation",
     "end_compilation_report",
@@ -163,10 +164,6 @@ def end_compilation_report() -> None:
 # --------------------------------------------------------------------------- the groups
 
 
-Note = Callable[[str], None]
-"""Prints a note of a group (e.g. a part skipped and why)."""
-
-
 class Group(NamedTuple):
     """A group of kernels compiled together by running what uses them."""
 
@@ -179,6 +176,14 @@ class Group(NamedTuple):
     --jobs N`` spreads over processes (:mod:`redservo.bench.warmup_jobs`); None: one part."""
     run_part: Callable[[str, Note], None] | None = None
     """Runs one of :attr:`parts` (``run`` runs them all in order)."""
+    chain: str = ""
+    """The compiled chain all the group's parts share (e.g. the campaign loop's kernel, one
+    signature for every campaign): ``--jobs N`` runs the group's first part, which compiles
+    it, before its other parts (two workers would compile it at the same moment, each).
+    Empty: parts are spread by :func:`redservo.bench.warmup_jobs.family` alone."""
+    steps: bool = True
+    """The group calls the step kernel (the laws' dispatch): ``--jobs N`` starts it after
+    the first part, which compiles that kernel. False: it starts at once, beside it."""
 
 
 def _parted(
@@ -186,174 +191,46 @@ def _parted(
     what: str,
     parts: Callable[[], tuple[str, ...]],
     run_part: Callable[[str, Note], None],
+    *,
+    chain: str = "",
+    steps: bool = True,
 ) -> Group:
     def run(note: Note) -> None:
         for part in parts():
             run_part(part, note)
 
-    return Group(name, what, run, parts, run_part)
-
-
-def _law_parts() -> tuple[str, ...]:
-    from redservo import METHODS
-
-    return tuple(METHODS)
-
-
-def _law(method: str, note: Note) -> None:
-    from redservo import JointLimits, make_law
-
-    rng = np.random.default_rng(0)
-    lim = JointLimits(-np.ones(7), np.ones(7), qdot_max=1.0, qddot_max=5.0)
-    J1, e1, q = rng.normal(size=(6, 7)), rng.normal(size=6), rng.uniform(-0.5, 0.5, 7)
-    law = make_law(method)
-    first = law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04)
-    law(J1=J1, e1=e1, q=q, limits=lim, lam=0.5, dt=0.04, qdot_prev=first.qdot)
-
-
-_SPHERES = "sphere variants"
-_CAMERA = "realistic camera"
-
-
-def _scenario_parts() -> tuple[str, ...]:
-    from redservo.scenario import shipped_scenarios
-
-    return (*shipped_scenarios(), _SPHERES, _CAMERA)
-
-
-def _scenario(name: str, note: Note) -> None:
-    from redservo.experiment.build import build
-    from redservo.scenario import load_scenario
-
-    if name == _SPHERES:
-        _feature_variants()
-        return
-    if name == _CAMERA:
-        _realistic_camera(note)
-        return
-    try:
-        exp = build(load_scenario(name))
-    except ImportError as exc:  # an optional extra (e.g. Pinocchio for a URDF robot)
-        note(f"{name} skipped: {' '.join(str(exc).split())}")
-        return
-    exp.run(max_iterations=3)
-
-
-def _realistic_camera(note: Note) -> None:
-    """The image pipeline behind ``--camera realistic`` (exposure, tracker, PnP depths,
-    latency compensation, the image border): a panda-near-limits sample whose dot leaves the
-    image (110 periods, ``qp``) and a few periods of mc05-joint-limits' moments."""
-    from dataclasses import replace
-
-    from redservo.campaign import draw_sample, load_campaign
-    from redservo.experiment.build import build
-    from redservo.experiment.camera_presets import camera_overrides
-    from redservo.scenario import apply_overrides
-
-    for name, sample, iterations in (("panda-near-limits", 11, 110), ("mc05-joint-limits", 0, 5)):
-        defn = load_campaign(name)
-        scenario = apply_overrides(defn.scenario, camera_overrides("realistic"))
-        try:
-            exp = build(draw_sample(replace(defn, scenario=scenario), 0, sample).scenario)
-        except ImportError as exc:  # OpenCV (redservo[vision]) renders and tracks the dots
-            note(f"{_CAMERA} skipped: {' '.join(str(exc).split())}")
-            return
-        exp.run(method="qp", max_iterations=iterations)
-
-
-def _feature_variants() -> None:
-    """Every sphere variant's measure and interaction (a shipped scenario uses one; the
-    reproduction's CM01 eq. 27 runs use the others)."""
-    from redservo.features.sphere import SPHERE_VARIANTS, SphereFeature, SphereVariant
-    from redservo.spatial import make_transform
-
-    cMo = make_transform(t=(0.02, -0.01, 0.6))
-    for variant in SPHERE_VARIANTS:
-        feature = SphereFeature(0.05, variant=cast(SphereVariant, variant))
-        s, inv_depth = feature.measure(cMo)
-        feature.interaction(s, inv_depth)
-
-
-_STEP_PARTS = ("afma6-4points", "afma6-moments", "panda-6d-free", "controllers", "qp")
-
-
-def _step(part: str, note: Note) -> None:
-    from redservo.bench.cases import bench_cases
-    from redservo.binding import compiled_qp_step, compiled_step
-    from redservo.redundancy import make_law
-
-    cases = {c.name: c for c in bench_cases(scaling=())}
-    if part == "controllers":
-        _controllers(cases)
-        return
-    if part == "qp":
-        c = cases["afma6-4points"]
-        law = make_law("qp")
-        qp = compiled_qp_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-        qp(c.q, qp(c.q))
-        return
-    c = cases[part]
-    law = make_law("classical")
-    step = compiled_step(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
-    step(c.q, step(c.q).copy())
-
-
-def _controllers(cases: dict[str, Any]) -> None:
-    """The Controller's compiled step with its own kinematics (Afma6, DH) and with a given
-    Jacobian (what the simulator and the servo loop pass)."""
-    from redservo.control import Controller, Measurement
-    from redservo.redundancy import make_law
-
-    for name in ("afma6-4points", "panda-6d-free"):
-        c = cases[name]
-        ctl = Controller(c.robot, c.task, make_law("classical"), c.limits, lam=0.5, dt=0.04)
-        bMc, J = c.robot.kinematics(c.q)
-        c.task.evaluate(c.scene, bMc, J, 0.0)  # the object path's task kernel (points_task)
-        meas = Measurement(*c.task.measure(c.scene, bMc, 0.0))
-        prev = ctl.step(c.q, meas, 0.0, qdot_prev=None).qdot.copy()
-        ctl.step(c.q, meas, 0.0, qdot_prev=prev, J=J)
-
-
-def _campaign_parts() -> tuple[str, ...]:
-    from redservo.campaign.definition import shipped_campaigns
-
-    return tuple(shipped_campaigns())
-
-
-def _campaign(name: str, note: Note) -> None:
-    from redservo.campaign.definition import load_campaign
-    from redservo.campaign.fastloop import campaign_law, fast_reason, fast_summary
-    from redservo.campaign.reach import compile_search
-    from redservo.campaign.sampling import draw_sample
-    from redservo.experiment.build import build
-
-    defn = load_campaign(name)
-    try:
-        exp = build(draw_sample(defn, 0, 0).scenario)
-    except ImportError as exc:
-        note(f"{name} skipped: {' '.join(str(exc).split())}")
-        return
-    compile_search(exp)  # the reachability search of every sample
-    for method in defn.methods:
-        law = campaign_law(exp, method, defn.method_options.get(method))
-        if fast_reason(exp, law) is None:
-            fast_summary(exp, law)
+    return Group(name, what, run, parts, run_part, chain, steps)
 
 
 GROUPS: tuple[Group, ...] = (
-    _parted("laws", "every method through the public API", _law_parts, _law),
-    _parted("scenarios", "every shipped scenario, 3 iterations", _scenario_parts, _scenario),
+    _parted("laws", "every method through the public API", wp.law_parts, wp.law),
+    _parted(
+        "scenarios",
+        "every shipped scenario, 3 iterations",
+        wp.scenario_parts,
+        wp.scenario,
+        chain="controller",
+    ),
     _parted(
         "compiled steps",
-        "Afma6 points and moments, Panda points, qp, controllers",
-        lambda: _STEP_PARTS,
-        _step,
+        "the Controller's compiled step (Afma6, Panda)",
+        lambda: ("controllers",),
+        wp.compiled_steps,
+    ),
+    _parted(
+        "reachability",
+        "every shipped campaign's reachability search",
+        wp.campaign_parts,
+        wp.search,
+        chain="reach",
+        steps=False,
     ),
     _parted(
         "campaign loop",
-        "every shipped campaign, one sample per method, its reachability search",
-        _campaign_parts,
-        _campaign,
+        "every shipped campaign, one sample per method",
+        wp.campaign_parts,
+        wp.campaign,
+        chain="closed_loop",
     ),
 )
 """What :func:`warmup` runs, in order."""

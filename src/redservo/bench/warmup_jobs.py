@@ -3,12 +3,17 @@
 A cold warm-up is hundreds of numba compilations, each on one core. The first part (the
 first law) runs alone: it compiles what every part calls (the laws' generated dispatch, the
 step, about a third of the whole), which would otherwise be compiled by every worker at
-once. Then N worker processes take the other parts (a law, a scenario, a campaign:
-:attr:`redservo.bench.warmup.Group.parts`) from one queue, a robot's parts together
-(:func:`family`: they compile the same step chain), and share numba's on-disk cache: a
-kernel one worker has saved is loaded, not compiled, by the other. Two workers may still
-compile the same signature at the same moment (a kernel both families call): the work is
-then done twice, never lost, and numba's cache index keeps every entry
+once; beside it run only the groups that call no step (``Group.steps`` False: the
+reachability searches). Then N worker processes take the other parts (a law, a scenario, a
+campaign: :attr:`redservo.bench.warmup.Group.parts`) from one queue, by the compiled chain
+they share: a group that names its chain (``Group.chain``: every campaign runs the one
+campaign-loop kernel, every scenario the Controller's) runs its first part (the chain's
+head) before its other parts, so that one worker compiles the chain while the other takes
+another chain or the other groups; parts are handed out by robot (:func:`family`, one
+worker per family) otherwise. The workers share numba's
+on-disk cache: a kernel one worker has saved is loaded, not compiled, by the other. Two
+workers may still compile the same signature at the same moment (a kernel both chains
+call): the work is then done twice, never lost, and numba's cache index keeps every entry
 (:mod:`redservo.kernels._cache_lock` serialises its updates).
 
 One line per part done on stderr (its wall seconds and compilations), each worker's numba
@@ -23,7 +28,7 @@ import multiprocessing
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import IO, NamedTuple
 
 from redservo.bench.compile_progress import Progress
@@ -77,12 +82,51 @@ def family(part: str) -> str:
     return part.split("-")[0]
 
 
-def _families(tasks: list[tuple[int, str]]) -> list[list[tuple[int, str]]]:
+Task = tuple[int, str]
+"""A part to run: (index of its group, part name)."""
+
+
+def _families(tasks: list[Task]) -> list[list[Task]]:
     """The tasks by :func:`family`, the largest families first (the queue's long ones)."""
-    by: dict[str, list[tuple[int, str]]] = {}
+    by: dict[str, list[Task]] = {}
     for task in tasks:
         by.setdefault(family(task[1]), []).append(task)
     return sorted(by.values(), key=len, reverse=True)
+
+
+class _Plan(NamedTuple):
+    """The order of the parts on the workers (module docstring)."""
+
+    first: list[Task]
+    """The first part, which compiles the step kernel."""
+    free: list[list[Task]]
+    """The groups that call no step, beside the first part (a chain's parts on one worker)."""
+    heads: dict[str, Task]
+    """Per compiled chain (:attr:`Group.chain`), the part that compiles it, after the first."""
+    chained: dict[str, list[list[Task]]]
+    """Per chain, its other parts by family, after its head (they load the chain)."""
+    others: list[list[Task]]
+    """The other parts by family, after the first part."""
+
+
+def _plan(tasks: list[Task], groups: tuple[Group, ...]) -> _Plan:
+    first, rest = tasks[:1], tasks[1:]
+    free: dict[str, list[Task]] = {}
+    heads: dict[str, Task] = {}
+    chained: dict[str, list[Task]] = {}
+    others: list[Task] = []
+    for task in rest:
+        g = groups[task[0]]
+        if not g.steps:
+            free.setdefault(g.chain or family(task[1]), []).append(task)
+        elif not g.chain:
+            others.append(task)
+        elif g.chain in heads:
+            chained.setdefault(g.chain, []).append(task)
+        else:
+            heads[g.chain] = task
+    by_chain = {c: _families(ts) for c, ts in chained.items()}
+    return _Plan(first, list(free.values()), heads, by_chain, _families(others))
 
 
 def _tasks(groups: tuple[Group, ...]) -> list[tuple[int, str]]:
@@ -128,17 +172,27 @@ def warmup_jobs(
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
         # The first part alone: it compiles the kernels every part calls (the laws' dispatch,
-        # the step), which the others then load from the cache instead of compiling each.
-        pending = {pool.submit(_run_family, tasks[:1], quiet)}
-        later, finished = _families(tasks[1:]), 0
+        # the step), which the others then load from the cache instead of compiling each;
+        # beside it only the groups that call no step. Then each chain's head, before the
+        # chain's other parts, so that one worker compiles it.
+        plan = _plan(tasks, groups)
+        head = pool.submit(_run_family, plan.first, quiet)
+        pending = {head, *(pool.submit(_run_family, f, quiet) for f in plan.free)}
+        chain_of: dict[Future[list[PartDone]], str] = {}
+        finished = 0
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
                 for r in future.result():  # a part that failed raises here, as without --jobs
                     finished += 1
                     _add(report, groups[r.group].name, r, f"{finished}/{len(tasks)}", say)
-            pending |= {pool.submit(_run_family, f, quiet) for f in later}
-            later = []
+            if head in done:
+                for chain, task in plan.heads.items():
+                    chain_of[pool.submit(_run_family, [task], quiet)] = chain
+                pending |= set(chain_of) | {pool.submit(_run_family, f, quiet) for f in plan.others}
+            for future in done & set(chain_of):
+                later = plan.chained.get(chain_of[future], [])
+                pending |= {pool.submit(_run_family, f, quiet) for f in later}
     return _finish(report, time.perf_counter() - t0, say)
 
 

@@ -6,14 +6,10 @@ Layers, bottom up (docs/architecture.md, checked by ``tests/test_layers.py``):
   :mod:`redservo.kernels`;
 * the public objects (robots, features, scene, task, limits, laws) — they validate their
   inputs and call the kernels; :mod:`redservo.redundancy.packs` gives them the plain-array forms;
-* this package — :mod:`redservo.binding.step` packs a whole set-up (robot, scene, task,
-  law, limits) once into the arguments of one compiled step; nothing below it imports it.
-
-:func:`compiled_step` and :func:`compiled_qp_step` are re-exported here.
+* this package — :mod:`redservo.binding.control` packs a Controller's set-up (robot, task,
+  law, limits) once into the arguments of the step kernel (:mod:`redservo.kernels.control`);
+  :mod:`redservo.binding.packs` packs a scene and a task for the campaign loop's ideal
+  sensor; nothing below it imports it.
 """
 
 from __future__ import annotations
-
-from redservo.binding.step import CompiledQPStep, CompiledStep, compiled_qp_step, compiled_step
-
-__all__ = ["CompiledQPStep", "CompiledStep", "compiled_qp_step", "compiled_step"]

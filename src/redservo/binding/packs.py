@@ -3,8 +3,8 @@
 :func:`scene_pack` and :func:`task_pack` turn a static or waypoint scene of point sets and a
 task of image points and moment features into the tuples of plain arrays of
 :mod:`redservo.kernels.loop_task` (layouts there); the campaign loop
-(:mod:`redservo.campaign.looppack`) and the benchmarks' step (:mod:`redservo.binding.step`)
-use them. The robot packs itself (:meth:`redservo.robots.Robot.kernel_pack`).
+(:mod:`redservo.campaign.looppack`) and the benchmarks' timing of its iteration
+(:mod:`redservo.bench.sensed`) use them. The robot packs itself (:meth:`redservo.robots.Robot.kernel_pack`).
 """
 
 from __future__ import annotations

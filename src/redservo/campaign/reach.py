@@ -137,7 +137,8 @@ def compile_search(exp: Any) -> None:
     far = np.eye(4)
     far[2, 3] = 1e3
     seeds = np.array([np.clip(exp.q0, lim.q_min, lim.q_max)], dtype=float)
-    _compiled_search(exp, far, seeds, lim.q_min, lim.q_max, 0.5 * exp.options.tolerance)
+    lo, hi = np.array(lim.q_min), np.array(lim.q_max)  # writable, as reachable()'s bounds
+    _compiled_search(exp, far, seeds, lo, hi, 0.5 * exp.options.tolerance)
 
 
 def feature_solution(

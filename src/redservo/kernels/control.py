@@ -7,9 +7,8 @@ layer (:func:`redservo.kernels.step.law_step`) and the events of both
 Its drivers: the :class:`~redservo.control.Controller` (hence ``simulate`` and the servo
 loop) through :func:`measured_control` (the model Jacobian given) and :func:`robot_control`
 (the robot's compiled kinematics, :func:`redservo.kernels.robot.robot_kinematics`), on the
-*measured* points; the campaign loop (:mod:`redservo.campaign.loop_kernel`) and the
-benchmarks' step (:mod:`redservo.binding.step`), on the ideal sensor of
-:mod:`redservo.kernels.sensed`; a law object's call (:func:`law_into`,
+*measured* points; the campaign loop (:mod:`redservo.campaign.loop_kernel`), on the ideal
+sensor of :mod:`redservo.kernels.sensed`; a law object's call (:func:`law_into`,
 :mod:`redservo.redundancy.kernel_call`). Products by BLAS (``np.dot``), as numpy's ``@`` on
 the object path, so that every driver agrees with the object path to the last bit. (Every
 compiled layer links its callees' code again: a wrapper kernel costs seconds of a cold

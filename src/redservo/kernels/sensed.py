@@ -9,8 +9,8 @@ its typed events to a bit mask; :func:`qp_step` is the ``qp`` law's step with it
 solver (:mod:`redservo.kernels.boxqp`), its secondary and its velocity-damper rows
 (:mod:`redservo.kernels.loop_rows`), :func:`qp_law` the same without them.
 The campaign loop (:func:`redservo.campaign.loop_kernel.closed_loop`) calls them at every
-iteration, the benchmarks' step (:mod:`redservo.binding.step`) once per call
-(:func:`sensed_step`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.
+iteration (the benchmarks time that iteration at one configuration,
+:mod:`redservo.bench.sensed`). Packs as :mod:`redservo.campaign.loop_kernel` documents them.
 Units: m, rad, s.
 """
 
@@ -44,7 +44,6 @@ __all__ = [
     "qp_law",
     "qp_step",
     "sense",
-    "sensed_step",
 ]
 
 MAX_ITERATIONS, TARGET_LOST = 0, 3
@@ -222,18 +221,3 @@ def sense(it: int, q: Any, robot: Any, scene: Any, task: Any, sim: Any) -> Any:
     if not (ok and np.all(np.isfinite(ff))):
         return J, e1, J1, ff, True, MAX_ITERATIONS, ABORT_RAISES
     return J, e1, J1, ff, True, -1, 0
-
-
-@kernel
-def sensed_step(
-    q: Any, prev: Any, robot: Any, scene: Any, task: Any, law: Any, limits: Any, sim: Any
-) -> Any:
-    """One step at ``q`` (n,) with the previous command ``prev`` (n,) at time 0 for a law of
-    ``law_step``: ``(q̇, e1, J1, bits, ok)``; ``ok`` False when the features are lost or the
-    law would raise (the caller then runs the object path)."""
-    _, e1, J1, ff, has_ff, outcome, abort = sense(0, q, robot, scene, task, sim)
-    none = q[:0]
-    if outcome >= 0:
-        return none, e1, J1, 0, False
-    qd, bits, _, abort = law_bits(J1, e1, ff, has_ff, q, prev, none, False, law, limits, sim)
-    return qd, e1, J1, bits, abort == 0

@@ -15,7 +15,7 @@ geometric Jacobian of ``e`` in ``e`` (``(v, ω)``, ``v`` the velocity of the ori
 ``e``), and ``fkine``/``jacobian``/``kinematics`` follow the Robot protocol
 (:mod:`redservo.robots.base`). The kernels are those of :mod:`redservo.kernels.chain`;
 :attr:`ChainRobot.chain` is their packed form (:class:`ChainPack`), which
-:func:`redservo.binding.compiled_step` also binds.
+:func:`redservo.campaign.looppack.robot_args` also binds.
 
 Like :class:`~redservo.robots.DHRobot`, the last chain evaluation is cached on the exact
 bytes of ``q``, and ``fkine(q)``/``jacobian(q)`` are bit for bit the two outputs of

@@ -35,8 +35,8 @@ Kinematics: the chain from ``base_link`` to ``camera_link`` is compiled once, at
 into the fixed transforms and joint axes of a :class:`~redservo.robots.chain.ChainRobot`
 (:mod:`redservo.robots.urdf_chain`: fixed and locked joints folded into the transforms),
 so ``fkine``, ``jacobian`` and ``kinematics`` run the compiled chain kernels
-(:mod:`redservo.kernels.chain`) and :func:`redservo.binding.compiled_step` binds a URDF
-robot like a DH chain. Pinocchio stays the loader (it must accept the file) and the
+(:mod:`redservo.kernels.chain`) and the compiled engines (the Controller's, the campaign
+loop's) bind a URDF robot like a DH chain. Pinocchio stays the loader (it must accept the file) and the
 oracle: :meth:`URDFRobot.pinocchio_kinematics` gives its ``(bMc, J)``, which the chain
 agrees with to about 1e-15 (tests/test_chain.py checks ≤ 1e-12); :meth:`URDFRobot.link_poses`
 (the viewer) also uses it. The reduced Pinocchio model (only the servoed joints) is built
