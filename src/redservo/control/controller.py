@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
-from redservo.control.engine import compiled_step, quick_step, setup_engine
+from redservo.control.engine import compiled_step, quick_ok, quick_step, setup_engine
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.image_motion import ImageMotionLimit, check_image_motion, point_rows
 from redservo.control.latency import CommandHistory, present
@@ -164,14 +164,6 @@ class Controller:
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
         self._compiled, self._python, self.engine_reason = setup_engine(self, engine)
         """Why :meth:`step` is not one compiled call (one line), or ``""``."""
-        eng = self._compiled
-        self._quick = (
-            eng is not None
-            and eng.kernel is not None
-            and eng.adaptive is None
-            and eng.iz_shape[0] >= 2
-        )
-        """:meth:`step` may try :func:`~redservo.control.engine.quick_step` first."""
         self._own_law = any(part.startswith("law ") for part in self._python)
         """The law is a user's own: its output goes through the final guard."""
         self.stage = "task"
@@ -192,6 +184,12 @@ class Controller:
     def n(self) -> int:
         """Number of joints."""
         return self.robot.n
+
+    @cached_property
+    def _quick(self) -> bool:
+        """:meth:`step` may try :func:`~redservo.control.engine.quick_step` first (read
+        once: the engine is bound at construction)."""
+        return quick_ok(self._compiled)
 
     @cached_property
     def _n(self) -> int:

@@ -20,7 +20,15 @@ from redservo.errors import ConfigurationError
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
 
-__all__ = ["bind_engine", "compiled_step", "python_parts", "quick_step", "setup_engine"]
+__all__ = [
+    "bind_engine",
+    "compiled_step",
+    "python_parts",
+    "quick_inputs",
+    "quick_ok",
+    "quick_step",
+    "setup_engine",
+]
 
 _EMPTY = np.zeros(0)
 _F64 = np.dtype(np.float64)
@@ -151,19 +159,45 @@ def quick_step(
     kernel's entry point (:mod:`redservo.kernels.entry`), or None to take
     :meth:`Controller.step <redservo.control.Controller.step>`'s full path.
 
-    It runs when nothing needs more than the kernel: the entry found by an earlier step, a
-    finite float ``t`` (s), no measurement ``stamp`` to bring to the present, ``q`` (n,),
-    ``measurement.s`` (k,) and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes
-    as they are (C-contiguous, aligned, writeable), inverse depths that fill the
-    controller's (N,) float64 buffer (``np.concatenate`` into it), no feed-forward, output
-    saturation, camera-motion limit or distance shield. Anything else (another shape, dtype
-    or layout, a stamp, a set-up changed since), or an input the kernel's check rejects,
-    returns None before any state changed: the full path then checks it and raises the
-    one error naming it. The command, task state, diagnostics and history are those of the
-    full path bit for bit (the same kernel, the same buffer layout)."""
+    It runs when nothing needs more than the kernel (:func:`quick_inputs`); an input the
+    kernel's check rejects returns None before any state changed, so the full path then
+    checks it and raises the one error naming it. The command, task state, diagnostics and
+    history are those of the full path bit for bit (the same kernel, the same buffer
+    layout, the same results). Units: as the step's (rad or m, s)."""
     eng: CompiledControl = ctrl._compiled  # type: ignore[assignment]  # the caller's test
     entry = eng.entry[0]
-    if not entry or type(t) is not float or not -math.inf < t < math.inf:
+    inputs = quick_inputs(ctrl, eng, q, measurement, t, qdot_prev) if entry else None
+    if inputs is None:
+        return None
+    s, iz, prev, inv_depth = inputs
+    buf = np.empty(eng.size)
+    ctrl.stage = "law"
+    meas = (s, iz, eng.s_star, eng.C)
+    packs = (meas, eng.law_pack, eng.limits_pack, eng.gains, (_EMPTY, _EMPTY, prev), buf)
+    lmask, smask, vec = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy
+    if lmask < 0:
+        return None
+    qdot, state, diag, copies = results(eng, q, s, inv_depth, buf, lmask, smask, vec)
+    ctrl.stage = "guard"
+    if copies is not None:  # the diagnostics' copies of q and q̇ serve the history too
+        ctrl.history.keep(t, *copies)
+    else:
+        ctrl.history.record(t, q, qdot)
+    return _new_step(ControlStep, (qdot, state, diag, None, None, None, False))
+
+
+def quick_inputs(
+    ctrl: Controller, eng: CompiledControl, q: Any, measurement: Any, t: Any, qdot_prev: Any
+) -> tuple[FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]] | None:
+    """``(s, inverse depths as L uses them, qdot_prev or empty, inv_depth)`` when
+    :func:`quick_step` can run the step as it comes, else None: a finite float ``t`` (s),
+    no measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,)
+    and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are
+    (C-contiguous, aligned, writeable), N inverse depths of one number each (written into
+    the controller's (N, 1) float64 buffer: what ``np.concatenate`` takes, without its
+    cost), and no feed-forward, output saturation, camera-motion limit or distance shield
+    set (read at every step: a set-up changed since takes the full path)."""
+    if type(t) is not float or not -math.inf < t < math.inf:
         return None
     if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
         ctrl.qdot_saturation is not None
@@ -187,36 +221,30 @@ def quick_step(
         return None
     if qdot_prev is None:
         prev = _EMPTY
-    elif (
+    elif not (
         type(qdot_prev) is _ND
         and qdot_prev.shape == (n,)
         and qdot_prev.dtype == _F64
         and qdot_prev.flags.carray
     ):
-        prev = qdot_prev
-    else:
         return None
-    inv_depth = getattr(measurement, "inv_depth", None)
+    else:
+        prev = qdot_prev
+    inv_depth: Any = getattr(measurement, "inv_depth", None)
     iz = eng.iz_buffer
-    try:  # N entries of one number each, as np.concatenate takes them (N >= 2: _quick)
+    try:  # N entries of one number each, as np.concatenate takes them (N >= 2: quick_ok)
         if len(inv_depth) != iz.shape[0]:
             return None
         eng.iz_rows[:] = inv_depth
     except (ValueError, TypeError):
         return None
-    if eng.depth_option:
-        iz = eng.depth_scaled(iz)
-    buf = np.empty(eng.size)
-    ctrl.stage = "law"
-    meas = (s, iz, eng.s_star, eng.C)
-    packs = (meas, eng.law_pack, eng.limits_pack, eng.gains, (_EMPTY, _EMPTY, prev), buf)
-    lmask, smask, vec = entry(q, eng.robot, packs)  # type: ignore[operator]  # truthy
-    if lmask < 0:
-        return None
-    qdot, state, diag, copies = results(eng, q, s, tuple(inv_depth), buf, lmask, smask, vec)
-    ctrl.stage = "guard"
-    if copies is not None:
-        ctrl.history.keep(t, *copies)
-    else:
-        ctrl.history.record(t, q, qdot)
-    return _new_step(ControlStep, (qdot, state, diag, None, None, None, False))
+    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), prev, tuple(inv_depth)
+
+
+def quick_ok(eng: CompiledControl | None) -> bool:
+    """A controller with the compiled engine ``eng`` may try :func:`quick_step` first: the
+    robot's kinematics compiled, a fixed gain, at least two points (so that a bare number
+    per point cannot pass for an (N, 1) block of inverse depths)."""
+    return (
+        eng is not None and eng.kernel is not None and eng.adaptive is None and eng.iz_shape[0] >= 2
+    )
