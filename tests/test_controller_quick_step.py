@@ -168,3 +168,20 @@ def test_an_output_option_set_after_construction_takes_the_full_path() -> None:
     got, want = ctl.step(q, meas, 0.04, qdot_prev=None), ref.step(q, meas, 0.04, qdot_prev=None)
     assert got.saturated and want.saturated
     assert got.qdot.tobytes() == want.qdot.tobytes()
+
+
+def test_inverse_depths_not_one_per_point_get_the_object_paths_error() -> None:
+    """Four numbers in the first point's entry and none in the others: the compiled engine
+    no longer takes them for one per point (on today's main it did, while the object path
+    refuses them); the step raises the object path's error naming the entry."""
+    ctl, q, meas = _controller()
+    ref, _, _ = _controller(engine="python")
+    flat = (np.concatenate(meas.inv_depth), *(np.zeros(0) for _ in meas.inv_depth[1:]))
+    errors = []
+    for c in (ctl, ref):
+        c.step(q, meas, 0.0, qdot_prev=None)
+        with pytest.raises(RedservoError) as info:
+            c.step(q, Measurement(meas.s, flat), 0.04, qdot_prev=None)
+        errors.append((type(info.value), str(info.value), info.value.argument))
+    assert errors[0] == errors[1]
+    assert errors[0][2] == "inv_depth[0]"

@@ -181,6 +181,8 @@ class CompiledControl:
         None when they are not one number per point."""
         try:
             iz = np.concatenate(inv_depth)
+            if any(len(d) != 1 for d in inv_depth):  # N numbers, but not one per point
+                return None
         except (ValueError, TypeError):
             return None
         if iz.dtype != _F64:
