@@ -28,7 +28,7 @@ from redservo.features import plan as plan
 from redservo.kernels import lazy
 from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
-from redservo.redundancy.base import Diagnostics, Law, law_class, lazy_diagnostics
+from redservo.redundancy.base import Diagnostics, Law, LazyDiagnostics, law_class
 from redservo.redundancy.gain import AdaptiveGain, gain_value
 from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
 from redservo.redundancy.kio import law_options
@@ -36,7 +36,7 @@ from redservo.redundancy.packs import limits_pack
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
-__all__ = ["CompiledControl", "bind_controller"]
+__all__ = ["CompiledControl", "bind_controller", "results"]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _K
@@ -47,6 +47,8 @@ _F64 = np.dtype(np.float64)
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState(...)`` from its six fields in order, without the keyword handling (hot path)."""
 _EMPTY = np.zeros(0)
+_new_lazy = object.__new__
+_set = object.__setattr__
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,11 @@ class CompiledControl:
     """The inverse depths go through the task's depth option or the depth scale."""
     no_C: bool
     """The task has no combination matrix (``e1 = e``)."""
+    iz_buffer: FloatArray = field(default_factory=lambda: np.zeros(0))
+    """(N,) float64: the inverse depths of :func:`redservo.control.engine.quick_step`'s
+    step, written in place (the kernel reads them and keeps nothing)."""
+    iz_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 1)))
+    """:attr:`iz_buffer` as (N, 1): one row per point, as the inverse depths come."""
     entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
     """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
@@ -141,7 +148,7 @@ class CompiledControl:
             lmask, smask, vec = _K.measured_control(q, Jm, meas, *rest)
         if lmask < 0:
             return None
-        return self._results(q, s, tuple(inv_depth), buf, lmask, smask, vec)
+        return results(self, q, s, tuple(inv_depth), buf, lmask, smask, vec)
 
     def run_kernel(
         self, q: FloatArray, packs: tuple[Any, ...], plain: bool = False
@@ -174,6 +181,8 @@ class CompiledControl:
         None when they are not one number per point."""
         try:
             iz = np.concatenate(inv_depth)
+            if any(len(d) != 1 for d in inv_depth):  # N numbers, but not one per point
+                return None
         except (ValueError, TypeError):
             return None
         if iz.dtype != _F64:
@@ -183,38 +192,49 @@ class CompiledControl:
                 return None
         if iz.shape != self.iz_shape:
             return None
-        if self.depth_option:
-            task = self.task
-            star = task._group.star  # type: ignore[union-attr]
-            iz = plan.depth_option(iz, star, task.depth, self.depth_scale)
-        return iz
+        return self.depth_scaled(iz) if self.depth_option else iz
 
-    def _results(
-        self,
-        q: FloatArray,
-        s: FloatArray,
-        inv_depth: tuple[FloatArray, ...],
-        buf: FloatArray,
-        lmask: int,
-        smask: int,
-        vec: FloatArray,
-    ) -> tuple[FloatArray, TaskState, Diagnostics, tuple[FloatArray, FloatArray] | None]:
-        """Views of the kernel's buffer as the object path's results; the diagnostics are
-        built when first read (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the
-        buffer (``qdot`` to ``ssrc``), the law's options as they are now, and copies of
-        ``q`` and ``q̇`` when the safety layer raised events."""
-        sq, se, se1, sJ1, sL = self.task_slices
-        qdot, e = buf[sq], buf[se]
-        m, n, k = self.shapes
-        e1 = e if self.no_C else buf[se1]
-        L, J1 = buf[sL].reshape(k, 6), buf[sJ1].reshape(m, n)
-        state = _new_state(TaskState, (s, e, e1, L, J1, inv_depth))
-        law = self.law
-        copies = (q.copy(), qdot.copy()) if smask else None
-        safety = None if copies is None else (*copies, self.gains[1], self.limits)
-        masks = (lmask, smask, vec)
-        args = (type(law), dict(law.__dict__), m, buf, self.law_slices, masks, safety)
-        return qdot, state, lazy_diagnostics(diagnose, *args), copies
+    def depth_scaled(self, iz: FloatArray) -> FloatArray:
+        """The points' inverse depths ``iz`` (N,) (1/m) through the task's depth option and
+        the depth scale, as ``L`` uses them (a new array, or the task's desired ones: the
+        kernel only reads them)."""
+        task = self.task
+        star = task._group.star  # type: ignore[union-attr]
+        return plan.depth_option(iz, star, task.depth, self.depth_scale)
+
+
+def results(
+    eng: CompiledControl,
+    q: FloatArray,
+    s: FloatArray,
+    inv_depth: tuple[FloatArray, ...],
+    buf: FloatArray,
+    lmask: int,
+    smask: int,
+    vec: FloatArray,
+) -> tuple[FloatArray, TaskState, Diagnostics, tuple[FloatArray, FloatArray] | None]:
+    """``(q̇, task state, diagnostics, copies)`` of ``eng``'s step: views of the kernel's
+    buffer as the object path's results; the diagnostics are built when first read
+    (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the buffer
+    (``qdot`` to ``ssrc``), the law's options as they are now, and ``copies`` of ``q`` and
+    ``q̇`` when the safety layer raised events (else None)."""
+    sq, se, se1, sJ1, sL = eng.task_slices
+    qdot, e = buf[sq], buf[se]
+    m, n, k = eng.shapes
+    e1 = e if eng.no_C else buf[se1]
+    state = _new_state(
+        TaskState, (s, e, e1, buf[sL].reshape(k, 6), buf[sJ1].reshape(m, n), inv_depth)
+    )
+    law = eng.law
+    if smask:
+        copies: tuple[FloatArray, FloatArray] | None = (q.copy(), qdot.copy())
+        safety = (*copies, eng.gains[1], eng.limits)  # type: ignore[misc]
+    else:
+        copies = safety = None
+    args = (type(law), dict(law.__dict__), m, buf, eng.law_slices, (lmask, smask, vec), safety)
+    diag = _new_lazy(LazyDiagnostics)  # lazy_diagnostics(diagnose, *args) without its calls
+    _set(diag, "_build", (diagnose, args))
+    return qdot, state, diag, copies
 
 
 def bind_controller(
@@ -274,6 +294,8 @@ def bind_controller(
         size=size,
         shapes=(m, robot.n, task.k),
         iz_shape=(len(task.terms),),
+        iz_buffer=(iz := np.zeros(len(task.terms))),
+        iz_rows=iz.reshape(-1, 1),
         depth_option=task.depth != "current" or float(depth_scale) != 1.0,
         no_C=task.C is None,
     )

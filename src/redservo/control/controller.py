@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
-from redservo.control.engine import compiled_step, setup_engine
+from redservo.control.engine import compiled_step, quick_ok, quick_step, setup_engine
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.image_motion import ImageMotionLimit, check_image_motion, point_rows
 from redservo.control.latency import CommandHistory, present
@@ -186,6 +186,12 @@ class Controller:
         return self.robot.n
 
     @cached_property
+    def _quick(self) -> bool:
+        """:meth:`step` may try :func:`~redservo.control.engine.quick_step` first (read
+        once: the engine is bound at construction)."""
+        return quick_ok(self._compiled)
+
+    @cached_property
     def _n(self) -> int:
         """Number of joints, read once (the step's hot path)."""
         return self.robot.n
@@ -248,6 +254,10 @@ class Controller:
             ConfigurationError: ``"known"`` feed-forward without a context, or an objective
                 that needs the scene without one.
         """
+        if self._quick and J is None:  # the step a loop repeats: one call around the kernel
+            done = quick_step(self, q, measurement, t, qdot_prev)
+            if done is not None:
+                return done
         t = as_time(t, "t")
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)

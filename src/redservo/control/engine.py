@@ -4,14 +4,15 @@ one compiled call."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, is_float_vector
-from redservo.binding.control import CompiledControl, bind_controller
+from redservo.binding.control import CompiledControl, bind_controller, results
 from redservo.control.output import shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError
@@ -19,7 +20,19 @@ from redservo.errors import ConfigurationError
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
 
-__all__ = ["bind_engine", "compiled_step", "python_parts", "setup_engine"]
+__all__ = [
+    "bind_engine",
+    "compiled_step",
+    "python_parts",
+    "quick_inputs",
+    "quick_ok",
+    "quick_step",
+    "setup_engine",
+]
+
+_EMPTY = np.zeros(0)
+_F64 = np.dtype(np.float64)
+_ND = np.ndarray
 
 
 def bind_engine(ctrl: Controller, engine: str) -> tuple[CompiledControl | None, str]:
@@ -137,3 +150,101 @@ def compiled_step(
 _new_step: Callable[[type[ControlStep], tuple[object, ...]], ControlStep] = tuple.__new__
 """``ControlStep(...)`` from its seven fields in order, without the keyword handling of its
 ``__new__`` (the compiled step's hot path)."""
+
+
+def quick_step(
+    ctrl: Controller, q: Any, measurement: Any, t: Any, qdot_prev: Any
+) -> ControlStep | None:
+    """:func:`compiled_step` for the step a loop repeats, as one Python function around the
+    kernel's entry point (:mod:`redservo.kernels.entry`), or None to take
+    :meth:`Controller.step <redservo.control.Controller.step>`'s full path.
+
+    It runs when nothing needs more than the kernel (:func:`quick_inputs`); an input the
+    kernel's check rejects returns None before any state changed, so the full path then
+    checks it and raises the one error naming it. The command, task state, diagnostics and
+    history are those of the full path bit for bit (the same kernel, the same buffer
+    layout, the same results). Units: as the step's (rad or m, s)."""
+    eng: CompiledControl = ctrl._compiled  # type: ignore[assignment]  # the caller's test
+    entry = eng.entry[0]
+    inputs = quick_inputs(ctrl, eng, q, measurement, t, qdot_prev) if entry else None
+    if inputs is None:
+        return None
+    s, iz, prev, inv_depth = inputs
+    buf = np.empty(eng.size)
+    ctrl.stage = "law"
+    meas = (s, iz, eng.s_star, eng.C)
+    packs = (meas, eng.law_pack, eng.limits_pack, eng.gains, (_EMPTY, _EMPTY, prev), buf)
+    lmask, smask, vec = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy
+    if lmask < 0:
+        return None
+    qdot, state, diag, copies = results(eng, q, s, inv_depth, buf, lmask, smask, vec)
+    ctrl.stage = "guard"
+    if copies is not None:  # the diagnostics' copies of q and q̇ serve the history too
+        ctrl.history.keep(t, *copies)
+    else:
+        ctrl.history.record(t, q, qdot)
+    return _new_step(ControlStep, (qdot, state, diag, None, None, None, False))
+
+
+def quick_inputs(
+    ctrl: Controller, eng: CompiledControl, q: Any, measurement: Any, t: Any, qdot_prev: Any
+) -> tuple[FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]] | None:
+    """``(s, inverse depths as L uses them, qdot_prev or empty, inv_depth)`` when
+    :func:`quick_step` can run the step as it comes, else None: a finite float ``t`` (s),
+    no measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,)
+    and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are
+    (C-contiguous, aligned, writeable), N inverse depths of one number each (written into
+    the controller's (N, 1) float64 buffer: what ``np.concatenate`` takes, without its
+    cost), and no feed-forward, output saturation, camera-motion limit or distance shield
+    set (read at every step: a set-up changed since takes the full path)."""
+    if type(t) is not float or not -math.inf < t < math.inf:
+        return None
+    if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
+        ctrl.qdot_saturation is not None
+        or ctrl.image_motion is not None
+        or ctrl.collision is not None
+        or ctrl.feedforward != "none"
+    ):
+        return None
+    s = getattr(measurement, "s", None)
+    _, n, k = eng.shapes
+    if not (
+        type(q) is _ND
+        and type(s) is _ND
+        and q.shape == (n,)
+        and s.shape == (k,)
+        and q.dtype == _F64
+        and s.dtype == _F64
+        and q.flags.carray
+        and s.flags.carray
+    ):
+        return None
+    if qdot_prev is None:
+        prev = _EMPTY
+    elif not (
+        type(qdot_prev) is _ND
+        and qdot_prev.shape == (n,)
+        and qdot_prev.dtype == _F64
+        and qdot_prev.flags.carray
+    ):
+        return None
+    else:
+        prev = qdot_prev
+    inv_depth: Any = getattr(measurement, "inv_depth", None)
+    iz = eng.iz_buffer
+    try:  # N entries of one number each, as np.concatenate takes them (N >= 2: quick_ok)
+        if len(inv_depth) != iz.shape[0]:
+            return None
+        eng.iz_rows[:] = inv_depth
+    except (ValueError, TypeError):
+        return None
+    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), prev, tuple(inv_depth)
+
+
+def quick_ok(eng: CompiledControl | None) -> bool:
+    """A controller with the compiled engine ``eng`` may try :func:`quick_step` first: the
+    robot's kinematics compiled, a fixed gain, at least two points (so that a bare number
+    per point cannot pass for an (N, 1) block of inverse depths)."""
+    return (
+        eng is not None and eng.kernel is not None and eng.adaptive is None and eng.iz_shape[0] >= 2
+    )
