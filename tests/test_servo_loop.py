@@ -31,9 +31,11 @@ from redservo.hardware import (
     VirtualClock,
     guard_command,
 )
+from redservo.redundancy.flags import Flag
 from redservo.robots import Afma6
 from redservo.scenario import load_scenario
 from redservo.scene import ConstantVelocity, PointSet, Scene, Sphere, Static
+from redservo.sensors import NoPose
 from redservo.spatial import make_transform
 from redservo.task import TaskTerm, VisualTask
 
@@ -938,3 +940,31 @@ def test_each_run_resets_the_controller() -> None:
     loop.robot, loop.source, loop.clock, loop.sleep = sim2, src2, clock2, clock2.sleep
     second = loop.run()  # the same loop again, from the same start: the same commands
     assert np.array_equal(first.log.qdot, second.log.qdot)
+
+
+class NoPoseSource:
+    """A feature source whose PnP gave no pose on the calls in ``misses`` (frames in a row)."""
+
+    def __init__(self, inner: FeatureSource, misses: dict[int, int]) -> None:
+        self.inner, self.misses, self.calls = inner, misses, 0
+
+    def measure(self, t: float) -> FeatureMeasurement | None:
+        i, self.calls = self.calls, self.calls + 1
+        m = self.inner.measure(t)
+        if m is None or i not in self.misses:
+            return m
+        return m._replace(no_pose=NoPose(self.misses[i], "target", 3, 4))
+
+
+def test_a_measurement_without_a_pose_is_the_no_pose_flag_of_its_step() -> None:
+    """A source's image without a PnP pose (``FeatureMeasurement.no_pose``) reaches the
+    servo run's log and summary as the typed flag ``no-pose`` (value: images in a row), as
+    in the simulation; the other steps carry none."""
+    clock, robot, sim, source, task = _setup()
+    src = NoPoseSource(source, {5: 1, 6: 2, 7: 3})
+    res = _loop(sim, src, robot, task, clock, max_iterations=20).run()
+    column = res.log.flag(Flag.NO_POSE)  # NaN where not raised
+    raised = np.flatnonzero(np.isfinite(column))
+    assert list(column[raised]) == [1.0, 2.0, 3.0]
+    assert np.all(np.diff(raised) == 1)  # the steps of the three measurements in a row
+    assert res.summary["flags"]["no-pose"]["count"] == 3

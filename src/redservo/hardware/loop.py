@@ -73,6 +73,7 @@ from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, LawResult
 from redservo.redundancy.flags import Flag
 from redservo.robots.base import Robot
+from redservo.sensors.flags import with_no_pose
 from redservo.task import VisualTask
 
 __all__ = ["ServoLoop"]
@@ -347,6 +348,9 @@ class ServoLoop(LoopSettings):
                     f"an objective ended the run ({step.stop}) at iteration {run.k}",
                 )
             qdot, run.diag = step.qdot, step.diagnostics
+            miss = getattr(run.last, "no_pose", None)  # a source of the image sensor's PnP
+            if run.diag is not None:
+                run.diag = with_no_pose(run.diag, miss)
         elif run.state is None:  # nothing measured, or no fresh joint reading, yet: keep still
             self._deliver(run, np.zeros_like(q))
             return None

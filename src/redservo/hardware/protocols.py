@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple, Protocol, runtime_checkable
 
 from redservo._validation import FloatArray
+from redservo.sensors import NoPose
 
 __all__ = ["FeatureMeasurement", "FeatureSource", "RobotInterface"]
 
@@ -32,6 +33,11 @@ class FeatureMeasurement(NamedTuple):
     A stamp that is not finite, ahead of the loop's clock by more than ``clock_tolerance``
     or earlier than an earlier one is a clock fault: the loop stops the robot
     (:mod:`redservo.hardware.clock`)."""
+    no_pose: NoPose | None = None
+    """The point set whose PnP pose this image could not give (an image sensor with ``depth =
+    "pose"``: its interaction matrices keep the last pose's depths), or None. The loop adds
+    the typed flag ``no-pose`` (value: images in a row) to the step that uses this
+    measurement (:mod:`redservo.sensors.flags`), so the run's log and summary keep it."""
 
 
 @runtime_checkable

@@ -209,4 +209,4 @@ class IdealFeatureSource:
         if reading.s is None:
             return None
         s = self._noise(reading)  # drawn once per frame: a held frame keeps its noise
-        return FeatureMeasurement(s, tuple(reading.inv_depth), float(t))
+        return FeatureMeasurement(s, tuple(reading.inv_depth), float(t), reading.no_pose)

@@ -183,7 +183,9 @@ class VideoSource:
         with self._lock:
             self.frames += 1
             if reading.s is not None:
-                self._last = FeatureMeasurement(reading.s, tuple(reading.inv_depth), stamp)
+                self._last = FeatureMeasurement(
+                    reading.s, tuple(reading.inv_depth), stamp, reading.no_pose
+                )
 
     def measure(self, t: float) -> FeatureMeasurement | None:
         """The latest measurement (None before the first); never waits for a frame.

@@ -24,7 +24,7 @@ from redservo.redundancy.flags import Event
 from redservo.redundancy.messages import events
 from redservo.sensors import NoPose, SensorReading
 
-__all__ = ["no_pose_event", "sensor_flags"]
+__all__ = ["no_pose_event", "sensor_flags", "with_no_pose"]
 
 _MIN_DOTS = 4
 """Detected dots PnP needs (:func:`redservo.vision.pnp.dot_pose`)."""
@@ -45,7 +45,14 @@ def no_pose_event(miss: NoPose) -> Event:
 def sensor_flags(diagnostics: Diagnostics, reading: SensorReading) -> Diagnostics:
     """``diagnostics`` of the step that used ``reading``, with the sensor's own flags (the
     image sensor's ``no-pose``); ``diagnostics`` itself when there are none."""
-    if reading.no_pose is None:
+    return with_no_pose(diagnostics, reading.no_pose)
+
+
+def with_no_pose(diagnostics: Diagnostics, miss: NoPose | None) -> Diagnostics:
+    """``diagnostics`` with the ``no-pose`` event of ``miss`` added (the simulation's reading
+    or the servo loop's :class:`~redservo.hardware.FeatureMeasurement`); ``diagnostics``
+    itself when ``miss`` is None."""
+    if miss is None:
         return diagnostics
-    ev = no_pose_event(reading.no_pose)
+    ev = no_pose_event(miss)
     return dataclasses.replace(diagnostics, events=(*diagnostics.events, ev))
