@@ -213,7 +213,7 @@ GROUPS: tuple[Group, ...] = (
     ),
     _parted(
         "compiled steps",
-        "the Controller's compiled step (Afma6, Panda)",
+        "the Controller's compiled step and the campaign's iteration from Python (Afma6, Panda)",
         lambda: ("controllers",),
         wp.compiled_steps,
     ),

@@ -138,6 +138,22 @@ def compiled_steps(part: str, note: Note) -> None:
 
     cases = {c.name: c for c in bench_cases(scaling=())}
     controllers(cases)
+    iterations(cases)
+
+
+def iterations(cases: dict[str, Any]) -> None:
+    """The campaign loop's iteration called from Python (:mod:`redservo.bench.sensed`:
+    ``redservo bench``'s compiled path, the tests of ``qp``'s loop step): its kernels take
+    the types of a Python call, not those :func:`closed_loop` passes them."""
+    from redservo.bench.sensed import sensed_iteration
+    from redservo.redundancy import make_law
+
+    for name in ("afma6-4points", "panda-6d-free"):
+        c = cases[name]
+        for method in ("classical", "qp"):
+            law = make_law(method)
+            it = sensed_iteration(c.robot, c.scene, c.task, law, limits=c.limits, lam=0.5, dt=0.04)
+            it(c.q, it(c.q))
 
 
 def controllers(cases: dict[str, Any]) -> None:
