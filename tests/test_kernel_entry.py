@@ -115,7 +115,7 @@ def test_a_law_call_with_the_signature_seen_calls_the_kernel_at_its_entry(
     kw = _inputs(1, True)
     law(**kw)
     law(**kw)
-    assert law.__dict__["_kernel_seen"][7][0] is not None
+    assert law.__dict__["_kernel_seen"].entry[0] is not None
 
     class Refusing:
         law_into = staticmethod(_refuse)

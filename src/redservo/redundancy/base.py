@@ -315,12 +315,17 @@ class Law(abc.ABC):
             JointLimitError: ``q`` outside ``limits``.
             ConfigurationError: ``lam`` or ``dt`` not a finite positive number.
         """
+        seen = None  # the signature of the law's last call (kernel_call.quick)
+        if de1_dt is None and secondary is None:
+            seen = kc.quick(self, J1, e1, q, limits, lam, dt, qdot_prev)
+            if type(seen) is tuple:
+                return _new_result(LawResult, (seen[0], _lazy(seen[1])))
         kernel = self.scaling == "uniform" and self._kernel_step
-        if kernel:  # the checked signature: no Python check of the values (kernel_call)
+        if kernel and seen is None:  # a checked signature: no Python check of the values
             args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
             done = kc.fast_call(self, args)
             if done is not None:
-                return _new_result(LawResult, (done[0], lazy_diagnostics(kc.diagnose, *done[1])))
+                return _new_result(LawResult, (done[0], _lazy(done[1])))
         x = validate_inputs(
             J1=J1,
             e1=e1,
@@ -446,6 +451,21 @@ def lazy_diagnostics(fn: Callable[..., Diagnostics], *args: Any) -> LazyDiagnost
     d = object.__new__(LazyDiagnostics)
     object.__setattr__(d, "_build", (fn, args))
     return d
+
+
+_SET_BUILD = LazyDiagnostics._build.__set__  # type: ignore[attr-defined]
+"""Sets a :class:`LazyDiagnostics`' slot ``_build`` (the frozen dataclass's ``__setattr__``
+refuses it)."""
+
+
+def _lazy(args: kc.DiagnoseArgs) -> LazyDiagnostics:
+    """``lazy_diagnostics(kc.diagnose, *args)`` without its calls (the law call's hot path)."""
+    d = _NEW_LAZY(LazyDiagnostics)
+    _SET_BUILD(d, (kc.diagnose, args))
+    return d
+
+
+_NEW_LAZY = object.__new__
 
 
 # -- registry ------------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ secondary-first scaling): the same law kernel without the safety layer
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -43,6 +43,7 @@ __all__ = [
     "kernel_call",
     "kernel_compute",
     "kernel_id",
+    "quick",
 ]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
@@ -60,7 +61,7 @@ _PACK = "_kernel_pack"
 _BOUND = "_kernel_bound"
 """Where a law keeps its packs with the limits they were made for (:func:`_bound`)."""
 _SEEN = "_kernel_seen"
-"""Where a law keeps the signature of its last plain call (:func:`fast_call`)."""
+"""Where a law keeps the signature of its last plain call (:class:`Seen`)."""
 _F64 = np.dtype(np.float64)
 _NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY, _EMPTY)
 """No feed-forward, secondary command, previous command or history."""
@@ -235,59 +236,96 @@ def _bound(law: Law, limits: object, n: int) -> tuple[Any, Any] | None:
     return pack, limits_t
 
 
+class Seen:
+    """The signature of a law's last plain call (:func:`fast_call`), kept on the law
+    (:data:`_SEEN`): what :func:`quick` compares a call with, and what it then reuses."""
+
+    __slots__ = ("bound", "entry", "layout", "limits", "m", "mn", "n", "pack", "state")
+
+    def __init__(self, law: Law, limits: JointLimits, mn: tuple[int, int], bound: Any) -> None:
+        self.limits, self.pack, self.bound = limits, law.__dict__[_PACK], bound
+        self.mn, self.m, self.n = mn, (mn[0],), (mn[1],)
+        self.layout = _slices(mn[1])
+        self.entry: list[Any] = [None]  # the kernel's entry point, found by the first plain call
+        self.state = dict(law.__dict__)
+        """The law's attribute dictionary as the diagnostics read it: a public attribute
+        set since drops the pack (:meth:`redservo.redundancy.Law.__setattr__`), so a law
+        whose options changed no longer matches ``pack`` and is seen anew."""
+
+
+def quick(
+    law: Law,
+    J1: object,
+    e1: object,
+    q: object,
+    limits: object,
+    lam: object,
+    dt: object,
+    qdot_prev: object,
+) -> tuple[FloatArray, DiagnoseArgs] | bool | None:
+    """``law(J1=..., e1=..., q=..., limits=..., lam=..., dt=..., qdot_prev=...)`` (no
+    ``de1_dt``, no ``secondary``) when the call has the signature of the law's last plain
+    call (:class:`Seen`): the same limits object and packed options, float64 arrays of the
+    same shapes, C-contiguous, aligned and writeable, and float gains ``0 < λ, dt < ∞``
+    (1/s, s). One look at each input's metadata, then the kernel at its entry point (its own
+    ``inputs_ok`` checks the values). Returns ``(q̇, the arguments of diagnose)``, False
+    when the kernel refused a value (the caller then validates in full, which names it), or
+    None when the signature differs (the caller then takes :func:`fast_call`)."""
+    seen: Seen | None = law.__dict__.get(_SEEN)
+    if (
+        seen is None
+        or limits is not seen.limits
+        or seen.pack is not law.__dict__.get(_PACK)
+        or type(J1) is not np.ndarray
+        or type(e1) is not np.ndarray
+        or type(q) is not np.ndarray
+        or type(lam) is not float
+        or type(dt) is not float
+        or J1.shape != seen.mn
+        or e1.shape != seen.m
+        or q.shape != seen.n
+        or J1.dtype != _F64
+        or e1.dtype != _F64
+        or q.dtype != _F64
+        or not (J1.flags.carray and e1.flags.carray and q.flags.carray)
+        or not (0.0 < lam < math.inf and 0.0 < dt < math.inf)
+    ):
+        return None
+    if qdot_prev is None:
+        inputs = _NO_INPUTS
+    elif _plain(qdot_prev, seen.n):
+        inputs = (_EMPTY, _EMPTY, cast(FloatArray, qdot_prev), _EMPTY)
+    else:
+        return None
+    size, parts = seen.layout
+    buf = np.empty(size)
+    law_pack, limits_t = seen.bound
+    args = (q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
+    entry = seen.entry
+    if entry[0]:
+        lmask, smask, vec = entry[0](*args)
+    else:
+        lmask, smask, vec = _KC.law_into(*args)
+        if entry[0] is None:  # looked up once: False when there is none
+            entry[0] = entry_of(_KC.law_into, args) or False
+    if lmask < 0:
+        return False
+    qdot = buf[parts[0]]
+    safety = (q.copy(), qdot.copy(), dt, limits) if smask else None
+    return qdot, (type(law), seen.state, J1.shape[0], buf, parts, (lmask, smask, vec), safety)
+
+
 def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
-    """``(q̇, the arguments of diagnose)`` of ``law(J1=..., ...)`` with ``args`` ``(J1, e1, q, limits, lam,
-    dt, de1_dt, secondary, qdot_prev)`` when they have the signature the kernel takes
-    (C-contiguous float64 arrays of matching shapes, a JointLimits of ``n`` joints, float
-    gains or an :class:`~redservo.AdaptiveGain`): no Python check of the values, which the
-    kernel's own check (finite, below 1e300, ``q`` within the limits) makes. None for
-    anything else: the caller then validates the inputs in full
+    """``(q̇, the arguments of diagnose)`` of ``law(J1=..., ...)`` with ``args`` ``(J1, e1,
+    q, limits, lam, dt, de1_dt, secondary, qdot_prev)`` when they have the signature the
+    kernel takes (C-contiguous float64 arrays of matching shapes, a JointLimits of ``n``
+    joints, float gains or an :class:`~redservo.AdaptiveGain`): no Python check of the
+    values, which the kernel's own check (finite, below 1e300, ``q`` within the limits)
+    makes. None for anything else: the caller then validates the inputs in full
     (:func:`~redservo.redundancy.inputs.validate_inputs`), which names a faulty argument.
 
-    The signature last seen is kept on the law (:data:`_SEEN`: the limits object, the
-    shapes, the packs and the buffer layout): a call with the same one checks only the
-    types and layouts of the arrays and the gains, and goes straight to the kernel."""
-    J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev = args
-    seen = law.__dict__.get(_SEEN)
-    if (
-        seen is not None
-        and seen[0] is limits
-        and seen[1] is law.__dict__.get(_PACK)
-        and type(J1) is np.ndarray
-        and J1.shape == seen[2]
-        and J1.dtype == _F64
-        and J1.flags.carray
-        and de1_dt is None
-        and secondary is None
-        and type(dt) is float
-        and type(lam) is float
-        and _plain(e1, seen[3])
-        and _plain(q, seen[4])
-        and 0.0 < lam < math.inf
-        and 0.0 < dt < math.inf
-    ):
-        if qdot_prev is None:
-            inputs = _NO_INPUTS
-        elif _plain(qdot_prev, seen[4]):
-            inputs = (_EMPTY, _EMPTY, qdot_prev, _EMPTY)
-        else:
-            return _first_call(law, args)
-        return _into(law, (J1, e1, q), limits, seen[5], (lam, dt), inputs, seen[6], seen[7])
-    return _first_call(law, args)
-
-
-def _plain(a: object, shape: tuple[int, ...]) -> bool:
-    """``a`` is a float64 array of shape ``shape``, C-contiguous, aligned and writeable (the
-    arrays of the signature :func:`fast_call` keeps, whose kernel entry it calls)."""
-    if type(a) is not np.ndarray:
-        return False
-    return a.dtype == _F64 and a.shape == shape and bool(a.flags.carray)
-
-
-def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
-    """:func:`fast_call` for a signature not seen just before (or with optional inputs or
-    an adaptive gain): every type and shape checked, the signature kept when it is the
-    plain one (no optional input, float gains)."""
+    A plain call (no optional input but ``qdot_prev``, float gains) keeps its signature on
+    the law (:class:`Seen`), so that the next call with the same one takes :func:`quick`."""
     J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev = args
     if type(J1) is not np.ndarray or J1.ndim != 2 or not isinstance(dt, float):
         return None
@@ -297,6 +335,7 @@ def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseAr
     bound = _bound(law, limits, n)
     if bound is None:
         return None
+    plain = isinstance(lam, float) and de1_dt is None and secondary is None
     if isinstance(lam, AdaptiveGain):
         lam = gain_value(lam, e1)
     elif not isinstance(lam, float):  # a Python or numpy float; anything else: full checks
@@ -312,7 +351,14 @@ def _first_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseAr
         inputs = (_given(de1_dt), _given(secondary), _given(qdot_prev), _EMPTY)
     else:
         return None
-    layout = _slices(n)
-    entry: list[Any] = [None]  # the kernel's entry point, found by the first plain call
-    law.__dict__[_SEEN] = (limits, law.__dict__[_PACK], (m, n), (m,), (n,), bound, layout, entry)
-    return _into(law, (J1, e1, q), limits, bound, (lam, dt), inputs, layout)
+    if plain:
+        law.__dict__[_SEEN] = Seen(law, cast(JointLimits, limits), (m, n), bound)
+    return _into(law, (J1, e1, q), cast(JointLimits, limits), bound, (lam, dt), inputs, _slices(n))
+
+
+def _plain(a: object, shape: tuple[int, ...]) -> bool:
+    """``a`` is a float64 array of shape ``shape``, C-contiguous, aligned and writeable (the
+    arrays of the signature :func:`fast_call` keeps, whose kernel entry it calls)."""
+    if type(a) is not np.ndarray:
+        return False
+    return a.dtype == _F64 and a.shape == shape and bool(a.flags.carray)
