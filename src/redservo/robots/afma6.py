@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, is_float_vector
 from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
+from redservo.kernels.entry import entry_of, plain
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
 from redservo.robots.pack import RobotKind, RobotPack
@@ -68,6 +69,7 @@ COUPLING: Final = 0.009091
 """Coupling between joints B and C: the model uses ``C' = C - COUPLING * B``."""
 OFFSET: Final = -0.06924
 """Wrist offset ``L`` (m)."""
+_F64 = np.dtype(np.float64)
 
 AFMA6_JOINT_LIMITS: Final[dict[str, tuple[tuple[float, ...], tuple[float, ...]]]] = {
     "visp3.5": (
@@ -194,14 +196,40 @@ class Afma6(Robot):
         ``eMc`` and ``cVe`` included). A C-contiguous float64 (6,) ``q`` strictly within its
         limits is checked inside the kernel (:func:`redservo.kernels.joint_check.afma6_checked`);
         anything else first gets :meth:`check_q`, which accepts it or names the joint."""
-        if is_float_vector(q, 6) and type(self).check_q is Afma6.check_q and _KJ.COMPILED:
-            args = (bool(check_limits), self._eMc, self._cVe, COUPLING, OFFSET)
-            bMc, J, ok = _KJ.afma6_checked(q, self.q_min, self.q_max, *args)
+        hot = self.__dict__.get("_kin_entry")
+        if (  # the set-up of an earlier call, a plain q: the kernel's entry (kernels/entry.py)
+            hot is not None
+            and check_limits is True
+            and hot[1] is self._limits
+            and hot[2] is self._eMc
+            and type(q) is np.ndarray
+            and q.shape == (6,)
+            and q.dtype == _F64
+            and q.flags.carray
+        ):
+            bMc, J, ok = hot[0](q, *hot[3])
             if ok:
+                return bMc, J
+        elif is_float_vector(q, 6) and type(self).check_q is Afma6.check_q and _KJ.COMPILED:
+            args = (self.q_min, self.q_max, bool(check_limits), self._eMc, self._cVe)
+            bMc, J, ok = _KJ.afma6_checked(q, *args, COUPLING, OFFSET)
+            if ok:
+                if check_limits is True and plain(q):
+                    self._find_entry((q, *args, COUPLING, OFFSET))
                 return bMc, J
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         bMc, J = _K.afma6_kinematics(qa, self._eMc, self._cVe, COUPLING, OFFSET)
         return bMc, J
+
+    def _find_entry(self, args: tuple[object, ...]) -> None:
+        """Keep the entry point of :func:`~redservo.kernels.joint_check.afma6_checked` for
+        the types of ``args`` (a plain ``q``, this robot's limits and hand-eye arrays), with
+        the limits and ``eMc`` it was found for: a later call with a plain ``q`` and the
+        same limits and ``eMc`` objects calls it directly (the same machine code, without
+        numba's typing of the arguments); anything else takes the dispatcher."""
+        entry = entry_of(_KJ.afma6_checked, args)
+        if entry is not None:
+            self.__dict__["_kin_entry"] = (entry, self._limits, self._eMc, args[1:])
 
     # -- viewer ---------------------------------------------------------------------------------
 
