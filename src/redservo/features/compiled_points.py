@@ -14,21 +14,23 @@ Units: m, rad, 1/m; normalized image units.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.features.plan import PointGroup
 from redservo.kernels import lazy
+from redservo.kernels.entry import entry_of
 from redservo.scene import Scene
 
 if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
     from redservo.kernels import points_task as _KT
+    from redservo.task import VisualTask
 else:
     _KT = lazy("points_task")
 
-__all__ = ["compiled", "evaluate"]
+__all__ = ["Hot", "compiled", "evaluate"]
 
 _F64 = np.dtype(np.float64)
 _NO_C = np.zeros((0, 0))
@@ -47,40 +49,84 @@ def _ready(a: FloatArray) -> bool:
     return a.dtype == _F64 and a.flags.c_contiguous
 
 
-def evaluate(
-    scene: Scene,
-    group: PointGroup,
-    bMc: FloatArray,
-    J: FloatArray,
-    t: float,
-    task: tuple[FloatArray, FloatArray | None],
-) -> tuple[FloatArray, FloatArray, Rows] | None:
-    """``(s, 1/Z, (e, e1, L, J1))`` of the points of ``group`` seen from ``bMc`` (4, 4) at
-    ``t`` (s), with the model Jacobian ``J`` (6, n) and the task's ``(s*, C)`` (``C`` None:
-    ``e1`` is ``e`` itself), or None (module docstring)."""
-    s_star, C = task
+class Hot:
+    """What a task's compiled evaluation keeps between calls (on the task, :data:`_HOT`):
+    its ``s*`` and ``C`` objects with the kernel's form of ``C``, and the kernel's entry
+    point (:mod:`redservo.kernels.entry`) with the kernel and the scene it was found for
+    (``bMw``'s type comes from the scene). A task whose ``s_star`` or ``C`` was set since gets a new one."""
+
+    __slots__ = ("C", "Ck", "entry", "kernel", "s_star", "scene")
+
+    def __init__(self, s_star: FloatArray, C: FloatArray | None) -> None:
+        self.s_star, self.C = s_star, C
+        self.Ck = _NO_C if C is None else C
+        self.entry: Any = None
+        self.kernel: object = None
+        self.scene: object = None
+
+
+_HOT = "_points_hot"
+"""Where a task keeps its :class:`Hot`."""
+
+
+def _hot(task: VisualTask) -> Hot | None:
+    """The task's :class:`Hot`, made anew when its ``s*`` or ``C`` changed; None when
+    ``s*`` or ``C`` is not as the kernel takes it."""
+    hot: Hot | None = task.__dict__.get(_HOT)
+    s_star, C = task.s_star, task.C
+    if hot is not None and hot.s_star is s_star and hot.C is C:
+        return hot
     if not (
-        type(J) is np.ndarray
-        and J.ndim == 2
-        and J.shape[0] == 6
-        and type(bMc) is np.ndarray
-        and bMc.shape == (4, 4)
-        and J.dtype == _F64
-        and J.flags.c_contiguous
-        and bMc.dtype == _F64
-        and bMc.flags.c_contiguous
+        type(s_star) is np.ndarray
         and _ready(s_star)
         and (C is None or (type(C) is np.ndarray and _ready(C)))
     ):
+        return None
+    hot = task.__dict__[_HOT] = Hot(s_star, C)
+    return hot
+
+
+def evaluate(
+    scene: Scene, task: VisualTask, group: PointGroup, bMc: object, J: object, t: float
+) -> tuple[FloatArray, FloatArray, Rows] | None:
+    """``(s, 1/Z, (e, e1, L, J1))`` of the points of ``group`` seen from ``bMc`` (4, 4) at
+    ``t`` (s), with the model Jacobian ``J`` (6, n) and the ``s*`` and ``C`` of ``task``
+    (``C`` None: ``e1`` is ``e`` itself), or None (module docstring). Float64 arrays that
+    are also aligned and writeable (``flags.carray``), with the scene of the last such call,
+    go to the kernel's entry point (the same machine code, without numba's typing of the
+    seven arguments)."""
+    if not (
+        type(J) is np.ndarray
+        and type(bMc) is np.ndarray
+        and J.ndim == 2
+        and J.shape[0] == 6
+        and bMc.shape == (4, 4)
+        and J.dtype == _F64
+        and bMc.dtype == _F64
+    ):
+        return None
+    fJ, fb = J.flags, bMc.flags
+    hot = _hot(task)
+    if hot is None or not (fJ.c_contiguous and fb.c_contiguous):
         return None
     try:  # bMc is checked by the kernel; the numpy path raises in the documented order
         bMw, wMo = scene._target_pose(group.target_name, t)
     except Exception:
         return None
-    if not (type(wMo) is np.ndarray and _ready(wMo)):
+    if not (type(wMo) is np.ndarray and wMo.dtype == _F64):
         return None
-    Ck = _NO_C if C is None else C
-    s, iz, bad, e, e1, L, J1 = _KT.points_task(bMc, bMw, wMo, group.points, s_star, Ck, J)
+    fw = wMo.flags
+    if not fw.c_contiguous:
+        return None
+    args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J)
+    kernel = _KT.points_task
+    plain = fJ.carray and fb.carray and fw.carray
+    if plain and hot.entry and hot.scene is scene and hot.kernel is kernel:
+        s, iz, bad, e, e1, L, J1 = hot.entry(*args)
+    else:
+        s, iz, bad, e, e1, L, J1 = kernel(*args)
+        if plain:
+            hot.entry, hot.kernel, hot.scene = entry_of(kernel, args), kernel, scene
     if bad != -1:  # a point behind the camera, or bMc not surely valid
         return None
-    return s, iz, (e, e if C is None else e1, L, J1)
+    return s, iz, (e, e if hot.C is None else e1, L, J1)
