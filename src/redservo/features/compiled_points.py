@@ -70,12 +70,9 @@ _HOT = "_points_hot"
 
 
 def _hot(task: VisualTask) -> Hot | None:
-    """The task's :class:`Hot`, made anew when its ``s*`` or ``C`` changed; None when
-    ``s*`` or ``C`` is not as the kernel takes it."""
-    hot: Hot | None = task.__dict__.get(_HOT)
+    """A new :class:`Hot` for the task's ``s*`` and ``C`` (kept on the task), or None when
+    they are not as the kernel takes it."""
     s_star, C = task.s_star, task.C
-    if hot is not None and hot.s_star is s_star and hot.C is C:
-        return hot
     if not (
         type(s_star) is np.ndarray
         and _ready(s_star)
@@ -106,7 +103,9 @@ def evaluate(
     ):
         return None
     fJ, fb = J.flags, bMc.flags
-    hot = _hot(task)
+    hot: Hot | None = task.__dict__.get(_HOT)
+    if hot is None or hot.s_star is not task.s_star or hot.C is not task.C:
+        hot = _hot(task)
     if hot is None or not (fJ.c_contiguous and fb.c_contiguous):
         return None
     try:  # bMc is checked by the kernel; the numpy path raises in the documented order

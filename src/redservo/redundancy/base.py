@@ -318,8 +318,10 @@ class Law(abc.ABC):
         seen = None  # the signature of the law's last call (kernel_call.quick)
         if de1_dt is None and secondary is None:
             seen = kc.quick(self, J1, e1, q, limits, lam, dt, qdot_prev)
-            if type(seen) is tuple:
-                return _new_result(LawResult, (seen[0], _lazy(seen[1])))
+            if type(seen) is tuple:  # the result, its diagnostics built when read
+                diagnostics = _NEW_LAZY(LazyDiagnostics)
+                _SET_BUILD(diagnostics, (kc.diagnose, seen[1]))
+                return _new_result(LawResult, (seen[0], diagnostics))
         kernel = self.scaling == "uniform" and self._kernel_step
         if kernel and seen is None:  # a checked signature: no Python check of the values
             args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
