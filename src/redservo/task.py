@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol, cast
+from typing import TYPE_CHECKING, Literal, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -314,7 +314,7 @@ class VisualTask:
             # The hot path: the points of one target (docs/speed.md, "Public object path"),
             # in one compiled call when the kernels are compiled and the inputs fit it.
             if depth_scale == 1.0 and self.depth == "current" and _CP.compiled():
-                done = _CP.evaluate(cast(Scene, scene), self, group, bMc, J, t)
+                done = _CP.evaluate(scene, self, group, bMc, J, t)  # type: ignore[arg-type]
                 if done is not None:
                     return _new_state(TaskState, (done[0], *done[2], group.split(done[1])))
             cMo = scene.cMo(group.target_name, bMc, t)

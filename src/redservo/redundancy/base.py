@@ -307,8 +307,10 @@ class Law(abc.ABC):
 
         Inputs with the signature the compiled step takes (C-contiguous float64 arrays of
         matching shapes, a float or adaptive gain, a float ``dt``) have their values checked
-        by the kernel alone; anything else, or a value the kernel refuses, gets the full
-        checks below, which name the argument.
+        by the kernel alone; a call with the signature of the previous one (the same limits
+        object and options, arrays of the same shapes and layouts, float gains) only has
+        its inputs' metadata looked at. Anything else, or a value the kernel refuses, gets
+        the full checks below, which name the argument.
 
         Raises:
             ShapeError: wrong shapes, complex values, or NaN/inf inputs.
@@ -327,7 +329,7 @@ class Law(abc.ABC):
             args = (J1, e1, q, limits, lam, dt, de1_dt, secondary, qdot_prev)
             done = kc.fast_call(self, args)
             if done is not None:
-                return _new_result(LawResult, (done[0], _lazy(done[1])))
+                return _new_result(LawResult, (done[0], lazy_diagnostics(kc.diagnose, *done[1])))
         x = validate_inputs(
             J1=J1,
             e1=e1,
@@ -458,13 +460,6 @@ def lazy_diagnostics(fn: Callable[..., Diagnostics], *args: Any) -> LazyDiagnost
 _SET_BUILD = LazyDiagnostics._build.__set__  # type: ignore[attr-defined]
 """Sets a :class:`LazyDiagnostics`' slot ``_build`` (the frozen dataclass's ``__setattr__``
 refuses it)."""
-
-
-def _lazy(args: kc.DiagnoseArgs) -> LazyDiagnostics:
-    """``lazy_diagnostics(kc.diagnose, *args)`` without its calls (the law call's hot path)."""
-    d = _NEW_LAZY(LazyDiagnostics)
-    _SET_BUILD(d, (kc.diagnose, args))
-    return d
 
 
 _NEW_LAZY = object.__new__

@@ -1,8 +1,9 @@
 """A law's call through the step kernel: validated inputs → packs → the same law kernel.
 
-:meth:`redservo.redundancy.Law.__call__` hands its inputs to :func:`fast_call` (inputs with
-the signature the kernel takes: the kernel alone checks their values) or, after the full
-checks, to :func:`kernel_call`, for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
+:meth:`redservo.redundancy.Law.__call__` hands its inputs to :func:`quick` (the signature
+of the law's previous call: one look at the inputs' types, shapes and layouts, then the
+kernel's entry point), to :func:`fast_call` (inputs with the signature the kernel takes:
+the kernel alone checks their values) or, after the full checks, to :func:`kernel_call`, for every shipped law with a compiled step (:data:`redservo.kernels.step.LAW_IDS`) and a
 ``diagnose`` method, with uniform scaling: the law and its safety layer run in
 :func:`redservo.kernels.control.law_core`, the very kernel that the
 :class:`~redservo.control.Controller` and the campaign loop drive, and the law's own
@@ -271,11 +272,12 @@ def quick(
     ``inputs_ok`` checks the values). Returns ``(q̇, the arguments of diagnose)``, False
     when the kernel refused a value (the caller then validates in full, which names it), or
     None when the signature differs (the caller then takes :func:`fast_call`)."""
-    seen: Seen | None = law.__dict__.get(_SEEN)
+    state = law.__dict__
+    seen: Seen | None = state.get(_SEEN)
     if (
         seen is None
         or limits is not seen.limits
-        or seen.pack is not law.__dict__.get(_PACK)
+        or seen.pack is not state.get(_PACK)
         or type(J1) is not np.ndarray
         or type(e1) is not np.ndarray
         or type(q) is not np.ndarray
