@@ -6,6 +6,8 @@ path again, and a bad value still gets its one error naming the argument."""
 
 from __future__ import annotations
 
+import copy
+import pickle
 from typing import Any
 
 import numpy as np
@@ -186,3 +188,24 @@ def test_a_task_evaluated_in_another_scene_gives_that_scenes_numbers() -> None:
     want = [_bits(task.evaluate(s, bMc, J, 0.3)) for s in (scene, scene2)]
     for _ in range(2):
         assert [_bits(task.evaluate(s, bMc, J, 0.3)) for s in (scene, scene2)] == want
+
+
+@needs_numba
+def test_the_law_robot_and_task_pickle_after_repeated_calls_and_give_the_same_numbers() -> None:
+    """What they keep between calls holds a kernel's entry point, which does not pickle: a
+    pickled copy forgets it and finds it again (on main a law that had been called twice
+    could not be pickled, e.g. to send it to a campaign worker)."""
+    robot, scene, task, q, _ = _setup(moving=False, base=False, combine=True, seed=23)
+    limits = robot.limits()
+    law = make_law("iterative-smooth")
+
+    def step(robot: Any, task: Any, law: Any) -> list[bytes]:
+        bMc, J = robot.kinematics(q)
+        st = task.evaluate(scene, bMc, J, 0.0)
+        res = law(J1=st.J1, e1=st.e1, q=q, limits=limits, lam=0.5, dt=0.04)
+        return [*_bits(st), res.qdot.tobytes(), repr(res.diagnostics).encode()]
+
+    want = [step(robot, task, law) for _ in range(3)]
+    copies = pickle.loads(pickle.dumps((robot, task, law)))
+    assert [step(*copies) for _ in range(3)] == want
+    assert [step(*copy.deepcopy((robot, task, law))) for _ in range(2)] == want[:2]

@@ -64,9 +64,19 @@ class Hot:
         self.kernel: object = None
         self.scene: object = None
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """A pickled or copied task forgets its record (the kernel's entry point is not
+        picklable): its next evaluation makes a new one."""
+        return (_forgotten, ())
+
 
 _HOT = "_points_hot"
 """Where a task keeps its :class:`Hot`."""
+
+
+def _forgotten() -> None:
+    """What a pickled :class:`Hot` becomes."""
+    return None
 
 
 def _hot(task: VisualTask) -> Hot | None:

@@ -253,6 +253,17 @@ class Seen:
         set since drops the pack (:meth:`redservo.redundancy.Law.__setattr__`), so a law
         whose options changed no longer matches ``pack`` and is seen anew."""
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """A pickled or copied law forgets its signature (the kernel's entry point is not
+        picklable): its next call is a first call again."""
+        return (_forgotten, ())
+
+
+def _forgotten() -> None:
+    """What a pickled :class:`Seen` or :class:`~redservo.features.compiled_points.Hot`
+    becomes."""
+    return None
+
 
 def quick(
     law: Law,

@@ -34,7 +34,7 @@ Choices (docs/formulas.md §11.2):
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar, Final
+from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -88,6 +88,27 @@ AFMA6_TOOLS: Final[dict[str, FloatArray]] = {
     "generic": np.eye(4),
 }
 """Named hand-eye transforms ``eMc`` (4x4), docs/formulas.md §11.2."""
+
+
+class KinematicsEntry:
+    """The entry point of a robot's kinematics kernel with what it was found for
+    (:meth:`Afma6.kinematics`): the robot's limits and ``eMc`` objects and the arguments
+    after ``q``."""
+
+    __slots__ = ("args", "eMc", "entry", "limits")
+
+    def __init__(self, entry: Any, limits: object, eMc: object, args: tuple[Any, ...]) -> None:
+        self.entry, self.limits, self.eMc, self.args = entry, limits, eMc, args
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """A pickled or copied robot forgets the entry (not picklable): its next call
+        finds it again."""
+        return (_forgotten, ())
+
+
+def _forgotten() -> None:
+    """What a pickled :class:`KinematicsEntry` becomes."""
+    return None
 
 
 class Afma6(Robot):
@@ -200,14 +221,14 @@ class Afma6(Robot):
         if (  # the set-up of an earlier call, a plain q: the kernel's entry (kernels/entry.py)
             hot is not None
             and check_limits is True
-            and hot[1] is self._limits
-            and hot[2] is self._eMc
+            and hot.limits is self._limits
+            and hot.eMc is self._eMc
             and type(q) is np.ndarray
             and q.shape == (6,)
             and q.dtype == _F64
             and q.flags.carray
         ):
-            bMc, J, ok = hot[0](q, *hot[3])
+            bMc, J, ok = hot.entry(q, *hot.args)
             if ok:
                 return bMc, J
         elif is_float_vector(q, 6) and type(self).check_q is Afma6.check_q and _KJ.COMPILED:
@@ -229,7 +250,7 @@ class Afma6(Robot):
         numba's typing of the arguments); anything else takes the dispatcher."""
         entry = entry_of(_KJ.afma6_checked, args)
         if entry is not None:
-            self.__dict__["_kin_entry"] = (entry, self._limits, self._eMc, args[1:])
+            self.__dict__["_kin_entry"] = KinematicsEntry(entry, self._limits, self._eMc, args[1:])
 
     # -- viewer ---------------------------------------------------------------------------------
 
