@@ -17,13 +17,20 @@ or behind the camera gets NaN (no prediction: the tracker's own).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
+from redservo.kernels import compiled, lazy
 from redservo.vision.optics import Optics
 from redservo.vision.terms import TermState
+
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.kernels import dot_shift as _KS
+else:
+    _KS = lazy("dot_shift")  # the command line starts without numba
 
 __all__ = ["camera_shift", "dot_inv_depths", "predicted_shift"]
 
@@ -88,6 +95,18 @@ def camera_shift(
     depth parameters and the camera's motion since ``bMc_prev`` (None: no last frame)."""
     if bMc_prev is None:
         return None
-    xy = optics.to_normalized(uv)
-    rho = dot_inv_depths(terms, len(uv), xy)
-    return predicted_shift(optics, uv, rho, bMc_prev, bMc, xy)
+    if optics.distorted or not compiled():
+        xy = optics.to_normalized(uv)
+        rho = dot_inv_depths(terms, len(uv), xy)
+        return predicted_shift(optics, uv, rho, bMc_prev, bMc, xy)
+    # without distortion: the same numbers in two compiled calls (kernels/dot_shift.py)
+    c = optics.camera
+    k = np.array([c.px, c.py, c.u0, c.v0, MIN_DEPTH])
+    pix = np.ascontiguousarray(uv, dtype=float)
+    xy = _KS.normalized(pix, k)
+    rho = dot_inv_depths(terms, len(pix), xy)
+    if not (rho > 0.0).any():  # no dot to move: no camera motion needed
+        return np.full(pix.shape, np.nan)
+    cMc = np.ascontiguousarray(np.linalg.solve(bMc, bMc_prev))
+    out: FloatArray = _KS.shift(pix, xy, rho, cMc, k)
+    return out
