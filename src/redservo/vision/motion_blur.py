@@ -220,13 +220,18 @@ def _dot_frame(
     k = np.array([opt.levels.dot_radius_px, opt.levels.point, len(samples), m], dtype=float)
     z = np.ascontiguousarray(P[..., 2])
     boxes, deltas = expose_dots(UV, z, seen, lo, hi, bg, k)
-    patches, start = [], 0
-    for r0, r1, c0, c1 in boxes.tolist():
+    packed = np.empty((len(boxes), 5), np.int64)  # FrameParts' boxes: rectangle, start
+    blurred, start = np.empty_like(deltas), 0
+    for g, (r0, r1, c0, c1) in enumerate(boxes.tolist()):
         n = (r1 - r0) * (c1 - c0)
         delta = deltas[start : start + n].reshape(r1 - r0, c1 - c0)
-        patches.append(((r0, r1, c0, c1), renderer._blur(delta)))
+        blurred[start : start + n] = renderer._blur(delta).ravel()
+        packed[g] = (r0, r1, c0, c1, start)
         start += n
-    return LazyFrame(FrameParts(bg_blurred, field_, offset, opt.noise_px, patches, renderer.gain))
+    parts = FrameParts.packed(
+        bg_blurred, field_, offset, opt.noise_px, packed, blurred, renderer.gain
+    )
+    return LazyFrame(parts)
 
 
 def _dot_layers(
