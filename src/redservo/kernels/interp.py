@@ -17,7 +17,7 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 
-__all__ = ["interpolate_pose"]
+__all__ = ["interpolate_pose", "poses_at"]
 
 
 @kernel
@@ -68,3 +68,25 @@ def interpolate_pose(T0: Any, T1: Any, u: float) -> Any:
     T[:3, :3] = R0 @ _exp_rotation(u * _log_rotation(R))
     T[:3, 3] = (1.0 - u) * T0[:3, 3] + u * T1[:3, 3]
     return T
+
+
+@kernel
+def poses_at(times: Any, poses: Any, at: Any) -> Any:
+    """The poses (k, 4, 4) at the instants ``at`` (k,) (s) of the path through ``poses``
+    (m, 4, 4) at the increasing ``times`` (m,) (s): the first pose up to ``times[0]``,
+    :func:`interpolate_pose` between the two poses around an instant (the first pair whose
+    end is not before it), the last pose after ``times[-1]``."""
+    out = np.empty((at.shape[0], 4, 4))
+    m = times.shape[0]
+    for k in range(at.shape[0]):
+        t = at[k]
+        if t <= times[0]:
+            out[k] = poses[0]
+            continue
+        out[k] = poses[m - 1]
+        for i in range(m - 1):
+            if t <= times[i + 1]:
+                u = (t - times[i]) / (times[i + 1] - times[i])
+                out[k] = interpolate_pose(poses[i], poses[i + 1], u)
+                break
+    return out

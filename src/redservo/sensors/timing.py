@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from redservo._validation import FloatArray
+from redservo._validation import FloatArray, as_transform
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
 from redservo.sensors import IdealSensor, Sensor, SensorReading
@@ -169,7 +169,7 @@ class TimedSensor:
         interval = self.timing.interval(self.dt)
         if self._next is None:  # the camera was running before the start
             self._next = math.floor((-self.timing.latency + _EPS) / interval)
-        self._poses.append((float(t), np.asarray(bMc, dtype=float)))
+        self._poses.append((float(t), as_transform(bMc, "bMc")))  # checked once, here
         half = self.timing.exposure / 2.0
         while self._next * interval + half <= t + _EPS:
             frame = self._frame(task, scene, self._next * interval)
@@ -210,19 +210,31 @@ class TimedSensor:
             bMc, tw = self._pose(t_j)
             reading = self.sensor.read(task, scene, bMc, tw)
         else:
-            samples = [self._pose(t_j + dt) for dt in self._offsets]
-            reading = self._exposed(task, scene, samples)
+            reading = self._exposed(task, scene, *self._exposure(t_j))
         return reading._replace(stamp=t_j)
 
+    def _exposure(self, t_j: float) -> tuple[list[tuple[FloatArray, float]], FloatArray]:
+        """The camera poses and world times of the exposure around ``t_j`` (s) (those of
+        :meth:`_pose` at its instants, in one compiled call:
+        :func:`redservo.kernels.interp.poses_at`), and the poses stacked (instants, 4, 4)."""
+        at = [t_j + dt for dt in self._offsets]
+        times = np.array([t for t, _ in self._poses])
+        poses: FloatArray = _KI.poses_at(times, np.array([T for _, T in self._poses]), np.array(at))
+        return [(poses[k], max(t, 0.0)) for k, t in enumerate(at)], poses
+
     def _exposed(
-        self, task: VisualTask, scene: Scene, samples: list[tuple[FloatArray, float]]
+        self,
+        task: VisualTask,
+        scene: Scene,
+        samples: list[tuple[FloatArray, float]],
+        stacked: FloatArray,
     ) -> SensorReading:
         renderer = getattr(self.sensor, "renderer", None)
         if renderer is not None:  # an image sensor: one motion-blurred frame
             from redservo.vision.motion_blur import exposed_frame
 
             bMc, tw = samples[len(samples) // 2]
-            image = exposed_frame(renderer, scene, samples)  # computed where it is read
+            image = exposed_frame(renderer, scene, samples, stacked)  # computed where read
             out: SensorReading = cast(Any, self.sensor).read(task, scene, bMc, tw, image)
             return out
         readings = [self.sensor.read(task, scene, T, tw) for T, tw in samples]

@@ -71,9 +71,9 @@ def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> DotT
     dots = tracker._dots
     if not COMPILED or any(d.lost for d in dots):  # plain Python: hypot is not libm's
         return None
-    state = np.array([(d.uv[0], d.uv[1], d.level, d.background, d.area, d.size) for d in dots])
-    if not (np.isfinite(state).all() and np.isfinite(moves).all()):
-        return None
+    state = np.array([(*d.uv.tolist(), d.level, d.background, d.area, d.size) for d in dots])
+    if not math.isfinite(float(np.add.reduce(state, None)) + float(np.add.reduce(moves, None))):
+        return None  # a NaN or inf (or so large a sum: the update decides, as for a NaN)
     lim = tracker.shape
     settings = np.array(
         [
@@ -114,13 +114,14 @@ def track_tracked(tracker: ImageDotTracker, img: Any, moves: FloatArray) -> DotT
     if not ok:
         return None
     uv = found[:, 1:3].copy()
-    for d, out, row in zip(dots, found.tolist(), uv):
-        new = row.copy()
-        d.vel, d.uv = new - d.uv, new
-        d.level, d.background = found.dtype.type(out[5]), found.dtype.type(out[6])
+    rows, vel = uv.copy(), uv - state[:, :2]  # the dots' own arrays: rows never changed
+    levels = found[:, 5:7].copy()
+    for d, out, new, v, lv in zip(dots, found.tolist(), rows, vel, levels):
+        d.vel, d.uv = v, new
+        d.level, d.background = lv[0], lv[1]
         d.area, d.size = float(int(out[3])), float(int(out[4]))
-    tracker._ref = uv.copy()
-    tracker._ref_c = [complex(x, y) for x, y in tracker._ref.tolist()]
+    tracker._ref = uv
+    tracker._ref_c = [complex(x, y) for x, y in uv.tolist()]
     n = len(dots)
     return DotTrack(uv.copy(), np.ones(n, bool), np.zeros(n, int), n, (), ("",) * n)
 

@@ -47,10 +47,14 @@ class FrameParts:
         sigma: float,
         patches: list[tuple[tuple[int, int, int, int], NDArray[np.float32]]],
         gain: NDArray[np.float32] | None = None,
+        _packed: tuple[NDArray[np.int64], NDArray[np.float32]] | None = None,
     ) -> None:
         self.bgb, self.field, self.gain = bgb, field, gain
         self.offset = np.array(offset, dtype=np.int64)
         self.sigma = float(np.float32(sigma))  # OpenCV's scaleAdd takes it as a float32
+        if _packed is not None:  # :meth:`packed`
+            self.boxes, self.deltas = _packed
+            return
         starts = np.cumsum([0] + [d.size for _, d in patches])
         self.boxes = np.array(
             [(*rect, s) for (rect, _), s in zip(patches, starts)], dtype=np.int64
@@ -60,6 +64,23 @@ class FrameParts:
             if patches
             else np.zeros(0, np.float32)
         )
+
+    @classmethod
+    def packed(
+        cls,
+        bgb: NDArray[np.float32],
+        field: NDArray[np.float32],
+        offset: tuple[int, int],
+        sigma: float,
+        boxes: NDArray[np.int64],
+        deltas: NDArray[np.float32],
+        gain: NDArray[np.float32] | None = None,
+    ) -> FrameParts:
+        """The parts of the patches given as :attr:`boxes` ((P, 5) int64: ``r0, r1, c0,
+        c1`` and each patch's start in ``deltas``) and :attr:`deltas` (float32, the
+        patches row-major, concatenated): the constructor's parts of the same patches
+        given one by one, without packing them again."""
+        return cls(bgb, field, offset, sigma, [], gain, (boxes, deltas))
 
 
 class LazyFrame:

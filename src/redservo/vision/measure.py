@@ -149,6 +149,10 @@ def measured_dots(
     """The normalized positions (k, 2) of the term's dots this frame (a lost dot at its
     predicted position, said in ``notes`` and in ``st.lost_dots``), or None when a dot was
     never seen."""
+    if getattr(sensor, "all_dots_seen", False):  # the common frame: nothing to say
+        st.lost_dots = False
+        seen: FloatArray = set_xy[st.dots]
+        return seen
     st.lost_dots = not bool(sensor._detected[st.dots].all())
     xy: FloatArray = set_xy[st.dots]
     if not np.isfinite(xy).all():

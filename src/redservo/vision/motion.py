@@ -17,15 +17,22 @@ or behind the camera gets NaN (no prediction: the tracker's own).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.camera import MIN_DEPTH
+from redservo.kernels import compiled, lazy
 from redservo.vision.optics import Optics
 from redservo.vision.terms import TermState
 
-__all__ = ["camera_shift", "dot_inv_depths", "predicted_shift"]
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.kernels import dot_shift as _KS
+else:
+    _KS = lazy("dot_shift")  # the command line starts without numba
+
+__all__ = ["camera_shift", "dot_inv_depths", "normalized_dots", "predicted_shift"]
 
 
 def dot_inv_depths(terms: Sequence[TermState], n_dots: int, xy: FloatArray) -> FloatArray:
@@ -88,6 +95,34 @@ def camera_shift(
     depth parameters and the camera's motion since ``bMc_prev`` (None: no last frame)."""
     if bMc_prev is None:
         return None
-    xy = optics.to_normalized(uv)
-    rho = dot_inv_depths(terms, len(uv), xy)
-    return predicted_shift(optics, uv, rho, bMc_prev, bMc, xy)
+    if optics.distorted or not compiled():
+        xy = optics.to_normalized(uv)
+        rho = dot_inv_depths(terms, len(uv), xy)
+        return predicted_shift(optics, uv, rho, bMc_prev, bMc, xy)
+    # without distortion: the same numbers in two compiled calls (kernels/dot_shift.py)
+    k = _params(optics)
+    pix = np.ascontiguousarray(uv, dtype=float)
+    xy = _KS.normalized(pix, k)
+    rho = dot_inv_depths(terms, len(pix), xy)
+    if not (rho > 0.0).any():  # no dot to move: no camera motion needed
+        return np.full(pix.shape, np.nan)
+    cMc = np.ascontiguousarray(np.linalg.solve(bMc, bMc_prev))
+    out: FloatArray = _KS.shift(pix, xy, rho, cMc, k)
+    return out
+
+
+def _params(optics: Optics) -> FloatArray:
+    """``(px, py, u0, v0, MIN_DEPTH)`` of ``optics``' camera (pixels, m), for
+    :mod:`redservo.kernels.dot_shift`."""
+    c = optics.camera
+    return np.array([c.px, c.py, c.u0, c.v0, MIN_DEPTH])
+
+
+def normalized_dots(optics: Optics, uv: FloatArray) -> FloatArray:
+    """``optics.to_normalized(uv)`` of the dots' pixels ``uv`` (N, 2): the same numbers, in
+    one compiled call through a camera without distortion
+    (:func:`redservo.kernels.dot_shift.normalized`)."""
+    if optics.distorted or not compiled():
+        return optics.to_normalized(uv)
+    out: FloatArray = _KS.normalized(np.ascontiguousarray(uv, dtype=float), _params(optics))
+    return out

@@ -80,14 +80,19 @@ def exposed_image(
 
 
 def exposed_frame(
-    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+    renderer: Renderer,
+    scene: Scene,
+    samples: Sequence[tuple[FloatArray, float]],
+    stacked: FloatArray | None = None,
 ) -> LazyFrame | NDArray[np.uint8]:
     """:func:`exposed_image`, computed where it is read
-    (:meth:`~redservo.vision.render.Renderer.lazy`)."""
-    frame = _dot_frame(renderer, scene, samples)
+    (:meth:`~redservo.vision.render.Renderer.lazy`). ``stacked``: the samples' poses
+    (instants, 4, 4), proper transforms already (the camera's timing interpolates them
+    between checked poses), or None: each pose is checked here."""
+    frame = _dot_frame(renderer, scene, samples, stacked)
     if frame is not None:
         return frame
-    layers = _dot_layers(renderer, scene, samples)
+    layers = _dot_layers(renderer, scene, samples, stacked)
     if layers is None:
         groups: dict[tuple[str, str, int], list[Layer]] = {}
         for bMc, t in samples:
@@ -102,7 +107,10 @@ def exposed_frame(
 
 
 def _dot_geometry(
-    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+    renderer: Renderer,
+    scene: Scene,
+    samples: Sequence[tuple[FloatArray, float]],
+    stacked: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_], list[str]] | None:
     """Every instant's dots of a scene of point sets only, projected at once: their camera
     points ``P`` (instants, dots, 3), pixels ``UV`` (instants, dots, 2), discs' rectangles
@@ -120,7 +128,7 @@ def _dot_geometry(
             return None
         sets.append((name, obj))
     names = [f"{obj.name}[{k}]" for _, obj in sets for k in range(len(obj.points))]
-    P = _dot_points(scene, sets, samples, len(names))
+    P = _dot_points(scene, sets, samples, len(names), stacked)
     return (P, *_dot_pixels(renderer, P), names)
 
 
@@ -129,12 +137,16 @@ def _dot_points(
     sets: list[tuple[str, PointSet]],
     samples: Sequence[tuple[FloatArray, float]],
     n: int,
+    stacked: FloatArray | None = None,
 ) -> FloatArray:
     """The ``n`` dots of the point sets ``sets`` in the camera frame (instants, dots, 3; m):
     :meth:`~redservo.scene.Scene.cMo`'s products, in one compiled call
-    (:func:`redservo.kernels.dot_pixels.dot_points`, the same numbers) or here."""
+    (:func:`redservo.kernels.dot_pixels.dot_points`, the same numbers) or here;
+    ``stacked``: :func:`exposed_frame`'s."""
     if COMPILED and sets:
-        bMc = np.array([as_transform(T, "bMc") for T, _ in samples])
+        if stacked is None:
+            stacked = np.array([as_transform(T, "bMc") for T, _ in samples])
+        bMc = stacked
         wMo = np.array([[scene._target_pose(name, t)[1] for name, _ in sets] for _, t in samples])
         base = scene._target_pose(sets[0][0], samples[0][1])[0]
         pts = np.concatenate([obj.points for _, obj in sets])
@@ -178,7 +190,10 @@ def _dot_pixels(
 
 
 def _dot_frame(
-    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+    renderer: Renderer,
+    scene: Scene,
+    samples: Sequence[tuple[FloatArray, float]],
+    stacked: FloatArray | None = None,
 ) -> LazyFrame | None:
     """The exposed frame of a scene of point sets in one compiled call
     (:func:`redservo.kernels.blob_expose.expose_dots`: the layers of :func:`_dot_layers`
@@ -194,7 +209,7 @@ def _dot_frame(
         or kind.render_layers is not Renderer.render_layers
     ):
         return None
-    geo = _dot_geometry(renderer, scene, samples)
+    geo = _dot_geometry(renderer, scene, samples, stacked)
     if geo is None:
         return None
     P, UV, lo, hi, seen, _ = geo
@@ -205,23 +220,31 @@ def _dot_frame(
     k = np.array([opt.levels.dot_radius_px, opt.levels.point, len(samples), m], dtype=float)
     z = np.ascontiguousarray(P[..., 2])
     boxes, deltas = expose_dots(UV, z, seen, lo, hi, bg, k)
-    patches, start = [], 0
-    for r0, r1, c0, c1 in boxes.tolist():
+    packed = np.empty((len(boxes), 5), np.int64)  # FrameParts' boxes: rectangle, start
+    blurred, start = np.empty_like(deltas), 0
+    for g, (r0, r1, c0, c1) in enumerate(boxes.tolist()):
         n = (r1 - r0) * (c1 - c0)
         delta = deltas[start : start + n].reshape(r1 - r0, c1 - c0)
-        patches.append(((r0, r1, c0, c1), renderer._blur(delta)))
+        blurred[start : start + n] = renderer._blur(delta).ravel()
+        packed[g] = (r0, r1, c0, c1, start)
         start += n
-    return LazyFrame(FrameParts(bg_blurred, field_, offset, opt.noise_px, patches, renderer.gain))
+    parts = FrameParts.packed(
+        bg_blurred, field_, offset, opt.noise_px, packed, blurred, renderer.gain
+    )
+    return LazyFrame(parts)
 
 
 def _dot_layers(
-    renderer: Renderer, scene: Scene, samples: Sequence[tuple[FloatArray, float]]
+    renderer: Renderer,
+    scene: Scene,
+    samples: Sequence[tuple[FloatArray, float]],
+    stacked: FloatArray | None = None,
 ) -> list[Layer] | None:
     """The mean layers of a scene of point sets only, every instant's dots projected at
     once: the layers of the general path (the same numbers, groups in the same order),
     without a layer object per dot and instant. None for any other scene or a renderer
     with its own :meth:`~redservo.vision.render.Renderer.layers`."""
-    geo = _dot_geometry(renderer, scene, samples)
+    geo = _dot_geometry(renderer, scene, samples, stacked)
     if geo is None:
         return None
     P, UV, lo, hi, seen, names = geo

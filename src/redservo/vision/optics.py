@@ -64,6 +64,7 @@ class Optics:
     k1: float = 0.0
     k2: float = 0.0
     _maps: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
+    _distorted: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.camera, Camera):
@@ -82,11 +83,13 @@ class Optics:
                 "the distortion is given twice: the camera has k1, k2, p1, p2, k3 and Optics "
                 "k1, k2; give it in one place (the camera's is OpenCV's full model)"
             )
+        distorted = self.k1 != 0.0 or self.k2 != 0.0 or self.camera.distorted
+        object.__setattr__(self, "_distorted", distorted)  # frozen: asked at every frame
 
     @property
     def distorted(self) -> bool:
         """True when ``k1`` or ``k2`` (or the camera's distortion) is non-zero."""
-        return self.k1 != 0.0 or self.k2 != 0.0 or self.camera.distorted
+        return self._distorted
 
     @property
     def shape(self) -> tuple[int, int]:

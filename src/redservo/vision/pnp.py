@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import lru_cache
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,8 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from redservo._validation import FloatArray
 from redservo.camera import Camera
 from redservo.errors import ConfigurationError
+from redservo.kernels import compiled, lazy
 from redservo.sensors import NoPose
 from redservo.vision.optics import require_cv2
+
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.kernels import pnp_rms as _KP
+else:
+    _KP = lazy("pnp_rms")  # the command line starts without numba
 
 __all__ = [
     "MAX_RMS_PX",
@@ -55,6 +61,8 @@ correspondence or a wrong branch leaves (tens of pixels)."""
 _CRITERIA = (3, 50, 1e-12)
 """LM's stop: ``COUNT | EPS``, 50 iterations or a step below 1e-12 (OpenCV's default, 20
 and ``FLT_EPSILON``, leaves 1e-7 m on exact dots)."""
+_MAX_COMPILED = 128
+"""Most points whose reprojection error is computed compiled (numpy's pairwise block)."""
 _PLANAR = 1e-6
 """Points whose smallest principal extent (m) is below this are treated as coplanar."""
 
@@ -108,6 +116,8 @@ class _K(NamedTuple):
     """(2,) ``(px, py)`` (pixels)."""
     centre: FloatArray
     """(2,) ``(u0, v0)`` (pixels)."""
+    params: FloatArray
+    """(4,) ``(px, py, u0, v0)`` (pixels), for :func:`redservo.kernels.pnp_rms.reprojection_rms`."""
 
 
 _DEFAULT_CAMERA = Camera()
@@ -118,7 +128,8 @@ def _intrinsics(cam: Camera) -> _K:
     """``cam``'s intrinsics, built once per camera (a frame's solve reads them; the arrays
     are never written)."""
     matrix = np.array([[cam.px, 0.0, cam.u0], [0.0, cam.py, cam.v0], [0.0, 0.0, 1.0]])
-    return _K(matrix, np.array([cam.px, cam.py]), np.array([cam.u0, cam.v0]))
+    focal, centre = np.array([cam.px, cam.py]), np.array([cam.u0, cam.v0])
+    return _K(matrix, focal, centre, np.concatenate([focal, centre]))
 
 
 def _pose(cv2: Any, rvec: Any, tvec: Any) -> FloatArray:
@@ -129,7 +140,12 @@ def _pose(cv2: Any, rvec: Any, tvec: Any) -> FloatArray:
 
 
 def _checked(P: FloatArray, uv: FloatArray, K: _K, T: FloatArray) -> DotPose | None:
-    """``T`` with its RMS reprojection error (pixels), None when a point is not in front."""
+    """``T`` with its RMS reprojection error (pixels), None when a point is not in front:
+    in one compiled call (:func:`redservo.kernels.pnp_rms.reprojection_rms`, the same bits)
+    or here."""
+    if len(P) <= _MAX_COMPILED and compiled():
+        rms = _KP.reprojection_rms(P, uv, T, K.params)
+        return None if rms < 0.0 else DotPose(T, rms)
     if not np.isfinite(T).all():
         return None
     Pc = P @ T[:3, :3].T + T[:3, 3]

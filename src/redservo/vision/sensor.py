@@ -33,6 +33,7 @@ makes ``s`` None with a ``reason`` starting with ``"feature_lost:"``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -49,7 +50,7 @@ from redservo.vision.depth import DEPTH_POLICIES, DepthPolicy
 from redservo.vision.dots import DotTracker
 from redservo.vision.ellipse import EllipseMethod
 from redservo.vision.lazyframe import pixels
-from redservo.vision.motion import camera_shift
+from redservo.vision.motion import camera_shift, normalized_dots
 from redservo.vision.pnp import PoseMisses
 from redservo.vision.render import Renderer, RenderOptions
 from redservo.vision.tag_sensor import TagTerm, measure_tag, tag_term
@@ -142,6 +143,8 @@ class ImageSensor:
         self._terms: list[TermState] = []
         self._sets: dict[str, FloatArray] = {}
         self._detected: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+        self.all_dots_seen = False
+        """Every tracked dot found in the last frame, at a finite position."""
         self._task_id: int | None = None
         self._dots_only = False  # every term is measured on the dots: read by windows
         self.feature_lost = False
@@ -252,6 +255,7 @@ class ImageSensor:
                     pass
         notes: list[str] = []
         set_xy = self._read_dots(image, scene, bMc, t, first, notes)
+        self.all_dots_seen = _all_seen(self._detected, set_xy)
         lost, gone = [], []
         for i, (term, st) in enumerate(zip(task.terms, self._terms)):
             s = self._measure(term.feature, st, image, set_xy, truth[i], notes, i)
@@ -310,7 +314,7 @@ class ImageSensor:
         track = track_dots(self._dot_tracker, image, self.renderer.options, start, notes, shift)
         self._detected = track.detected
         self.dots_uv = track.uv
-        return self.renderer.optics.to_normalized(track.uv)
+        return normalized_dots(self.renderer.optics, track.uv)
 
     def _measure(
         self,
@@ -335,6 +339,12 @@ class ImageSensor:
         assert measure is not None  # checked when the task is planned
         out: FloatArray | None = measure(self, feature, st, image, set_xy, truth, notes, i)
         return out
+
+
+def _all_seen(detected: NDArray[np.bool_], xy: FloatArray) -> bool:
+    """Every dot ``detected`` this frame, at a finite position ``xy`` (N, 2): each term then
+    takes its dots as they are (:func:`redservo.vision.measure.measured_dots`)."""
+    return bool(detected.all()) and math.isfinite(float(np.add.reduce(xy, None)))
 
 
 def tracking_gate_px(sensor: Any) -> float | None:

@@ -50,6 +50,7 @@ prediction uses this frame's positions). The dot order never changes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -253,14 +254,17 @@ class ImageDotTracker:
 
     def _moves(self, shift: ArrayLike | None) -> FloatArray:
         """Each dot's predicted motion (N, 2) in pixels: ``shift`` where given, else its velocity."""
-        vel = np.array([d.vel for d in self._dots])
         if shift is None:
-            return vel
+            return np.array([d.vel for d in self._dots])
         s = np.asarray(shift, dtype=float)
         if s.shape != (self.n_dots, 2):
             raise ShapeError(f"shift must have shape ({self.n_dots}, 2) pixels, got {s.shape}")
+        total = float(np.add.reduce(s, None))
+        if math.isfinite(total):  # the common frame: every dot predicted
+            return s.copy()
         if np.isinf(s).any():
             raise ConfigurationError("shift must be finite (NaN = no prediction), got inf")
+        vel = np.array([d.vel for d in self._dots])
         return np.where(np.isnan(s).any(axis=1, keepdims=True), vel, s)
 
     def _off_geometry(self, taken: dict[int, tuple[FloatArray, float]]) -> list[int]:
