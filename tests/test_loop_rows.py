@@ -196,7 +196,7 @@ def test_the_loops_qp_step_with_rows_is_the_laws() -> None:
             sim = (lam, dt, 1e-3, True, np.ones(n), False)
             qd, bits, need = qp_step(J1, e1, e1, False, q, prev, args, limits, sim, sec, G, b)
             rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
-            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev}
+            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
             with given_rows(law, rows):
                 res = law(J1=J1, e1=e1, q=q, secondary=sec if sec.size else None, **kw)
             assert not need
@@ -235,10 +235,23 @@ def test_the_loops_sns_step_with_rows_is_the_laws() -> None:
             ctx = (prev, sec, args, limits, sim, G, b)
             qd, bits, replaced = sns_row_step(qd0, J1, e1, e1, False, q, *ctx)
             rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
-            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev}
+            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
             with given_rows(law, rows):
                 res = law(J1=J1, e1=e1, q=q, secondary=sec if sec.size else None, **kw)
             assert np.array_equal(qd if replaced else qd0, res.qdot), opts
             assert (bits if replaced else bits0) == _flag_bits(res.diagnostics.events), opts
             replaced_steps += bool(replaced)
     assert replaced_steps > 40
+
+
+def test_sns_row_step_reads_the_laws_option_slots() -> None:
+    """The slots kernels/sns_rows.py reads sns's options from are the law's declaration."""
+    from redservo.kernels import sns_rows
+    from redservo.redundancy.sns import SaturationInNullSpace
+
+    slots = SaturationInNullSpace.SLOTS
+    assert slots["rcond"] == ("f", sns_rows.RCOND) and slots["margin"] == ("f", sns_rows.MARGIN)
+    assert slots["shield"] == ("i", sns_rows.SHIELD)
+    assert slots["has_v_max"] == ("i", sns_rows.HAS_V)
+    assert slots["has_a_max"] == ("i", sns_rows.HAS_A)
+    assert slots["v_max"] == ("v", sns_rows.V_MAX) and slots["a_max"] == ("v", sns_rows.A_MAX)
