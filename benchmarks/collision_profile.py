@@ -18,8 +18,9 @@ control step, ``time.process_time``):
 * ``searches/step``, ``pairs/step``: the capsule/box and capsule/cylinder pairs, and all
   pairs, that step 1 computes (:func:`~redservo.kernels.loop_cull.measure_culled`).
 
-Then the steps the loop hands back to the law in Python (``qp`` and ``sns`` with damper rows
-their compiled step cannot honour: :mod:`redservo.campaign.loop_handback`), per method, and
+Then the steps the loop hands back to the law in Python (:mod:`redservo.campaign.loop_handback`:
+none since ``qp`` and ``sns`` solve their damper rows in the loop; a ``qp`` with a Python
+solver library would), per method, and
 ``--rounds`` times alternated in the same minutes: the loop alone (steps per CPU s) on the
 same samples with obstacles and without (``obstacles = []``, ``collision.enabled = false``:
 the obstacle-free campaign), and the whole campaign in this process (``workers=1``,
@@ -28,7 +29,7 @@ the obstacle-free campaign), and the whole campaign in this process (``workers=1
 and without obstacles, and the reachability search of those samples alone (its obstacle
 stage, :mod:`redservo.campaign.reach_obstacles`, is part of the campaign's cost). Last, the
 whole campaign of ``qp`` and ``sns`` with their rows on the loop against the object path
-(where they ran before), alternated. docs/scaling.md gives the numbers.
+(``fast=False``), alternated. docs/scaling.md gives the numbers.
 """
 
 from __future__ import annotations

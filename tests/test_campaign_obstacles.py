@@ -1,7 +1,8 @@
 """Obstacles in the compiled campaign loop (kernels/loop_avoid.py, campaign/loop_avoid.py):
 the rows of panda-posts are those of the object path, bit for bit, and the runs stay on the
-compiled loop, ``qp`` and ``sns`` with their velocity-damper rows too (kernels/loop_rows.py:
-a step the rows change is computed by the law in Python, campaign/loop_handback.py).
+compiled loop, ``qp`` and ``sns`` with their velocity-damper rows too, solved in the loop by
+the kernels the law objects call (kernels/rowqp.py, kernels/sns_rows.py): no step is handed
+back to Python for its rows (campaign/loop_handback.py).
 
 The first test in a fresh checkout compiles the loop (minutes, then cached on disk).
 """
@@ -58,7 +59,8 @@ def test_posts_with_avoidance_rows_are_those_of_the_object_path(
 ) -> None:
     """The repulsion, the damper rows of qp and sns, the shield (its check on the true
     geometry) and the distance records in the loop: the same rows as the object path, every
-    run on the loop; qp and sns hand the steps their rows change back to the law."""
+    run on the loop, and no step handed back to Python (qp and sns solve their rows in the
+    loop with the laws' own kernels)."""
     d = _variant("panda-posts")
     methods = [*AVOIDING, "sns", "qp"]
     counts = _count_hand_backs(monkeypatch)
@@ -67,8 +69,7 @@ def test_posts_with_avoidance_rows_are_those_of_the_object_path(
     assert _same_rows(fast.rows, slow.rows)
     for m in methods:
         assert fast.engines[m] == {FAST_PATH: 3}, m
-    assert counts.get("qp", 0) > 0 and counts.get("sns", 0) > 0
-    assert set(counts) == {"qp", "sns"}
+    assert counts == {}
     assert all(r["min_distance"] >= 0.02 for r in fast.rows)
     assert any(r["flags"] and "distance-shield-acted" in r["flags"] for r in fast.rows)
 
@@ -84,17 +85,16 @@ def test_posts_without_avoidance_count_the_same_collisions() -> None:
     assert all(fast.engines[m] == {FAST_PATH: 3} for m in methods)
 
 
-def test_qp_without_daqp_drops_its_rows_on_both_paths(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Without daqp the object path's qp drops its rows (with a note); the loop builds none
-    and hands nothing back for them: the same rows, every run on the loop."""
-    from redservo.campaign import loop_avoid
-    from redservo.redundancy import distance_rows
+def test_qp_solves_its_rows_without_daqp(monkeypatch: pytest.MonkeyPatch) -> None:
+    """qp's rows are solved by the compiled solver on both paths: with daqp made unavailable
+    the rows are those of a run with it, and nothing is handed back."""
+    from redservo.redundancy import bls
 
-    monkeypatch.setattr(loop_avoid, "daqp_once", lambda: None)
-    monkeypatch.setattr(distance_rows, "daqp_once", lambda: None)
-    counts = _count_hand_backs(monkeypatch)
     d = _variant("panda-posts")
+    ref = run_campaign(d, samples=2, methods=["qp"], workers=1, progress=False)
+    monkeypatch.setattr(bls, "daqp_once", lambda: None)
+    counts = _count_hand_backs(monkeypatch)
     fast = run_campaign(d, samples=2, methods=["qp"], workers=1, progress=False)
     slow = run_campaign(d, samples=2, methods=["qp"], workers=1, progress=False, fast=False)
-    assert _same_rows(fast.rows, slow.rows)
+    assert _same_rows(fast.rows, ref.rows) and _same_rows(fast.rows, slow.rows)
     assert fast.engines["qp"] == {FAST_PATH: 2} and counts == {}

@@ -1,6 +1,8 @@
 """Velocity-damper rows in the compiled campaign loop (kernels/loop_rows.py): the rows the loop
-builds are those of redundancy/distance_rows.py bit for bit, its test of a command never says
-"met" where the law's would not, and the loop's ``qp`` step with a secondary is the law's."""
+builds are those of redundancy/distance_rows.py bit for bit, the law objects decide whether a
+command meets them with the loop's own kernel, and the loop's ``qp`` and ``sns`` steps, with
+a secondary and with rows, are the laws' (command and flags) bit for bit: no step is handed
+back to Python for its rows."""
 
 from __future__ import annotations
 
@@ -14,7 +16,7 @@ pytest.importorskip("numba", reason="the compiled campaign loop needs numba (red
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import Collision
 from redservo.kernels.loop_cull import measure_culled
-from redservo.kernels.loop_rows import I_ROWS, SLACK, damper_rows, rows_met
+from redservo.kernels.loop_rows import I_ROWS, damper_rows, rows_met
 from redservo.redundancy import make_law
 from redservo.redundancy.distance_rows import (
     ROW_TOL,
@@ -22,6 +24,7 @@ from redservo.redundancy.distance_rows import (
     bind_distances,
     distance_rows,
     given_rows,
+    rows_hold,
 )
 from redservo.robots import make_robot
 from redservo.scene import Static
@@ -80,24 +83,23 @@ def test_the_loops_rows_are_distance_rows_bit_for_bit(seed: int) -> None:
     assert damper_rows(d, J, off)[1].shape == (0,)
 
 
-def test_the_loop_says_met_only_where_the_law_does() -> None:
-    """rows_met implies DistanceRows.satisfied; a row met by less than the slack is left to
-    the law (handed back), which then decides as the object path does."""
+def test_the_laws_decide_with_the_loops_row_test() -> None:
+    """rows_hold (the laws' decision) is the loop's rows_met, by ROW_TOL exactly, and agrees
+    with DistanceRows.satisfied away from the tolerance's edge."""
     rng = np.random.default_rng(4)
     for _ in range(300):
         r, n = int(rng.integers(1, 5)), 7
         G, qd = rng.normal(0.0, 0.3, (r, n)), rng.normal(0.0, 1.0, n)
-        b = G @ qd + rng.normal(0.0, 1e-9, r) * rng.choice([0.0, 1.0, 1e3], r)
+        b = G @ qd + rng.normal(0.0, 1e-6, r) * rng.choice([0.0, 1.0, 1e3], r)
         rows = DistanceRows(G, b, tuple("p" * (k + 1) for k in range(r)))
-        if rows_met(G, b, qd):
-            assert rows.satisfied(qd)
+        assert rows_hold(rows, qd) is rows_met(G, b, qd)
+        if np.all(np.abs(G @ qd - b + ROW_TOL) > 1e-12):
+            assert rows_hold(rows, qd) is rows.satisfied(qd)
     G = np.array([[0.3, -0.2, 0.1]])
     qd = np.array([0.5, 0.25, -1.0])
-    g = float((G @ qd)[0])
-    for gap, met in ((0.0, True), (ROW_TOL - 10 * SLACK, True), (ROW_TOL - SLACK / 10, False)):
-        b = np.array([g + gap])
-        assert rows_met(G, b, qd) is met
-        assert DistanceRows(G, b, ("a",)).satisfied(qd)  # the law: met in each case
+    g = float(G[0, 0] * qd[0] + G[0, 1] * qd[1] + G[0, 2] * qd[2])
+    for gap, met in ((0.0, True), (0.5 * ROW_TOL, True), (2.0 * ROW_TOL, False)):
+        assert rows_met(G, np.array([g + gap]), qd) is met
     assert rows_met(np.zeros((0, 3)), np.zeros(0), qd)
 
 
@@ -160,3 +162,96 @@ def test_the_loops_qp_step_with_a_secondary_is_the_laws() -> None:
             assert bits == _flag_bits(res.diagnostics.events), opts
             inside += "solver: none" in " ".join(res.diagnostics.info)
     assert 0 < inside < 100
+
+
+def _row_state(rng: np.random.Generator, lim: Any, r: int) -> tuple[Any, Any]:
+    """Damper rows a command often breaks: ``G`` (r, n) like distance Jacobians, ``b`` from
+    an approach allowed (< 0) to a push away (> 0, inside d_safe)."""
+    n = lim.n
+    G = np.ascontiguousarray(rng.normal(0.0, 0.3, (r, n)))
+    b = rng.uniform(-0.05, 0.02, r)
+    return G, b
+
+
+def test_the_loops_qp_step_with_rows_is_the_laws() -> None:
+    """kernels/sensed.py ``qp_step`` with damper rows (and a secondary on half the steps):
+    solved in the kernel (never handed back), the law object's command with the same rows
+    (given_rows) bit for bit, and its flags."""
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.kernels.sensed import qp_step
+    from redservo.redundancy.packs import limits_pack
+
+    rng = np.random.default_rng(21)
+    lim = make_robot("panda").limits(0.1)
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    n, solved = lim.n, 0
+    for opts in ({}, {"v_max": 0.3}):
+        law = make_law("qp", **opts)
+        args = _law_args(law, n)
+        for k in range(80):
+            J1, e1, q, prev, lam, dt = _random_step(rng, lim)
+            G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
+            sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
+            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            qd, bits, need = qp_step(J1, e1, e1, False, q, prev, args, limits, sim, sec, G, b)
+            rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
+            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
+            with given_rows(law, rows):
+                res = law(J1=J1, e1=e1, q=q, secondary=sec if sec.size else None, **kw)
+            assert not need
+            assert np.array_equal(qd, res.qdot), opts
+            assert bits == _flag_bits(res.diagnostics.events), opts
+            solved += any("distance rows:" in i for i in res.diagnostics.info)
+    assert solved > 60
+
+
+def test_the_loops_sns_step_with_rows_is_the_laws() -> None:
+    """kernels/sns_rows.py ``sns_row_step`` after the step kernel's command, as the loop runs
+    it: where a row is broken, the law object's command with the same rows bit for bit and
+    its flags; where none is, the step kernel's command is kept."""
+    from redservo.campaign.fastloop import _flag_bits, _law_args
+    from redservo.kernels.sensed import law_bits_sec
+    from redservo.kernels.sns_rows import sns_row_step
+    from redservo.redundancy.packs import limits_pack
+
+    rng = np.random.default_rng(22)
+    lim = make_robot("panda").limits(0.1)
+    lp = limits_pack(lim)
+    limits = (lp.rows, lp.has_v, lp.has_a, np.array(lim.q_min), np.array(lim.q_max))
+    n, replaced_steps = lim.n, 0
+    for opts in ({}, {"v_max": 0.3, "a_max": 2.0}):
+        law = make_law("sns", **opts)
+        args = _law_args(law, n)
+        for k in range(80):
+            J1, e1, q, prev, lam, dt = _random_step(rng, lim)
+            G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
+            sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
+            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            step = (J1, e1, e1, False, q, prev, np.zeros(n), False, args, limits, sim, sec)
+            qd0, bits0, _, abort = law_bits_sec(*step)
+            if abort:
+                continue
+            ctx = (prev, sec, args, limits, sim, G, b)
+            qd, bits, replaced = sns_row_step(qd0, J1, e1, e1, False, q, *ctx)
+            rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
+            kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
+            with given_rows(law, rows):
+                res = law(J1=J1, e1=e1, q=q, secondary=sec if sec.size else None, **kw)
+            assert np.array_equal(qd if replaced else qd0, res.qdot), opts
+            assert (bits if replaced else bits0) == _flag_bits(res.diagnostics.events), opts
+            replaced_steps += bool(replaced)
+    assert replaced_steps > 40
+
+
+def test_sns_row_step_reads_the_laws_option_slots() -> None:
+    """The slots kernels/sns_rows.py reads sns's options from are the law's declaration."""
+    from redservo.kernels import sns_rows
+    from redservo.redundancy.sns import SaturationInNullSpace
+
+    slots = SaturationInNullSpace.SLOTS
+    assert slots["rcond"] == ("f", sns_rows.RCOND) and slots["margin"] == ("f", sns_rows.MARGIN)
+    assert slots["shield"] == ("i", sns_rows.SHIELD)
+    assert slots["has_v_max"] == ("i", sns_rows.HAS_V)
+    assert slots["has_a_max"] == ("i", sns_rows.HAS_A)
+    assert slots["v_max"] == ("v", sns_rows.V_MAX) and slots["a_max"] == ("v", sns_rows.A_MAX)

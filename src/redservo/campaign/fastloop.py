@@ -16,8 +16,8 @@ not covered:
   calibration error, the estimated feed-forward (the known one is covered), an adaptive
   gain, a camera-motion limit (the Controller applies it: the object path);
 * obstacles the loop does not measure (:mod:`redservo.campaign.loop_avoid`; ``qp`` and
-  ``sns`` avoid on the loop with their velocity-damper rows, a step whose command the rows
-  change computed by the law in Python: :mod:`redservo.campaign.loop_handback`);
+  ``sns`` avoid on the loop with their velocity-damper rows, solved in the loop by the
+  kernels the laws call: :mod:`redservo.kernels.loop_rows`);
 * a robot other than the Afma6, a DH chain or a :class:`~redservo.robots.chain.ChainRobot`
   (URDF robots), features other than image points and moments, a depth option other
   than ``"current"``, a target that is not a point set, static or on waypoints
@@ -222,8 +222,8 @@ def _summary(
 
 def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, int, int, int]:
     """Call the loop kernel until the run ends; a step it hands back (a ``qp`` step for a
-    Python solver or with damper rows, an ``sns`` command that breaks a row) is computed by
-    the law itself, exactly as the object path does (:mod:`redservo.campaign.loop_handback`)."""
+    Python solver library, or whose compiled solver failed) is computed by the law itself,
+    exactly as the object path does (:mod:`redservo.campaign.loop_handback`)."""
     from redservo.campaign import loop_handback
     from redservo.campaign.loop_kernel import NEED_SOLVE, closed_loop
 

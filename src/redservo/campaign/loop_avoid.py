@@ -20,7 +20,6 @@ import numpy as np
 
 from redservo.collision.pack import CompiledGeometry
 from redservo.experiment.build import Experiment
-from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.distance_rows import ROW_LAWS
 from redservo.redundancy.flags import FLAGS, Flag
 
@@ -61,12 +60,11 @@ def collision_reason(exp: Experiment, law: Any) -> str | None:
 
 
 def _rows_flag(exp: Experiment, law: Any) -> int:
-    """1 when ``law`` solves with damper rows on ``exp`` (``bind_distances``' condition; ``qp``
-    drops them without daqp, with a note: :func:`~redservo.redundancy.distance_rows.solve_qp_rows`)."""
+    """1 when ``law`` solves with damper rows on ``exp`` (``bind_distances``' condition)."""
     c = exp.options.collision
     if c is None or not (c.enabled and c.avoid and c.active) or law.name not in _LOOP_ROW_LAWS:
         return 0
-    return int(law.name != "qp" or daqp_once() is not None)
+    return 1
 
 
 def off_pack(n: int) -> tuple[Any, ...]:

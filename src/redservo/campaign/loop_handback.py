@@ -2,8 +2,8 @@
 
 :func:`redservo.campaign.loop_kernel.closed_loop` returns ``NEED_SOLVE`` for a step it
 cannot finish: a ``qp`` step whose solver is a Python library (or whose compiled solver
-failed), a ``qp`` step that must solve with velocity-damper rows, an ``sns`` command that
-breaks a row (:mod:`redservo.kernels.loop_rows`). :func:`python_step` then calls the law
+failed). (The velocity-damper rows of ``qp`` and ``sns`` are solved in the loop by the
+kernels the laws call, :mod:`redservo.kernels.loop_rows`.) :func:`python_step` then calls the law
 with what the object path's Controller gives it (the step's ``J1``, ``e1``, ``q``, the
 previous command, the known feed-forward, the repulsive secondary) and the rows the loop
 built (:func:`~redservo.redundancy.distance_rows.given_rows`), and puts its command and flag

@@ -17,12 +17,11 @@ operations of the object path, in the same order and with the same kernels:
 4. the law and its safety layer, :func:`redservo.kernels.step.law_step`; for ``qp`` its
    kernels and its compiled solver (:mod:`redservo.kernels.boxqp`); with collision
    avoidance on, the repulsive secondary and, for ``qp`` and ``sns``, the velocity-damper
-   rows (:mod:`redservo.kernels.loop_rows`). A step the kernel cannot finish (the law set
-   to a Python solver library such as daqp, the compiled solver failing: the law's Python
-   fallback; a ``qp`` step with damper rows its unconstrained optimum does not meet, an
-   ``sns`` command that breaks a row) returns :data:`NEED_SOLVE`: Python calls the law
-   itself (with the rows the loop built) and calls the loop again from that iteration
-   with the command;
+   rows (:mod:`redservo.kernels.loop_rows`), solved by the compiled kernels the law
+   objects call too. A step the kernel cannot finish (the law set to a Python solver
+   library such as daqp, the compiled solver failing: the law's Python fallback) returns
+   :data:`NEED_SOLVE`: Python calls the law itself (with the rows the loop built) and calls
+   the loop again from that iteration with the command;
 5. the actuator saturation, the camera twist ``J q̇``, ``‖e1‖``, the convergence test,
    the hard-limit test (``joint_limit``) and ``q ← clip(q + q̇ dt)``.
 
@@ -55,7 +54,7 @@ from redservo.kernels.loop_avoid import (
     secondary,
     shield_step,
 )
-from redservo.kernels.loop_rows import damper_rows, hand_back, rows_met
+from redservo.kernels.loop_rows import damper_rows, hand_back
 from redservo.kernels.sensed import (
     ABORT_INFEASIBLE,
     ABORT_NON_FINITE,
@@ -65,6 +64,7 @@ from redservo.kernels.sensed import (
     qp_step,
     sense,
 )
+from redservo.kernels.sns_rows import sns_row_step
 from redservo.kernels.step import LAW_IDS
 from redservo.simulation.loop import LIMIT_TOLERANCE
 
@@ -215,8 +215,10 @@ def closed_loop(
 @kernel
 def _law(*args: Any) -> Any:
     """Step 4: ``(q̇, bits, abs_grad, code)``, ``code`` 0, an ``ABORT_*`` code or
-    :data:`NEED_SOLVE`: the step goes to Python (``qp``: its Python solver, or damper rows
-    to solve with; ``sns``: a damper row its command breaks, :mod:`redservo.kernels.loop_rows`)."""
+    :data:`NEED_SOLVE`: the step goes to Python (``qp`` with a Python solver library, or
+    its compiled solver failed). The damper rows are solved here, by the kernels the law
+    objects call: ``qp``'s in :func:`~redservo.kernels.sensed.qp_step`, ``sns``'s in
+    :func:`~redservo.kernels.sns_rows.sns_row_step` (:mod:`redservo.kernels.loop_rows`)."""
     J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec, rows = args
     G, b, _ = rows
     if law[0] == QP:
@@ -224,8 +226,11 @@ def _law(*args: Any) -> Any:
         return qd, bits, q[:0], NEED_SOLVE if need else 0
     step = (J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec)
     qd, bits, axf, abort = law_bits_sec(*step)
-    if abort == 0 and law[0] == _SNS and not rows_met(G, b, qd):
-        return qd, bits, axf, NEED_SOLVE
+    if abort == 0 and law[0] == _SNS and b.shape[0] > 0:
+        ctx = (prev, sec, law, limits, sim, G, b)
+        qr, rbits, replaced = sns_row_step(qd, J1, e1, ff, has_ff, q, *ctx)
+        if replaced:
+            return qr, rbits, axf, 0
     return qd, bits, axf, abort
 
 

@@ -11,15 +11,15 @@ iteration of :func:`redservo.campaign.loop_kernel.closed_loop` for these laws:
    ``b_k = −ξ (d_k − d_s)/(d_i − d_s) − ∂d_k/∂t``. The compiled geometry has static obstacles
    only (:func:`redservo.collision.pack.geometry_reason`), whose ``∂d_k/∂t`` the object path
    sets to 0; the subtraction is kept, and exact.
-2. The law's compiled step runs; :func:`rows_met` says whether its command (``qp``: the
-   unconstrained optimum, ``sns``: the safe command) meets every row by the object path's
-   tolerance (:data:`~redservo.kernels.row_tolerance.ROW_TOL`), with
-   :data:`~redservo.kernels.row_tolerance.SLACK` to
-   spare. When it does not, the step is handed back to Python (:func:`hand_back`), which
-   calls the law with these rows, exactly as the object path does, and the loop resumes
-   with its command. A row met by less than the slack is handed back too: the law then
-   decides with its own ``G @ q̇`` (numpy's product, whose last bits may differ from the
-   loop's), so the decision and the command are always the object path's.
+2. The law's compiled step solves with them, with the kernels the law objects call too
+   (so the two paths give the same command to the bit): :func:`rows_met` decides whether a
+   command meets every row (by the object path's tolerance,
+   :data:`~redservo.kernels.row_tolerance.ROW_TOL`); ``qp`` solves its QP with the rows by
+   :func:`redservo.kernels.rowqp.qp_rows` when its unconstrained optimum does not meet
+   them, ``sns`` runs Algorithm 1 over the joints and the rows
+   (:mod:`redservo.kernels.sns_rows`) when its command breaks one. A step is handed back to
+   Python (:func:`hand_back`, the law called with these rows) only when the law's solver is
+   a Python library (``qp`` with ``solver = "daqp"`` and the like).
 
 Units: m, m/s, rad, s.
 """
@@ -31,9 +31,11 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
-from redservo.kernels.row_tolerance import ROW_TOL, SLACK
+from redservo.kernels.qp import qp_finish
+from redservo.kernels.row_tolerance import ROW_TOL
+from redservo.kernels.rowqp import FAILED, SOLVED, qp_rows
 
-__all__ = ["I_ROWS", "SLACK", "damper_rows", "hand_back", "rows_met"]
+__all__ = ["I_ROWS", "damper_rows", "hand_back", "qp_row_step", "rows_met"]
 
 I_ROWS = 6
 """The index in the collision pack's ``iopt`` (:mod:`redservo.kernels.loop_avoid`) of the
@@ -67,14 +69,47 @@ def damper_rows(d: Any, J: Any, coll: Any) -> Any:
 
 @kernel
 def rows_met(G: Any, b: Any, qd: Any) -> bool:
-    """Whether ``qd`` (n,) meets every row ``G q̇ ≥ b − ROW_TOL`` with :data:`SLACK` to spare."""
-    if G.shape[0] == 0:
-        return True
-    g = np.dot(G, qd)
-    for k in range(g.shape[0]):
-        if not g[k] >= b[k] - ROW_TOL + SLACK:
+    """Whether ``qd`` (n,) meets every row, ``G_k q̇ ≥ b_k − ROW_TOL`` (m/s); the product
+    written out (no BLAS), so the law objects, which call this very kernel
+    (:func:`redservo.redundancy.distance_rows.rows_hold`), and the loop decide alike."""
+    for k in range(G.shape[0]):
+        g = 0.0
+        for j in range(G.shape[1]):
+            g += G[k, j] * qd[j]
+        if not g >= b[k] - ROW_TOL:
             return False
     return True
+
+
+@kernel
+def qp_row_step(
+    J1: Any,
+    xdot: Any,
+    lo: Any,
+    hi: Any,
+    eps: float,
+    z: Any,
+    has_sec: bool,
+    G: Any,
+    b: Any,
+    inside: bool,
+    x: Any,
+    q: Any,
+    dt: float,
+    lp: Any,
+) -> Any:
+    """The ``qp`` law's rows (``BoundedLeastSquares._rows``, redundancy/qp.py): unless there
+    is none or the unconstrained optimum ``x`` is ``inside`` the bounds and meets them,
+    :func:`~redservo.kernels.rowqp.qp_rows` then ``qp_finish``. ``(q̇, residual, solved,
+    failed)``: ``solved`` False leaves the step to the law's box solve (no row, or the rows
+    dropped: infeasible even relaxed, or ``failed``, which the law flags)."""
+    if b.shape[0] == 0 or (inside and rows_met(G, b, x)):
+        return x, -1.0, False, False
+    y, status, _ = qp_rows(J1, xdot, lo, hi, eps, z, has_sec, G, b)
+    if status != SOLVED:
+        return x, -1.0, False, status == FAILED
+    fixed, _, resid = qp_finish(J1, xdot, lo, hi, y, q, dt, lp)
+    return fixed, resid, True, False
 
 
 @kernel

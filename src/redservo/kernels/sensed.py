@@ -25,7 +25,7 @@ from redservo.kernels.bls import bls_reduce
 from redservo.kernels.boxqp import SOLVED, qp_solve_reduced
 from redservo.kernels.control import law_core, task_rows
 from redservo.kernels.events import qp_events, safety_events
-from redservo.kernels.loop_rows import rows_met
+from redservo.kernels.loop_rows import qp_row_step
 from redservo.kernels.loop_task import all_finite, known_feedforward, loop_task
 from redservo.kernels.qp import qp_finish, qp_prepare
 from redservo.kernels.robot import robot_kinematics
@@ -108,10 +108,10 @@ def qp_step(
     :func:`~redservo.kernels.qp.qp_setup` reduces, when ``iopt[1]``: the law's solver is
     ``"auto"``/``"active-set"``), then the safety layer. A step the kernel cannot finish
     returns ``need_solve`` (the caller hands it to Python, which calls the law itself):
-    another solver chosen, the compiled one failed (the law's Python fallback), or damper
-    rows ``G q̇ ≥ b`` (r, n), (r,) that the unconstrained optimum does not meet or that a
-    bound-active step must solve with (the law's daqp solve:
-    :mod:`redservo.kernels.loop_rows`).
+    another solver chosen, or the compiled one failed (the law's Python fallback). Damper
+    rows ``G q̇ ≥ b`` (r, n), (r,) that the unconstrained optimum does not meet are solved
+    here, as the law does (:func:`redservo.kernels.rowqp.qp_rows`; infeasible even relaxed,
+    or failed: dropped, the failure flagged ``solver-fallback``).
     """
     _, fopt, iopt, vopt, _ = law
     lp, has_v, has_a, _, _ = limits
@@ -128,21 +128,23 @@ def qp_step(
     x, inside, lo, hi, conflicts, xdot, rank, smax = qp_prepare(
         J1, e, *rates, fopt[2], fopt[3], vopt[0], has_vopt, fopt[0], shield
     )
-    if b.shape[0] > 0 and not (inside and rows_met(G, b, x)):
-        return x, 0, True
-    resid = -1.0
-    if inside:
+    eps_abs = fopt[1] * smax * smax if smax > 0.0 else fopt[1]
+    fixed, resid, rowed, fallback = qp_row_step(
+        J1, xdot, lo, hi, eps_abs, z, has_sec, G, b, inside, x, q, dt, lp
+    )
+    if rowed:
+        pass
+    elif inside:
         fixed = qp_finish(J1, xdot, lo, hi, x, q, dt, lp)[0]
     else:
         status = SOLVED - 1
         if iopt[1] != 0:  # qp_setup's reduction, the law's _solve
-            eps_abs = fopt[1] * smax * smax if smax > 0.0 else fopt[1]
             xr, free, _, _, _, lof, hif, P, c = bls_reduce(J1, xdot, lo, hi, z, eps_abs)
             sol = (xr, free, P, c, lof, hif, z, has_sec, q, dt, lp)
             fixed, _, _, resid, status = qp_solve_reduced(J1, xdot, lo, hi, *sol)
         if status != SOLVED:
             return x, 0, True
-    bits = qp_events(m, rank, conflicts, False, resid)[0]
+    bits = qp_events(m, rank, conflicts, fallback, resid)[0]
     qd, bad, s, over_v, dropped, change, acted, worst, exc, past, _ = apply_safety(
         fixed, q, lp, has_v, has_a, dt, prev, True, shield, zn, False
     )

@@ -18,7 +18,8 @@ A law gets its rows through :func:`bind_distances` (the Controller's collision c
 it); :func:`distance_rows` measures them at the law's ``q``, at the time of the collision
 set-up's last measurement (the repulsive objective measures first in the same step). The
 compiled campaign loop builds the same rows itself (:mod:`redservo.kernels.loop_rows`) and,
-when a step needs the law's Python solve, calls the law with them (:func:`given_rows`).
+when a step needs the law's Python solve, calls the law with them (:func:`given_rows`). ``qp`` and ``sns`` solve and decide with compiled kernels that
+both paths call (:func:`solve_qp_rows`, :func:`rows_hold`, :mod:`redservo.kernels.sns_rows`).
 """
 
 from __future__ import annotations
@@ -30,12 +31,17 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
 from redservo.kernels.row_tolerance import ROW_TOL
-from redservo.redundancy.bls import daqp_once
 
 if TYPE_CHECKING:
     from redservo.control.avoidance import Collision
+    from redservo.kernels import loop_rows as _KL
+    from redservo.kernels import rowqp as _KR
     from redservo.robots.base import Robot
+else:
+    _KR = lazy("rowqp")
+    _KL = lazy("loop_rows")
 
 __all__ = [
     "ROW_LAWS",
@@ -45,13 +51,15 @@ __all__ = [
     "distance_rows",
     "given_rows",
     "row_report",
+    "rows_hold",
     "solve_qp_rows",
 ]
 
 _SOURCE = "_distance_source"
 """The attribute of a law holding its ``(collision, robot)`` (or None)."""
-_INF = 1e30
-"""daqp's infinite bound."""
+ROWS_FAILED = "distance rows: the compiled row solver failed"
+"""The start of :func:`solve_qp_rows`' note when its solver fails (the law then flags
+``solver-fallback``)."""
 
 
 class DistanceRows(NamedTuple):
@@ -114,6 +122,13 @@ def given_rows(law: object, rows: DistanceRows | None) -> Iterator[None]:
         object.__setattr__(law, _SOURCE, saved)
 
 
+def rows_hold(rows: DistanceRows, qdot: FloatArray) -> bool:
+    """Whether ``qdot`` (rad/s or m/s) meets every row by :data:`ROW_TOL`, by the compiled
+    check the campaign loop makes (:func:`redservo.kernels.loop_rows.rows_met`): ``qp`` and
+    ``sns`` decide with it on both paths, so the two decide alike to the bit."""
+    return bool(_KL.rows_met(rows.G, rows.b, np.ascontiguousarray(qdot, dtype=np.float64)))
+
+
 def solve_qp_rows(
     J1: FloatArray,
     xdot: FloatArray,
@@ -124,8 +139,10 @@ def solve_qp_rows(
     rows: DistanceRows,
 ) -> tuple[FloatArray | None, str]:
     """``min ‖J1 q̇ − ẋ‖² + ε ‖q̇ − secondary‖²`` s.t. ``lo ≤ q̇ ≤ hi`` and ``G q̇ ≥ b``
-    with daqp: ``(q̇, note)``, q̇ None when no solution exists even with the rows relaxed
-    to "never closer" (``b`` capped at 0; the note says which was solved).
+    with the compiled dual active-set solver (:func:`redservo.kernels.rowqp.qp_rows`, the
+    one the campaign loop calls): ``(q̇, note)``, q̇ None when no solution exists even with
+    the rows relaxed to "never closer" (``b`` capped at 0; the note says which was solved),
+    or when the solver fails (the note starts with :data:`ROWS_FAILED`).
 
     Args:
         J1: (m, n) task Jacobian; xdot: (m,) task velocity.
@@ -134,22 +151,26 @@ def solve_qp_rows(
         secondary: (n,) preferred joint velocity, or None.
         rows: The distance rows.
     """
-    daqp = daqp_once()
-    if daqp is None:  # pragma: no cover - daqp is a dependency of the qp extra
-        return None, "distance rows: daqp is not installed"
     n = J1.shape[1]
-    H = J1.T @ J1 + eps * np.eye(n)
-    f = -(J1.T @ xdot)
-    if secondary is not None:
-        f = f - eps * secondary
-    for b, what in ((rows.b, "velocity dampers"), (np.minimum(rows.b, 0.0), "relaxed to 0")):
-        bu = np.concatenate([hi, np.full(b.size, _INF)])
-        bl = np.concatenate([lo, b])
-        sense = np.zeros(bu.size, dtype=np.intc)
-        y, _, flag, _ = daqp.solve(H, f, rows.G, bu, bl, sense)
-        if flag > 0 and np.all(np.isfinite(y)):
-            return np.asarray(y, dtype=float), f"distance rows: {len(b)} ({what})"
-    return None, f"distance rows: {len(rows.b)} infeasible within the joint bounds"
+    f64 = np.float64
+    sec = np.zeros(n) if secondary is None else np.ascontiguousarray(secondary, dtype=f64)
+    y, status, relaxed = _KR.qp_rows(
+        np.ascontiguousarray(J1, dtype=f64),
+        np.ascontiguousarray(xdot, dtype=f64),
+        np.ascontiguousarray(lo, dtype=f64),
+        np.ascontiguousarray(hi, dtype=f64),
+        float(eps),
+        sec,
+        secondary is not None,
+        np.ascontiguousarray(rows.G, dtype=f64),
+        np.ascontiguousarray(rows.b, dtype=f64),
+    )
+    r = len(rows.b)
+    if status == _KR.SOLVED:
+        return y, f"distance rows: {r} ({'relaxed to 0' if relaxed else 'velocity dampers'})"
+    if status == _KR.FAILED:
+        return None, f"{ROWS_FAILED} (numerical failure or iteration cap); {r} rows dropped"
+    return None, f"distance rows: {r} infeasible within the joint bounds"
 
 
 def row_report(rows: DistanceRows | None, qdot: FloatArray) -> str:

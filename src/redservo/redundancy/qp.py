@@ -62,10 +62,14 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
   solver tolerance.
 * **Distance rows** (collision avoidance on, :mod:`redservo.redundancy.distance_rows`): the
   velocity dampers ``J_k q̇ ≥ b_k`` of the pairs within ``d_influence`` join the bounds as
-  linear inequalities (daqp on the full problem, no polish) unless the unconstrained optimum
-  meets them; when even "never closer" (``b_k`` capped at 0) is infeasible within the bounds
-  the rows are dropped for the step (noted) and the distance shield guards; without daqp
-  installed (extra ``redservo[qp]``) the rows are dropped with a note.
+  linear inequalities unless the unconstrained optimum meets them: the full problem (no
+  polish) is solved by the compiled dual active-set method of :mod:`redservo.kernels.rowqp`
+  (Goldfarb & Idnani; daqp's minimiser to 1e-9, tests/test_rowqp.py), the one solver of the
+  law object and of the campaign loop, so their commands are the same bit for bit. When
+  even "never closer" (``b_k`` capped at 0) is infeasible within the bounds the rows are
+  dropped for the step (noted) and the distance shield guards; should the solver fail (its
+  iteration cap, a numerical failure) the rows are dropped too, noted and flagged
+  ``solver-fallback``.
 * **Safety** (docs/safety.md): the bounds are intersected with the shield's box
   (velocity and acceleration limits of ``limits``, position limits less their margin,
   braking bound), so that ``qp`` satisfies them without the shield; the result is
@@ -94,7 +98,12 @@ from redservo.redundancy.bls import (
     qpsolvers_module,
     solve_bounded_least_squares,
 )
-from redservo.redundancy.distance_rows import distance_rows, solve_qp_rows
+from redservo.redundancy.distance_rows import (
+    ROWS_FAILED,
+    distance_rows,
+    rows_hold,
+    solve_qp_rows,
+)
 from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.messages import events
@@ -115,6 +124,8 @@ __all__ = ["ACTIVE_SET", "BoundedLeastSquares", "qp_velocity_bounds", "solve_bou
 ACTIVE_SET = "active-set"
 """The ``solver`` name of the compiled active-set solver (:mod:`redservo.kernels.boxqp`),
 what ``"auto"`` means."""
+ROW_SOLVER = "dual active-set (with distance rows)"
+"""The solver note of a step solved with the distance rows (:mod:`redservo.kernels.rowqp`)."""
 _FAILURES = {-1: "the bounds do not meet", 0: "numerical failure or iteration cap"}
 """The compiled solver's status codes that are not a solution, in words."""
 
@@ -282,9 +293,10 @@ class BoundedLeastSquares(Law):
         critical: tuple[tuple[int, ...], ...] = ()
         used, resid = "", -1.0
         rowed = self._rows(k, x, xdot, lo, hi, float(eps_abs), qdot if inside else None, info)
+        rows_failed = bool(info) and info[-1].startswith(ROWS_FAILED)
         if rowed is not None:
             fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
-            used, resid, critical = "daqp (with distance rows)", float(resid), _levels(active)
+            used, resid, critical = ROW_SOLVER, float(resid), _levels(active)
         elif inside:
             info.append("solver: none (unconstrained optimum within the bounds)")
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
@@ -295,7 +307,7 @@ class BoundedLeastSquares(Law):
             critical = _levels(active)
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
-        fallback = "fallback" in used or "failed" in used
+        fallback = "fallback" in used or "failed" in used or rows_failed
         mask, vals, src = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
         ctx = {"rank": int(rank), "m": m, "solver": used}
         ctx["conflicts"] = lambda: np.flatnonzero(conflicts).tolist()
@@ -326,7 +338,7 @@ class BoundedLeastSquares(Law):
         unconstrained optimum ``free`` (None: not within the bounds) meets them, or no
         solution (noted in ``info``)."""
         rows = distance_rows(self, k.q)
-        if rows is None or (free is not None and rows.satisfied(free)):
+        if rows is None or (free is not None and rows_hold(rows, free)):
             return None
         rowed, note = solve_qp_rows(k.J1, xdot, lo, hi, eps_abs, x.secondary, rows)
         info.append(note)

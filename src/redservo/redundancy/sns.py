@@ -71,7 +71,7 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
-from redservo.redundancy.distance_rows import distance_rows
+from redservo.redundancy.distance_rows import distance_rows, rows_hold
 from redservo.redundancy.inputs import validate_inputs
 from redservo.redundancy.kio import kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
@@ -366,7 +366,7 @@ class SaturationInNullSpace(Law):
             return res
         x = validate_inputs(**kwargs)
         rows = distance_rows(self, x.q)
-        if rows is None or rows.satisfied(res.qdot):
+        if rows is None or rows_hold(rows, res.qdot):
             return res
         return with_rows(self, x, rows, self._kernel(x), res)
 

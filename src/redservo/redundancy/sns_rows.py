@@ -14,7 +14,10 @@ saturated constraints, ``P_S = I − C_S⁺ C_S``::
 constraint that limits the task scale most is saturated next, the best scale ``s*`` seen is
 kept, and when ``rank(J1 P_S) < rank J1`` the loop restores ``s*``: the task keeps its
 direction and only its magnitude shrinks. ``sns`` first runs its compiled kernel on the
-joints alone and takes this path only when that command breaks a distance row.
+joints alone and takes this path only when that command breaks a distance row. The
+algorithm is compiled (:mod:`redservo.kernels.sns_rows`, with the task SVD kernel for every
+pseudo-inverse and rank) and the campaign loop calls the same kernels, so the law object
+and the loop give the same command to the bit.
 Units: rad/s or m/s for ``q̇``, m/s for the rows.
 """
 
@@ -26,17 +29,19 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
 from redservo.redundancy.base import LawInputs, LawResult
 from redservo.redundancy.distance_rows import DistanceRows, row_report
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.safety import apply_safety
 
 if TYPE_CHECKING:
+    from redservo.kernels import sns_rows as _K
     from redservo.redundancy.sns import SaturationInNullSpace
+else:
+    _K = lazy("sns_rows")
 
 __all__ = ["RowSolution", "sns_rows_solve", "with_rows"]
-
-_TOL = 1e-10
 
 
 class RowSolution(NamedTuple):
@@ -52,29 +57,6 @@ class RowSolution(NamedTuple):
     """Passes of the loop."""
 
 
-def _scaling(
-    a: FloatArray, b: FloatArray, lo: FloatArray, hi: FloatArray, free: FloatArray
-) -> tuple[float, int]:
-    """Largest ``s ∈ [0, 1]`` with ``lo ≤ a s + b ≤ hi`` on the free rows
-    (``getTaskScalingFactor`` of Algorithm 1) and the row to saturate next: among the rows
-    broken at ``s = 1``, the first one broken as ``s`` grows (-1: none broken)."""
-    tol = _TOL * (1.0 + np.minimum(np.abs(lo), np.abs(hi)))
-    lo_t, hi_t = lo - tol, hi + tol
-    tiny = np.abs(a) < 1e-14
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r1, r2 = (lo_t - b) / a, (hi_t - b) / a
-    s_lo = np.where(tiny, np.where(b >= lo_t, -np.inf, np.inf), np.minimum(r1, r2))
-    s_hi = np.where(tiny, np.where(b <= hi_t, np.inf, -np.inf), np.maximum(r1, r2))
-    s_lo, s_hi = s_lo[free], s_hi[free]
-    s_min, s_max = float(np.max(s_lo, initial=0.0)), float(np.min(s_hi, initial=1.0))
-    s = min(s_max, 1.0) if s_min <= s_max and s_max >= 0.0 else 0.0
-    broken = (s_lo > 1.0) | (s_hi < 1.0)
-    if not np.any(broken):
-        return s, -1
-    key = np.where(broken, np.minimum(np.maximum(s_hi, 0.0), 1.0), np.inf)
-    return s, int(np.flatnonzero(free)[int(np.argmin(key))])
-
-
 def sns_rows_solve(
     J1: FloatArray,
     xdot: FloatArray,
@@ -85,7 +67,8 @@ def sns_rows_solve(
     pref: FloatArray | None,
     rcond: float,
 ) -> RowSolution:
-    """The module's Algorithm 1 over the joints and the distance rows.
+    """The module's Algorithm 1 over the joints and the distance rows, by the compiled
+    kernel the campaign loop calls too (:func:`redservo.kernels.sns_rows.sns_rows_solve`).
 
     Args:
         J1: (m, n) task Jacobian; xdot: (m,) task velocity.
@@ -94,59 +77,22 @@ def sns_rows_solve(
         pref: (n,) preferred joint velocity (the initial ``q̇_N``), or None.
         rcond: Relative singular-value cut-off of the pseudo-inverses.
     """
+    c = np.ascontiguousarray
     n = J1.shape[1]
-    C = np.vstack([np.eye(n), G])
-    low = np.concatenate([lo, gb])
-    up = np.concatenate([hi, np.full(gb.size, np.inf)])
-    p = np.zeros(n) if pref is None else pref
-    cut = rcond * max(float(np.linalg.norm(J1, 2)), 1e-300)
-    rank1 = np.linalg.matrix_rank(J1, tol=cut)
-    sat: list[int] = []
-    vals: list[float] = []
-    best = (-1.0, np.zeros(n), np.zeros(n))
-    it = 0
-    for it in range(1, C.shape[0] + 2):
-        P, qN = np.eye(n), p
-        if sat:
-            Cp = np.linalg.pinv(C[sat], rcond=rcond)
-            P = np.eye(n) - Cp @ C[sat]
-            qN = Cp @ np.asarray(vals) + P @ p
-        JP = J1 @ P
-        if sat and np.linalg.matrix_rank(JP, tol=cut) < rank1:
-            break  # the free constraints can no longer carry the task: restore s*
-        JPp = np.linalg.pinv(JP, rcond=rcond)
-        a, b = JPp @ xdot, qN - JPp @ (J1 @ qN)
-        free = np.ones(C.shape[0], dtype=bool)
-        free[sat] = False
-        s, j = _scaling(C @ a, C @ b, low, up, free)
-        if j < 0:
-            q, f = _keep_rows(np.clip(a + b, lo, hi), lo, hi, G, gb)
-            return RowSolution(q, f, tuple(sorted(sat)), it)
-        if s > best[0]:
-            best = (s, a, b)
-        v = float(C[j] @ (a + b))
-        sat.append(j)
-        vals.append(float(up[j]) if v > up[j] else float(low[j]))
-    s, a, b = best
-    s = max(s, 0.0)
-    q, f = _keep_rows(np.clip(s * a + b, lo, hi), lo, hi, G, gb)
-    return RowSolution(q, s * f, tuple(sorted(sat)), it)
-
-
-def _keep_rows(
-    qdot: FloatArray, lo: FloatArray, hi: FloatArray, G: FloatArray, gb: FloatArray
-) -> tuple[FloatArray, float]:
-    """``(f q̇, f)`` with the largest ``f`` in [0, 1] that keeps every distance row
-    ``G q̇ ≥ gb`` (m/s), when the restored or clipped command breaks one and the zero command
-    keeps them all (every ``gb ≤ 0`` and ``lo ≤ 0 ≤ hi``: a uniform scaling towards zero then
-    keeps the joint bounds too); ``(q̇, 1)`` otherwise (the distance shield after the law
-    still guards a row zero cannot keep)."""
-    g = G @ qdot
-    broken = g < gb
-    if not broken.any() or np.any(gb > 0.0) or np.any(lo > 0.0) or np.any(hi < 0.0):
-        return qdot, 1.0
-    f = float(np.clip(np.min(gb[broken] / g[broken]), 0.0, 1.0))
-    return f * qdot, f
+    p = np.zeros(n) if pref is None else c(pref, dtype=np.float64)
+    q, scale, sat, count, it = _K.sns_rows_solve(
+        c(J1, dtype=np.float64),
+        c(xdot, dtype=np.float64),
+        c(lo, dtype=np.float64),
+        c(hi, dtype=np.float64),
+        c(G, dtype=np.float64),
+        c(gb, dtype=np.float64),
+        p,
+        pref is not None,
+        float(rcond),
+    )
+    saturated = tuple(int(i) for i in sat[: int(count)])
+    return RowSolution(q, float(scale), saturated, int(it))
 
 
 def with_rows(
