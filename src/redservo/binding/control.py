@@ -30,13 +30,13 @@ from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LazyDiagnostics, law_class
 from redservo.redundancy.gain import AdaptiveGain, gain_value
-from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
+from redservo.redundancy.kernel_call import _PACK, LAW_PARTS, _law_pack, diagnose
 from redservo.redundancy.kio import law_options
 from redservo.redundancy.packs import limits_pack
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
-__all__ = ["CompiledControl", "bind_controller", "results"]
+__all__ = ["CompiledControl", "bind_controller", "results", "stale"]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _K
@@ -94,6 +94,13 @@ class CompiledControl:
     step, written in place (the kernel reads them and keeps nothing)."""
     iz_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 1)))
     """:attr:`iz_buffer` as (N, 1): one row per point, as the inverse depths come."""
+    law_token: object = None
+    """What the law keeps while its options are those of :attr:`law_pack` (its packed
+    options, :func:`redservo.redundancy.kernel_call._law_pack`: setting one of its public
+    attributes drops it): :func:`stale` compares it at every step."""
+    law_state: dict[str, Any] = field(default_factory=dict)
+    """The law's attributes when bound (its options, what ``diagnose`` reads; no one
+    changes this dictionary): the same at every step until the law changes (:func:`stale`)."""
     entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
     """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
@@ -216,7 +223,7 @@ def results(
     """``(q̇, task state, diagnostics, copies)`` of ``eng``'s step: views of the kernel's
     buffer as the object path's results; the diagnostics are built when first read
     (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the buffer
-    (``qdot`` to ``ssrc``), the law's options as they are now, and ``copies`` of ``q`` and
+    (``qdot`` to ``ssrc``), the law's options as bound (:attr:`CompiledControl.law_state`), and ``copies`` of ``q`` and
     ``q̇`` when the safety layer raised events (else None)."""
     sq, se, se1, sJ1, sL = eng.task_slices
     qdot, e = buf[sq], buf[se]
@@ -231,7 +238,7 @@ def results(
         safety = (*copies, eng.gains[1], eng.limits)  # type: ignore[misc]
     else:
         copies = safety = None
-    args = (type(law), dict(law.__dict__), m, buf, eng.law_slices, (lmask, smask, vec), safety)
+    args = (type(law), eng.law_state, m, buf, eng.law_slices, (lmask, smask, vec), safety)
     diag = _new_lazy(LazyDiagnostics)  # lazy_diagnostics(diagnose, *args) without its calls
     _set(diag, "_build", (diagnose, args))
     return qdot, state, diag, copies
@@ -250,23 +257,16 @@ def bind_controller(
     """The compiled engine of this set-up, or the reason (one line) it has none."""
     from redservo.features import PointFeature
 
-    if not isinstance(law, Law):
-        return f"the law is a Python callable ({type(law).__name__})"
-    name = law.name
-    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
-        return f"method {name!r} has no compiled controller step"
-    if law.scaling != "uniform":
-        return "secondary-first scaling runs on the Python step"
+    why = law_reason(law, robot.n)
+    if why or not isinstance(law, Law):
+        return why
     if not isinstance(lam, AdaptiveGain) and (
         isinstance(lam, bool) or not isinstance(lam, int | float)
     ):
         return f"gain {lam!r} is neither a number nor an AdaptiveGain"
     if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
         return "only tasks of image points are compiled for the controller"
-    try:
-        o = law_options(law, robot.n)
-    except ConfigurationError as err:
-        return str(err)
+    law_pack = _law_pack(law, robot.n)  # kept on the law until an option changes
     pack = robot.kernel_pack()  # None: the Jacobian from the robot object, the rest compiled
     robot_args = () if pack is None else pack
     kernel: Callable[..., Any] | None = None if pack is None else _K.robot_control
@@ -279,7 +279,7 @@ def bind_controller(
         kernel=kernel,
         robot=robot_args,
         jacobian=lambda q: robot.jacobian(q, check_limits=False),
-        law_pack=(o.law_id, o.fopt, o.iopt, o.vopt),
+        law_pack=law_pack,
         limits_pack=(lp.rows, lp.has_v, lp.has_a),
         s_star=np.ascontiguousarray(task.s_star, dtype=np.float64),
         C=C,
@@ -298,4 +298,28 @@ def bind_controller(
         iz_rows=iz.reshape(-1, 1),
         depth_option=task.depth != "current" or float(depth_scale) != 1.0,
         no_C=task.C is None,
+        law_token=law.__dict__.get(_PACK),
+        law_state=dict(law.__dict__),
     )
+
+
+def law_reason(law: object, n: int) -> str:
+    """Why ``law`` has no compiled controller step for ``n`` joints (one line), or ``""``."""
+    if not isinstance(law, Law):
+        return f"the law is a Python callable ({type(law).__name__})"
+    name = law.name
+    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
+        return f"method {name!r} has no compiled controller step"
+    if law.scaling != "uniform":
+        return "secondary-first scaling runs on the Python step"
+    try:
+        law_options(law, n)  # a compiled step for this law
+    except ConfigurationError as err:
+        return str(err)
+    return ""
+
+
+def stale(eng: CompiledControl) -> bool:
+    """The law of ``eng`` changed an option since it was bound (``law.rcond = ...``,
+    ``law.set_safety(...)``): ``eng`` packed the old ones, so the controller binds anew."""
+    return eng.law.__dict__.get(_PACK) is not eng.law_token

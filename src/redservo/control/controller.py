@@ -162,6 +162,7 @@ class Controller:
         self.compensate_latency = bool(compensate_latency)
         self.history = CommandHistory(self.dt, lambda q: robot.jacobian(q, check_limits=False))
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
+        self._engine_asked = engine
         self._compiled, self._python, self.engine_reason = setup_engine(self, engine)
         """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self._own_law = any(part.startswith("law ") for part in self._python)
@@ -190,6 +191,18 @@ class Controller:
         """:meth:`step` may try :func:`~redservo.control.engine.quick_step` first (read
         once: the engine is bound at construction)."""
         return quick_ok(self._compiled)
+
+    def rebind(self) -> None:
+        """Bind the compiled engine anew (a law whose options changed since: its step would
+        use the old ones). A step does it when it sees the change.
+
+        Raises:
+            ConfigurationError: ``engine="compiled"`` and the law's new options have no
+                compiled step (``argument="engine"``).
+        """
+        self._compiled, self._python, self.engine_reason = setup_engine(self, self._engine_asked)
+        self._own_law = any(part.startswith("law ") for part in self._python)
+        self.__dict__.pop("_quick", None)
 
     @cached_property
     def _n(self) -> int:

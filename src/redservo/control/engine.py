@@ -5,17 +5,18 @@ one compiled call."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, is_float_vector
-from redservo.binding.control import CompiledControl, bind_controller, results
+from redservo.binding.control import CompiledControl, bind_controller, stale
+from redservo.control.kernel_step import KernelStep
 from redservo.control.output import shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError
+from redservo.records.lazy import _set_src
 
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
@@ -31,6 +32,10 @@ __all__ = [
 ]
 
 _EMPTY = np.zeros(0)
+_NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY)
+"""No feed-forward, secondary command or previous command (the kernel only reads them)."""
+_empty = np.empty
+_new = object.__new__
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
 
@@ -118,8 +123,11 @@ def compiled_step(
     command recorded in the controller's history, or None to take the object path (an input
     the kernel's check rejects: the object path raises the error naming it). Units: as the
     step's (rad or m, s)."""
+    if stale(ctrl._compiled):  # type: ignore[arg-type]  # the caller's test
+        ctrl.rebind()
     compiled = ctrl._compiled
-    assert compiled is not None
+    if compiled is None:  # the law's new options have no compiled step
+        return None
     ctrl.stage = "task"
     s = getattr(measurement, "s", None)
     if not is_float_vector(s, compiled.shapes[2]):  # the kernel checks the values, this the rest
@@ -144,12 +152,7 @@ def compiled_step(
     else:
         qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
         ctrl.history.record(t, q, qdot)
-    return _new_step(ControlStep, (qdot, state, diag, None, de1_dt, None, saturated))
-
-
-_new_step: Callable[[type[ControlStep], tuple[object, ...]], ControlStep] = tuple.__new__
-"""``ControlStep(...)`` from its seven fields in order, without the keyword handling of its
-``__new__`` (the compiled step's hot path)."""
+    return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
 
 def quick_step(
@@ -169,34 +172,34 @@ def quick_step(
     inputs = quick_inputs(ctrl, eng, q, measurement, t, qdot_prev) if entry else None
     if inputs is None:
         return None
-    s, iz, prev, inv_depth = inputs
-    buf = np.empty(eng.size)
+    s, iz, given, inv_depth = inputs
+    buf = _empty(eng.size)
     ctrl.stage = "law"
-    meas = (s, iz, eng.s_star, eng.C)
-    packs = (meas, eng.law_pack, eng.limits_pack, eng.gains, (_EMPTY, _EMPTY, prev), buf)
-    lmask, smask, vec = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy
-    if lmask < 0:
+    packs = ((s, iz, eng.s_star, eng.C), eng.law_pack, eng.limits_pack, eng.gains, given, buf)
+    masks = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy: callable
+    if masks[0] < 0:
         return None
-    qdot, state, diag, copies = results(eng, q, s, inv_depth, buf, lmask, smask, vec)
     ctrl.stage = "guard"
-    if copies is not None:  # the diagnostics' copies of q and q̇ serve the history too
-        ctrl.history.keep(t, *copies)
-    else:
-        ctrl.history.record(t, q, qdot)
-    return _new_step(ControlStep, (qdot, state, diag, None, None, None, False))
+    qc = q.copy()
+    ctrl.history.keep(t, qc, buf, eng.task_slices[0])
+    step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
+    _set_src(step, (eng, buf, qc, s, inv_depth, masks))
+    return step
 
 
 def quick_inputs(
     ctrl: Controller, eng: CompiledControl, q: Any, measurement: Any, t: Any, qdot_prev: Any
-) -> tuple[FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]] | None:
-    """``(s, inverse depths as L uses them, qdot_prev or empty, inv_depth)`` when
+) -> tuple[FloatArray, FloatArray, tuple[FloatArray, ...], tuple[FloatArray, ...]] | None:
+    """``(s, inverse depths as L uses them, the kernel's inputs (no feed-forward, no
+    secondary command, qdot_prev or empty), inv_depth)`` when
     :func:`quick_step` can run the step as it comes, else None: a finite float ``t`` (s),
     no measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,)
     and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are
     (C-contiguous, aligned, writeable), N inverse depths of one number each (written into
     the controller's (N, 1) float64 buffer: what ``np.concatenate`` takes, without its
-    cost), and no feed-forward, output saturation, camera-motion limit or distance shield
-    set (read at every step: a set-up changed since takes the full path)."""
+    cost), no feed-forward, output saturation, camera-motion limit or distance shield set
+    and the law's options those the engine bound (read at every step: a set-up changed
+    since takes the full path)."""
     if type(t) is not float or not -math.inf < t < math.inf:
         return None
     if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
@@ -204,6 +207,7 @@ def quick_inputs(
         or ctrl.image_motion is not None
         or ctrl.collision is not None
         or ctrl.feedforward != "none"
+        or stale(eng)
     ):
         return None
     s = getattr(measurement, "s", None)
@@ -220,7 +224,7 @@ def quick_inputs(
     ):
         return None
     if qdot_prev is None:
-        prev = _EMPTY
+        inputs = _NO_INPUTS
     elif not (
         type(qdot_prev) is _ND
         and qdot_prev.shape == (n,)
@@ -229,7 +233,7 @@ def quick_inputs(
     ):
         return None
     else:
-        prev = qdot_prev
+        inputs = (_EMPTY, _EMPTY, qdot_prev)
     inv_depth: Any = getattr(measurement, "inv_depth", None)
     iz = eng.iz_buffer
     try:  # N entries of one number each, as np.concatenate takes them (N >= 2: quick_ok)
@@ -238,7 +242,7 @@ def quick_inputs(
         eng.iz_rows[:] = inv_depth
     except (ValueError, TypeError):
         return None
-    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), prev, tuple(inv_depth)
+    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), inputs, tuple(inv_depth)
 
 
 def quick_ok(eng: CompiledControl | None) -> bool:
