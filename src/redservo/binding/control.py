@@ -44,6 +44,8 @@ else:
     _K = lazy("control")
 _NO_C = np.zeros((0, 0))
 _F64 = np.dtype(np.float64)
+_ND = np.ndarray
+_ONE = (1,)
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState(...)`` from its six fields in order, without the keyword handling (hot path)."""
 _EMPTY = np.zeros(0)
@@ -94,6 +96,8 @@ class CompiledControl:
     step, written in place (the kernel reads them and keeps nothing)."""
     iz_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 1)))
     """:attr:`iz_buffer` as (N, 1): one row per point, as the inverse depths come."""
+    iz_bytes: memoryview = field(default_factory=lambda: memoryview(b""))
+    """:attr:`iz_buffer`'s bytes, written by :meth:`take_inverse_depths`."""
     law_token: object = None
     """What the law keeps while its options are those of :attr:`law_pack` (its packed
     options, :func:`redservo.redundancy.kernel_call._law_pack`: setting one of its public
@@ -192,6 +196,8 @@ class CompiledControl:
                 return None
         except (ValueError, TypeError):
             return None
+        if iz.dtype.kind not in "iuf":  # booleans, objects, complex: the object path refuses
+            return None
         if iz.dtype != _F64:
             try:
                 iz = iz.astype(np.float64)
@@ -200,6 +206,33 @@ class CompiledControl:
         if iz.shape != self.iz_shape:
             return None
         return self.depth_scaled(iz) if self.depth_option else iz
+
+    def take_inverse_depths(self, inv_depth: Any) -> bool:
+        """Write the points' inverse depths (1/m) into :attr:`iz_buffer`, or False when they
+        are not N entries of one number each (the full path then checks them and raises
+        the object path's error). N (1,) float64 arrays are copied byte for byte (the
+        common case, checked entry by entry); anything else (lists, float32 or integer
+        arrays) goes through numpy's conversion, refusing what is not an (N, 1) block of
+        integers or floats (booleans, objects, complex numbers)."""
+        try:
+            if len(inv_depth) != self.iz_shape[0]:
+                return False
+            for d in inv_depth:
+                if type(d) is not _ND or d.dtype != _F64 or d.shape != _ONE:
+                    return self._convert_inverse_depths(inv_depth)
+            self.iz_bytes[:] = b"".join(inv_depth)
+        except (TypeError, ValueError):
+            return False
+        return True
+
+    def _convert_inverse_depths(self, inv_depth: Any) -> bool:
+        """:meth:`take_inverse_depths` through numpy's conversion (entries that are not (1,)
+        float64 arrays)."""
+        rows = np.asarray(inv_depth)
+        if rows.shape != self.iz_rows.shape or rows.dtype.kind not in "iuf":
+            return False
+        self.iz_rows[:] = rows
+        return True
 
     def depth_scaled(self, iz: FloatArray) -> FloatArray:
         """The points' inverse depths ``iz`` (N,) (1/m) through the task's depth option and
@@ -296,6 +329,7 @@ def bind_controller(
         iz_shape=(len(task.terms),),
         iz_buffer=(iz := np.zeros(len(task.terms))),
         iz_rows=iz.reshape(-1, 1),
+        iz_bytes=memoryview(iz).cast("B"),  # type: ignore[arg-type]  # an ndarray is a buffer
         depth_option=task.depth != "current" or float(depth_scale) != 1.0,
         no_C=task.C is None,
         law_token=law.__dict__.get(_PACK),
