@@ -4,7 +4,6 @@ one compiled call."""
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -17,6 +16,7 @@ from redservo.control.output import shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError
 from redservo.records.lazy import _set_src
+from redservo.redundancy.kernel_call import _PACK
 
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
@@ -200,14 +200,14 @@ def quick_inputs(
     cost), no feed-forward, output saturation, camera-motion limit or distance shield set
     and the law's options those the engine bound (read at every step: a set-up changed
     since takes the full path)."""
-    if type(t) is not float or not -math.inf < t < math.inf:
+    if type(t) is not float or t - t != 0.0:  # inf - inf and nan - nan are nan
         return None
     if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
         ctrl.qdot_saturation is not None
         or ctrl.image_motion is not None
         or ctrl.collision is not None
         or ctrl.feedforward != "none"
-        or stale(eng)
+        or eng.law.__dict__.get(_PACK) is not eng.law_token  # stale(eng), without the call
     ):
         return None
     s = getattr(measurement, "s", None)
@@ -235,13 +235,9 @@ def quick_inputs(
     else:
         inputs = (_EMPTY, _EMPTY, qdot_prev)
     inv_depth: Any = getattr(measurement, "inv_depth", None)
-    iz = eng.iz_buffer
-    try:  # N entries of one number each, as np.concatenate takes them (N >= 2: quick_ok)
-        if len(inv_depth) != iz.shape[0]:
-            return None
-        eng.iz_rows[:] = inv_depth
-    except (ValueError, TypeError):
+    if not eng.take_inverse_depths(inv_depth):  # N >= 2 (quick_ok): no bare number per point
         return None
+    iz = eng.iz_buffer
     return s, (eng.depth_scaled(iz) if eng.depth_option else iz), inputs, tuple(inv_depth)
 
 
