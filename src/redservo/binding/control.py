@@ -85,6 +85,10 @@ class CompiledControl:
     size: int
     shapes: tuple[int, int, int]
     """``(m, n, k)``: the task's rows, the joints and the point coordinates."""
+    q_shape: tuple[int]
+    """``(n,)``: the shape of ``q`` and ``qdot_prev``."""
+    s_shape: tuple[int]
+    """``(k,)``: the shape of ``s``."""
     iz_shape: tuple[int]
     """``(N,)``: one inverse depth per point."""
     depth_option: bool
@@ -326,6 +330,8 @@ def bind_controller(
         task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
         size=size,
         shapes=(m, robot.n, task.k),
+        q_shape=(robot.n,),
+        s_shape=(task.k,),
         iz_shape=(len(task.terms),),
         iz_buffer=(iz := np.zeros(len(task.terms))),
         iz_rows=iz.reshape(-1, 1),

@@ -4,7 +4,7 @@ one compiled call."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,10 +22,10 @@ if TYPE_CHECKING:
     from redservo.control.controller import Controller
 
 __all__ = [
+    "QuickSetting",
     "bind_engine",
     "compiled_step",
     "python_parts",
-    "quick_inputs",
     "quick_ok",
     "quick_step",
     "setup_engine",
@@ -35,6 +35,7 @@ _EMPTY = np.zeros(0)
 _NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY)
 """No feed-forward, secondary command or previous command (the kernel only reads them)."""
 _empty = np.empty
+T = TypeVar("T")
 _new = object.__new__
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
@@ -162,61 +163,36 @@ def quick_step(
     kernel's entry point (:mod:`redservo.kernels.entry`), or None to take
     :meth:`Controller.step <redservo.control.Controller.step>`'s full path.
 
-    It runs when nothing needs more than the kernel (:func:`quick_inputs`); an input the
-    kernel's check rejects returns None before any state changed, so the full path then
-    checks it and raises the one error naming it. The command, task state, diagnostics and
-    history are those of the full path bit for bit (the same kernel, the same buffer
-    layout, the same results). Units: as the step's (rad or m, s)."""
+    It runs when nothing needs more than the kernel: a finite float ``t`` (s), no
+    measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,) and
+    ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are (C-contiguous,
+    aligned, writeable), N inverse depths of one number each
+    (:meth:`~redservo.binding.control.CompiledControl.take_inverse_depths`), no
+    feed-forward, output saturation, camera-motion limit or distance shield set
+    (:class:`QuickSetting`) and the law's options those the engine bound (read at every
+    step: a set-up changed since takes the full path). An input the kernel's check rejects
+    returns None before any state changed, so the full path then checks it and raises the
+    one error naming it. The command, task state, diagnostics and history are those of the
+    full path bit for bit (the same kernel, the same buffer layout), made when first read
+    (:class:`~redservo.control.kernel_step.KernelStep`). Units: as the step's (rad or m, s).
+    """
     eng: CompiledControl = ctrl._compiled  # type: ignore[assignment]  # the caller's test
     entry = eng.entry[0]
-    inputs = quick_inputs(ctrl, eng, q, measurement, t, qdot_prev) if entry else None
-    if inputs is None:
+    if not entry or type(t) is not float or t - t != 0.0:  # inf - inf and nan - nan: nan
         return None
-    s, iz, given, inv_depth = inputs
-    buf = _empty(eng.size)
-    ctrl.stage = "law"
-    packs = ((s, iz, eng.s_star, eng.C), eng.law_pack, eng.limits_pack, eng.gains, given, buf)
-    masks = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy: callable
-    if masks[0] < 0:
-        return None
-    ctrl.stage = "guard"
-    qc = q.copy()
-    ctrl.history.keep(t, qc, buf, eng.task_slices[0])
-    step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
-    _set_src(step, (eng, buf, qc, s, inv_depth, masks))
-    return step
-
-
-def quick_inputs(
-    ctrl: Controller, eng: CompiledControl, q: Any, measurement: Any, t: Any, qdot_prev: Any
-) -> tuple[FloatArray, FloatArray, tuple[FloatArray, ...], tuple[FloatArray, ...]] | None:
-    """``(s, inverse depths as L uses them, the kernel's inputs (no feed-forward, no
-    secondary command, qdot_prev or empty), inv_depth)`` when
-    :func:`quick_step` can run the step as it comes, else None: a finite float ``t`` (s),
-    no measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,)
-    and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are
-    (C-contiguous, aligned, writeable), N inverse depths of one number each (written into
-    the controller's (N, 1) float64 buffer: what ``np.concatenate`` takes, without its
-    cost), no feed-forward, output saturation, camera-motion limit or distance shield set
-    and the law's options those the engine bound (read at every step: a set-up changed
-    since takes the full path)."""
-    if type(t) is not float or t - t != 0.0:  # inf - inf and nan - nan are nan
-        return None
-    if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
-        ctrl.qdot_saturation is not None
-        or ctrl.image_motion is not None
-        or ctrl.collision is not None
-        or ctrl.feedforward != "none"
+    if (
+        not ctrl._plain_setup
+        or (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None)
         or eng.law.__dict__.get(_PACK) is not eng.law_token  # stale(eng), without the call
     ):
         return None
     s = getattr(measurement, "s", None)
-    _, n, k = eng.shapes
+    q_shape = eng.q_shape
     if not (
         type(q) is _ND
         and type(s) is _ND
-        and q.shape == (n,)
-        and s.shape == (k,)
+        and q.shape == q_shape
+        and s.shape == eng.s_shape
         and q.dtype == _F64
         and s.dtype == _F64
         and q.flags.carray
@@ -224,21 +200,60 @@ def quick_inputs(
     ):
         return None
     if qdot_prev is None:
-        inputs = _NO_INPUTS
-    elif not (
+        given = _NO_INPUTS
+    elif (
         type(qdot_prev) is _ND
-        and qdot_prev.shape == (n,)
+        and qdot_prev.shape == q_shape
         and qdot_prev.dtype == _F64
         and qdot_prev.flags.carray
     ):
-        return None
+        given = (_EMPTY, _EMPTY, qdot_prev)
     else:
-        inputs = (_EMPTY, _EMPTY, qdot_prev)
+        return None
     inv_depth: Any = getattr(measurement, "inv_depth", None)
     if not eng.take_inverse_depths(inv_depth):  # N >= 2 (quick_ok): no bare number per point
         return None
-    iz = eng.iz_buffer
-    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), inputs, tuple(inv_depth)
+    iz = eng.depth_scaled(eng.iz_buffer) if eng.depth_option else eng.iz_buffer
+    buf = _empty(eng.size)
+    ctrl.stage = "law"
+    packs = ((s, iz, eng.s_star, eng.C), eng.law_pack, eng.limits_pack, eng.gains, given, buf)
+    masks = entry(q, eng.robot, packs)  # type: ignore[operator]  # truthy: callable
+    if masks[0] < 0:
+        return None
+    ctrl.stage = "guard"
+    qc = q.copy()
+    ctrl.history.keep(t, qc, buf, eng.task_slices[0])
+    step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
+    _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
+    return step
+
+
+class QuickSetting(Generic[T]):
+    """A :class:`~redservo.control.Controller` option that :func:`quick_step` reads as one
+    flag: setting it (at construction or later) sets ``ctrl._plain_setup``, True when no
+    output saturation, camera-motion limit, distance shield or feed-forward is set."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.key = "_setting_" + name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> QuickSetting[T]: ...
+
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> T: ...
+
+    def __get__(self, obj: object, owner: type | None = None) -> T | QuickSetting[T]:
+        return self if obj is None else obj.__dict__[self.key]
+
+    def __set__(self, obj: object, value: T) -> None:
+        d = obj.__dict__
+        d[self.key] = value
+        d["_plain_setup"] = (
+            d.get("_setting_qdot_saturation") is None
+            and d.get("_setting_image_motion") is None
+            and d.get("_setting_collision") is None
+            and d.get("_setting_feedforward", "none") == "none"
+        )
 
 
 def quick_ok(eng: CompiledControl | None) -> bool:
