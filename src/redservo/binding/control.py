@@ -45,7 +45,6 @@ else:
 _NO_C = np.zeros((0, 0))
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
-_ONE = (1,)
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState(...)`` from its six fields in order, without the keyword handling (hot path)."""
 _EMPTY = np.zeros(0)
@@ -222,7 +221,7 @@ class CompiledControl:
             if len(inv_depth) != self.iz_shape[0]:
                 return False
             for d in inv_depth:
-                if type(d) is not _ND or d.dtype != _F64 or d.shape != _ONE:
+                if type(d) is not _ND or len(d) != 1 or d.ndim != 1 or d.dtype != _F64:
                     return self._convert_inverse_depths(inv_depth)
             self.iz_bytes[:] = b"".join(inv_depth)
         except (TypeError, ValueError):

@@ -36,11 +36,12 @@ _EPS = 1e-9  # s
 
 
 class _Command(tuple):
-    """One command of the history: ``(t, q, source, part, twist box)``, read by name (``t``
-    in s, ``q`` and ``qdot`` (n,)). ``qdot`` is ``source`` itself (``part`` None) or its
-    ``part`` (the compiled step's buffer, which no one writes into); the twist ``J(q) q̇``
-    is kept in a one-item list once :meth:`CommandHistory.motion` needs it. A tuple made
-    by ``tuple.__new__`` (:meth:`CommandHistory.keep`, once per control step)."""
+    """One command of the history: ``(t, q, source, part)`` or ``(t, q, source, part,
+    twist)``, read by name (``t`` in s, ``q`` and ``qdot`` (n,), ``twist`` (6,) or None).
+    ``qdot`` is ``source`` itself (``part`` None) or its ``part`` (the compiled step's
+    buffer, which no one writes into); the twist ``J(q) q̇`` is added by
+    :meth:`CommandHistory.motion` once it needs it. A tuple made by ``tuple.__new__``
+    (:meth:`CommandHistory.keep`, once per control step)."""
 
     __slots__ = ()
 
@@ -59,11 +60,7 @@ class _Command(tuple):
 
     @property
     def twist(self) -> FloatArray | None:
-        return self[4][0]
-
-    @twist.setter
-    def twist(self, value: FloatArray) -> None:
-        self[4][0] = value
+        return self[4] if len(self) > 4 else None
 
 
 _new_command: Callable[[type[_Command], tuple[object, ...]], _Command] = tuple.__new__
@@ -103,7 +100,7 @@ class CommandHistory:
         cmds = self._cmds
         if cmds and t < cmds[-1][0]:
             self._ordered = False
-        cmds.append(_new_command(_Command, (t, q, qdot, part, [None])))
+        cmds.append(_new_command(_Command, (t, q, qdot, part)))
         while cmds[0][0] < t - self.horizon:
             cmds.popleft()
 
@@ -120,7 +117,8 @@ class CommandHistory:
                 continue
             twist = cmd.twist
             if twist is None:
-                twist = cmd.twist = self.jacobian(cmd.q) @ cmd.qdot
+                twist = self.jacobian(cmd.q) @ cmd.qdot
+                cmds[i] = _new_command(_Command, (*cmd[:4], twist))  # kept for the next steps
             total += twist * overlap
         return total
 
