@@ -68,7 +68,7 @@ class LazyRecord:
 
     __slots__ = ("__dict__", "_src")
     _src: Any
-    """What a lazy record's fields are made from (None for an eager record)."""
+    """What a lazy record's fields are made from (unset for an eager record)."""
     _fields: ClassVar[tuple[str, ...]] = ()
     _field_defaults: ClassVar[dict[str, Any]] = {}
     _public: ClassVar[type[LazyRecord]]
@@ -79,23 +79,12 @@ class LazyRecord:
         if "_fields" in cls.__dict__:
             cls._public = cls
             setattr(cls, "__match_args__", cls._fields)  # noqa: B010 - a class attribute
+            cls.__init__ = _constructor(cls)  # type: ignore[method-assign]
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        fields = self._fields
-        if len(args) > len(fields):
-            raise TypeError(f"{self._public.__name__} takes {len(fields)} fields, got {len(args)}")
-        values = dict(zip(fields, args, strict=False))
-        for key, value in kwargs.items():
-            if key not in fields or key in values:
-                raise TypeError(f"{self._public.__name__}: unexpected or repeated field {key!r}")
-            values[key] = value
-        for key in fields:
-            if key not in values:
-                if key not in self._field_defaults:
-                    raise TypeError(f"{self._public.__name__}: missing field {key!r}")
-                values[key] = self._field_defaults[key]
-        self.__dict__.update(values)
-        _set_src(self, None)
+        """Every field by position or keyword (the public class's own constructor, made
+        from ``_fields`` and ``_field_defaults`` as a ``NamedTuple``'s is)."""
+        raise TypeError(f"{type(self).__name__} declares no _fields")
 
     @classmethod
     def _lazy(cls: type[R], src: Any) -> R:
@@ -161,3 +150,23 @@ class LazyRecord:
 
 _set_src = LazyRecord._src.__set__
 """Set a record's source (the slot's own setter: :meth:`LazyRecord.__setattr__` refuses)."""
+_set_dict = LazyRecord.__dict__["__dict__"].__set__
+"""Set a record's field dictionary (what an eager record's constructor does)."""
+
+
+def _constructor(cls: type[LazyRecord]) -> Callable[..., None]:
+    """``cls.__init__(self, <fields>)``: the fields by position or keyword, with the defaults
+    of ``cls._field_defaults``, into the record's dictionary (generated, as ``NamedTuple``
+    generates its ``__new__``: Python checks the arguments, at the cost of one call)."""
+    fields, defaults = cls._fields, cls._field_defaults
+    if not all(f.isidentifier() and not f.startswith("_") for f in fields):
+        raise ValueError(f"{cls.__name__}._fields must be public identifiers, got {fields}")
+    params = ", ".join(f"{f}=_d[{f!r}]" if f in defaults else f for f in fields)
+    body = ", ".join(f"{f!r}: {f}" for f in fields)
+    code = f"def __init__(self, {params}):\n    _set_dict(self, {{{body}}})\n"
+    scope: dict[str, Any] = {"_d": defaults, "_set_dict": _set_dict}
+    exec(code, scope)
+    init: Callable[..., None] = scope["__init__"]
+    init.__qualname__ = f"{cls.__qualname__}.__init__"
+    init.__doc__ = f"A {cls.__name__} of every field: {', '.join(fields)}."
+    return init
