@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -112,6 +113,27 @@ class CompiledControl:
     """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
     False when there is none (no numba)."""
+
+    @cached_property
+    def hot(self) -> tuple[Any, ...]:
+        """What :func:`redservo.control.engine.quick_step` reads at every step, in one
+        attribute: ``(robot, s_star, C, law_pack, limits_pack, gains, size, q_shape,
+        s_shape, the command's part of the buffer, the law's attribute dictionary,
+        law_token)``."""
+        return (
+            self.robot,
+            self.s_star,
+            self.C,
+            self.law_pack,
+            self.limits_pack,
+            self.gains,
+            self.size,
+            self.q_shape,
+            self.s_shape,
+            self.task_slices[0],
+            self.law.__dict__,
+            self.law_token,
+        )
 
     def step(
         self,

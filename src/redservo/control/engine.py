@@ -180,19 +180,21 @@ def quick_step(
     entry = eng.entry[0]
     if not entry or type(t) is not float or t - t != 0.0:  # inf - inf and nan - nan: nan
         return None
+    robot, s_star, C, law_pack, limits_pack, gains, size, q_shape, s_shape, part, law, token = (
+        eng.hot
+    )
     if (
         not ctrl._plain_setup
         or (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None)
-        or eng.law.__dict__.get(_PACK) is not eng.law_token  # stale(eng), without the call
+        or law.get(_PACK) is not token  # stale(eng), without the call
     ):
         return None
     s = getattr(measurement, "s", None)
-    q_shape = eng.q_shape
     if not (
         type(q) is _ND
         and type(s) is _ND
         and q.shape == q_shape
-        and s.shape == eng.s_shape
+        and s.shape == s_shape
         and q.dtype == _F64
         and s.dtype == _F64
         and q.flags.carray
@@ -214,15 +216,15 @@ def quick_step(
     if not eng.take_inverse_depths(inv_depth):  # N >= 2 (quick_ok): no bare number per point
         return None
     iz = eng.depth_scaled(eng.iz_buffer) if eng.depth_option else eng.iz_buffer
-    buf = _empty(eng.size)
+    buf = _empty(size)
     ctrl.stage = "law"
-    packs = ((s, iz, eng.s_star, eng.C), eng.law_pack, eng.limits_pack, eng.gains, given, buf)
-    masks = entry(q, eng.robot, packs)  # type: ignore[operator]  # truthy: callable
+    packs = ((s, iz, s_star, C), law_pack, limits_pack, gains, given, buf)
+    masks = entry(q, robot, packs)  # type: ignore[operator]  # truthy: callable
     if masks[0] < 0:
         return None
     ctrl.stage = "guard"
     qc = q.copy()
-    ctrl.history.keep(t, qc, buf, eng.task_slices[0])
+    ctrl.history.keep(t, qc, buf, part)
     step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
     _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
     return step
