@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import pickle
+import weakref
 from typing import Any
 
 import numpy as np
@@ -145,3 +146,31 @@ def test_inverse_depths_the_object_path_refuses_get_its_error(first: bool, kind:
         errors.append((type(info.value), str(info.value), info.value.argument))
     assert errors[0] == errors[1]
     assert errors[0][2] == "inv_depth[0]"
+
+
+@needs_numba
+@pytest.mark.parametrize("kept", ["step", "state", "diagnostics", "nothing"])
+def test_the_buffer_is_reused_only_when_nothing_holds_it(kept: str) -> None:
+    """The next quick step reuses the last one's buffer (warm in the caches) when its results
+    were dropped; a step, a task state or lazy diagnostics kept by the caller hold theirs,
+    which then never change, however many steps follow."""
+    ctl, ref, q, meas = _pair()
+    step = ctl.step(q, meas, 0.04, qdot_prev=None)
+    want = ref.step(q, meas, 0.04, qdot_prev=None)
+    held = getattr(step, kept) if kept in ("state", "diagnostics") else step
+    if kept == "nothing":
+        held = None
+    first = weakref.ref(ctl._compiled.spare[0])  # no reference of its own
+    del step
+    other = Measurement(meas.s[::-1].copy(), tuple(2.0 * d for d in meas.inv_depth))
+    for k in range(2, 6):
+        ctl.step(q, other, 0.04 * k, qdot_prev=None)
+    reused = ctl._compiled.spare[0] is first()
+    assert reused == (kept == "nothing")
+    if kept == "step":
+        _same_step(held, want)
+    elif kept == "state":
+        for a, b in zip(held, want.state, strict=True):
+            assert np.asarray(a).tobytes() == np.asarray(b).tobytes()
+    elif kept == "diagnostics":
+        _same_diag(held, want.diagnostics)

@@ -45,7 +45,6 @@ else:
     _K = lazy("control")
 _NO_C = np.zeros((0, 0))
 _F64 = np.dtype(np.float64)
-_ND = np.ndarray
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 """``TaskState(...)`` from its six fields in order, without the keyword handling (hot path)."""
 _EMPTY = np.zeros(0)
@@ -95,13 +94,18 @@ class CompiledControl:
     """The inverse depths go through the task's depth option or the depth scale."""
     no_C: bool
     """The task has no combination matrix (``e1 = e``)."""
+    spare: list[FloatArray]
+    """``[buffer]``: the kernel's buffer (:attr:`size`) of the last quick step
+    (:func:`redservo.control.engine.quick_step`), which the next one reuses when nothing
+    else holds it any more (no step, task state, view or lazy diagnostics of it: its
+    reference count says so); else the next step takes a new one."""
     iz_buffer: FloatArray = field(default_factory=lambda: np.zeros(0))
     """(N,) float64: the inverse depths of :func:`redservo.control.engine.quick_step`'s
     step, written in place (the kernel reads them and keeps nothing)."""
     iz_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 1)))
     """:attr:`iz_buffer` as (N, 1): one row per point, as the inverse depths come."""
     iz_bytes: memoryview = field(default_factory=lambda: memoryview(b""))
-    """:attr:`iz_buffer`'s bytes, written by :meth:`take_inverse_depths`."""
+    """:attr:`iz_buffer`'s bytes (:func:`redservo.binding.depths.take_inverse_depths`)."""
     law_token: object = None
     """What the law keeps while its options are those of :attr:`law_pack` (its packed
     options, :func:`redservo.redundancy.kernel_call._law_pack`: setting one of its public
@@ -232,33 +236,6 @@ class CompiledControl:
             return None
         return self.depth_scaled(iz) if self.depth_option else iz
 
-    def take_inverse_depths(self, inv_depth: Any) -> bool:
-        """Write the points' inverse depths (1/m) into :attr:`iz_buffer`, or False when they
-        are not N entries of one number each (the full path then checks them and raises
-        the object path's error). N (1,) float64 arrays are copied byte for byte (the
-        common case, checked entry by entry); anything else (lists, float32 or integer
-        arrays) goes through numpy's conversion, refusing what is not an (N, 1) block of
-        integers or floats (booleans, objects, complex numbers)."""
-        try:
-            if len(inv_depth) != self.iz_shape[0]:
-                return False
-            for d in inv_depth:
-                if type(d) is not _ND or len(d) != 1 or d.ndim != 1 or d.dtype != _F64:
-                    return self._convert_inverse_depths(inv_depth)
-            self.iz_bytes[:] = b"".join(inv_depth)
-        except (TypeError, ValueError):
-            return False
-        return True
-
-    def _convert_inverse_depths(self, inv_depth: Any) -> bool:
-        """:meth:`take_inverse_depths` through numpy's conversion (entries that are not (1,)
-        float64 arrays)."""
-        rows = np.asarray(inv_depth)
-        if rows.shape != self.iz_rows.shape or rows.dtype.kind not in "iuf":
-            return False
-        self.iz_rows[:] = rows
-        return True
-
     def depth_scaled(self, iz: FloatArray) -> FloatArray:
         """The points' inverse depths ``iz`` (N,) (1/m) through the task's depth option and
         the depth scale, as ``L`` uses them (a new array, or the task's desired ones: the
@@ -350,6 +327,7 @@ def bind_controller(
         law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
         task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
         size=size,
+        spare=[np.empty(size)],
         shapes=(m, robot.n, task.k),
         q_shape=(robot.n,),
         s_shape=(task.k,),

@@ -4,6 +4,7 @@ one compiled call."""
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
@@ -11,6 +12,7 @@ from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, is_float_vector
 from redservo.binding.control import CompiledControl, bind_controller, stale
+from redservo.binding.depths import take_inverse_depths
 from redservo.control.kernel_step import KernelStep
 from redservo.control.output import shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
@@ -35,6 +37,7 @@ _EMPTY = np.zeros(0)
 _NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY)
 """No feed-forward, secondary command or previous command (the kernel only reads them)."""
 _empty = np.empty
+_refs = sys.getrefcount
 T = TypeVar("T")
 _new = object.__new__
 _F64 = np.dtype(np.float64)
@@ -167,7 +170,7 @@ def quick_step(
     measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,) and
     ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are (C-contiguous,
     aligned, writeable), N inverse depths of one number each
-    (:meth:`~redservo.binding.control.CompiledControl.take_inverse_depths`), no
+    (:func:`~redservo.binding.depths.take_inverse_depths`), no
     feed-forward, output saturation, camera-motion limit or distance shield set
     (:class:`QuickSetting`) and the law's options those the engine bound (read at every
     step: a set-up changed since takes the full path). An input the kernel's check rejects
@@ -213,10 +216,13 @@ def quick_step(
     else:
         return None
     inv_depth: Any = getattr(measurement, "inv_depth", None)
-    if not eng.take_inverse_depths(inv_depth):  # N >= 2 (quick_ok): no bare number per point
+    if not take_inverse_depths(eng, inv_depth):  # N >= 2 (quick_ok): not a number per point
         return None
     iz = eng.depth_scaled(eng.iz_buffer) if eng.depth_option else eng.iz_buffer
-    buf = _empty(size)
+    spare = eng.spare
+    buf = spare[0]  # the last step's buffer, warm in the caches: reused when no one holds it
+    if _refs(buf) != 3:  # held by more than ``spare``, ``buf`` and this call's argument
+        buf = spare[0] = _empty(size)
     ctrl.stage = "law"
     packs = ((s, iz, s_star, C), law_pack, limits_pack, gains, given, buf)
     masks = entry(q, robot, packs)  # type: ignore[operator]  # truthy: callable
@@ -224,7 +230,7 @@ def quick_step(
         return None
     ctrl.stage = "guard"
     qc = q.copy()
-    ctrl.history.keep(t, qc, buf, part)
+    ctrl.history.keep(t, qc, buf[part].copy())  # not the buffer: the next step may reuse it
     step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
     _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
     return step
