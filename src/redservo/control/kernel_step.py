@@ -58,8 +58,8 @@ class KernelStep(ControlStep):
 
     @lazy_field
     def qdot(self) -> FloatArray:
-        eng, buf = self._src[0], self._src[1]
-        return buf[eng.task_slices[0]].copy()
+        src = self._src
+        return src[1][src[0].task_slices[0]].copy()
 
     @lazy_field
     def state(self) -> TaskState:
