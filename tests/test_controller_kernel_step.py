@@ -174,3 +174,21 @@ def test_the_buffer_is_reused_only_when_nothing_holds_it(kept: str) -> None:
             assert np.asarray(a).tobytes() == np.asarray(b).tobytes()
     elif kept == "diagnostics":
         _same_diag(held, want.diagnostics)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("qdot_saturation", np.full(6, 1e-3)), ("feedforward", "known"), ("collision", object())],
+)
+def test_each_output_option_set_later_is_seen_by_the_quick_steps_one_flag(
+    name: str, value: Any
+) -> None:
+    """The four options the quick step needs unset are read as one flag their setters keep
+    (``QuickSetting``); setting one after construction, or unsetting it, flips it."""
+    ctl, _, _ = _controller()
+    assert ctl._plain_setup
+    before = getattr(ctl, name)
+    setattr(ctl, name, value)
+    assert getattr(ctl, name) is value and not ctl._plain_setup
+    setattr(ctl, name, before)
+    assert ctl._plain_setup
