@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,13 +31,13 @@ from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
 from redservo.redundancy.base import Diagnostics, Law, LazyDiagnostics, law_class
 from redservo.redundancy.gain import AdaptiveGain, gain_value
-from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
+from redservo.redundancy.kernel_call import _PACK, LAW_PARTS, _law_pack, diagnose
 from redservo.redundancy.kio import law_options
 from redservo.redundancy.packs import limits_pack
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
-__all__ = ["CompiledControl", "bind_controller", "results"]
+__all__ = ["CompiledControl", "bind_controller", "results", "stale"]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _K
@@ -83,21 +84,60 @@ class CompiledControl:
     size: int
     shapes: tuple[int, int, int]
     """``(m, n, k)``: the task's rows, the joints and the point coordinates."""
+    q_shape: tuple[int]
+    """``(n,)``: the shape of ``q`` and ``qdot_prev``."""
+    s_shape: tuple[int]
+    """``(k,)``: the shape of ``s``."""
     iz_shape: tuple[int]
     """``(N,)``: one inverse depth per point."""
     depth_option: bool
     """The inverse depths go through the task's depth option or the depth scale."""
     no_C: bool
     """The task has no combination matrix (``e1 = e``)."""
+    spare: list[FloatArray]
+    """``[buffer]``: the kernel's buffer (:attr:`size`) of the last quick step
+    (:func:`redservo.control.engine.quick_step`), which the next one reuses when nothing
+    else holds it any more (no step, task state, view or lazy diagnostics of it: its
+    reference count says so); else the next step takes a new one."""
     iz_buffer: FloatArray = field(default_factory=lambda: np.zeros(0))
     """(N,) float64: the inverse depths of :func:`redservo.control.engine.quick_step`'s
     step, written in place (the kernel reads them and keeps nothing)."""
     iz_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 1)))
     """:attr:`iz_buffer` as (N, 1): one row per point, as the inverse depths come."""
+    iz_bytes: memoryview = field(default_factory=lambda: memoryview(b""))
+    """:attr:`iz_buffer`'s bytes (:func:`redservo.binding.depths.take_inverse_depths`)."""
+    law_token: object = None
+    """What the law keeps while its options are those of :attr:`law_pack` (its packed
+    options, :func:`redservo.redundancy.kernel_call._law_pack`: setting one of its public
+    attributes drops it): :func:`stale` compares it at every step."""
+    law_state: dict[str, Any] = field(default_factory=dict)
+    """The law's attributes when bound (its options, what ``diagnose`` reads; no one
+    changes this dictionary): the same at every step until the law changes (:func:`stale`)."""
     entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
     """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
     False when there is none (no numba)."""
+
+    @cached_property
+    def hot(self) -> tuple[Any, ...]:
+        """What :func:`redservo.control.engine.quick_step` reads at every step, in one
+        attribute: ``(robot, s_star, C, law_pack, limits_pack, gains, size, q_shape,
+        s_shape, the command's part of the buffer, the law's attribute dictionary,
+        law_token)``."""
+        return (
+            self.robot,
+            self.s_star,
+            self.C,
+            self.law_pack,
+            self.limits_pack,
+            self.gains,
+            self.size,
+            self.q_shape,
+            self.s_shape,
+            self.task_slices[0],
+            self.law.__dict__,
+            self.law_token,
+        )
 
     def step(
         self,
@@ -185,6 +225,8 @@ class CompiledControl:
                 return None
         except (ValueError, TypeError):
             return None
+        if iz.dtype.kind not in "iuf":  # booleans, objects, complex: the object path refuses
+            return None
         if iz.dtype != _F64:
             try:
                 iz = iz.astype(np.float64)
@@ -216,7 +258,7 @@ def results(
     """``(q̇, task state, diagnostics, copies)`` of ``eng``'s step: views of the kernel's
     buffer as the object path's results; the diagnostics are built when first read
     (:class:`~redservo.redundancy.base.LazyDiagnostics`) from the law part of the buffer
-    (``qdot`` to ``ssrc``), the law's options as they are now, and ``copies`` of ``q`` and
+    (``qdot`` to ``ssrc``), the law's options as bound (:attr:`CompiledControl.law_state`), and ``copies`` of ``q`` and
     ``q̇`` when the safety layer raised events (else None)."""
     sq, se, se1, sJ1, sL = eng.task_slices
     qdot, e = buf[sq], buf[se]
@@ -231,7 +273,7 @@ def results(
         safety = (*copies, eng.gains[1], eng.limits)  # type: ignore[misc]
     else:
         copies = safety = None
-    args = (type(law), dict(law.__dict__), m, buf, eng.law_slices, (lmask, smask, vec), safety)
+    args = (type(law), eng.law_state, m, buf, eng.law_slices, (lmask, smask, vec), safety)
     diag = _new_lazy(LazyDiagnostics)  # lazy_diagnostics(diagnose, *args) without its calls
     _set(diag, "_build", (diagnose, args))
     return qdot, state, diag, copies
@@ -250,23 +292,16 @@ def bind_controller(
     """The compiled engine of this set-up, or the reason (one line) it has none."""
     from redservo.features import PointFeature
 
-    if not isinstance(law, Law):
-        return f"the law is a Python callable ({type(law).__name__})"
-    name = law.name
-    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
-        return f"method {name!r} has no compiled controller step"
-    if law.scaling != "uniform":
-        return "secondary-first scaling runs on the Python step"
+    why = law_reason(law, robot.n)
+    if why or not isinstance(law, Law):
+        return why
     if not isinstance(lam, AdaptiveGain) and (
         isinstance(lam, bool) or not isinstance(lam, int | float)
     ):
         return f"gain {lam!r} is neither a number nor an AdaptiveGain"
     if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
         return "only tasks of image points are compiled for the controller"
-    try:
-        o = law_options(law, robot.n)
-    except ConfigurationError as err:
-        return str(err)
+    law_pack = _law_pack(law, robot.n)  # kept on the law until an option changes
     pack = robot.kernel_pack()  # None: the Jacobian from the robot object, the rest compiled
     robot_args = () if pack is None else pack
     kernel: Callable[..., Any] | None = None if pack is None else _K.robot_control
@@ -279,7 +314,7 @@ def bind_controller(
         kernel=kernel,
         robot=robot_args,
         jacobian=lambda q: robot.jacobian(q, check_limits=False),
-        law_pack=(o.law_id, o.fopt, o.iopt, o.vopt),
+        law_pack=law_pack,
         limits_pack=(lp.rows, lp.has_v, lp.has_a),
         s_star=np.ascontiguousarray(task.s_star, dtype=np.float64),
         C=C,
@@ -292,10 +327,38 @@ def bind_controller(
         law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
         task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
         size=size,
+        spare=[np.empty(size)],
         shapes=(m, robot.n, task.k),
+        q_shape=(robot.n,),
+        s_shape=(task.k,),
         iz_shape=(len(task.terms),),
         iz_buffer=(iz := np.zeros(len(task.terms))),
         iz_rows=iz.reshape(-1, 1),
+        iz_bytes=memoryview(iz).cast("B"),  # type: ignore[arg-type]  # an ndarray is a buffer
         depth_option=task.depth != "current" or float(depth_scale) != 1.0,
         no_C=task.C is None,
+        law_token=law.__dict__.get(_PACK),
+        law_state=dict(law.__dict__),
     )
+
+
+def law_reason(law: object, n: int) -> str:
+    """Why ``law`` has no compiled controller step for ``n`` joints (one line), or ``""``."""
+    if not isinstance(law, Law):
+        return f"the law is a Python callable ({type(law).__name__})"
+    name = law.name
+    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
+        return f"method {name!r} has no compiled controller step"
+    if law.scaling != "uniform":
+        return "secondary-first scaling runs on the Python step"
+    try:
+        law_options(law, n)  # a compiled step for this law
+    except ConfigurationError as err:
+        return str(err)
+    return ""
+
+
+def stale(eng: CompiledControl) -> bool:
+    """The law of ``eng`` changed an option since it was bound (``law.rcond = ...``,
+    ``law.set_safety(...)``): ``eng`` packed the old ones, so the controller binds anew."""
+    return eng.law.__dict__.get(_PACK) is not eng.law_token

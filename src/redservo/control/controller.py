@@ -51,7 +51,13 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, as_matrix, as_time, as_vector, is_float_vector
 from redservo.control.avoidance import Collision, check_collision
 from redservo.control.checks import check_controller, saturation
-from redservo.control.engine import compiled_step, quick_ok, quick_step, setup_engine
+from redservo.control.engine import (
+    QuickSetting,
+    compiled_step,
+    quick_ok,
+    quick_step,
+    setup_engine,
+)
 from redservo.control.feedforward import Feedforward, FeedforwardEstimator, known_feedforward
 from redservo.control.image_motion import ImageMotionLimit, check_image_motion, point_rows
 from redservo.control.latency import CommandHistory, present
@@ -112,6 +118,17 @@ class Controller:
         ShapeError: ``limits`` or ``qdot_saturation`` do not match the robot's joints.
     """
 
+    feedforward = QuickSetting[Feedforward]()
+    """``"none"``, ``"estimated"`` or ``"known"`` (the constructor's argument)."""
+    qdot_saturation = QuickSetting["FloatArray | None"]()
+    """The output saturation (rad/s or m/s, (n,)), or None (the constructor's argument)."""
+    image_motion = QuickSetting["ImageMotionLimit | None"]()
+    """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
+    collision = QuickSetting["Collision | None"]()
+    """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
+    _plain_setup: bool
+    """None of the four options above is set (:class:`~redservo.control.engine.QuickSetting`)."""
+
     def __init__(
         self,
         robot: Robot,
@@ -150,18 +167,17 @@ class Controller:
         self.lam = lam
         self.dt = float(dt)
         self.objectives: tuple[Objective, ...] = objs
-        self.feedforward: Feedforward = feedforward
+        self.feedforward = feedforward
         self.depth_scale = float(depth_scale)
         self.qdot_saturation = saturation(qdot_saturation, robot.n)
         self.image_motion = check_image_motion(image_motion)
-        """The camera-motion limit (:mod:`redservo.control.image_motion`), or None."""
         self._motion_rows = point_rows(task) if image_motion is not None else ()
         self.collision = check_collision(collision, robot, law)
-        """The distance shield's set-up (:mod:`redservo.control.avoidance`), or None."""
         self._estimator = FeedforwardEstimator(self.dt) if feedforward == "estimated" else None
         self.compensate_latency = bool(compensate_latency)
         self.history = CommandHistory(self.dt, lambda q: robot.jacobian(q, check_limits=False))
         self._observe = getattr(law, "observe", None)  # a predictive law's model hook
+        self._engine_asked = engine
         self._compiled, self._python, self.engine_reason = setup_engine(self, engine)
         """Why :meth:`step` is not one compiled call (one line), or ``""``."""
         self._own_law = any(part.startswith("law ") for part in self._python)
@@ -190,6 +206,18 @@ class Controller:
         """:meth:`step` may try :func:`~redservo.control.engine.quick_step` first (read
         once: the engine is bound at construction)."""
         return quick_ok(self._compiled)
+
+    def rebind(self) -> None:
+        """Bind the compiled engine anew (a law whose options changed since: its step would
+        use the old ones). A step does it when it sees the change.
+
+        Raises:
+            ConfigurationError: ``engine="compiled"`` and the law's new options have no
+                compiled step (``argument="engine"``).
+        """
+        self._compiled, self._python, self.engine_reason = setup_engine(self, self._engine_asked)
+        self._own_law = any(part.startswith("law ") for part in self._python)
+        self.__dict__.pop("_quick", None)
 
     @cached_property
     def _n(self) -> int:

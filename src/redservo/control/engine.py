@@ -4,33 +4,42 @@ one compiled call."""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+import sys
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, is_float_vector
-from redservo.binding.control import CompiledControl, bind_controller, results
+from redservo.binding.control import CompiledControl, bind_controller, stale
+from redservo.binding.depths import take_inverse_depths
+from redservo.control.kernel_step import KernelStep
 from redservo.control.output import shape_output
 from redservo.control.steps import ControlStep, Features, SceneContext
 from redservo.errors import ConfigurationError
+from redservo.records.lazy import _set_src
+from redservo.redundancy.kernel_call import _PACK
 
 if TYPE_CHECKING:
     from redservo.control.controller import Controller
 
 __all__ = [
+    "QuickSetting",
     "bind_engine",
     "compiled_step",
     "python_parts",
-    "quick_inputs",
     "quick_ok",
     "quick_step",
     "setup_engine",
 ]
 
 _EMPTY = np.zeros(0)
+_NO_INPUTS = (_EMPTY, _EMPTY, _EMPTY)
+"""No feed-forward, secondary command or previous command (the kernel only reads them)."""
+_empty = np.empty
+_refs = sys.getrefcount
+T = TypeVar("T")
+_new = object.__new__
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
 
@@ -118,8 +127,11 @@ def compiled_step(
     command recorded in the controller's history, or None to take the object path (an input
     the kernel's check rejects: the object path raises the error naming it). Units: as the
     step's (rad or m, s)."""
+    if stale(ctrl._compiled):  # type: ignore[arg-type]  # the caller's test
+        ctrl.rebind()
     compiled = ctrl._compiled
-    assert compiled is not None
+    if compiled is None:  # the law's new options have no compiled step
+        return None
     ctrl.stage = "task"
     s = getattr(measurement, "s", None)
     if not is_float_vector(s, compiled.shapes[2]):  # the kernel checks the values, this the rest
@@ -144,12 +156,7 @@ def compiled_step(
     else:
         qdot, diag, saturated = shape_output(ctrl, qdot, diag, state, q, Ja, t, prev)
         ctrl.history.record(t, q, qdot)
-    return _new_step(ControlStep, (qdot, state, diag, None, de1_dt, None, saturated))
-
-
-_new_step: Callable[[type[ControlStep], tuple[object, ...]], ControlStep] = tuple.__new__
-"""``ControlStep(...)`` from its seven fields in order, without the keyword handling of its
-``__new__`` (the compiled step's hot path)."""
+    return ControlStep(qdot, state, diag, None, de1_dt, None, saturated)
 
 
 def quick_step(
@@ -159,60 +166,38 @@ def quick_step(
     kernel's entry point (:mod:`redservo.kernels.entry`), or None to take
     :meth:`Controller.step <redservo.control.Controller.step>`'s full path.
 
-    It runs when nothing needs more than the kernel (:func:`quick_inputs`); an input the
-    kernel's check rejects returns None before any state changed, so the full path then
-    checks it and raises the one error naming it. The command, task state, diagnostics and
-    history are those of the full path bit for bit (the same kernel, the same buffer
-    layout, the same results). Units: as the step's (rad or m, s)."""
+    It runs when nothing needs more than the kernel: a finite float ``t`` (s), no
+    measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,) and
+    ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are (C-contiguous,
+    aligned, writeable), N inverse depths of one number each
+    (:func:`~redservo.binding.depths.take_inverse_depths`), no
+    feed-forward, output saturation, camera-motion limit or distance shield set
+    (:class:`QuickSetting`) and the law's options those the engine bound (read at every
+    step: a set-up changed since takes the full path). An input the kernel's check rejects
+    returns None before any state changed, so the full path then checks it and raises the
+    one error naming it. The command, task state, diagnostics and history are those of the
+    full path bit for bit (the same kernel, the same buffer layout), made when first read
+    (:class:`~redservo.control.kernel_step.KernelStep`). Units: as the step's (rad or m, s).
+    """
     eng: CompiledControl = ctrl._compiled  # type: ignore[assignment]  # the caller's test
     entry = eng.entry[0]
-    inputs = quick_inputs(ctrl, eng, q, measurement, t, qdot_prev) if entry else None
-    if inputs is None:
+    if not entry or type(t) is not float or t - t != 0.0:  # inf - inf and nan - nan: nan
         return None
-    s, iz, prev, inv_depth = inputs
-    buf = np.empty(eng.size)
-    ctrl.stage = "law"
-    meas = (s, iz, eng.s_star, eng.C)
-    packs = (meas, eng.law_pack, eng.limits_pack, eng.gains, (_EMPTY, _EMPTY, prev), buf)
-    lmask, smask, vec = entry(q, eng.robot, packs)  # type: ignore[operator,misc]  # truthy
-    if lmask < 0:
-        return None
-    qdot, state, diag, copies = results(eng, q, s, inv_depth, buf, lmask, smask, vec)
-    ctrl.stage = "guard"
-    if copies is not None:  # the diagnostics' copies of q and q̇ serve the history too
-        ctrl.history.keep(t, *copies)
-    else:
-        ctrl.history.record(t, q, qdot)
-    return _new_step(ControlStep, (qdot, state, diag, None, None, None, False))
-
-
-def quick_inputs(
-    ctrl: Controller, eng: CompiledControl, q: Any, measurement: Any, t: Any, qdot_prev: Any
-) -> tuple[FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]] | None:
-    """``(s, inverse depths as L uses them, qdot_prev or empty, inv_depth)`` when
-    :func:`quick_step` can run the step as it comes, else None: a finite float ``t`` (s),
-    no measurement ``stamp`` to bring to the present, ``q`` (n,), ``measurement.s`` (k,)
-    and ``qdot_prev`` (n,) (or None) float64 arrays the entry takes as they are
-    (C-contiguous, aligned, writeable), N inverse depths of one number each (written into
-    the controller's (N, 1) float64 buffer: what ``np.concatenate`` takes, without its
-    cost), and no feed-forward, output saturation, camera-motion limit or distance shield
-    set (read at every step: a set-up changed since takes the full path)."""
-    if type(t) is not float or not -math.inf < t < math.inf:
-        return None
-    if (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None) or (
-        ctrl.qdot_saturation is not None
-        or ctrl.image_motion is not None
-        or ctrl.collision is not None
-        or ctrl.feedforward != "none"
+    robot, s_star, C, law_pack, limits_pack, gains, size, q_shape, s_shape, part, law, token = (
+        eng.hot
+    )
+    if (
+        not ctrl._plain_setup
+        or (ctrl.compensate_latency and getattr(measurement, "stamp", None) is not None)
+        or law.get(_PACK) is not token  # stale(eng), without the call
     ):
         return None
     s = getattr(measurement, "s", None)
-    _, n, k = eng.shapes
     if not (
         type(q) is _ND
         and type(s) is _ND
-        and q.shape == (n,)
-        and s.shape == (k,)
+        and q.shape == q_shape
+        and s.shape == s_shape
         and q.dtype == _F64
         and s.dtype == _F64
         and q.flags.carray
@@ -220,25 +205,63 @@ def quick_inputs(
     ):
         return None
     if qdot_prev is None:
-        prev = _EMPTY
-    elif not (
+        given = _NO_INPUTS
+    elif (
         type(qdot_prev) is _ND
-        and qdot_prev.shape == (n,)
+        and qdot_prev.shape == q_shape
         and qdot_prev.dtype == _F64
         and qdot_prev.flags.carray
     ):
-        return None
+        given = (_EMPTY, _EMPTY, qdot_prev)
     else:
-        prev = qdot_prev
-    inv_depth: Any = getattr(measurement, "inv_depth", None)
-    iz = eng.iz_buffer
-    try:  # N entries of one number each, as np.concatenate takes them (N >= 2: quick_ok)
-        if len(inv_depth) != iz.shape[0]:
-            return None
-        eng.iz_rows[:] = inv_depth
-    except (ValueError, TypeError):
         return None
-    return s, (eng.depth_scaled(iz) if eng.depth_option else iz), prev, tuple(inv_depth)
+    inv_depth: Any = getattr(measurement, "inv_depth", None)
+    if not take_inverse_depths(eng, inv_depth):  # N >= 2 (quick_ok): not a number per point
+        return None
+    iz = eng.depth_scaled(eng.iz_buffer) if eng.depth_option else eng.iz_buffer
+    spare = eng.spare
+    buf = spare[0]  # the last step's buffer, warm in the caches: reused when no one holds it
+    if _refs(buf) != 3:  # held by more than ``spare``, ``buf`` and this call's argument
+        buf = spare[0] = _empty(size)
+    ctrl.stage = "law"
+    packs = ((s, iz, s_star, C), law_pack, limits_pack, gains, given, buf)
+    masks = entry(q, robot, packs)  # type: ignore[operator]  # truthy: callable
+    if masks[0] < 0:
+        return None
+    ctrl.stage = "guard"
+    qc = q.copy()
+    ctrl.history.keep(t, qc, buf[part].copy())  # not the buffer: the next step may reuse it
+    step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
+    _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
+    return step
+
+
+class QuickSetting(Generic[T]):
+    """A :class:`~redservo.control.Controller` option that :func:`quick_step` reads as one
+    flag: setting it (at construction or later) sets ``ctrl._plain_setup``, True when no
+    output saturation, camera-motion limit, distance shield or feed-forward is set."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.key = "_setting_" + name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> QuickSetting[T]: ...
+
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> T: ...
+
+    def __get__(self, obj: object, owner: type | None = None) -> T | QuickSetting[T]:
+        return self if obj is None else obj.__dict__[self.key]
+
+    def __set__(self, obj: object, value: T) -> None:
+        d = obj.__dict__
+        d[self.key] = value
+        d["_plain_setup"] = (
+            d.get("_setting_qdot_saturation") is None
+            and d.get("_setting_image_motion") is None
+            and d.get("_setting_collision") is None
+            and d.get("_setting_feedforward", "none") == "none"
+        )
 
 
 def quick_ok(eng: CompiledControl | None) -> bool:

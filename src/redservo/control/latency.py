@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,12 +35,35 @@ __all__ = ["CommandHistory", "present"]
 _EPS = 1e-9  # s
 
 
-@dataclass(slots=True)
-class _Command:
-    t: float
-    q: FloatArray
-    qdot: FloatArray
-    twist: FloatArray | None = None  # J(q) q̇, computed when first needed
+class _Command(tuple):
+    """One command of the history: ``(t, q, source, part)`` or ``(t, q, source, part,
+    twist)``, read by name (``t`` in s, ``q`` and ``qdot`` (n,), ``twist`` (6,) or None).
+    ``qdot`` is ``source`` itself (``part`` None) or its ``part`` (the compiled step's
+    buffer, which no one writes into); the twist ``J(q) q̇`` is added by
+    :meth:`CommandHistory.motion` once it needs it. A tuple made by ``tuple.__new__``
+    (:meth:`CommandHistory.keep`, once per control step)."""
+
+    __slots__ = ()
+
+    @property
+    def t(self) -> float:
+        return self[0]
+
+    @property
+    def q(self) -> FloatArray:
+        return self[1]
+
+    @property
+    def qdot(self) -> FloatArray:
+        source, part = self[2], self[3]
+        return source if part is None else source[part]
+
+    @property
+    def twist(self) -> FloatArray | None:
+        return self[4] if len(self) > 4 else None
+
+
+_new_command: Callable[[type[_Command], tuple[object, ...]], _Command] = tuple.__new__
 
 
 class CommandHistory:
@@ -71,14 +93,16 @@ class CommandHistory:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
         self.keep(float(t), q.copy(), qdot.copy())
 
-    def keep(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
-        """:meth:`record` with copies the caller already made (no one writes into them; the
-        Controller's compiled step shares those of its lazy diagnostics): kept as given."""
-        if self._cmds and t < self._cmds[-1].t:
+    def keep(self, t: float, q: FloatArray, qdot: FloatArray, part: slice | None = None) -> None:
+        """:meth:`record` with copies the caller already made, kept as given: ``q`` (n,),
+        and the command ``qdot`` (n,) or, with ``part``, ``qdot[part]`` (the compiled step's
+        buffer). No one may write into them afterwards."""
+        cmds = self._cmds
+        if cmds and t < cmds[-1][0]:
             self._ordered = False
-        self._cmds.append(_Command(t, q, qdot))
-        while self._cmds[0].t < t - self.horizon:
-            self._cmds.popleft()
+        cmds.append(_new_command(_Command, (t, q, qdot, part)))
+        while cmds[0][0] < t - self.horizon:
+            cmds.popleft()
 
     def motion(self, stamp: float, now: float) -> FloatArray:
         """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
@@ -91,9 +115,11 @@ class CommandHistory:
             overlap = min(end, now) - max(cmd.t, stamp)
             if overlap <= _EPS:
                 continue
-            if cmd.twist is None:
-                cmd.twist = self.jacobian(cmd.q) @ cmd.qdot
-            total += cmd.twist * overlap
+            twist = cmd.twist
+            if twist is None:
+                twist = self.jacobian(cmd.q) @ cmd.qdot
+                cmds[i] = _new_command(_Command, (*cmd[:4], twist))  # kept for the next steps
+            total += twist * overlap
         return total
 
     def _first_after(self, stamp: float) -> int:

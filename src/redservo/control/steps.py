@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 from redservo._validation import FloatArray
+from redservo.records.lazy import LazyRecord
 from redservo.redundancy.base import Diagnostics
 from redservo.scene import Scene
 from redservo.task import TaskState
@@ -50,8 +51,21 @@ class SceneContext(NamedTuple):
     bMc: FloatArray
 
 
-class ControlStep(NamedTuple):
-    """What one :meth:`~redservo.control.Controller.step` decided."""
+class ControlStep(LazyRecord):
+    """What one :meth:`~redservo.control.Controller.step` decided.
+
+    A read-only record (:class:`~redservo.records.lazy.LazyRecord`): ``step.qdot``,
+    ``qdot, state, *_ = step``, ``step[0]``, ``len``, ``==``, ``repr``, pickling,
+    ``_fields``, ``_asdict()`` and ``_replace()`` work as on the ``NamedTuple`` it was up
+    to 0.1.0; it is no longer a ``tuple`` (``isinstance(step, tuple)`` is False).
+    ``ControlStep(qdot, state, diagnostics, secondary, de1_dt, stop, saturated)`` (or by
+    keyword) makes one. The compiled engine's step makes its fields from the kernel's
+    buffer when they are first read (:class:`redservo.control.kernel_step.KernelStep`):
+    each step has its own arrays, so a step a caller keeps never changes.
+    """
+
+    __slots__ = ()
+    _fields = ("qdot", "state", "diagnostics", "secondary", "de1_dt", "stop", "saturated")
 
     qdot: FloatArray
     """(n,) the command to send (rad/s or m/s); zeros when ``stop`` is set."""
