@@ -125,16 +125,18 @@ def test_a_law_option_set_after_the_controller_was_built_reaches_its_step(
 
 @needs_numba
 @pytest.mark.parametrize("first", [True, False])
-@pytest.mark.parametrize("kind", ["bool", "complex", "0-d"])
+@pytest.mark.parametrize("kind", ["bool", "complex", "0-d", "(1, 1)"])
 def test_inverse_depths_the_object_path_refuses_get_its_error(first: bool, kind: str) -> None:
-    """Boolean inverse depths: on today's main the compiled engine took them as 1/m = 1.0
-    (first step and later ones alike) while the object path refuses them."""
+    """Boolean inverse depths: the compiled engine took them as 1/m = 1.0 (first step and
+    later ones alike) while the object path refuses them. (1, 1) entries: both engines
+    stopped with numba's TypingError from the points kernel instead of this ShapeError."""
     ctl, q, meas = _controller()
     ref, _, _ = _controller(engine="python")
     make = {
         "bool": lambda d: np.ones(1, dtype=bool),
         "complex": lambda d: d.astype(complex),
         "0-d": lambda d: d.reshape(()),
+        "(1, 1)": lambda d: d.reshape(1, 1),
     }[kind]
     bad = Measurement(meas.s, tuple(make(d) for d in meas.inv_depth))
     errors = []

@@ -229,7 +229,12 @@ def parts_of(plan: Plan, inv_depth: Sequence[FloatArray]) -> list[FloatArray]:
                 iz = np.concatenate(given)
         except (TypeError, ValueError):
             pass
-        if iz is None or iz.dtype != np.float64 or not math.isfinite(float(iz.sum())):
+        if (
+            iz is None
+            or iz.ndim != 1
+            or iz.dtype != np.float64
+            or not math.isfinite(float(iz.sum()))
+        ):
             iz = np.array([as_vector(given[k], f"inv_depth[{seg.j0 + k}]", 1)[0] for k in range(n)])
         parts.append(iz)
     return parts
