@@ -22,18 +22,22 @@ Units: metres, seconds, radians.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
 from redservo.redundancy.distance_rows import _SOURCE
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
     from redservo.control.avoidance import Collision
+    from redservo.kernels import horizon_distance as _K
     from redservo.redundancy.predictive_model import QP, Horizon
     from redservo.robots.base import Robot
+else:
+    _K = lazy("horizon_distance")
 
 __all__ = [
     "HorizonRows",
@@ -77,30 +81,48 @@ def horizon_distance_rows(
     if src is None:
         return None
     c, robot = src
-    t0 = c.last_time
     ub = Ubar.reshape(-1)
+    Q = [q0 + (dt * hz.M[k - 1]) @ Ubar for k in range(1, hz.N + 1)]
     A_rows: list[FloatArray] = []
     b_rows: list[FloatArray] = []
     steps: list[int] = []
     names: list[str] = []
-    for k in range(1, hz.N + 1):
-        w = dt * hz.M[k - 1]  # (Nc,)
-        qk = q0 + w @ Ubar
-        pd = c.probe(robot, qk, t0 + k * dt)
-        near = pd.d < c.d_influence
+    for k, (d, J, pairs) in enumerate(_plan_distances(c, robot, Q, dt), start=1):
+        near = d < c.d_influence
         if not np.any(near):
             continue
-        Jk = pd.J[near]
+        w = dt * hz.M[k - 1]  # (Nc,)
+        Jk = J[near]
         Ak = np.concatenate([wj * Jk for wj in w], axis=1)
         # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
-        bk = np.minimum(c.d_safe - pd.d[near] + Ak @ ub, 0.0)
+        bk = np.minimum(c.d_safe - d[near] + Ak @ ub, 0.0)
         A_rows.append(Ak)
         b_rows.append(bk)
         steps += [k] * int(bk.size)
-        names += [nm for nm, m in zip(pd.names, near, strict=True) if m]
+        names += [nm for nm, m in zip(pairs, near, strict=True) if m]
     if not A_rows:
         return None
     return HorizonRows(np.vstack(A_rows), np.concatenate(b_rows), tuple(steps), tuple(names))
+
+
+def _plan_distances(
+    c: Collision, robot: Robot, Q: list[FloatArray], dt: float
+) -> Iterator[tuple[FloatArray, FloatArray, tuple[str, ...]]]:
+    """``(d (P,), J (P, n), names)`` at each predicted configuration ``Q[k-1]`` (period
+    ``k``, time ``k dt`` after the step's measurement): one compiled call for the whole plan
+    (:func:`~redservo.kernels.horizon_distance.measure_plan`, the pairs beyond
+    ``d_influence`` skipped, ``d = inf``) when the set-up has compiled geometry, else
+    :meth:`~redservo.control.avoidance.Collision.probe` at each (coal)."""
+    geo = c.compiled(robot)
+    if geo is not None:
+        D, JJ = _K.measure_plan(np.array(Q), geo.arm, geo.geom, c.d_influence)
+        for d, J in zip(D, JJ, strict=True):
+            yield d, J, geo.names
+        return
+    t0 = c.last_time
+    for k, qk in enumerate(Q, start=1):
+        pd = c.probe(robot, qk, t0 + k * dt)
+        yield pd.d, pd.J, pd.names
 
 
 def with_horizon_rows(
@@ -129,6 +151,14 @@ def goal_clearance(law: object) -> Callable[[FloatArray], bool] | None:
     if src is None:
         return None
     c, robot = src
+    geo = c.compiled(robot)
+    if geo is not None:  # compiled geometry: the broad phase first, the same verdict
+        arm, geom, d_safe = geo.arm, geo.geom, c.d_safe
+
+        def clear_compiled(q: FloatArray) -> bool:
+            return bool(_K.clear_at(np.ascontiguousarray(q, dtype=np.float64), arm, geom, d_safe))
+
+        return clear_compiled
 
     def clear(q: FloatArray) -> bool:
         d = c.probe(robot, q, c.last_time).d
