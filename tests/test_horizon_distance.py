@@ -29,7 +29,7 @@ from redservo.scenario import load_scenario
 from redservo.scene import Static
 from redservo.spatial import make_transform
 
-D_I = 0.15
+D_I = 0.25
 
 
 def _world(rng: np.random.Generator, self_pairs: bool) -> tuple[Any, Collision]:
@@ -109,7 +109,7 @@ def test_horizon_rows_and_clearance_are_main_s_bit_for_bit(seed: int) -> None:
     reach = reach_clearance(SimpleNamespace(robot=exp.robot, options=SimpleNamespace(collision=c)))
     assert clear is not None and reach is not None
     n, dt, hz = exp.robot.n, 0.04, horizon(10, 3)
-    seen_rows = 0
+    seen_rows, widest = 0, 0
     for _ in range(25):
         q0 = exp.q0 + rng.normal(0.0, 0.4, n)
         Ubar = rng.normal(0.0, 0.6, (hz.Nc, n))
@@ -123,6 +123,8 @@ def test_horizon_rows_and_clearance_are_main_s_bit_for_bit(seed: int) -> None:
             assert got.steps == want.steps and got.names == want.names
             assert np.array_equal(got.A, want.A) and np.array_equal(got.b, want.b)
             seen_rows += len(got.steps)
+            widest = max(widest, *(got.steps.count(k) for k in got.steps))
         for q in (q0, q0 + rng.normal(0.0, 0.3, n)):
             assert clear(q) == _clear_by_probe(c, exp.robot, q) == reach(q)
-    assert seen_rows > 0
+    # Periods of several rows (BLAS rounds A ū by the block's shape: one product a period).
+    assert seen_rows > 0 and widest >= 5, (seen_rows, widest)

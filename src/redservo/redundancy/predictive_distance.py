@@ -22,7 +22,8 @@ Units: metres, seconds, radians.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+import itertools
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -81,48 +82,43 @@ def horizon_distance_rows(
     if src is None:
         return None
     c, robot = src
-    ub = Ubar.reshape(-1)
     Q = [q0 + (dt * hz.M[k - 1]) @ Ubar for k in range(1, hz.N + 1)]
-    A_rows: list[FloatArray] = []
-    b_rows: list[FloatArray] = []
-    steps: list[int] = []
-    names: list[str] = []
-    for k, (d, J, pairs) in enumerate(_plan_distances(c, robot, Q, dt), start=1):
-        near = d < c.d_influence
-        if not np.any(near):
-            continue
-        w = dt * hz.M[k - 1]  # (Nc,)
-        Jk = J[near]
-        Ak = np.concatenate([wj * Jk for wj in w], axis=1)
-        # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
-        bk = np.minimum(c.d_safe - d[near] + Ak @ ub, 0.0)
-        A_rows.append(Ak)
-        b_rows.append(bk)
-        steps += [k] * int(bk.size)
-        names += [nm for nm, m in zip(pairs, near, strict=True) if m]
-    if not A_rows:
-        return None
-    return HorizonRows(np.vstack(A_rows), np.concatenate(b_rows), tuple(steps), tuple(names))
-
-
-def _plan_distances(
-    c: Collision, robot: Robot, Q: list[FloatArray], dt: float
-) -> Iterator[tuple[FloatArray, FloatArray, tuple[str, ...]]]:
-    """``(d (P,), J (P, n), names)`` at each predicted configuration ``Q[k-1]`` (period
-    ``k``, time ``k dt`` after the step's measurement): one compiled call for the whole plan
-    (:func:`~redservo.kernels.horizon_distance.measure_plan`, the pairs beyond
-    ``d_influence`` skipped, ``d = inf``) when the set-up has compiled geometry, else
-    :meth:`~redservo.control.avoidance.Collision.probe` at each (coal)."""
     geo = c.compiled(robot)
-    if geo is not None:
-        D, JJ = _K.measure_plan(np.array(Q), geo.arm, geo.geom, c.d_influence)
-        for d, J in zip(D, JJ, strict=True):
-            yield d, J, geo.names
-        return
-    t0 = c.last_time
-    for k, qk in enumerate(Q, start=1):
-        pd = c.probe(robot, qk, t0 + k * dt)
-        yield pd.d, pd.J, pd.names
+    if geo is None:  # coal: every pair at each period (the same pairs at each)
+        t0 = c.last_time
+        per_k = [c.probe(robot, qk, t0 + k * dt) for k, qk in enumerate(Q, start=1)]
+        D, JJ = np.array([pd.d for pd in per_k]), np.array([pd.J for pd in per_k])
+        return _rows(D, JJ, per_k[0].names, hz, dt, Ubar, c)
+    # One compiled call for the plan, the pairs beyond d_influence skipped (d = inf).
+    D, JJ = _K.measure_plan(np.array(Q), geo.arm, geo.geom, c.d_influence)
+    return _rows(D, JJ, geo.names, hz, dt, Ubar, c)
+
+
+def _rows(
+    D: FloatArray,
+    JJ: FloatArray,
+    pairs: tuple[str, ...],
+    hz: Horizon,
+    dt: float,
+    Ubar: FloatArray,
+    c: Collision,
+) -> HorizonRows | None:
+    """The rows from the distances ``D`` (N, P) and Jacobians ``JJ`` (N, P, n) of the
+    pairs ``pairs`` at the predicted periods ``k = 1…N``: period by period, each pair in
+    turn. Each row's block ``j`` is ``dt M[k-1, j] J`` and its bound ``d_s − d̄ + A ū``
+    (``A ū`` one matrix-vector product per period, as the rows were built one period at a
+    time: BLAS rounds a product by its shape)."""
+    ks, ps = np.nonzero(D < c.d_influence)
+    if ks.size == 0:
+        return None
+    W = dt * hz.M  # (N, Nc): row k-1 is period k's weights
+    A = (W[ks][:, :, None] * JJ[ks, ps][:, None, :]).reshape(ks.size, -1)
+    ub = Ubar.reshape(-1)
+    cuts = [0, *(np.flatnonzero(np.diff(ks)) + 1).tolist(), ks.size]
+    Au = np.concatenate([A[i:j] @ ub for i, j in itertools.pairwise(cuts)])
+    # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
+    b = np.minimum(c.d_safe - D[ks, ps] + Au, 0.0)
+    return HorizonRows(A, b, tuple((ks + 1).tolist()), tuple(pairs[p] for p in ps))
 
 
 def with_horizon_rows(
