@@ -16,11 +16,12 @@ from redservo.campaign.reach_obstacles import goal_clearance as reach_clearance
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import Collision, check_collision
 from redservo.experiment.build import build
-from redservo.kernels.horizon_distance import clear_at, measure_plan
+from redservo.kernels.horizon_distance import measure_plan
 from redservo.kernels.loop_collide import measure_arm
 from redservo.redundancy import make_law
 from redservo.redundancy.predictive_distance import (
     HorizonRows,
+    clear_of,
     goal_clearance,
     horizon_distance_rows,
 )
@@ -94,7 +95,7 @@ def test_the_plan_measurement_gives_every_near_pair_bit_for_bit(seed: int) -> No
             done = D[k] != np.inf
             assert np.array_equal(D[k][done], d[done]) and np.array_equal(JJ[k][done], J[done])
             assert np.all(d[~done] > limit) and np.all(JJ[k][~done] == 0.0)
-            assert clear_at(Q[k], geo.arm, geo.geom, limit) == bool(np.min(d) >= limit)
+            assert clear_of(geo, limit)(Q[k]) == bool(np.min(d) >= limit)
             skipped += int(np.sum(~done))
     assert skipped > 0  # the broad phase did skip pairs
 

@@ -4,7 +4,8 @@
 predicted period ``k = 1…N`` of a step, the pairs closer than ``d_influence`` and their
 Jacobians; :func:`~redservo.redundancy.predictive_distance.goal_clearance` and the campaigns'
 reachability (:mod:`redservo.campaign.reach_obstacles`) only whether every pair is at least
-``d_safe`` apart. Both used to measure every pair (:func:`~redservo.kernels.loop_collide.
+``d_safe`` apart (:func:`~redservo.redundancy.predictive_distance.clear_of`: the same call
+with the threshold ``d_safe``). Both used to measure every pair (:func:`~redservo.kernels.loop_collide.
 measure_arm`, the capsule/cylinder and capsule/box searches included) through one Python
 call per configuration. Here the broad phase of the compiled loop
 (:func:`~redservo.kernels.loop_cull.measure_culled`) computes, with the very kernel
@@ -25,7 +26,7 @@ import numpy as np
 from redservo.kernels._jit import kernel
 from redservo.kernels.loop_cull import measure_culled
 
-__all__ = ["clear_at", "measure_plan"]
+__all__ = ["measure_plan"]
 
 
 @kernel
@@ -41,12 +42,3 @@ def measure_plan(Q: Any, arm: Any, geom: Any, d_limit: float) -> Any:
         d, J, _, _, _ = measure_culled(np.ascontiguousarray(Q[k]), arm, geom, d_limit)
         D[k], JJ[k] = d, J
     return D, JJ
-
-
-@kernel
-def clear_at(q: Any, arm: Any, geom: Any, d_safe: float) -> bool:
-    """Whether every pair is at least ``d_safe`` (m) apart at ``q`` (rad or m): the smallest
-    of :func:`~redservo.kernels.loop_collide.measure_arm`'s distances, computed only where it
-    may be below ``d_safe`` (module docstring)."""
-    d = measure_culled(q, arm, geom, d_safe)[0]
-    return d.shape[0] == 0 or np.min(d) >= d_safe

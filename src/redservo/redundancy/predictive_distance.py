@@ -33,6 +33,7 @@ from redservo.kernels import lazy
 from redservo.redundancy.distance_rows import _SOURCE
 
 if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.collision.pack import CompiledGeometry
     from redservo.control.avoidance import Collision
     from redservo.kernels import horizon_distance as _K
     from redservo.redundancy.predictive_model import QP, Horizon
@@ -42,6 +43,7 @@ else:
 
 __all__ = [
     "HorizonRows",
+    "clear_of",
     "distance_source",
     "goal_clearance",
     "horizon_distance_rows",
@@ -148,16 +150,26 @@ def goal_clearance(law: object) -> Callable[[FloatArray], bool] | None:
         return None
     c, robot = src
     geo = c.compiled(robot)
-    if geo is not None:  # compiled geometry: the broad phase first, the same verdict
-        arm, geom, d_safe = geo.arm, geo.geom, c.d_safe
-
-        def clear_compiled(q: FloatArray) -> bool:
-            return bool(_K.clear_at(np.ascontiguousarray(q, dtype=np.float64), arm, geom, d_safe))
-
-        return clear_compiled
+    if geo is not None:
+        return clear_of(geo, c.d_safe)
 
     def clear(q: FloatArray) -> bool:
         d = c.probe(robot, q, c.last_time).d
         return bool(d.size == 0 or float(np.min(d)) >= c.d_safe)
+
+    return clear
+
+
+def clear_of(geo: CompiledGeometry, d_safe: float) -> Callable[[FloatArray], bool]:
+    """``clear(q)``: every pair of the compiled geometry ``geo`` at least ``d_safe`` (m)
+    apart at ``q`` (rad or m), the pairs that cannot be closer skipped
+    (:func:`~redservo.kernels.horizon_distance.measure_plan` with the threshold ``d_safe``:
+    the smallest distance is the full measurement's whenever it is below ``d_safe``)."""
+    arm, geom = geo.arm, geo.geom
+
+    def clear(q: FloatArray) -> bool:
+        Q = np.array(q, dtype=np.float64, ndmin=2)
+        d = _K.measure_plan(Q, arm, geom, d_safe)[0][0]
+        return bool(d.size == 0 or float(np.min(d)) >= d_safe)
 
     return clear
