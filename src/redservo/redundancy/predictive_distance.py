@@ -4,7 +4,9 @@ With collision avoidance on, the law already has the velocity-damper rows on its
 command (:mod:`redservo.redundancy.distance_rows`). Those see one period ahead only: the
 plan's later blocks may run a link into a post, and the law finds out when the damper and
 the shield stop it there. Here every predicted period ``k = 1…N`` gets the pairs' distance,
-measured by the same kernel (:meth:`~redservo.control.avoidance.Collision.measure`) at the
+measured by the same kernel (:meth:`~redservo.control.avoidance.Collision.measure`'s; with
+compiled geometry one call for the whole plan, the pairs beyond ``d_influence`` skipped by the
+broad phase: :func:`~redservo.kernels.horizon_distance.measure_plan`, the same bits) at the
 linearisation point ``q̄_k = q_0 + dt Σ_j M[k-1, j] ū_j`` (the warm start ``Ū``) and
 linearised there, as the image points are::
 
