@@ -29,10 +29,16 @@ __all__ = ["clear_search", "goal_clearance"]
 
 def goal_clearance(exp: Any) -> Callable[[FloatArray], bool] | None:
     """``clear(q)``: every pair of ``exp`` at least ``d_safe`` apart at ``q`` (the scene
-    at t = 0); None without obstacles or self pairs."""
+    at t = 0; compiled geometry: :func:`~redservo.redundancy.predictive_distance.clear_of`);
+    None without obstacles or self pairs."""
     c = exp.options.collision
     if c is None or not c.active:
         return None
+    geo = c.compiled(exp.robot)
+    if geo is not None:  # one compiled call, the broad phase first: the same verdict
+        from redservo.redundancy.predictive_distance import clear_of
+
+        return clear_of(geo, c.d_safe)
 
     def clear(q: FloatArray) -> bool:
         d = c.measure(exp.robot, np.asarray(q, dtype=float), 0.0).d

@@ -4,7 +4,9 @@ With collision avoidance on, the law already has the velocity-damper rows on its
 command (:mod:`redservo.redundancy.distance_rows`). Those see one period ahead only: the
 plan's later blocks may run a link into a post, and the law finds out when the damper and
 the shield stop it there. Here every predicted period ``k = 1…N`` gets the pairs' distance,
-measured by the same kernel (:meth:`~redservo.control.avoidance.Collision.measure`) at the
+measured by the same kernel (:meth:`~redservo.control.avoidance.Collision.measure`'s; with
+compiled geometry one call for the whole plan, the pairs beyond ``d_influence`` skipped by the
+broad phase: :func:`~redservo.kernels.horizon_distance.measure_plan`, the same bits) at the
 linearisation point ``q̄_k = q_0 + dt Σ_j M[k-1, j] ū_j`` (the warm start ``Ū``) and
 linearised there, as the image points are::
 
@@ -22,21 +24,28 @@ Units: metres, seconds, radians.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from redservo._validation import FloatArray
+from redservo.kernels import lazy
 from redservo.redundancy.distance_rows import _SOURCE
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.collision.pack import CompiledGeometry
     from redservo.control.avoidance import Collision
+    from redservo.kernels import horizon_distance as _K
     from redservo.redundancy.predictive_model import QP, Horizon
     from redservo.robots.base import Robot
+else:
+    _K = lazy("horizon_distance")
 
 __all__ = [
     "HorizonRows",
+    "clear_of",
     "distance_source",
     "goal_clearance",
     "horizon_distance_rows",
@@ -77,30 +86,43 @@ def horizon_distance_rows(
     if src is None:
         return None
     c, robot = src
-    t0 = c.last_time
-    ub = Ubar.reshape(-1)
-    A_rows: list[FloatArray] = []
-    b_rows: list[FloatArray] = []
-    steps: list[int] = []
-    names: list[str] = []
-    for k in range(1, hz.N + 1):
-        w = dt * hz.M[k - 1]  # (Nc,)
-        qk = q0 + w @ Ubar
-        pd = c.probe(robot, qk, t0 + k * dt)
-        near = pd.d < c.d_influence
-        if not np.any(near):
-            continue
-        Jk = pd.J[near]
-        Ak = np.concatenate([wj * Jk for wj in w], axis=1)
-        # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
-        bk = np.minimum(c.d_safe - pd.d[near] + Ak @ ub, 0.0)
-        A_rows.append(Ak)
-        b_rows.append(bk)
-        steps += [k] * int(bk.size)
-        names += [nm for nm, m in zip(pd.names, near, strict=True) if m]
-    if not A_rows:
+    Q = [q0 + (dt * hz.M[k - 1]) @ Ubar for k in range(1, hz.N + 1)]
+    geo = c.compiled(robot)
+    if geo is None:  # coal: every pair at each period (the same pairs at each)
+        t0 = c.last_time
+        per_k = [c.probe(robot, qk, t0 + k * dt) for k, qk in enumerate(Q, start=1)]
+        D, JJ = np.array([pd.d for pd in per_k]), np.array([pd.J for pd in per_k])
+        return _rows(D, JJ, per_k[0].names, hz, dt, Ubar, c)
+    # One compiled call for the plan, the pairs beyond d_influence skipped (d = inf).
+    D, JJ = _K.measure_plan(np.array(Q), geo.arm, geo.geom, c.d_influence)
+    return _rows(D, JJ, geo.names, hz, dt, Ubar, c)
+
+
+def _rows(
+    D: FloatArray,
+    JJ: FloatArray,
+    pairs: tuple[str, ...],
+    hz: Horizon,
+    dt: float,
+    Ubar: FloatArray,
+    c: Collision,
+) -> HorizonRows | None:
+    """The rows from the distances ``D`` (N, P) and Jacobians ``JJ`` (N, P, n) of the
+    pairs ``pairs`` at the predicted periods ``k = 1…N``: period by period, each pair in
+    turn. Each row's block ``j`` is ``dt M[k-1, j] J`` and its bound ``d_s − d̄ + A ū``
+    (``A ū`` one matrix-vector product per period, as the rows were built one period at a
+    time: BLAS rounds a product by its shape)."""
+    ks, ps = np.nonzero(D < c.d_influence)
+    if ks.size == 0:
         return None
-    return HorizonRows(np.vstack(A_rows), np.concatenate(b_rows), tuple(steps), tuple(names))
+    W = dt * hz.M  # (N, Nc): row k-1 is period k's weights
+    A = (W[ks][:, :, None] * JJ[ks, ps][:, None, :]).reshape(ks.size, -1)
+    ub = Ubar.reshape(-1)
+    cuts = [0, *(np.flatnonzero(np.diff(ks)) + 1).tolist(), ks.size]
+    Au = np.concatenate([A[i:j] @ ub for i, j in itertools.pairwise(cuts)])
+    # d̄ + A (U − ū) ≥ d_s  ⇔  A U ≥ d_s − d̄ + A ū; capped at 0 (rest: A·0 = 0).
+    b = np.minimum(c.d_safe - D[ks, ps] + Au, 0.0)
+    return HorizonRows(A, b, tuple((ks + 1).tolist()), tuple(pairs[p] for p in ps))
 
 
 def with_horizon_rows(
@@ -129,9 +151,27 @@ def goal_clearance(law: object) -> Callable[[FloatArray], bool] | None:
     if src is None:
         return None
     c, robot = src
+    geo = c.compiled(robot)
+    if geo is not None:
+        return clear_of(geo, c.d_safe)
 
     def clear(q: FloatArray) -> bool:
         d = c.probe(robot, q, c.last_time).d
         return bool(d.size == 0 or float(np.min(d)) >= c.d_safe)
+
+    return clear
+
+
+def clear_of(geo: CompiledGeometry, d_safe: float) -> Callable[[FloatArray], bool]:
+    """``clear(q)``: every pair of the compiled geometry ``geo`` at least ``d_safe`` (m)
+    apart at ``q`` (rad or m), the pairs that cannot be closer skipped
+    (:func:`~redservo.kernels.horizon_distance.measure_plan` with the threshold ``d_safe``:
+    the smallest distance is the full measurement's whenever it is below ``d_safe``)."""
+    arm, geom = geo.arm, geo.geom
+
+    def clear(q: FloatArray) -> bool:
+        Q = np.array(q, dtype=np.float64, ndmin=2)
+        d = _K.measure_plan(Q, arm, geom, d_safe)[0][0]
+        return bool(d.size == 0 or float(np.min(d)) >= d_safe)
 
     return clear
