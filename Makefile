@@ -103,11 +103,12 @@ warm: $(TSTAMP)
 warm-examples: $(TSTAMP) warm
 	$(BIN)/python -m tests.examples_cache
 
-# Three workers (-n 3) on the two cores: about a sixth of the tests' time is spent waiting (DDS
-# discovery, dask clusters, a browser, commands in subprocesses: the ROS 2 and dask tests used
-# 56 CPU-s in 414 s), which a third worker fills; each worker costs one collection (about
-# 13 CPU-s). Tests sharing a port range, a browser or a module-scoped fixture keep to one
-# worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
+# Three workers (-n 3) on the two cores: the slowest tests mostly wait (DDS discovery, dask
+# clusters, timeouts, processes starting: at a load of 14, where computing ran ~7x slower,
+# they took only 2-2.5x their quiet-machine time), which a third worker fills; each worker
+# costs one collection (about 13 CPU-s). Tests sharing a port range, a browser or a
+# module-scoped fixture keep to one worker (xdist groups, tests/conftest.py).
+# PYTEST_WORKERS=0: all in the pytest process.
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
 # The summary lists the 30 slowest tests and the kernels the tests still compiled (the
 # warm-up's gaps, tests/compile_report.py).
