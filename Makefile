@@ -72,7 +72,7 @@ demo: $(STAMP) egl
 	$(BIN)/python examples/demo.py --out $(OUT)
 
 ## make test: create the environment, install, lint (ruff), compile the numba kernels on both
-## cores (mypy beside them), and run the tests on three pytest-xdist workers
+## cores (mypy beside them), and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
 	@$(MAKE) --no-print-directory -j2 typecheck warm
@@ -103,16 +103,13 @@ warm: $(TSTAMP)
 warm-examples: $(TSTAMP) warm
 	$(BIN)/python -m tests.examples_cache
 
-# Three workers (-n 3) on the two cores: the slowest tests mostly wait (DDS discovery, dask
-# clusters, timeouts, processes starting: at a load of 14, where computing ran ~7x slower,
-# they took only 2-2.5x their quiet-machine time), which a third worker fills; each worker
-# costs one collection (about 13 CPU-s). Tests sharing a port range, a browser or a
-# module-scoped fixture keep to one worker (xdist groups, tests/conftest.py).
-# PYTEST_WORKERS=0: all in the pytest process.
+# Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
+# one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
+# (Three workers on the two cores were measured and not kept: docs/decisions.md, make test.)
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
 # The summary lists the 30 slowest tests and the kernels the tests still compiled (the
 # warm-up's gaps, tests/compile_report.py).
-PYTEST_WORKERS ?= 3
+PYTEST_WORKERS ?= 2
 pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
 	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report --durations=30 \

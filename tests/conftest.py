@@ -14,7 +14,7 @@ import pytest
 # processes.
 os.environ.setdefault("REDSERVO_KERNELS", "compiled")
 
-# `make test` runs the suite on three pytest-xdist workers (`-n 3 --dist loadgroup`). The tests
+# `make test` runs the suite on two pytest-xdist workers (`-n 2 --dist loadgroup`). The tests
 # of one group run on one worker, one after the other, as in a plain `pytest` run:
 SHARED_RESOURCES = {
     # DDS on loopback: the domain ids are drawn from the test process's pid, per file.

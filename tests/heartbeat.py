@@ -10,8 +10,8 @@ As a pytest plugin for ``make test`` (``-p tests.heartbeat``):
 the collection of 2400 tests on two busy cores, can leave the terminal silent for a minute.
 Once the terminal has been silent for :data:`EVERY` seconds (no dot), this plugin prints a line
 for the collection, or for each test running: ``… still running tests/test_x.py::test_y (20 s)``.
-Under pytest-xdist (``-n 3``) it talks in the controller only, which hears when each worker's
-tests start and end, so the tests running give one line each. It writes to a copy of the original stderr taken when pytest
+Under pytest-xdist (``-n 2``) it talks in the controller only, which hears when each worker's
+tests start and end, so the two tests running give two lines. It writes to a copy of the original stderr taken when pytest
 loads it (before pytest captures the output of the tests), and it changes nothing else: the
 tests themselves never see it.
 """

@@ -1,4 +1,4 @@
-"""``make test`` on three pytest-xdist workers: the heartbeat, the groups, the Makefile's step."""
+"""``make test`` on two pytest-xdist workers: the heartbeat, the groups, the Makefile's step."""
 
 from __future__ import annotations
 
@@ -114,14 +114,14 @@ def test_tests_that_share_a_resource_or_a_module_fixture_stay_on_one_worker(
     assert conftest.xdist_group(_item(tmp_path, name, scopes)) == group
 
 
-def test_make_test_runs_pytest_on_three_workers_after_the_warm_up() -> None:
+def test_make_test_runs_pytest_on_two_workers_after_the_warm_up() -> None:
     """The Makefile's pytest step uses xdist with the groups, the `test` extra installs it,
     and the kernels are compiled once (``redservo warmup``) before the workers start."""
     makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
     recipe = re.search(r"^pytest:[^\n]*\n((?:\t[^\n]*\n)+)", makefile, re.M)
     assert recipe is not None
     assert "-n $(PYTEST_WORKERS) --dist loadgroup" in recipe.group(1)
-    assert re.search(r"^PYTEST_WORKERS \?= 3$", makefile, re.M)
+    assert re.search(r"^PYTEST_WORKERS \?= 2$", makefile, re.M)
     assert "-p tests.heartbeat" in recipe.group(1)
     assert re.search(r"^pytest:[^\n]*\bwarm\b", makefile, re.M), "pytest runs after the warm-up"
     with (ROOT / "pyproject.toml").open("rb") as f:
