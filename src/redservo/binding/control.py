@@ -128,8 +128,6 @@ class CompiledControl:
             prev = _EMPTY
         elif qdot_prev.shape == self.shapes[1:2] and qdot_prev.dtype == _F64:
             prev = np.ascontiguousarray(qdot_prev)
-            if not prev.flags.writeable:  # one type: a read-only array would compile the chain anew
-                prev = prev.copy()
         else:
             return None  # the object path checks it
         if de1_dt is None and secondary is None:
