@@ -105,6 +105,7 @@ def _item(tmp_path: Path, name: str, scopes: tuple[str, ...] = ()) -> SimpleName
         ("test_repro_mc05.py", ("function", "module"), "file:test_repro_mc05.py"),
         ("test_repro_cm01_gaze.py", ("session",), "file:test_repro_cm01_gaze.py"),
         ("test_spatial.py", ("function",), None),
+        ("test_loop_rows.py", (), "file:test_loop_rows.py"),
     ],
 )
 def test_tests_that_share_a_resource_or_a_module_fixture_stay_on_one_worker(
