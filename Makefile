@@ -15,14 +15,17 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 # demo: only what the commands need (redservo[all]); test: the test tools as well.
+# --no-compile: pip would byte-compile every module of every package it installs (11,500
+# files, about 25 CPU-s, the largest CPU item of the install); Python compiles the modules a
+# command imports, on their first import, instead.
 $(STAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[all] into $(VENV) (a minute or two on a fresh machine)"
-	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[all]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet --no-compile -e '.[all]'
 	touch $(STAMP)
 
 $(TSTAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[test] into $(VENV) (a minute or two on a fresh machine)"
-	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet --no-compile -e '.[test]'
 	touch $(STAMP) $(TSTAMP)
 
 # System packages, installed with apt-get when missing and running as root (a fresh machine, CI),
@@ -72,7 +75,7 @@ demo: $(STAMP) egl
 ## cores (mypy beside them), and run the tests on two pytest-xdist workers
 ## (as root it also apt-get installs chromium and EGL when missing; CHROMIUM_INSTALL=0 EGL_INSTALL=0 skip)
 test: lint
-	@$(MAKE) --no-print-directory -j2 typecheck warm warm-examples
+	@$(MAKE) --no-print-directory -j2 typecheck warm
 	@$(MAKE) --no-print-directory pytest WARMED=1
 
 lint: $(TSTAMP)
@@ -94,17 +97,20 @@ warm: $(TSTAMP)
 
 # The worked extension examples (a law, a robot kind) compile a step chain of their own, once,
 # into examples/__pycache__/numba-examples (tests/examples_cache.py), after the warm-up, whose
-# cache they copy and share for every kernel their extensions leave unchanged.
+# cache they copy and share for every kernel their extensions leave unchanged. `make test`
+# leaves that to their two tests (one xdist group, scheduled among the first), which compile
+# it on one worker while the other runs tests; `make warm-examples` compiles it ahead.
 warm-examples: $(TSTAMP) warm
 	$(BIN)/python -m tests.examples_cache
 
 # Two workers (-n 2); tests sharing a port range, a browser or a module-scoped fixture keep to
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
+# (Three workers on the two cores were measured and not kept: docs/decisions.md, make test.)
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
 # The summary lists the 30 slowest tests and the kernels the tests still compiled (the
 # warm-up's gaps, tests/compile_report.py).
 PYTEST_WORKERS ?= 2
-pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm warm-examples)
+pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
 	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report --durations=30 \
 		-n $(PYTEST_WORKERS) --dist loadgroup
@@ -113,7 +119,7 @@ pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm warm-examples)
 ## into site/, strictly: a broken link or reference fails the build
 $(DSTAMP): $(BIN)/python pyproject.toml
 	@echo "== installing redservo[docs] (MkDocs Material, mkdocstrings) into $(VENV)"
-	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet -e '.[docs]'
+	$(BIN)/python -m tests.heartbeat $(BIN)/python -m pip install --quiet --no-compile -e '.[docs]'
 	touch $(DSTAMP)
 
 docs: $(DSTAMP)

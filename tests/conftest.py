@@ -25,15 +25,26 @@ SHARED_RESOURCES = {
 }
 """File-name prefix: xdist group of the tests that share a machine resource."""
 
+ONE_COMPILATION = {
+    # numba's own overloads (``impl``) under the loop's distance rows compile in each process
+    # that calls them from Python, not from the disk cache: 43-46 per worker (tests/compile_report.py)
+    "test_loop_rows.py": "the loop's distance rows called from Python",
+}
+"""Test files whose tests compile the same kernels in their process (not loaded from the disk
+cache): their tests keep to one worker (group ``file:<name>``), which compiles them once."""
+
 
 def xdist_group(item: Any) -> str | None:
     """The xdist group of a test: its shared resource (:data:`SHARED_RESOURCES`), else its
-    file when it uses a module- or session-scoped fixture (computed once per worker: the
+    file when its tests compile the same kernels in their process (:data:`ONE_COMPILATION`)
+    or when it uses a module- or session-scoped fixture (computed once per worker: the
     file's tests stay together so it is computed once), else None (any worker)."""
     name = Path(str(item.fspath)).name
     for prefix, group in SHARED_RESOURCES.items():
         if name.startswith(prefix):
             return group
+    if name in ONE_COMPILATION:
+        return f"file:{name}"
     info = getattr(item, "_fixtureinfo", None)
     defs = [] if info is None else [d for ds in info.name2fixturedefs.values() for d in ds]
     if any(d.scope in ("module", "session") and d.baseid for d in defs):

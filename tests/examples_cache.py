@@ -12,8 +12,11 @@ first copies the package's warm cache (``redservo warmup``'s, in ``__pycache__``
 kernels) into :data:`CACHE`, so that the examples load every other kernel (numba checks each
 entry's source stamp and recompiles a stale one, in :data:`CACHE` only).
 
-``python -m tests.examples_cache`` compiles it ahead of the tests (``make test`` runs it
-after the warm-up, beside mypy); a warm cache takes seconds.
+:func:`run_example` seeds :data:`CACHE` first (seconds; nothing copied twice), so the first
+of the two tests that run the examples (one xdist group) compiles the chain and the second
+loads it: ``make test`` compiles it that way, on one pytest worker while the other runs tests,
+after the warm-up. ``python -m tests.examples_cache`` (``make warm-examples``) compiles it
+ahead of the tests; a warm cache takes seconds.
 """
 
 from __future__ import annotations
@@ -53,7 +56,8 @@ def seed(cache: Path = CACHE, sources: tuple[Path, ...] = PACKAGE_KERNELS) -> in
 
 def run_example(name: str) -> subprocess.CompletedProcess[str]:
     """Run ``examples/<name>.py --quick`` compiled, in a process that declares both
-    extensions, with :data:`CACHE` as its numba cache."""
+    extensions, with :data:`CACHE` (seeded: :func:`seed`) as its numba cache."""
+    seed(CACHE, PACKAGE_KERNELS)
     code = (
         "import sys\n"
         f"sys.path.insert(0, {str(EXAMPLES)!r})\n"

@@ -105,6 +105,7 @@ def _item(tmp_path: Path, name: str, scopes: tuple[str, ...] = ()) -> SimpleName
         ("test_repro_mc05.py", ("function", "module"), "file:test_repro_mc05.py"),
         ("test_repro_cm01_gaze.py", ("session",), "file:test_repro_cm01_gaze.py"),
         ("test_spatial.py", ("function",), None),
+        ("test_loop_rows.py", (), "file:test_loop_rows.py"),
     ],
 )
 def test_tests_that_share_a_resource_or_a_module_fixture_stay_on_one_worker(
@@ -126,3 +127,54 @@ def test_make_test_runs_pytest_on_two_workers_after_the_warm_up() -> None:
     with (ROOT / "pyproject.toml").open("rb") as f:
         extra = tomllib.load(f)["project"]["optional-dependencies"]["test"]
     assert any(re.fullmatch(r"pytest-xdist>=[\d.]+", req) for req in extra), extra
+
+
+def _recipe(makefile: str, target: str) -> str:
+    """A Makefile target's line (with its prerequisites) and its recipe."""
+    found = re.search(rf"^{re.escape(target)}:[^\n]*\n(?:\t[^\n]*\n)+", makefile, re.M)
+    assert found is not None, target
+    return found.group(0)
+
+
+def test_make_test_starts_the_tests_right_after_the_warm_up() -> None:
+    """No one-core step between the warm-up and pytest: the worked examples' chain compiles in
+    its two tests (one xdist group) on one worker while the other runs tests."""
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    test = _recipe(makefile, "test")
+    assert "-j2 typecheck warm\n" in test and "warm-examples" not in test
+    assert "warm-examples" not in _recipe(makefile, "pytest").splitlines()[0]
+    assert "tests.examples_cache" in _recipe(makefile, "warm-examples")  # still there alone
+
+
+def test_pip_installs_without_byte_compiling_every_package() -> None:
+    """pip's byte-compilation of all 11,500 modules it installs is the install's largest CPU
+    item; Python compiles the ones a command imports instead."""
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    installs = [ln for ln in makefile.splitlines() if "pip install" in ln and " -e " in ln]
+    assert len(installs) == 3
+    assert all("--no-compile" in ln for ln in installs), installs
+
+
+def test_each_example_run_seeds_the_examples_cache_first(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The tests that run the worked examples copy the warm-up's kernels to the examples' cache
+    themselves (``make test`` no longer runs tests/examples_cache.py before them), then run the
+    example with that cache."""
+    from tests import examples_cache
+
+    src = tmp_path / "pkg" / "kernels"
+    (src / "__pycache__").mkdir(parents=True)
+    (src / "__pycache__" / "k.f-1.py311.nbi").write_bytes(b"package")
+    cache = tmp_path / "cache"
+    monkeypatch.setattr(examples_cache, "CACHE", cache)
+    monkeypatch.setattr(examples_cache, "PACKAGE_KERNELS", (src,))
+    seen: list[tuple[list[str], str]] = []
+
+    def run(cmd: list[str], env: dict[str, str], **_: object) -> SimpleNamespace:
+        seen.append(([p.name for p in cache.rglob("*.nbi")], env["NUMBA_CACHE_DIR"]))
+        return SimpleNamespace(returncode=0)
+
+    monkeypatch.setattr(examples_cache.subprocess, "run", run)
+    examples_cache.run_example("scara_robot")
+    assert seen == [(["k.f-1.py311.nbi"], str(cache))]

@@ -11,6 +11,7 @@ import pytest
 
 from redservo.bench import warmup as wu
 from redservo.bench import warmup_jobs as wj
+from redservo.bench import warmup_parts as wp
 from redservo.cli.entry import main
 from redservo.errors import ConfigurationError
 
@@ -183,3 +184,26 @@ def test_the_campaigns_share_one_worker_and_their_searches_need_no_step() -> Non
     assert by_name["scenarios"].chain not in ("", by_name["campaign loop"].chain)
     assert by_name["reachability"].chain and not by_name["reachability"].steps
     assert wu.GROUPS[0].steps  # the first part compiles the step: it runs first
+
+
+def test_a_heavy_part_is_handed_out_before_the_larger_families_of_its_chain() -> None:
+    """A part that compiles much of its own (the realistic camera's image pipeline) goes first
+    after its chain's head, not last as a family of one: run last, it kept one core busy
+    alone for the warm-up's last 18 s (340 s at a load of 15)."""
+
+    def part(name: str, note: wu.Note) -> None:
+        pass
+
+    scenarios = ("a-1", "p-1", "p-2", "p-3", "camera", "q-1", "q-2")
+    groups = (
+        wu.Group("L", "laws", lambda note: None, lambda: ("law",), part),
+        wu.Group(
+            "S", "a chain", lambda note: None, lambda: scenarios, part, "c", heavy=("camera",)
+        ),
+    )
+    plan = wj._plan(wj._tasks(groups), groups)
+    assert plan.heads == {"c": (1, "a-1")}
+    names = [[p for _, p in family] for family in plan.chained["c"]]
+    assert names == [["camera"], ["p-1", "p-2", "p-3"], ["q-1", "q-2"]]
+    assert wu.GROUPS[1].heavy == wp.HEAVY_SCENARIOS
+    assert set(wp.HEAVY_SCENARIOS) <= set(wp.scenario_parts())

@@ -184,6 +184,9 @@ class Group(NamedTuple):
     steps: bool = True
     """The group calls the step kernel (the laws' dispatch): ``--jobs N`` starts it after
     the first part, which compiles that kernel. False: it starts at once, beside it."""
+    heavy: tuple[str, ...] = ()
+    """Parts that compile much of their own: ``--jobs N`` hands their family out before the
+    group's other families, so that none of them is left to run last, alone on one core."""
 
 
 def _parted(
@@ -194,12 +197,13 @@ def _parted(
     *,
     chain: str = "",
     steps: bool = True,
+    heavy: tuple[str, ...] = (),
 ) -> Group:
     def run(note: Note) -> None:
         for part in parts():
             run_part(part, note)
 
-    return Group(name, what, run, parts, run_part, chain, steps)
+    return Group(name, what, run, parts, run_part, chain, steps, heavy)
 
 
 GROUPS: tuple[Group, ...] = (
@@ -210,6 +214,7 @@ GROUPS: tuple[Group, ...] = (
         wp.scenario_parts,
         wp.scenario,
         chain="controller",
+        heavy=wp.HEAVY_SCENARIOS,
     ),
     _parted(
         "compiled steps",

@@ -86,12 +86,13 @@ Task = tuple[int, str]
 """A part to run: (index of its group, part name)."""
 
 
-def _families(tasks: list[Task]) -> list[list[Task]]:
-    """The tasks by :func:`family`, the largest families first (the queue's long ones)."""
+def _families(tasks: list[Task], heavy: frozenset[str] = frozenset()) -> list[list[Task]]:
+    """The tasks by :func:`family`: the families with a ``heavy`` part first
+    (:attr:`redservo.bench.warmup.Group.heavy`), then the largest (the queue's long ones)."""
     by: dict[str, list[Task]] = {}
     for task in tasks:
         by.setdefault(family(task[1]), []).append(task)
-    return sorted(by.values(), key=len, reverse=True)
+    return sorted(by.values(), key=lambda f: (not any(t[1] in heavy for t in f), -len(f)))
 
 
 class _Plan(NamedTuple):
@@ -125,8 +126,9 @@ def _plan(tasks: list[Task], groups: tuple[Group, ...]) -> _Plan:
             chained.setdefault(g.chain, []).append(task)
         else:
             heads[g.chain] = task
-    by_chain = {c: _families(ts) for c, ts in chained.items()}
-    return _Plan(first, list(free.values()), heads, by_chain, _families(others))
+    heavy = frozenset(part for g in groups for part in g.heavy)
+    by_chain = {c: _families(ts, heavy) for c, ts in chained.items()}
+    return _Plan(first, list(free.values()), heads, by_chain, _families(others, heavy))
 
 
 def _tasks(groups: tuple[Group, ...]) -> list[tuple[int, str]]:

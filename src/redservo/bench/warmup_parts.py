@@ -17,6 +17,7 @@ from typing import Any, cast
 import numpy as np
 
 __all__ = [
+    "HEAVY_SCENARIOS",
     "Note",
     "campaign",
     "campaign_parts",
@@ -53,6 +54,9 @@ def law(method: str, note: Note) -> None:
 _SPHERES = "sphere variants"
 _CAMERA = "realistic camera"
 _DISTORTED = "panda-eye-to-hand image sensor"
+HEAVY_SCENARIOS = (_CAMERA, _DISTORTED)
+"""The scenario parts that compile an image pipeline of their own (28-47 kernels each, 18-21 s
+on the quiet machine, where the other scenario parts load the Controller's chain in a second)."""
 
 
 def scenario_parts() -> tuple[str, ...]:
