@@ -1,10 +1,9 @@
 """The predictive law's joint-goal search spread over periods (docs/predictive.md, "Joint
-goal"): its two stages run in turn and the law takes the feature stage's goal while the pose
-stage has met none, so that a goal only the feature stage finds (mc05-joint-limits: the
-desired camera pose beyond the bounds, its pose IK failing from all 67 seeds) is set in the
-first periods, not after ~3 000 iterations (150 periods at ``goal_steps = 20``); the
-search's result is the one of the stages run one after the other; and the campaign's rows do
-not depend on the machine's clock."""
+goal"): its two stages run in turn and the law takes the goal met so far, so that a goal only
+the feature stage finds (mc05-joint-limits: the desired camera pose beyond the bounds, its
+pose IK failing from all 67 seeds) is set in the first periods, not after ~3 000 iterations
+(150 periods at ``goal_steps = 20``); the search's result is the one of the stages run one
+after the other; and the campaign's rows do not depend on the machine's clock."""
 
 from __future__ import annotations
 
@@ -107,11 +106,9 @@ def _sequential(model: Any, q: Any, lo: Any, hi: Any, span: Any) -> tuple[Any, A
 def test_the_goal_met_so_far_then_the_result_of_the_stages_one_after_the_other(
     start: str,
 ) -> None:
-    """While the search runs the law gets the feature stage's exact goal as soon as it is met
-    if the pose stage has met none (mc05, whose pose stage meets none: within 10 calls; on
-    the Panda the pose stage often meets one first, and the law then waits for the end,
-    tests/test_predictive_goal_panda.py); the search's result is the one of the pose stage
-    run to its end, then the feature stage (the pose stage's nearest goal first)."""
+    """While the search runs the law gets an exact goal as soon as one is met (the feature
+    stage's on mc05, whose pose stage meets none); the search's result is the one of the
+    pose stage run to its end, then the feature stage (the pose stage's nearest goal first)."""
     model, q, lo, hi, span = _panda_search(int(start[-1])) if "panda" in start else _mc05_search()
     search = GoalSearch(60)
     search.start(model, q, lo, hi, span)
@@ -122,8 +119,7 @@ def test_the_goal_met_so_far_then_the_result_of_the_stages_one_after_the_other(
         calls += 1
         if not done and not early and search.early() is not None:
             early.append((calls, search.early()))
-    if "mc05" in start:
-        assert early and early[0][1][0] < TOL and early[0][0] <= 10
+    assert early and early[0][1][0] < TOL and early[0][0] <= 10
     want = _sequential(model, q, lo, hi, span)
     assert result is not None and np.array_equal(result[1], want[1]) and result[0] == want[0]
 

@@ -100,7 +100,7 @@ class GoalSearch:
     """A joint-goal search that can be spread over several periods (a servo loop's time
     budget): :meth:`start` draws the seeds, :meth:`advance` runs seeds until a deadline and
     returns the goal once the search is over (:func:`search_steps`); :meth:`early` gives the
-    feature stage's exact goal while it runs, until the pose stage meets one."""
+    nearest exact goal met so far while it runs."""
 
     def __init__(self, random_seeds: int) -> None:
         self.random_seeds = random_seeds
@@ -124,13 +124,11 @@ class GoalSearch:
         self._early_of, self._early_goal = 0, None
 
     def early(self) -> tuple[float, FloatArray] | None:
-        """``(‖e(q*)‖, q*)`` under the search's model: the feature stage's exact goal while
-        the pose stage has met none, when its straight joint path from the start is clear of
-        the obstacles, or None (none yet, the pose stage has met one, or no search running).
-        Once the pose stage has met a goal the law keeps the goal it steers to until the
-        search ends with the nearest of :data:`CANDIDATES` (:meth:`advance`): the first
-        goals met are often far (panda-near-limits sample 66: 0.84 of a joint's range), and
-        steering to one of them, then to the next, left the arm far from the end's choice."""
+        """``(‖e(q*)‖, q*)`` under the search's model: the goal the running search would
+        give if it ended now (the nearest of the pose stage's exact goals met so far, as its
+        end chooses among more, else the feature stage's) when its straight joint path from
+        the start is clear of the obstacles, or None (none yet, or no search running). The
+        result at the end of the search is :meth:`advance`'s."""
         if self._steps is None or self._early is None:
             return None
         count = len(self._met.pose) + (self._met.feature is not None)
@@ -159,7 +157,7 @@ class GoalSearch:
         self._met, self._early_of = met, 0
 
         def early() -> tuple[float, FloatArray] | None:
-            goal = None if met.pose else met.feature
+            goal = nearest_goal(model, met.pose, q, lo, hi, ok) if met.pose else met.feature
             # Among obstacles, only a goal with a clear straight path (_clear_path): the plan
             # pulled towards one behind a ball stays held at d_safe (panda-posts sample 80).
             return goal if goal is not None and _clear_path(ok, q, goal[1]) else None
@@ -231,7 +229,7 @@ def search_steps(
     avoidance on: :func:`~redservo.redundancy.predictive_distance.goal_clearance`), a
     configuration that is not clear of the obstacles is never the goal. ``met`` (the
     caller's): the exact goals are recorded in it as they are met, so that a search spread
-    over periods gives a goal before it ends (:meth:`GoalSearch.early`).
+    over periods gives the nearest so far before it ends (:meth:`GoalSearch.early`).
 
     Two stages (module docstring): the pose IK of the desired camera pose from each seed,
     whose result is the nearest of the first :data:`CANDIDATES` exact goals, and the
