@@ -123,9 +123,9 @@ class GoalSearch:
     def early(self, q: FloatArray | None = None) -> tuple[float, FloatArray] | None:
         """``(‖e(q*)‖, q*)`` under the search's model: of the exact goals both stages have
         met so far, the one nearest ``q`` (rad or m, the current configuration; None: the
-        search's start) in fractions of each range (:func:`nearest_goal`) when its straight
-        joint path from ``q`` is clear of the obstacles, or None (none yet, or no search
-        running). Called each period with the current configuration, a nearer goal met
+        search's start) in fractions of each range, one whose straight joint path from the
+        search's start is clear of the obstacles first (as :func:`nearest_goal`), or None
+        (none yet, none with a clear path, or no search running). Called each period with the current configuration, a nearer goal met
         later replaces a far one met first (panda-near-limits sample 66: the first goal met
         was 0.84 of a joint's range away, and steering to it, then to the next, stalled the
         run). The result at the end of the search is :meth:`advance`'s."""
@@ -153,15 +153,25 @@ class GoalSearch:
         ok = _anywhere if clear is None else clear
         self._met = met
 
+        clear_from_start: dict[int, bool] = {}  # by id of a goal met (kept alive in met)
+
         def early(now: FloatArray | None) -> tuple[float, FloatArray] | None:
-            found = met.pose + ([] if met.feature is None else [met.feature[1]])
+            found = list(zip(met.pose_error, met.pose, strict=True))
+            found += [] if met.feature is None else [met.feature]
             if not found:
                 return None
             at = q if now is None else now
-            goal = nearest_goal(model, found, at, lo, hi, ok)
-            # Among obstacles, only a goal with a clear straight path (_clear_path): the plan
-            # pulled towards one behind a ball stays held at d_safe (panda-posts sample 80).
-            return goal if _clear_path(ok, at, goal[1]) else None
+            # Among obstacles, only a goal with a clear straight path (_clear_path, from the
+            # start, once a goal): the plan pulled towards one behind a ball stays held at
+            # d_safe (panda-posts sample 80). The errors are those recorded when the goals
+            # were met: no prediction, no collision probe a period.
+            for _, g in found:
+                if id(g) not in clear_from_start:
+                    clear_from_start[id(g)] = _clear_path(ok, q, g)
+            goal = min(
+                found, key=lambda f: (not clear_from_start[id(f[1])], _spread(f[1], at, lo, hi))
+            )
+            return goal if clear_from_start[id(goal[1])] else None
 
         self._early = early
 
@@ -266,10 +276,12 @@ def search_steps(
 
 class Met:
     """The exact goals a running search has met (:func:`search_steps`): those of the pose
-    stage in the order met, and the feature stage's (its result, ``(‖e‖, q)``)."""
+    stage in the order met (and their errors ``‖e‖``), and the feature stage's (its result,
+    ``(‖e‖, q)``)."""
 
     def __init__(self) -> None:
         self.pose: list[FloatArray] = []
+        self.pose_error: list[float] = []
         self.feature: tuple[float, FloatArray] | None = None
 
 
@@ -301,6 +313,7 @@ def _pose_stage(
             continue
         if r < TOL and qp is not None:
             met.pose.append(qp)
+            met.pose_error.append(r)
             if len(met.pose) == CANDIDATES:
                 break
         best = min(best, (r, qp), key=lambda b: b[0])
