@@ -197,7 +197,8 @@ class GoalSearch:
                     return False, None
                 if deadline is not None and clock() > deadline:
                     return False, None
-        except StopIteration as stop:
+        except StopIteration as stop:  # the last iteration, which ends it without a yield
+            self.iterations += 1
             self.reset()
             return True, stop.value
 
