@@ -343,7 +343,7 @@ class Predictive(Law):
         try:
             with np.errstate(all="ignore"):
                 done, found = self._search.advance(dl.at(0.5), dl.clock, self.goal_steps)
-                found = found if done else self._search.early()
+                found = found if done else self._search.early(x.q)
         except np.linalg.LinAlgError:  # a degenerate start: the goal as it was
             self._search.reset()
             return

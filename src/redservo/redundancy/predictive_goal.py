@@ -100,7 +100,7 @@ class GoalSearch:
     """A joint-goal search that can be spread over several periods (a servo loop's time
     budget): :meth:`start` draws the seeds, :meth:`advance` runs seeds until a deadline and
     returns the goal once the search is over (:func:`search_steps`); :meth:`early` gives the
-    nearest exact goal met so far while it runs."""
+    exact goal met so far nearest the current configuration while it runs."""
 
     def __init__(self, random_seeds: int) -> None:
         self.random_seeds = random_seeds
@@ -108,9 +108,7 @@ class GoalSearch:
         """The iterations run by the last :meth:`advance`."""
         self._steps: Generator[None, None, tuple[float, FloatArray] | None] | None = None
         self._met = Met()
-        self._early: Callable[[], tuple[float, FloatArray] | None] | None = None
-        self._early_of = 0  # early(): computed when the search had met this many goals
-        self._early_goal: tuple[float, FloatArray] | None = None
+        self._early: Callable[[FloatArray | None], tuple[float, FloatArray] | None] | None = None
 
     @property
     def running(self) -> bool:
@@ -121,20 +119,19 @@ class GoalSearch:
         """Drop a search under way."""
         self._steps = None
         self._met, self._early = Met(), None
-        self._early_of, self._early_goal = 0, None
 
-    def early(self) -> tuple[float, FloatArray] | None:
-        """``(‖e(q*)‖, q*)`` under the search's model: the goal the running search would
-        give if it ended now (the nearest of the pose stage's exact goals met so far, as its
-        end chooses among more, else the feature stage's) when its straight joint path from
-        the start is clear of the obstacles, or None (none yet, or no search running). The
-        result at the end of the search is :meth:`advance`'s."""
+    def early(self, q: FloatArray | None = None) -> tuple[float, FloatArray] | None:
+        """``(‖e(q*)‖, q*)`` under the search's model: of the exact goals both stages have
+        met so far, the one nearest ``q`` (rad or m, the current configuration; None: the
+        search's start) in fractions of each range, one whose straight joint path from the
+        search's start is clear of the obstacles first (as :func:`nearest_goal`), or None
+        (none yet, none with a clear path, or no search running). Called each period with the current configuration, a nearer goal met
+        later replaces a far one met first (panda-near-limits sample 66: the first goal met
+        was 0.84 of a joint's range away, and steering to it, then to the next, stalled the
+        run). The result at the end of the search is :meth:`advance`'s."""
         if self._steps is None or self._early is None:
             return None
-        count = len(self._met.pose) + (self._met.feature is not None)
-        if self._early_of != count:  # a goal met since the last call
-            self._early_of, self._early_goal = count, self._early()
-        return self._early_goal
+        return self._early(q)
 
     def start(
         self,
@@ -154,13 +151,27 @@ class GoalSearch:
         met = Met()
         self._steps = search_steps(model, q, seeds, lo, hi, clear, met)
         ok = _anywhere if clear is None else clear
-        self._met, self._early_of = met, 0
+        self._met = met
 
-        def early() -> tuple[float, FloatArray] | None:
-            goal = nearest_goal(model, met.pose, q, lo, hi, ok) if met.pose else met.feature
-            # Among obstacles, only a goal with a clear straight path (_clear_path): the plan
-            # pulled towards one behind a ball stays held at d_safe (panda-posts sample 80).
-            return goal if goal is not None and _clear_path(ok, q, goal[1]) else None
+        clear_from_start: dict[int, bool] = {}  # by id of a goal met (kept alive in met)
+
+        def early(now: FloatArray | None) -> tuple[float, FloatArray] | None:
+            found = list(zip(met.pose_error, met.pose, strict=True))
+            found += [] if met.feature is None else [met.feature]
+            if not found:
+                return None
+            at = q if now is None else now
+            # Among obstacles, only a goal with a clear straight path (_clear_path, from the
+            # start, once a goal): the plan pulled towards one behind a ball stays held at
+            # d_safe (panda-posts sample 80). The errors are those recorded when the goals
+            # were met: no prediction, no collision probe a period.
+            for _, g in found:
+                if id(g) not in clear_from_start:
+                    clear_from_start[id(g)] = _clear_path(ok, q, g)
+            goal = min(
+                found, key=lambda f: (not clear_from_start[id(f[1])], _spread(f[1], at, lo, hi))
+            )
+            return goal if clear_from_start[id(goal[1])] else None
 
         self._early = early
 
@@ -186,7 +197,8 @@ class GoalSearch:
                     return False, None
                 if deadline is not None and clock() > deadline:
                     return False, None
-        except StopIteration as stop:
+        except StopIteration as stop:  # the last iteration, which ends it without a yield
+            self.iterations += 1
             self.reset()
             return True, stop.value
 
@@ -238,8 +250,8 @@ def search_steps(
     the pose stage's if it met any exact goal, else the feature stage's; when no seed reaches
     a zero error, the best configuration met is the goal if its error is below a tenth of the
     error at ``q`` (the goal lies just beyond the band: the law gets as close as the band
-    allows). The two stages run one iteration each in turn, so that a goal only the feature
-    stage finds (mc05's desired camera pose is often beyond the bounds: its pose IK fails
+    allows). The two stages run in turn, :data:`POSE_SHARE` iterations of the pose stage for
+    one of the feature stage, so that a goal only the feature stage finds (mc05's desired camera pose is often beyond the bounds: its pose IK fails
     from every seed, about 3 000 iterations) is met in the first periods; the result is the
     one of the two stages run one after the other.
     """
@@ -250,7 +262,9 @@ def search_steps(
     stages = {"feature": _feature_stage(model, seeds, lo, hi, ok, met)}
     if target is not None:
         stages = {"pose": _pose_stage(model, target, seeds, lo, hi, ok, met), **stages}
-    bests = yield from _in_turn(stages, lambda ended: "pose" in ended and bool(met.pose))
+    bests = yield from _in_turn(
+        stages, {"pose": POSE_SHARE, "feature": 1}, lambda ended: "pose" in ended and bool(met.pose)
+    )
     if met.pose:
         return nearest_goal(model, met.pose, q, lo, hi, ok)
     if met.feature is not None:
@@ -263,10 +277,12 @@ def search_steps(
 
 class Met:
     """The exact goals a running search has met (:func:`search_steps`): those of the pose
-    stage in the order met, and the feature stage's (its result, ``(‖e‖, q)``)."""
+    stage in the order met (and their errors ``‖e‖``), and the feature stage's (its result,
+    ``(‖e‖, q)``)."""
 
     def __init__(self) -> None:
         self.pose: list[FloatArray] = []
+        self.pose_error: list[float] = []
         self.feature: tuple[float, FloatArray] | None = None
 
 
@@ -298,6 +314,7 @@ def _pose_stage(
             continue
         if r < TOL and qp is not None:
             met.pose.append(qp)
+            met.pose_error.append(r)
             if len(met.pose) == CANDIDATES:
                 break
         best = min(best, (r, qp), key=lambda b: b[0])
@@ -327,24 +344,26 @@ def _feature_stage(
 
 
 def _in_turn(
-    stages: dict[str, Generator[None, None, Best]], stop: Callable[[set[str]], bool]
+    stages: dict[str, Generator[None, None, Best]],
+    shares: dict[str, int],
+    stop: Callable[[set[str]], bool],
 ) -> Generator[None, None, list[Best]]:
-    """Run ``stages`` one iteration each in turn (one ``yield`` an iteration) until every
-    one has ended or ``stop`` (the names of those ended) holds; returns their values in
-    their order (a stage cut short: ``(inf, None)``)."""
+    """Run ``stages`` in turn, ``shares[name]`` iterations each a turn (one ``yield`` an
+    iteration), until every one has ended or ``stop`` (the names of those ended) holds;
+    returns their values in their order (a stage cut short: ``(inf, None)``)."""
     ended: dict[str, Best] = {}
     running = dict(stages)
     while running:
         for name, steps in list(running.items()):
             try:
-                next(steps)
+                for _ in range(shares[name]):
+                    next(steps)
+                    yield
             except StopIteration as end:
                 ended[name] = end.value
                 del running[name]
                 if stop(set(ended)):
                     return [ended.get(n, (np.inf, None)) for n in stages]
-                continue
-            yield
     return [ended[n] for n in stages]
 
 
@@ -377,6 +396,13 @@ def _clear_path(ok: Clear, q: FloatArray, g: FloatArray) -> bool:
 
 PATH_POINTS = 10
 """Configurations checked on the straight path to a candidate goal (:func:`_clear_path`)."""
+
+POSE_SHARE = 3
+"""Iterations of the pose stage for each one of the feature stage (:func:`search_steps`): the
+pose stage's four exact goals are met in about the periods they took with the stage alone,
+the feature stage's goal still in the first periods where the pose stage meets none
+(mc05-joint-limits). Measured at N = 200 (docs/results.md, "The Panda's early goal"): with
+1 for 1, panda-near-limits 125/132 on the ideal sensor, with 3, 127/132 (mc05 93 and 94/94)."""
 
 CANDIDATES = 4
 """Exact goals collected before the nearest to ``q`` is chosen (a far goal takes a long
