@@ -29,12 +29,13 @@ def main() -> None:
     p.add_argument("--names", default=",".join(["finger", *reversed(NAMES)]))
     p.add_argument("--nan-after", type=int, default=-1)
     p.add_argument("--no-commands", action="store_true")
+    p.add_argument("--prefix", default="", help="topics under this namespace (e.g. /t123)")
     a = p.parse_args()
     node = Ros2Node(a.domain)
-    writer = node.writer("/joint_states", JointState)
+    writer = node.writer(f"{a.prefix}/joint_states", JointState)
     reader = None
     if not a.no_commands:
-        reader = node.reader("/forward_velocity_controller/commands", Float64MultiArray)
+        reader = node.reader(f"{a.prefix}/forward_velocity_controller/commands", Float64MultiArray)
     names = a.names.split(",")
     received: list[list[float]] = []
     end, k = time.monotonic() + a.duration, 0

@@ -37,13 +37,26 @@ from redservo.task import TaskTerm, VisualTask
 ROOT = Path(__file__).resolve().parents[1]
 JOINTS = [f"joint{i}" for i in range(1, 7)]
 DOMAIN = 100 + os.getpid() % 50  # per test process; 100-149: no other ros2 test file uses it
+PREFIX = f"/robot_{os.getpid()}"  # topics of this process only: two runs may share a domain
+TOPICS = {
+    "joint_states": f"{PREFIX}/joint_states",
+    "command": f"{PREFIX}/forward_velocity_controller/commands",
+}
 
 
 def peer(tmp_path: Path, *args: str) -> tuple[subprocess.Popen[bytes], Path]:
     """Start tests/ros2_peer.py on this test's domain; return the process and its output."""
     out = tmp_path / f"peer{len(list(tmp_path.iterdir()))}.json"
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    cmd = [sys.executable, str(ROOT / "tests" / "ros2_peer.py"), str(DOMAIN), str(out), *args]
+    cmd = [
+        sys.executable,
+        str(ROOT / "tests" / "ros2_peer.py"),
+        str(DOMAIN),
+        str(out),
+        "--prefix",
+        PREFIX,
+        *args,
+    ]
     return subprocess.Popen(cmd, env=env), out
 
 
@@ -96,7 +109,7 @@ def test_joint_states_map_to_the_model_order_and_commands_reach_the_other_proces
     node: Ros2Node, tmp_path: Path
 ) -> None:
     proc, out = peer(tmp_path, "--duration", "3")
-    with Ros2Robot(node, JOINTS) as robot:
+    with Ros2Robot(node, JOINTS, **TOPICS) as robot:
         t, q = robot.wait_for_joints(20.0)
         np.testing.assert_allclose(q, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])  # names were scrambled
         assert abs(time.monotonic() - t) < 1.0  # epoch stamp on the monotonic clock
@@ -109,7 +122,7 @@ def test_joint_states_map_to_the_model_order_and_commands_reach_the_other_proces
 
 def test_close_sends_zero_after_a_nonzero_command(node: Ros2Node, tmp_path: Path) -> None:
     proc, out = peer(tmp_path, "--duration", "2.5")
-    robot = Ros2Robot(node, JOINTS)
+    robot = Ros2Robot(node, JOINTS, **TOPICS)
     robot.wait_for_joints(20.0)
     time.sleep(0.5)
     robot.send_velocity(np.full(6, 0.02))
@@ -127,7 +140,7 @@ def test_a_dead_publisher_ends_the_loop_stale_and_stops_the_arm(
     # check would end the run first (not_following, after its 1 s window); this test is about
     # the publisher dying, so that check is given a window longer than the run.
     patient = Supervision(follow_window=30.0, frozen_cycles=10_000)
-    with Ros2Robot(node, JOINTS) as robot:
+    with Ros2Robot(node, JOINTS, **TOPICS) as robot:
         robot.wait_for_joints(20.0)
         result = _loop(robot, supervision=patient).run()
     finish(proc, out)
@@ -138,7 +151,7 @@ def test_a_dead_publisher_ends_the_loop_stale_and_stops_the_arm(
 
 def test_stamps_on_another_clock_never_count_as_fresh(node: Ros2Node, tmp_path: Path) -> None:
     proc, _out = peer(tmp_path, "--duration", "2", "--stamps", "monotonic")
-    with Ros2Robot(node, JOINTS) as robot:
+    with Ros2Robot(node, JOINTS, **TOPICS) as robot:
         robot.wait_for_joints(20.0)
         result = _loop(robot).run()
     proc.kill()
@@ -148,7 +161,7 @@ def test_stamps_on_another_clock_never_count_as_fresh(node: Ros2Node, tmp_path: 
 
 def test_stamps_from_the_future_are_a_clock_fault(node: Ros2Node, tmp_path: Path) -> None:
     proc, _out = peer(tmp_path, "--duration", "2", "--stamps", "future")
-    with Ros2Robot(node, JOINTS) as robot:
+    with Ros2Robot(node, JOINTS, **TOPICS) as robot:
         robot.wait_for_joints(20.0)
         result = _loop(robot).run()
     proc.kill()
@@ -167,22 +180,22 @@ def test_a_joint_state_without_a_joint_or_with_nan_stops_the_arm(
     node: Ros2Node, tmp_path: Path, args: list[str], match: str
 ) -> None:
     proc, _out = peer(tmp_path, "--duration", "2", *args)
-    with Ros2Robot(node, JOINTS) as robot:
+    with Ros2Robot(node, JOINTS, **TOPICS) as robot:
         with pytest.raises(MessageError, match=match) as err:
             robot.wait_for_joints(20.0)
     proc.kill()
-    assert err.value.argument == "/joint_states"
+    assert err.value.argument == TOPICS["joint_states"]
 
 
 def test_no_publisher_is_one_error_naming_the_topic(node: Ros2Node) -> None:
-    with Ros2Robot(node, JOINTS, joint_states="/nobody/joint_states") as robot:
+    with Ros2Robot(node, JOINTS, **{**TOPICS, "joint_states": "/nobody/joint_states"}) as robot:
         with pytest.raises(MessageError, match="no JointState on /nobody/joint_states within"):
             robot.wait_for_joints(0.3)
 
 
 def test_nobody_on_the_command_topic_is_one_error_naming_it(node: Ros2Node) -> None:
     topic = f"/unread_{os.getpid()}/commands"  # read by no process, whoever shares the domain
-    with Ros2Robot(node, JOINTS, command=topic) as robot:
+    with Ros2Robot(node, JOINTS, **{**TOPICS, "command": topic}) as robot:
         with pytest.raises(MessageError, match=f"nobody subscribes to {topic} within 0.3 s") as e:
             robot.wait_for_subscriber(0.3)
         assert robot.commands == 0 and robot.subscribers() == 0

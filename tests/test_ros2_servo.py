@@ -24,13 +24,20 @@ from redservo.ros2.transport import Ros2Node
 
 ROOT = Path(__file__).resolve().parents[1]
 DOMAIN = 1 + os.getpid() % 19  # 1-19: no other ros2 test file uses it
+# Topics of this test process only: two test runs on one machine may draw the same domain
+# (a run's arm then counted the other run's commands: "a dry run sends nothing" saw 2).
+JOINT_STATES = f"/servo_{os.getpid()}/joint_states"
+COMMAND = f"/servo_{os.getpid()}/commands"
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 CLI = [sys.executable, "-c", "import sys; from redservo.cli.entry import main; sys.exit(main())"]
 
 
 def hardware(tmp_path: Path, text: str = "", name: str = "hw.toml") -> Path:
     f = tmp_path / name
-    f.write_text(f"[robot]\ndomain_id = {DOMAIN}\nwait = 20.0\n{text}")
+    f.write_text(
+        f'[robot]\ndomain_id = {DOMAIN}\nwait = 20.0\njoint_states = "{JOINT_STATES}"\n'
+        f'command = "{COMMAND}"\n{text}'
+    )
     return f
 
 
@@ -105,6 +112,10 @@ def arm(tmp_path: Path) -> Any:
         "panda-4points",
         "--domain-id",
         str(DOMAIN),
+        "--joint-states",
+        JOINT_STATES,
+        "--command",
+        COMMAND,
         "--duration",
         "120",
         "--out",
@@ -147,7 +158,7 @@ def test_panda_4points_converges_through_dds_against_the_rehearsal_arm(
 def test_killing_the_arm_ends_the_run_stale(tmp_path: Path, arm: Any) -> None:
     proc, _ = arm
     node = Ros2Node(DOMAIN)
-    seen = node.reader("/forward_velocity_controller/commands", Float64MultiArray)
+    seen = node.reader(COMMAND, Float64MultiArray)
     out = tmp_path / "run"
     f = hardware(tmp_path)
     servo = subprocess.Popen(
@@ -167,7 +178,7 @@ def test_killing_the_arm_ends_the_run_stale(tmp_path: Path, arm: Any) -> None:
 
 def test_killing_redservo_stops_the_arm_by_itself(tmp_path: Path, arm: Any) -> None:
     node = Ros2Node(DOMAIN)
-    seen = node.reader("/forward_velocity_controller/commands", Float64MultiArray)
+    seen = node.reader(COMMAND, Float64MultiArray)
     f = hardware(tmp_path)
     servo = subprocess.Popen(
         [
