@@ -99,7 +99,10 @@ def test_panda_converges_on_the_rehearsal_arms_rendered_camera(tmp_path: Path) -
         hw = tmp_path / "hw.toml"
         hw.write_text(
             f'[robot]\ndomain_id = {domain}\nwait = 30.0\n[camera]\ndriver = "ros2"\n'
-            "[loop]\nwatchdog_timeout = 0.5\n"
+            # A frame may come late when both cores are busy (the arm renders in software):
+            # the watchdog's own tests live in test_ros2_robot/test_servo_loop; here it only
+            # must not end a converging run on a loaded machine.
+            "[loop]\nwatchdog_timeout = 5.0\n"
         )
         out = tmp_path / "run"
         code = main(
