@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import kernel
+from redservo.kernels.linalg import norm2
 
 __all__ = ["FAILED", "INFEASIBLE", "SOLVED", "dense_qp", "qp_rows"]
 
@@ -100,19 +101,11 @@ def _project(Q: Any, k: int, w: Any) -> Any:
 
 
 @kernel
-def _norm(v: Any) -> float:
-    acc = 0.0
-    for i in range(v.shape[0]):
-        acc += v[i] * v[i]
-    return float(np.sqrt(acc))
-
-
-@kernel
 def _refactor(W: Any, active: Any, k: int, Q: Any, R: Any) -> None:
     """``Q R`` of the active normals ``W[active[:k]]`` (columns), in place."""
     for j in range(k):
         d, c = _project(Q, j, W[active[j]])
-        nd = _norm(d)
+        nd = norm2(d)
         for i in range(j):
             R[i, j] = c[i]
         R[j, j] = nd
@@ -162,8 +155,8 @@ def _direction(L: Any, Q: Any, R: Any, k: int, w: Any) -> Any:
         for t in range(a + 1, k):
             s -= R[a, t] * r[t]
         r[a] = s / R[a, a]
-    nd = _norm(d)
-    if not nd > DEP_RTOL * _norm(w):
+    nd = norm2(d)
+    if not nd > DEP_RTOL * norm2(w):
         return np.zeros(w.shape[0]), r, 0.0
     return _lsolve(L, d, True), r, nd * nd
 
