@@ -144,7 +144,7 @@ def test_a_futile_search_defers_the_next_until_the_arm_moves() -> None:
 
 @pytest.mark.parametrize(
     ("moved", "goal", "defer"),
-    [(1e-2, None, True), (0.0, np.ones(3), True), (0.0, None, False)],
+    [(2 * MOVED, None, True), (0.0, np.ones(3), True), (0.0, None, False)],
 )
 def test_no_deferral_after_a_move_a_new_goal_or_without_avoidance(
     moved: float, goal: Any, defer: bool
