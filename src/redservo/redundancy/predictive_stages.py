@@ -13,6 +13,7 @@ radians, normalized image coordinates.
 from __future__ import annotations
 
 from collections.abc import Callable, Generator
+from functools import partial
 
 import numpy as np
 
@@ -86,7 +87,7 @@ def _pose_stage(
 
     best: Best = (np.inf, None)
     for i, seed in enumerate(seeds):
-        r, qp = yield from _recalled(memo, "pose", i, lambda s=seed: polished(s))
+        r, qp = yield from _recalled(memo, "pose", i, partial(polished, seed))
         if qp is not None and not ok(qp):
             continue
         if r < TOL and qp is not None:
@@ -114,7 +115,7 @@ def _feature_stage(
     for i, seed in enumerate(seeds):
         start = np.clip(seed, lo, hi)
         r, qp = yield from _recalled(
-            memo, "feature", i, lambda s=start: _ik_from(model, s, lo, hi, 100, TOL)
+            memo, "feature", i, partial(_ik_from, model, start, lo, hi, 100, TOL)
         )
         if qp is not None and not ok(qp):
             continue
