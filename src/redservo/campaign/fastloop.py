@@ -38,6 +38,7 @@ import numpy as np
 
 from redservo.campaign.loop_avoid import collision_fields, collision_pack, collision_reason
 from redservo.campaign.loop_handback import flag_bits
+from redservo.campaign.loop_summary import loop_summary
 from redservo.campaign.looplaw import cached_law_args, method_law
 from redservo.campaign.looplaw import law_args as _law_args
 from redservo.campaign.looppack import (
@@ -309,6 +310,12 @@ def _covered_summary(
     rows, code, axis, abort = _run_loop(exp, law, args)
     if abort:
         return None
+    if not coll[0]:  # no pair measured: the summary reduced in one kernel call, same bits
+        outcome = _OUTCOMES[code]
+        hit = {"axis": axis, "iteration": rows - 1} if outcome == "joint_limit" else None
+        fast = loop_summary(exp, rows, outcome, hit, logs)
+        if fast is not None:
+            return fast
     return _summary(exp, rows, code, axis, logs, coll)
 
 
