@@ -31,11 +31,13 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
     ``margin`` (pixels), by the compiled loop's sensing kernel; None when that kernel does not
     cover ``exp`` or the object path would raise at that iteration (then it decides)."""
     from redservo.binding.packs import scene_pack
-    from redservo.campaign.fastloop import experiment_reason
-    from redservo.campaign.looppack import robot_args, task_args
+    from redservo.campaign.fastloop import _packed
     from redservo.kernels import compiled
 
-    if not compiled() or experiment_reason(exp) is not None:
+    if not compiled():
+        return None
+    packed = _packed(exp)  # the reason, or the packs the sample's runs use too (cached)
+    if isinstance(packed, str):
         return None
     from redservo.kernels.sensed import MAX_ITERATIONS, TARGET_LOST, sense
 
@@ -43,7 +45,7 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
     scene = scene_pack(exp.scene, exp.task, exp.camera, float(margin), True)
     sim = (0.0, float(opt.dt), 0.0, False, np.ones(1), False, opt.feedforward == "known")
     q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
-    outcome, abort = sense(0, q, robot_args(exp), scene, task_args(exp), sim)[5:]
+    outcome, abort = sense(0, q, packed.robot, scene, packed.task, sim)[5:]
     if outcome == TARGET_LOST:
         return True
     if outcome == MAX_ITERATIONS and abort != 0:
@@ -54,10 +56,10 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
 def start_check(defn: CampaignDefinition, sc: Scenario) -> tuple[str | None, Any]:
     """``(problem, experiment)``: why the sample's start is invalid (None: it is valid) and
     its built experiment (None when building failed)."""
-    from redservo.experiment.build import build
+    from redservo.campaign.sample_build import sample_experiment
 
     try:
-        exp = build(sc)
+        exp = sample_experiment(defn, sc)  # build(sc)'s experiment, shared parts built once
     except RedservoError as exc:
         return str(exc), None
     margin = max(exp.options.image_margin_px, defn.target.image_margin_px)
