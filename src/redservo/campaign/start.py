@@ -30,7 +30,6 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
     """Whether the first iteration of ``exp`` loses its target with the image margin
     ``margin`` (pixels), by the compiled loop's sensing kernel; None when that kernel does not
     cover ``exp`` or the object path would raise at that iteration (then it decides)."""
-    from redservo.binding.packs import scene_pack
     from redservo.campaign.fastloop import _packed
     from redservo.kernels import compiled
 
@@ -42,10 +41,13 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
     from redservo.kernels.sensed import MAX_ITERATIONS, TARGET_LOST, sense
 
     opt = exp.options
-    scene = scene_pack(exp.scene, exp.task, exp.camera, float(margin), True)
+    camera = packed.scene[4].copy()  # scene_pack's camera row, with the start's margin
+    camera[6] = float(margin)
+    scene = (*packed.scene[:4], camera, True, *packed.scene[6:])
     sim = (0.0, float(opt.dt), 0.0, False, np.ones(1), False, opt.feedforward == "known")
-    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
-    outcome, abort = sense(0, q, packed.robot, scene, packed.task, sim)[5:]
+    if packed.q0 is None:
+        return None  # the start does not pass the limits' check: the object path says why
+    outcome, abort = sense(0, packed.q0.copy(), packed.robot, scene, packed.task, sim)[5:]
     if outcome == TARGET_LOST:
         return True
     if outcome == MAX_ITERATIONS and abort != 0:
