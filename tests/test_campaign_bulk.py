@@ -214,3 +214,18 @@ def test_the_client_does_not_parse_rows_back(monkeypatch: pytest.MonkeyPatch) ->
     monkeypatch.setattr(client, "parse_line", refused, raising=False)
     res = run_campaign("cm01-gaze", samples=2, methods=["classical"], workers=1, progress=False)
     assert res.stats["classical"].runs == 2 and not math.isnan(res.stats["classical"].success_rate)
+
+
+def test_a_batch_formats_as_its_lines_one_by_one() -> None:
+    """One CSV writer for a batch writes each row's own line (quotes, newlines, the seal)."""
+    from redservo.campaign.rowfile import format_lines
+
+    columns = _columns(("a",))
+    base: dict[str, Any] = {c: 1 for c, _ in columns}
+    rows = [
+        {**base, "method": "gpm", "min_margin": 0.1 + 0.2},
+        {**base, **_error_columns(ValueError('a "quoted", value'))},
+        {**base, "near_joints": "", "limit_axis": None},
+    ]
+    for seal in (None, "f" * 64):
+        assert format_lines(columns, rows, seal) == [format_line(columns, r, seal) for r in rows]

@@ -346,7 +346,10 @@ def fast_run(
         ctl.scaling,
     )
     law, args = method_law(key, lambda: campaign_law(exp, method, law_options))
-    reason = law_reason(law)  # not cached: the kernel mode may change between runs
+    mode = ("reason", _compiled())  # the law's reason, kept per kernel mode (it may change)
+    if mode not in args:
+        args[mode] = law_reason(law)
+    reason = args[mode]
     packed = _packed(exp)  # the experiment's reason, or its packs (cached for its methods)
     if reason is None and isinstance(packed, str):
         reason = packed
