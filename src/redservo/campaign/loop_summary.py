@@ -4,7 +4,7 @@
 :func:`redservo.records.summarize` computes from the run's :class:`SimulationLog` (the
 object path's summary), bit for bit, without building the log: :func:`reduce_run` walks
 the loop's buffers ``Q``, ``QD``, ``TW``, ``EN``, ``FL`` once and returns the numbers the
-summary keeps. Every float is the one numpy gives (tests/test_campaign_summary.py):
+summary keeps. Every float is the one numpy gives (tests/test_campaign_bulk.py):
 
 * minima and maxima are exact whatever the order (a NaN wins, as in ``np.min``/``np.max``);
 * the elementwise operations are the same IEEE operations (``min(q - q̄_min, q̄_max - q) /
