@@ -9,8 +9,8 @@ are the sample's own; :func:`sample_experiment` builds them once per campaign de
 steps and in its order, the rest: the start ``q0`` checked against the limits, the scene,
 the task, the options, the sensor, actuator, obstacles, collision set-up and camera timing,
 and the start check. The result is :func:`~redservo.experiment.build.build`'s experiment
-(tests/test_campaign_bulk.py compares them field by field on shipped
-campaign; the rows are the same byte for byte), at about half its cost.
+(tests/test_campaign_bulk.py compares them field by field on shipped campaigns; the rows
+are the same byte for byte), at about two thirds of its cost.
 
 A set-up outside this (a camera on the world, whose robot carries the objects; a MuJoCo
 simulator) is built by :func:`~redservo.experiment.build.build` itself.
