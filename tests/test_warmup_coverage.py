@@ -43,4 +43,3 @@ def test_the_reachability_part_among_obstacles_tests_the_goals_clearance(
     assert len(checked) == 1
     q = checked[0]
     assert isinstance(q, np.ndarray) and q.dtype == np.float64 and q.ndim == 1
-
