@@ -121,6 +121,13 @@ def test_given_rows_are_the_laws_rows_for_the_block_only() -> None:
     )
 
 
+def _sim(lam: float, dt: float, n: int) -> tuple[Any, ...]:
+    """The loop's ``sim`` pack in its layout (:func:`redservo.campaign.fastloop._pack`: seven
+    entries, the last "feed-forward known", False here), so that the kernels these tests call
+    load the warm-up's compilation instead of compiling a six-entry one in every process."""
+    return (lam, dt, 1e-3, True, np.ones(n), False, False)
+
+
 def _random_step(rng: np.random.Generator, lim: Any) -> tuple[Any, ...]:
     """A loop state of the Panda with bounds often active: ``(J1, e1, q, prev, lam, dt)``."""
     n = lim.n
@@ -151,7 +158,7 @@ def test_the_loops_qp_step_with_a_secondary_is_the_laws() -> None:
         for _ in range(60):
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             sec = rng.normal(0.0, 0.2, n)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             none = np.zeros(0)
             qd, bits, need = qp_step(
                 J1, e1, e1, False, q, prev, args, limits, sim, sec, np.zeros((0, n)), none
@@ -193,7 +200,7 @@ def test_the_loops_qp_step_with_rows_is_the_laws() -> None:
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
             sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             qd, bits, need = qp_step(J1, e1, e1, False, q, prev, args, limits, sim, sec, G, b)
             rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
             kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
@@ -227,7 +234,7 @@ def test_the_loops_sns_step_with_rows_is_the_laws() -> None:
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
             sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             step = (J1, e1, e1, False, q, prev, np.zeros(n), False, args, limits, sim, sec)
             qd0, bits0, _, abort = law_bits_sec(*step)
             if abort:
