@@ -83,16 +83,15 @@ def test_an_argument_of_another_type_goes_through_the_dispatcher(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """A read-only ``qdot_prev`` (numba types it apart) is not given to the entry found for
-    writeable arrays."""
+    writeable arrays: the step copies it (the kernel only reads it; one compiled version
+    serves both, tests/test_warmup_types.py), and the entry gets the writeable copy."""
     ctl, q, meas = _controller()
-    seen: list[bool] = []
+    seen: list[tuple[bool, bool]] = []
     run = CompiledControl.run_kernel
 
     def spy(self: CompiledControl, q: Any, packs: Any, plain: bool = False) -> Any:
-        seen.append(plain)
-        if not plain:  # writeable copies: the same numbers without compiling another version
-            ff, sec, prev = packs[4]
-            packs = (*packs[:4], (ff, sec, prev.copy()), packs[5])
+        prev = packs[4][2]
+        seen.append((plain, prev.flags.writeable and prev.flags.c_contiguous))
         return run(self, q, packs, plain)
 
     monkeypatch.setattr(CompiledControl, "run_kernel", spy)
@@ -100,7 +99,7 @@ def test_an_argument_of_another_type_goes_through_the_dispatcher(
     first = ctl.step(q, meas, 0.0, qdot_prev=prev)
     prev.setflags(write=False)
     second = ctl.step(q, meas, 0.04, qdot_prev=prev)
-    assert seen == [True, False]
+    assert seen == [(True, True), (True, True)]
     assert first.qdot.tobytes() == second.qdot.tobytes()
 
 

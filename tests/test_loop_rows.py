@@ -13,6 +13,7 @@ import pytest
 
 pytest.importorskip("numba", reason="the compiled campaign loop needs numba (redservo[fast])")
 
+from redservo.campaign.loop_avoid import off_pack
 from redservo.collision import Obstacle, Shape
 from redservo.control.avoidance import Collision
 from redservo.kernels.loop_cull import measure_culled
@@ -52,7 +53,10 @@ def _set_up(rng: np.random.Generator) -> tuple[Any, Collision, tuple[Any, ...]]:
     fopt = np.array([c.d_safe, c.d_influence, c.xi, c.damping, DT])
     iopt = np.zeros(I_ROWS + 1, dtype=np.int64)
     iopt[I_ROWS] = 1
-    return robot, c, (True, geo.arm, geo.geom, fopt, iopt)
+    # The loop's whole pack (its types: campaign/loop_avoid.py), so that damper_rows loads the
+    # warm-up's compilation instead of compiling for a shorter tuple in the test's process.
+    rest = off_pack(robot.n)[5:]
+    return robot, c, (True, geo.arm, geo.geom, fopt, iopt, *rest)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -79,7 +83,7 @@ def test_the_loops_rows_are_distance_rows_bit_for_bit(seed: int) -> None:
         assert np.array_equal(G, ref.G) and np.array_equal(b, ref.b)
         assert tuple(geo.names[int(p)] for p in pairs) == ref.names
     assert rowed >= 10
-    off = (*coll[:4], np.zeros(I_ROWS + 1, dtype=np.int64))
+    off = (*coll[:4], np.zeros(I_ROWS + 1, dtype=np.int64), *coll[5:])
     assert damper_rows(d, J, off)[1].shape == (0,)
 
 
@@ -121,6 +125,13 @@ def test_given_rows_are_the_laws_rows_for_the_block_only() -> None:
     )
 
 
+def _sim(lam: float, dt: float, n: int) -> tuple[Any, ...]:
+    """The loop's ``sim`` pack in its layout (:func:`redservo.campaign.fastloop._pack`: seven
+    entries, the last "feed-forward known", False here), so that the kernels these tests call
+    load the warm-up's compilation instead of compiling a six-entry one in every process."""
+    return (lam, dt, 1e-3, True, np.ones(n), False, False)
+
+
 def _random_step(rng: np.random.Generator, lim: Any) -> tuple[Any, ...]:
     """A loop state of the Panda with bounds often active: ``(J1, e1, q, prev, lam, dt)``."""
     n = lim.n
@@ -151,7 +162,7 @@ def test_the_loops_qp_step_with_a_secondary_is_the_laws() -> None:
         for _ in range(60):
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             sec = rng.normal(0.0, 0.2, n)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             none = np.zeros(0)
             qd, bits, need = qp_step(
                 J1, e1, e1, False, q, prev, args, limits, sim, sec, np.zeros((0, n)), none
@@ -193,7 +204,7 @@ def test_the_loops_qp_step_with_rows_is_the_laws() -> None:
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
             sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             qd, bits, need = qp_step(J1, e1, e1, False, q, prev, args, limits, sim, sec, G, b)
             rows = DistanceRows(G, b, tuple(f"p{i}" for i in range(b.size)))
             kw = {"limits": lim, "lam": lam, "dt": dt, "qdot_prev": prev, "de1_dt": None}
@@ -227,7 +238,7 @@ def test_the_loops_sns_step_with_rows_is_the_laws() -> None:
             J1, e1, q, prev, lam, dt = _random_step(rng, lim)
             G, b = _row_state(rng, lim, int(rng.integers(1, 5)))
             sec = rng.normal(0.0, 0.2, n) if k % 2 else np.zeros(0)
-            sim = (lam, dt, 1e-3, True, np.ones(n), False)
+            sim = _sim(lam, dt, n)
             step = (J1, e1, e1, False, q, prev, np.zeros(n), False, args, limits, sim, sec)
             qd0, bits0, _, abort = law_bits_sec(*step)
             if abort:

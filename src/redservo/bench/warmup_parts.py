@@ -198,12 +198,17 @@ def built_sample(name: str, note: Note) -> Any:
 
 def search(name: str, note: Note) -> None:
     """The reachability search of a campaign's samples (kinematics and the ideal sensor's
-    task error: no law, so it compiles beside the first part)."""
-    from redservo.campaign.reach import compile_search
+    task error: no law, so it compiles beside the first part); among obstacles also the
+    goal's clearance test (:func:`redservo.campaign.reach_obstacles.goal_clearance`: the
+    compiled distances' ``measure_plan``, which the predictive law's goal search calls too)."""
+    from redservo.campaign.reach import compile_search, goal_clearance
 
     exp = built_sample(name, note)
     if exp is not None:
         compile_search(exp)
+        clear = goal_clearance(exp)
+        if clear is not None:
+            clear(np.array(exp.q0, dtype=float))
 
 
 def campaign(name: str, note: Note) -> None:

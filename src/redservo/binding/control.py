@@ -170,7 +170,10 @@ class CompiledControl:
         if qdot_prev is None:
             prev = _EMPTY
         elif qdot_prev.shape == self.shapes[1:2] and qdot_prev.dtype == _F64:
-            prev = np.ascontiguousarray(qdot_prev)
+            # The kernel only reads it: a read-only or strided one is copied (the same
+            # numbers), as a read-only array is another numba type, for which the whole step
+            # chain (22-26 kernels, every law) would be compiled a second time.
+            prev = qdot_prev if qdot_prev.flags.carray else np.array(qdot_prev, order="C")
         else:
             return None  # the object path checks it
         if de1_dt is None and secondary is None:
