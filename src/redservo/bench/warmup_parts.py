@@ -89,7 +89,8 @@ def scenario(name: str, note: Note) -> None:
 def realistic_camera(note: Note) -> None:
     """The image pipeline behind ``--camera realistic`` (exposure, tracker, PnP depths,
     latency compensation, the image border): a panda-near-limits sample whose dot leaves the
-    image (110 periods, ``qp``) and a few periods of mc05-joint-limits' moments."""
+    image (110 periods, ``qp``; 5 of ``wln``, whose step runs compiled) and a few periods of
+    mc05-joint-limits' moments."""
     from dataclasses import replace
 
     from redservo.campaign import draw_sample, load_campaign
@@ -106,6 +107,8 @@ def realistic_camera(note: Note) -> None:
             note(f"{_CAMERA} skipped: {' '.join(str(exc).split())}")
             return
         exp.run(method="qp", max_iterations=iterations)
+        if name == "panda-near-limits":  # wln's compiled step with the loop's Jacobian, and
+            exp.run(method="wln", max_iterations=5)  # the points brought to the present
 
 
 def distorted_lens(note: Note) -> None:
