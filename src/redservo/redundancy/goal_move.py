@@ -72,14 +72,15 @@ def image_rows(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``(G, bl, bu)``: ``bl ≤ G q̇ ≤ bu``, one row per point coordinate (module docstring):
     at most :data:`STEP_PX` per period, and at most :data:`XI` of the gap to the image border
-    less :data:`MARGIN_PX` per period (normalized units per second)."""
+    less :data:`MARGIN_PX` per period (normalized units per second); a point already past
+    that line may stay where it is but not go further (the bound relaxed to 0)."""
     scale = np.array([camera.px, camera.py])
     lo = (MARGIN_PX - np.array([camera.u0, camera.v0])) / scale
     hi = (np.array([camera.width, camera.height]) - MARGIN_PX - [camera.u0, camera.v0]) / scale
     xy = rows.s.reshape(-1, 2)
     step = np.broadcast_to(STEP_PX / scale / dt, xy.shape)
-    bl = np.maximum(-step, XI * (lo - xy) / dt).reshape(-1)
-    bu = np.minimum(step, XI * (hi - xy) / dt).reshape(-1)
+    bl = np.maximum(-step, np.minimum(XI * (lo - xy) / dt, 0.0)).reshape(-1)
+    bu = np.minimum(step, np.maximum(XI * (hi - xy) / dt, 0.0)).reshape(-1)
     return rows.S, bl, bu
 
 

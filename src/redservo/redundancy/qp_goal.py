@@ -34,6 +34,7 @@ mode, the model's target pose; :meth:`reset` clears them. Units: rad or m, rad/s
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -53,7 +54,7 @@ from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.goal_model import GoalModel, Model
 from redservo.redundancy.goal_move import centroid_rows, image_rows, solve_move
 from redservo.redundancy.options import Option
-from redservo.redundancy.predictive_goal import GoalSearch, better_goal
+from redservo.redundancy.predictive_goal import GoalSearch, goal_error
 from redservo.redundancy.qp import qp_velocity_bounds
 from redservo.redundancy.safety import command_box
 
@@ -62,10 +63,28 @@ __all__ = ["GOAL_RANDOM_SEEDS", "QpGoal", "goal_term"]
 GOAL_RANDOM_SEEDS = 60
 """Seeds drawn uniformly within the bounds after the seven near ``q`` (the ``predictive``
 law's number)."""
+HOLDS = 1e-4
+"""A goal whose error ``‖e(q*)‖`` under the current model is below this still holds (task
+units)."""
 MOVE_WEIGHT = 1e-3
 """Relative weight ``w`` of the goal term in the joint move (:mod:`redservo.redundancy.goal_move`)."""
 PROGRESS = 0.25
 """The task stalls when ``‖e1‖`` decays at less than this fraction of its nominal rate λ."""
+
+
+def kept_goal(
+    model: Model, old: FloatArray | None, new: tuple[float, FloatArray] | None
+) -> FloatArray | None:
+    """The goal after a search: the previous goal ``old`` while its error under the current
+    model is below :data:`HOLDS` or no worse than the new one's (a goal that changes in the
+    middle of a joint move turns it around), else the search's result ``new``
+    (``(error, q*)`` or None)."""
+    if new is None:
+        return old
+    if old is None:
+        return new[1]
+    r_old = goal_error(model, old)
+    return old if r_old <= max(HOLDS, new[0]) else new[1]
 
 
 def move_bounds(x: LawInputs, margin: float, shield: bool) -> tuple[FloatArray, FloatArray]:
@@ -101,7 +120,7 @@ class QpGoal(Law):
         Option("gain", 0.5, doc="gain k of the goal term -k (q - q*)", unit="1/s", low=0.0),
         Option(
             "goal_gain",
-            1.0,
+            2.0,
             doc="gain k_g of the joint move to q* at a stall",
             unit="1/s",
             low=0.0,
@@ -117,7 +136,7 @@ class QpGoal(Law):
         ),
         Option(
             "arrive",
-            0.02,
+            0.005,
             doc="the joint move ends when every joint is this close to q*, a fraction of its range",
             low=0.0,
             high=0.5,
@@ -133,7 +152,7 @@ class QpGoal(Law):
         ),
         Option(
             "goal_steps",
-            20,
+            60,
             kind="int",
             doc="iterations of the goal search per period (each one kinematics evaluation)",
             low=1,
@@ -211,11 +230,16 @@ class QpGoal(Law):
             self.moving = True
         if self.moving and self.goal is not None:
             return self._move(x, self.goal, model)
+        return self._task(x)
+
+    def _task(self, x: LawInputs) -> LawResult:
+        """``qp`` with the goal term added to the secondary level (module docstring)."""
         sec = x.secondary
         if self.goal is not None and self.gain > 0.0:
             term = goal_term(x.q, self.goal, self.gain)
             sec = term if sec is None else sec + term
-        return self._qp.compute(x._replace(secondary=sec))
+        res = self._qp.compute(x._replace(secondary=sec))
+        return LawResult(res.qdot, replace(res.diagnostics, method=self.name))
 
     def _stalled(self, size: float, lam: float, dt: float) -> bool:
         """True when ``‖e1‖`` (``size``) fell by less than :data:`PROGRESS` of the nominal
@@ -254,7 +278,7 @@ class QpGoal(Law):
             self._search.reset()
             return
         if done:
-            self.goal = better_goal(model, self.goal, found)
+            self.goal = kept_goal(model, self.goal, found)
 
     def _move(self, x: LawInputs, goal: FloatArray, model: Model | None) -> LawResult:
         """The joint move to ``goal`` with the task relaxed, flagged ``task-scaled`` (0):
@@ -270,8 +294,7 @@ class QpGoal(Law):
             damper = image_rows(rows, self._model.camera, x.dt)
             qdot = solve_move(rows, x.lam, term, (lo, hi), damper, MOVE_WEIGHT)
         if qdot is None:  # no move keeps the target in the image: the task law this period
-            sec = goal_term(x.q, goal, self.gain)
-            return self._qp.compute(x._replace(secondary=sec))
+            return self._task(x)
         far = float(np.max(np.abs(x.q - goal) / (lim.q_max - lim.q_min)))
         msg = (
             f"qp-goal: the task stalled; joint move to the goal q* with the task relaxed "
