@@ -27,12 +27,25 @@ from redservo.camera import Camera
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.predictive_model import horizon
 
-__all__ = ["MARGIN_PX", "XI", "ImageRows", "centroid_rows", "image_rows", "solve_move"]
+__all__ = [
+    "MARGIN_PX",
+    "XI",
+    "ImageRows",
+    "centroid_rows",
+    "image_rows",
+    "kept_in_image",
+    "solve_move",
+]
 
-MARGIN_PX = 10.0
+MARGIN_PX = 20.0
 """The image points stay this far (px) inside the image during the move."""
-STEP_PX = 6.0
+STEP_PX = 10.0
 """The image points move at most this far (px) per period during the move."""
+RETURN = 0.5
+"""A point past the border line less the margin returns by this fraction of the step per
+period (the linear model's drift at a fast turn took one across it)."""
+HALVINGS = 6
+"""Halvings of the move's command at most to keep the nonlinear prediction in the image."""
 XI = 0.2
 """Fraction of the gap to the bound a point coordinate may close in one period."""
 
@@ -68,19 +81,19 @@ def centroid_rows(model: object, q: FloatArray, goal: FloatArray) -> ImageRows |
 
 
 def image_rows(
-    rows: ImageRows, camera: Camera, dt: float
+    rows: ImageRows, camera: Camera, dt: float, back: float = RETURN
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``(G, bl, bu)``: ``bl ≤ G q̇ ≤ bu``, one row per point coordinate (module docstring):
     at most :data:`STEP_PX` per period, and at most :data:`XI` of the gap to the image border
     less :data:`MARGIN_PX` per period (normalized units per second); a point already past
-    that line may stay where it is but not go further (the bound relaxed to 0)."""
+    that line returns by at most ``back`` of the step per period (0: it may stay there)."""
     scale = np.array([camera.px, camera.py])
     lo = (MARGIN_PX - np.array([camera.u0, camera.v0])) / scale
     hi = (np.array([camera.width, camera.height]) - MARGIN_PX - [camera.u0, camera.v0]) / scale
     xy = rows.s.reshape(-1, 2)
     step = np.broadcast_to(STEP_PX / scale / dt, xy.shape)
-    bl = np.maximum(-step, np.minimum(XI * (lo - xy) / dt, 0.0)).reshape(-1)
-    bu = np.minimum(step, np.maximum(XI * (hi - xy) / dt, 0.0)).reshape(-1)
+    bl = np.maximum(-step, np.minimum(XI * (lo - xy) / dt, back * step)).reshape(-1)
+    bu = np.minimum(step, np.maximum(XI * (hi - xy) / dt, -back * step)).reshape(-1)
     return rows.S, bl, bu
 
 
@@ -109,3 +122,26 @@ def solve_move(
     if flag > 0 and np.all(np.isfinite(y)):
         return np.clip(np.asarray(y, dtype=float), lo, hi)
     return None
+
+
+def kept_in_image(
+    model: object, q: FloatArray, qdot: FloatArray, dt: float, camera: Camera, now: FloatArray
+) -> FloatArray:
+    """``qdot`` halved (at most :data:`HALVINGS` times) until the model's points at
+    ``q + dt q̇`` (the nonlinear prediction: at the joint speeds of a move the linear rows
+    miss the drift of a fast turn by several pixels) lie within the image less half of
+    :data:`MARGIN_PX`, or no further out than ``now`` (2p,), the points at ``q``."""
+    n = q.shape[0]
+    scale = np.array([camera.px, camera.py])
+    lo = (MARGIN_PX / 2 - np.array([camera.u0, camera.v0])) / scale
+    hi = (np.array([camera.width, camera.height]) - MARGIN_PX / 2 - [camera.u0, camera.v0]) / scale
+    xy0 = now.reshape(-1, 2)
+    out0 = np.maximum(lo - xy0, xy0 - hi)
+    for _ in range(HALVINGS):
+        pred = model.predict(q + dt * qdot, np.zeros((1, n)), horizon(1, 1), 0.0)  # type: ignore[attr-defined]
+        if pred is not None and pred.s is not None:
+            xy = pred.s[0].reshape(-1, 2)
+            if np.all(np.maximum(lo - xy, xy - hi) <= np.maximum(out0, 0.0)):
+                return qdot
+        qdot = 0.5 * qdot
+    return qdot

@@ -52,7 +52,13 @@ from redservo.redundancy.base import (
 )
 from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.goal_model import GoalModel, Model
-from redservo.redundancy.goal_move import centroid_rows, image_rows, solve_move
+from redservo.redundancy.goal_move import (
+    RETURN,
+    centroid_rows,
+    image_rows,
+    kept_in_image,
+    solve_move,
+)
 from redservo.redundancy.options import Option
 from redservo.redundancy.predictive_goal import GoalSearch, goal_error
 from redservo.redundancy.qp import qp_velocity_bounds
@@ -66,8 +72,12 @@ law's number)."""
 HOLDS = 1e-4
 """A goal whose error ``‖e(q*)‖`` under the current model is below this still holds (task
 units)."""
+MOVE_SPEED = 0.5
+"""Fraction of the velocity limits the joint move uses at most."""
 MOVE_WEIGHT = 1e-3
 """Relative weight ``w`` of the goal term in the joint move (:mod:`redservo.redundancy.goal_move`)."""
+HELD = 0.5
+"""``qp``'s relative task residual from which the bounds hold the task (a KKT point)."""
 PROGRESS = 0.25
 """The task stalls when ``‖e1‖`` decays at less than this fraction of its nominal rate λ."""
 
@@ -89,10 +99,14 @@ def kept_goal(
 
 def move_bounds(x: LawInputs, margin: float, shield: bool) -> tuple[FloatArray, FloatArray]:
     """The joint move's velocity box (rad/s or m/s): ``qp``'s bounds with the goal's band
-    ``margin`` within the safety box of every law (velocity, acceleration, position and
-    braking, :func:`~redservo.redundancy.safety.command_box`), which wins where they miss."""
-    lo, hi = command_box(x.q, x.limits, x.dt, x.qdot_prev, shield=shield)
-    blo, bhi, _ = qp_velocity_bounds(x.q, x.limits, x.dt, margin=margin)
+    ``margin`` and :data:`MOVE_SPEED` of the velocity limits (a move at full speed cannot
+    brake within the acceleration limits before a point reaches the image border), within
+    the safety box of every law (velocity, acceleration, position and braking,
+    :func:`~redservo.redundancy.safety.command_box`), which wins where they miss."""
+    lim = x.limits
+    lo, hi = command_box(x.q, lim, x.dt, x.qdot_prev, shield=shield)
+    v = None if lim.qdot_max is None else MOVE_SPEED * lim.qdot_max
+    blo, bhi, _ = qp_velocity_bounds(x.q, lim, x.dt, margin=margin, v_max=v)
     lo2, hi2 = np.maximum(lo, blo), np.minimum(hi, bhi)
     ok = lo2 <= hi2
     return np.where(ok, lo2, lo), np.where(ok, hi2, hi)
@@ -136,7 +150,7 @@ class QpGoal(Law):
         ),
         Option(
             "arrive",
-            0.005,
+            0.0005,
             doc="the joint move ends when every joint is this close to q*, a fraction of its range",
             low=0.0,
             high=0.5,
@@ -198,6 +212,7 @@ class QpGoal(Law):
         self._search.reset()
         self._model.reset()
         self._sizes: list[float] = []
+        self._held = 0
         self._started = False
 
     # -- the hooks of the Controller and the simulation loop -------------------------------------
@@ -224,6 +239,7 @@ class QpGoal(Law):
         if self.moving and self._arrived(x):
             self.moving = False
             self._sizes.clear()
+            self._held = 0
         elif stalled and self.switch and self.goal is not None and not self._arrived(x):
             if not self.moving:
                 self.switches += 1
@@ -239,11 +255,16 @@ class QpGoal(Law):
             term = goal_term(x.q, self.goal, self.gain)
             sec = term if sec is None else sec + term
         res = self._qp.compute(x._replace(secondary=sec))
+        resid = res.diagnostics.value(Flag.TASK_SCALED)
+        self._held = self._held + 1 if resid is not None and resid >= HELD else 0
         return LawResult(res.qdot, replace(res.diagnostics, method=self.name))
 
     def _stalled(self, size: float, lam: float, dt: float) -> bool:
         """True when ``‖e1‖`` (``size``) fell by less than :data:`PROGRESS` of the nominal
-        decay ``exp(-λ K dt)`` over the last ``K = stall`` periods."""
+        decay ``exp(-λ K dt)`` over the last ``K = stall`` periods, or the bounds held the
+        task (``qp``'s relative residual at least :data:`HELD`) for the last ``K`` periods."""
+        if self._held >= self.stall:  # qp at a KKT point under the bounds
+            return True
         hist = self._sizes
         hist.append(size)
         if len(hist) <= self.stall:
@@ -291,8 +312,12 @@ class QpGoal(Law):
         rows = None if model is None else centroid_rows(model, x.q, goal)
         qdot = None
         if rows is not None:
-            damper = image_rows(rows, self._model.camera, x.dt)
-            qdot = solve_move(rows, x.lam, term, (lo, hi), damper, MOVE_WEIGHT)
+            for back in (RETURN, 0.0):  # a point past the border line: return, else stay
+                damper = image_rows(rows, self._model.camera, x.dt, back)
+                qdot = solve_move(rows, x.lam, term, (lo, hi), damper, MOVE_WEIGHT)
+                if qdot is not None:
+                    qdot = kept_in_image(model, x.q, qdot, x.dt, self._model.camera, rows.s)
+                    break
         if qdot is None:  # no move keeps the target in the image: the task law this period
             return self._task(x)
         far = float(np.max(np.abs(x.q - goal) / (lim.q_max - lim.q_min)))
