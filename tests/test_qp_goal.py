@@ -174,3 +174,15 @@ def test_closed_loop_converges_where_qp_stalls() -> None:
     assert s.outcome == "converged"
     assert s.shield_activations == 0
     assert s.velocity_violations == 0 and s.acceleration_violations == 0
+
+
+def test_closed_loop_on_a_panda_sample_where_qp_stalls() -> None:
+    """panda-near-limits sample 33 (seed 0): ``qp`` stalls at the joint band until the cap;
+    ``qp-goal`` converges with every joint 1 % of its range off its limits all along, no limit
+    exceeded, the shield never acting."""
+    exp = _sample("panda-near-limits", 33)
+    assert exp.run(method="qp").summary.outcome == "max_iterations"
+    s = exp.run(method="qp-goal").summary
+    assert s.outcome == "converged" and s.min_margin >= 0.01
+    assert s.shield_activations == 0
+    assert s.velocity_violations == 0 and s.acceleration_violations == 0
