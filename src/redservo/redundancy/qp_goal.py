@@ -15,12 +15,18 @@ projection in ``Ker J1`` when no bound is active) and vanishes at ``q = q*``.
 **Switching rule** (``switch = True``). ``qp`` fails on a third of the reachable samples of
 the safety campaigns by stalling at a KKT point under the joint bounds, and the goal then
 lies in another region of the joint space (docs/results.md, "Why the reactive laws stop
-near 70 %"). There ``‖e1‖`` levels off: its decay over the last ``stall`` periods falls
-below :data:`PROGRESS` of the nominal rate λ (:meth:`QpGoal._stalled`). A slow decay is no
-stall: where the bounds slow ``qp`` down and it still converges (``qp``'s relative residual
-high, the decay at 50-100 % of λ), the rule waits; on both safety campaigns (N = 200, seed
-0) no ``qp`` run that converges falls below it, while every run at the cap does (at
-period 205 on panda-near-limits, 165 on mc05-joint-limits, medians). When it has stalled
+near 70 %"). There ``‖e1‖`` levels off at the part of the error the bounds hold:
+``qp``'s relative residual ``r`` (its ``task-scaled`` value) times ``‖e1‖``. A slow decay is
+no stall: where the bounds slow ``qp`` down and it still converges, that level is below the
+tolerance. The task has stalled (:meth:`QpGoal._stalled`) when, over the last ``stall``
+periods, ``‖e1‖`` decayed at less than :data:`PROGRESS` of its nominal rate λ, or at less
+than :data:`SLOWED` of it while ``r`` stayed at :data:`HELD` or more for
+:data:`HELD_PERIODS` periods with the level ``r ‖e1‖`` above ``tolerance``. With the
+default ``gain`` 0 the law is ``qp`` until a stall, and the rule can be checked on ``qp``'s
+own runs: on both safety campaigns (N = 200, seed 0, ideal sensor) it fires on every ``qp``
+run at the iteration cap (medians: period 177 on panda-near-limits, 127 on
+mc05-joint-limits) and on one ``qp`` run that converges (mc05 sample 24, whose decay fell to
+31 % of λ with ``r`` at 0.83 before a bound let go). When it has stalled
 and a goal is known farther than ``arrive`` of some joint's range, the task is relaxed and the
 command is the joint-space move ``q̇ = -k_g (q - q*)`` (``goal_gain`` k_g, 1/s): a straight
 line in joint space between two configurations within the bounds, so it stays within them.
@@ -83,7 +89,14 @@ MOVE_WEIGHT = 1e-3
 """Relative weight ``w`` of the goal term in the joint move (:mod:`redservo.redundancy.goal_move`)."""
 PROGRESS = 0.25
 """The task stalls when ``‖e1‖`` decays at less than this fraction of its nominal rate λ over
-the last ``stall`` periods."""
+the last ``stall`` periods, ..."""
+SLOWED = 0.5
+"""... or at less than this fraction while the bounds hold it at a level above the tolerance."""
+HELD = 0.5
+"""``qp``'s relative task residual from which the bounds hold the task."""
+HELD_PERIODS = 10
+"""Periods in a row with ``qp``'s relative residual at :data:`HELD` or more before its level
+``r ‖e1‖`` is trusted."""
 
 
 def kept_goal(
@@ -135,7 +148,13 @@ class QpGoal(Law):
     stateful = True
 
     OPTIONS = (
-        Option("gain", 0.5, doc="gain k of the goal term -k (q - q*)", unit="1/s", low=0.0),
+        Option(
+            "gain",
+            0.0,
+            doc="gain k of the goal term -k (q - q*) in qp's secondary level (0: qp until a stall)",
+            unit="1/s",
+            low=0.0,
+        ),
         Option(
             "goal_gain",
             2.0,
@@ -169,6 +188,14 @@ class QpGoal(Law):
             high_open=True,
         ),
         Option(
+            "tolerance",
+            0.001,
+            doc="the error ‖e1‖ the run converges at: qp held above it is a stall",
+            unit="task units",
+            low=0.0,
+            low_open=True,
+        ),
+        Option(
             "goal_steps",
             60,
             kind="int",
@@ -183,6 +210,7 @@ class QpGoal(Law):
     stall: int
     arrive: float
     margin: float
+    tolerance: float
     goal_steps: int
 
     def _setup(self) -> None:
@@ -216,6 +244,8 @@ class QpGoal(Law):
         self._search.reset()
         self._model.reset()
         self._sizes: list[float] = []
+        self._held = 0
+        self._level = 0.0
         self._started = False
 
     # -- the hooks of the Controller and the simulation loop -------------------------------------
@@ -242,6 +272,7 @@ class QpGoal(Law):
         if self.moving and self._arrived(x):
             self.moving = False
             self._sizes.clear()
+            self._held = 0
         elif stalled and self.switch and self.goal is not None and not self._arrived(x):
             if not self.moving:
                 self.switches += 1
@@ -257,18 +288,27 @@ class QpGoal(Law):
             term = goal_term(x.q, self.goal, self.gain)
             sec = term if sec is None else sec + term
         res = self._qp.compute(x._replace(secondary=sec))
+        resid = res.diagnostics.value(Flag.TASK_SCALED)
+        held = resid is not None and resid >= HELD
+        self._held = self._held + 1 if held else 0
+        self._level = float(resid) * float(np.linalg.norm(x.e1)) if held else 0.0
         return LawResult(res.qdot, replace(res.diagnostics, method=self.name))
 
     def _stalled(self, size: float, lam: float, dt: float) -> bool:
         """True when ``‖e1‖`` (``size``) fell by less than :data:`PROGRESS` of the nominal
-        decay ``exp(-λ K dt)`` over the last ``K = stall`` periods (module docstring: a slow
-        decay is no stall)."""
+        decay ``exp(-λ K dt)`` over the last ``K = stall`` periods, or by less than
+        :data:`SLOWED` of it while the bounds held the task for :data:`HELD_PERIODS` periods
+        at a level ``r ‖e1‖`` above ``tolerance`` (module docstring: a slow decay toward a
+        level below the tolerance is no stall)."""
         hist = self._sizes
         hist.append(size)
         if len(hist) <= self.stall:
             return False
         old = hist.pop(0)
-        return size > old * float(np.exp(-PROGRESS * lam * self.stall * dt))
+        if size > old * float(np.exp(-PROGRESS * lam * self.stall * dt)):
+            return True
+        held = self._held >= HELD_PERIODS and self._level > self.tolerance
+        return held and size > old * float(np.exp(-SLOWED * lam * self.stall * dt))
 
     def _arrived(self, x: LawInputs) -> bool:
         """Every joint is within ``arrive`` of its range from the goal (True: no goal)."""
