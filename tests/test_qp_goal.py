@@ -3,6 +3,7 @@ a stall (:mod:`redservo.redundancy.qp_goal`, :mod:`redservo.redundancy.goal_move
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ from redservo.experiment.build import build
 from redservo.redundancy.goal_move import MARGIN_PX, STEP_PX, centroid_rows, image_rows
 from redservo.redundancy.predictive_goal import TOL, goal_error
 from redservo.redundancy.qp_goal import goal_term, kept_goal
+from redservo.scenario import load_scenario
 from tests.test_predictive import DT, _panda_state
 
 
@@ -95,6 +97,48 @@ def test_stall_starts_the_move_and_flags_it() -> None:
     step = moved[1].qdot * DT
     toward = (law.goal - exp.q0) @ step
     assert toward > 0.0  # toward the goal
+
+
+def _decay(law: Any, rate: float, periods: int, level: float | None) -> bool:
+    """Feed ``law._stalled`` ``periods`` sizes of ``‖e1‖`` decaying at ``rate`` of the nominal
+    λ = 0.5 1/s (from 0.01), with ``qp``'s residual level ``r ‖e1‖`` held at ``level`` (None:
+    not held); True when any call says stalled."""
+    stalled = False
+    for k in range(periods):
+        if level is not None:
+            law._held, law._level = law._held + 1, level
+        stalled |= law._stalled(0.01 * float(np.exp(-rate * 0.5 * k * DT)), 0.5, DT)
+    return stalled
+
+
+def test_a_slow_decay_is_no_stall_a_level_held_above_the_tolerance_is() -> None:
+    """A decay at 40 % of λ is no stall while ``qp``'s residual level stays below the
+    tolerance (it converges, slowly: panda-near-limits sample 125), a stall when the bounds
+    hold the task at a level above it; a decay below 25 % of λ is a stall either way, and a
+    decay at the nominal rate never is."""
+    law = make_law("qp-goal")
+    assert law.gain == 0.0 and law.tolerance == 0.001
+    assert not _decay(law, 0.4, 200, None)
+    law.reset()
+    assert not _decay(law, 0.4, 200, 0.0008)  # held, but toward a level below the tolerance
+    law.reset()
+    assert _decay(law, 0.4, 200, 0.004)  # held at 4x the tolerance: qp's KKT point
+    law.reset()
+    assert _decay(law, 0.2, 200, None)
+    law.reset()
+    assert not _decay(law, 1.0, 200, 0.004)
+
+
+def test_qp_goal_is_qp_where_qp_converges_slowly() -> None:
+    """panda-near-limits sample 125 (seed 0): ``qp`` converges in 342 periods, the last ones
+    slowly with its residual above 0.5; ``qp-goal`` takes no stall there and gives ``qp``'s
+    run (the branch ``reactgoal`` switched at period 248 and ended at the cap)."""
+    exp = _sample("panda-near-limits", 125)
+    ref = exp.run(method="qp")
+    res = exp.run(method="qp-goal")
+    assert ref.summary.outcome == res.summary.outcome == "converged"
+    assert res.summary.iterations == ref.summary.iterations
+    np.testing.assert_allclose(res.log.q, ref.log.q, atol=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -186,3 +230,15 @@ def test_closed_loop_on_a_panda_sample_where_qp_stalls() -> None:
     assert s.outcome == "converged" and s.min_margin >= 0.01
     assert s.shield_activations == 0
     assert s.velocity_violations == 0 and s.acceleration_violations == 0
+
+
+def test_the_urdf_start_near_a_limit_converges_as_qp_does(tmp_path: Path) -> None:
+    """docs/choosing-a-law.md's worked example (``panda-urdf-4points``, joint 3 at -3.0 rad):
+    ``qp`` converges in 384 periods with a slow decay at the end; ``qp-goal`` takes no stall
+    there and converges in the same periods (``reactgoal`` switched at 189 and failed)."""
+    from tests.test_advice import _near_limit
+
+    exp = build(load_scenario(_near_limit(tmp_path)))
+    s = exp.run(method="qp-goal").summary
+    assert s.outcome == "converged" and s.iterations == 384
+    assert s.shield_activations == 0 and s.min_margin >= 0.01
