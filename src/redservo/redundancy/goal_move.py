@@ -7,12 +7,16 @@ One quadratic program per period (daqp, as ``qp``'s distance rows)::
     s.t. q̇_min ≤ q̇ ≤ q̇_max                                        (``qp``'s bounds)
          max(−v, ξ (u_min − u_i)/dt) ≤ u̇_i = S_i q̇ ≤ min(v, ξ (u_max − u_i)/dt)
                                                                   (each image coordinate)
+         ḋ_ij = n_ijᵀ (S_i − S_j) q̇ ≥ −ξ (d_ij − d_min)/dt          (each pair of points)
 
 ``(J_g, e_g)``: the centroid of the model's image points and its error to their centroid at
 ``q*`` (2 rows; it holds the target in the middle of the image while the joints move, and
 is met at ``q*``); the rows bound each point coordinate's motion per period (``v dt`` =
 :data:`STEP_PX`) and damp it near the image border less :data:`MARGIN_PX` (ξ = :data:`XI` of
-the gap closed per period at most). Units: rad or
+the gap closed per period at most); the pair rows keep every two points :data:`PAIR_PX`
+apart (``d_ij`` their distance, ``n_ij`` its direction): two rendered dots closer than about
+two radii merge and the tracker loses one (mc05-joint-limits sample 13 through the camera:
+two dots 5 px apart in a move, ``feature_lost``). Units: rad or
 m, rad/s or m/s, normalized image coordinates, pixels for the margins.
 """
 
@@ -21,6 +25,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
@@ -34,6 +39,7 @@ __all__ = [
     "centroid_rows",
     "image_rows",
     "kept_in_image",
+    "pair_rows",
     "solve_move",
 ]
 
@@ -48,6 +54,16 @@ HALVINGS = 6
 """Halvings of the move's command at most to keep the nonlinear prediction in the image."""
 XI = 0.2
 """Fraction of the gap to the bound a point coordinate may close in one period."""
+PAIR_PX = 16.0
+"""Two image points stay this far apart (px) during the move: four radii of a rendered dot
+(``sensor.dot_radius_px`` = 4 px by default); the dots of mc05-joint-limits sample 13 were
+tracked at 12-14 px and lost at 5 px."""
+
+
+def _pairs(p: int) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """The index pairs ``i < j`` of ``p`` points."""
+    i, j = np.triu_indices(p, 1)
+    return i, j
 
 
 class ImageRows(NamedTuple):
@@ -97,6 +113,26 @@ def image_rows(
     return rows.S, bl, bu
 
 
+def pair_rows(
+    rows: ImageRows, camera: Camera, dt: float, back: float = RETURN
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(G, bl, bu)``: one row per pair of points (module docstring), ``bl ≤ ḋ_ij = G q̇ ≤
+    bu``: the distance (normalized units, through pixels of mean focal length) closes by at
+    most :data:`XI` of its gap to :data:`PAIR_PX` per period; a pair already closer must part
+    at up to ``back`` of the step per period (0: it may stay), and no pair parts faster than
+    two steps per period."""
+    f = 0.5 * (camera.px + camera.py)
+    xy, n = rows.s.reshape(-1, 2), rows.S.shape[1]
+    Sxy = rows.S.reshape(-1, 2, n)
+    i, j = _pairs(xy.shape[0])
+    diff = xy[i] - xy[j]
+    d = np.maximum(np.linalg.norm(diff, axis=1), 1e-12)
+    G = np.einsum("kc,kcn->kn", diff / d[:, None], Sxy[i] - Sxy[j])
+    step = STEP_PX / f / dt
+    bl = np.minimum(-XI * (d - PAIR_PX / f) / dt, back * step)
+    return G, bl, np.full(d.shape, 2.0 * step)
+
+
 def solve_move(
     rows: ImageRows,
     lam: float,
@@ -130,18 +166,22 @@ def kept_in_image(
     """``qdot`` halved (at most :data:`HALVINGS` times) until the model's points at
     ``q + dt q̇`` (the nonlinear prediction: at the joint speeds of a move the linear rows
     miss the drift of a fast turn by several pixels) lie within the image less half of
-    :data:`MARGIN_PX`, or no further out than ``now`` (2p,), the points at ``q``."""
+    :data:`MARGIN_PX`, or no further out than ``now`` (2p,), the points at ``q``, and every
+    two of them half :data:`PAIR_PX` apart, or no closer than at ``q``."""
     n = q.shape[0]
     scale = np.array([camera.px, camera.py])
     lo = (MARGIN_PX / 2 - np.array([camera.u0, camera.v0])) / scale
     hi = (np.array([camera.width, camera.height]) - MARGIN_PX / 2 - [camera.u0, camera.v0]) / scale
     xy0 = now.reshape(-1, 2)
     out0 = np.maximum(lo - xy0, xy0 - hi)
+    i, j = _pairs(xy0.shape[0])
+    near0 = np.minimum(np.linalg.norm(xy0[i] - xy0[j], axis=1), PAIR_PX / 2 / camera.px)
     for _ in range(HALVINGS):
         pred = model.predict(q + dt * qdot, np.zeros((1, n)), horizon(1, 1), 0.0)  # type: ignore[attr-defined]
         if pred is not None and pred.s is not None:
             xy = pred.s[0].reshape(-1, 2)
-            if np.all(np.maximum(lo - xy, xy - hi) <= np.maximum(out0, 0.0)):
+            inside = np.all(np.maximum(lo - xy, xy - hi) <= np.maximum(out0, 0.0))
+            if inside and np.all(np.linalg.norm(xy[i] - xy[j], axis=1) >= near0):
                 return qdot
         qdot = 0.5 * qdot
     return qdot

@@ -68,6 +68,7 @@ from redservo.redundancy.goal_move import (
     centroid_rows,
     image_rows,
     kept_in_image,
+    pair_rows,
     solve_move,
 )
 from redservo.redundancy.options import Option
@@ -133,6 +134,14 @@ def goal_term(q: FloatArray, goal: FloatArray, gain: float) -> FloatArray:
     """``-gain (q - goal)`` (n,), rad/s or m/s: the gradient step of ``gain ‖q - goal‖² / 2``
     (``gain`` in 1/s); zero at ``q = goal``."""
     return np.asarray(-gain * (q - goal))
+
+
+def _stack(
+    a: tuple[FloatArray, FloatArray, FloatArray], b: tuple[FloatArray, FloatArray, FloatArray]
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The rows ``(G, bl, bu)`` of the move, ``a``'s above ``b``'s."""
+    G, bl, bu = (np.ascontiguousarray(np.concatenate([x, y])) for x, y in zip(a, b, strict=True))
+    return G, bl, bu
 
 
 @register
@@ -291,7 +300,7 @@ class QpGoal(Law):
         resid = res.diagnostics.value(Flag.TASK_SCALED)
         held = resid is not None and resid >= HELD
         self._held = self._held + 1 if held else 0
-        self._level = float(resid) * float(np.linalg.norm(x.e1)) if held else 0.0
+        self._level = resid * float(np.linalg.norm(x.e1)) if resid is not None and held else 0.0
         return LawResult(res.qdot, replace(res.diagnostics, method=self.name))
 
     def _stalled(self, size: float, lam: float, dt: float) -> bool:
@@ -351,7 +360,8 @@ class QpGoal(Law):
         qdot = None
         if rows is not None:
             for back in (RETURN, 0.0):  # a point past the border line: return, else stay
-                damper = image_rows(rows, self._model.camera, x.dt, back)
+                cam = self._model.camera
+                damper = _stack(image_rows(rows, cam, x.dt, back), pair_rows(rows, cam, x.dt, back))
                 qdot = solve_move(rows, x.lam, term, (lo, hi), damper, MOVE_WEIGHT)
                 if qdot is not None:
                     qdot = kept_in_image(model, x.q, qdot, x.dt, self._model.camera, rows.s)
