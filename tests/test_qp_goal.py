@@ -13,7 +13,15 @@ from redservo import ConfigurationError, Flag, make_law
 from redservo.campaign.definition import load_campaign
 from redservo.campaign.sampling import draw_sample
 from redservo.experiment.build import build
-from redservo.redundancy.goal_move import MARGIN_PX, STEP_PX, centroid_rows, image_rows
+from redservo.redundancy.goal_move import (
+    MARGIN_PX,
+    PAIR_PX,
+    STEP_PX,
+    XI,
+    centroid_rows,
+    image_rows,
+    pair_rows,
+)
 from redservo.redundancy.predictive_goal import TOL, goal_error
 from redservo.redundancy.qp_goal import goal_term, kept_goal
 from redservo.scenario import load_scenario
@@ -174,6 +182,10 @@ def test_the_move_keeps_every_limit_and_the_image(seed: int) -> None:
     tol = 1e-6 * (1.0 + np.abs(move))
     assert np.all(move >= bl - tol) and np.all(move <= bu + tol)
     assert np.all(np.abs(move) * DT <= STEP_PX / exp.camera.px * (1 + 1e-6))
+    G, bl, bu = pair_rows(rows, exp.camera, DT)
+    part = G @ qd
+    tol = 1e-6 * (1.0 + np.abs(part))
+    assert np.all(part >= bl - tol) and np.all(part <= bu + tol)
 
 
 def test_image_rows_damp_the_border() -> None:
@@ -191,6 +203,36 @@ def test_image_rows_damp_the_border() -> None:
     _, bl, bu = image_rows(rows._replace(s=s), cam, DT)
     assert bu[0] == pytest.approx(0.0, abs=1e-15)
     assert bl[0] == pytest.approx(-STEP_PX / cam.px / DT)
+
+
+def test_pair_rows_keep_two_points_apart() -> None:
+    """Two points at :data:`PAIR_PX` may not come closer; farther apart they close at most
+    :data:`XI` of the gap per period; closer, they part (by :data:`XI` of the gap, at most
+    half a step per period, or may stay with ``back`` = 0); the row is the distance's derivative (finite differences)."""
+    _, exp, state, _ = _panda_law()
+    cam = exp.camera
+    law = make_law("qp-goal")
+    law.observe(exp.robot, exp.task, state)
+    rows = centroid_rows(law._model.build(exp.q0, DT), exp.q0, exp.q0)
+    assert rows is not None
+    step = STEP_PX / cam.px / DT
+    for gap_px, low in [(PAIR_PX, 0.0), (3 * PAIR_PX, -XI * 2 * PAIR_PX / cam.px / DT)]:
+        s = rows.s.copy()
+        s[2:4] = s[0:2] + np.array([gap_px / cam.px, 0.0])
+        _, bl, _ = pair_rows(rows._replace(s=s), cam, DT)
+        assert bl[0] == pytest.approx(low, abs=1e-12)
+    s = rows.s.copy()
+    s[2:4] = s[0:2] + np.array([0.25 * PAIR_PX / cam.px, 0.0])
+    part = min(XI * 0.75 * PAIR_PX / cam.px / DT, 0.5 * step)
+    assert pair_rows(rows._replace(s=s), cam, DT)[1][0] == pytest.approx(part)
+    assert pair_rows(rows._replace(s=s), cam, DT, back=0.0)[1][0] == 0.0
+    G = pair_rows(rows, cam, DT)[0]
+    v = np.random.default_rng(0).normal(size=7)
+    h = 1e-7
+    xy = rows.s.reshape(-1, 2)
+    moved = (rows.s + h * rows.S @ v).reshape(-1, 2)
+    d0, d1 = np.linalg.norm(xy[0] - xy[1]), np.linalg.norm(moved[0] - moved[1])
+    assert G[0] @ v == pytest.approx((d1 - d0) / h, rel=1e-5)
 
 
 @pytest.mark.parametrize(
@@ -242,3 +284,17 @@ def test_the_urdf_start_near_a_limit_converges_as_qp_does(tmp_path: Path) -> Non
     s = exp.run(method="qp-goal").summary
     assert s.outcome == "converged" and s.iterations == 384
     assert s.shield_activations == 0 and s.min_margin >= 0.01
+
+
+def test_through_the_camera_the_move_keeps_the_dots_apart() -> None:
+    """mc05-joint-limits sample 13 (seed 0) through the ``realistic`` camera: ``qp`` stalls;
+    ``qp-goal``'s move brought two dots within 5 px of each other, the tracker lost one and
+    the run ended ``feature_lost`` (branch ``reactgoal``); with the pair rows it converges."""
+    from redservo.experiment.camera_presets import camera_overrides
+    from redservo.scenario import apply_overrides
+
+    sc = draw_sample(load_campaign("mc05-joint-limits"), 0, 13).scenario
+    exp = build(apply_overrides(sc, camera_overrides("realistic")))
+    s = exp.run(method="qp-goal").summary
+    assert s.outcome == "converged" and s.success
+    assert s.shield_activations == 0 and s.velocity_violations == 0
