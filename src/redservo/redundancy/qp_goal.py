@@ -151,8 +151,8 @@ class QpGoal(Law):
 
     name = "qp-goal"
     description = (
-        "bounded least squares with the secondary -k(q - q*) toward a joint goal; at a stall, "
-        "a joint move to q*"
+        "qp; when the joint bounds stall the task, a joint move to a goal q* whose features "
+        "are s* (the predictive law's goal search), the target kept in the image"
     )
     stateful = True
 
@@ -177,7 +177,7 @@ class QpGoal(Law):
             "stall",
             25,
             kind="int",
-            doc="periods without progress of ‖e1‖ (below 0.99 of its best) that make a stall",
+            doc="window (periods) over which a decay of ‖e1‖ below 25 % of λ (50 % when held) is a stall",
             low=1,
         ),
         Option(
