@@ -334,10 +334,10 @@ def build_qp(
     if pred.s is not None and pred.S is not None and s_lo is not None and s_hi is not None:
         s0 = pred.s[0] if s_now is None else s_now  # relax only what is already violated
         lo_s, hi_s = np.minimum(s_lo, s0), np.maximum(s_hi, s0)
-        for k in range(1, N + 1):  # bounds (2p,), or (N, 2p) per period (a camera)
+        for k in range(1, N + 1):
             Bk = _block(hz, k, pred.S[k - 1], dt)
             rows.append(Bk)
             base = pred.s[k - 1] - Bk @ ub
-            blo.append((lo_s if lo_s.ndim == 1 else lo_s[k - 1]) - base)
-            bhi.append((hi_s if hi_s.ndim == 1 else hi_s[k - 1]) - base)
+            blo.append(lo_s - base)
+            bhi.append(hi_s - base)
     return QP(H, f, lo, hi, np.vstack(rows), np.concatenate(blo), np.concatenate(bhi))

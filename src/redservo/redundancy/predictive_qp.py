@@ -27,25 +27,7 @@ from redservo.redundancy.safety import position_box
 if TYPE_CHECKING:
     from redservo.redundancy.predictive import Model, Predictive
 
-__all__ = ["CAMERA_XI", "damped_image_bounds", "horizon_qp", "solve_horizon"]
-
-CAMERA_XI = 0.2
-"""Through a camera (a tracker bound), the fraction of its gap to the image bound less the
-margin that an image point may close per period of the horizon."""
-
-
-def damped_image_bounds(
-    s_lo: FloatArray, s_hi: FloatArray, s0: FloatArray, N: int
-) -> tuple[FloatArray, FloatArray]:
-    """The image bounds (N, 2p) of the horizon through a camera: at period ``k`` every
-    point's gap to ``[s_lo, s_hi]`` (normalized) is at least ``(1 - CAMERA_XI)^k`` of its
-    gap at ``s0``, so a point slows down as it nears the border and the image motion
-    between exposure and use (the latency the compensation predicts) shrinks with the gap
-    (a point already past a bound keeps the bound). Units: normalized image coordinates."""
-    keep = (1.0 - CAMERA_XI) ** np.arange(1, N + 1)[:, None]
-    lo = s_lo + keep * np.maximum(s0 - s_lo, 0.0)
-    hi = s_hi - keep * np.maximum(s_hi - s0, 0.0)
-    return lo, hi
+__all__ = ["horizon_qp", "solve_horizon"]
 
 
 def horizon_qp(
@@ -74,10 +56,6 @@ def horizon_qp(
         s_hi = np.tile(
             [(cam.width - mpx - cam.u0) / cam.px, (cam.height - mpx - cam.v0) / cam.py], p
         )
-        if law._gate_px is not None:  # through a camera: the border rows damped
-            s_lo, s_hi = damped_image_bounds(
-                s_lo, s_hi, pred.s[0] if s_now is None else s_now, hz.N
-            )
     sigma = float(np.linalg.norm(x.J1, 2)) if x.J1.size else 1.0
     rho = law.effort * (x.dt * max(sigma, 1e-9)) ** 2
     ff = None if x.de1_dt is None else x.de1_dt

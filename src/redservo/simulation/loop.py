@@ -352,9 +352,7 @@ class _Run:
 
 def _tracking_gate(sensor: Sensor) -> float | None:
     """The gate (pixels) of ``sensor``'s dot tracker, None without one (the ideal sensor:
-    the image pipeline is not imported for it). A camera's timing wraps the image sensor
-    (:class:`redservo.sensors.timing.TimedSensor`, ``sensor.sensor``): its tracker's gate."""
-    sensor = getattr(sensor, "sensor", sensor)
+    the image pipeline is not imported for it)."""
     if not type(sensor).__module__.startswith("redservo.vision"):
         return None
     from redservo.vision.sensor import tracking_gate_px
