@@ -482,19 +482,24 @@ def _before(frame_kernels: bool, shared: bool, step_kernels: bool = True) -> Ite
             yield
         return
     saved = (tracking.track_tracked, motion_blur._dot_frame, terms.pose_term_depth)
-    first = CommandHistory._first_after
+    keep = CommandHistory.keep
     if not frame_kernels:
         tracking.track_tracked = lambda *a: None  # type: ignore[assignment]
         motion_blur._dot_frame = lambda *a: None  # type: ignore[assignment]
     if not shared:
         solve = saved[2]
         terms.pose_term_depth = lambda *a: solve(*a[:6])  # type: ignore[assignment]
-        CommandHistory._first_after = lambda self, stamp: 0  # type: ignore[method-assign]
+
+        def unordered(self: CommandHistory, *a: Any) -> None:  # every command read
+            keep(self, *a)
+            self._ordered = False
+
+        CommandHistory.keep = unordered  # type: ignore[method-assign]
     try:
         yield
     finally:
         tracking.track_tracked, motion_blur._dot_frame, terms.pose_term_depth = saved
-        CommandHistory._first_after = first  # type: ignore[method-assign]
+        CommandHistory.keep = keep  # type: ignore[method-assign]
 
 
 @contextmanager

@@ -20,6 +20,10 @@ CPU µs per control step, ``time.process_time``):
 * ``end to end``: the campaign in this process (``run_campaign``, ``workers=1``) per step,
   whose rest (``end to end - loop``) is the per-sample Python: draw, start check, build,
   reachability, summary and row.
+
+With ``--split``: only the whole campaign (``--samples`` samples after a 1-sample
+warm-up), its CPU time split into the loop kernel's calls and the rest, per run and per
+sample (:func:`campaign_split`).
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from redservo.kernels.linalg import task_svd
 from redservo.kernels.robot import robot_kinematics
 from redservo.kernels.sensed import law_bits, qp_law, sense
 
-__all__ = ["main", "profile_campaign"]
+__all__ = ["campaign_split", "main", "profile_campaign"]
 
 
 @njit
@@ -191,14 +195,53 @@ def profile_campaign(name: str, samples: int, methods: Sequence[str] | None, rep
     )
 
 
+def campaign_split(name: str, samples: int, methods: Sequence[str] | None) -> None:
+    """Print the CPU time of a campaign in this process (after a 1-sample warm-up) split
+    into the loop kernel's calls and the rest (the per-sample and per-run Python: draw,
+    build, start check, reachability, packs, summaries, rows, statistics)."""
+    import redservo.campaign.loop_kernel as loop_kernel
+    from redservo.campaign import load_campaign, run_campaign
+
+    defn = load_campaign(name)
+    run_campaign(defn, samples=1, methods=methods, workers=1, progress=False)
+    real, inside = loop_kernel.closed_loop, [0.0]
+
+    def timed(*args: Any) -> Any:
+        t = time.process_time()
+        try:
+            return real(*args)
+        finally:
+            inside[0] += time.process_time() - t
+
+    loop_kernel.closed_loop = timed  # fastloop looks it up at each run
+    try:
+        t = time.process_time()
+        res = run_campaign(defn, samples=samples, methods=methods, workers=1, progress=False)
+        cpu = time.process_time() - t
+    finally:
+        loop_kernel.closed_loop = real
+    steps, runs = sum(int(r["iterations"]) for r in res.rows), len(res.rows)
+    rest = cpu - inside[0]
+    print(
+        f"{name}: {runs} runs, {steps} steps; end to end {steps / cpu:,.0f} steps per CPU s, "
+        f"the loop kernel {steps / inside[0]:,.0f} ({100 * inside[0] / cpu:.0f} % of the CPU); "
+        f"the rest {1e3 * rest:.1f} ms: {1e6 * rest / runs:.0f} µs per run, "
+        f"{1e3 * rest / samples:.2f} ms per sample"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python benchmarks/campaign_profile.py", description=__doc__)
     p.add_argument("--campaign", default="mc05-joint-limits")
     p.add_argument("--samples", type=int, default=3)
     p.add_argument("--methods", default="")
     p.add_argument("--reps", type=int, default=20)
+    p.add_argument("--split", action="store_true", help="only the loop / rest split")
     a = p.parse_args(argv)
     methods = [m for m in a.methods.split(",") if m] or None
+    if a.split:
+        campaign_split(a.campaign, a.samples, methods)
+        return 0
     profile_campaign(a.campaign, a.samples, methods, a.reps)
     return 0
 

@@ -22,23 +22,24 @@ whole campaign in this process (the marginal rate: after a 1-sample warm-up), on
 (:func:`all_campaigns`; a campaign with no compiled method gets a row saying why).
 docs/scaling.md gives the numbers.
 
-Last figures (2026-11-29, issue 29 item 4, second pass: the same bits with less work per
-step and per run), steps per CPU second end to end, 20 samples, main (a9c5087) / this code
-alternated campaign by campaign, two rounds, load average 14-23 on 2 CPUs (absolute numbers
-depressed; compare within a line), each from ``campaign_row(name, 20, 5)`` as ``--all
---samples 20 --loop-samples 5`` calls it:
+Last figures (2026-11-29, issue 29 item 4, third pass: the per-sample and per-run Python
+out of the way), steps per CPU second end to end, 40 samples, main (6d8acfe) / this code
+alternated campaign by campaign, two rounds, load average 10.5-13.3 on 2 CPUs (absolute
+numbers depressed; compare within a line), each from ``campaign_row(name, 40, 5)`` as
+``--all --samples 40 --loop-samples 5`` calls it (end to end / loop alone in brackets):
 
-* afma6-gaze-demo 43 400 / 38 800 → 41 900 / 39 200 (loop alone 106 000 / 105 000 → 97 000 / 96 000)
-* cm01-gaze 69 300 / 70 300 → 78 200 / 64 100 (loop alone 96 000 / 95 000 → 113 000 / 101 000)
-* cm01-humanoid-tracking 54 900 / 55 000 → 57 400 / 56 500 (loop alone 64 000 / 65 000 → 68 000 / 71 000)
-* mc05-joint-limits 42 700 / 42 900 → 44 000 / 45 600 (loop alone 54 000 / 56 000 → 56 000 / 59 000)
-* panda-near-limits 42 600 / 45 300 → 44 400 / 46 300 (loop alone 68 000 / 68 000 → 67 000 / 69 000)
-* panda-urdf-near-limits 42 000 / 40 800 → 43 500 / 43 800 (loop alone 69 000 / 68 000 → 72 000 / 72 000)
-* panda-posts 13 900 / 14 700 → 14 400 / 13 900 (loop alone 18 700 / 18 700 → 19 000 / 19 300)
+* afma6-gaze-demo 48 300 / 43 400 (0.42 / 0.38) → 58 400 / 62 000 (0.55 / 0.57)
+* cm01-gaze 79 200 / 76 400 (0.75 / 0.71) → 94 800 / 94 500 (0.88 / 0.87)
+* cm01-humanoid-tracking 58 100 / 57 700 (0.83 / 0.84) → 62 400 / 62 700 (0.90 / 0.91)
+* mc05-joint-limits 44 400 / 45 700 (0.80 / 0.79) → 49 100 / 47 400 (0.86 / 0.84)
+* panda-near-limits 46 000 / 47 200 (0.69 / 0.68) → 48 100 / 50 600 (0.74 / 0.79)
+* panda-urdf-near-limits 45 400 / 45 200 (0.64 / 0.63) → 52 600 / 52 000 (0.73 / 0.75)
+* panda-posts 27 100 / 28 300 (0.88 / 0.91) → 28 400 / 28 500 (0.90 / 0.92)
 
-Still below 100 000 end to end: the loop alone is, wherever ``J1`` has 6 rows or more
-(LAPACK ``dgesvd`` of a 6x6 matrix: 5.3 µs per step, kept: it is every law's SVD on every
-path); docs/scaling.md says where the rest goes.
+Still below 100 000 end to end: cm01-gaze within 6 % of it (its loop alone: 107 000); the
+loop alone is below it wherever ``J1`` has 6 rows or more (LAPACK ``dgesvd`` of a 6x6
+matrix: 5.3 µs per step, kept: it is every law's SVD on every path); docs/scaling.md says
+where the rest goes.
 """
 
 from __future__ import annotations

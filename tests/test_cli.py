@@ -575,3 +575,20 @@ def test_an_unknown_scenario_name_gets_a_did_you_mean(capsys: pytest.CaptureFixt
         line = _one_error_line(capsys)
         assert f"unknown scenario {name!r}" in line, line
         assert line.endswith("(did you mean 'cm01-gaze'?)"), line
+
+
+def test_python_dash_m_redservo_is_the_command_line() -> None:
+    """`python -m redservo --version`: the same program as the `redservo` script."""
+    import subprocess
+    import sys
+
+    from redservo import __version__
+
+    proc = subprocess.run(
+        [sys.executable, "-m", "redservo", "--version"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == f"redservo {__version__}"

@@ -556,6 +556,7 @@ _STEP_KERNEL_LAWS = (
     "iterative-smooth",
     "directional",
     "large-projection",
+    "wln",
 )
 
 

@@ -117,6 +117,9 @@ class CompiledControl:
     """The entry point of :attr:`kernel`'s compiled version for this set-up's argument
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
     False when there is none (no numba)."""
+    measured_entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
+    """:attr:`entry` of :func:`~redservo.kernels.control.measured_control`, the step with
+    the model Jacobian given (a loop that has it: the simulator's image runs)."""
 
     @cached_property
     def hot(self) -> tuple[Any, ...]:
@@ -184,8 +187,8 @@ class CompiledControl:
             lmask, smask, vec = self.run_kernel(q, packs, plain)
         else:
             Jm = np.ascontiguousarray(J if J is not None else self.jacobian(q))
-            rest = (self.law_pack, self.limits_pack, gains, inputs, buf)
-            lmask, smask, vec = _K.measured_control(q, Jm, meas, *rest)
+            args = (q, Jm, meas, self.law_pack, self.limits_pack, gains, inputs, buf)
+            lmask, smask, vec = self.run_measured(args, plain and iz.flags.carray)
         if lmask < 0:
             return None
         return results(self, q, s, tuple(inv_depth), buf, lmask, smask, vec)
@@ -208,6 +211,22 @@ class CompiledControl:
         out = self.kernel(q, self.robot, *packs)
         if plain and entry is None:  # looked up once: False when there is none
             self.entry[0] = entry_of(self.kernel, (q, self.robot, packs)) or False
+        return out
+
+    def run_measured(self, args: tuple[Any, ...], plain: bool) -> tuple[int, int, FloatArray]:
+        """:func:`~redservo.kernels.control.measured_control` on ``args`` (``q, J, meas,
+        law, limits, gains, inputs, buf``), at its entry point for this set-up's types
+        (:attr:`measured_entry`) when ``plain`` (:meth:`run_kernel`'s condition, the
+        inverse depths' array included) and ``J`` is a C-contiguous, aligned, writeable
+        float64 (6, n) array, else through the dispatcher: the same machine code."""
+        J = args[1]
+        plain = plain and J.dtype == _F64 and J.flags.carray
+        entry = self.measured_entry[0]
+        if plain and entry:
+            return entry(*args)  # type: ignore[operator]  # truthy: callable
+        out = _K.measured_control(*args)
+        if plain and entry is None:  # looked up once: False when there is none
+            self.measured_entry[0] = entry_of(_K.measured_control, args) or False
         return out
 
     def _adapted(self, s: FloatArray) -> tuple[float, float]:

@@ -36,12 +36,10 @@ from redservo.campaign.figures import campaign_figures
 from redservo.campaign.rowfile import (
     RowFile,
     RowView,
-    format_line,
-    parse_line,
     remove_with,
     temporary_file,
 )
-from redservo.campaign.rows import _columns
+from redservo.campaign.rows import _columns, stored
 from redservo.campaign.stats import MethodStats, _heading, flag_table, stats_table
 from redservo.campaign.storage import _Store
 from redservo.campaign.table import RunTable
@@ -211,8 +209,7 @@ def _execute(
         batch = res.rows
         append(batch)
         for raw in batch:
-            row = parse_line(columns, format_line(columns, raw).encode())
-            assert row is not None
+            row = stored(columns, raw)  # the values its line reads back as
             if table.wants(row["sample"], row["method"]):
                 table.add(row)
             if row["outcome"] == "error":

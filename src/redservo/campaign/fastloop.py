@@ -38,6 +38,7 @@ import numpy as np
 
 from redservo.campaign.loop_avoid import collision_fields, collision_pack, collision_reason
 from redservo.campaign.loop_handback import flag_bits
+from redservo.campaign.loop_summary import loop_summary
 from redservo.campaign.looplaw import cached_law_args, method_law
 from redservo.campaign.looplaw import law_args as _law_args
 from redservo.campaign.looppack import (
@@ -47,7 +48,7 @@ from redservo.campaign.looppack import (
     scene_reason,
     task_args,
 )
-from redservo.errors import ConfigurationError
+from redservo.errors import ConfigurationError, RedservoError
 from redservo.experiment.build import Experiment
 from redservo.records import Outcome, RunSummary, SimulationLog, summarize
 from redservo.redundancy import Law, make_law
@@ -220,16 +221,21 @@ def _summary(
     )
 
 
-def _run_loop(exp: Experiment, law: Law, args: tuple[Any, ...]) -> tuple[int, int, int, int]:
+def _run_loop(
+    exp: Experiment, law: Law, args: tuple[Any, ...], q0: Any = None
+) -> tuple[int, int, int, int]:
     """Call the loop kernel until the run ends; a step it hands back (a ``qp`` step for a
     Python solver library, or whose compiled solver failed) is computed by the law itself,
-    exactly as the object path does (:mod:`redservo.campaign.loop_handback`)."""
+    exactly as the object path does (:mod:`redservo.campaign.loop_handback`). ``q0``: the
+    experiment's checked start (:attr:`_Packed.q0`; None: checked here)."""
     from redservo.campaign import loop_handback
     from redservo.campaign.loop_kernel import NEED_SOLVE, closed_loop
 
     robot, scene, task, law_args, limits, sim, logs, coll = args
     solve = loop_handback.solve_pack(exp, coll)
-    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
+    if q0 is None:
+        q0 = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
+    q = q0.copy()  # the loop moves it
     prev = np.zeros(exp.robot.n)  # the robot starts at rest
     while True:
         rows, code, axis, abort = closed_loop(
@@ -248,6 +254,8 @@ class _Packed(NamedTuple):
     task: tuple[Any, ...]
     limits: tuple[Any, ...]
     sim: tuple[Any, ...]
+    q0: Any = None
+    """The start, checked against the limits (None: the run checks it and says why)."""
 
 
 def _pack(exp: Experiment) -> _Packed:
@@ -269,7 +277,11 @@ def _pack(exp: Experiment) -> _Packed:
         opt.feedforward == "known",
     )
     limits = (lp.rows, lp.has_v, lp.has_a, q_min, q_max)
-    return _Packed(robot_args(exp), scene_args(exp), task_args(exp), limits, sim)
+    try:
+        q0 = np.array(lim.check(exp.q0, "q0"), dtype=np.float64)
+    except RedservoError:  # the run raises it again, on the object path
+        q0 = None
+    return _Packed(robot_args(exp), scene_args(exp), task_args(exp), limits, sim, q0)
 
 
 def _packed(exp: Experiment) -> _Packed | str:
@@ -306,9 +318,15 @@ def _covered_summary(
     logs = _buffers(exp.options.max_iterations, exp.robot.n)
     coll = collision_pack(exp, law)
     args = (p.robot, p.scene, p.task, law_args, p.limits, p.sim, logs, coll)
-    rows, code, axis, abort = _run_loop(exp, law, args)
+    rows, code, axis, abort = _run_loop(exp, law, args, p.q0)
     if abort:
         return None
+    if not coll[0]:  # no pair measured: the summary reduced in one kernel call, same bits
+        outcome = _OUTCOMES[code]
+        hit = {"axis": axis, "iteration": rows - 1} if outcome == "joint_limit" else None
+        fast = loop_summary(exp, rows, outcome, hit, logs)
+        if fast is not None:
+            return fast
     return _summary(exp, rows, code, axis, logs, coll)
 
 
@@ -328,7 +346,10 @@ def fast_run(
         ctl.scaling,
     )
     law, args = method_law(key, lambda: campaign_law(exp, method, law_options))
-    reason = law_reason(law)  # not cached: the kernel mode may change between runs
+    mode = ("reason", _compiled())  # the law's reason, kept per kernel mode (it may change)
+    if mode not in args:
+        args[mode] = law_reason(law)
+    reason = args[mode]
     packed = _packed(exp)  # the experiment's reason, or its packs (cached for its methods)
     if reason is None and isinstance(packed, str):
         reason = packed

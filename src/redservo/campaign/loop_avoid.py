@@ -67,6 +67,11 @@ def _rows_flag(exp: Experiment, law: Any) -> int:
     return 1
 
 
+_OFF: dict[int, tuple[Any, ...]] = {}
+"""The off pack per number of joints, shared by the runs: the loop writes into no array of
+a pack whose first field is False (:mod:`redservo.kernels.loop_avoid`)."""
+
+
 def off_pack(n: int) -> tuple[Any, ...]:
     """The pack of a run without pairs (the loop's types, nothing measured)."""
     e2, e3 = np.zeros((0, 2), dtype=np.int64), np.zeros((0, 4, 4))
@@ -105,7 +110,7 @@ def collision_pack(exp: Experiment, law: Any) -> tuple[Any, ...]:
 
     geo, c, n = _geometry(exp), exp.options.collision, exp.robot.n
     if geo is None or c is None or isinstance(geo, str):
-        return off_pack(n)
+        return _OFF[n] if n in _OFF else _OFF.setdefault(n, off_pack(n))
     on = c.enabled
     acc = exp.limits.qddot_max
     fopt = np.array([c.d_safe, c.d_influence, c.xi, c.damping, exp.options.dt])

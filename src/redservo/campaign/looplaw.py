@@ -44,21 +44,22 @@ def law_args(law: Law, n: int) -> tuple[Any, ...]:
     return QP, fopt, iopt, vopt, False
 
 
-def method_law(key: tuple[Any, ...], make: Callable[[], Law]) -> tuple[Law, dict[int, Any]]:
+def method_law(key: tuple[Any, ...], make: Callable[[], Law]) -> tuple[Law, dict[Any, Any]]:
     """The law of a campaign method (``key``: the method, its options and the scenario's
     control settings), made by ``make`` once per thread, with its cache of packed arguments
-    by number of joints (:func:`cached_law_args`)."""
+    by number of joints (:func:`cached_law_args`; the caller may keep other facts of the
+    law there under keys that are not integers)."""
     laws: dict[tuple[Any, ...], Any] | None = getattr(_LAWS, "laws", None)
     if laws is None or len(laws) > 64:
         laws = _LAWS.laws = {}
     entry = laws.get(key)
     if entry is None:
         entry = laws[key] = (make(), {})
-    out: tuple[Law, dict[int, Any]] = entry
+    out: tuple[Law, dict[Any, Any]] = entry
     return out
 
 
-def cached_law_args(law: Law, n: int, cache: dict[int, Any]) -> tuple[Any, ...] | None:
+def cached_law_args(law: Law, n: int, cache: dict[Any, Any]) -> tuple[Any, ...] | None:
     """:func:`law_args` of a covered law for ``n`` joints, kept in ``cache``; None when its
     options raise :class:`ConfigurationError` (the object path then says so)."""
     if n not in cache:

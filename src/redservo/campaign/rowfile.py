@@ -55,6 +55,28 @@ def format_line(columns: Columns, row: Mapping[str, Any], seal: str | None = Non
     return f"{line[:-1]},{_check(seal, line[:-1])}\n"
 
 
+def format_lines(
+    columns: Columns, rows: Sequence[Mapping[str, Any]], seal: str | None = None
+) -> list[str]:
+    """:func:`format_line` of each row, by one CSV writer (the same lines)."""
+    lines: list[str] = []
+    writer = csv.writer(_Collect(lines), lineterminator="\n")
+    for row in rows:
+        writer.writerow([_format(row.get(c), k) for c, k in columns])
+    if len(lines) != len(rows):  # a writer that wrote a row in pieces: one at a time
+        lines = [format_line(columns, row) for row in rows]
+    if seal is None:
+        return lines
+    return [f"{line[:-1]},{_check(seal, line[:-1])}\n" for line in lines]
+
+
+class _Collect:
+    """A file-like sink keeping each ``write`` (the CSV writer writes one line a row)."""
+
+    def __init__(self, lines: list[str]) -> None:
+        self.write = lines.append
+
+
 def _body(line: bytes) -> tuple[bytes, bytes]:
     """A sealed line's fields before its check, and the check (a hex field: no quoting)."""
     body, _, check = line.rstrip(b"\r\n").rpartition(b",")
@@ -114,7 +136,7 @@ class RowFile:
         the byte offset of each row's line."""
         if self._fd is None:
             raise ConfigurationError(f"the row file {self.path} is closed")
-        lines = [format_line(self.columns, r, self.seal).encode() for r in rows]
+        lines = [line.encode() for line in format_lines(self.columns, rows, self.seal)]
         offsets = []
         for line in lines:
             offsets.append(self.size)

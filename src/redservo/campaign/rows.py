@@ -140,6 +140,26 @@ def _format(value: Any, kind: str) -> str:
     return str(value)
 
 
+def stored(columns: Sequence[tuple[str, str]], row: Mapping[str, Any]) -> dict[str, Any]:
+    """The row as it reads back from its line (:func:`_format`, then :func:`_parse`),
+    without writing it: what the campaign's statistics keep of a row just computed."""
+    return {c: _stored_value(row.get(c), k) for c, k in columns}
+
+
+def _stored_value(value: Any, kind: str) -> Any:
+    """``_parse(_format(value, kind), kind)`` of a value a run's row holds (floats print
+    as their shortest exact repr, so they read back as themselves)."""
+    if kind == "float":
+        return float(value)
+    if kind == "int":
+        return int(value)
+    if kind == "int?":
+        return None if value is None else int(value)
+    if kind == "bool":
+        return bool(value)
+    return "" if value is None else str(value)
+
+
 def _parse(text: str, kind: str) -> Any:
     if kind == "float":
         return float(text)

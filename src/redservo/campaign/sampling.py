@@ -6,7 +6,7 @@ placement", "Invalid starts").
 
 from __future__ import annotations
 
-import copy
+import pickle
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -159,7 +159,7 @@ def _draw(defn: CampaignDefinition, seed: int, index: int, attempt: int) -> Samp
     he_r = rng.uniform(-1.0, 1.0, 3) * er.hand_eye_rotation_deg + 0.0
     noise_seed = int(rng.integers(0, 2**31 - 1))
     # The scenario of this sample.
-    data = copy.deepcopy(defn.scenario.data)
+    data = pickle.loads(pickle.dumps(defn.scenario.data, pickle.HIGHEST_PROTOCOL))  # a deep copy
     robot = data["robot"]
     for key in ("start_pose", "q_guess"):
         robot.pop(key, None)

@@ -30,20 +30,24 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
     """Whether the first iteration of ``exp`` loses its target with the image margin
     ``margin`` (pixels), by the compiled loop's sensing kernel; None when that kernel does not
     cover ``exp`` or the object path would raise at that iteration (then it decides)."""
-    from redservo.binding.packs import scene_pack
-    from redservo.campaign.fastloop import experiment_reason
-    from redservo.campaign.looppack import robot_args, task_args
+    from redservo.campaign.fastloop import _packed
     from redservo.kernels import compiled
 
-    if not compiled() or experiment_reason(exp) is not None:
+    if not compiled():
+        return None
+    packed = _packed(exp)  # the reason, or the packs the sample's runs use too (cached)
+    if isinstance(packed, str):
         return None
     from redservo.kernels.sensed import MAX_ITERATIONS, TARGET_LOST, sense
 
     opt = exp.options
-    scene = scene_pack(exp.scene, exp.task, exp.camera, float(margin), True)
+    camera = packed.scene[4].copy()  # scene_pack's camera row, with the start's margin
+    camera[6] = float(margin)
+    scene = (*packed.scene[:4], camera, True, *packed.scene[6:])
     sim = (0.0, float(opt.dt), 0.0, False, np.ones(1), False, opt.feedforward == "known")
-    q = np.array(exp.limits.check(exp.q0, "q0"), dtype=np.float64)
-    outcome, abort = sense(0, q, robot_args(exp), scene, task_args(exp), sim)[5:]
+    if packed.q0 is None:
+        return None  # the start does not pass the limits' check: the object path says why
+    outcome, abort = sense(0, packed.q0.copy(), packed.robot, scene, packed.task, sim)[5:]
     if outcome == TARGET_LOST:
         return True
     if outcome == MAX_ITERATIONS and abort != 0:
@@ -54,10 +58,10 @@ def compiled_start_lost(exp: Any, margin: float) -> bool | None:
 def start_check(defn: CampaignDefinition, sc: Scenario) -> tuple[str | None, Any]:
     """``(problem, experiment)``: why the sample's start is invalid (None: it is valid) and
     its built experiment (None when building failed)."""
-    from redservo.experiment.build import build
+    from redservo.campaign.sample_build import sample_experiment
 
     try:
-        exp = build(sc)
+        exp = sample_experiment(defn, sc)  # build(sc)'s experiment, shared parts built once
     except RedservoError as exc:
         return str(exc), None
     margin = max(exp.options.image_margin_px, defn.target.image_margin_px)

@@ -289,7 +289,9 @@ class Controller:
         t = as_time(t, "t")
         if self.compensate_latency and getattr(measurement, "stamp", None) is not None:
             s = self._measured_s(measurement)
-            measurement = present(self.task, self.history, measurement, t, s, self.depth_scale)
+            measurement = present(
+                self.task, self.history, measurement, t, s, self.depth_scale, self._compiled
+            )
         if self._compiled is not None and is_float_vector(q, self._n):  # the kernel checks values
             done = compiled_step(self, cast(FloatArray, q), measurement, t, qdot_prev, J, context)
             if done is not None:

@@ -36,12 +36,16 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import flagbits as fb
+from redservo.kernels import lazy
 from redservo.redundancy.flags import Event
 from redservo.redundancy.messages import events
 
 if TYPE_CHECKING:
+    from redservo.kernels import image_motion as _K
     from redservo.redundancy.base import Diagnostics
     from redservo.task import VisualTask
+else:
+    _K = lazy("image_motion")
 
 __all__ = [
     "ImageMotionLimit",
@@ -144,13 +148,30 @@ def image_motion_scale(
     """
     if len(rows) == 0:
         return 1.0, 0.0
-    sdot = L @ (J @ qdot)
-    r = np.asarray(rows, dtype=np.intp)
-    fastest = float(np.max(np.hypot(sdot[r], sdot[r + 1])))
+    whole = isinstance(rows, np.ndarray) and rows.dtype == np.int64 and rows.ndim == 1
+    fastest = -1.0
+    if whole and _plain(L, 2) and _plain(J, 2) and _plain(qdot, 1):
+        fastest = float(_K.fastest_point(L, J, qdot, rows))  # one compiled call
+    if fastest < 0.0:  # not taken, or a row outside L: numpy's code names it
+        sdot = L @ (J @ qdot)
+        r = np.asarray(rows, dtype=np.intp)
+        fastest = float(np.max(np.hypot(sdot[r], sdot[r + 1])))
     if not math.isfinite(fastest):
         return 1.0, fastest  # the guard replaces a non-finite command
     speed = limit.max_speed
     return (1.0, fastest) if fastest <= speed else (speed / fastest, fastest)
+
+
+def _plain(a: object, ndim: int) -> bool:
+    """``a`` is a C-contiguous, aligned float64 array of ``ndim`` dimensions (what
+    :func:`redservo.kernels.image_motion.fastest_point` takes)."""
+    return (
+        isinstance(a, np.ndarray)
+        and a.dtype == np.float64
+        and a.ndim == ndim
+        and a.flags.c_contiguous
+        and a.flags.aligned
+    )
 
 
 def motion_event(scale: float, fastest: float, limit: ImageMotionLimit) -> Event:
@@ -204,7 +225,7 @@ def limit_image_motion(
 ) -> tuple[FloatArray, Diagnostics, bool]:
     """``(q̇, diagnostics, scaled)``: the command scaled into the limit (module docstring),
     the diagnostics with a ``camera-motion-limited`` event when it was."""
-    scale, fastest = image_motion_scale(L, J, qdot, np.asarray(rows), limit)
+    scale, fastest = image_motion_scale(L, J, qdot, np.asarray(rows, dtype=np.int64), limit)
     if scale >= 1.0:
         return qdot, diag, False
     event = motion_event(scale, fastest, limit)

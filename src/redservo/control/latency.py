@@ -22,13 +22,21 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from redservo._validation import FloatArray, as_time
 from redservo.control.steps import Features, Measurement
 from redservo.errors import ShapeError
+from redservo.kernels import lazy
 from redservo.task import VisualTask
+
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.binding.control import CompiledControl
+    from redservo.kernels import latency as _K
+else:
+    _K = lazy("latency")
 
 __all__ = ["CommandHistory", "present"]
 
@@ -69,6 +77,10 @@ _new_command: Callable[[type[_Command], tuple[object, ...]], _Command] = tuple._
 class CommandHistory:
     """The commands sent, with their times (module docstring).
 
+    The commands are kept in order of arrival, and their times and camera twists in a
+    ring of arrays as well, which :func:`redservo.kernels.latency.motion` sums in one
+    compiled call.
+
     Args:
         period: How long (s) a command stays in force when no later one follows: the
             control period ``T``.
@@ -83,11 +95,13 @@ class CommandHistory:
         self.period, self.jacobian, self.horizon = float(period), jacobian, float(horizon)
         self._cmds: deque[_Command] = deque()
         self._ordered = True  # every command later than the one before
+        self._ring = _Ring(64)
 
     def reset(self) -> None:
         """Forget every command (start of a run)."""
         self._cmds.clear()
         self._ordered = True
+        self._ring.head = 0
 
     def record(self, t: float, q: FloatArray, qdot: FloatArray) -> None:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
@@ -101,41 +115,53 @@ class CommandHistory:
         if cmds and t < cmds[-1][0]:
             self._ordered = False
         cmds.append(_new_command(_Command, (t, q, qdot, part)))
+        ring = self._ring
+        if len(cmds) > ring.t.shape[0]:
+            ring.grow(len(cmds) - 1)
+        slot = (ring.head + len(cmds) - 1) % ring.t.shape[0]
+        ring.t[slot] = t
+        ring.has[slot] = False
         while cmds[0][0] < t - self.horizon:
             cmds.popleft()
+            ring.head = (ring.head + 1) % ring.t.shape[0]
 
     def motion(self, stamp: float, now: float) -> FloatArray:
         """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
         displacement (m, rad) the commands made between ``stamp`` and ``now`` (s)."""
-        total = np.zeros(6)
-        cmds = self._cmds
-        for i in range(self._first_after(stamp), len(cmds)):
-            cmd = cmds[i]
-            end = cmds[i + 1].t if i + 1 < len(cmds) else cmd.t + self.period
-            overlap = min(end, now) - max(cmd.t, stamp)
-            if overlap <= _EPS:
-                continue
-            twist = cmd.twist
-            if twist is None:
+        cmds, ring = self._cmds, self._ring
+        where = (ring.head, len(cmds), self._ordered)
+        args = (ring.t, ring.twist, ring.has, where, self.period, float(stamp), float(now), _EPS)
+        total, missing = _K.motion(*args)
+        if len(missing):  # their twists, kept for the next steps; then the whole sum
+            cap = ring.t.shape[0]
+            for i in missing.tolist():
+                cmd = cmds[i]
                 twist = self.jacobian(cmd.q) @ cmd.qdot
-                cmds[i] = _new_command(_Command, (*cmd[:4], twist))  # kept for the next steps
-            total += twist * overlap
-        return total
+                cmds[i] = _new_command(_Command, (*cmd[:4], twist))
+                slot = (ring.head + i) % cap
+                ring.twist[slot] = twist
+                ring.has[slot] = True
+            total = _K.motion(*args)[0]
+        return np.asarray(total)
 
-    def _first_after(self, stamp: float) -> int:
-        """The first command that may end after ``stamp`` (s): those before it end by the
-        stamp (their overlap is empty) when the commands came in time order, found from
-        the newest; 0 otherwise (every command is looked at)."""
-        cmds = self._cmds
-        if not self._ordered:
-            return 0
-        first = len(cmds)
-        while first > 0:
-            end = cmds[first].t if first < len(cmds) else cmds[-1].t + self.period
-            if end <= stamp + _EPS:
-                break
-            first -= 1
-        return first
+
+class _Ring:
+    """The history's times (s) and twists (m/s, rad/s) by slot, and which twists are
+    known (module docstring of :mod:`redservo.kernels.latency`)."""
+
+    def __init__(self, cap: int) -> None:
+        self.t = np.zeros(cap)
+        self.twist = np.zeros((cap, 6))
+        self.has = np.zeros(cap, dtype=np.bool_)
+        self.head = 0
+
+    def grow(self, count: int) -> None:
+        """Twice the slots, the ``count`` commands kept moved to the first ones."""
+        cap = self.t.shape[0]
+        order = (self.head + np.arange(count)) % cap
+        t, twist, has = self.t[order], self.twist[order], self.has[order]
+        self.__init__(2 * cap)  # type: ignore[misc]
+        self.t[:count], self.twist[:count], self.has[:count] = t, twist, has
 
 
 def present(
@@ -145,9 +171,13 @@ def present(
     t: float,
     s: FloatArray,
     depth_scale: float,
+    engine: CompiledControl | None = None,
 ) -> Features:
     """``measurement`` (features ``s`` (k,) checked) brought from its stamp to ``t`` (s) by
     the module docstring's ``ŝ(t)``; itself when it has no ``stamp`` (or None) or is of ``t``.
+    ``engine``: the controller's compiled engine (a task of image points), whose inverse
+    depths and compiled ``L`` give the same ``ŝ`` in one call
+    (:func:`redservo.kernels.latency.present_points`).
 
     Raises:
         ShapeError: the stamp is not a finite number, or is later than ``t`` (a measurement
@@ -165,9 +195,13 @@ def present(
         )
     if stamp >= t - _EPS:
         return measurement
-    L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
-    s_now = s + L @ history.motion(stamp, t)
-    _linearise_at_measured(task, s_now, s)
+    iz = None if engine is None else engine._inverse_depths(measurement.inv_depth)
+    if iz is not None and iz.flags.carray and s.flags.carray:  # points: nothing to linearise
+        s_now = _K.present_points(s, iz, history.motion(stamp, t))
+    else:
+        L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
+        s_now = s + L @ history.motion(stamp, t)
+        _linearise_at_measured(task, s_now, s)
     return Measurement(s_now, tuple(measurement.inv_depth), t)
 
 

@@ -68,7 +68,7 @@ from redservo.redundancy.predictive_camera import (
     MotionLimit,
     limited,
 )
-from redservo.redundancy.predictive_distance import goal_clearance
+from redservo.redundancy.predictive_distance import goal_clearance, static_scene
 from redservo.redundancy.predictive_goal import GoalSearch, better_goal
 from redservo.redundancy.predictive_model import (
     QP,
@@ -82,6 +82,7 @@ from redservo.redundancy.predictive_options import OPTIONS
 from redservo.redundancy.predictive_pnp import DotPoses
 from redservo.redundancy.predictive_pose import PosePoints
 from redservo.redundancy.predictive_qp import horizon_qp, solve_horizon
+from redservo.redundancy.predictive_replan import Replan, SeedMemo, model_key
 
 __all__ = ["Predictive"]
 
@@ -144,8 +145,11 @@ class Predictive(Law):
         self._prior: FloatArray | None = None
         """The goal when the running search started (the one its result is judged against)."""
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
+        self._memo = SeedMemo()
+        """The goal search's seeds across the run's searches (among static obstacles)."""
+        self.replans = Replan(self.replan)
+        """When the goal search starts (:mod:`~redservo.redundancy.predictive_replan`)."""
         self._calls = 0
-        self._started: int | None = None
         self.clock: Callable[[], float] = time.perf_counter
         """The clock of ``time_budget`` (s, monotonic): a test sets a fake one."""
         self._obs: Callable[[FloatArray, FloatArray | None], Model | None] | None = None
@@ -179,13 +183,14 @@ class Predictive(Law):
         self._obs = None
         self._goal = self._prior = None
         self._search.reset()
+        self._memo.reset()
+        self.replans.reset()
         self._seen.reset()
         self._gain.reset()
         self._moments = None
         self._pose.reset()
         self.dot_poses.reset()
         self._calls = 0
-        self._started = None
         self.last_start = self.last_plan = None
 
     def warm_up(self, limits: JointLimits, m: int, dt: float) -> None:
@@ -330,14 +335,18 @@ class Predictive(Law):
         one is over, and advance it by ``goal_steps`` iterations a period (and, with a
         ``time_budget``, until half of it has passed since the step began, ``dl``): no single
         step pays for the whole search, its state goes on in the next periods. The previous
-        goal is kept when it is still the better one."""
+        goal is kept when it is still the better one. Avoiding collisions among static
+        obstacles, a new search takes from the memo what the seeds independent of ``q`` gave
+        before, and a futile search defers the next (:mod:`~redservo.redundancy.
+        predictive_replan`)."""
         band = self._band(x)
         lo, hi = x.limits.q_min + band, x.limits.q_max - band
-        due = self._started is None or self._calls - self._started >= self.replan
-        if due and not self._search.running:
-            span, clear = x.limits.q_max - x.limits.q_min, goal_clearance(self)
-            self._search.start(model, x.q, lo, hi, span, clear)
-            self._started, self._prior = self._calls, self._goal
+        span, key = x.limits.q_max - x.limits.q_min, model_key(model)
+        if not self._search.running and self.replans.due(self._calls, x.q, span, key):
+            memo = self._memo if static_scene(self) else None
+            self._search.start(model, x.q, lo, hi, span, goal_clearance(self), memo)
+            self.replans.start(self._calls, x.q, key, self._goal)
+            self._prior = self._goal
         if not self._search.running:
             return
         try:
@@ -349,6 +358,8 @@ class Predictive(Law):
             return
         if done or found is not None:
             self._goal = better_goal(model, self._prior, found)
+        if done:
+            self.replans.end(self._calls, x.q, span, key, self._goal, static_scene(self))
 
     def _solve(self, qp: QP, start: FloatArray) -> tuple[FloatArray, int, float, int]:
         """``(U, why, value, iterations)``: :func:`~redservo.redundancy.predictive_qp.

@@ -49,6 +49,7 @@ __all__ = [
     "distance_source",
     "goal_clearance",
     "horizon_distance_rows",
+    "static_scene",
     "with_horizon_rows",
 ]
 
@@ -175,3 +176,13 @@ def clear_of(geo: CompiledGeometry, d_safe: float) -> Callable[[FloatArray], boo
         return bool(d.size == 0 or float(np.min(d)) >= d_safe)
 
     return clear
+
+
+def static_scene(law: object) -> bool:
+    """Whether ``law`` avoids collisions among obstacles that do not move (self pairs only
+    count as static): the joint-goal search's memo and deferred restarts hold then
+    (:mod:`redservo.redundancy.predictive_replan`)."""
+    from redservo.scene import Static
+
+    src = distance_source(law)
+    return src is not None and all(isinstance(ob.trajectory, Static) for ob in src[0].obstacles)

@@ -32,8 +32,21 @@ from redservo._validation import FloatArray
 from redservo.redundancy.predictive_model import PointModel, horizon
 from redservo.redundancy.predictive_model import _points_interaction as points_interaction
 from redservo.redundancy.predictive_moments import MomentModel
+from redservo.redundancy.predictive_replan import SeedMemo, model_key
+from redservo.redundancy.predictive_stages import (
+    CANDIDATES,
+    STALL,
+    TOL,
+    Best,
+    Clear,
+    Met,
+    _anywhere,
+    _feature_stage,
+    _pose_stage,
+)
 
 __all__ = [
+    "CANDIDATES",
     "STALL",
     "TOL",
     "GoalSearch",
@@ -44,17 +57,6 @@ __all__ = [
     "nearest_goal",
     "search_steps",
 ]
-
-STALL = 15
-"""Iterations without progress after which :func:`feature_ik` gives up a seed."""
-
-Clear = Callable[[FloatArray], bool]
-"""Whether a configuration (rad or m) may be the goal (clear of the obstacles)."""
-
-
-def _anywhere(q: FloatArray) -> bool:
-    """Without obstacles every configuration within the bounds may be the goal."""
-    return True
 
 
 def camera_goal(model: PointModel, bMc: FloatArray, iterations: int = 50) -> FloatArray | None:
@@ -141,15 +143,16 @@ class GoalSearch:
         hi: FloatArray,
         span: FloatArray,
         clear: Clear | None = None,
+        memo: SeedMemo | None = None,
     ) -> None:
         """Seeds: ``q``, six around it (normal, 15 % of each joint's range ``span``) and
         :attr:`random_seeds` uniform within ``[lo, hi]``, a generator seeded with 0;
-        ``clear`` as :func:`search_steps`'s."""
+        ``clear`` and ``memo`` as :func:`search_steps`'s."""
         gen = np.random.default_rng(0)
         seeds = [q] + [q + gen.normal(0.0, 0.15, q.shape) * span for _ in range(6)]
         seeds += [gen.uniform(lo, hi) for _ in range(self.random_seeds)]
         met = Met()
-        self._steps = search_steps(model, q, seeds, lo, hi, clear, met)
+        self._steps = search_steps(model, q, seeds, lo, hi, clear, met, memo)
         ok = _anywhere if clear is None else clear
         self._met = met
 
@@ -234,6 +237,7 @@ def search_steps(
     hi: FloatArray,
     clear: Clear | None = None,
     met: Met | None = None,
+    memo: SeedMemo | None = None,
 ) -> Generator[None, None, tuple[float, FloatArray] | None]:
     """The search of :func:`joint_goal`, yielding after each iteration of its inverse
     kinematics (one kinematics evaluation and one step: so that it can be spread over periods
@@ -241,7 +245,10 @@ def search_steps(
     avoidance on: :func:`~redservo.redundancy.predictive_distance.goal_clearance`), a
     configuration that is not clear of the obstacles is never the goal. ``met`` (the
     caller's): the exact goals are recorded in it as they are met, so that a search spread
-    over periods gives the nearest so far before it ends (:meth:`GoalSearch.early`).
+    over periods gives the nearest so far before it ends (:meth:`GoalSearch.early`). ``memo``
+    (collision avoidance among static obstacles: :mod:`redservo.redundancy.predictive_replan`):
+    what the seeds that do not depend on ``q`` gave in the run's earlier searches with the
+    same model, desired camera pose and bounds is taken from it, without their iterations.
 
     Two stages (module docstring): the pose IK of the desired camera pose from each seed,
     whose result is the nearest of the first :data:`CANDIDATES` exact goals, and the
@@ -259,9 +266,12 @@ def search_steps(
     target = model.camera_goal(bMc) if isinstance(model, MomentModel) else camera_goal(model, bMc)
     ok: Clear = _anywhere if clear is None else clear
     met = Met() if met is None else met
-    stages = {"feature": _feature_stage(model, seeds, lo, hi, ok, met)}
+    if memo is not None:  # the seeds' results hold for this model, camera goal and bounds
+        goal = np.zeros(16) if target is None else np.ravel(target)
+        memo.bind(np.concatenate([model_key(model), [target is None], goal, lo, hi]))
+    stages = {"feature": _feature_stage(model, seeds, lo, hi, ok, met, memo)}
     if target is not None:
-        stages = {"pose": _pose_stage(model, target, seeds, lo, hi, ok, met), **stages}
+        stages = {"pose": _pose_stage(model, target, seeds, lo, hi, ok, met, memo), **stages}
     bests = yield from _in_turn(
         stages, {"pose": POSE_SHARE, "feature": 1}, lambda ended: "pose" in ended and bool(met.pose)
     )
@@ -273,74 +283,6 @@ def search_steps(
     if best[1] is not None and best[0] < 0.1 * goal_error(model, q):
         return best[0], best[1]
     return None
-
-
-class Met:
-    """The exact goals a running search has met (:func:`search_steps`): those of the pose
-    stage in the order met (and their errors ``‖e‖``), and the feature stage's (its result,
-    ``(‖e‖, q)``)."""
-
-    def __init__(self) -> None:
-        self.pose: list[FloatArray] = []
-        self.pose_error: list[float] = []
-        self.feature: tuple[float, FloatArray] | None = None
-
-
-Best = tuple[float, FloatArray | None]
-"""A stage's best configuration met ``(‖e‖, q)`` (``(inf, None)``: none)."""
-
-
-def _pose_stage(
-    model: PointModel | MomentModel,
-    target: FloatArray,
-    seeds: list[FloatArray],
-    lo: FloatArray,
-    hi: FloatArray,
-    ok: Clear,
-    met: Met,
-) -> Generator[None, None, Best]:
-    """The pose IK of ``target`` from each seed, polished by feature-space IK: each exact
-    goal appended to ``met.pose``, until :data:`CANDIDATES` of them; returns the best
-    inexact configuration met."""
-    from redservo.robots.ik import ik_steps  # scipy: not loaded by ``import redservo``
-
-    best: Best = (np.inf, None)
-    for seed in seeds:
-        qs = yield from ik_steps(model.robot, target, seed, lo, hi)
-        if qs is None:
-            continue
-        r, qp = yield from _ik_from(model, qs, lo, hi, 30, TOL)
-        if qp is not None and not ok(qp):
-            continue
-        if r < TOL and qp is not None:
-            met.pose.append(qp)
-            met.pose_error.append(r)
-            if len(met.pose) == CANDIDATES:
-                break
-        best = min(best, (r, qp), key=lambda b: b[0])
-    return best
-
-
-def _feature_stage(
-    model: PointModel | MomentModel,
-    seeds: list[FloatArray],
-    lo: FloatArray,
-    hi: FloatArray,
-    ok: Clear,
-    met: Met,
-) -> Generator[None, None, Best]:
-    """Feature-space IK from each seed in turn until one reaches an exact goal (set as
-    ``met.feature``); returns the best configuration met before it."""
-    best: Best = (np.inf, None)
-    for seed in seeds:
-        r, qp = yield from _ik_from(model, np.clip(seed, lo, hi), lo, hi, 100, TOL)
-        if qp is not None and not ok(qp):
-            continue
-        if r < TOL and qp is not None:
-            met.feature = (r, qp)
-            break
-        best = min(best, (r, qp), key=lambda b: b[0])
-    return best
 
 
 def _in_turn(
@@ -403,50 +345,3 @@ pose stage's four exact goals are met in about the periods they took with the st
 the feature stage's goal still in the first periods where the pose stage meets none
 (mc05-joint-limits). Measured at N = 200 (docs/results.md, "The Panda's early goal"): with
 1 for 1, panda-near-limits 125/132 on the ideal sensor, with 3, 127/132 (mc05 93 and 94/94)."""
-
-CANDIDATES = 4
-"""Exact goals collected before the nearest to ``q`` is chosen (a far goal takes a long
-joint-space path, which the image constraint blocks more often)."""
-
-TOL = 1e-5
-"""Error ``‖e(q*)‖`` (task units: normalized image coordinates, moments) of a joint goal."""
-
-
-def _ik_from(
-    model: PointModel | MomentModel,
-    q: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    iterations: int,
-    tol: float,
-) -> Generator[None, None, tuple[float, FloatArray | None]]:
-    """Projected damped least squares on ``e(q) = C (s(q) - s*)`` within ``[lo, hi]`` from
-    ``q``: ``(error, q)`` of the best configuration met (``error < tol``: converged; ``inf,
-    None``: the prediction failed at the seed). A seed is given up when its error has not
-    fallen below 0.99 of its best for :data:`STALL` iterations (stuck against the bounds or
-    in a local minimum). One iteration per ``yield`` (:func:`search_steps`)."""
-    from redservo.robots.ik import Stall, projected_step  # scipy: not loaded by ``import redservo``
-
-    hz = horizon(1, 1)
-    best: tuple[float, FloatArray | None] = (np.inf, None)
-    stalled = Stall(STALL)
-    for _ in range(iterations):
-        pred = model.predict(q, np.zeros((1, q.shape[0])), hz, 0.0)
-        if pred is None:
-            return best
-        e, G = pred.e[0], pred.G[0]
-        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(e))):
-            return best
-        size = float(np.linalg.norm(e))
-        if stalled(size):  # stuck against the bounds or in a local minimum
-            return best
-        if stalled.since == 0:
-            best = (size, q)
-        if size < tol:
-            return best
-        nxt = projected_step(G, -e, q, lo, hi, 1e-3, 0.3)
-        if nxt is None:
-            return best
-        q = nxt
-        yield
-    return best

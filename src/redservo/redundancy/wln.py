@@ -60,7 +60,15 @@ from redservo.kernels import lazy
 from redservo.limits import JointLimits
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.declare import LawKernel
-from redservo.redundancy.kio import I_PROJ, I_RANK, kernel_inputs, optional, task_context
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import (
+    I_PROJ,
+    I_RANK,
+    LawOutputs,
+    kernel_inputs,
+    optional,
+    task_context,
+)
 from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
 from redservo.redundancy.packs import limits_pack
@@ -208,28 +216,38 @@ class WeightedLeastNorm(Law):
             _REPORT_GRAD,
         )
         self._remember(abs_grad)
+        mask, vals, src = _KE.wln_events(m, n, iout, self.filter_threshold)
+        out = LawOutputs(iout, fout, penalized, abs_grad, blocked, mask, vals, src)
+        return LawResult(qdot, self.diagnose(m, out))
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
+        append, the safety layer's): its own call's (:meth:`compute`) and the compiled
+        step's (the Controller's engine, a call through the step kernel) alike. ``axes``
+        holds the penalized joints, ``vec`` those blocked at a limit; ``iout[I_PROJ]`` is 0
+        without a secondary command."""
+        iout, fout = out.iout, out.fout
         rank = int(iout[I_RANK])
-        thr = self.filter_threshold
-        mask, vals, src = _KE.wln_events(m, n, iout, thr)
         ctx = {}
-        if mask:
+        if out.mask:
+            blocked = out.vec
             ctx = {
-                **task_context(m, iout, fout, thr),
+                **task_context(m, iout, fout, self.filter_threshold),
                 "wrank": int(iout[_I_WRANK]),
                 "wfiltered": int(iout[_I_WFILTERED]),
                 "wcond": float(fout[_F_WCOND]),
                 "blocked": lambda: np.flatnonzero(blocked).tolist(),
             }
-        axes = tuple(int(i) for i in np.flatnonzero(penalized))
-        diag = Diagnostics(
+        found = events(out.mask, out.vals, out.src, **ctx)
+        axes = tuple(int(i) for i in np.flatnonzero(out.axes))
+        return Diagnostics(
             method=self.name,
             task_rank=rank,
             rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]) if k.has_sec else 0,
+            projector_rank=int(iout[I_PROJ]),
             critical=(axes,) if axes else (),
-            events=events(mask, vals, src, **ctx),
+            events=(*found, *more) if more else found,
         )
-        return LawResult(qdot, diag)
 
 
 class _WeightedLeastNormHistory(WeightedLeastNorm):

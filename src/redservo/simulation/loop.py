@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -53,6 +53,7 @@ from redservo.control.objectives import (
     visible_points,
 )
 from redservo.errors import GeometryError
+from redservo.kernels import lazy
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
@@ -64,6 +65,11 @@ from redservo.sensors import FrameNoise, IdealSensor, Sensor, SensorReading
 from redservo.sensors.flags import sensor_flags
 from redservo.simulation.options import SimulationOptions
 from redservo.task import TaskState, VisualTask
+
+if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
+    from redservo.kernels import in_image as _KI
+else:
+    _KI = lazy("in_image")
 
 __all__ = ["LIMIT_TOLERANCE", "Actuator", "SimulationResult", "simulate", "simulation_controller"]
 
@@ -86,6 +92,17 @@ class Actuator(Protocol):
 
 
 def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
+    """Every point of ``P`` (N, 3) (m, camera frame) in front of the camera and within its
+    image less ``margin_px`` (pixels): one compiled call for a camera without distortion
+    (:func:`redservo.kernels.in_image.points_in_image`), else numpy's code."""
+    if not cam.distorted and P.dtype == np.float64 and P.ndim == 2 and P.shape[1] == 3:
+        m = float(margin_px)
+        intrinsics = (float(cam.px), float(cam.py), float(cam.u0), float(cam.v0))
+        inside = _KI.points_in_image(
+            np.ascontiguousarray(P), intrinsics, (m, cam.width - m, cam.height - m)
+        )
+        if inside >= 0:
+            return inside == 1
     if np.any(P[:, 2] <= 1e-9):
         return False
     xy = P[:, :2] / P[:, 2:3]
