@@ -274,7 +274,7 @@ def check_unshielded(name: str, kw: dict[str, Any], res: Any) -> dict[str, bool]
     safe_ok, out_safe = stays(lim.safe_min, lim.safe_max)
     forced = float(np.where(hard_ok, 0.0, past).max())
     value = res.diagnostics.value(UNAVOIDABLE)
-    baseline = name in ("sns", "qp")
+    baseline = name in ("sns", "qp", "qp-goal")  # qp-goal: qp without a model (a bare call)
     wrong = (value is None) if forced > 0.0 else (value is not None)
     wrong = wrong or (value is not None and value != forced)
     chosen = bool(np.any(hard_ok & (past > 0.0)))
@@ -317,7 +317,7 @@ def check_call(
         n = q.shape[0]
         j_law = 1.7 * n * math.sqrt(10.0 * n * np.finfo(float).eps)
     nq = float(np.linalg.norm(qdot))
-    base = ctx["base_box"] if name in ("sns", "qp") else ctx["base"]
+    base = ctx["base_box"] if name in ("sns", "qp", "qp-goal") else ctx["base"]
     out["amp"] = nq / (base + j_law + 1e-300)
     out["amp_strict"] = nq / (ctx["strict"] + 1e-300)
     bound = amp_bound(name, q.shape[0], d.iterations)

@@ -58,11 +58,18 @@ def test_the_numbers_are_the_results_pages() -> None:
 
 
 def test_alternatives_take_another_approach_and_needed_the_shield_less() -> None:
-    assert alternatives("iterative-smooth") == ["gpm-auto", "wln", "sns", "qp", "predictive"]
+    assert alternatives("iterative-smooth") == [
+        "gpm-auto",
+        "wln",
+        "sns",
+        "qp",
+        "qp-goal",
+        "predictive",
+    ]
     for method in redservo.METHODS:
         for other in alternatives(method):
             assert APPROACHES[other] not in (APPROACHES[method], "none")
-    assert alternatives("qp") == ["predictive"]  # never needed the shield either
+    assert alternatives("qp") == ["qp-goal", "predictive"]  # never needed the shield either
 
 
 def test_only_a_failure_at_a_limit_gets_a_hint() -> None:
@@ -85,9 +92,9 @@ def test_compare_suggests_only_the_laws_it_did_not_run() -> None:
     rode = {"outcome": "converged", "success": False, "shield_activations": 9}
     line = compare_hint({"iterative-smooth": rode, "qp": ok}, "s.toml")
     assert line is not None and line.startswith("hint: iterative-smooth failed at a limit;")
-    assert ": gpm-auto, wln, sns, predictive; try them: " in line
+    assert ": gpm-auto, wln, sns, qp-goal, predictive; try them: " in line
     assert line.endswith(
-        "redservo compare s.toml --methods iterative-smooth,qp,gpm-auto,wln,sns,predictive "
+        "redservo compare s.toml --methods iterative-smooth,qp,gpm-auto,wln,sns,qp-goal,predictive "
         "(docs/choosing-a-law.md)"
     )
     assert compare_hint({"qp": ok}, "s.toml") is None
@@ -117,8 +124,8 @@ def test_a_urdf_compare_where_the_laws_ride_the_shield_suggests_the_others(
     assert hints == [
         "hint: iterative-smooth, gpm failed at a limit; laws not compared here that keep off the "
         "limits another way and needed the shield in fewer campaign runs (docs/results.md): "
-        f"gpm-auto, iterative, wln, sns, qp, predictive; try them: redservo compare {path} "
-        "--methods iterative-smooth,gpm,gpm-auto,iterative,wln,sns,qp,predictive "
+        f"gpm-auto, iterative, wln, sns, qp, qp-goal, predictive; try them: redservo compare "
+        f"{path} --methods iterative-smooth,gpm,gpm-auto,iterative,wln,sns,qp,qp-goal,predictive "
         "(docs/choosing-a-law.md)"
     ]
 
@@ -138,6 +145,11 @@ def test_a_urdf_run_that_rides_the_shield_suggests_laws_and_the_command(
     assert hints[0].startswith(
         "hint: iterative-smooth needed the position shield; the goal is reachable"
     )
-    assert "gpm-auto (31 %), wln (34 %), sns (0 %), qp (0 %), predictive (0 %)" in hints[0]
-    command = f"redservo compare {path} --methods iterative-smooth,gpm-auto,wln,sns,qp,predictive"
+    assert (
+        "gpm-auto (31 %), wln (34 %), sns (0 %), qp (0 %), qp-goal (0 %), predictive (0 %)"
+        in hints[0]
+    )
+    command = (
+        f"redservo compare {path} --methods iterative-smooth,gpm-auto,wln,sns,qp,qp-goal,predictive"
+    )
     assert command in hints[0], hints[0]

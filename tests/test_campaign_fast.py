@@ -21,8 +21,9 @@ from redservo.campaign.fastloop import campaign_law, fast_run, fast_summary
 from redservo.experiment.build import build
 from redservo.scenario import apply_overrides, load_scenario
 
-COMPILED = tuple(m for m in METHODS if m != "predictive")
-"""The methods with a compiled step (``predictive`` runs on the Python step: docs/predictive.md)."""
+COMPILED = tuple(m for m in METHODS if m not in ("predictive", "qp-goal"))
+"""The methods with a compiled step (``predictive`` and ``qp-goal`` run on the Python step:
+docs/predictive.md)."""
 
 
 def _exact(value: Any) -> Any:

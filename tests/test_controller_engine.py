@@ -25,7 +25,7 @@ from redservo.task import TaskTerm, VisualTask
 
 PTS = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]])
 S_STAR = np.array([-0.1, -0.1, 0.1, -0.1, 0.1, 0.1, -0.1, 0.1])
-COMPILED = [m for m in METHODS if m not in ("qp", "sns", "predictive")]
+COMPILED = [m for m in METHODS if m not in ("qp", "qp-goal", "sns", "predictive")]
 
 
 def _same(a: Any, b: Any) -> bool:

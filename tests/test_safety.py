@@ -263,13 +263,13 @@ def test_null_space_laws_keep_the_task(kw: dict[str, Any]) -> None:
 @given(cases(scales=False))
 def test_uniform_scaling_keeps_the_direction(kw: dict[str, Any]) -> None:
     """``q̇ = a + s (q̇_raw - a)`` with ``a`` the point of the rate box closest to 0, when
-    the shield did not act. ``sns``, ``qp`` and ``predictive`` put the rate box in their own
-    problem."""
+    the shield did not act. ``sns``, ``qp``, ``qp-goal`` and ``predictive`` put the rate box in
+    their own problem."""
     lim = kw["limits"]
     raw_kw = {**kw, "limits": lim.replace(qdot_max=None, qddot_max=None)}  # same margin
     anchor = np.clip(0.0, *rate_box(lim, kw["dt"], kw["qdot_prev"])[:2])
     for name in METHODS:
-        if name in ("sns", "qp", "predictive"):
+        if name in ("sns", "qp", "qp-goal", "predictive"):
             continue
         res = LAWS[name](**kw)
         if res.diagnostics.has(Flag.SHIELD_ACTED) or res.diagnostics.has(

@@ -60,6 +60,7 @@ METHOD_STYLES: dict[str, tuple[str, str]] = {
     "wln": ("#882255", "-"),
     "sns": ("#332288", "--"),
     "qp": ("#999933", "-"),
+    "qp-goal": ("#999933", "-."),
     "large-projection": ("#44AA99", "--"),
     "predictive": ("#AA4499", "-."),
 }

@@ -42,6 +42,7 @@ APPROACHES: dict[str, str] = {
     "wln": "a weighted inverse that slows the joints near a limit",
     "sns": "hard joint bounds, the task scaled when infeasible",
     "qp": "hard joint bounds, the task scaled when infeasible",
+    "qp-goal": "hard joint bounds and a joint goal, moved to when the task stalls",
     "predictive": "prediction of the limits over a horizon",
 }
 """How each law keeps the joints off their limits (``none``: it does not)."""
@@ -60,10 +61,11 @@ SHIELD_RUNS: dict[str, tuple[int, int]] = {
     "qp": (0, 800),
     "large-projection": (295, 800),
     "predictive": (0, 400),
+    "qp-goal": (0, 400),
 }
 """Per law, (runs in which the shield acted, runs) summed over the campaigns of
 docs/results.md: panda-near-limits, cm01-gaze, mc05-joint-limits and cm01-humanoid-tracking,
-200 runs each (``predictive``: the first and the third)."""
+200 runs each (``predictive`` and ``qp-goal``: the first and the third)."""
 
 
 def _share(method: str) -> float:

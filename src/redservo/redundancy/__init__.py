@@ -40,6 +40,7 @@ _MODULES = (
     "wln",
     "sns",
     "qp",
+    "qp_goal",
     "large_projection",
     "predictive",
 )
@@ -64,6 +65,7 @@ _ORDER = (
     "wln",
     "sns",
     "qp",
+    "qp-goal",
     "large-projection",
     "predictive",
 )
