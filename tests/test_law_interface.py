@@ -597,3 +597,29 @@ def test_a_law_call_through_the_step_kernel_equals_law_then_safety(
     assert fused.qdot.tobytes() == split.qdot.tobytes()
     assert repr(fused.diagnostics) == repr(split.diagnostics)  # some hold arrays
     assert fused.diagnostics.notes == split.diagnostics.notes
+
+
+@pytest.mark.parametrize("method", ["predictive", "qp-goal"])
+def test_set_safety_reaches_the_inner_law(method: str) -> None:
+    """A law that calls another for its commands (predictive's fallback, qp-goal's qp) sets
+    the same safety options on it, and a bad value changes neither."""
+    from redservo.redundancy.base import make_law
+
+    law = make_law(method)
+    (inner,) = law._inner_laws()
+    law.set_safety(shield=False, robust=False, scaling="secondary-first")
+    assert (inner.shield, inner.robust, inner.scaling) == (False, False, "secondary-first")
+    with pytest.raises(ConfigurationError, match="shield"):
+        law.set_safety(shield="yes")  # type: ignore[arg-type]
+    assert (law.shield, inner.shield) == (False, False)
+
+
+def test_a_bad_safety_option_changes_nothing() -> None:
+    """set_safety checks every value before it sets any: a bad ``robust`` leaves ``shield``
+    as it was (it used to be set before ``robust`` was checked)."""
+    from redservo.redundancy.base import make_law
+
+    law = make_law("classical")
+    with pytest.raises(ConfigurationError, match="robust"):
+        law.set_safety(shield=False, robust="no")  # type: ignore[arg-type]
+    assert law.shield is True

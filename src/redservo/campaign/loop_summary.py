@@ -31,7 +31,7 @@ from redservo.records.summary import (
     _ACCEL_RTOL,
     FlagCount,
     RunSummary,
-    clear_of_limits,
+    run_succeeded,
 )
 from redservo.redundancy.flags import FLAGS, Flag
 
@@ -188,13 +188,7 @@ def loop_summary(
     margin = float(values[0])
     v_viol, a_viol = int(counts[0]), int(counts[1])
     min_margin = exp.options.min_margin
-    success = (
-        outcome == "converged"
-        and clear_of_limits(margin, min_margin)
-        and v_viol == 0
-        and a_viol == 0
-        and shield == 0
-    )
+    success = run_succeeded(outcome, margin, min_margin, v_viol, a_viol, shield)
     return RunSummary(
         outcome=outcome,
         success=bool(success),

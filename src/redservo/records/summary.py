@@ -27,6 +27,7 @@ __all__ = [
     "RunSummary",
     "clear_of_limits",
     "flag_warnings",
+    "run_succeeded",
     "summarize",
 ]
 
@@ -52,6 +53,30 @@ def clear_of_limits(margin: float, required: float = SUCCESS_MARGIN) -> bool:
     """Whether a run's smallest margin (fraction of the range) meets ``required`` (a joint
     parked exactly on it, to roundoff, does)."""
     return bool(margin >= required - _MARGIN_ATOL)
+
+
+def run_succeeded(
+    outcome: str,
+    margin: float,
+    min_margin: float,
+    v_viol: int,
+    a_viol: int,
+    shield: int,
+    min_distance: float | None = None,
+) -> bool:
+    """A run's ``success``: converged, its smallest joint margin (fraction of the range)
+    clear of ``min_margin`` (:func:`clear_of_limits`), no velocity or acceleration excess
+    (steps), the position shield never acted (steps), and no collision pair overlapped
+    (``min_distance``, m, None when not measured). The one rule of every path (the
+    campaign loop's compiled summary, ``redservo.campaign.loop_summary``, too)."""
+    return bool(
+        _clear(min_distance)
+        and outcome == "converged"
+        and clear_of_limits(margin, min_margin)
+        and v_viol == 0
+        and a_viol == 0
+        and shield == 0
+    )
 
 
 _ACCEL_RTOL = 1e-9
@@ -210,13 +235,8 @@ def summarize(
     flags = _flag_counts(log)
     shield = flags[Flag.SHIELD_ACTED.label].count if Flag.SHIELD_ACTED.label in flags else 0
     extra = {**_closest(log, collision), **(distances or {}), **(singularity or {})}
-    success = (
-        _clear(extra["min_distance"])
-        and outcome == "converged"
-        and clear_of_limits(margin, min_margin)
-        and v_viol == 0
-        and a_viol == 0
-        and shield == 0
+    success = run_succeeded(
+        outcome, margin, min_margin, v_viol, a_viol, shield, extra["min_distance"]
     )
     return RunSummary(
         outcome=outcome,

@@ -42,7 +42,14 @@ from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.gain import AdaptiveGain
 from redservo.redundancy.inputs import LawInputs, validate_inputs
 from redservo.redundancy.linalg import ROBUST_FILTER, TaskSVD, task_svd
-from redservo.redundancy.options import RCOND, Option, check_option, constructor, options_doc
+from redservo.redundancy.options import (
+    RCOND,
+    Option,
+    check_option,
+    constructor,
+    options_doc,
+    safety_options,
+)
 from redservo.redundancy.safety import apply_safety
 
 __all__ = [
@@ -253,22 +260,18 @@ class Law(abc.ABC):
         robust: bool | None = None,
         scaling: Scaling | None = None,
     ) -> Law:
-        """Set the safety options (None keeps the current value); return ``self``."""
-        for key, value in (("shield", shield), ("robust", robust)):
-            if value is not None:
-                if not isinstance(value, bool | np.bool_):
-                    raise ConfigurationError(
-                        f"{key} must be true or false, got {value!r}", argument=key
-                    )
-                setattr(self, key, bool(value))
-        if scaling is not None:
-            if scaling not in ("uniform", "secondary-first"):
-                raise ConfigurationError(
-                    f"scaling must be 'uniform' or 'secondary-first', got {scaling!r}",
-                    argument="scaling",
-                )
-            self.scaling = scaling
+        """Set the safety options (None keeps the current value), on this law and its inner
+        laws (:meth:`_inner_laws`); return ``self``."""
+        for key, value in safety_options(shield, robust, scaling).items():
+            setattr(self, key, value)
+        for inner in self._inner_laws():
+            inner.set_safety(shield=shield, robust=robust, scaling=scaling)
         return self
+
+    def _inner_laws(self) -> tuple[Law, ...]:
+        """The laws this one calls for its commands (``predictive``'s fallback, ``qp-goal``'s
+        ``qp``): :meth:`set_safety` sets theirs too (default: none)."""
+        return ()
 
     def __call__(
         self,

@@ -32,6 +32,7 @@ __all__ = [
     "constructor",
     "describe",
     "options_doc",
+    "safety_options",
     "slotted",
 ]
 
@@ -268,3 +269,26 @@ def slotted(
     for name, kind in packed:
         slots[name] = take(kind)
     return tuple(out), slots
+
+
+def safety_options(shield: Any, robust: Any, scaling: Any) -> dict[str, Any]:
+    """The safety options :meth:`~redservo.redundancy.base.Law.set_safety` sets, checked:
+    ``shield`` and ``robust`` booleans, ``scaling`` ``"uniform"`` or ``"secondary-first"``;
+    None keeps the current value (left out). Anything else is a
+    :class:`~redservo.errors.ConfigurationError` naming the option."""
+    out: dict[str, Any] = {}
+    for key, value in (("shield", shield), ("robust", robust)):
+        if value is not None:
+            if not isinstance(value, bool | np.bool_):
+                raise ConfigurationError(
+                    f"{key} must be true or false, got {value!r}", argument=key
+                )
+            out[key] = bool(value)
+    if scaling is not None:
+        if scaling not in ("uniform", "secondary-first"):
+            raise ConfigurationError(
+                f"scaling must be 'uniform' or 'secondary-first', got {scaling!r}",
+                argument="scaling",
+            )
+        out["scaling"] = scaling
+    return out

@@ -58,7 +58,6 @@ from redservo.redundancy.base import (
     Law,
     LawInputs,
     LawResult,
-    Scaling,
     register,
 )
 from redservo.redundancy.flags import FLAGS
@@ -165,17 +164,9 @@ class Predictive(Law):
         self.last_model: Model | None = None
         """The global model of the last solve (None: the local model)."""
 
-    def set_safety(
-        self,
-        *,
-        shield: bool | None = None,
-        robust: bool | None = None,
-        scaling: Scaling | None = None,
-    ) -> Law:
-        """:meth:`Law.set_safety`, on the fallback law too."""
-        super().set_safety(shield=shield, robust=robust, scaling=scaling)
-        self._fallback.set_safety(shield=shield, robust=robust, scaling=scaling)
-        return self
+    def _inner_laws(self) -> tuple[Law, ...]:
+        """The fallback law: :meth:`Law.set_safety` sets its safety options too."""
+        return (self._fallback,)
 
     def reset(self) -> None:
         """Forget the warm start and the observation."""

@@ -58,7 +58,6 @@ from redservo.redundancy.base import (
     Law,
     LawInputs,
     LawResult,
-    Scaling,
     register,
 )
 from redservo.redundancy.flags import Event, Flag
@@ -230,17 +229,9 @@ class QpGoal(Law):
         self._search = GoalSearch(GOAL_RANDOM_SEEDS)
         self.reset()
 
-    def set_safety(
-        self,
-        *,
-        shield: bool | None = None,
-        robust: bool | None = None,
-        scaling: Scaling | None = None,
-    ) -> Law:
-        """:meth:`Law.set_safety`, on the inner ``qp`` law too."""
-        super().set_safety(shield=shield, robust=robust, scaling=scaling)
-        self._qp.set_safety(shield=shield, robust=robust, scaling=scaling)
-        return self
+    def _inner_laws(self) -> tuple[Law, ...]:
+        """The inner ``qp`` law: :meth:`Law.set_safety` sets its safety options too."""
+        return (self._qp,)
 
     def reset(self) -> None:
         """Forget the goal, its search, the stall counter, the mode and the model."""
