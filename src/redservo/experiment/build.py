@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from redservo.simulation.loop import Actuator, simulation_controller
 from redservo.spatial import inverse
 from redservo.task import TaskTerm, VisualTask
 
-__all__ = ["Experiment", "build", "build_robot", "run_scenario"]
+__all__ = ["Experiment", "SharedParts", "build", "build_robot", "run_scenario", "scenario_law"]
 
 
 @dataclass
@@ -303,6 +303,25 @@ def _actuator(sc: Scenario, spec: ScenarioSpec, n: int) -> Actuator | None:
         raise _key(sc, "actuators", exc, type(a).model_fields, "actuators") from None
 
 
+class SharedParts(NamedTuple):
+    """The parts of an experiment a campaign's samples share, built once from its base
+    scenario (:mod:`redservo.campaign.sample_build`): the robot before mounting, its limits,
+    the law and the camera."""
+
+    robot: Robot
+    limits: JointLimits
+    law: Law
+    camera: Camera
+
+
+def scenario_law(spec: ScenarioSpec) -> Law:
+    """The ``[control]`` law of a scenario, with its safety options and law options."""
+    ctl = spec.control
+    return make_law(
+        ctl.method, shield=ctl.shield, robust=ctl.robust, scaling=ctl.scaling, **ctl.options
+    )
+
+
 def build_robot(sc: Scenario) -> Robot:
     """Only the scenario's robot, with the file's limit overrides (no scene, task or law).
 
@@ -314,31 +333,36 @@ def build_robot(sc: Scenario) -> Robot:
     return robot
 
 
-def build(sc: Scenario, *, robot: Robot | None = None) -> Experiment:
+def build(
+    sc: Scenario, *, robot: Robot | None = None, shared: SharedParts | None = None
+) -> Experiment:
     """Build the robot, scene, task, law and options of a scenario.
 
     Args:
         sc: The scenario.
         robot: Use this robot, as it is, instead of building the scenario's (e.g. a saved
             run's :class:`~redservo.runs.kinematics.LoggedRobot`, already mounted).
+        shared: Use these parts, built once from a campaign's base scenario, instead of
+            building them (:mod:`redservo.campaign.sample_build`: its samples differ only
+            in what the other steps build).
 
     Raises:
         ScenarioError: anything in the file is invalid or inconsistent (names the key).
     """
     spec = sc.spec
-    given = robot is not None
-    robot = _robot(sc, spec) if robot is None else robot
-    limits = _limits(sc, spec, robot)
+    given = robot is not None and shared is None  # a robot to use as it is
+    if shared is not None:
+        robot, limits = shared.robot, shared.limits
+    else:
+        robot = _robot(sc, spec) if robot is None else robot
+        limits = _limits(sc, spec, robot)
     if not given:
         robot = mounted_robot(sc, robot)  # camera.mount = "world": the eye-to-hand wrapper
     q0 = _start(sc, spec, robot, limits)
     scene = _scene(sc, spec, robot, q0)
     task = _task(sc, spec, scene)
-    ctl = spec.control
-    law = make_law(
-        ctl.method, shield=ctl.shield, robust=ctl.robust, scaling=ctl.scaling, **ctl.options
-    )
-    camera = scenario_camera(sc)
+    law = scenario_law(spec) if shared is None else shared.law
+    camera = scenario_camera(sc) if shared is None else shared.camera
     options = _options(sc, spec, robot, camera)
     exp = Experiment(sc, robot, scene, task, law, q0, limits, options, camera)
     exp.sensor = scenario_sensor(sc, camera)
