@@ -9,8 +9,8 @@ from redservo.redundancy.base import Diagnostics, Law, LawInputs, LawResult, reg
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
-from redservo.redundancy.kio import I_PROJ, I_RANK, LawOutputs, task_context
-from redservo.redundancy.messages import events
+from redservo.redundancy.kio import LawOutputs
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 
 __all__ = ["Classical"]
 
@@ -43,16 +43,4 @@ class Classical(Law):
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
         append, the safety layer's)."""
-        iout = out.iout
-        rank = int(iout[I_RANK])
-        found: tuple[Event, ...] = ()
-        if out.mask:
-            ctx = task_context(m, iout, out.fout, self.filter_threshold)
-            found = events(out.mask, out.vals, out.src, **ctx)
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
-            events=(*found, *more) if more else found,
-        )
+        return kernel_diagnostics(self, m, out, more)

@@ -102,12 +102,10 @@ from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
-    I_PROJ,
     I_RANK,
     LawOutputs,
-    task_context,
 )
-from redservo.redundancy.messages import events
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 from redservo.redundancy.options import Option, slotted
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
@@ -292,15 +290,4 @@ class Directional(Law):
                 f"task directions: {int(iout[_I_FREED])} free, {int(iout[_I_CLIPPED])} clipped, "
                 f"{int(iout[_I_BLOCKED])} blocked (of {r}); {n - r} null-space direction(s)"
             )
-        found: tuple[Event, ...] = ()
-        if out.mask:
-            ctx = task_context(m, iout, out.fout, self.filter_threshold)
-            found = events(out.mask, out.vals, out.src, **ctx)
-        return Diagnostics(
-            method=self.name,
-            task_rank=r,
-            rank_deficient=r < m,
-            projector_rank=int(iout[I_PROJ]),
-            events=(*found, *more) if more else found,
-            info=tuple(info),
-        )
+        return kernel_diagnostics(self, m, out, more, info=tuple(info))

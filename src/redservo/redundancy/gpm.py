@@ -67,13 +67,11 @@ from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     F_ALPHA,
-    I_PROJ,
-    I_RANK,
     LawOutputs,
     task_context,
 )
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 from redservo.redundancy.linalg import TaskSVD
-from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
 
 __all__ = ["ALPHA_FILTER", "GradientProjection", "GradientProjectionAuto", "null_project"]
@@ -138,21 +136,9 @@ class GradientProjection(Law):
     def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
         append, the safety layer's): the axes in the band are the critical ones."""
-        iout = out.iout
-        rank = int(iout[I_RANK])
         band = tuple(int(i) for i in np.flatnonzero(out.axes))
-        found: tuple[Event, ...] = ()
-        if out.mask:
-            ctx = task_context(m, iout, out.fout, self.filter_threshold)
-            found = events(out.mask, out.vals, out.src, **ctx)
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
-            critical=(band,) if band else (),
-            alpha=self.alpha,
-            events=(*found, *more) if more else found,
+        return kernel_diagnostics(
+            self, m, out, more, critical=(band,) if band else (), alpha=self.alpha
         )
 
 
@@ -218,21 +204,16 @@ class GradientProjectionAuto(Law):
         append, the safety layer's; ``axf`` holds the candidates): the stopped axis is critical
         when a positive α is applied."""
         iout, fout = out.iout, out.fout
-        rank = int(iout[I_RANK])
         axis = int(iout[_I_K])
         alpha = float(fout[F_ALPHA])
-        found: tuple[Event, ...] = ()
-        if out.mask:
-            ctx = self._context(m, iout, fout, out.axf)
-            found = events(out.mask, out.vals, out.src, **ctx)
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
+        return kernel_diagnostics(
+            self,
+            m,
+            out,
+            more,
+            lambda: self._context(m, iout, fout, out.axf),
             critical=((axis,),) if alpha > 0.0 else (),
             alpha=alpha,
-            events=(*found, *more) if more else found,
         )
 
     def _context(

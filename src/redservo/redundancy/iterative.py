@@ -111,15 +111,13 @@ from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     I_ITER,
     I_OVER,
-    I_PROJ,
-    I_RANK,
     LawOutputs,
     levels,
     optional,
     task_context,
 )
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 from redservo.redundancy.linalg import DEFAULT_RCOND
-from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
 from redservo.redundancy.packs import limits_pack
 
@@ -297,20 +295,16 @@ class _IterativeLaw(Law):
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
         append, the safety layer's; ``axf`` holds γ, ``vec`` the gains a then b)."""
         iout, vec = out.iout, out.vec
-        rank = int(iout[I_RANK])
         count = int(iout[I_ITER])
         n_a = int(iout[_I_NA])
         nb = max(count - 1, 0) * n_a
         con = CONSTRAINT_FILTER if self.robust else 0.0
-        found: tuple[Event, ...] = ()
-        if out.mask:
-            ctx = _context(m, iout, out.fout, vec, self.filter_threshold, con)
-            found = events(out.mask, out.vals, out.src, **ctx)
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
+        return kernel_diagnostics(
+            self,
+            m,
+            out,
+            more,
+            lambda: _context(m, iout, out.fout, vec, self.filter_threshold, con),
             critical=levels(out.axes, count),
             iterations=count,
             overconstrained=bool(iout[I_OVER]),
@@ -318,7 +312,6 @@ class _IterativeLaw(Law):
             a=vec[:n_a],
             b=vec[n_a : n_a + nb],
             gamma=out.axf,
-            events=(*found, *more) if more else found,
         )
 
 

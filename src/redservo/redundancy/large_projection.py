@@ -60,7 +60,7 @@ Decisions (the paper is silent or ambiguous; listed for docs/decisions.md):
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -74,13 +74,11 @@ from redservo.redundancy.flags import Event
 from redservo.redundancy.kernel_call import kernel_compute
 from redservo.redundancy.kio import (
     F_ALPHA,
-    I_PROJ,
-    I_RANK,
     LawOutputs,
     task_context,
 )
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 from redservo.redundancy.linalg import DEFAULT_RCOND, TaskSVD, task_svd
-from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option, slotted
 from redservo.redundancy.packs import limits_pack
 
@@ -353,24 +351,25 @@ class LargeProjection(Law):
         """The diagnostics from the kernel's outputs ``out`` (m task rows; ``more``: events to
         append, the safety layer's): the axes whose projector entry was activated are critical."""
         iout, fout, axes = out.iout, out.fout, out.axes
-        rank = int(iout[I_RANK])
         thr, pf = self.filter_threshold, P_FILTER if self.robust else 0.0
         info: list[str] = []
         if iout[_I_DEGENERATE]:
             info.append("J1^T e1 ≈ 0: norm projector replaced by the identity")
         activated = tuple(int(i) for i in np.flatnonzero(axes))
-        ctx = {}
-        if out.mask:
+
+        def context() -> dict[str, Any]:
             n_pf = int(np.count_nonzero(axes == 2))
             ctx = {**task_context(m, iout, fout, thr), "pf": pf, "n_pf": n_pf}
             ctx["inv_pf"] = 1.0 / pf if pf else np.inf
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
+            return ctx
+
+        return kernel_diagnostics(
+            self,
+            m,
+            out,
+            more,
+            context,
             critical=(activated,) if activated else (),
             alpha=float(fout[F_ALPHA]),
-            events=(*events(out.mask, out.vals, out.src, **ctx), *more),
             info=tuple(info),
         )

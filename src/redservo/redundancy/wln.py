@@ -62,14 +62,12 @@ from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResu
 from redservo.redundancy.declare import LawKernel
 from redservo.redundancy.flags import Event
 from redservo.redundancy.kio import (
-    I_PROJ,
-    I_RANK,
     LawOutputs,
     kernel_inputs,
     optional,
     task_context,
 )
-from redservo.redundancy.messages import events
+from redservo.redundancy.law_diagnostics import kernel_diagnostics
 from redservo.redundancy.options import Option, slotted
 from redservo.redundancy.packs import limits_pack
 
@@ -226,28 +224,19 @@ class WeightedLeastNorm(Law):
         step's (the Controller's engine, a call through the step kernel) alike. ``axes``
         holds the penalized joints, ``vec`` those blocked at a limit; ``iout[I_PROJ]`` is 0
         without a secondary command."""
-        iout, fout = out.iout, out.fout
-        rank = int(iout[I_RANK])
-        ctx = {}
-        if out.mask:
-            blocked = out.vec
-            ctx = {
+        iout, fout, blocked = out.iout, out.fout, out.vec
+
+        def context() -> dict[str, Any]:
+            return {
                 **task_context(m, iout, fout, self.filter_threshold),
                 "wrank": int(iout[_I_WRANK]),
                 "wfiltered": int(iout[_I_WFILTERED]),
                 "wcond": float(fout[_F_WCOND]),
                 "blocked": lambda: np.flatnonzero(blocked).tolist(),
             }
-        found = events(out.mask, out.vals, out.src, **ctx)
+
         axes = tuple(int(i) for i in np.flatnonzero(out.axes))
-        return Diagnostics(
-            method=self.name,
-            task_rank=rank,
-            rank_deficient=rank < m,
-            projector_rank=int(iout[I_PROJ]),
-            critical=(axes,) if axes else (),
-            events=(*found, *more) if more else found,
-        )
+        return kernel_diagnostics(self, m, out, more, context, critical=(axes,) if axes else ())
 
 
 class _WeightedLeastNormHistory(WeightedLeastNorm):
