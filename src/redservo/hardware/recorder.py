@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import Any, Literal, cast, get_args
 
 import numpy as np
 
@@ -44,18 +44,7 @@ ServoOutcome = Literal[
     "interrupted",
     "max_iterations",
 ]
-SERVO_OUTCOMES: tuple[ServoOutcome, ...] = (
-    "converged",
-    "stopped",
-    "stale_measurement",
-    "clock_fault",
-    "late",
-    "not_following",
-    "objective_stop",
-    "error",
-    "interrupted",
-    "max_iterations",
-)
+SERVO_OUTCOMES: tuple[ServoOutcome, ...] = get_args(ServoOutcome)
 
 
 @dataclass

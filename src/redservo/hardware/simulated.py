@@ -21,9 +21,10 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redservo._validation import FloatArray, as_vector
-from redservo.errors import ConfigurationError, JointLimitError
+from redservo._validation import FloatArray
+from redservo.errors import ConfigurationError
 from redservo.hardware.actuators import ActuatorModel
+from redservo.hardware.clocked import ClockedArm
 from redservo.hardware.protocols import FeatureMeasurement
 from redservo.robots.base import Robot
 from redservo.scene import Scene
@@ -31,8 +32,6 @@ from redservo.sensors import FrameNoise, IdealSensor, Sensor
 from redservo.task import VisualTask
 
 __all__ = ["IdealFeatureSource", "SimulatedRobot", "VirtualClock"]
-
-_LIMIT_TOL = 1e-9  # m or rad, as JointLimits.check and the simulator
 
 
 class VirtualClock:
@@ -60,7 +59,7 @@ class VirtualClock:
     advance = sleep
 
 
-class SimulatedRobot:
+class SimulatedRobot(ClockedArm):
     """A robot model with actuator dynamics, driven through the robot interface.
 
     The state advances in whole steps of ``period`` seconds of ``clock`` each time it is
@@ -82,6 +81,8 @@ class SimulatedRobot:
         ConfigurationError: ``period`` is not positive.
     """
 
+    label = "simulated robot"
+
     def __init__(
         self,
         robot: Robot,
@@ -95,44 +96,22 @@ class SimulatedRobot:
             raise ConfigurationError(
                 f"period must be a positive step (s), got {period!r}", argument="period"
             )
-        self.robot = robot
         self.actuator = actuator
-        self.clock = clock
-        self.period = float(period)
-        self._limits = robot.limits()
-        self.q = self._limits.check(q0, "q0").copy()
-        actuator.reset(self.q)
-        self.t_start = float(clock())
-        self._t = self.t_start
-        self._cmd = np.zeros(robot.n)
-        self.fault: str | None = None
-        self.commands = 0
-        self.stops = 0
+        self._begin(robot, q0, clock, period)
 
-    @property
-    def t(self) -> float:
-        """Time (s, on ``clock``) of the simulated state."""
-        return self._t
+    def _place(self, q: FloatArray) -> None:
+        self.q = q.copy()
+        self.actuator.reset(self.q)
 
-    def _advance(self) -> None:
-        """Step the actuator up to the clock's current time."""
-        steps = math.floor((self.clock() - self._t) / self.period + 1e-6)
-        for _ in range(max(steps, 0)):
-            cmd = self._cmd if self.fault is None else np.zeros_like(self._cmd)
-            q_next, _ = self.actuator.step(self.q, cmd, self.period)
-            self._t += self.period
-            lo, hi = self._limits.q_min, self._limits.q_max
-            # Beyond a limit by more than the roundoff of a step commanded onto it (the
-            # simulator's LIMIT_TOLERANCE): a crossing.
-            crossed = np.flatnonzero((q_next < lo - _LIMIT_TOL) | (q_next > hi + _LIMIT_TOL))
-            if crossed.size and self.fault is None:
-                i = int(crossed[0])
-                self.fault = (
-                    f"simulated robot: joint {i} ({self.robot.joint_names[i]}) reached its "
-                    f"limit at t = {self._t - self.t_start:.3f} s; protective stop"
-                )
-                self.actuator.reset(np.clip(q_next, lo, hi))
-            self.q = np.clip(q_next, lo, hi)
+    def _physics_step(self, cmd: FloatArray) -> FloatArray:
+        q_next, _ = self.actuator.step(self.q, cmd, self.period)
+        return q_next
+
+    def _on_fault(self, q: FloatArray) -> None:
+        self.actuator.reset(np.clip(q, self._limits.q_min, self._limits.q_max))
+
+    def _settle(self, q: FloatArray) -> None:
+        self.q = np.clip(q, self._limits.q_min, self._limits.q_max)
 
     def true_pose(self) -> FloatArray:
         """Return the true camera pose ``bMc`` (4x4) now."""
@@ -146,24 +125,9 @@ class SimulatedRobot:
         self._advance()
         return self._t, self.actuator.encoder(self.q)
 
-    def send_velocity(self, qdot: FloatArray) -> None:
-        """Hold the command ``qdot`` (n,) from now on.
-
-        Raises:
-            JointLimitError: the robot faulted on a joint limit (see the class docstring).
-        """
-        self._advance()
-        if self.fault is not None:
-            raise JointLimitError(self.fault)
-        self._cmd = as_vector(qdot, "qdot", self.robot.n).copy()
-        self.commands += 1
-
-    def stop(self) -> None:
-        """Command zero velocity and drop the commands still in the delay line."""
-        self._advance()
-        self._cmd = np.zeros(self.robot.n)
+    def _on_stop(self) -> None:
+        """Drop the commands still in the actuator's delay line."""
         self.actuator.flush()
-        self.stops += 1
 
 
 class IdealFeatureSource:

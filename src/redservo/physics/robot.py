@@ -20,16 +20,14 @@ import math
 import time
 from collections.abc import Callable
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from redservo._validation import FloatArray, as_vector
-from redservo.errors import ConfigurationError, JointLimitError
+from redservo.errors import ConfigurationError
+from redservo.hardware.clocked import ClockedArm
 from redservo.physics.arm import MujocoArm
 
 __all__ = ["MujocoActuator", "MujocoRobot"]
-
-_LIMIT_TOL = 1e-9  # m or rad, as the simulator's LIMIT_TOLERANCE
 
 
 class MujocoActuator:
@@ -58,7 +56,7 @@ class MujocoActuator:
         return as_vector(q, "q")
 
 
-class MujocoRobot:
+class MujocoRobot(ClockedArm):
     """A MuJoCo arm driven through the robot interface, on the loop's clock (module docstring).
 
     Args:
@@ -73,6 +71,8 @@ class MujocoRobot:
         JointLimitError: ``q0`` is outside the limits.
         ConfigurationError: ``period`` is not a positive multiple of the physics step.
     """
+
+    label = "MuJoCo robot"
 
     def __init__(
         self,
@@ -90,39 +90,14 @@ class MujocoRobot:
                 argument="period",
             )
         self.arm = arm
-        self.robot = arm.robot
-        self.clock = clock
-        self.period = float(period)
-        self._limits = self.robot.limits()
-        q = self._limits.check(q0, "q0")
-        arm.set_q(q)
-        self.t_start = float(clock())
-        self._t = self.t_start
-        self._cmd = np.zeros(self.robot.n)
-        self.fault: str | None = None
-        self.commands = 0
-        self.stops = 0
+        self._begin(arm.robot, q0, clock, period)
 
-    @property
-    def t(self) -> float:
-        """Time (s, on ``clock``) of the simulated state."""
-        return self._t
+    def _place(self, q: FloatArray) -> None:
+        self.arm.set_q(q)
 
-    def _advance(self) -> None:
-        steps = math.floor((self.clock() - self._t) / self.period + 1e-6)
-        lo, hi = self._limits.q_min, self._limits.q_max
-        for _ in range(max(steps, 0)):
-            cmd = self._cmd if self.fault is None else np.zeros_like(self._cmd)
-            self.arm.step(cmd, self.period)
-            self._t += self.period
-            q = self.arm.q
-            crossed = np.flatnonzero((q < lo - _LIMIT_TOL) | (q > hi + _LIMIT_TOL))
-            if crossed.size and self.fault is None:
-                i = int(crossed[0])
-                self.fault = (
-                    f"MuJoCo robot: joint {i} ({self.robot.joint_names[i]}) reached its limit "
-                    f"at t = {self._t - self.t_start:.3f} s; protective stop"
-                )
+    def _physics_step(self, cmd: FloatArray) -> FloatArray:
+        self.arm.step(cmd, self.period)
+        return self.arm.q
 
     def true_pose(self) -> FloatArray:
         """The camera pose ``bMc`` (4x4) now, from MuJoCo's state."""
@@ -133,21 +108,3 @@ class MujocoRobot:
         """``(t, q)``: the state's time on the loop's clock (s) and the joint positions (n,)."""
         self._advance()
         return self._t, self.arm.q
-
-    def send_velocity(self, qdot: FloatArray) -> None:
-        """Hold ``qdot`` (n,) from now on.
-
-        Raises:
-            JointLimitError: the arm reached a joint limit (protective stop).
-        """
-        self._advance()
-        if self.fault is not None:
-            raise JointLimitError(self.fault)
-        self._cmd = as_vector(qdot, "qdot", self.robot.n).copy()
-        self.commands += 1
-
-    def stop(self) -> None:
-        """Command zero velocity (the drives brake under their velocity servo)."""
-        self._advance()
-        self._cmd = np.zeros(self.robot.n)
-        self.stops += 1
