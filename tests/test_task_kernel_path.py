@@ -92,7 +92,7 @@ def test_evaluate_runs_one_kernel_call_on_the_common_task(monkeypatch: pytest.Mo
     monkeypatch.setattr(task_mod._K, "points_interaction", None)  # not called any more
     monkeypatch.setattr(scene_mod, "as_transform", None)  # bMc is checked in the kernel
     task.evaluate(scene, bMc, J, 0.0)
-    assert calls == [7]
+    assert calls == [8]  # the points, s*, C, J and the arrays it writes into
 
 
 def test_inputs_the_kernel_does_not_take_get_the_numpy_path_and_its_errors(

@@ -21,7 +21,7 @@ import numpy as np
 from redservo._validation import FloatArray
 from redservo.features.plan import PointGroup
 from redservo.kernels import lazy
-from redservo.kernels.entry import entry_of
+from redservo.kernels.entry import Spares, entry_of
 from redservo.scene import Scene
 
 if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
@@ -55,11 +55,18 @@ class Hot:
     point (:mod:`redservo.kernels.entry`) with the kernel and the scene it was found for
     (``bMw``'s type comes from the scene). A task whose ``s_star`` or ``C`` was set since gets a new one."""
 
-    __slots__ = ("C", "Ck", "entry", "kernel", "s_star", "scene")
+    __slots__ = ("C", "Ck", "entry", "k", "kernel", "m", "s_star", "scene", "spares")
 
     def __init__(self, s_star: FloatArray, C: FloatArray | None) -> None:
         self.s_star, self.C = s_star, C
         self.Ck = _NO_C if C is None else C
+        self.k = s_star.shape[0]
+        """The number of point coordinates (2N)."""
+        self.m = self.k if C is None else C.shape[0]
+        """The task's rows."""
+        self.spares: Spares | None = None
+        """The arrays the kernel writes ``(s, iz, e, e1, L, J1)`` into, for the ``n`` of
+        the last call (:class:`~redservo.kernels.entry.Spares`)."""
         self.entry: Any = None
         self.kernel: object = None
         self.scene: object = None
@@ -79,14 +86,18 @@ def _forgotten() -> None:
     return None
 
 
-def _hot(task: VisualTask) -> Hot | None:
+def _hot(task: VisualTask, group: PointGroup) -> Hot | None:
     """A new :class:`Hot` for the task's ``s*`` and ``C`` (kept on the task), or None when
-    they are not as the kernel takes it."""
+    they are not as the kernel takes it (``s*`` (2N,) for the N points of ``group``, ``C``
+    (m, 2N))."""
     s_star, C = task.s_star, task.C
+    k = 2 * group.points.shape[0]
     if not (
         type(s_star) is np.ndarray
         and _ready(s_star)
-        and (C is None or (type(C) is np.ndarray and _ready(C)))
+        and s_star.shape == (k,)
+        and (C is None or (type(C) is np.ndarray and _ready(C) and C.ndim == 2))
+        and (C is None or C.shape[1] == k)
     ):
         return None
     hot = task.__dict__[_HOT] = Hot(s_star, C)
@@ -115,7 +126,7 @@ def evaluate(
     fJ, fb = J.flags, bMc.flags
     hot: Hot | None = task.__dict__.get(_HOT)
     if hot is None or hot.s_star is not task.s_star or hot.C is not task.C:
-        hot = _hot(task)
+        hot = _hot(task, group)
     if hot is None or not (fJ.c_contiguous and fb.c_contiguous):
         return None
     try:  # bMc is checked by the kernel; the numpy path raises in the documented order
@@ -127,15 +138,21 @@ def evaluate(
     fw = wMo.flags
     if not fw.c_contiguous:
         return None
-    args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J)
+    spares = hot.spares
+    if spares is None or spares.shapes[5][1] != J.shape[1]:
+        k, m = hot.k, hot.m
+        spares = hot.spares = Spares(((k,), (k >> 1,), (k,), (m,), (k, 6), (m, J.shape[1])))
+    out = spares.take()  # never handed out itself: the state holds its arrays
+    args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out)
     kernel = _KT.points_task
     plain = fJ.carray and fb.carray and fw.carray
     if plain and hot.entry and hot.scene is scene and hot.kernel is kernel:
-        s, iz, bad, e, e1, L, J1 = hot.entry(*args)
+        bad = hot.entry(*args)
     else:
-        s, iz, bad, e, e1, L, J1 = kernel(*args)
+        bad = kernel(*args)
         if plain:
             hot.entry, hot.kernel, hot.scene = entry_of(kernel, args), kernel, scene
     if bad != -1:  # a point behind the camera, or bMc not surely valid
         return None
+    s, iz, e, e1, L, J1 = out
     return s, iz, (e, e if hot.C is None else e1, L, J1)

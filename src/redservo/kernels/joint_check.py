@@ -14,8 +14,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-
 from redservo.kernels._jit import COMPILED, kernel
 from redservo.kernels.kinematics import afma6_kinematics
 
@@ -46,12 +44,17 @@ def afma6_checked(
     cVe: Any,
     coupling: float,
     offset: float,
-) -> Any:
-    """``(bMc, J, ok)``: :func:`joints_inside`, then when it holds the Afma6's
-    :func:`~redservo.kernels.kinematics.afma6_kinematics` (``bMc`` (4, 4), ``J`` (6, 6));
-    ``ok`` False (and empty arrays) when it does not."""
+    out: Any,
+) -> bool:
+    """:func:`joints_inside`, then when it holds the Afma6's
+    :func:`~redservo.kernels.kinematics.afma6_kinematics` written into the caller's float64
+    arrays ``out`` = ``(bMc, J)`` ((4, 4), (6, 6); cheaper than returning two new arrays,
+    which numba boxes at ≈ 0.4 µs apiece); True when the test held, False (``out`` not
+    written) when it did not."""
     if not joints_inside(q, q_min, q_max, check_limits):
-        none = np.empty((0, 0))
-        return none, none, False
+        return False
     bMc, J = afma6_kinematics(q, eMc, cVe, coupling, offset)
-    return bMc, J, True
+    bMc_out, J_out = out
+    bMc_out[:, :] = bMc
+    J_out[:, :] = J
+    return True

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 from redservo._validation import FloatArray, is_float_vector
 from redservo.errors import UnknownNameError
 from redservo.kernels import lazy
-from redservo.kernels.entry import entry_of, plain
+from redservo.kernels.entry import Spares, entry_of, plain
 from redservo.robots.base import Robot
 from redservo.robots.dh import check_q_named
 from redservo.robots.pack import RobotKind, RobotPack
@@ -95,10 +95,12 @@ class KinematicsEntry:
     (:meth:`Afma6.kinematics`): the robot's limits and ``eMc`` objects and the arguments
     after ``q``."""
 
-    __slots__ = ("args", "eMc", "entry", "limits")
+    __slots__ = ("args", "eMc", "entry", "limits", "spares")
 
     def __init__(self, entry: Any, limits: object, eMc: object, args: tuple[Any, ...]) -> None:
         self.entry, self.limits, self.eMc, self.args = entry, limits, eMc, args
+        self.spares = Spares(((4, 4), (6, 6)))
+        """The arrays the kernel writes ``bMc`` and ``J`` into (:mod:`redservo.kernels.entry`)."""
 
     def __reduce__(self) -> tuple[Any, ...]:
         """A pickled or copied robot forgets the entry (not picklable): its next call
@@ -228,16 +230,16 @@ class Afma6(Robot):
             and q.dtype == _F64
             and q.flags.carray
         ):
-            bMc, J, ok = hot.entry(q, *hot.args)
-            if ok:
-                return bMc, J
+            out = hot.spares.take()
+            if hot.entry(q, *hot.args, out):
+                return out[0], out[1]  # a new tuple: the caller holds the arrays themselves
         elif is_float_vector(q, 6) and type(self).check_q is Afma6.check_q and _KJ.COMPILED:
             args = (self.q_min, self.q_max, bool(check_limits), self._eMc, self._cVe)
-            bMc, J, ok = _KJ.afma6_checked(q, *args, COUPLING, OFFSET)
-            if ok:
+            out = (np.empty((4, 4)), np.empty((6, 6)))
+            if _KJ.afma6_checked(q, *args, COUPLING, OFFSET, out):
                 if check_limits is True and plain(q):
-                    self._find_entry((q, *args, COUPLING, OFFSET))
-                return bMc, J
+                    self._find_entry((q, *args, COUPLING, OFFSET, out))
+                return out
         qa = np.ascontiguousarray(self.check_q(q, check_limits=check_limits))
         bMc, J = _K.afma6_kinematics(qa, self._eMc, self._cVe, COUPLING, OFFSET)
         return bMc, J
@@ -250,7 +252,9 @@ class Afma6(Robot):
         numba's typing of the arguments); anything else takes the dispatcher."""
         entry = entry_of(_KJ.afma6_checked, args)
         if entry is not None:
-            self.__dict__["_kin_entry"] = KinematicsEntry(entry, self._limits, self._eMc, args[1:])
+            self.__dict__["_kin_entry"] = KinematicsEntry(
+                entry, self._limits, self._eMc, args[1:-1]
+            )
 
     # -- viewer ---------------------------------------------------------------------------------
 
