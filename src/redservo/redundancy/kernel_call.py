@@ -24,7 +24,7 @@ import numpy as np
 
 from redservo._validation import FloatArray
 from redservo.kernels import lazy
-from redservo.kernels.entry import entry_of
+from redservo.kernels.entry import Spares, entry_of
 from redservo.limits import JointLimits
 from redservo.redundancy.flags import Event
 from redservo.redundancy.gain import AdaptiveGain, gain_value
@@ -241,12 +241,15 @@ class Seen:
     """The signature of a law's last plain call (:func:`fast_call`), kept on the law
     (:data:`_SEEN`): what :func:`quick` compares a call with, and what it then reuses."""
 
-    __slots__ = ("bound", "entry", "layout", "limits", "m", "mn", "n", "pack", "state")
+    __slots__ = ("bound", "entry", "layout", "limits", "m", "mn", "n", "pack", "spares", "state")
 
     def __init__(self, law: Law, limits: JointLimits, mn: tuple[int, int], bound: Any) -> None:
         self.limits, self.pack, self.bound = limits, law.__dict__[_PACK], bound
         self.mn, self.m, self.n = mn, (mn[0],), (mn[1],)
         self.layout = _slices(mn[1])
+        self.spares = Spares(((self.layout[0],),))
+        """The kernel's buffers: one no result holds any more is written again (a loop's
+        calls alternate between two, warm in the caches; :class:`~redservo.kernels.entry.Spares`)."""
         self.entry: list[Any] = [None]  # the kernel's entry point, found by the first plain call
         self.state = dict(law.__dict__)
         """The law's attribute dictionary as the diagnostics read it: a public attribute
@@ -310,8 +313,8 @@ def quick(
         inputs = (_EMPTY, _EMPTY, cast(FloatArray, qdot_prev), _EMPTY)
     else:
         return None
-    size, parts = seen.layout
-    buf = np.empty(size)
+    parts = seen.layout[1]
+    buf = seen.spares.take()[0]  # held by the result's qdot and diagnostics, if kept
     law_pack, limits_t = seen.bound
     args = (q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
     entry = seen.entry
