@@ -313,10 +313,10 @@ class VisualTask:
         if group is not None and noise is None and type(scene).cMo is _SCENE_CMO:
             # The hot path: the points of one target (docs/speed.md, "Public object path"),
             # in one compiled call when the kernels are compiled and the inputs fit it.
-            if depth_scale == 1.0 and self.depth == "current" and _CP.compiled():
+            if depth_scale == 1.0 and self.depth == "current":
                 done = _CP.evaluate(scene, self, group, bMc, J, t)  # type: ignore[arg-type]
                 if done is not None:
-                    return _new_state(TaskState, (done[0], *done[2], group.split(done[1])))
+                    return _new_state(TaskState, done)
             cMo = scene.cMo(group.target_name, bMc, t)
             s, iz, bad = _K.points_measure(cMo, group.points)
             if bad >= 0:

@@ -35,8 +35,10 @@ __all__ = ["Hot", "compiled", "evaluate"]
 _F64 = np.dtype(np.float64)
 _NO_C = np.zeros((0, 0))
 
-Rows = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
-"""``(e, e1, L, J1)``: the error (k,), ``C e`` (m,), ``L`` (k, 6) and ``J1`` (m, n)."""
+State = tuple[Any, ...]
+"""``(s, e, e1, L, J1, inv_depth)``: the fields of a :class:`~redservo.task.TaskState`."""
+_ND = np.ndarray
+_SHAPE44 = (4, 4)
 
 
 def compiled() -> bool:
@@ -52,10 +54,10 @@ def _ready(a: FloatArray) -> bool:
 class Hot:
     """What a task's compiled evaluation keeps between calls (on the task, :data:`_HOT`):
     its ``s*`` and ``C`` objects with the kernel's form of ``C``, and the kernel's entry
-    point (:mod:`redservo.kernels.entry`) with the kernel and the scene it was found for
+    point (:mod:`redservo.kernels.entry`) with the kernel module handle and the scene it was found for
     (``bMw``'s type comes from the scene). A task whose ``s_star`` or ``C`` was set since gets a new one."""
 
-    __slots__ = ("C", "Ck", "entry", "k", "kernel", "m", "s_star", "scene", "spares")
+    __slots__ = ("C", "Ck", "J_shape", "entry", "k", "kernel", "m", "s_star", "scene", "spares")
 
     def __init__(self, s_star: FloatArray, C: FloatArray | None) -> None:
         self.s_star, self.C = s_star, C
@@ -65,6 +67,8 @@ class Hot:
         self.m = self.k if C is None else C.shape[0]
         """The task's rows."""
         self.spares: Spares | None = None
+        self.J_shape: tuple[int, ...] = ()
+        """The shape of ``J`` the spares and the entry are for."""
         """The arrays the kernel writes ``(s, iz, e, e1, L, J1)`` into, for the ``n`` of
         the last call (:class:`~redservo.kernels.entry.Spares`)."""
         self.entry: Any = None
@@ -106,15 +110,59 @@ def _hot(task: VisualTask, group: PointGroup) -> Hot | None:
 
 def evaluate(
     scene: Scene, task: VisualTask, group: PointGroup, bMc: object, J: object, t: float
-) -> tuple[FloatArray, FloatArray, Rows] | None:
-    """``(s, 1/Z, (e, e1, L, J1))`` of the points of ``group`` seen from ``bMc`` (4, 4) at
-    ``t`` (s), with the model Jacobian ``J`` (6, n) and the ``s*`` and ``C`` of ``task``
-    (``C`` None: ``e1`` is ``e`` itself), or None (module docstring). Float64 arrays that
-    are also aligned and writeable (``flags.carray``), with the scene of the last such call,
-    go to the kernel's entry point (the same machine code, without numba's typing of the
-    seven arguments)."""
+) -> State | None:
+    """``(s, e, e1, L, J1, inv_depth)`` (a :class:`~redservo.task.TaskState`'s fields) of
+    the points of ``group`` seen from ``bMc`` (4, 4) at ``t`` (s), with the model Jacobian
+    ``J`` (6, n) and the ``s*`` and ``C`` of ``task`` (``C`` None: ``e1`` is ``e`` itself),
+    or None (module docstring). Float64 arrays that are also aligned and writeable
+    (``flags.carray``) of the shapes of the last such call, with its scene, go to the
+    kernel's entry point (the same machine code, without numba's typing of the eight
+    arguments), with no other look at them: the kernel checks ``bMc``'s values."""
+    hot: Hot | None = task.__dict__.get(_HOT)
+    if (
+        hot is not None
+        and hot.entry
+        and hot.scene is scene
+        and hot.s_star is task.s_star
+        and hot.C is task.C
+        and type(J) is _ND
+        and type(bMc) is _ND
+        and J.shape == hot.J_shape
+        and bMc.shape == _SHAPE44
+        and J.dtype == _F64
+        and bMc.dtype == _F64
+        and J.flags.carray
+        and bMc.flags.carray
+        and hot.kernel is _KT
+    ):
+        try:  # a trajectory or pose set since is read at every call
+            bMw, wMo = scene._target_pose(group.target_name, t)
+        except Exception:
+            return None
+        if type(wMo) is _ND and wMo.dtype == _F64 and wMo.flags.carray:
+            out = hot.spares.take()  # type: ignore[union-attr]  # set with the entry
+            if hot.entry(bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out) != -1:
+                return None  # a point behind the camera, or bMc not surely valid
+            return _state(hot, group, out)
+    return _evaluate(scene, task, group, bMc, J, t)
+
+
+def _state(hot: Hot, group: PointGroup, out: tuple[FloatArray, ...]) -> State:
+    """The state's fields from the arrays the kernel wrote, ``out`` (never handed out
+    itself: the state holds its arrays, so :class:`~redservo.kernels.entry.Spares` sees
+    them held)."""
+    s, iz, e, e1, L, J1 = out
+    return s, e, e if hot.C is None else e1, L, J1, group.split(iz)
+
+
+def _evaluate(
+    scene: Scene, task: VisualTask, group: PointGroup, bMc: object, J: object, t: float
+) -> State | None:
+    """:func:`evaluate` through the kernel's dispatcher: its first call, or another
+    signature; finds the entry for the next calls when the arrays are plain."""
     if not (
-        type(J) is np.ndarray
+        compiled()
+        and type(J) is np.ndarray
         and type(bMc) is np.ndarray
         and J.ndim == 2
         and J.shape[0] == 6
@@ -139,20 +187,16 @@ def evaluate(
     if not fw.c_contiguous:
         return None
     spares = hot.spares
-    if spares is None or spares.shapes[5][1] != J.shape[1]:
+    if spares is None or hot.J_shape != J.shape:
         k, m = hot.k, hot.m
         spares = hot.spares = Spares(((k,), (k >> 1,), (k,), (m,), (k, 6), (m, J.shape[1])))
-    out = spares.take()  # never handed out itself: the state holds its arrays
+        hot.J_shape, hot.entry = J.shape, None  # an entry is for the shapes it was found with
+    out = spares.take()
     args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out)
     kernel = _KT.points_task
-    plain = fJ.carray and fb.carray and fw.carray
-    if plain and hot.entry and hot.scene is scene and hot.kernel is kernel:
-        bad = hot.entry(*args)
-    else:
-        bad = kernel(*args)
-        if plain:
-            hot.entry, hot.kernel, hot.scene = entry_of(kernel, args), kernel, scene
+    bad = kernel(*args)
+    if fJ.carray and fb.carray and fw.carray:
+        hot.entry, hot.kernel, hot.scene = entry_of(kernel, args), _KT, scene
     if bad != -1:  # a point behind the camera, or bMc not surely valid
         return None
-    s, iz, e, e1, L, J1 = out
-    return s, iz, (e, e if hot.C is None else e1, L, J1)
+    return _state(hot, group, out)
