@@ -62,7 +62,8 @@ def test_kept_task_states_stay_the_numpy_paths_whatever_the_calls_in_between(
     robot, scene, task, q0, rng = _setup(moving=True, base=True, combine=combine, seed=7)
     lim = robot.limits()
     kept: list[tuple[Any, Any, float, Any]] = []
-    singles = []
+    singles: list[tuple[Any, ...]] = []
+    depths: list[tuple[Any, ...]] = []
     for i in range(200):
         q = np.clip(q0 + rng.normal(scale=0.05, size=6) * lim.range, lim.q_min, lim.q_max)
         bMc, J = robot.kinematics(q)
@@ -76,7 +77,9 @@ def test_kept_task_states_stay_the_numpy_paths_whatever_the_calls_in_between(
         if pick == 0:
             kept.append((bMc, J, t, st))
         elif pick == 1:
-            singles.append((bMc, J, t, int(rng.integers(6)), st[int(rng.integers(5))]))
+            singles.append((bMc, J, t, st[int(rng.integers(5))]))
+        elif rng.integers(2):  # the inverse depths' tuple, or one of its (1,) views
+            depths.append((bMc, J, t, st.inv_depth if rng.integers(2) else st.inv_depth[1]))
     hot = task.__dict__[cp_mod._HOT]
     st = task.evaluate(scene, *kept[-1][:3])
     assert any(st.L is s[4] for s in hot.spares.sets)
@@ -85,9 +88,13 @@ def test_kept_task_states_stay_the_numpy_paths_whatever_the_calls_in_between(
     monkeypatch.setattr(cp_mod, "_KT", NUMPY)
     for (args, fast), now in zip(want, got, strict=True):
         assert now == fast == _bits(task.evaluate(scene, *args))
-    for bMc, J, t, _, arr in singles:
+    for bMc, J, t, arr in singles:
         ref = task.evaluate(scene, bMc, J, t)
         assert any(arr.tobytes() == np.ascontiguousarray(r).tobytes() for r in ref[:5])
+    for bMc, J, t, d in depths:
+        ref = task.evaluate(scene, bMc, J, t).inv_depth
+        want = [x.tobytes() for x in ref] if type(d) is tuple else [ref[1].tobytes()]
+        assert [x.tobytes() for x in (d if type(d) is tuple else (d,))] == want
 
 
 @needs_numba

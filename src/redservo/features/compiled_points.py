@@ -141,18 +141,34 @@ def evaluate(
             return None
         if type(wMo) is _ND and wMo.dtype == _F64 and wMo.flags.carray:
             out = hot.spares.take()  # type: ignore[union-attr]  # set with the entry
-            if hot.entry(bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out) != -1:
+            if hot.entry(bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out[:6]) != -1:
                 return None  # a point behind the camera, or bMc not surely valid
             return _state(hot, group, out)
     return _evaluate(scene, task, group, bMc, J, t)
+
+
+class _Split:
+    """The per-term (1,) views of a set's inverse depths (its second array), made once with
+    the set (:class:`~redservo.kernels.entry.Spares`)."""
+
+    __slots__ = ("split",)
+
+    def __init__(self, split: Any) -> None:
+        self.split = split
+
+    def __call__(self, arrays: tuple[FloatArray, ...]) -> tuple[FloatArray, ...]:
+        return tuple(self.split(arrays[1]))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (_Split, (self.split,))
 
 
 def _state(hot: Hot, group: PointGroup, out: tuple[FloatArray, ...]) -> State:
     """The state's fields from the arrays the kernel wrote, ``out`` (never handed out
     itself: the state holds its arrays, so :class:`~redservo.kernels.entry.Spares` sees
     them held)."""
-    s, iz, e, e1, L, J1 = out
-    return s, e, e if hot.C is None else e1, L, J1, group.split(iz)
+    s, _, e, e1, L, J1, inv_depth = out[:7]
+    return s, e, e if hot.C is None else e1, L, J1, inv_depth
 
 
 def _evaluate(
@@ -189,10 +205,11 @@ def _evaluate(
     spares = hot.spares
     if spares is None or hot.J_shape != J.shape:
         k, m = hot.k, hot.m
-        spares = hot.spares = Spares(((k,), (k >> 1,), (k,), (m,), (k, 6), (m, J.shape[1])))
+        shapes = ((k,), (k >> 1,), (k,), (m,), (k, 6), (m, J.shape[1]))
+        spares = hot.spares = Spares(shapes, _Split(group.split))
         hot.J_shape, hot.entry = J.shape, None  # an entry is for the shapes it was found with
     out = spares.take()
-    args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out)
+    args = (bMc, bMw, wMo, group.points, hot.s_star, hot.Ck, J, out[:6])
     kernel = _KT.points_task
     bad = kernel(*args)
     if fJ.carray and fb.carray and fw.carray:

@@ -36,26 +36,40 @@ class Spares:
     """Two sets of output arrays of the shapes ``shapes`` for a kernel to write into, each
     handed out again only when no one else holds any of its arrays (module docstring).
 
+    ``views``: a function of a set's arrays returning a tuple of views of them, made once
+    with the set; the set is then ``(*arrays, views, *views)``, the views and their tuple
+    handed out as they are (a task's per-term (1,) inverse depths: no new views per call)
+    and counted as members of the set, so a caller holding any of them holds the set.
+
     :meth:`take` returns the set that was not handed out last when it is free, else the
     other when it is free, else a new set in place of the older one (whose arrays are then
     the caller's alone). Reuse changes no number: the kernel writes every element of the
-    set it is given before anything reads it. Not picklable on purpose: a copied owner
-    makes new sets (its ``__reduce__`` forgets them)."""
+    set it is given before anything reads it. A copy (``copy``, ``pickle``) has sets of its
+    own. A caller never hands out the set's own tuple (the arrays in it would not count
+    as held)."""
 
-    __slots__ = ("free", "last", "sets", "shapes")
+    __slots__ = ("free", "last", "sets", "shapes", "views")
 
-    def __init__(self, shapes: tuple[tuple[int, ...], ...]) -> None:
-        self.shapes = shapes
+    def __init__(
+        self,
+        shapes: tuple[tuple[int, ...], ...],
+        views: Callable[[tuple[Any, ...]], tuple[Any, ...]] | None = None,
+    ) -> None:
+        self.shapes, self.views = shapes, views
         self.sets = [self._new(), self._new()]
         self.last = 0
         self.free = sum(map(_refs, self.sets[0]))
         """The sum of a set's reference counts when only this object holds it."""
 
     def _new(self) -> tuple[Any, ...]:
-        return tuple(_empty(shape) for shape in self.shapes)
+        arrays = tuple(_empty(shape) for shape in self.shapes)
+        if self.views is None:
+            return arrays
+        views = self.views(arrays)
+        return (*arrays, views, *views)
 
     def take(self) -> tuple[Any, ...]:
-        """A set of arrays nothing outside holds (class docstring)."""
+        """A set nothing outside holds (class docstring)."""
         sets, i = self.sets, 1 - self.last
         if sum(map(_refs, sets[i])) != self.free:
             i = self.last
@@ -67,7 +81,7 @@ class Spares:
 
     def __reduce__(self) -> tuple[Any, ...]:
         """A copy has fresh arrays (never those of the original)."""
-        return (Spares, (self.shapes,))
+        return (Spares, (self.shapes, self.views))
 
 
 def plain(a: Any) -> bool:
