@@ -316,11 +316,11 @@ def quick(
     parts = seen.layout[1]
     buf = seen.spares.take()[0]  # held by the result's qdot and diagnostics, if kept
     law_pack, limits_t = seen.bound
-    args = (q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
     entry = seen.entry
     if entry[0]:
-        lmask, smask, vec = entry[0](*args)
+        lmask, smask, vec = entry[0](q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
     else:
+        args = (q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
         lmask, smask, vec = _KC.law_into(*args)
         if entry[0] is None:  # looked up once: False when there is none
             entry[0] = entry_of(_KC.law_into, args) or False
