@@ -181,3 +181,31 @@ def test_the_benchmark_states_every_laws_path_against_visp() -> None:
     assert "path gpm / ViSP (7.00 µs, this run): 2.14x (target ≤ 2.5x: met)" in lines
     assert "path wln / ViSP (7.00 µs, this run): 2.29x (target ≤ 2.5x: met)" in lines
     assert "path wln / compiled measured step: 1.6x" in lines
+
+
+@needs_numba
+@pytest.mark.parametrize("method", ["iterative", "iterative-smooth", "wln", "classical"])
+def test_the_laws_vector_read_from_its_buffer_is_the_two_stage_paths(method: str) -> None:
+    """The law kernel writes its ``vec`` (the gains a and b, the levels' flags) into the
+    call's buffer instead of returning a new array: on repeated calls with the signature
+    seen (the buffers alternating) the diagnostics, ``a`` and ``b`` included, are those of
+    compute() followed by the safety stage, near the limits where the levels fill ``vec``."""
+    from tests.test_law_interface import _two_stage
+
+    law = make_law(method)
+    rng = np.random.default_rng(11)
+    kept = []
+    for i in range(40):
+        kw = _inputs(int(rng.integers(100)), bool(i % 2))
+        kw["J1"] = rng.normal(size=(3, 6))  # one signature: the repeated calls' path
+        kw["e1"] = 5.0 * rng.normal(size=3)
+        kept.append((kw, law(**kw)))
+    masks = kept[-1][1].diagnostics._build[1][5]  # built when read: not read yet
+    assert masks[2].base is kept[-1][1].qdot.base  # vec is read from the call's buffer
+    filled = 0
+    for kw, res in kept:
+        split = _two_stage(method)()(**kw)
+        assert res.qdot.tobytes() == split.qdot.tobytes()
+        assert repr(res.diagnostics) == repr(split.diagnostics)
+        filled += res.diagnostics.b is not None and res.diagnostics.b.size > 0
+    assert filled > 0 or method != "iterative"  # its levels fill b here

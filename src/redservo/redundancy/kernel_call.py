@@ -111,15 +111,28 @@ def _packs(law: Law, x: LawInputs) -> tuple[Any, ...]:
     return J1, np.ascontiguousarray(x.e1), np.ascontiguousarray(x.q), law_pack, limits, inputs
 
 
+Masks = tuple[int, int, FloatArray]
+"""``(law mask, safety mask, vec)`` of a law kernel call (what :func:`diagnose` reads)."""
+
+
 def _slices(n: int) -> tuple[int, tuple[slice, ...]]:
     """The size and the parts ``qdot`` to ``ssrc`` of a law call's buffer for ``n`` joints
-    (:func:`redservo.kernels.control.control_layout`)."""
+    (:func:`redservo.kernels.control.control_layout`), with room for the law's ``vec``
+    after them: n (n + 1) entries, the most a law writes (the iterative family's gains of at
+    most n levels on at most n null-space directions, and a flag per level)."""
     hit = _SLICES.get(n)
     if hit is None:
         layout = _KC.control_layout(n, 0, 0)
         parts = [layout[k] for k in LAW_PARTS]
-        hit = _SLICES[n] = (parts[-1][1], tuple(slice(*p) for p in parts))
+        hit = _SLICES[n] = (parts[-1][1] + n * (n + 1), tuple(slice(*p) for p in parts))
     return hit
+
+
+def _masks(buf: FloatArray, parts: tuple[slice, ...], out: tuple[int, int, int]) -> Masks:
+    """``(law mask, safety mask, vec)`` from :func:`~redservo.kernels.control.law_into`'s
+    ``out`` (``vec``'s length last): ``vec`` is the part of ``buf`` after ``parts``."""
+    at = parts[-1].stop
+    return out[0], out[1], buf[at : at + out[2]]
 
 
 def diagnose(
@@ -189,16 +202,16 @@ def _into(
     buf = np.empty(size)
     args = (q, J1, e1, law_pack, limits_t, gains, inputs, buf)
     if entry is not None and entry[0]:
-        lmask, smask, vec = entry[0](*args)
+        out = entry[0](*args)
     else:
-        lmask, smask, vec = _KC.law_into(*args)
+        out = _KC.law_into(*args)
         if entry is not None and entry[0] is None:  # looked up once: False when there is none
             entry[0] = entry_of(_KC.law_into, args) or False
-    if lmask < 0:
+    if out[0] < 0 or out[2] < 0:
         return None
     qdot = buf[parts[0]]
-    safety = (q.copy(), qdot.copy(), gains[1], limits) if smask else None
-    masks = (lmask, smask, vec)
+    safety = (q.copy(), qdot.copy(), gains[1], limits) if out[1] else None
+    masks = _masks(buf, parts, out)
     return qdot, (type(law), dict(law.__dict__), J1.shape[0], buf, parts, masks, safety)
 
 
@@ -318,17 +331,19 @@ def quick(
     law_pack, limits_t = seen.bound
     entry = seen.entry
     if entry[0]:
-        lmask, smask, vec = entry[0](q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
+        lmask, smask, nvec = entry[0](q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
     else:
         args = (q, J1, e1, law_pack, limits_t, (lam, dt), inputs, buf)
-        lmask, smask, vec = _KC.law_into(*args)
+        lmask, smask, nvec = _KC.law_into(*args)
         if entry[0] is None:  # looked up once: False when there is none
             entry[0] = entry_of(_KC.law_into, args) or False
-    if lmask < 0:
+    if lmask < 0 or nvec < 0:
         return False
     qdot = buf[parts[0]]
     safety = (q.copy(), qdot.copy(), dt, limits) if smask else None
-    return qdot, (type(law), seen.state, J1.shape[0], buf, parts, (lmask, smask, vec), safety)
+    at = parts[-1].stop
+    masks = (lmask, smask, buf[at : at + nvec])
+    return qdot, (type(law), seen.state, J1.shape[0], buf, parts, masks, safety)
 
 
 def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
