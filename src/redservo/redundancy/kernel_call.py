@@ -111,8 +111,9 @@ def _packs(law: Law, x: LawInputs) -> tuple[Any, ...]:
     return J1, np.ascontiguousarray(x.e1), np.ascontiguousarray(x.q), law_pack, limits, inputs
 
 
-Masks = tuple[int, int, FloatArray]
-"""``(law mask, safety mask, vec)`` of a law kernel call (what :func:`diagnose` reads)."""
+Masks = tuple[int, int, FloatArray | int]
+"""``(law mask, safety mask, vec)`` of a law kernel call (what :func:`diagnose` reads), or
+with ``vec``'s length in its place when it is in the buffer after the law's parts."""
 
 
 def _slices(n: int) -> tuple[int, tuple[slice, ...]]:
@@ -128,24 +129,17 @@ def _slices(n: int) -> tuple[int, tuple[slice, ...]]:
     return hit
 
 
-def _masks(buf: FloatArray, parts: tuple[slice, ...], out: tuple[int, int, int]) -> Masks:
-    """``(law mask, safety mask, vec)`` from :func:`~redservo.kernels.control.law_into`'s
-    ``out`` (``vec``'s length last): ``vec`` is the part of ``buf`` after ``parts``."""
-    at = parts[-1].stop
-    return out[0], out[1], buf[at : at + out[2]]
-
-
 def diagnose(
     cls: type[Law],
     state: dict[str, Any],
     m: int,
     buf: FloatArray,
     parts: tuple[slice, ...],
-    masks: tuple[int, int, FloatArray],
+    masks: Masks,
     safety: tuple[FloatArray, FloatArray, float, JointLimits] | None,
 ) -> Diagnostics:
     """The law's :class:`~redservo.Diagnostics` from a law kernel call's buffer ``buf``
-    (its ``parts``), ``masks`` ``(law mask, safety mask, vec)`` and, when the safety layer
+    (its ``parts``), ``masks`` (:data:`Masks`) and, when the safety layer
     raised events, ``(q, q̇, dt, limits)``; the law is rebuilt from its class and attribute
     dictionary ``state`` as it was at the call (so a later change of an option does not
     change what the diagnostics say)."""
@@ -153,6 +147,8 @@ def diagnose(
     law.__dict__.update(state)
     _, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc = (buf[p] for p in parts)
     lmask, smask, vec = masks
+    if type(vec) is int:  # its length: the law kernel wrote it after the parts (law_into)
+        vec = buf[parts[-1].stop : parts[-1].stop + vec]
     more: tuple[Event, ...] = ()
     if smask and safety is not None:
         q, qdot, dt, limits = safety
@@ -211,7 +207,7 @@ def _into(
         return None
     qdot = buf[parts[0]]
     safety = (q.copy(), qdot.copy(), gains[1], limits) if out[1] else None
-    masks = _masks(buf, parts, out)
+    masks = out  # vec by its length (diagnose reads it from the buffer)
     return qdot, (type(law), dict(law.__dict__), J1.shape[0], buf, parts, masks, safety)
 
 
@@ -341,9 +337,7 @@ def quick(
         return False
     qdot = buf[parts[0]]
     safety = (q.copy(), qdot.copy(), dt, limits) if smask else None
-    at = parts[-1].stop
-    masks = (lmask, smask, buf[at : at + nvec])
-    return qdot, (type(law), seen.state, J1.shape[0], buf, parts, masks, safety)
+    return qdot, (type(law), seen.state, J1.shape[0], buf, parts, (lmask, smask, nvec), safety)
 
 
 def fast_call(law: Law, args: tuple[Any, ...]) -> tuple[FloatArray, DiagnoseArgs] | None:
