@@ -28,26 +28,29 @@ needs_numba = pytest.mark.skipif(not compiled(), reason="the compiled paths need
 
 
 def test_spares_hand_out_a_set_no_one_holds() -> None:
-    """The set not handed out last first, the other when the first is held, a new set when
-    both are; a dropped set is handed out again; a copy has arrays of its own."""
+    """The set not handed out last first, the other when the first is held (by the set
+    itself or any of its arrays), a new set when both are; a dropped set is handed out
+    again; a copy has arrays of its own."""
     sp = Spares(((3,), (2, 2)))
-    a = sp.take()
+    first = id(sp.take())  # not held: the pool keeps it, so its id stays its own
     b = sp.take()
-    assert a is not b and [x.shape for x in a] == [(3,), (2, 2)]
+    assert id(b) != first and [x.shape for x in b] == [(3,), (2, 2)]
     held = b[1]  # one array of the set is enough to hold it
     del b
     c = sp.take()
-    assert c is a  # b is held: the set not handed out last, a, is free
+    assert id(c) == first  # the other set is held
+    same = sp.take()
+    assert same is not c  # c (the set itself) is held: a new set
     kept = c[0]
-    del c
-    d = sp.take()  # both held: a new set in place of the older one
+    del c, same
+    d = sp.take()
     assert d[0] is not kept and d[1] is not held
-    del kept
-    e = sp.take()  # the set of a (dropped again) is free
-    assert e is a
+    del d
     for other in (copy.deepcopy(sp), pickle.loads(pickle.dumps(sp))):
         assert all(x is not y for s in sp.sets for t in other.sets for x in s for y in t)
-    assert sys.getrefcount(held) > 1
+    del kept, held
+    handed = {id(sp.take()) for _ in range(6)}  # none held: the two sets in turn
+    assert handed == {id(x) for x in sp.sets}
 
 
 @needs_numba
@@ -209,3 +212,48 @@ def test_the_laws_vector_read_from_its_buffer_is_the_two_stage_paths(method: str
         assert repr(res.diagnostics) == repr(split.diagnostics)
         filled += res.diagnostics.b is not None and res.diagnostics.b.size > 0
     assert filled > 0 or method != "iterative"  # its levels fill b here
+
+
+@needs_numba
+def test_two_threads_calling_the_same_objects_never_share_a_set(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The kernels run without the GIL: two threads evaluating the same task and calling
+    the same law at once each keep results equal to the full path's (a set found free by
+    both would be written by both)."""
+    import threading
+
+    robot, scene, task, q0, rng = _setup(moving=True, base=False, combine=True, seed=9)
+    lim = robot.limits()
+    law = make_law("iterative-smooth")
+    work = [
+        np.clip(q0 + rng.normal(scale=0.05, size=6) * lim.range, lim.q_min, lim.q_max)
+        for _ in range(400)
+    ]
+    law_kw = [_inputs(int(s), False) for s in rng.integers(1000, size=400)]
+    for kw in law_kw:  # one signature
+        kw["J1"], kw["e1"] = rng.normal(size=(3, 6)), rng.normal(size=3)
+    got: list[list[Any]] = [[], []]
+
+    def run(k: int) -> None:
+        sys.setswitchinterval(1e-6)
+        for i in range(k, 400, 2):
+            bMc, J = robot.kinematics(work[i])
+            got[k].append((i, bMc, J, task.evaluate(scene, bMc, J, 0.01 * i), law(**law_kw[i])))
+
+    interval = sys.getswitchinterval()
+    try:
+        threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+    finally:
+        sys.setswitchinterval(interval)
+    ref = Afma6()
+    fresh = make_law("iterative-smooth")
+    monkeypatch.setattr(cp_mod, "_KT", NUMPY)
+    for i, bMc, J, st, res in got[0] + got[1]:
+        assert [a.tobytes() for a in (bMc, J)] == [a.tobytes() for a in ref.kinematics(work[i])]
+        assert _bits(st) == _bits(task.evaluate(scene, bMc, J, 0.01 * i))
+        assert res.qdot.tobytes() == fresh(**law_kw[i]).qdot.tobytes()

@@ -58,8 +58,10 @@ class Spares:
         self.shapes, self.views = shapes, views
         self.sets = [self._new(), self._new()]
         self.last = 0
-        self.free = sum(map(_refs, self.sets[0]))
-        """The sum of a set's reference counts when only this object holds it."""
+        got = self.sets[0]
+        self.free = _refs(got) + sum(map(_refs, got))
+        """The reference counts of a set and its members when only this object holds them
+        (and :meth:`take`'s own binding, counted the same way)."""
 
     def _new(self) -> tuple[Any, ...]:
         arrays = tuple(_empty(shape) for shape in self.shapes)
@@ -69,15 +71,20 @@ class Spares:
         return (*arrays, views, *views)
 
     def take(self) -> tuple[Any, ...]:
-        """A set nothing outside holds (class docstring)."""
+        """A set nothing outside holds (class docstring). The set is bound before its
+        reference counts are read, and the set's own count is among them: two threads
+        calling at once never both find the same set free (each sees the other's binding),
+        at worst both make a new one."""
         sets, i = self.sets, 1 - self.last
-        if sum(map(_refs, sets[i])) != self.free:
+        got = sets[i]
+        if _refs(got) + sum(map(_refs, got)) != self.free:
             i = self.last
-            if sum(map(_refs, sets[i])) != self.free:
+            got = sets[i]
+            if _refs(got) + sum(map(_refs, got)) != self.free:
                 i = 1 - i
-                sets[i] = self._new()
+                got = sets[i] = self._new()
         self.last = i
-        return sets[i]
+        return got
 
     def __reduce__(self) -> tuple[Any, ...]:
         """A copy has fresh arrays (never those of the original)."""
