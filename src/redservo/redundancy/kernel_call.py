@@ -146,9 +146,11 @@ def diagnose(
     law = object.__new__(cls)
     law.__dict__.update(state)
     _, iout, fout, sout, axes, axf, lvals, lsrc, svals, ssrc = (buf[p] for p in parts)
-    lmask, smask, vec = masks
-    if type(vec) is int:  # its length: the law kernel wrote it after the parts (law_into)
-        vec = buf[parts[-1].stop : parts[-1].stop + vec]
+    lmask, smask, given = masks
+    if isinstance(given, int):  # its length: the law kernel wrote it after the parts (law_into)
+        vec = buf[parts[-1].stop : parts[-1].stop + given]
+    else:
+        vec = given
     more: tuple[Event, ...] = ()
     if smask and safety is not None:
         q, qdot, dt, limits = safety
