@@ -25,7 +25,7 @@ from redservo.task import TaskTerm, VisualTask
 
 PTS = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]])
 S_STAR = np.array([-0.1, -0.1, 0.1, -0.1, 0.1, 0.1, -0.1, 0.1])
-COMPILED = [m for m in METHODS if m not in ("qp", "qp-goal", "sns", "predictive")]
+COMPILED = [m for m in METHODS if m not in ("qp-goal", "sns", "predictive")]
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -146,7 +146,8 @@ def test_engine_is_said_and_the_reason_is_one_line() -> None:
     assert py.engine == "kernels" and py.engine_reason == "engine='python' asked for"
 
 
-def test_bad_inputs_raise_the_object_paths_errors() -> None:
+@pytest.mark.parametrize("method", ["classical", "qp"])
+def test_bad_inputs_raise_the_object_paths_errors(method: str) -> None:
     """A joint outside its limits or a NaN feature: the compiled engine hands the step to the
     object path, whose error names the input."""
     from redservo import JointLimitError, ShapeError
@@ -154,7 +155,8 @@ def test_bad_inputs_raise_the_object_paths_errors() -> None:
     robot = Afma6()
     terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
     task = VisualTask(terms, S_STAR)
-    ctl = Controller(robot, task, make_law("classical"), lam=0.5, dt=0.04)
+    ctl = Controller(robot, task, make_law(method), lam=0.5, dt=0.04)
+    assert ctl.engine == "compiled"
     q = robot.limits().center.copy()
     meas = Measurement(S_STAR + 0.01, tuple(np.array([1.5]) for _ in PTS))
     assert ctl.step(q, meas, 0.0, qdot_prev=None).qdot.shape == (6,)
@@ -165,6 +167,38 @@ def test_bad_inputs_raise_the_object_paths_errors() -> None:
     bad = Measurement(np.full(8, np.nan), meas.inv_depth)
     with pytest.raises(ShapeError):
         ctl.step(q, bad, 0.0, qdot_prev=None)
+
+
+def test_qp_is_compiled_with_its_own_solver_and_without_distance_rows() -> None:
+    """``qp`` has a compiled controller step with its compiled solver (``solver="auto"``);
+    a solver library, distance rows (collision avoidance) or ``qp-goal`` keep the object
+    path and say why; a law given a library or rows after the binding is bound anew."""
+    from redservo.collision.shapes import Obstacle, Shape
+    from redservo.control.avoidance import Collision
+    from redservo.redundancy.distance_rows import bind_distances
+    from redservo.scene import Static
+
+    robot = Panda()
+    task = VisualTask([TaskTerm(PointFeature(p), "sq") for p in PTS], S_STAR)
+    q = robot.limits().center.copy()
+    meas = Measurement(S_STAR + 0.01, tuple(np.array([1.5]) for _ in PTS))
+
+    def ctl(law: Any) -> Controller:
+        return Controller(robot, task, law, lam=0.5, dt=0.04)
+
+    assert (ctl(make_law("qp")).engine, ctl(make_law("qp")).engine_reason) == ("compiled", "")
+    lib = ctl(make_law("qp", solver="scipy"))
+    assert lib.engine == "kernels" and "'scipy'" in lib.engine_reason
+    assert "'qp-goal'" in ctl(make_law("qp-goal")).engine_reason
+    later = ctl(make_law("qp"))
+    later.law.solver = "scipy"  # type: ignore[attr-defined]
+    later.step(q, meas, 0.0, qdot_prev=None)
+    assert later.engine == "kernels" and "'scipy'" in later.engine_reason
+    rows = ctl(make_law("qp"))
+    post = Obstacle("post", Shape("sphere", radius=0.05), Static(np.eye(4)))
+    bind_distances(rows.law, Collision(obstacles=(post,)), robot)
+    rows.step(q, meas, 0.0, qdot_prev=None)
+    assert rows.engine == "kernels" and "distance rows" in rows.engine_reason
 
 
 def test_run_json_records_the_engine(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:

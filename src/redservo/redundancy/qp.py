@@ -90,7 +90,6 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.bls import (
@@ -104,11 +103,12 @@ from redservo.redundancy.distance_rows import (
     rows_hold,
     solve_qp_rows,
 )
-from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import KernelInputs, LawOutputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
-from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 from redservo.redundancy.packs import limits_pack
+from redservo.redundancy.qp_step import INSIDE_NOTE, qp_diagnose, qp_diagnostics, qp_pack
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import boxqp as _KB
@@ -298,7 +298,7 @@ class BoundedLeastSquares(Law):
             fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
             used, resid, critical = ROW_SOLVER, float(resid), _levels(active)
         elif inside:
-            info.append("solver: none (unconstrained optimum within the bounds)")
+            info.append(INSIDE_NOTE)
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
         else:
             qp = (xfix, free, P, c, lof, hif)
@@ -308,20 +308,27 @@ class BoundedLeastSquares(Law):
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
         fallback = "fallback" in used or "failed" in used or rows_failed
-        mask, vals, src = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
-        ctx = {"rank": int(rank), "m": m, "solver": used}
-        ctx["conflicts"] = lambda: np.flatnonzero(conflicts).tolist()
-        diag = Diagnostics(
-            method=self.name,
-            task_rank=int(rank),
-            rank_deficient=int(rank) < m,
-            projector_rank=n - int(rank) if x.secondary is not None else 0,
-            critical=critical,
-            overconstrained=bool(src[TASK_SCALED]),  # the bounds prevent the task
-            events=events(mask, vals, src, **ctx),
-            info=tuple(info),
-        )
+        found = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
+        solver = (used, resid, critical)
+        has_sec = x.secondary is not None
+        diag = qp_diagnostics(self.name, (m, n), int(rank), solver, conflicts, found, has_sec, info)
         return LawResult(fixed, diag)
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics of the compiled Controller step's outputs ``out`` (m task rows;
+        ``more``: the safety layer's events; :mod:`redservo.kernels.qp_control`), as
+        :meth:`compute` builds them (:func:`~redservo.redundancy.qp_step.qp_diagnose`)."""
+        return qp_diagnose(self, m, out, more)
+
+    def control_pack(self, n: int) -> tuple[Any, ...]:
+        """The options packed for the compiled Controller step with ``n`` joints
+        (:func:`~redservo.redundancy.qp_step.qp_pack`).
+
+        Raises:
+            ConfigurationError: the law has no compiled step (a solver library, distance
+                rows) or ``v_max`` does not fit ``n`` joints.
+        """
+        return qp_pack(self, n)
 
     def _rows(
         self,
