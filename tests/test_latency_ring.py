@@ -136,3 +136,30 @@ def test_points_brought_to_the_present_in_one_compiled_call_equal_the_python_pat
         assert fast.s.tobytes() == slow.s.tobytes()
         assert fast.stamp == slow.stamp == t
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast.inv_depth, slow.inv_depth))
+
+
+@pytest.mark.parametrize("kind", ["afma6", "panda", "urdf"])
+def test_the_twists_from_the_compiled_kinematics_are_the_robot_objects(kind: str) -> None:
+    """``kernels/latency.robot_twist`` (the robot's compiled kinematics, the product by BLAS)
+    gives the history's twist ``robot.jacobian(q) @ q̇`` bit for bit, on fuzzed joints
+    (beyond the limits too: the history does not check them) and commands over decades; a
+    compensated Controller step on the compiled engine therefore equals the object path's
+    (tests/test_controller_engine.py runs both with a camera's latency)."""
+    from redservo.kernels import latency as kl
+    from redservo.robots import Afma6
+
+    if kind == "urdf":
+        from redservo.robots.urdf import URDFRobot, shipped_urdf
+
+        robot: Any = URDFRobot(shipped_urdf("panda"), camera_link="camera_link")
+    else:
+        robot = Afma6() if kind == "afma6" else Panda()
+    pack = robot.kernel_pack()
+    assert pack is not None
+    lim = robot.limits()
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        q = lim.center + rng.uniform(-1.2, 1.2, robot.n) * lim.range / 2
+        qdot = rng.normal(size=robot.n) * 10.0 ** rng.uniform(-4, 1)
+        want = robot.jacobian(q, check_limits=False) @ qdot
+        assert kl.robot_twist(q, qdot, pack).tobytes() == want.tobytes()

@@ -125,9 +125,13 @@ class CommandHistory:
             cmds.popleft()
             ring.head = (ring.head + 1) % ring.t.shape[0]
 
-    def motion(self, stamp: float, now: float) -> FloatArray:
+    def motion(
+        self, stamp: float, now: float, robot: tuple[object, ...] | None = None
+    ) -> FloatArray:
         """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
-        displacement (m, rad) the commands made between ``stamp`` and ``now`` (s)."""
+        displacement (m, rad) the commands made between ``stamp`` and ``now`` (s).
+        ``robot``: the pack of the model robot's compiled kinematics
+        (:mod:`redservo.robots.pack`, the same ``J`` as :attr:`jacobian`), or None."""
         cmds, ring = self._cmds, self._ring
         where = (ring.head, len(cmds), self._ordered)
         args = (ring.t, ring.twist, ring.has, where, self.period, float(stamp), float(now), _EPS)
@@ -136,7 +140,10 @@ class CommandHistory:
             cap = ring.t.shape[0]
             for i in missing.tolist():
                 cmd = cmds[i]
-                twist = self.jacobian(cmd.q) @ cmd.qdot
+                if robot is None:
+                    twist = self.jacobian(cmd.q) @ cmd.qdot
+                else:
+                    twist = _K.robot_twist(cmd.q, cmd.qdot, robot)
                 cmds[i] = _new_command(_Command, (*cmd[:4], twist))
                 slot = (ring.head + i) % cap
                 ring.twist[slot] = twist
@@ -197,7 +204,9 @@ def present(
         return measurement
     iz = None if engine is None else engine._inverse_depths(measurement.inv_depth)
     if iz is not None and iz.flags.carray and s.flags.carray:  # points: nothing to linearise
-        s_now = _K.present_points(s, iz, history.motion(stamp, t))
+        assert engine is not None  # iz comes from it
+        robot = engine.robot if engine.kernel is not None else None  # compiled kinematics
+        s_now = _K.present_points(s, iz, history.motion(stamp, t, robot))
     else:
         L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
         s_now = s + L @ history.motion(stamp, t)
