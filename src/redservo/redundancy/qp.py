@@ -108,7 +108,14 @@ from redservo.redundancy.kio import KernelInputs, LawOutputs, kernel_inputs, opt
 from redservo.redundancy.linalg import DEFAULT_RCOND
 from redservo.redundancy.options import Option
 from redservo.redundancy.packs import limits_pack
-from redservo.redundancy.qp_step import INSIDE_NOTE, qp_diagnose, qp_diagnostics, qp_pack
+from redservo.redundancy.qp_step import (
+    ACTIVE_SET,
+    INSIDE_NOTE,
+    qp_diagnose,
+    qp_diagnostics,
+    qp_pack,
+    v_per_joint,
+)
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import boxqp as _KB
@@ -121,9 +128,6 @@ else:
 
 __all__ = ["ACTIVE_SET", "BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
-ACTIVE_SET = "active-set"
-"""The ``solver`` name of the compiled active-set solver (:mod:`redservo.kernels.boxqp`),
-what ``"auto"`` means."""
 ROW_SOLVER = "dual active-set (with distance rows)"
 """The solver note of a step solved with the distance rows (:mod:`redservo.kernels.rowqp`)."""
 _FAILURES = {-1: "the bounds do not meet", 0: "numerical failure or iteration cap"}
@@ -153,7 +157,7 @@ def qp_velocity_bounds(
         v_max: Velocity limits, 0-d or (n,) array (rad/s or m/s), or None.
     """
     n = q.shape[0]
-    v, has_v = optional(None if v_max is None else _v_per_joint(v_max, n), n)
+    v, has_v = optional(None if v_max is None else v_per_joint(v_max, n), n)
     lo, hi, conflicts = _K.qp_velocity_bounds(
         np.ascontiguousarray(q, dtype=np.float64),
         limits_pack(limits).rows,
@@ -166,14 +170,8 @@ def qp_velocity_bounds(
     return lo, hi, tuple(int(i) for i in np.flatnonzero(conflicts))
 
 
-def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
-    v = np.full(n, float(v_max)) if v_max.ndim == 0 else v_max
-    if v.shape != (n,):
-        raise ConfigurationError(
-            f"v_max has {v.shape[0]} entries but the robot has {n} joints; give a scalar or "
-            f"one value per joint"
-        )
-    return v
+_v_per_joint = v_per_joint
+"""``v_max`` per joint (:func:`redservo.redundancy.qp_step.v_per_joint`; its former home)."""
 
 
 def _levels(active: NDArray[np.bool_]) -> tuple[tuple[int, ...], ...]:
@@ -265,7 +263,7 @@ class BoundedLeastSquares(Law):
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
         k = kernel_inputs(x)
-        v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
+        v, has_v = optional(None if self.v_max is None else v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.qp_setup(
             k.J1,

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels.flagbits import TASK_SCALED
 from redservo.redundancy.flags import Event
@@ -27,7 +28,19 @@ if TYPE_CHECKING:
     from redservo.redundancy.base import Diagnostics
     from redservo.redundancy.qp import BoundedLeastSquares
 
-__all__ = ["INSIDE_NOTE", "QP_STEP_ID", "qp_diagnose", "qp_diagnostics", "qp_pack"]
+__all__ = [
+    "ACTIVE_SET",
+    "INSIDE_NOTE",
+    "QP_STEP_ID",
+    "qp_diagnose",
+    "qp_diagnostics",
+    "qp_pack",
+    "v_per_joint",
+]
+
+ACTIVE_SET = "active-set"
+"""The ``solver`` name of the compiled active-set solver (:mod:`redservo.kernels.boxqp`),
+what ``"auto"`` means."""
 
 INSIDE_NOTE = "solver: none (unconstrained optimum within the bounds)"
 """The solver note of a step whose unconstrained optimum is within the bounds."""
@@ -109,6 +122,21 @@ def qp_diagnose(
     )
 
 
+def v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
+    """``qp``'s ``v_max`` (rad/s or m/s, 0-d or (n,)) as one value per joint.
+
+    Raises:
+        ConfigurationError: ``v_max`` has another number of entries than ``n``.
+    """
+    v = np.full(n, float(v_max)) if v_max.ndim == 0 else v_max
+    if v.shape != (n,):
+        raise ConfigurationError(
+            f"v_max has {v.shape[0]} entries but the robot has {n} joints; give a scalar or "
+            f"one value per joint"
+        )
+    return v
+
+
 def qp_pack(law: BoundedLeastSquares, n: int) -> tuple[Any, ...]:
     """``(law id, fopt, iopt, vopt)`` of the compiled step for ``n`` joints
     (:mod:`redservo.kernels.qp_control`).
@@ -118,7 +146,6 @@ def qp_pack(law: BoundedLeastSquares, n: int) -> tuple[Any, ...]:
             it solves with distance rows, or its ``v_max`` does not fit ``n`` joints.
     """
     from redservo.redundancy.distance_rows import _SOURCE
-    from redservo.redundancy.qp import ACTIVE_SET, _v_per_joint
 
     if law._resolve_backend() != ACTIVE_SET:
         raise ConfigurationError(
@@ -133,7 +160,7 @@ def qp_pack(law: BoundedLeastSquares, n: int) -> tuple[Any, ...]:
         )
     vopt = np.zeros((2, n))
     if law.v_max is not None:
-        vopt[0] = _v_per_joint(law.v_max, n)
+        vopt[0] = v_per_joint(law.v_max, n)
     fopt = np.array([law.rcond, law.eps, law.k_p, law.margin])
     iopt = np.array([int(law.shield), 1, int(law.v_max is not None), 0], dtype=np.int64)
     return QP_STEP_ID, fopt, iopt, vopt
