@@ -64,3 +64,14 @@ def test_a_new_shape_starts_a_new_stack() -> None:
         got.add(J)
         want.add(J)
     assert (got.w.hex(), got.sigma.hex()) == (want.w.hex(), want.sigma.hex())
+
+
+def test_a_long_run_keeps_a_bounded_stack() -> None:
+    """A full stack (``chunk`` Jacobians) is reduced and reused: the memory of a long run
+    stays bounded, and the margin is the per-step one bit for bit."""
+    got, want = SingularityMargin(chunk=40), _PerStep()
+    for J in _jacobians(5, 300):
+        got.add(J)
+        want.add(J)
+        assert got._stack.shape[0] <= 40
+    assert (got.w.hex(), got.sigma.hex()) == (want.w.hex(), want.sigma.hex())

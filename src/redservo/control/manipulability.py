@@ -159,6 +159,9 @@ class SingularityMargin:
     _stack: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)), repr=False)
     _kept: int = field(default=0, repr=False)
     """How many Jacobians :attr:`_stack` holds that are not reduced yet."""
+    chunk: int = field(default=1024, repr=False)
+    """The most Jacobians kept at once: a full stack is reduced and reused, so a long run's
+    memory stays bounded (the minima are the same however the steps are grouped)."""
 
     @property
     def w(self) -> float:
@@ -177,10 +180,13 @@ class SingularityMargin:
         stack, kept = self._stack, self._kept
         if stack.shape[1:] != J1.shape:
             self._reduce()
-            stack = self._stack = np.empty((64, *J1.shape))
+            stack = self._stack = np.empty((min(64, self.chunk), *J1.shape))
+            kept = 0
+        elif kept == stack.shape[0] >= self.chunk:
+            self._reduce()
             kept = 0
         elif kept == stack.shape[0]:
-            grown = np.empty((2 * kept, *J1.shape))
+            grown = np.empty((min(2 * kept, self.chunk), *J1.shape))
             grown[:kept] = stack
             stack = self._stack = grown
         stack[kept] = J1
