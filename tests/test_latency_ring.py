@@ -163,3 +163,34 @@ def test_the_twists_from_the_compiled_kinematics_are_the_robot_objects(kind: str
         qdot = rng.normal(size=robot.n) * 10.0 ** rng.uniform(-4, 1)
         want = robot.jacobian(q, check_limits=False) @ qdot
         assert kl.robot_twist(q, qdot, pack).tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_sum_with_the_compiled_twists_in_one_call_is_the_python_loops(seed: int) -> None:
+    """``CommandHistory.motion`` with the robot's kinematics pack (the missing twists and the
+    sum in one compiled call, ``kernels/latency.robot_motion``, from the ring's joints and
+    commands) gives the reference's displacement bit for bit (the robot object's Jacobian,
+    the Python loop), on fuzzed histories: jittered, repeated and out-of-order times, more
+    commands than the ring's first slots (it grows), commands kept as a buffer's part."""
+    robot = Panda()
+    pack = robot.kernel_pack()
+    lim = robot.limits()
+    rng = np.random.default_rng(100 + seed)
+    period = float(rng.uniform(0.002, 0.05))
+    horizon = float(rng.choice([0.05, 1.0, 100.0]))
+    got = CommandHistory(period, lambda q: robot.jacobian(q, check_limits=False), horizon)
+    want = _Reference(period, lambda q: robot.jacobian(q, check_limits=False), horizon)
+    t = 0.0
+    for k in range(200):
+        t += period * float(rng.choice([1.0, rng.uniform(0.5, 1.5), 0.0]))
+        if seed % 3 == 2 and k % 37 == 5:
+            t -= 2.5 * period
+        q = lim.center + rng.uniform(-1.0, 1.0, robot.n) * lim.range / 2
+        qdot = rng.normal(size=robot.n) * 10.0 ** rng.uniform(-3, 0)
+        buf = np.concatenate([rng.normal(size=3), qdot])  # as the compiled step keeps it
+        got.keep(t, q.copy(), buf, slice(3, 3 + robot.n))
+        want.record(t, q, qdot)
+        stamp = t - float(rng.uniform(0.0, 5.0)) * period
+        now = t + float(rng.choice([0.0, period, rng.uniform(0, 2 * period)]))
+        a, b = got.motion(stamp, now, pack), want.motion(stamp, now)
+        assert a.tobytes() == b.tobytes(), (k, a, b)

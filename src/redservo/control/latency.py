@@ -121,6 +121,10 @@ class CommandHistory:
         slot = (ring.head + len(cmds) - 1) % ring.t.shape[0]
         ring.t[slot] = t
         ring.has[slot] = False
+        if ring.q.shape[1] != q.shape[0]:
+            ring.joints(q.shape[0])
+        ring.q[slot] = q
+        ring.qdot[slot] = qdot if part is None else qdot[part]
         while cmds[0][0] < t - self.horizon:
             cmds.popleft()
             ring.head = (ring.head + 1) % ring.t.shape[0]
@@ -135,15 +139,14 @@ class CommandHistory:
         cmds, ring = self._cmds, self._ring
         where = (ring.head, len(cmds), self._ordered)
         args = (ring.t, ring.twist, ring.has, where, self.period, float(stamp), float(now), _EPS)
+        if robot is not None:  # the missing twists and the sum in one call
+            return np.asarray(_K.robot_motion(*args, ring.q, ring.qdot, robot))
         total, missing = _K.motion(*args)
         if len(missing):  # their twists, kept for the next steps; then the whole sum
             cap = ring.t.shape[0]
             for i in missing.tolist():
                 cmd = cmds[i]
-                if robot is None:
-                    twist = self.jacobian(cmd.q) @ cmd.qdot
-                else:
-                    twist = _K.robot_twist(cmd.q, cmd.qdot, robot)
+                twist = self.jacobian(cmd.q) @ cmd.qdot
                 cmds[i] = _new_command(_Command, (*cmd[:4], twist))
                 slot = (ring.head + i) % cap
                 ring.twist[slot] = twist
@@ -153,22 +156,32 @@ class CommandHistory:
 
 
 class _Ring:
-    """The history's times (s) and twists (m/s, rad/s) by slot, and which twists are
-    known (module docstring of :mod:`redservo.kernels.latency`)."""
+    """The history's times (s), twists (m/s, rad/s), joints and commands (rad or m, rad/s
+    or m/s) by slot, and which twists are known (module docstring of
+    :mod:`redservo.kernels.latency`)."""
 
-    def __init__(self, cap: int) -> None:
+    def __init__(self, cap: int, n: int = 0) -> None:
         self.t = np.zeros(cap)
         self.twist = np.zeros((cap, 6))
         self.has = np.zeros(cap, dtype=np.bool_)
+        self.q = np.zeros((cap, n))
+        self.qdot = np.zeros((cap, n))
         self.head = 0
+
+    def joints(self, n: int) -> None:
+        """Slots for ``n`` joints (the first command's; a history holds one robot's)."""
+        cap = self.t.shape[0]
+        self.q, self.qdot = np.zeros((cap, n)), np.zeros((cap, n))
 
     def grow(self, count: int) -> None:
         """Twice the slots, the ``count`` commands kept moved to the first ones."""
-        cap = self.t.shape[0]
+        cap, n = self.t.shape[0], self.q.shape[1]
         order = (self.head + np.arange(count)) % cap
-        t, twist, has = self.t[order], self.twist[order], self.has[order]
-        self.__init__(2 * cap)  # type: ignore[misc]
-        self.t[:count], self.twist[:count], self.has[:count] = t, twist, has
+        kept = (self.t[order], self.twist[order], self.has[order])
+        q, qdot = self.q[order], self.qdot[order]
+        self.__init__(2 * cap, n)  # type: ignore[misc]
+        self.t[:count], self.twist[:count], self.has[:count] = kept
+        self.q[:count], self.qdot[:count] = q, qdot
 
 
 def present(

@@ -24,7 +24,7 @@ from redservo.kernels._jit import kernel
 from redservo.kernels.features import points_interaction
 from redservo.kernels.robot import robot_kinematics
 
-__all__ = ["first_after", "motion", "present_points", "robot_twist"]
+__all__ = ["first_after", "motion", "present_points", "robot_motion", "robot_twist"]
 
 
 @kernel
@@ -100,3 +100,34 @@ def robot_twist(q: Any, qdot: Any, robot: Any) -> Any:
     :mod:`redservo.robots.pack`: the robot object's ``jacobian``, bit for bit), the product
     by BLAS as numpy's ``@``."""
     return np.dot(robot_kinematics(q, robot)[1], qdot)
+
+
+@kernel
+def robot_motion(
+    t: Any,
+    twist: Any,
+    has: Any,
+    ring: Any,
+    period: float,
+    stamp: float,
+    now: float,
+    eps: float,
+    q: Any,
+    qdot: Any,
+    robot: Any,
+) -> Any:
+    """:func:`motion`'s total (6,) in one call: the twists still missing computed by
+    :func:`robot_twist` from the ring's joints ``q`` and commands ``qdot`` (cap, n) and kept
+    in ``twist`` and ``has``, then the sum, as the caller did with :func:`motion`, the
+    twists, and :func:`motion` again (the same numbers)."""
+    total, missing = motion(t, twist, has, ring, period, stamp, now, eps)
+    if missing.shape[0] == 0:
+        return total
+    head, cap = ring[0], t.shape[0]
+    for k in range(missing.shape[0]):
+        slot = (head + missing[k]) % cap
+        tw = robot_twist(q[slot], qdot[slot], robot)
+        for j in range(6):
+            twist[slot, j] = tw[j]
+        has[slot] = True
+    return motion(t, twist, has, ring, period, stamp, now, eps)[0]
