@@ -26,6 +26,10 @@ optical axis; m = 6, n = 6):
   its command read (the step makes its results when first read);
   target (issue 29): the compiled engine ≤ 1.3x the compiled kernel.
 
+* ``compiled measured qp`` and ``Controller.step qp`` (``.qdot``, ``python``): the same
+  with ``qp``, whose Controller step is compiled since branch ``imgspeed5``
+  (:mod:`redservo.kernels.qp_control`; before, ``Controller.step qp`` was its object path
+  and the kernel item is absent);
 * ``compiled qp``: the campaign loop's iteration with ``qp``
   (:func:`redservo.bench.sensed.sensed_iteration`: kinematics, ideal sensor and CM01 eq. 25,
   then the law's kernels and its compiled box-QP solver);
@@ -107,6 +111,11 @@ def items(case: Any = None, laws: tuple[str, ...] = LAWS) -> list[tuple[str, Cal
         e: Controller(robot, task, make_law("classical"), limits, lam=lam, dt=dt, engine=e)
         for e in ("auto", "python")
     }
+    qp = {
+        e: Controller(robot, task, make_law("qp"), limits, lam=lam, dt=dt, engine=e)
+        for e in ("auto", "python")
+    }
+    qp_kernel = [] if qp["auto"]._compiled is None else [_measured_kernel(qp["auto"], q, meas)]
 
     def law_call(law: Any) -> Callable[[], Any]:
         return lambda: law(J1=J1, e1=e1, q=q, limits=limits, lam=lam, dt=dt)
@@ -130,6 +139,10 @@ def items(case: Any = None, laws: tuple[str, ...] = LAWS) -> list[tuple[str, Cal
         ("Controller.step", _stepping(ctl["auto"], q, meas, dt)),
         ("Controller.step .qdot", _stepping(ctl["auto"], q, meas, dt, read=True)),
         ("Controller.step python", _stepping(ctl["python"], q, meas, dt)),
+        *(("compiled measured qp", k) for k in qp_kernel),
+        ("Controller.step qp", _stepping(qp["auto"], q, meas, dt)),
+        ("Controller.step qp .qdot", _stepping(qp["auto"], q, meas, dt, read=True)),
+        ("Controller.step qp python", _stepping(qp["python"], q, meas, dt)),
     ]
 
 

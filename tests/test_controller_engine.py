@@ -25,7 +25,7 @@ from redservo.task import TaskTerm, VisualTask
 
 PTS = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]])
 S_STAR = np.array([-0.1, -0.1, 0.1, -0.1, 0.1, 0.1, -0.1, 0.1])
-COMPILED = [m for m in METHODS if m not in ("qp", "qp-goal", "sns", "predictive")]
+COMPILED = [m for m in METHODS if m not in ("qp-goal", "sns", "predictive")]
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -125,6 +125,39 @@ def test_adaptive_gain(method: str) -> None:
         assert _same(a.diagnostics, b.diagnostics)
 
 
+@pytest.mark.parametrize("method", ["wln", "qp"])
+@pytest.mark.parametrize("kind", ["panda", "urdf"])
+def test_latency_compensation_is_the_object_paths(kind: str, method: str) -> None:
+    """Measurements stamped 66 ms before the step (a camera's latency): the compiled engine
+    (the twists of the unseen commands from the robot's compiled kinematics, the points
+    brought to the present in one kernel) gives the object path's steps bit for bit."""
+    robot = _robot(kind)
+    lim = robot.limits()
+    limits = JointLimits(lim.q_min, lim.q_max, rho=0.1, qdot_max=0.5, qddot_max=4.0)
+    q = lim.center + 0.6 * lim.range / 2 * np.sign(np.arange(robot.n) % 2 - 0.5)
+    wMo = robot.fkine(q) @ make_transform(t=(0.04, -0.03, 0.6), rotvec=(0.0, 0.0, 0.9))
+    scene = Scene([PointSet("sq", PTS, trajectory=ConstantVelocity(wMo, v=np.zeros(3)))])
+    task = VisualTask([TaskTerm(PointFeature(p), "sq") for p in PTS], S_STAR)
+    ctl = {
+        e: Controller(robot, task, make_law(method), limits, lam=0.6, dt=0.04, engine=e)
+        for e in ("compiled", "python")
+    }
+    assert ctl["compiled"].engine == "compiled"
+    prev, seen = None, []
+    for i in range(30):
+        t = 0.04 * i
+        stamp = max(0.0, t - 0.066)
+        s, inv = task.measure(scene, robot.fkine(q, check_limits=False), stamp)
+        a, b = (c.step(q, Measurement(s, inv, stamp), t, qdot_prev=prev) for c in ctl.values())
+        assert a.qdot.tobytes() == b.qdot.tobytes(), i
+        assert a.state.s.tobytes() == b.state.s.tobytes(), i  # the features brought to t
+        assert _same(a.diagnostics, b.diagnostics)
+        seen.append(bool(np.any(a.state.s != s)))
+        prev = a.qdot.copy()
+        q = q + 0.04 * prev
+    assert sum(seen) > 20  # compensated steps
+
+
 def test_engine_is_said_and_the_reason_is_one_line() -> None:
     robot = Afma6()
     terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
@@ -146,7 +179,8 @@ def test_engine_is_said_and_the_reason_is_one_line() -> None:
     assert py.engine == "kernels" and py.engine_reason == "engine='python' asked for"
 
 
-def test_bad_inputs_raise_the_object_paths_errors() -> None:
+@pytest.mark.parametrize("method", ["classical", "qp"])
+def test_bad_inputs_raise_the_object_paths_errors(method: str) -> None:
     """A joint outside its limits or a NaN feature: the compiled engine hands the step to the
     object path, whose error names the input."""
     from redservo import JointLimitError, ShapeError
@@ -154,7 +188,8 @@ def test_bad_inputs_raise_the_object_paths_errors() -> None:
     robot = Afma6()
     terms = [TaskTerm(PointFeature(p), "sq") for p in PTS]
     task = VisualTask(terms, S_STAR)
-    ctl = Controller(robot, task, make_law("classical"), lam=0.5, dt=0.04)
+    ctl = Controller(robot, task, make_law(method), lam=0.5, dt=0.04)
+    assert ctl.engine == "compiled"
     q = robot.limits().center.copy()
     meas = Measurement(S_STAR + 0.01, tuple(np.array([1.5]) for _ in PTS))
     assert ctl.step(q, meas, 0.0, qdot_prev=None).qdot.shape == (6,)
@@ -165,6 +200,38 @@ def test_bad_inputs_raise_the_object_paths_errors() -> None:
     bad = Measurement(np.full(8, np.nan), meas.inv_depth)
     with pytest.raises(ShapeError):
         ctl.step(q, bad, 0.0, qdot_prev=None)
+
+
+def test_qp_is_compiled_with_its_own_solver_and_without_distance_rows() -> None:
+    """``qp`` has a compiled controller step with its compiled solver (``solver="auto"``);
+    a solver library, distance rows (collision avoidance) or ``qp-goal`` keep the object
+    path and say why; a law given a library or rows after the binding is bound anew."""
+    from redservo.collision.shapes import Obstacle, Shape
+    from redservo.control.avoidance import Collision
+    from redservo.redundancy.distance_rows import bind_distances
+    from redservo.scene import Static
+
+    robot = Panda()
+    task = VisualTask([TaskTerm(PointFeature(p), "sq") for p in PTS], S_STAR)
+    q = robot.limits().center.copy()
+    meas = Measurement(S_STAR + 0.01, tuple(np.array([1.5]) for _ in PTS))
+
+    def ctl(law: Any) -> Controller:
+        return Controller(robot, task, law, lam=0.5, dt=0.04)
+
+    assert (ctl(make_law("qp")).engine, ctl(make_law("qp")).engine_reason) == ("compiled", "")
+    lib = ctl(make_law("qp", solver="scipy"))
+    assert lib.engine == "kernels" and "'scipy'" in lib.engine_reason
+    assert "'qp-goal'" in ctl(make_law("qp-goal")).engine_reason
+    later = ctl(make_law("qp"))
+    later.law.solver = "scipy"  # type: ignore[attr-defined]
+    later.step(q, meas, 0.0, qdot_prev=None)
+    assert later.engine == "kernels" and "'scipy'" in later.engine_reason
+    rows = ctl(make_law("qp"))
+    post = Obstacle("post", Shape("sphere", radius=0.05), Static(np.eye(4)))
+    bind_distances(rows.law, Collision(obstacles=(post,)), robot)
+    rows.step(q, meas, 0.0, qdot_prev=None)
+    assert rows.engine == "kernels" and "distance rows" in rows.engine_reason
 
 
 def test_run_json_records_the_engine(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:

@@ -136,3 +136,61 @@ def test_points_brought_to_the_present_in_one_compiled_call_equal_the_python_pat
         assert fast.s.tobytes() == slow.s.tobytes()
         assert fast.stamp == slow.stamp == t
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast.inv_depth, slow.inv_depth))
+
+
+@pytest.mark.parametrize("kind", ["afma6", "panda", "urdf"])
+def test_the_twists_from_the_compiled_kinematics_are_the_robot_objects(kind: str) -> None:
+    """``kernels/latency.robot_twist`` (the robot's compiled kinematics, the product by BLAS)
+    gives the history's twist ``robot.jacobian(q) @ q̇`` bit for bit, on fuzzed joints
+    (beyond the limits too: the history does not check them) and commands over decades; a
+    compensated Controller step on the compiled engine therefore equals the object path's
+    (tests/test_controller_engine.py runs both with a camera's latency)."""
+    from redservo.kernels import latency as kl
+    from redservo.robots import Afma6
+
+    if kind == "urdf":
+        from redservo.robots.urdf import URDFRobot, shipped_urdf
+
+        robot: Any = URDFRobot(shipped_urdf("panda"), camera_link="camera_link")
+    else:
+        robot = Afma6() if kind == "afma6" else Panda()
+    pack = robot.kernel_pack()
+    assert pack is not None
+    lim = robot.limits()
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        q = lim.center + rng.uniform(-1.2, 1.2, robot.n) * lim.range / 2
+        qdot = rng.normal(size=robot.n) * 10.0 ** rng.uniform(-4, 1)
+        want = robot.jacobian(q, check_limits=False) @ qdot
+        assert kl.robot_twist(q, qdot, pack).tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_sum_with_the_compiled_twists_in_one_call_is_the_python_loops(seed: int) -> None:
+    """``CommandHistory.motion`` with the robot's kinematics pack (the missing twists and the
+    sum in one compiled call, ``kernels/latency.robot_motion``, from the ring's joints and
+    commands) gives the reference's displacement bit for bit (the robot object's Jacobian,
+    the Python loop), on fuzzed histories: jittered, repeated and out-of-order times, more
+    commands than the ring's first slots (it grows), commands kept as a buffer's part."""
+    robot = Panda()
+    pack = robot.kernel_pack()
+    lim = robot.limits()
+    rng = np.random.default_rng(100 + seed)
+    period = float(rng.uniform(0.002, 0.05))
+    horizon = float(rng.choice([0.05, 1.0, 100.0]))
+    got = CommandHistory(period, lambda q: robot.jacobian(q, check_limits=False), horizon)
+    want = _Reference(period, lambda q: robot.jacobian(q, check_limits=False), horizon)
+    t = 0.0
+    for k in range(200):
+        t += period * float(rng.choice([1.0, rng.uniform(0.5, 1.5), 0.0]))
+        if seed % 3 == 2 and k % 37 == 5:
+            t -= 2.5 * period
+        q = lim.center + rng.uniform(-1.0, 1.0, robot.n) * lim.range / 2
+        qdot = rng.normal(size=robot.n) * 10.0 ** rng.uniform(-3, 0)
+        buf = np.concatenate([rng.normal(size=3), qdot])  # as the compiled step keeps it
+        got.keep(t, q.copy(), buf, slice(3, 3 + robot.n))
+        want.record(t, q, qdot)
+        stamp = t - float(rng.uniform(0.0, 5.0)) * period
+        now = t + float(rng.choice([0.0, period, rng.uniform(0, 2 * period)]))
+        a, b = got.motion(stamp, now, pack), want.motion(stamp, now)
+        assert a.tobytes() == b.tobytes(), (k, a, b)

@@ -548,6 +548,36 @@ def _two_stage(method: str) -> Any:
     return type(f"TwoStage{base.__name__}", (base,), {"compute": compute})
 
 
+def _fuzzed_call(seed: int) -> dict[str, Any]:
+    """A law call's keywords drawn from ``seed``: 1-8 task rows, 2-8 joints, velocity
+    limits and (odd seeds) acceleration limits, a margin, a rank loss (seeds divisible by
+    4), errors over six decades, ``q`` up to the limits, a secondary (odd seeds) and a
+    previous command (seeds not divisible by 3)."""
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(1, 9)), int(rng.integers(2, 9))
+    lim = JointLimits(
+        -np.ones(n),
+        np.ones(n),
+        rho=0.1,
+        qdot_max=rng.uniform(0.01, 1.0, n),
+        qddot_max=rng.uniform(0.01, 5.0, n) if seed % 2 else None,
+        margin=0.01 if seed % 3 else 0.0,
+    )
+    J1 = rng.normal(size=(m, n))
+    if seed % 4 == 0:
+        J1[-1] = J1[0]  # rank loss
+    return {
+        "J1": J1,
+        "e1": rng.normal(size=m) * 10.0 ** rng.uniform(-3, 3),
+        "q": rng.uniform(-1.0, 1.0, n) * (1.0 if seed % 5 else 0.999),
+        "limits": lim,
+        "lam": float(rng.uniform(0.1, 5.0)),
+        "dt": float(10.0 ** rng.uniform(-3, 0.5)),
+        "secondary": rng.normal(size=n) if seed % 2 else None,
+        "qdot_prev": rng.uniform(-1, 1, n) * lim.qdot_max if seed % 3 else None,
+    }
+
+
 _STEP_KERNEL_LAWS = (
     "classical",
     "gpm",
@@ -569,29 +599,7 @@ def test_a_law_call_through_the_step_kernel_equals_law_then_safety(
     """``Law.__call__`` through the step kernel (law, flag rules and safety stage in one
     kernel, ``redundancy/kernel_call.py``) returns the command bit for bit and the same
     diagnostics as compute() followed by apply_safety, for every law it covers."""
-    rng = np.random.default_rng(seed)
-    m, n = int(rng.integers(1, 9)), int(rng.integers(2, 9))
-    lim = JointLimits(
-        -np.ones(n),
-        np.ones(n),
-        rho=0.1,
-        qdot_max=rng.uniform(0.01, 1.0, n),
-        qddot_max=rng.uniform(0.01, 5.0, n) if seed % 2 else None,
-        margin=0.01 if seed % 3 else 0.0,
-    )
-    J1 = rng.normal(size=(m, n))
-    if seed % 4 == 0:
-        J1[-1] = J1[0]  # rank loss
-    kw: dict[str, Any] = {
-        "J1": J1,
-        "e1": rng.normal(size=m) * 10.0 ** rng.uniform(-3, 3),
-        "q": rng.uniform(-1.0, 1.0, n) * (1.0 if seed % 5 else 0.999),
-        "limits": lim,
-        "lam": float(rng.uniform(0.1, 5.0)),
-        "dt": float(10.0 ** rng.uniform(-3, 0.5)),
-        "secondary": rng.normal(size=n) if seed % 2 else None,
-        "qdot_prev": rng.uniform(-1, 1, n) * lim.qdot_max if seed % 3 else None,
-    }
+    kw = _fuzzed_call(seed)
     fused = make_law(method, shield=shield)(**kw)
     split = _two_stage(method)().set_safety(shield=shield)(**kw)
     assert fused.qdot.tobytes() == split.qdot.tobytes()
@@ -623,3 +631,71 @@ def test_a_bad_safety_option_changes_nothing() -> None:
     with pytest.raises(ConfigurationError, match="robust"):
         law.set_safety(shield=False, robust="no")  # type: ignore[arg-type]
     assert law.shield is True
+
+
+def _qp_compiled(law: Any, kw: dict[str, Any]) -> Any:
+    """``(q̇, diagnostics)`` of the ``qp`` law's compiled Controller step
+    (``kernels/qp_control.qp_core``, its outputs laid out as the Controller's buffer and read
+    by the law's ``diagnose``) on the law call's keywords ``kw``; None when the kernel hands
+    the step to the object path."""
+    from redservo.binding.control_law import control_pack
+    from redservo.kernels import control, qp_control
+    from redservo.redundancy.kernel_call import LAW_PARTS, diagnose
+    from redservo.redundancy.packs import limits_pack
+
+    def given(v: Any) -> Any:
+        return np.zeros(0) if v is None else np.ascontiguousarray(v, dtype=float)
+
+    J1, e1, q, lim = kw["J1"], kw["e1"], kw["q"], kw["limits"]
+    (m, n), dt = J1.shape, kw["dt"]
+    lp = limits_pack(lim)
+    inputs = (given(kw.get("de1_dt")), given(kw["secondary"]), given(kw["qdot_prev"]))
+    status, out, lev, sev = qp_control.qp_core(
+        q, J1, e1, control_pack(law, n), (lp.rows, lp.has_v, lp.has_a), (kw["lam"], dt), inputs
+    )
+    if status != 1:
+        return None
+    qdot, iout, fout, axes, axf, vec, sout = out
+    events = (lev[1], lev[2].astype(float), sev[1], sev[2].astype(float))
+    buf = np.concatenate([qdot, iout.astype(float), fout, sout, axes, axf, *events])
+    layout = control.control_layout(n, 0, 0)
+    parts = tuple(slice(*layout[k]) for k in LAW_PARTS)
+    safety = (q.copy(), qdot.copy(), dt, lim) if sev[0] else None
+    args = (type(law), dict(law.__dict__), m, buf, parts, (lev[0], sev[0], vec), safety)
+    return qdot, diagnose(*args)
+
+
+@pytest.mark.parametrize("shield", [True, False])
+def test_qp_compiled_step_equals_its_law_call(shield: bool) -> None:
+    """The ``qp`` law's compiled Controller step (``kernels/qp_control.py``, its diagnostics
+    by the law's ``diagnose``) gives the command bit for bit and the diagnostics of the law
+    object's call (``compute``, then the safety layer), on fuzzed calls that reach every
+    branch: the unconstrained optimum inside the bounds, the compiled solver with and
+    without its polish, bounds in conflict with ``v_max``, rank loss, a secondary command
+    and a feed-forward."""
+    seen: set[str] = set()
+    conflicts = 0
+    for seed in range(60):
+        kw = _fuzzed_call(seed)
+        rng = np.random.default_rng(1000 + seed)
+        n = kw["q"].shape[0]
+        if seed % 5 == 1:
+            kw["de1_dt"] = rng.normal(size=kw["e1"].shape[0])
+        opts: dict[str, Any] = {"margin": 0.05 * (seed % 3), "k_p": (1.0, 0.5)[seed % 2]}
+        if seed % 4 == 3:
+            opts["v_max"] = rng.uniform(0.001, 0.5, n)
+        law = make_law("qp", **opts).set_safety(shield=shield)
+        compiled = _qp_compiled(law, kw)
+        assert compiled is not None, seed
+        ref = law(**kw)
+        assert compiled[0].tobytes() == ref.qdot.tobytes(), seed
+        assert repr(compiled[1]) == repr(ref.diagnostics), seed  # events may hold NaN
+        assert compiled[1].notes == ref.diagnostics.notes, seed
+        seen.add(ref.diagnostics.info[0])
+        conflicts += any(e.flag.value == "bounds-conflict" for e in ref.diagnostics.events)
+    assert seen == {
+        "solver: none (unconstrained optimum within the bounds)",
+        "solver: active-set",
+        "solver: active-set + active-set polish",
+    }
+    assert conflicts > 0

@@ -59,3 +59,44 @@ def test_what_the_kernel_does_not_decide_takes_the_numpy_code() -> None:
     lens = Camera(k1=0.1)
     P = np.array([[0.3, 0.2, 0.5], [-0.1, 0.05, 0.8]])
     assert loop._in_image(lens, P, 0.0) is _numpy_in_image(lens, P, 0.0)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_targets_in_one_compiled_call_answer_as_the_check_per_target(seed: int) -> None:
+    """``simulation/loop_image.ImageCheck`` (the targets' camera points and the test in one
+    compiled call) answers as the per-target check it replaces (``visible_points`` then
+    ``_in_image`` for each target), on fuzzed camera poses around two point sets, one of
+    them moving, with the robot's base off the world origin (odd seeds) or at it, and the
+    camera points are ``visible_points``' bit for bit."""
+    from redservo.control.objectives import visible_points
+    from redservo.kernels.dot_pixels import dot_points
+    from redservo.scene import ConstantVelocity, PointSet, Scene, Static
+    from redservo.simulation.loop_image import ImageCheck
+    from redservo.spatial import make_transform
+
+    rng = np.random.default_rng(seed)
+    wMb = (
+        make_transform(t=rng.normal(size=3) * 0.3, rotvec=rng.normal(size=3)) if seed % 2 else None
+    )
+    a = PointSet(
+        "a", rng.normal(size=(4, 3)) * 0.05, trajectory=Static(make_transform(t=(0.0, 0.0, 0.8)))
+    )
+    moving = ConstantVelocity(make_transform(t=(0.1, 0.0, 0.9)), v=np.array([0.05, -0.02, 0.0]))
+    b = PointSet("b", rng.normal(size=(3, 3)) * 0.05, trajectory=moving)
+    scene = Scene([a, b], wMb=wMb)
+    cam, margin = Camera(), float(rng.choice([0.0, 4.0, 20.0]))
+    check = ImageCheck(scene, ["a", "b"], cam, margin)
+    assert check.fast
+    answers = set()
+    for i in range(400):
+        t = 0.04 * i
+        wMc = make_transform(t=rng.normal(size=3) * 0.15, rotvec=rng.normal(size=3) * 0.25)
+        bMc = (np.linalg.inv(scene.wMb) @ wMc) if seed % 2 else wMc
+        want = all(_numpy_in_image(cam, visible_points(scene, n, bMc, t), margin) for n in "ab")
+        assert check(bMc, t) is want, i
+        answers.add(want)
+        wMo = check._poses(t)
+        P = dot_points(bMc[None], wMo, check.bMw, check.has_base, check.pts, check.starts)[0]
+        ref = np.concatenate([visible_points(scene, n, bMc, t) for n in "ab"])
+        assert P.tobytes() == ref.tobytes(), i
+    assert answers == {True, False}

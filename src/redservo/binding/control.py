@@ -19,25 +19,24 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from redservo._validation import FloatArray
-from redservo.errors import ConfigurationError
+from redservo.binding.control_law import control_kernels, control_pack, law_reason, stale
 from redservo.features import plan as plan
 from redservo.kernels import lazy
 from redservo.kernels.entry import entry_of
 from redservo.limits import JointLimits
-from redservo.redundancy.base import Diagnostics, Law, LazyDiagnostics, law_class
+from redservo.redundancy.base import Diagnostics, Law, LazyDiagnostics
 from redservo.redundancy.gain import AdaptiveGain, gain_value
-from redservo.redundancy.kernel_call import _PACK, LAW_PARTS, _law_pack, diagnose
-from redservo.redundancy.kio import law_options
+from redservo.redundancy.kernel_call import _PACK, LAW_PARTS, diagnose
 from redservo.redundancy.packs import limits_pack
 from redservo.robots.base import Robot
 from redservo.task import TaskState, VisualTask
 
-__all__ = ["CompiledControl", "bind_controller", "results", "stale"]
+__all__ = ["CompiledControl", "bind_controller", "law_reason", "results", "stale"]
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import control as _K
@@ -118,8 +117,12 @@ class CompiledControl:
     types, once a step found it (:func:`redservo.kernels.entry.entry_of`); None before,
     False when there is none (no numba)."""
     measured_entry: list[Callable[..., Any] | bool | None] = field(default_factory=lambda: [None])
-    """:attr:`entry` of :func:`~redservo.kernels.control.measured_control`, the step with
-    the model Jacobian given (a loop that has it: the simulator's image runs)."""
+    """:attr:`entry` of :attr:`measured`, the step with the model Jacobian given (a loop
+    that has it: the simulator's image runs)."""
+    measured: Callable[..., Any] | None = None
+    """The law's step with the model Jacobian given
+    (:func:`~redservo.kernels.control.measured_control`, or the law's own:
+    :func:`redservo.binding.control_law.control_kernels`); None: ``measured_control``."""
 
     @cached_property
     def hot(self) -> tuple[Any, ...]:
@@ -227,9 +230,10 @@ class CompiledControl:
         entry = self.measured_entry[0]
         if plain and entry:
             return entry(*args)  # type: ignore[operator]  # truthy: callable
-        out = _K.measured_control(*args)
+        kernel = self.measured or _K.measured_control
+        out = kernel(*args)
         if plain and entry is None:  # looked up once: False when there is none
-            self.measured_entry[0] = entry_of(_K.measured_control, args) or False
+            self.measured_entry[0] = entry_of(kernel, args) or False
         return out
 
     def _adapted(self, s: FloatArray) -> tuple[float, float]:
@@ -301,6 +305,22 @@ def results(
     return qdot, state, diag, copies
 
 
+def _reason(robot: Robot, task: VisualTask, law: object, lam: object) -> str:
+    """Why this set-up has no compiled engine (one line), or ``""``."""
+    from redservo.features import PointFeature
+
+    why = law_reason(law, robot.n)
+    if why:
+        return why
+    if not isinstance(lam, AdaptiveGain) and (
+        isinstance(lam, bool) or not isinstance(lam, int | float)
+    ):
+        return f"gain {lam!r} is neither a number nor an AdaptiveGain"
+    if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
+        return "only tasks of image points are compiled for the controller"
+    return ""
+
+
 def bind_controller(
     robot: Robot,
     task: VisualTask,
@@ -312,21 +332,14 @@ def bind_controller(
     depth_scale: float,
 ) -> CompiledControl | str:
     """The compiled engine of this set-up, or the reason (one line) it has none."""
-    from redservo.features import PointFeature
-
-    why = law_reason(law, robot.n)
+    why = _reason(robot, task, law, lam)
     if why or not isinstance(law, Law):
         return why
-    if not isinstance(lam, AdaptiveGain) and (
-        isinstance(lam, bool) or not isinstance(lam, int | float)
-    ):
-        return f"gain {lam!r} is neither a number nor an AdaptiveGain"
-    if task._group is None or not all(isinstance(t.feature, PointFeature) for t in task.terms):
-        return "only tasks of image points are compiled for the controller"
-    law_pack = _law_pack(law, robot.n)  # kept on the law until an option changes
+    law_pack = control_pack(law, robot.n)  # kept on the law until an option changes
     pack = robot.kernel_pack()  # None: the Jacobian from the robot object, the rest compiled
     robot_args = () if pack is None else pack
-    kernel: Callable[..., Any] | None = None if pack is None else _K.robot_control
+    on_robot, measured = control_kernels(law)
+    kernel: Callable[..., Any] | None = None if pack is None else on_robot
     lp = limits_pack(limits)
     C = _NO_C if task.C is None else np.ascontiguousarray(task.C, dtype=np.float64)
     m = task.k if task.C is None else C.shape[0]
@@ -343,7 +356,7 @@ def bind_controller(
         law=law,
         limits=limits,
         task=task,
-        gains=(np.nan if isinstance(lam, AdaptiveGain) else float(lam), float(dt)),
+        gains=(np.nan if isinstance(lam, AdaptiveGain) else float(cast(float, lam)), float(dt)),
         adaptive=lam if isinstance(lam, AdaptiveGain) else None,
         depth_scale=float(depth_scale),
         law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
@@ -361,26 +374,5 @@ def bind_controller(
         no_C=task.C is None,
         law_token=law.__dict__.get(_PACK),
         law_state=dict(law.__dict__),
+        measured=measured,
     )
-
-
-def law_reason(law: object, n: int) -> str:
-    """Why ``law`` has no compiled controller step for ``n`` joints (one line), or ``""``."""
-    if not isinstance(law, Law):
-        return f"the law is a Python callable ({type(law).__name__})"
-    name = law.name
-    if not hasattr(law, "diagnose") or type(law) is not law_class(name):
-        return f"method {name!r} has no compiled controller step"
-    if law.scaling != "uniform":
-        return "secondary-first scaling runs on the Python step"
-    try:
-        law_options(law, n)  # a compiled step for this law
-    except ConfigurationError as err:
-        return str(err)
-    return ""
-
-
-def stale(eng: CompiledControl) -> bool:
-    """The law of ``eng`` changed an option since it was bound (``law.rcond = ...``,
-    ``law.set_safety(...)``): ``eng`` packed the old ones, so the controller binds anew."""
-    return eng.law.__dict__.get(_PACK) is not eng.law_token

@@ -121,16 +121,26 @@ class CommandHistory:
         slot = (ring.head + len(cmds) - 1) % ring.t.shape[0]
         ring.t[slot] = t
         ring.has[slot] = False
+        if ring.q.shape[1] != q.shape[0]:
+            ring.joints(q.shape[0])
+        ring.q[slot] = q
+        ring.qdot[slot] = qdot if part is None else qdot[part]
         while cmds[0][0] < t - self.horizon:
             cmds.popleft()
             ring.head = (ring.head + 1) % ring.t.shape[0]
 
-    def motion(self, stamp: float, now: float) -> FloatArray:
+    def motion(
+        self, stamp: float, now: float, robot: tuple[object, ...] | None = None
+    ) -> FloatArray:
         """``Σ_k J(q_k) q̇_k · |[t_k, t_k + T) ∩ [stamp, now)|`` (6,): the camera's
-        displacement (m, rad) the commands made between ``stamp`` and ``now`` (s)."""
+        displacement (m, rad) the commands made between ``stamp`` and ``now`` (s).
+        ``robot``: the pack of the model robot's compiled kinematics
+        (:mod:`redservo.robots.pack`, the same ``J`` as :attr:`jacobian`), or None."""
         cmds, ring = self._cmds, self._ring
         where = (ring.head, len(cmds), self._ordered)
         args = (ring.t, ring.twist, ring.has, where, self.period, float(stamp), float(now), _EPS)
+        if robot is not None:  # the missing twists and the sum in one call
+            return np.asarray(_K.robot_motion(*args, ring.q, ring.qdot, robot))
         total, missing = _K.motion(*args)
         if len(missing):  # their twists, kept for the next steps; then the whole sum
             cap = ring.t.shape[0]
@@ -146,22 +156,32 @@ class CommandHistory:
 
 
 class _Ring:
-    """The history's times (s) and twists (m/s, rad/s) by slot, and which twists are
-    known (module docstring of :mod:`redservo.kernels.latency`)."""
+    """The history's times (s), twists (m/s, rad/s), joints and commands (rad or m, rad/s
+    or m/s) by slot, and which twists are known (module docstring of
+    :mod:`redservo.kernels.latency`)."""
 
-    def __init__(self, cap: int) -> None:
+    def __init__(self, cap: int, n: int = 0) -> None:
         self.t = np.zeros(cap)
         self.twist = np.zeros((cap, 6))
         self.has = np.zeros(cap, dtype=np.bool_)
+        self.q = np.zeros((cap, n))
+        self.qdot = np.zeros((cap, n))
         self.head = 0
+
+    def joints(self, n: int) -> None:
+        """Slots for ``n`` joints (the first command's; a history holds one robot's)."""
+        cap = self.t.shape[0]
+        self.q, self.qdot = np.zeros((cap, n)), np.zeros((cap, n))
 
     def grow(self, count: int) -> None:
         """Twice the slots, the ``count`` commands kept moved to the first ones."""
-        cap = self.t.shape[0]
+        cap, n = self.t.shape[0], self.q.shape[1]
         order = (self.head + np.arange(count)) % cap
-        t, twist, has = self.t[order], self.twist[order], self.has[order]
-        self.__init__(2 * cap)  # type: ignore[misc]
-        self.t[:count], self.twist[:count], self.has[:count] = t, twist, has
+        kept = (self.t[order], self.twist[order], self.has[order])
+        q, qdot = self.q[order], self.qdot[order]
+        self.__init__(2 * cap, n)  # type: ignore[misc]
+        self.t[:count], self.twist[:count], self.has[:count] = kept
+        self.q[:count], self.qdot[:count] = q, qdot
 
 
 def present(
@@ -197,7 +217,9 @@ def present(
         return measurement
     iz = None if engine is None else engine._inverse_depths(measurement.inv_depth)
     if iz is not None and iz.flags.carray and s.flags.carray:  # points: nothing to linearise
-        s_now = _K.present_points(s, iz, history.motion(stamp, t))
+        assert engine is not None  # iz comes from it
+        robot = engine.robot if engine.kernel is not None else None  # compiled kinematics
+        s_now = _K.present_points(s, iz, history.motion(stamp, t, robot))
     else:
         L = task.interaction(s, measurement.inv_depth, depth_scale=depth_scale)
         s_now = s + L @ history.motion(stamp, t)

@@ -145,18 +145,70 @@ class Manipulability:
 
 @dataclass
 class SingularityMargin:
-    """The run's smallest ``w`` and ``σ_min`` of the task Jacobian (:meth:`add` per step)."""
+    """The run's smallest ``w`` and ``σ_min`` of the task Jacobian (:meth:`add` per step).
 
-    w: float = float("inf")
-    sigma: float = float("inf")
+    The Jacobians are kept (copied into one growing stack) and reduced when the margin is
+    read (:meth:`fields`, :attr:`w`, :attr:`sigma`): numpy's SVD (``compute_uv=False``) and
+    ``det(J1 J1ᵀ)`` of the whole stack in one call each, which run the same LAPACK and BLAS
+    routines on each matrix as one call per step did (the same bits,
+    tests/test_singularity_margin.py), without numpy's Python around each small call."""
+
+    _w: float = float("inf")
+    _sigma: float = float("inf")
     steps: int = field(default=0)
+    _stack: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)), repr=False)
+    _kept: int = field(default=0, repr=False)
+    """How many Jacobians :attr:`_stack` holds that are not reduced yet."""
+    chunk: int = field(default=1024, repr=False)
+    """The most Jacobians kept at once: a full stack is reduced and reused, so a long run's
+    memory stays bounded (the minima are the same however the steps are grouped)."""
+
+    @property
+    def w(self) -> float:
+        """The smallest ``w`` so far (inf: no step)."""
+        self._reduce()
+        return self._w
+
+    @property
+    def sigma(self) -> float:
+        """The smallest ``σ_min(J1)`` so far (inf: no step)."""
+        self._reduce()
+        return self._sigma
 
     def add(self, J1: FloatArray) -> None:
-        """Count the (m, n) task Jacobian of one step."""
-        sv = np.linalg.svd(J1, compute_uv=False)
-        self.w = min(self.w, manipulability(J1))
-        self.sigma = min(self.sigma, float(sv[-1]) if sv.size else 0.0)
+        """Count the (m, n) task Jacobian of one step (a copy is kept until it is reduced)."""
+        stack, kept = self._stack, self._kept
+        if stack.shape[1:] != J1.shape:
+            self._reduce()
+            stack = self._stack = np.empty((min(64, self.chunk), *J1.shape))
+            kept = 0
+        elif kept == stack.shape[0] >= self.chunk:
+            self._reduce()
+            kept = 0
+        elif kept == stack.shape[0]:
+            grown = np.empty((min(2 * kept, self.chunk), *J1.shape))
+            grown[:kept] = stack
+            stack = self._stack = grown
+        stack[kept] = J1
+        self._kept = kept + 1
         self.steps += 1
+
+    def _reduce(self) -> None:
+        """Fold the kept Jacobians into :attr:`w` and :attr:`sigma`, in step order, as
+        ``min(w, manipulability(J1))`` and ``min(σ, σ_min(J1))`` per step did."""
+        kept = self._kept
+        if not kept:
+            return
+        J = self._stack[:kept]
+        self._kept = 0
+        sv = np.linalg.svd(J, compute_uv=False)
+        dets = np.linalg.det(J @ J.transpose(0, 2, 1)).tolist()
+        last = sv[:, -1].tolist() if sv.shape[1] else [0.0] * kept
+        w, sigma = self._w, self._sigma
+        for d, s in zip(dets, last, strict=True):
+            w = min(w, float(np.sqrt(max(d, 0.0))))
+            sigma = min(sigma, s)
+        self._w, self._sigma = w, sigma
 
     def fields(self) -> dict[str, Any]:
         """The summary's ``min_manipulability`` and ``min_singular_value`` (None: no step)."""

@@ -6,7 +6,8 @@ arrays (slot ``(head + i) % cap`` holds the ``i``-th command, oldest first):
 :func:`motion` sums ``twist_k · |[t_k, t_k + T) ∩ [stamp, now)|`` over the commands that
 may overlap, in the order and with the roundings of the Python loop it replaces (one
 product, then one sum, per term: no fused multiply-add), and names the commands whose
-twist is still to be computed (their Jacobian comes from the robot object, in Python).
+twist is still to be computed (:func:`robot_twist` computes one from the robot's compiled
+kinematics, else the robot object's Jacobian does, in Python).
 :func:`present_points` is ``s + L(s, 1/Ẑ) · motion`` for a task of image points, ``L``
 from :func:`~redservo.kernels.features.points_interaction` as the compiled control step
 builds it, the product by BLAS as numpy's ``@``. Units: seconds; the twist in m/s and
@@ -21,8 +22,9 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.features import points_interaction
+from redservo.kernels.robot import robot_kinematics
 
-__all__ = ["first_after", "motion", "present_points"]
+__all__ = ["first_after", "motion", "present_points", "robot_motion", "robot_twist"]
 
 
 @kernel
@@ -89,3 +91,43 @@ def present_points(s: Any, iz: Any, shift: Any) -> Any:
     (k/2,) (1/m, through the task's depth option) moved by the camera displacement
     ``shift`` (6,) (m, rad), to first order."""
     return s + np.dot(points_interaction(s, iz), shift)
+
+
+@kernel
+def robot_twist(q: Any, qdot: Any, robot: Any) -> Any:
+    """The camera twist ``J(q) q̇`` (6,) (m/s, rad/s) of the command ``qdot`` (n,) at ``q``
+    (n,): ``J`` from the robot's compiled kinematics (``robot``, the pack of
+    :mod:`redservo.robots.pack`: the robot object's ``jacobian``, bit for bit), the product
+    by BLAS as numpy's ``@``."""
+    return np.dot(robot_kinematics(q, robot)[1], qdot)
+
+
+@kernel
+def robot_motion(
+    t: Any,
+    twist: Any,
+    has: Any,
+    ring: Any,
+    period: float,
+    stamp: float,
+    now: float,
+    eps: float,
+    q: Any,
+    qdot: Any,
+    robot: Any,
+) -> Any:
+    """:func:`motion`'s total (6,) in one call: the twists still missing computed by
+    :func:`robot_twist` from the ring's joints ``q`` and commands ``qdot`` (cap, n) and kept
+    in ``twist`` and ``has``, then the sum, as the caller did with :func:`motion`, the
+    twists, and :func:`motion` again (the same numbers)."""
+    total, missing = motion(t, twist, has, ring, period, stamp, now, eps)
+    if missing.shape[0] == 0:
+        return total
+    head, cap = ring[0], t.shape[0]
+    for k in range(missing.shape[0]):
+        slot = (head + missing[k]) % cap
+        tw = robot_twist(q[slot], qdot[slot], robot)
+        for j in range(6):
+            twist[slot, j] = tw[j]
+        has[slot] = True
+    return motion(t, twist, has, ring, period, stamp, now, eps)[0]

@@ -88,6 +88,7 @@ def bind_distances(law: object, collision: Collision | None, robot: Robot) -> No
         return
     on = collision is not None and collision.enabled and collision.avoid and collision.active
     object.__setattr__(law, _SOURCE, (collision, robot) if on else None)
+    law.__dict__.pop("_kernel_pack", None)  # a compiled step bound without rows is stale
     inner = getattr(law, "_fallback", None)  # the predictive law's qp, when its solve fails
     if inner is not None:
         bind_distances(inner, collision, robot)

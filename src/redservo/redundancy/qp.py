@@ -90,7 +90,6 @@ from numpy.typing import NDArray
 from redservo._validation import FloatArray
 from redservo.errors import ConfigurationError
 from redservo.kernels import lazy
-from redservo.kernels.flagbits import TASK_SCALED
 from redservo.limits import JointLimits
 from redservo.redundancy.base import RCOND, Diagnostics, Law, LawInputs, LawResult, register
 from redservo.redundancy.bls import (
@@ -104,11 +103,19 @@ from redservo.redundancy.distance_rows import (
     rows_hold,
     solve_qp_rows,
 )
-from redservo.redundancy.kio import KernelInputs, kernel_inputs, optional
+from redservo.redundancy.flags import Event
+from redservo.redundancy.kio import KernelInputs, LawOutputs, kernel_inputs, optional
 from redservo.redundancy.linalg import DEFAULT_RCOND
-from redservo.redundancy.messages import events
 from redservo.redundancy.options import Option
 from redservo.redundancy.packs import limits_pack
+from redservo.redundancy.qp_step import (
+    ACTIVE_SET,
+    INSIDE_NOTE,
+    qp_diagnose,
+    qp_diagnostics,
+    qp_pack,
+    v_per_joint,
+)
 
 if TYPE_CHECKING:  # the kernel modules, typed; imported on first use at run time
     from redservo.kernels import boxqp as _KB
@@ -121,9 +128,6 @@ else:
 
 __all__ = ["ACTIVE_SET", "BoundedLeastSquares", "qp_velocity_bounds", "solve_bounded_least_squares"]
 
-ACTIVE_SET = "active-set"
-"""The ``solver`` name of the compiled active-set solver (:mod:`redservo.kernels.boxqp`),
-what ``"auto"`` means."""
 ROW_SOLVER = "dual active-set (with distance rows)"
 """The solver note of a step solved with the distance rows (:mod:`redservo.kernels.rowqp`)."""
 _FAILURES = {-1: "the bounds do not meet", 0: "numerical failure or iteration cap"}
@@ -153,7 +157,7 @@ def qp_velocity_bounds(
         v_max: Velocity limits, 0-d or (n,) array (rad/s or m/s), or None.
     """
     n = q.shape[0]
-    v, has_v = optional(None if v_max is None else _v_per_joint(v_max, n), n)
+    v, has_v = optional(None if v_max is None else v_per_joint(v_max, n), n)
     lo, hi, conflicts = _K.qp_velocity_bounds(
         np.ascontiguousarray(q, dtype=np.float64),
         limits_pack(limits).rows,
@@ -166,14 +170,8 @@ def qp_velocity_bounds(
     return lo, hi, tuple(int(i) for i in np.flatnonzero(conflicts))
 
 
-def _v_per_joint(v_max: FloatArray, n: int) -> FloatArray:
-    v = np.full(n, float(v_max)) if v_max.ndim == 0 else v_max
-    if v.shape != (n,):
-        raise ConfigurationError(
-            f"v_max has {v.shape[0]} entries but the robot has {n} joints; give a scalar or "
-            f"one value per joint"
-        )
-    return v
+_v_per_joint = v_per_joint
+"""``v_max`` per joint (:func:`redservo.redundancy.qp_step.v_per_joint`; its former home)."""
 
 
 def _levels(active: NDArray[np.bool_]) -> tuple[tuple[int, ...], ...]:
@@ -265,7 +263,7 @@ class BoundedLeastSquares(Law):
     def compute(self, x: LawInputs) -> LawResult:
         m, n = x.J1.shape
         k = kernel_inputs(x)
-        v, has_v = optional(None if self.v_max is None else _v_per_joint(self.v_max, n), n)
+        v, has_v = optional(None if self.v_max is None else v_per_joint(self.v_max, n), n)
         prev, has_prev = optional(x.qdot_prev, n)
         out = _K.qp_setup(
             k.J1,
@@ -298,7 +296,7 @@ class BoundedLeastSquares(Law):
             fixed, active, resid = _K.qp_finish(k.J1, xdot, lo, hi, rowed, k.q, x.dt, k.lp)
             used, resid, critical = ROW_SOLVER, float(resid), _levels(active)
         elif inside:
-            info.append("solver: none (unconstrained optimum within the bounds)")
+            info.append(INSIDE_NOTE)
             fixed, _, _ = _K.qp_finish(k.J1, xdot, lo, hi, qdot, k.q, x.dt, k.lp)
         else:
             qp = (xfix, free, P, c, lof, hif)
@@ -308,20 +306,27 @@ class BoundedLeastSquares(Law):
             if resid >= 0.0:
                 info.append(f"relative task residual {resid:.3g}")
         fallback = "fallback" in used or "failed" in used or rows_failed
-        mask, vals, src = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
-        ctx = {"rank": int(rank), "m": m, "solver": used}
-        ctx["conflicts"] = lambda: np.flatnonzero(conflicts).tolist()
-        diag = Diagnostics(
-            method=self.name,
-            task_rank=int(rank),
-            rank_deficient=int(rank) < m,
-            projector_rank=n - int(rank) if x.secondary is not None else 0,
-            critical=critical,
-            overconstrained=bool(src[TASK_SCALED]),  # the bounds prevent the task
-            events=events(mask, vals, src, **ctx),
-            info=tuple(info),
-        )
+        found = _KE.qp_events(m, int(rank), conflicts, fallback, resid)
+        solver = (used, resid, critical)
+        has_sec = x.secondary is not None
+        diag = qp_diagnostics(self.name, (m, n), int(rank), solver, conflicts, found, has_sec, info)
         return LawResult(fixed, diag)
+
+    def diagnose(self, m: int, out: LawOutputs, more: tuple[Event, ...] = ()) -> Diagnostics:
+        """The diagnostics of the compiled Controller step's outputs ``out`` (m task rows;
+        ``more``: the safety layer's events; :mod:`redservo.kernels.qp_control`), as
+        :meth:`compute` builds them (:func:`~redservo.redundancy.qp_step.qp_diagnose`)."""
+        return qp_diagnose(self, m, out, more)
+
+    def control_pack(self, n: int) -> tuple[Any, ...]:
+        """The options packed for the compiled Controller step with ``n`` joints
+        (:func:`~redservo.redundancy.qp_step.qp_pack`).
+
+        Raises:
+            ConfigurationError: the law has no compiled step (a solver library, distance
+                rows) or ``v_max`` does not fit ``n`` joints.
+        """
+        return qp_pack(self, n)
 
     def _rows(
         self,

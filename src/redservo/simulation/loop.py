@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, Protocol, cast
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -46,14 +46,8 @@ from redservo.collision.tally import DistanceTally
 from redservo.control import Controller, Measurement, SceneContext
 from redservo.control.avoidance import CollisionAvoidance
 from redservo.control.manipulability import SingularityMargin
-from redservo.control.objectives import (
-    CallableObjective,
-    Objective,
-    OcclusionAvoidance,
-    visible_points,
-)
+from redservo.control.objectives import CallableObjective, Objective, OcclusionAvoidance
 from redservo.errors import GeometryError
-from redservo.kernels import lazy
 from redservo.kernels.blas import one_blas_thread
 from redservo.limits import JointLimits
 from redservo.records import LogBuffer, Outcome, RunSummary, SimulationLog, summarize
@@ -63,13 +57,10 @@ from redservo.robots.base import Robot
 from redservo.scene import Scene
 from redservo.sensors import FrameNoise, IdealSensor, Sensor, SensorReading
 from redservo.sensors.flags import sensor_flags
+from redservo.simulation.loop_image import ImageCheck
+from redservo.simulation.loop_image import _in_image as _in_image  # its former home
 from redservo.simulation.options import SimulationOptions
 from redservo.task import TaskState, VisualTask
-
-if TYPE_CHECKING:  # the kernel module, typed; imported on first use at run time
-    from redservo.kernels import in_image as _KI
-else:
-    _KI = lazy("in_image")
 
 __all__ = ["LIMIT_TOLERANCE", "Actuator", "SimulationResult", "simulate", "simulation_controller"]
 
@@ -89,24 +80,6 @@ class Actuator(Protocol):
     ) -> tuple[FloatArray, FloatArray]: ...
 
     def encoder(self, q: ArrayLike) -> FloatArray: ...
-
-
-def _in_image(cam: Camera, P: FloatArray, margin_px: float) -> bool:
-    """Every point of ``P`` (N, 3) (m, camera frame) in front of the camera and within its
-    image less ``margin_px`` (pixels): one compiled call for a camera without distortion
-    (:func:`redservo.kernels.in_image.points_in_image`), else numpy's code."""
-    if not cam.distorted and P.dtype == np.float64 and P.ndim == 2 and P.shape[1] == 3:
-        m = float(margin_px)
-        intrinsics = (float(cam.px), float(cam.py), float(cam.u0), float(cam.v0))
-        inside = _KI.points_in_image(
-            np.ascontiguousarray(P), intrinsics, (m, cam.width - m, cam.height - m)
-        )
-        if inside >= 0:
-            return inside == 1
-    if np.any(P[:, 2] <= 1e-9):
-        return False
-    xy = P[:, :2] / P[:, 2:3]
-    return bool(np.all(cam.in_image(xy, margin_px=margin_px)))
 
 
 def simulation_controller(
@@ -278,6 +251,8 @@ class _Run:
         self.rng = np.random.default_rng(opt.seed)
         self.noise = FrameNoise(opt.noise_std, self.rng)  # a held frame keeps its noise
         self.targets = sorted({term.target for term in ctrl.task.terms})
+        self.in_view = ImageCheck(scene, self.targets, camera, opt.image_margin_px)
+        """The check that every target stays in view (:mod:`redservo.simulation.loop_image`)."""
         # The true Jacobian serves the controller when its model is the true robot.
         self.true_model = ctrl.robot is robot and actuator is None
         coll = opt.collision
@@ -341,10 +316,7 @@ class _Run:
             self.frames(reading.dots, t - (t if reading.stamp is None else reading.stamp))
         s = self.noise(reading)
         meas = Measurement(s, tuple(reading.inv_depth), reading.stamp)
-        if opt.check_image and not all(
-            _in_image(self.camera, visible_points(self.scene, name, bMc, t), opt.image_margin_px)
-            for name in self.targets
-        ):
+        if opt.check_image and not self.in_view(bMc, t):
             return "target_lost", None  # an object left the image
         try:
             step = ctrl.step(
