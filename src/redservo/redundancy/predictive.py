@@ -135,6 +135,8 @@ class Predictive(Law):
             )
         self._camera = Camera()
         self._gate_px: float | None = None
+        self._camera_rate: float | None = None
+        """The bound camera's frame rate (Hz, :meth:`bind_tracker`; None: every period)."""
         self.loop_budget: float | None = None
         """The servo loop's budget when ``time_budget`` is None (:meth:`bind_period`, s)."""
         self._seen = SeenJoints(self.latency)
@@ -202,11 +204,14 @@ class Predictive(Law):
         self.loop_budget = LOOP_SHARE * float(period)
         self.clock = clock
 
-    def bind_tracker(self, gate_px: float | None) -> None:
+    def bind_tracker(self, gate_px: float | None, frame_rate: float | None = None) -> None:
         """The gate (pixels) of the tracker that measures the features (None: no tracker,
-        the ideal sensor): the default camera-motion limit is a fraction of it
-        (:class:`~redservo.redundancy.predictive_camera.MotionLimit`)."""
+        the ideal sensor): the default camera-motion limit is a fraction of it per frame
+        (:class:`~redservo.redundancy.predictive_camera.MotionLimit`); ``frame_rate`` (Hz,
+        None: a frame every period) the camera's, used when the ``frame_rate`` option is
+        None."""
         self._gate_px = gate_px
+        self._camera_rate = frame_rate
 
     def motion_limit(self, dt: float) -> MotionLimit | None:
         """The camera-motion limit per period ``dt`` (s) from the options and the bound
@@ -215,7 +220,7 @@ class Predictive(Law):
             normalized=self.max_image_motion,
             pixels=self.max_image_motion_px,
             gate_px=self._gate_px,
-            frame_rate=self.frame_rate,
+            frame_rate=self.frame_rate if self.frame_rate is not None else self._camera_rate,
             dt=dt,
             camera=self._camera,
         )
