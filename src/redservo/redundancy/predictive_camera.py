@@ -4,10 +4,12 @@ per camera frame that the tracker keeps them (docs/predictive.md, "Camera motion
 A dot tracker predicts each dot at constant velocity and accepts a blob within its gate
 ``g`` (pixels) of that prediction (:mod:`redservo.vision.tracking`): a dot that moves at most
 ``a`` pixels per frame is at most ``2a`` from the prediction, so ``a = g / 2`` keeps every
-dot; the default limit is :data:`GATE_FRACTION` of the gate, the rest a margin for the
-image noise and the model's errors. With a camera at ``frame_rate`` (Hz) slower than the
-control rate ``1/dt``, a frame spans ``1/(frame_rate dt)`` periods, so the limit per
-*period* is ``a · min(1, frame_rate · dt)``.
+dot; the default limit is :data:`GATE_FRACTION` of the gate (one half: the realistic
+camera preset's limit in the Controller, ``sensor.motion_limit``, is the same share). A
+point moving at ``ṡ`` moves ``‖ṡ‖ / frame_rate`` per frame, so the limit per control
+*period* ``dt`` is ``a · frame_rate · dt`` (``a`` without a frame rate: a frame every
+period). Through a camera, the horizon's image bounds are also damped
+(:func:`damped_image_bounds`).
 
 It is enforced twice:
 
@@ -47,8 +49,9 @@ __all__ = [
 ]
 
 GATE_FRACTION = 0.5
-"""The default limit of a point's motion per frame, a fraction of the tracker's gate (< 1/2:
-the constant-velocity prediction then stays within the gate)."""
+"""The default limit of a point's motion per frame, a fraction of the tracker's gate (at most
+1/2: the constant-velocity prediction then stays within the gate). It was 0.4 per control
+period until branch ``gatefix`` (docs/predictive.md, "Camera motion")."""
 
 
 class MotionLimit:
