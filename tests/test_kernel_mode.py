@@ -54,6 +54,14 @@ def test_a_cold_cache_runs_the_short_commands_uncompiled(tmp_path: Path) -> None
         assert _choose(tmp_path, command) == (["compiled", False], "")
 
 
+def test_a_replay_runs_compiled_as_its_campaign_did(tmp_path: Path) -> None:
+    """A campaign runs compiled; its replay on a cold cache ran the plain functions, whose
+    rounding differs by a few ULP, which a long predictive run amplified into another row
+    (mc05-joint-limits sample 22: converged in the campaign, at the cap in the replay)."""
+    assert "replay" not in kernel_mode.AUTO_COMMANDS
+    assert _choose(tmp_path, "replay") == (["compiled", False], "")
+
+
 def test_the_environment_variable_forces_either_way(tmp_path: Path) -> None:
     assert _choose(tmp_path, "run", REDSERVO_KERNELS="compiled") == (["compiled", False], "")
     assert _choose(tmp_path, "campaign", REDSERVO_KERNELS="python") == (["python", False], "1")

@@ -12,10 +12,15 @@ or a real-time loop is not.
 ``REDSERVO_KERNELS`` chooses (docs/decisions.md, "First run"):
 
 * ``auto`` (default): the commands of :data:`AUTO_COMMANDS` (``run``, ``compare``,
-  ``reproduce``, ``replay``) run on the plain functions while the cache is cold, and say
-  so in one line; compiled once ``redservo warmup`` has filled the cache (it leaves a
-  marker there, :func:`mark_warm`). Every other command (``campaign``, ``bench``,
-  ``servo``) and the Python API compile on first use, as always;
+  ``reproduce``) run on the plain functions while the cache is cold, and say so in one
+  line; compiled once ``redservo warmup`` has filled the cache (it leaves a marker there,
+  :func:`mark_warm`). Every other command (``campaign``, ``bench``, ``servo``,
+  ``replay``) and the Python API compile on first use, as always. ``replay`` re-runs a
+  campaign's sample, which the campaign ran compiled: the two ways agree to a few ULP
+  only, and a long ``predictive`` run can amplify that (mc05-joint-limits, seed 0,
+  sample 22: 3e-15 rad at the first period, 0.03 rad at the 100th, converged in 323
+  iterations compiled and at the 600-iteration cap plain), so a replay on a cold cache
+  gave another row than its campaign;
 * ``compiled``: always compile (the cold cache's cost is paid by the first command);
 * ``python``: never compile (as ``REDSERVO_NO_NUMBA=1``).
 
@@ -53,9 +58,10 @@ MODE_ENV = "REDSERVO_KERNELS"
 MODES = ("auto", "compiled", "python")
 """Its allowed values."""
 
-AUTO_COMMANDS = frozenset({"run", "compare", "reproduce", "replay"})
+AUTO_COMMANDS = frozenset({"run", "compare", "reproduce"})
 """Commands that run uncompiled while the cache is cold under ``auto``: short jobs, for
-which the plain functions cost less than compiling (module docstring)."""
+which the plain functions cost less than compiling (module docstring). Not ``replay``: it
+must give its campaign's row, computed compiled."""
 
 COLD_NOTICE = (
     "redservo: the numba kernels are not compiled on this machine yet: running them as plain "

@@ -18,12 +18,12 @@ from typing import Any
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
-from redservo.redundancy.predictive_model import PointModel
+from redservo.redundancy.predictive_model import PointModel, point_model
 from redservo.redundancy.predictive_moments import MomentModel, moment_model
 from redservo.redundancy.predictive_pnp import DotPoses
 from redservo.redundancy.predictive_pose import PosePoints
 
-__all__ = ["GoalModel", "Model"]
+__all__ = ["GoalModel", "Model", "Observation", "observation"]
 
 Model = PointModel | MomentModel
 """A global model of the task (image points, or the moments of one target)."""
@@ -31,49 +31,67 @@ Model = PointModel | MomentModel
 
 class GoalModel:
     """The model of the current observation (module docstring): :meth:`observe` before each
-    step, then :meth:`build` at the step's ``q`` (rad or m)."""
+    step, then :meth:`build` at the step's ``q`` (rad or m). ``depth``: the point model's
+    depths, ``"pose"`` (from the target's pose estimated from its known points) or
+    ``"measured"`` (the sensor's); the ``predictive`` law builds its models through one of
+    these too (its ``model_depth``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, depth: str = "pose") -> None:
+        self.depth = depth
         self.camera = Camera()
         """The camera whose intrinsics the PnP of the dots uses (the law's ``bind_camera``)."""
         self.dot_poses = DotPoses()
-        self._pose = PosePoints()
-        self._moments: MomentModel | None = None
-        self._obs: Callable[[FloatArray, float], Model | None] | None = None
+        self.pose = PosePoints()
+        self.moments: MomentModel | None = None
+        """The last moment model built (the next one is warm-started from it)."""
+        self._obs: Observation | None = None
 
     def reset(self) -> None:
         """Forget the observation and the poses (start of a run)."""
         self._obs = None
-        self._moments = None
-        self._pose.reset()
+        self.moments = None
+        self.pose.reset()
         self.dot_poses.reset()
 
     def observe(self, robot: Any, task: Any, state: Any) -> None:
         """The Controller's hook: the model robot, the task and its evaluated state."""
-        from redservo.features import MomentFeatures
-        from redservo.features.point import PointFeature
+        self._obs = observation(self, robot, task, state)
 
-        self._obs = None
-        terms = task.terms
-        if len({t.target for t in terms}) != 1:
-            return
-        if all(type(t.feature) is PointFeature for t in terms):
-            points = self._pose.builder(robot, task, state)
-            self._obs = lambda q, dt: points(q, None)
-        elif len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
-            feature = terms[0].feature
-
-            def build(q: FloatArray, dt: float) -> MomentModel | None:
-                bMc = robot.kinematics(q, check_limits=False)[0]
-                bMo = self.dot_poses.target_pose(robot, feature.points_o, q, dt, self.camera)
-                prev = self._moments
-                self._moments = moment_model(robot, feature, task, state, prev, bMc, bMo)
-                return self._moments
-
-            self._obs = build
-
-    def build(self, q: FloatArray, dt: float) -> Model | None:
-        """The model of the last observation at ``q`` (period ``dt``, s), once (None: no
-        observation, or a task without a global model)."""
+    def build(self, q: FloatArray, dt: float, seen: FloatArray | None = None) -> Model | None:
+        """The model of the last observation at ``q`` (period ``dt``, s; ``seen``: the
+        joints when the image was exposed, None: ``q``), once (None: no observation, or a
+        task without a global model)."""
         obs, self._obs = self._obs, None
-        return None if obs is None else obs(q, dt)
+        return None if obs is None else obs(q, seen, dt)
+
+
+Observation = Callable[[FloatArray, "FloatArray | None", float], "Model | None"]
+"""``build(q, seen, dt)``: the model of one observation (:func:`observation`)."""
+
+
+def observation(parts: GoalModel, robot: Any, task: Any, state: Any) -> Observation | None:
+    """The builder of the global model of the observation ``state`` of ``task`` (the model
+    ``robot``), with the depths, camera, dot poses and previous moment model of ``parts``;
+    None for a task without one (several targets, other features)."""
+    from redservo.features import MomentFeatures
+    from redservo.features.point import PointFeature
+
+    terms = task.terms
+    if len({t.target for t in terms}) != 1:
+        return None
+    if all(type(t.feature) is PointFeature for t in terms):
+        if parts.depth != "pose":
+            return lambda q, seen, dt: point_model(robot, task, state, q, seen)
+        points = parts.pose.builder(robot, task, state)
+        return lambda q, seen, dt: points(q, seen)
+    if len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
+        feature, prev = terms[0].feature, parts.moments
+
+        def build(q: FloatArray, seen: FloatArray | None, dt: float) -> MomentModel | None:
+            bMc = robot.kinematics(q if seen is None else seen, check_limits=False)[0]
+            bMo = parts.dot_poses.target_pose(robot, feature.points_o, q, dt, parts.camera)
+            parts.moments = moment_model(robot, feature, task, state, prev, bMc, bMo)
+            return parts.moments
+
+        return build
+    return None

@@ -61,6 +61,7 @@ from redservo.redundancy.base import (
     register,
 )
 from redservo.redundancy.flags import FLAGS
+from redservo.redundancy.goal_model import GoalModel, observation
 from redservo.redundancy.predictive_budget import LOOP_SHARE, Deadline, fallback_result, warm_up
 from redservo.redundancy.predictive_camera import (
     MotionGain,
@@ -74,12 +75,9 @@ from redservo.redundancy.predictive_model import (
     PointModel,
     SeenJoints,
     horizon,
-    point_model,
 )
-from redservo.redundancy.predictive_moments import MomentModel, moment_model
+from redservo.redundancy.predictive_moments import MomentModel
 from redservo.redundancy.predictive_options import OPTIONS
-from redservo.redundancy.predictive_pnp import DotPoses
-from redservo.redundancy.predictive_pose import PosePoints
 from redservo.redundancy.predictive_qp import horizon_qp, solve_horizon
 from redservo.redundancy.predictive_replan import Replan, SeedMemo, model_key
 
@@ -135,6 +133,8 @@ class Predictive(Law):
             )
         self._camera = Camera()
         self._gate_px: float | None = None
+        self._camera_rate: float | None = None
+        """The bound camera's frame rate (Hz, :meth:`bind_tracker`; None: every period)."""
         self.loop_budget: float | None = None
         """The servo loop's budget when ``time_budget`` is None (:meth:`bind_period`, s)."""
         self._seen = SeenJoints(self.latency)
@@ -152,9 +152,12 @@ class Predictive(Law):
         self.clock: Callable[[], float] = time.perf_counter
         """The clock of ``time_budget`` (s, monotonic): a test sets a fake one."""
         self._obs: Callable[[FloatArray, FloatArray | None], Model | None] | None = None
-        self._moments: MomentModel | None = None
-        self._pose = PosePoints()
-        self.dot_poses = DotPoses()
+        self._parts = GoalModel(self.model_depth)
+        """What the global models are built with (:func:`~redservo.redundancy.goal_model.
+        observation`, shared with ``qp-goal``): the depths, camera, poses, last moment model."""
+        self._parts.camera = self._camera
+        self._pose = self._parts.pose
+        self.dot_poses = self._parts.dot_poses
         """The moment model's target pose by PnP of the tracked dots (:meth:`observe_dots`)."""
         self._dt = 0.0
         self.last_start: FloatArray | None = None
@@ -178,9 +181,7 @@ class Predictive(Law):
         self.replans.reset()
         self._seen.reset()
         self._gain.reset()
-        self._moments = None
-        self._pose.reset()
-        self.dot_poses.reset()
+        self._parts.reset()
         self._calls = 0
         self.last_start = self.last_plan = None
 
@@ -193,7 +194,7 @@ class Predictive(Law):
 
     def bind_camera(self, camera: Camera) -> None:
         """Use ``camera``'s image for the visibility constraints (default :class:`Camera`)."""
-        self._camera = camera
+        self._camera = self._parts.camera = camera
 
     def bind_period(self, period: float, clock: Callable[[], float]) -> None:
         """A servo loop's period (s) and clock (s, monotonic): without a ``time_budget``, a
@@ -202,11 +203,14 @@ class Predictive(Law):
         self.loop_budget = LOOP_SHARE * float(period)
         self.clock = clock
 
-    def bind_tracker(self, gate_px: float | None) -> None:
+    def bind_tracker(self, gate_px: float | None, frame_rate: float | None = None) -> None:
         """The gate (pixels) of the tracker that measures the features (None: no tracker,
-        the ideal sensor): the default camera-motion limit is a fraction of it
-        (:class:`~redservo.redundancy.predictive_camera.MotionLimit`)."""
+        the ideal sensor): the default camera-motion limit is a fraction of it per frame
+        (:class:`~redservo.redundancy.predictive_camera.MotionLimit`); ``frame_rate`` (Hz,
+        None: a frame every period) the camera's, used when the ``frame_rate`` option is
+        None."""
         self._gate_px = gate_px
+        self._camera_rate = frame_rate
 
     def motion_limit(self, dt: float) -> MotionLimit | None:
         """The camera-motion limit per period ``dt`` (s) from the options and the bound
@@ -215,7 +219,7 @@ class Predictive(Law):
             normalized=self.max_image_motion,
             pixels=self.max_image_motion_px,
             gate_px=self._gate_px,
-            frame_rate=self.frame_rate,
+            frame_rate=self.frame_rate if self.frame_rate is not None else self._camera_rate,
             dt=dt,
             camera=self._camera,
         )
@@ -231,28 +235,12 @@ class Predictive(Law):
         task and its evaluated state (``s``, ``inv_depth``). For a task of image points of
         one target, or of the moment features of one target, it sets the global model for
         the next call (only)."""
-        from redservo.features import MomentFeatures
-        from redservo.features.point import PointFeature
-
         self._obs = None
-        terms = task.terms
-        if self.model != "global" or len({t.target for t in terms}) != 1:
+        if self.model != "global":
             return
-        if all(type(t.feature) is PointFeature for t in terms):
-            if self.model_depth == "pose":
-                self._obs = self._pose.builder(robot, task, state)
-            else:
-                self._obs = lambda q, seen: point_model(robot, task, state, q, seen)
-        elif len(terms) == 1 and type(terms[0].feature) is MomentFeatures:
-            feature, prev = terms[0].feature, self._moments
-
-            def build(q: FloatArray, seen: FloatArray | None) -> MomentModel | None:
-                bMc = robot.kinematics(q if seen is None else seen, check_limits=False)[0]
-                bMo = self.dot_poses.target_pose(robot, feature.points_o, q, self._dt, self._camera)
-                self._moments = moment_model(robot, feature, task, state, prev, bMc, bMo)
-                return self._moments
-
-            self._obs = build
+        obs = observation(self._parts, robot, task, state)
+        if obs is not None:  # the period of the step is known when it is built
+            self._obs = lambda q, seen: obs(q, seen, self._dt)
 
     # -- one step ------------------------------------------------------------------------------
 

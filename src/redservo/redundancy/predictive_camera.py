@@ -4,10 +4,12 @@ per camera frame that the tracker keeps them (docs/predictive.md, "Camera motion
 A dot tracker predicts each dot at constant velocity and accepts a blob within its gate
 ``g`` (pixels) of that prediction (:mod:`redservo.vision.tracking`): a dot that moves at most
 ``a`` pixels per frame is at most ``2a`` from the prediction, so ``a = g / 2`` keeps every
-dot; the default limit is :data:`GATE_FRACTION` of the gate, the rest a margin for the
-image noise and the model's errors. With a camera at ``frame_rate`` (Hz) slower than the
-control rate ``1/dt``, a frame spans ``1/(frame_rate dt)`` periods, so the limit per
-*period* is ``a · min(1, frame_rate · dt)``.
+dot; the default limit is :data:`GATE_FRACTION` of the gate (one half: the realistic
+camera preset's limit in the Controller, ``sensor.motion_limit``, is the same share). A
+point moving at ``ṡ`` moves ``‖ṡ‖ / frame_rate`` per frame, so the limit per control
+*period* ``dt`` is ``a · frame_rate · dt`` (``a`` without a frame rate: a frame every
+period). Through a camera, the horizon's image bounds are also damped
+(:func:`damped_image_bounds`).
 
 It is enforced twice:
 
@@ -36,17 +38,20 @@ from redservo.redundancy.flags import Event, Flag
 from redservo.redundancy.predictive_model import Horizon, Prediction, horizon
 
 __all__ = [
+    "BORDER_DAMPING",
     "GATE_FRACTION",
     "MotionGain",
     "MotionLimit",
+    "damped_image_bounds",
     "limited",
     "motion_rows",
     "scale_to_limit",
 ]
 
-GATE_FRACTION = 0.4
-"""The default limit of a point's motion per frame, a fraction of the tracker's gate (< 1/2:
-the constant-velocity prediction then stays within the gate)."""
+GATE_FRACTION = 0.5
+"""The default limit of a point's motion per frame, a fraction of the tracker's gate (at most
+1/2: the constant-velocity prediction then stays within the gate). It was 0.4 per control
+period until branch ``gatefix`` (docs/predictive.md, "Camera motion")."""
 
 
 class MotionLimit:
@@ -83,13 +88,35 @@ class MotionLimit:
             per_frame = GATE_FRACTION * gate_px
         else:
             return None
-        share = 1.0 if frame_rate is None else min(1.0, frame_rate * dt)
+        share = 1.0 if frame_rate is None else frame_rate * dt
         return cls(per_frame * share, camera.px, camera.py)
 
     def pixels(self, ds: FloatArray) -> FloatArray:
         """The Euclidean motion (pixels) of each point of a (…, 2p) normalized motion."""
         d = np.asarray(ds).reshape(*np.shape(ds)[:-1], -1, 2)
         return np.asarray(np.hypot(d[..., 0] * self.px, d[..., 1] * self.py))
+
+
+BORDER_DAMPING = 0.1
+"""Through a camera (a tracker bound), the largest fraction of its gap to the image bound
+(less the law's ``image_margin_px``) that an image point may close per period of the
+horizon (:func:`damped_image_bounds`)."""
+
+
+def damped_image_bounds(
+    s_lo: FloatArray, s_hi: FloatArray, s0: FloatArray, N: int
+) -> tuple[FloatArray, FloatArray]:
+    """The image bounds (N, 2p) of the horizon through a camera: at period ``k = 1…N`` each
+    point keeps at least ``(1 - ξ)^k`` of its gap at ``s0`` (2p,; the points now) to the
+    bounds ``[s_lo, s_hi]`` (2p,), ``ξ`` = :data:`BORDER_DAMPING`, so that it slows down as
+    it nears the border: the measured points lag the true ones by the image motion of the
+    camera's latency (less what the compensation predicts), and that motion then shrinks
+    with the gap. A point already past a bound keeps the bound (the QP relaxes it to the
+    point). Units: normalized image coordinates."""
+    keep = (1.0 - BORDER_DAMPING) ** np.arange(1, N + 1)[:, None]
+    lo = s_lo + keep * np.maximum(s0 - s_lo, 0.0)
+    hi = s_hi - keep * np.maximum(s_hi - s0, 0.0)
+    return lo, hi
 
 
 def motion_rows(

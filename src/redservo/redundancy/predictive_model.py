@@ -298,7 +298,8 @@ def build_qp(
     unbiased);
     simple bounds from the velocity limits and, on ``u_0``, the acceleration limit from
     ``qdot_prev``; rows: joint positions at the block ends within ``[q_lo, q_hi]``,
-    acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period.
+    acceleration between blocks, image points within ``[s_lo, s_hi]`` at every period
+    (each (2p,), or (N, 2p): the bounds of each period).
     ``ff`` (m,) adds the known drift ``k dt ∂e/∂t`` of a moving target to ``ē_k``;
     ``goal = (q*, γ)`` adds the terminal cost ``γ ‖q_N - q*‖²``; ``s_now`` (2p,): the
     measured points, whose image bounds are relaxed to them when they are already outside;
@@ -338,6 +339,6 @@ def build_qp(
             Bk = _block(hz, k, pred.S[k - 1], dt)
             rows.append(Bk)
             base = pred.s[k - 1] - Bk @ ub
-            blo.append(lo_s - base)
-            bhi.append(hi_s - base)
+            blo.append((lo_s if lo_s.ndim == 1 else lo_s[k - 1]) - base)
+            bhi.append((hi_s if hi_s.ndim == 1 else hi_s[k - 1]) - base)
     return QP(H, f, lo, hi, np.vstack(rows), np.concatenate(blo), np.concatenate(bhi))

@@ -97,7 +97,7 @@ OPTIONS = (
     Option(
         "max_image_motion_px",
         None,
-        doc="largest motion of an image point per camera frame, or None: 0.4 x the image "
+        doc="largest motion of an image point per camera frame, or None: 0.5 x the image "
         "sensor's tracker gate (25 px + 3 blur), and no limit with the ideal sensor",
         unit="px",
         low=0.0,
@@ -107,7 +107,7 @@ OPTIONS = (
     Option(
         "frame_rate",
         None,
-        doc="the camera's frame rate, or None: the control rate (a frame every period)",
+        doc="the camera's frame rate, or None: the simulated camera's, else the control rate",
         unit="Hz",
         low=0.0,
         low_open=True,

@@ -19,7 +19,7 @@ from redservo.kernels import flagbits as fb
 from redservo.redundancy.base import LawInputs
 from redservo.redundancy.bls import daqp_once
 from redservo.redundancy.distance_rows import distance_rows
-from redservo.redundancy.predictive_camera import MotionLimit, motion_rows
+from redservo.redundancy.predictive_camera import MotionLimit, damped_image_bounds, motion_rows
 from redservo.redundancy.predictive_distance import with_horizon_rows
 from redservo.redundancy.predictive_model import QP, Prediction, build_qp, local_prediction
 from redservo.redundancy.safety import position_box
@@ -47,15 +47,8 @@ def horizon_qp(
     else:
         pred = local_prediction(x.J1, x.e1, U, hz, x.dt)
     band = law._band(x)
-    cam, mpx = law._camera, law.image_margin_px
-    s_lo = s_hi = None
     s_now = None if model is None else model.s_now
-    if pred.s is not None:
-        p = pred.s.shape[1] // 2
-        s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)
-        s_hi = np.tile(
-            [(cam.width - mpx - cam.u0) / cam.px, (cam.height - mpx - cam.v0) / cam.py], p
-        )
+    s_lo, s_hi = _image_bounds(law, pred, s_now, hz.N)
     sigma = float(np.linalg.norm(x.J1, 2)) if x.J1.size else 1.0
     rho = law.effort * (x.dt * max(sigma, 1e-9)) ** 2
     ff = None if x.de1_dt is None else x.de1_dt
@@ -90,6 +83,23 @@ def horizon_qp(
         blo=np.concatenate([qp.blo, *blo]),
         bhi=np.concatenate([qp.bhi, *bhi]),
     )
+
+
+def _image_bounds(
+    law: Predictive, pred: Prediction, s_now: FloatArray | None, N: int
+) -> tuple[FloatArray | None, FloatArray | None]:
+    """The image bounds of the points (normalized): the image less ``image_margin_px``,
+    (2p,) each, or with a tracker bound (a camera) damped over the horizon, (N, 2p) each
+    (:func:`~redservo.redundancy.predictive_camera.damped_image_bounds`); None without
+    predicted points (the local model)."""
+    if pred.s is None:
+        return None, None
+    cam, mpx, p = law._camera, law.image_margin_px, pred.s.shape[1] // 2
+    s_lo = np.tile([(mpx - cam.u0) / cam.px, (mpx - cam.v0) / cam.py], p)
+    s_hi = np.tile([(cam.width - mpx - cam.u0) / cam.px, (cam.height - mpx - cam.v0) / cam.py], p)
+    if law._gate_px is None:
+        return s_lo, s_hi
+    return damped_image_bounds(s_lo, s_hi, pred.s[0] if s_now is None else s_now, N)
 
 
 def with_distance_rows(qp: QP, law: Predictive, q: FloatArray) -> QP:

@@ -34,6 +34,7 @@ Units: seconds, metres, radians; ``λ`` in 1/s.
 from __future__ import annotations
 
 import copy
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol, cast
 
@@ -246,7 +247,7 @@ class _Run:
             bind(camera)
         track = getattr(ctrl.law, "bind_tracker", None)  # and its camera-motion limit
         if track is not None:
-            track(_tracking_gate(sensor))
+            track(_tracking_gate(sensor), _frame_rate(sensor))
         self.frames = getattr(ctrl.law, "observe_dots", None)  # its target pose by PnP
         self.rng = np.random.default_rng(opt.seed)
         self.noise = FrameNoise(opt.noise_std, self.rng)  # a held frame keeps its noise
@@ -339,10 +340,23 @@ class _Run:
         return None, qdot
 
 
+def _frame_rate(sensor: Sensor) -> float | None:
+    """The frame rate (Hz) of the camera whose timing wraps ``sensor``
+    (:class:`redservo.sensors.timing.TimedSensor`), None: a frame every period."""
+    rate = getattr(getattr(sensor, "timing", None), "rate", None)
+    return None if rate is None else float(rate)
+
+
 def _tracking_gate(sensor: Sensor) -> float | None:
     """The gate (pixels) of ``sensor``'s dot tracker, None without one (the ideal sensor:
-    the image pipeline is not imported for it)."""
-    if not type(sensor).__module__.startswith("redservo.vision"):
+    the image pipeline is not imported for it). A camera's timing wraps the sensor
+    (:class:`redservo.sensors.timing.TimedSensor`, which holds it in ``.sensor``): the gate
+    is the wrapped sensor's. Any image sensor counts, the MuJoCo camera
+    (:class:`redservo.physics.camera.MujocoCamera`) included: an image sensor exists only
+    once :mod:`redservo.vision.sensor` is imported."""
+    inner = getattr(sensor, "sensor", None)  # through a camera's timing wrapper
+    sensor = sensor if inner is None else inner
+    if "redservo.vision.sensor" not in sys.modules:
         return None
     from redservo.vision.sensor import tracking_gate_px
 
