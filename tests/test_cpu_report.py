@@ -47,3 +47,11 @@ def test_worker_sums_add_up_per_file_in_the_summary(sums: None) -> None:
 
 def test_a_session_without_tests_prints_nothing(sums: None) -> None:
     assert cpu.summary_lines() == []
+
+
+def test_make_test_prints_the_cpu_of_each_test_file() -> None:
+    from pathlib import Path
+
+    makefile = (Path(__file__).resolve().parents[1] / "Makefile").read_text(encoding="utf-8")
+    pytest_line = next(ln for ln in makefile.splitlines() if "-m pytest" in ln)
+    assert "-p tests.cpu_report" in pytest_line
