@@ -107,12 +107,13 @@ warm-examples: $(TSTAMP) warm
 # one worker (xdist groups, tests/conftest.py). PYTEST_WORKERS=0: all in the pytest process.
 # (Three workers on the two cores were measured and not kept: docs/decisions.md, make test.)
 # `make test` has just warmed the cache (WARMED=1); `make pytest` alone warms it first.
-# The summary lists the 30 slowest tests and the kernels the tests still compiled (the
-# warm-up's gaps, tests/compile_report.py).
+# The summary lists the 30 slowest tests, the kernels the tests still compiled (the
+# warm-up's gaps, tests/compile_report.py) and the test files that took the most CPU
+# (tests/cpu_report.py: the figure that adds up to the run's CPU time, wall time being the load's).
 PYTEST_WORKERS ?= 2
 pytest: $(TSTAMP) chromium egl $(if $(WARMED),,warm)
 	@echo "== tests: pytest on $(PYTEST_WORKERS) workers collects the tests, then prints a dot per test (and a line every 10 s for a test that runs long)"
-	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report --durations=30 \
+	$(BIN)/python -m pytest -q -p tests.heartbeat -p tests.compile_report -p tests.cpu_report --durations=30 \
 		-n $(PYTEST_WORKERS) --dist loadgroup
 
 ## make docs: the documentation site (MkDocs Material, API reference from the docstrings)

@@ -128,3 +128,20 @@ def test_a_command_that_printed_no_progress_closes_silently() -> None:
     p.on_end()
     p.finish()
     assert out.getvalue() == ""
+
+
+def test_a_ticker_left_from_the_previous_command_says_nothing_for_the_next() -> None:
+    """The ticker thread wakes every 8 s: a command that starts (``set_group``) before it saw
+    the previous one's ``finish`` must not hear a closing line for kernels it never compiled
+    (``redservo: compiled 0 kernel(s) [run]; running`` broke a CLI test's one-line stderr)."""
+    p, clock, out = _progress(10)
+    p.on_start("a")
+    clock.now += 9.0
+    assert p.tick()
+    p.on_end()
+    p.finish()
+    printed = out.getvalue()
+    p.set_group("run")  # the next command, before the ticker woke up
+    clock.now += cp.EVERY
+    assert not p.tick()  # it stops
+    assert out.getvalue() == printed

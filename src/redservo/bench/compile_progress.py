@@ -136,6 +136,8 @@ class Progress:
             if self._stopped:
                 return False
             idle = not self.depth and (self.last is None or self._clock() - self.last >= self.every)
+            if idle and self.started is None:  # a ticker left from the previous command
+                return False  # nothing of this group compiled: nothing to say
             summary = f"redservo: compiled {self.done} kernel(s) [{self.group}]; running"
         text = summary if idle else self.line()
         with self._lock:  # a line is never printed after finish() returned

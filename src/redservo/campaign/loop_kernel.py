@@ -213,13 +213,30 @@ def closed_loop(
 
 
 @kernel
-def _law(*args: Any) -> Any:
+def _law(
+    J1: Any,
+    e1: Any,
+    ff: Any,
+    has_ff: bool,
+    q: Any,
+    prev: Any,
+    hist: Any,
+    has_hist: bool,
+    law: Any,
+    limits: Any,
+    sim: Any,
+    sec: Any,
+    rows: Any,
+) -> Any:
     """Step 4: ``(q̇, bits, abs_grad, code)``, ``code`` 0, an ``ABORT_*`` code or
     :data:`NEED_SOLVE`: the step goes to Python (``qp`` with a Python solver library, or
     its compiled solver failed). The damper rows are solved here, by the kernels the law
     objects call: ``qp``'s in :func:`~redservo.kernels.sensed.qp_step`, ``sns``'s in
-    :func:`~redservo.kernels.sns_rows.sns_row_step` (:mod:`redservo.kernels.loop_rows`)."""
-    J1, e1, ff, has_ff, q, prev, hist, has_hist, law, limits, sim, sec, rows = args
+    :func:`~redservo.kernels.sns_rows.sns_row_step` (:mod:`redservo.kernels.loop_rows`).
+
+    Its arguments are named, not ``*args``: numba types a star parameter as a
+    ``StarArgTuple`` in a compiled caller and as a ``Tuple`` in a Python one, two versions
+    of a kernel that links every law (the loop's body run as plain Python compiled it again)."""
     G, b, _ = rows
     if law[0] == QP:
         qd, bits, need = qp_step(J1, e1, ff, has_ff, q, prev, law, limits, sim, sec, G, b)

@@ -86,7 +86,14 @@ def kernel_id(cls: type) -> int:
 
 
 def _given(x: FloatArray | None) -> FloatArray:
-    return _EMPTY if x is None else np.ascontiguousarray(x, dtype=np.float64)
+    return _EMPTY if x is None else _kernel_array(np.ascontiguousarray(x, dtype=np.float64))
+
+
+def _kernel_array(a: FloatArray) -> FloatArray:
+    """``a`` with the one array type the warmed kernels take (C-contiguous, aligned and
+    writeable float64): a copy, the same values, when it is read-only or misaligned (numba
+    types those apart: a read-only ``qdot_prev`` compiled the whole law chain again)."""
+    return a if a.flags.carray else np.array(a, dtype=np.float64, order="C")
 
 
 def _law_pack(law: Law, n: int) -> tuple[Any, ...]:
@@ -103,12 +110,13 @@ def _law_pack(law: Law, n: int) -> tuple[Any, ...]:
 
 def _packs(law: Law, x: LawInputs) -> tuple[Any, ...]:
     """``(J1, e1, q, law pack, limits pack, inputs)`` of a law kernel call."""
-    J1 = np.ascontiguousarray(x.J1)
+    J1 = _kernel_array(np.ascontiguousarray(x.J1))
     lp = limits_pack(x.limits)
     inputs = (_given(x.de1_dt), _given(x.secondary), _given(x.qdot_prev), _EMPTY)
     limits = (lp.rows, lp.has_v, lp.has_a)
     law_pack = _law_pack(law, J1.shape[1])
-    return J1, np.ascontiguousarray(x.e1), np.ascontiguousarray(x.q), law_pack, limits, inputs
+    e1, q = (_kernel_array(np.ascontiguousarray(a)) for a in (x.e1, x.q))
+    return J1, e1, q, law_pack, limits, inputs
 
 
 Masks = tuple[int, int, FloatArray | int]
@@ -194,7 +202,7 @@ def _into(
     those of the signature kept on the law (:func:`fast_call`: C-contiguous, aligned,
     writeable float64), its slot for the kernel's entry point (:mod:`redservo.kernels.entry`),
     found by the first such call and then called directly: the same machine code."""
-    J1, e1, q = arrays
+    J1, e1, q = (_kernel_array(a) for a in arrays)
     law_pack, limits_t = bound
     size, parts = layout
     buf = np.empty(size)
