@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -111,23 +111,24 @@ class CommandHistory:
         """:meth:`record` with copies the caller already made, kept as given: ``q`` (n,),
         and the command ``qdot`` (n,) or, with ``part``, ``qdot[part]`` (the compiled step's
         buffer). No one may write into them afterwards."""
-        cmds = self._cmds
-        if cmds and t < cmds[-1][0]:
+        cmds, ring = self._cmds, self._ring
+        count = len(cmds)
+        if count and t < cmds[-1][0]:
             self._ordered = False
-        cmds.append(_new_command(_Command, (t, q, qdot, part)))
-        ring = self._ring
-        if len(cmds) > ring.t.shape[0]:
-            ring.grow(len(cmds) - 1)
-        slot = (ring.head + len(cmds) - 1) % ring.t.shape[0]
-        ring.t[slot] = t
-        ring.has[slot] = False
+        if count == ring.cap:
+            ring.grow(count)
+        slot = (ring.head + count) % ring.cap
+        ring.t_items[slot] = t  # ring.t[slot] = t, without numpy's scalar indexing
+        ring.has_items[slot] = False
         if ring.q.shape[1] != q.shape[0]:
             ring.joints(q.shape[0])
         ring.q[slot] = q
         ring.qdot[slot] = qdot if part is None else qdot[part]
-        while cmds[0][0] < t - self.horizon:
+        cmds.append(_new_command(_Command, (t, q, qdot, part)))
+        oldest = t - self.horizon
+        while cmds[0][0] < oldest:
             cmds.popleft()
-            ring.head = (ring.head + 1) % ring.t.shape[0]
+            ring.head = (ring.head + 1) % ring.cap
 
     def motion(
         self, stamp: float, now: float, robot: tuple[object, ...] | None = None
@@ -167,6 +168,11 @@ class _Ring:
         self.q = np.zeros((cap, n))
         self.qdot = np.zeros((cap, n))
         self.head = 0
+        self.cap = cap
+        # t and has item by item (one slot written per command; typed Any: the stubs know
+        # neither an ndarray as a buffer nor a memoryview's item assignment)
+        self.t_items: Any = memoryview(self.t)  # type: ignore[arg-type]
+        self.has_items: Any = memoryview(self.has)  # type: ignore[arg-type]
 
     def joints(self, n: int) -> None:
         """Slots for ``n`` joints (the first command's; a history holds one robot's)."""
