@@ -79,3 +79,27 @@ def test_a_grown_ring_writes_into_its_new_arrays() -> None:
     assert ring.cap == 256
     assert ring.t[:200].tolist() == [0.01 * k for k in range(200)]
     assert not ring.has.any()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_commands_kept_in_the_ring_read_as_they_were_sent(seed: int) -> None:
+    """The compiled step's commands kept in the ring's slots only (``in_ring``: its buffer
+    is written again by the next step): every entry still in the history reads the command
+    it was given, through growth past 64 commands, entries leaving and slots reused, and
+    equals a history of copies entry for entry."""
+    rng = np.random.default_rng(seed)
+    horizon = float(rng.choice([0.05, 0.5, 2.0]))
+    ring_kept = CommandHistory(0.01, lambda q: np.zeros((6, 3)), horizon)
+    copies = CommandHistory(0.01, lambda q: np.zeros((6, 3)), horizon)
+    buf, part = np.empty(10), slice(2, 5)
+    t = 0.0
+    for k in range(500):
+        t += float(rng.choice([0.002, 0.01, 0.03, -0.004]))
+        q = rng.normal(size=3)
+        buf[:] = rng.normal(size=10)  # the kernel writes the reused buffer
+        ring_kept.keep(t, q, buf, part, True)
+        copies.keep(t, q, buf[part].copy())
+        got = [(c.t, c.q.tobytes(), c.qdot.tobytes()) for c in ring_kept._cmds]
+        assert got == [(c.t, c.q.tobytes(), c.qdot.tobytes()) for c in copies._cmds], k
+        assert ring_kept._ring.qdot.tobytes() == copies._ring.qdot.tobytes(), k
+        assert ring_kept._cmds[-1].qdot.base is not buf  # never a view of the buffer

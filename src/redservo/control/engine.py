@@ -230,7 +230,7 @@ def quick_step(
         return None
     ctrl.stage = "guard"
     qc = q.copy()
-    ctrl.history.keep(t, qc, buf[part].copy())  # not the buffer: the next step may reuse it
+    ctrl.history.keep(t, qc, buf, part, True)  # the command into the ring's slot only
     step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
     _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
     return step

@@ -46,8 +46,10 @@ _EPS = 1e-9  # s
 class _Command(tuple):
     """One command of the history: ``(t, q, source, part)`` or ``(t, q, source, part,
     twist)``, read by name (``t`` in s, ``q`` and ``qdot`` (n,), ``twist`` (6,) or None).
-    ``qdot`` is ``source`` itself (``part`` None) or its ``part`` (the compiled step's
-    buffer, which no one writes into); the twist ``J(q) q̇`` is added by
+    ``qdot`` is ``source`` itself (``part`` None) or its ``part``: a part of the compiled
+    step's buffer, which no one writes into, or a slot of the history's ring (the entry's
+    own while it is in the history: a slot is written again only after its entry left, and
+    a grown ring writes into new arrays); the twist ``J(q) q̇`` is added by
     :meth:`CommandHistory.motion` once it needs it. A tuple made by ``tuple.__new__``
     (:meth:`CommandHistory.keep`, once per control step)."""
 
@@ -107,10 +109,19 @@ class CommandHistory:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
         self.keep(float(t), q.copy(), qdot.copy())
 
-    def keep(self, t: float, q: FloatArray, qdot: FloatArray, part: slice | None = None) -> None:
+    def keep(
+        self,
+        t: float,
+        q: FloatArray,
+        qdot: FloatArray,
+        part: slice | None = None,
+        in_ring: bool = False,
+    ) -> None:
         """:meth:`record` with copies the caller already made, kept as given: ``q`` (n,),
         and the command ``qdot`` (n,) or, with ``part``, ``qdot[part]`` (the compiled step's
-        buffer). No one may write into them afterwards."""
+        buffer). No one may write into them afterwards, except into ``qdot`` with
+        ``in_ring``: the command is then copied into the ring's slot only, which the entry
+        reads (no array of its own: the compiled step's buffer is reused by its next step)."""
         cmds, ring = self._cmds, self._ring
         count = len(cmds)
         if count and t < cmds[-1][0]:
@@ -124,7 +135,8 @@ class CommandHistory:
             ring.joints(q.shape[0])
         ring.q[slot] = q
         ring.qdot[slot] = qdot if part is None else qdot[part]
-        cmds.append(_new_command(_Command, (t, q, qdot, part)))
+        entry = (t, q, ring.qdot, slot) if in_ring else (t, q, qdot, part)
+        cmds.append(_new_command(_Command, entry))
         oldest = t - self.horizon
         while cmds[0][0] < oldest:
             cmds.popleft()
