@@ -117,6 +117,10 @@ def test_a_bad_input_after_the_first_step_keeps_its_one_clear_error(index: int) 
         ({"stamp": 0.0}, False),
         ({"inv_depth": "lists"}, True),
         ({"inv_depth": "float32"}, True),
+        ({"q": "tagged"}, False),
+        ({"s": "tagged"}, False),
+        ({"qdot_prev": "tagged"}, False),
+        ({"inv_depth": "tagged"}, True),
     ],
 )
 def test_another_type_or_layout_gives_the_full_paths_results(
@@ -124,7 +128,9 @@ def test_another_type_or_layout_gives_the_full_paths_results(
 ) -> None:
     """A float32 or strided ``q``, a read-only ``qdot_prev``, a stamped measurement take
     the full path; inverse depths as one-element lists or float32 arrays (what
-    ``np.concatenate`` takes too) the quick one: the object path's results either way."""
+    ``np.concatenate`` takes too) the quick one: the object path's results either way.
+    Float64 arrays whose dtype is equal to numpy's float64 but not it (``tagged``: with
+    metadata) take the full path, or numpy's conversion for the inverse depths."""
     ctl, q, meas = _controller()
     ref, _, _ = _controller(engine="python")
     ctl.step(q, meas, 0.0, qdot_prev=None)
@@ -138,8 +144,11 @@ def test_another_type_or_layout_gives_the_full_paths_results(
 
     monkeypatch.setattr("redservo.control.controller.quick_step", spy)
     qq: Any = q
+    tagged = np.dtype(np.float64, metadata={"unit": "rad"})  # == float64, not float64
     if change.get("q") == "float32":
         qq = q.astype(np.float32)
+    elif change.get("q") == "tagged":
+        qq = q.astype(tagged)
     elif change.get("q") == "strided":
         qq = np.repeat(q, 2)[::2]
     iz: Any = meas.inv_depth
@@ -147,9 +156,12 @@ def test_another_type_or_layout_gives_the_full_paths_results(
         iz = tuple(d.astype(np.float32) for d in iz)
     elif change.get("inv_depth") == "lists":
         iz = tuple([float(d[0])] for d in iz)
-    prev = np.zeros(q.shape[0])
+    elif change.get("inv_depth") == "tagged":
+        iz = tuple(d.astype(tagged) for d in iz)
+    prev = np.zeros(q.shape[0], dtype=tagged if change.get("qdot_prev") == "tagged" else None)
     prev.setflags(write=change.get("qdot_prev") != "readonly")
-    m = Measurement(meas.s, iz, 0.04 if "stamp" in change else None)
+    s = meas.s.astype(tagged) if change.get("s") == "tagged" else meas.s
+    m = Measurement(s, iz, 0.04 if "stamp" in change else None)
     got = ctl.step(qq, m, 0.04, qdot_prev=prev)
     want = ref.step(qq, m, 0.04, qdot_prev=prev)
     assert got.qdot.tobytes() == want.qdot.tobytes()

@@ -34,7 +34,7 @@ def take_inverse_depths(eng: CompiledControl, inv_depth: Any) -> bool:
         if len(inv_depth) != eng.iz_shape[0]:
             return False
         for d in inv_depth:
-            if type(d) is not _ND or len(d) != 1 or d.ndim != 1 or d.dtype != _F64:
+            if type(d) is not _ND or d.ndim != 1 or len(d) != 1 or d.dtype is not _F64:
                 return _converted(eng, inv_depth)
         eng.iz_bytes[:] = b"".join(inv_depth)
     except (TypeError, ValueError):

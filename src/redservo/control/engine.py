@@ -198,8 +198,8 @@ def quick_step(
         and type(s) is _ND
         and q.shape == q_shape
         and s.shape == s_shape
-        and q.dtype == _F64
-        and s.dtype == _F64
+        and q.dtype is _F64  # numpy's own float64 (another equal dtype: the full path)
+        and s.dtype is _F64
         and q.flags.carray
         and s.flags.carray
     ):
@@ -209,7 +209,7 @@ def quick_step(
     elif (
         type(qdot_prev) is _ND
         and qdot_prev.shape == q_shape
-        and qdot_prev.dtype == _F64
+        and qdot_prev.dtype is _F64
         and qdot_prev.flags.carray
     ):
         given = (_EMPTY, _EMPTY, qdot_prev)
@@ -230,7 +230,7 @@ def quick_step(
         return None
     ctrl.stage = "guard"
     qc = q.copy()
-    ctrl.history.keep(t, qc, buf[part].copy())  # not the buffer: the next step may reuse it
+    ctrl.history.keep(t, qc, buf, part, True)  # the command into the ring's slot only
     step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
     _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
     return step

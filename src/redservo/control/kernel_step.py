@@ -11,8 +11,9 @@ them on their first read (:class:`KernelStep`), with the same values bit for bit
 
 The buffer is this step's own (a new one at every step) and nothing writes into it after the
 kernel: ``qdot`` is a copy of its part, so a caller writing into its command changes neither
-the command history (which keeps the buffer's part, :mod:`redservo.control.latency`) nor the
-diagnostics; the task state's arrays are views of it, as on the full path.
+the command history (which copies the buffer's part into its ring,
+:mod:`redservo.control.latency`) nor the diagnostics; the task state's arrays are views of
+it, as on the full path.
 
 Units: as :class:`~redservo.control.ControlStep`'s (rad/s or m/s, s, normalized image units).
 """

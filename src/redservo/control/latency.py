@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,7 +47,9 @@ class _Command(tuple):
     """One command of the history: ``(t, q, source, part)`` or ``(t, q, source, part,
     twist)``, read by name (``t`` in s, ``q`` and ``qdot`` (n,), ``twist`` (6,) or None).
     ``qdot`` is ``source`` itself (``part`` None) or its ``part`` (the compiled step's
-    buffer, which no one writes into); the twist ``J(q) q̇`` is added by
+    buffer, which no one writes into); ``source`` may be a row of the history's ring (the
+    entry's own while it is in the history: a slot is written again only after its entry
+    left, and a grown ring writes into new arrays); the twist ``J(q) q̇`` is added by
     :meth:`CommandHistory.motion` once it needs it. A tuple made by ``tuple.__new__``
     (:meth:`CommandHistory.keep`, once per control step)."""
 
@@ -107,27 +109,39 @@ class CommandHistory:
         """The command ``qdot`` (n,) sent at ``t`` (s) with the robot at ``q`` (n,)."""
         self.keep(float(t), q.copy(), qdot.copy())
 
-    def keep(self, t: float, q: FloatArray, qdot: FloatArray, part: slice | None = None) -> None:
+    def keep(
+        self,
+        t: float,
+        q: FloatArray,
+        qdot: FloatArray,
+        part: slice | None = None,
+        in_ring: bool = False,
+    ) -> None:
         """:meth:`record` with copies the caller already made, kept as given: ``q`` (n,),
         and the command ``qdot`` (n,) or, with ``part``, ``qdot[part]`` (the compiled step's
-        buffer). No one may write into them afterwards."""
-        cmds = self._cmds
-        if cmds and t < cmds[-1][0]:
+        buffer). No one may write into them afterwards, except into ``qdot`` with
+        ``in_ring``: the command is then copied into the ring's slot only, which the entry
+        reads (no array of its own: the compiled step's buffer is reused by its next step)."""
+        cmds, ring = self._cmds, self._ring
+        count = len(cmds)
+        if count and t < cmds[-1][0]:
             self._ordered = False
-        cmds.append(_new_command(_Command, (t, q, qdot, part)))
-        ring = self._ring
-        if len(cmds) > ring.t.shape[0]:
-            ring.grow(len(cmds) - 1)
-        slot = (ring.head + len(cmds) - 1) % ring.t.shape[0]
-        ring.t[slot] = t
-        ring.has[slot] = False
-        if ring.q.shape[1] != q.shape[0]:
+        if count == ring.cap:
+            ring.grow(count)
+        slot = (ring.head + count) % ring.cap
+        ring.t_items[slot] = t  # ring.t[slot] = t, without numpy's scalar indexing
+        ring.has_items[slot] = False
+        if q.shape[0] != ring.n:
             ring.joints(q.shape[0])
-        ring.q[slot] = q
-        ring.qdot[slot] = qdot if part is None else qdot[part]
-        while cmds[0][0] < t - self.horizon:
+        ring.q_rows[slot][...] = q  # ring.q[slot] = q, through a view made once
+        row = ring.qdot_rows[slot]
+        row[...] = qdot if part is None else qdot[part]
+        entry = (t, q, row, None) if in_ring else (t, q, qdot, part)
+        cmds.append(_new_command(_Command, entry))
+        oldest = t - self.horizon
+        while cmds[0][0] < oldest:
             cmds.popleft()
-            ring.head = (ring.head + 1) % ring.t.shape[0]
+            ring.head = (ring.head + 1) % ring.cap
 
     def motion(
         self, stamp: float, now: float, robot: tuple[object, ...] | None = None
@@ -164,14 +178,20 @@ class _Ring:
         self.t = np.zeros(cap)
         self.twist = np.zeros((cap, 6))
         self.has = np.zeros(cap, dtype=np.bool_)
-        self.q = np.zeros((cap, n))
-        self.qdot = np.zeros((cap, n))
         self.head = 0
+        self.cap = cap
+        self.joints(n)
+        # t and has item by item (one slot written per command; typed Any: the stubs know
+        # neither an ndarray as a buffer nor a memoryview's item assignment)
+        self.t_items: Any = memoryview(self.t)  # type: ignore[arg-type]
+        self.has_items: Any = memoryview(self.has)  # type: ignore[arg-type]
 
     def joints(self, n: int) -> None:
-        """Slots for ``n`` joints (the first command's; a history holds one robot's)."""
+        """Slots for ``n`` joints (the first command's; a history holds one robot's), with
+        a view of each slot's row (written once per command)."""
         cap = self.t.shape[0]
-        self.q, self.qdot = np.zeros((cap, n)), np.zeros((cap, n))
+        self.q, self.qdot, self.n = np.zeros((cap, n)), np.zeros((cap, n)), n
+        self.q_rows, self.qdot_rows = list(self.q), list(self.qdot)
 
     def grow(self, count: int) -> None:
         """Twice the slots, the ``count`` commands kept moved to the first ones."""
