@@ -80,6 +80,8 @@ class CompiledControl:
     task_slices: tuple[slice, ...]
     """The parts ``qdot``, ``e``, ``e1``, ``J1``, ``L`` of the kernel's buffer (the command
     and the task state), found by name in the layout."""
+    q_part: slice
+    """The kernel's copy of ``q`` in its buffer (the quick step's diagnostics read it)."""
     size: int
     shapes: tuple[int, int, int]
     """``(m, n, k)``: the task's rows, the joints and the point coordinates."""
@@ -361,6 +363,7 @@ def bind_controller(
         depth_scale=float(depth_scale),
         law_slices=tuple(slice(*layout[k]) for k in LAW_PARTS),
         task_slices=tuple(slice(*layout[k]) for k in ("qdot", "e", "e1", "J1", "L")),
+        q_part=slice(*layout["q"]),
         size=size,
         spare=[np.empty(size)],
         shapes=(m, robot.n, task.k),

@@ -229,10 +229,9 @@ def quick_step(
     if masks[0] < 0:
         return None
     ctrl.stage = "guard"
-    qc = q.copy()
-    ctrl.history.keep(t, qc, buf, part, True)  # the command into the ring's slot only
+    ctrl.history.keep(t, q, buf, part, True)  # q and the command into the ring's slot only
     step: KernelStep = _new(KernelStep)  # KernelStep._lazy(...) without the call
-    _set_src(step, (eng, buf, qc, s, tuple(inv_depth), masks))
+    _set_src(step, (eng, buf, s, tuple(inv_depth), masks))  # buf holds the kernel's copy of q
     return step
 
 

@@ -2,8 +2,9 @@
 when read.
 
 :func:`redservo.control.engine.quick_step` (the step a loop repeats) ends with the kernel's
-buffer (the command, ``e``, ``e1``, ``L``, ``J1`` and the law's raw outputs, laid out by
-:func:`redservo.kernels.control.control_layout`), its event masks and a copy of ``q``. The
+buffer (the command, ``e``, ``e1``, ``L``, ``J1``, the law's raw outputs and the kernel's
+copy of ``q``, laid out by :func:`redservo.kernels.control.control_layout`) and its event
+masks. The
 command, the :class:`~redservo.task.TaskState` and the law's diagnostics are then made from
 them on their first read (:class:`KernelStep`), with the same values bit for bit as
 :func:`redservo.binding.control.results` makes them at once; a loop that sends only
@@ -36,10 +37,10 @@ if TYPE_CHECKING:
 __all__ = ["KernelStep", "StepSource"]
 
 StepSource = tuple[Any, ...]
-"""``(engine, buf, q, s, inv_depth, (law mask, safety mask, vec))``: what the kernel's step
+"""``(engine, buf, s, inv_depth, (law mask, safety mask, vec))``: what the kernel's step
 made (:class:`~redservo.binding.control.CompiledControl` ``engine``, with the law's options
-of this step; ``buf`` its own buffer; ``q`` (n,) a copy of the joints; ``s`` (k,) and
-``inv_depth`` as the step took them)."""
+of this step; ``buf`` its own buffer, with the kernel's copy of the joints ``q`` (n,);
+``s`` (k,) and ``inv_depth`` as the step took them)."""
 
 _new_state: Callable[[type[TaskState], tuple[object, ...]], TaskState] = tuple.__new__
 _new_lazy = object.__new__
@@ -64,7 +65,7 @@ class KernelStep(ControlStep):
 
     @lazy_field
     def state(self) -> TaskState:
-        eng, buf, _, s, inv_depth = self._src[:5]
+        eng, buf, s, inv_depth = self._src[:4]
         _, se, se1, sJ1, sL = eng.task_slices
         m, n, k = eng.shapes
         e = buf[se]
@@ -80,7 +81,6 @@ class KernelStep(ControlStep):
 def kernel_diagnostics(
     eng: CompiledControl,
     buf: FloatArray,
-    q: FloatArray,
     s: FloatArray,
     inv_depth: tuple[FloatArray, ...],
     masks: tuple[int, int, FloatArray],
@@ -89,10 +89,11 @@ def kernel_diagnostics(
     (:class:`~redservo.redundancy.base.LazyDiagnostics`, as
     :func:`redservo.binding.control.results` makes them): from the law part of ``buf``
     (``qdot`` to ``ssrc``), the law's options as the engine bound them and, when the
-    safety layer raised events, ``q`` and a copy of the command."""
+    safety layer raised events, the kernel's copy of ``q`` (its part of ``buf``, which
+    nothing writes into) and a copy of the command."""
     safety = None
     if masks[1]:
-        safety = (q, buf[eng.task_slices[0]].copy(), eng.gains[1], eng.limits)
+        safety = (buf[eng.q_part], buf[eng.task_slices[0]].copy(), eng.gains[1], eng.limits)
     args = (type(eng.law), eng.law_state, eng.shapes[0], buf, eng.law_slices, masks, safety)
     diag = _new_lazy(LazyDiagnostics)
     _set(diag, "_build", (diagnose, args))

@@ -119,9 +119,10 @@ class CommandHistory:
     ) -> None:
         """:meth:`record` with copies the caller already made, kept as given: ``q`` (n,),
         and the command ``qdot`` (n,) or, with ``part``, ``qdot[part]`` (the compiled step's
-        buffer). No one may write into them afterwards, except into ``qdot`` with
-        ``in_ring``: the command is then copied into the ring's slot only, which the entry
-        reads (no array of its own: the compiled step's buffer is reused by its next step)."""
+        buffer). No one may write into them afterwards, except with ``in_ring``: ``q`` and
+        the command are then copied into the ring's slot only, which the entry reads (no
+        arrays of its own: ``q`` may be the caller's, the compiled step's buffer is reused
+        by its next step)."""
         cmds, ring = self._cmds, self._ring
         count = len(cmds)
         if count and t < cmds[-1][0]:
@@ -133,10 +134,11 @@ class CommandHistory:
         ring.has_items[slot] = False
         if q.shape[0] != ring.n:
             ring.joints(q.shape[0])
-        ring.q_rows[slot][...] = q  # ring.q[slot] = q, through a view made once
+        q_row = ring.q_rows[slot]
+        q_row[...] = q  # ring.q[slot] = q, through a view made once
         row = ring.qdot_rows[slot]
         row[...] = qdot if part is None else qdot[part]
-        entry = (t, q, row, None) if in_ring else (t, q, qdot, part)
+        entry = (t, q_row, row, None) if in_ring else (t, q, qdot, part)
         cmds.append(_new_command(_Command, entry))
         oldest = t - self.horizon
         while cmds[0][0] < oldest:

@@ -30,7 +30,9 @@ NamedTuple would cost numba a slow type lookup on every call):
 
 The float buffer ``buf`` (:func:`control_layout`) receives ``q̇`` (n), ``iout`` (16),
 ``fout`` (16), ``sout`` (11), ``axes`` (n), ``axf`` (n), the law's and the safety layer's
-event values and sources (4 × 20), ``e`` (2N), ``e1`` (m), ``J1`` (m·n) and ``L`` (2N·6).
+event values and sources (4 × 20), ``e`` (2N), ``e1`` (m), ``J1`` (m·n), ``L`` (2N·6) and
+a copy of ``q`` (n) (:func:`put_task`: the step's own joints, which its diagnostics read
+when the safety layer acted, with no copy made in Python).
 The Controller's kernels return ``(law mask, safety mask, vec)``, or a law mask of -1 when an input
 fails :func:`~redservo.kernels.inputs.inputs_ok` (NaN or inf, a joint outside its limits):
 the caller then takes the object path, whose checks name the input. Units: seconds,
@@ -55,6 +57,7 @@ __all__ = [
     "law_core",
     "law_into",
     "measured_control",
+    "put_task",
     "robot_control",
     "task_rows",
 ]
@@ -66,8 +69,8 @@ NI, NF = 16, 16
 def control_layout(n: int, m: int, k: int) -> dict[str, tuple[int, int]]:
     """``{name: (start, stop)}`` of the buffer of a step with n joints, m task rows and k
     point coordinates (module docstring); ``"size"`` gives its length."""
-    names = "qdot iout fout sout axes axf lvals lsrc svals ssrc e e1 J1 L".split()
-    lengths = (n, NI, NF, NS, n, n, N_FLAGS, N_FLAGS, N_FLAGS, N_FLAGS, k, m, m * n, 6 * k)
+    names = "qdot iout fout sout axes axf lvals lsrc svals ssrc e e1 J1 L q".split()
+    lengths = (n, NI, NF, NS, n, n, N_FLAGS, N_FLAGS, N_FLAGS, N_FLAGS, k, m, m * n, 6 * k, n)
     sizes = zip(names, lengths, strict=True)
     out: dict[str, tuple[int, int]] = {}
     at = 0
@@ -159,6 +162,19 @@ def law_into(
 
 
 @kernel
+def put_task(buf: Any, at: int, e: Any, e1: Any, J1: Any, L: Any, q: Any) -> int:
+    """Write the step's task parts and its joints into ``buf`` from ``at``, in the order
+    of :func:`control_layout` (``e`` to ``q``); return the next index. The Controller's
+    steps (:func:`measured_control`, :func:`redservo.kernels.qp_control.qp_measured_control`)
+    call it after :func:`_put_law`."""
+    for x in (e, e1):
+        at = _put(buf, at, x)
+    at = _put(buf, at, J1)
+    at = _put(buf, at, L)
+    return _put(buf, at, q)
+
+
+@kernel
 def measured_control(
     q: Any,
     J: Any,
@@ -185,11 +201,7 @@ def measured_control(
     ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, full)
     if not ok:
         return -1, 0, e[:0]  # the object path raises the error naming the input
-    at = _put_law(buf, out, lev, sev)
-    for x in (e, e1):
-        at = _put(buf, at, x)
-    at = _put(buf, at, J1)
-    _put(buf, at, L)
+    put_task(buf, _put_law(buf, out, lev, sev), e, e1, J1, L, q)
     return lev[0], sev[0], out[5]
 
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.boxqp import SOLVED, qp_solve_reduced
-from redservo.kernels.control import NF, NI, _put, _put_law, task_rows
+from redservo.kernels.control import NF, NI, _put_law, put_task, task_rows
 from redservo.kernels.events import qp_events
 from redservo.kernels.features import points_interaction
 from redservo.kernels.inputs import inputs_ok
@@ -168,11 +168,7 @@ def qp_measured_control(
     status, out, lev, sev = qp_core(q, J1, e1, law, limits, gains, inputs)
     if status != 1:
         return -1, 0, e[:0]
-    at = _put_law(buf, out, lev, sev)
-    for x in (e, e1):
-        at = _put(buf, at, x)
-    at = _put(buf, at, J1)
-    _put(buf, at, L)
+    put_task(buf, _put_law(buf, out, lev, sev), e, e1, J1, L, q)
     return lev[0], sev[0], out[5]
 
 
