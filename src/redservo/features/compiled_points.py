@@ -134,6 +134,7 @@ def evaluate(
         and J.flags.carray
         and bMc.flags.carray
         and hot.kernel is _KT
+        and compiled()  # the kernels off (a test, a plain run) take the numpy path
     ):
         try:  # a trajectory or pose set since is read at every call
             bMw, wMo = scene._target_pose(group.target_name, t)
