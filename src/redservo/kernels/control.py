@@ -175,6 +175,21 @@ def put_task(buf: Any, at: int, e: Any, e1: Any, J1: Any, L: Any, q: Any) -> int
 
 
 @kernel
+def measured_task(meas: Any, J: Any) -> Any:
+    """``(e, e1, J1, L)`` of measured image points: ``meas`` ``(s, 1/Ẑ, s*, C)``, ``L(s,
+    1/Ẑ)`` (k, 6), ``e = s − s*`` (k,) and CM01 eq. 25 (:func:`task_rows`) with the model
+    Jacobian ``J`` (6, n)."""
+    s, iz, s_star, C = meas
+    L = points_interaction(s, iz)
+    k = s.shape[0]
+    e = np.empty(k)
+    for i in range(k):
+        e[i] = s[i] - s_star[i]
+    e1, J1 = task_rows(e, L, C, J)
+    return e, e1, J1, L
+
+
+@kernel
 def measured_control(
     q: Any,
     J: Any,
@@ -189,15 +204,9 @@ def measured_control(
     ``L(s, 1/Ẑ)``, ``e``, CM01 eq. 25 (:func:`task_rows`), then the step kernel
     (:func:`law_core`), its results written into ``buf``. ``packs`` as
     :func:`robot_control`."""
-    s, iz, s_star, C = meas
-    L = points_interaction(s, iz)
-    k = s.shape[0]
-    e = np.empty(k)
-    for i in range(k):
-        e[i] = s[i] - s_star[i]
+    e, e1, J1, L = measured_task(meas, J)
     ff, sec, prev = inputs
     full = (ff, sec, prev, q[:0])
-    e1, J1 = task_rows(e, L, C, J)
     ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, full)
     if not ok:
         return -1, 0, e[:0]  # the object path raises the error naming the input

@@ -35,14 +35,12 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.boxqp import SOLVED, qp_solve_reduced
-from redservo.kernels.control import NF, NI, _put_law, put_task, task_rows
+from redservo.kernels.control import NF, NI, _put_law, measured_task, put_task
 from redservo.kernels.events import qp_events
-from redservo.kernels.features import points_interaction
 from redservo.kernels.inputs import inputs_ok
 from redservo.kernels.qp import qp_finish, qp_setup
 from redservo.kernels.robot import robot_kinematics
-from redservo.kernels.safety import apply_safety
-from redservo.kernels.step import NS, sout_events
+from redservo.kernels.step import safe_command, sout_events
 
 __all__ = [
     "NO_SOLVER",
@@ -65,25 +63,7 @@ def _safe(
     """The safety layer on the law's command: ``(q̇, sout)``, ``sout`` (NS,) as
     :func:`redservo.kernels.step.law_step` lays it out (uniform scaling)."""
     lp, has_v, has_a = limits
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = apply_safety(
-        qdot, q, lp, has_v, has_a, dt, prev, has_prev, shield, qdot, False
-    )
-    sout = np.empty(NS)
-    sout[0] = bad
-    sout[1] = s
-    sout[2] = 1.0 if over_v else 0.0
-    sout[3] = 1.0 if dropped else 0.0
-    sout[4] = change
-    sout[5] = 1.0 if acted else 0.0
-    sout[6] = worst
-    sout[7] = 1.0 if exceeded else 0.0
-    big = 0.0
-    for i in range(qdot.shape[0]):
-        big = max(big, abs(qdot[i]))
-    sout[8] = big
-    sout[9] = past
-    sout[10] = joint
-    return out, sout
+    return safe_command(qdot, q, lp, has_v, has_a, dt, prev, has_prev, shield, qdot, False)
 
 
 @kernel
@@ -158,13 +138,7 @@ def qp_measured_control(
     """:func:`redservo.kernels.control.measured_control` with the ``qp`` law
     (:func:`qp_core`): ``(law mask, safety mask, vec)``, a law mask of -1 when the object
     path must take the step (module docstring)."""
-    s, iz, s_star, C = meas
-    L = points_interaction(s, iz)
-    k = s.shape[0]
-    e = np.empty(k)
-    for i in range(k):
-        e[i] = s[i] - s_star[i]
-    e1, J1 = task_rows(e, L, C, J)
+    e, e1, J1, L = measured_task(meas, J)
     status, out, lev, sev = qp_core(q, J1, e1, law, limits, gains, inputs)
     if status != 1:
         return -1, 0, e[:0]

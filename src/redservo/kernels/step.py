@@ -124,8 +124,34 @@ def law_step(
     first = iopt[I_FIRST] != 0
     if first:
         task = classical(J1, e, lam, sec, False, fopt[F_RCOND], fopt[F_ROBUST])[0]
-    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = apply_safety(
+    out, sout = safe_command(
         qdot, q, lp, has_v, has_a, dt, prev, has_prev, iopt[I_SHIELD] != 0, task, first
+    )
+    return out, iout, fout, axes, axf, vec, sout
+
+
+@kernel
+def safe_command(
+    qdot: Any,
+    q: Any,
+    lp: Any,
+    has_v: bool,
+    has_a: bool,
+    dt: float,
+    prev: Any,
+    has_prev: bool,
+    shield: bool,
+    task: Any,
+    first: bool,
+) -> Any:
+    """The safety layer on the law's command ``qdot`` (n,) (:func:`redservo.kernels.safety.apply_safety`,
+    docs/safety.md): ``(q̇, sout)``, ``sout`` (NS,) the numbers its events are worded from
+    (:func:`sout_events`): the fault code, the uniform scale, the velocity excess, the
+    dropped secondary, the change of command, whether the shield acted, the worst margin,
+    an acceleration excess, the law's largest joint speed (rad/s or m/s), the crossing and
+    its joint."""
+    out, bad, s, over_v, dropped, change, acted, worst, exceeded, past, joint = apply_safety(
+        qdot, q, lp, has_v, has_a, dt, prev, has_prev, shield, task, first
     )
     sout = np.empty(NS)
     sout[0] = bad
@@ -142,7 +168,7 @@ def law_step(
     sout[8] = big
     sout[9] = past
     sout[10] = joint
-    return out, iout, fout, axes, axf, vec, sout
+    return out, sout
 
 
 @kernel
