@@ -151,3 +151,28 @@ def test_the_predicted_image_motion_normalizes_the_dots_once(
     far = b1.copy()
     far[2, 3] = 0.6  # the camera moved 0.6 m forward: the dots (at 0.5 m) behind it
     assert np.isnan(predicted_shift(optics, uv, np.full(4, 2.0), b0, far)).all()
+
+
+def test_a_feature_degenerate_at_the_pnp_pose_keeps_its_last_depths(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``depth = "pose"``: a term whose feature cannot be measured at the frame's PnP pose
+    (a moment invariant vanishes there: GeometryError) keeps its last parameters, as with
+    ``depth = "estimated"``, instead of ending the run with the exception (mc05-joint-limits
+    sample 141 through the camera crashed so in an experiment)."""
+    from redservo.errors import GeometryError
+
+    exp = build(apply_overrides(load_scenario("panda-4points"), camera_overrides("realistic")))
+    before = _reads(exp, 3)
+    feature = type(exp.task.terms[0].feature)
+
+    def degenerate(self: Any, cMo: Any) -> Any:
+        raise GeometryError("the invariant vanishes at this pose")
+
+    monkeypatch.setattr(feature, "_measure_trusted", degenerate)
+    sensor = exp.sensor.sensor
+    bMc = exp.robot.kinematics(exp.q0 + 0.006, check_limits=False)[0]
+    got = sensor.read(exp.task, exp.scene, bMc, 0.12)
+    assert got.s is not None and len(got.inv_depth) == 4
+    for kept, last in zip(got.inv_depth, before[-1].inv_depth):
+        assert np.array_equal(kept, last)

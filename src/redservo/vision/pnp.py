@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from redservo._validation import FloatArray
 from redservo.camera import Camera
-from redservo.errors import ConfigurationError
+from redservo.errors import ConfigurationError, GeometryError
 from redservo.kernels import compiled, lazy
 from redservo.sensors import NoPose
 from redservo.vision.optics import require_cv2
@@ -248,7 +248,8 @@ def pose_term_depth(
     :class:`~redservo.vision.terms.TermState` ``st``; ``sets``, ``detected``, ``xy``: every
     point set, the dots detected this frame and every dot's normalized position): a point
     or moment term's parameters at its point set's PnP pose (:func:`pose_inv_depth`,
-    warm-started at ``st.pose``, which it updates); else (another feature, no pose) None,
+    warm-started at ``st.pose``, which it updates); else (another feature, no pose, a
+    feature degenerate at the pose: a moment invariant that vanishes there) None,
     the caller keeping the last parameters, or the desired ones when there are none yet.
 
     ``poses``: the poses solved in this frame, by point set and warm start (the caller's
@@ -274,7 +275,11 @@ def pose_term_depth(
                 tried[term.target] = tried.get(term.target) or miss  # a miss is kept
         if cMo is not None:
             st.pose = cMo  # a pose OpenCV's rotation vector made, checked finite: trusted
-            return np.asarray(term.feature._measure_trusted(cMo).inv_depth, dtype=float)
+            try:
+                return np.asarray(term.feature._measure_trusted(cMo).inv_depth, dtype=float)
+            except GeometryError:  # the feature is degenerate at this pose (a moment
+                pass  # invariant vanishes): the term keeps its last parameters, as with
+                # depth = "estimated" (redservo.vision.terms.term_inv_depths)
     if st.inv_depth is None and task.inv_depth_star is not None:
         return np.asarray(task.inv_depth_star[i], dtype=float)
     return None
