@@ -175,18 +175,19 @@ def put_task(buf: Any, at: int, e: Any, e1: Any, J1: Any, L: Any, q: Any) -> int
 
 
 @kernel
-def measured_task(meas: Any, J: Any) -> Any:
-    """``(e, e1, J1, L)`` of measured image points: ``meas`` ``(s, 1/Ẑ, s*, C)``, ``L(s,
-    1/Ẑ)`` (k, 6), ``e = s − s*`` (k,) and CM01 eq. 25 (:func:`task_rows`) with the model
-    Jacobian ``J`` (6, n)."""
-    s, iz, s_star, C = meas
+def points_rows(s: Any, iz: Any, s_star: Any, C: Any, J: Any) -> Any:
+    """``(e, e1, L, J1)`` of N points at ``s`` (2N,) with the inverse depths ``iz`` (N,;
+    1/m, as ``L`` uses them): ``L(s, 1/Ẑ)`` (2N, 6), ``e = s − s*`` (2N,) and CM01 eq. 25
+    (:func:`task_rows`) with ``C`` (or an empty one: ``e1 = e``) and the model Jacobian ``J``
+    (6, n); the one computation of the Controller's step and of the points' task kernel
+    (:func:`redservo.kernels.points_task.points_task`)."""
     L = points_interaction(s, iz)
     k = s.shape[0]
     e = np.empty(k)
     for i in range(k):
         e[i] = s[i] - s_star[i]
     e1, J1 = task_rows(e, L, C, J)
-    return e, e1, J1, L
+    return e, e1, L, J1
 
 
 @kernel
@@ -204,7 +205,8 @@ def measured_control(
     ``L(s, 1/Ẑ)``, ``e``, CM01 eq. 25 (:func:`task_rows`), then the step kernel
     (:func:`law_core`), its results written into ``buf``. ``packs`` as
     :func:`robot_control`."""
-    e, e1, J1, L = measured_task(meas, J)
+    s, iz, s_star, C = meas
+    e, e1, L, J1 = points_rows(s, iz, s_star, C, J)
     ff, sec, prev = inputs
     full = (ff, sec, prev, q[:0])
     ok, out, lev, sev = law_core(q, J1, e1, law, limits, gains, full)

@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 
 from redservo.kernels._jit import COMPILED, kernel
-from redservo.kernels.control import task_rows
-from redservo.kernels.features import points_interaction, points_measure
+from redservo.kernels.control import points_rows
+from redservo.kernels.features import points_measure
 from redservo.kernels.loop_task import inverse
 
 __all__ = ["COMPILED", "points_rows", "points_task", "transform_ok"]
@@ -103,17 +103,3 @@ def points_task(
     L_out[:, :] = L
     J1_out[:, :] = J1
     return -1
-
-
-@kernel
-def points_rows(s: Any, iz: Any, s_star: Any, C: Any, J: Any) -> Any:
-    """``(e, e1, L, J1)`` of N points at ``s`` (2N,) with the inverse depths ``iz`` (N,;
-    1/m, as ``L`` uses them): the end of steps 2-3 of the module docstring; ``s_star``,
-    ``C`` and ``J`` as :func:`points_task` takes them."""
-    L = points_interaction(s, iz)
-    k = s.shape[0]
-    e = np.empty(k)
-    for i in range(k):
-        e[i] = s[i] - s_star[i]
-    e1, J1 = task_rows(e, L, C, J)
-    return e, e1, L, J1

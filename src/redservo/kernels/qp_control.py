@@ -35,7 +35,7 @@ import numpy as np
 
 from redservo.kernels._jit import kernel
 from redservo.kernels.boxqp import SOLVED, qp_solve_reduced
-from redservo.kernels.control import NF, NI, _put_law, measured_task, put_task
+from redservo.kernels.control import NF, NI, _put_law, points_rows, put_task
 from redservo.kernels.events import qp_events
 from redservo.kernels.inputs import inputs_ok
 from redservo.kernels.qp import qp_finish, qp_setup
@@ -138,7 +138,8 @@ def qp_measured_control(
     """:func:`redservo.kernels.control.measured_control` with the ``qp`` law
     (:func:`qp_core`): ``(law mask, safety mask, vec)``, a law mask of -1 when the object
     path must take the step (module docstring)."""
-    e, e1, J1, L = measured_task(meas, J)
+    s, iz, s_star, C = meas
+    e, e1, L, J1 = points_rows(s, iz, s_star, C, J)
     status, out, lev, sev = qp_core(q, J1, e1, law, limits, gains, inputs)
     if status != 1:
         return -1, 0, e[:0]
